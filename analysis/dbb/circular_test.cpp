@@ -1,0 +1,184 @@
+#include "analysis/dbb/circular_test.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Core>
+
+#include "analysis/core/errors.h"
+#include "analysis/geometry/circle_fit.h"
+
+namespace km::dbb {
+
+const char* ToString(Direction d) {
+  return d == Direction::kCcw ? "ccw" : "cw";
+}
+
+const char* ToString(Plane p) {
+  switch (p) {
+    case Plane::kXY:
+      return "XY";
+    case Plane::kYZ:
+      return "YZ";
+    case Plane::kZX:
+      return "ZX";
+  }
+  return "XY";
+}
+
+const char* ToString(Mode m) {
+  return m == Mode::kAbsolute ? "absolute" : "centre_corrected";
+}
+
+std::array<std::array<double, 3>, 3> PlaneAxes(Plane plane) {
+  switch (plane) {
+    case Plane::kYZ:
+      return {{{0, 1, 0}, {0, 0, 1}, {1, 0, 0}}};
+    case Plane::kZX:
+      return {{{0, 0, 1}, {1, 0, 0}, {0, 1, 0}}};
+    case Plane::kXY:
+    default:
+      return {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+  }
+}
+
+std::array<double, 3> CommandedBallPosition(const DbbTest& test, double angle_rad) {
+  const auto ax = PlaneAxes(test.plane);
+  const double c = std::cos(angle_rad), s = std::sin(angle_rad);
+  std::array<double, 3> p{};
+  for (int k = 0; k < 3; ++k) {
+    p[k] = test.centre_mm[k] + test.radius_mm * (c * ax[0][k] + s * ax[1][k]) +
+           test.z_offset_mm * ax[2][k];
+  }
+  return p;
+}
+
+Turn SelectOneTurn(const DbbTest& test) {
+  const auto& a = test.angle_deg;
+  const std::size_t n = a.size();
+  if (n != test.dr_um.size()) {
+    throw InvalidInput("", 0, "dr_um", "angle and deviation columns differ in length");
+  }
+  if (n < 16) {
+    throw InvalidInput(
+        "", 0, "angle_deg",
+        "too few samples for a full turn: " + std::to_string(n) + " (at least 16 are needed)");
+  }
+  const double sign = test.direction == Direction::kCcw ? 1.0 : -1.0;
+  // Progress along the direction of motion, in degrees, must increase strictly.
+  std::vector<double> prog(n);
+  for (std::size_t i = 0; i < n; ++i) prog[i] = sign * (a[i] - a[0]);
+  double max_step = 0.0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double step = prog[i] - prog[i - 1];
+    if (!(step > 0.0)) {
+      throw InvalidInput(
+          "", 0, "angle_deg",
+          std::string("angles must ") + (sign > 0 ? "increase (ccw)" : "decrease (cw)") +
+              " strictly from sample to sample; sample " + std::to_string(i + 1) + " breaks this");
+    }
+    max_step = std::max(max_step, step);
+  }
+  const double span = prog.back();
+  const double mean_step = span / static_cast<double>(n - 1);
+  // A turn sampled at step h with n samples covers n·h degrees (the last sample stands for the
+  // interval up to 360°). Allow a tiny rounding slack.
+  if (span + mean_step < 360.0 - 1e-6) {
+    throw InvalidInput("", 0, "angle_deg",
+                       "the samples cover " + std::to_string(span) +
+                           " degrees; a full turn (360 degrees) is needed");
+  }
+  if (max_step > 10.0) {
+    throw InvalidInput("", 0, "angle_deg",
+                       "gap of " + std::to_string(max_step) +
+                           " degrees between samples; at most 10 degrees is accepted");
+  }
+  // 360° window [w0, w0 + 360) centred in the covered span (half-open, so a turn from 0 to 360
+  // inclusive uses 0 … 360 − h and does not count the start twice).
+  // Each sample stands for one step of arc, so the rows cover span + step degrees; the window
+  // start is snapped down to a whole number of steps from the first sample.
+  double w0 = 0.0;
+  const double covered = span + mean_step;
+  if (covered > 360.0) w0 = std::floor((covered - 360.0) / 2.0 / mean_step + 1e-6) * mean_step;
+  const double eps = 1e-9;
+  Turn t;
+  bool first = true;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (prog[i] < w0 - eps || prog[i] >= w0 + 360.0 - eps) continue;
+    if (first) {
+      t.first_index = i;
+      first = false;
+    }
+    t.angle_rad.push_back(a[i] * std::numbers::pi / 180.0);
+    t.dr_um.push_back(test.dr_um[i]);
+  }
+  t.start_deg = a[0] + sign * w0;
+  t.end_deg = a[0] + sign * (w0 + 360.0);
+  if (t.angle_rad.size() < 16) {
+    throw InvalidInput("", 0, "angle_deg", "too few samples in the evaluated turn");
+  }
+  return t;
+}
+
+CircularTestResult AnalyzeCircularTest(const DbbTest& test) {
+  if (!(test.bar_length_mm > 0.0)) {
+    throw InvalidInput("", 0, "bar_length_mm", "must be positive");
+  }
+  if (!(test.radius_mm > 0.0)) throw InvalidInput("", 0, "radius_mm", "must be positive");
+  Turn turn = SelectOneTurn(test);
+  const std::size_t n = turn.angle_rad.size();
+  CircularTestResult r;
+  r.test_id = test.test_id;
+  r.direction = test.direction;
+  r.mode = test.fixed_ball_mm ? Mode::kAbsolute : Mode::kCentreCorrected;
+  r.sample_count = n;
+  r.turn_start_deg = turn.start_deg;
+  r.turn_end_deg = turn.end_deg;
+
+  std::vector<double> dev = turn.dr_um;  // bar deviation attributed to the machine
+  if (r.mode == Mode::kAbsolute) {
+    // Subtract the bar-length change a perfect machine would show with this fixed ball.
+    const auto& f = *test.fixed_ball_mm;
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto p = CommandedBallPosition(test, turn.angle_rad[i]);
+      const double d = std::sqrt((p[0] - f[0]) * (p[0] - f[0]) + (p[1] - f[1]) * (p[1] - f[1]) +
+                                 (p[2] - f[2]) * (p[2] - f[2]));
+      dev[i] -= (d - test.bar_length_mm) * 1000.0;
+    }
+    const auto [mn, mx] = std::minmax_element(dev.begin(), dev.end());
+    r.radial_error_range_um = *mx - *mn;
+    double mean = 0.0;
+    for (double v : dev) mean += v;
+    r.mean_radial_error_about_fixed_ball_um = mean / static_cast<double>(n);
+  }
+
+  // Planar representation in µm about the commanded centre (seed 000 §4.2.4).
+  const double r_um = test.radius_mm * 1000.0;
+  std::vector<Eigen::Vector2d> pts(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double rho = r_um + dev[i];
+    pts[i] = Eigen::Vector2d(rho * std::cos(turn.angle_rad[i]), rho * std::sin(turn.angle_rad[i]));
+  }
+  const auto fit = geometry::FitCircleLeastSquares(pts);
+  r.centre_offset_um = {fit.circle.centre.x(), fit.circle.centre.y()};
+  r.average_radial_error_um = fit.circle.radius - r_um;
+  r.fitted_radius_mm = fit.circle.radius / 1000.0;
+  r.fit_rms_um = fit.rms_residual;
+  r.radial_error_um = geometry::CircleResiduals(pts, fit.circle);
+  const auto [mn, mx] = std::minmax_element(r.radial_error_um.begin(), r.radial_error_um.end());
+  // eq. 4.7–4.8: the factors R/R_DBB and R_DBB/R cancel; Δ is the range about the fit.
+  r.circularity_um = *mx - *mn;
+  r.angle_deg.resize(n);
+  for (std::size_t i = 0; i < n; ++i) r.angle_deg[i] = turn.angle_rad[i] * 180.0 / std::numbers::pi;
+  if (r.mode == Mode::kAbsolute) {
+    // A centre shift δ in the plane changes the bar length by (R / R_DBB)·δ·cos(θ − φ) on a
+    // cone; scale back to the in-plane positioning error of the circle centre.
+    const double k = test.bar_length_mm / test.radius_mm;
+    r.machine_centre_error_um =
+        std::array<double, 2>{r.centre_offset_um[0] * k, r.centre_offset_um[1] * k};
+  }
+  return r;
+}
+
+}  // namespace km::dbb

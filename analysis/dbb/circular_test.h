@@ -1,0 +1,84 @@
+// Circular-test (DBB) figures of seed 000 §4.2.4 (eqs. 4.6–4.8):
+//
+//   planar representation  X_n = (R + ΔR_n) cos θ_n,  Y_n = (R + ΔR_n) sin θ_n
+//   least-squares circle    (X0, Y0, R0) = argmin Σ (|(X_n, Y_n) − (X0, Y0)| − R0)²     (4.6)
+//   radial error about it   ΔR'_n = (R / R_DBB) (|(X_n, Y_n) − (X0, Y0)| − R_DBB)      (4.7)
+//   circularity             Δ = (R_DBB / R) (max ΔR'_n − min ΔR'_n)                    (4.8)
+//
+// R is the commanded radius of the moving-ball circle, R_DBB the bar length, ΔR_n the bar
+// deviation (bar length − R_DBB). Δ is therefore the range of the bar deviation about the
+// least-squares centre, in bar-length units. The centre offset is (X0, Y0) relative to the
+// commanded centre, in the plane's (first axis, second axis); the average radial error is
+// R0 − R (for a flat test R = R_DBB and this is the seed's R0 − R_DBB; for a cone test the
+// seed's literal R0 − R_DBB would contain the constant R − R_DBB, which is not an error).
+//
+// Modes:
+//  * centre_corrected (no fixed_ball_mm): the fitted centre absorbs set-up errors (fixed-ball
+//    placement, moving-ball run-out); the centre offset is reported but is not a machine error.
+//  * absolute (fixed_ball_mm given, seed 000 §2.3 "jig"): the nominal bar length for a perfect
+//    machine, |P_cmd(θ) − F|, is computed in 3-D from the commanded circle (centre, radius,
+//    z offset, plane) and the measured fixed ball F, and subtracted. What remains is the
+//    machine's own error, so the fitted centre is the machine's positioning error of the circle
+//    centre, and the range of the deviations without any centre fit is reported as
+//    `radial_error_range_um` (radial error range about the fixed ball).
+//
+// Exactly one turn is evaluated: when the rows cover more than 360° (lead-in / lead-out arcs),
+// the 360° window centred in the covered span is used and reported.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/dbb/dbb_types.h"
+
+namespace km::dbb {
+
+enum class Mode { kCentreCorrected, kAbsolute };
+const char* ToString(Mode m);
+
+// Samples of one evaluated turn, in time order.
+struct Turn {
+  std::vector<double> angle_rad;  // commanded angle, unwrapped as in the file
+  std::vector<double> dr_um;      // bar deviation (absolute mode: minus the nominal set-up term)
+  std::size_t first_index = 0;    // index of the first used row in the test's samples
+  double start_deg = 0.0;         // window [start, end) in the file's angle units
+  double end_deg = 0.0;
+};
+
+// Selects exactly one turn (see above). Throws km::InvalidInput when the samples do not cover
+// a full turn or are not monotonic in the test's direction.
+Turn SelectOneTurn(const DbbTest& test);
+
+struct CircularTestResult {
+  std::string test_id;
+  Direction direction = Direction::kCcw;
+  Mode mode = Mode::kCentreCorrected;
+  std::array<double, 2> centre_offset_um{};  // (X0, Y0) eq. 4.6, plane axes
+  double average_radial_error_um = 0.0;      // R0 − R
+  double circularity_um = 0.0;               // eq. 4.8
+  double fitted_radius_mm = 0.0;             // R0
+  double fit_rms_um = 0.0;                   // rms of the residuals about the fitted circle
+  std::size_t sample_count = 0;              // samples in the evaluated turn
+  double turn_start_deg = 0.0;
+  double turn_end_deg = 0.0;
+  // Absolute mode only:
+  std::optional<double> radial_error_range_um;  // max − min deviation about the fixed ball
+  std::optional<double> mean_radial_error_about_fixed_ball_um;
+  std::optional<std::array<double, 2>> machine_centre_error_um;  // in-plane, cone-scaled
+  // Per-sample trace of the evaluated turn: angle and deviation about the fitted circle
+  // (|(X_n, Y_n) − (X0, Y0)| − R0), µm.
+  std::vector<double> angle_deg;
+  std::vector<double> radial_error_um;
+};
+
+// Full figures of one test. Throws km::InvalidInput on unusable data.
+CircularTestResult AnalyzeCircularTest(const DbbTest& test);
+
+// Commanded position of the moving ball at angle θ (mm, machine frame), and the plane's unit
+// axes (first, second, normal) — shared with the simulation so both agree on geometry.
+std::array<std::array<double, 3>, 3> PlaneAxes(Plane plane);
+std::array<double, 3> CommandedBallPosition(const DbbTest& test, double angle_rad);
+
+}  // namespace km::dbb

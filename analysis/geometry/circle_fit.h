@@ -1,0 +1,39 @@
+// Least-squares circle fit (seed 000 eq. 2.6 / 4.6):
+//
+//   min over (x0, y0, r0) of  Σ_n ( sqrt((x_n − x0)² + (y_n − y0)²) − r0 )²
+//
+// solved by Levenberg–Marquardt on the geometric (orthogonal-distance) residuals, started from
+// the algebraic (Kåsa) fit  x² + y² + D x + E y + F = 0, which is linear in (D, E, F).
+// Coordinates are shifted to their mean before solving, so traces far from the origin keep full
+// precision. Units are whatever the caller uses (kinemetric passes µm).
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace km::geometry {
+
+struct Circle {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  double radius = 0.0;
+};
+
+struct CircleFitResult {
+  Circle circle;
+  double rms_residual = 0.0;  // sqrt(mean of squared orthogonal residuals)
+  int iterations = 0;
+  bool converged = false;
+};
+
+// Algebraic fit (Kåsa). Needs ≥ 3 points not all on one line; throws km::InvalidInput otherwise.
+Circle FitCircleAlgebraic(const std::vector<Eigen::Vector2d>& points);
+
+// Geometric least-squares fit. Throws km::InvalidInput for < 3 points or collinear points,
+// km::DidNotConverge when the iteration fails to reach the tolerance.
+CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points);
+
+// Orthogonal residuals |p − c| − r of each point.
+std::vector<double> CircleResiduals(const std::vector<Eigen::Vector2d>& points, const Circle& c);
+
+}  // namespace km::geometry

@@ -1,0 +1,165 @@
+#include "api/http.h"
+
+#include <charconv>
+#include <exception>
+
+#include "analysis/core/errors.h"
+
+namespace km::api {
+namespace {
+
+bool MatchPattern(const std::string& pattern, const std::string& path,
+                  std::map<std::string, std::string>& params) {
+  std::size_t p = 0, q = 0;
+  params.clear();
+  while (p < pattern.size() && q < path.size()) {
+    if (pattern[p] == '{') {
+      const auto close = pattern.find('}', p);
+      const std::string name = pattern.substr(p + 1, close - p - 1);
+      const auto slash = path.find('/', q);
+      const std::string value = path.substr(q, slash == std::string::npos ? path.npos : slash - q);
+      if (value.empty()) return false;
+      params[name] = value;
+      p = close + 1;
+      q = slash == std::string::npos ? path.size() : slash;
+    } else {
+      if (pattern[p] != path[q]) return false;
+      ++p;
+      ++q;
+    }
+  }
+  return p == pattern.size() && q == path.size();
+}
+
+}  // namespace
+
+std::optional<std::string> Request::Query(const std::string& key) const {
+  const auto it = query.find(key);
+  if (it == query.end()) return std::nullopt;
+  return it->second;
+}
+
+std::optional<std::string> Request::Header(const std::string& lower_name) const {
+  const auto it = headers.find(lower_name);
+  if (it == headers.end()) return std::nullopt;
+  return it->second;
+}
+
+std::int64_t Request::PathId(const std::string& name) const {
+  const auto it = path_params.find(name);
+  const std::string v = it == path_params.end() ? "" : it->second;
+  std::int64_t id = 0;
+  const auto [ptr, ec] = std::from_chars(v.data(), v.data() + v.size(), id);
+  if (ec != std::errc() || ptr != v.data() + v.size() || id <= 0) {
+    throw InvalidInput("", 0, name, "'" + v + "' is not a measurement id (a positive integer)");
+  }
+  return id;
+}
+
+Response Response::Json(const nlohmann::json& j, int status) {
+  Response r;
+  r.status = status;
+  r.body = j.dump();
+  return r;
+}
+
+Response Problem(int status, const std::string& title, const std::string& detail,
+                 const nlohmann::json& extra) {
+  nlohmann::json j = extra;
+  j["type"] = "about:blank";
+  j["title"] = title;
+  j["status"] = status;
+  j["detail"] = detail;
+  Response r;
+  r.status = status;
+  r.content_type = "application/problem+json";
+  r.body = j.dump();
+  return r;
+}
+
+Response Router::Dispatch(Request& req) const {
+  try {
+    bool path_known = false;
+    for (const auto& route : routes_) {
+      std::map<std::string, std::string> params;
+      if (!MatchPattern(route.pattern, req.path, params)) continue;
+      path_known = true;
+      if (route.method != req.method) continue;
+      req.path_params = std::move(params);
+      if (hook_) hook_(req, route);
+      return route.handler(req);
+    }
+    if (path_known) {
+      return Problem(405, "Method Not Allowed", req.method + " is not allowed on " + req.path);
+    }
+    return Problem(404, "Not Found", "no such resource: " + req.path);
+  } catch (const TooLarge& e) {
+    return Problem(413, "Payload Too Large", e.what());
+  } catch (const InvalidInput& e) {
+    nlohmann::json extra = nlohmann::json::object();
+    if (!e.file().empty()) extra["file"] = e.file();
+    if (e.line() > 0) extra["line"] = e.line();
+    if (!e.field().empty()) extra["field"] = e.field();
+    extra["reason"] = e.reason();
+    return Problem(400, "Invalid input", e.what(), extra);
+  } catch (const NotFound& e) {
+    return Problem(404, "Not Found", e.what());
+  } catch (const Unauthorized& e) {
+    Response r = Problem(401, "Unauthorized", e.what());
+    r.headers["WWW-Authenticate"] = "Bearer";
+    return r;
+  } catch (const NotObservable& e) {
+    return Problem(422, "Not observable", e.what());
+  } catch (const DidNotConverge& e) {
+    return Problem(422, "Did not converge", e.what());
+  } catch (const std::exception& e) {
+    return Problem(500, "Internal Server Error", e.what());
+  }
+}
+
+nlohmann::json OpenApiDocument(const Router& router, const std::string& version) {
+  nlohmann::json doc;
+  doc["openapi"] = "3.0.3";
+  doc["info"] = {{"title", "kinemetric API"},
+                 {"version", version},
+                 {"description",
+                  "Machine-tool accuracy metrology: measurements, analysis results, machines."}};
+  doc["components"]["securitySchemes"]["bearer"] = {{"type", "http"}, {"scheme", "bearer"}};
+  doc["components"]["schemas"]["Problem"] = {{"type", "object"},
+                                             {"properties",
+                                              {{"type", {{"type", "string"}}},
+                                               {"title", {{"type", "string"}}},
+                                               {"status", {{"type", "integer"}}},
+                                               {"detail", {{"type", "string"}}},
+                                               {"file", {{"type", "string"}}},
+                                               {"line", {{"type", "integer"}}},
+                                               {"field", {{"type", "string"}}}}}};
+  doc["paths"] = nlohmann::json::object();
+  for (const auto& r : router.routes()) {
+    nlohmann::json op = r.openapi.is_object() ? r.openapi : nlohmann::json::object();
+    op["summary"] = r.summary;
+    std::string method = r.method;
+    for (auto& c : method) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    op["operationId"] = method + r.pattern;
+    if (r.needs_token) {
+      op["security"] = nlohmann::json::array({{{"bearer", nlohmann::json::array()}}});
+    } else {
+      op["security"] = nlohmann::json::array();
+    }
+    if (!op.contains("responses")) op["responses"] = nlohmann::json::object();
+    op["responses"]["default"] = {
+        {"description", "error"},
+        {"content",
+         {{"application/problem+json", {{"schema", {{"$ref", "#/components/schemas/Problem"}}}}}}}};
+    if (r.pattern.find("{id}") != std::string::npos) {
+      op["parameters"].push_back({{"name", "id"},
+                                  {"in", "path"},
+                                  {"required", true},
+                                  {"schema", {{"type", "integer"}, {"minimum", 1}}}});
+    }
+    doc["paths"][r.pattern][method] = op;
+  }
+  return doc;
+}
+
+}  // namespace km::api

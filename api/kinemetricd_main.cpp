@@ -1,0 +1,112 @@
+// kinemetricd — the kinemetric service. Thin main: configuration, storage, routes, serve.
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <thread>
+
+#include <unistd.h>
+
+#include "analysis/core/errors.h"
+#include "api/http_server.h"
+#include "api/routes.h"
+#include "server/config.h"
+#include "server/demo_data.h"
+#include "server/service.h"
+#include "server/sqlite_storage.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string DefaultWebRoot() {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  for (fs::path dir = exe.parent_path(); !ec && !dir.empty() && dir != dir.root_path();
+       dir = dir.parent_path()) {
+    if (fs::exists(dir / "web" / "static" / "index.html")) return (dir / "web" / "static").string();
+  }
+  return "web/static";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  km::server::ServerConfig cfg;
+  try {
+    cfg = km::server::ParseServerArgs(std::vector<std::string>(argv + 1, argv + argc));
+  } catch (const km::InvalidInput& e) {
+    std::cerr << "kinemetricd: " << e.what() << "\n"
+              << "usage: kinemetricd --listen HOST:PORT --data-dir DIR [--config FILE] "
+                 "[--web-root DIR] [--demo-data] [--threads N] [--max-upload-bytes N]\n";
+    return 2;
+  }
+  // SIGINT / SIGTERM are taken by a waiting thread that stops the server cleanly.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  try {
+    fs::create_directories(cfg.data_dir);
+    const std::string db_path = (fs::path(cfg.data_dir) / "kinemetric.db").string();
+    auto storage = std::make_unique<km::server::SqliteStorage>(db_path);
+    km::server::ServiceOptions so;
+    so.max_upload_bytes = cfg.max_upload_bytes;
+    km::server::Service service(std::move(storage), so);
+    km::server::RegisterBuiltinKinds(service);
+
+    const char* bootstrap = std::getenv("KINEMETRIC_BOOTSTRAP_TOKEN");
+    const std::string generated =
+        km::api::EnsureAdminToken(service.storage(), bootstrap ? bootstrap : "");
+    if (!generated.empty()) {
+      std::cout << "kinemetricd: first start; admin token (shown once): " << generated << std::endl;
+    }
+    if (cfg.demo_data && service.storage().ListMachines().empty()) {
+      int n = 0;
+      for (const auto& f : km::server::DemoDbbFiles()) {
+        service.Upload(f.bytes, f.name);
+        ++n;
+      }
+      std::cout << "kinemetricd: loaded " << n << " demo measurements" << std::endl;
+    }
+
+    km::api::Router router;
+    km::api::AddRoutes(router, service);
+    router.SetHook(km::api::TokenHook(service.storage()));
+
+    km::api::HttpOptions ho;
+    ho.host = cfg.host;
+    ho.port = cfg.port;
+    // A little above the upload limit, so the service answers with its own precise 413.
+    ho.max_payload_bytes = cfg.max_upload_bytes + (1u << 20);
+    ho.read_timeout_s = cfg.read_timeout_s;
+    ho.write_timeout_s = cfg.write_timeout_s;
+    ho.keep_alive_max_count = cfg.keep_alive_max_count;
+    ho.keep_alive_timeout_s = cfg.keep_alive_timeout_s;
+    ho.threads = cfg.threads;
+    ho.queue_limit = cfg.queue_limit;
+    ho.static_root = cfg.web_root.empty() ? DefaultWebRoot() : cfg.web_root;
+    km::api::HttpServer http(router, ho);
+    const int port = http.Bind();
+    std::thread waiter([&http, signals]() mutable {
+      int sig = 0;
+      sigwait(&signals, &sig);
+      http.Stop();
+    });
+    std::cout << "kinemetricd: listening on http://" << cfg.host << ":" << port << "/ (data in "
+              << cfg.data_dir << ")" << std::endl;
+    http.Serve();
+    // Serve returned: stopped by a signal, or by an error. Wake the waiter if needed.
+    pthread_kill(waiter.native_handle(), SIGTERM);
+    waiter.join();
+    std::cout << "kinemetricd: stopped" << std::endl;
+    return 0;
+  } catch (const km::InvalidInput& e) {
+    std::cerr << "kinemetricd: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "kinemetricd: error: " << e.what() << "\n";
+    return 1;
+  }
+}

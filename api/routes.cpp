@@ -1,0 +1,205 @@
+#include "api/routes.h"
+
+#include <charconv>
+
+#include "analysis/core/errors.h"
+#include "server/sha256.h"
+#include "server/time_util.h"
+
+namespace km::api {
+namespace {
+
+using nlohmann::json;
+
+std::int64_t QueryInt(const Request& req, const std::string& key, std::int64_t fallback,
+                      std::int64_t lo, std::int64_t hi) {
+  const auto v = req.Query(key);
+  if (!v) return fallback;
+  std::int64_t n = 0;
+  const auto [ptr, ec] = std::from_chars(v->data(), v->data() + v->size(), n);
+  if (ec != std::errc() || ptr != v->data() + v->size() || n < lo || n > hi) {
+    throw InvalidInput("", 0, key,
+                       "'" + *v + "' must be a whole number from " + std::to_string(lo) + " to " +
+                           std::to_string(hi));
+  }
+  return n;
+}
+
+std::optional<std::string> QueryTime(const Request& req, const std::string& key) {
+  const auto v = req.Query(key);
+  if (!v) return std::nullopt;
+  auto t = server::NormalizeIso8601(*v);
+  if (!t) throw InvalidInput("", 0, key, "'" + *v + "' is not an ISO 8601 date or time");
+  return t;
+}
+
+json Param(const std::string& name, const std::string& type, const std::string& description) {
+  return {{"name", name},
+          {"in", "query"},
+          {"required", false},
+          {"description", description},
+          {"schema", {{"type", type}}}};
+}
+
+json JsonResponse(const std::string& description) {
+  return {{"description", description},
+          {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}};
+}
+
+}  // namespace
+
+void AddRoutes(Router& router, server::Service& service) {
+  server::Service* svc = &service;
+  const Router* rt = &router;
+
+  router.Add(Route{"GET",
+                   "/healthz",
+                   "Liveness and readiness",
+                   false,
+                   [](const Request&) {
+                     return Response::Json({{"status", "ok"}});
+                   },
+                   {{"responses", {{"200", JsonResponse("the server is ready")}}}}});
+
+  router.Add(
+      Route{"GET",
+            "/api/v1/openapi.json",
+            "This OpenAPI document",
+            false,
+            [rt](const Request&) { return Response::Json(OpenApiDocument(*rt, kApiVersion)); },
+            {{"responses", {{"200", JsonResponse("OpenAPI 3 document")}}}}});
+
+  router.Add(Route{
+      "POST",
+      "/api/v1/measurements",
+      "Upload a measurement file (any kind of contract §1)",
+      true,
+      [svc](const Request& req) {
+        const std::string name = req.Header("x-filename").value_or("upload");
+        const auto out = svc->Upload(req.body, name);
+        return Response::Json(
+            {{"id", out.id}, {"sha256", out.sha256}, {"kind", out.kind}, {"created", out.created}},
+            out.created ? 201 : 200);
+      },
+      {{"requestBody",
+        {{"required", true}, {"content", {{"text/plain", {{"schema", {{"type", "string"}}}}}}}}},
+       {"parameters", json::array({{{"name", "X-Filename"},
+                                    {"in", "header"},
+                                    {"required", false},
+                                    {"description", "file name used in validation messages"},
+                                    {"schema", {{"type", "string"}}}}})},
+       {"responses",
+        {{"201", JsonResponse("stored: {id, sha256, kind, created: true}")},
+         {"200", JsonResponse("the same bytes were stored before: the existing id")}}}}});
+
+  router.Add(Route{
+      "GET",
+      "/api/v1/measurements",
+      "List measurements (filter by machine, kind, time range)",
+      true,
+      [svc](const Request& req) {
+        server::MeasurementFilter f;
+        f.machine_id = req.Query("machine_id");
+        f.kind = req.Query("kind");
+        f.test_id = req.Query("test_id");
+        f.from = QueryTime(req, "from");
+        f.to = QueryTime(req, "to");
+        f.limit = QueryInt(req, "limit", 50, 1, 1000);
+        f.offset = QueryInt(req, "offset", 0, 0, std::int64_t{1} << 40);
+        const auto page = svc->storage().ListMeasurements(f);
+        json items = json::array();
+        for (const auto& r : page.items) items.push_back(svc->MeasurementJson(r));
+        return Response::Json(
+            {{"items", items}, {"total", page.total}, {"limit", f.limit}, {"offset", f.offset}});
+      },
+      {{"parameters",
+        json::array({Param("machine_id", "string", "only this machine"),
+                     Param("kind", "string", "dbb, tracker, straightness, flatness, parallelism"),
+                     Param("test_id", "string", "only this test"),
+                     Param("from", "string", "ISO 8601, inclusive (measurement time)"),
+                     Param("to", "string", "ISO 8601, exclusive"),
+                     Param("limit", "integer", "page size, 1 to 1000 (default 50)"),
+                     Param("offset", "integer", "items to skip")})},
+       {"responses", {{"200", JsonResponse("{items[], total, limit, offset}")}}}}});
+
+  router.Add(Route{
+      "GET",
+      "/api/v1/measurements/{id}",
+      "One measurement: metadata and samples",
+      true,
+      [svc](const Request& req) {
+        const auto id = req.PathId("id");
+        const auto rec = svc->storage().GetMeasurement(id);
+        if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+        json j = svc->MeasurementJson(*rec);
+        j["metadata"] = json::parse(rec->metadata_json);
+        const auto block = svc->storage().GetSamples(id);
+        json samples = json::object();
+        for (std::size_t c = 0; c < block.columns.size(); ++c) {
+          samples[block.columns[c]] = block.Column(c);
+        }
+        j["samples"] = samples;
+        return Response::Json(j);
+      },
+      {{"responses", {{"200", JsonResponse("metadata and samples (one array per column)")}}}}});
+
+  router.Add(
+      Route{"GET",
+            "/api/v1/measurements/{id}/results",
+            "Analysis results (the same object the CLI prints for the file)",
+            true,
+            [svc](const Request& req) { return Response::Json(svc->Results(req.PathId("id"))); },
+            {{"responses", {{"200", JsonResponse("results of the newest analysis version")}}}}});
+
+  router.Add(Route{
+      "GET",
+      "/api/v1/measurements/{id}/trace",
+      "DBB trace of the evaluated turn for plotting (deviation about the least-squares circle)",
+      true,
+      [svc](const Request& req) { return Response::Json(svc->DbbTrace(req.PathId("id"))); },
+      {{"responses", {{"200", JsonResponse("{angle_deg[], radial_error_um[], ...}")}}}}});
+
+  router.Add(Route{"GET",
+                   "/api/v1/machines",
+                   "Machines with stored measurements",
+                   true,
+                   [svc](const Request&) {
+                     json items = json::array();
+                     for (const auto& m : svc->storage().ListMachines()) {
+                       items.push_back(
+                           {{"machine_id", m.machine_id},
+                            {"measurement_count", m.measurement_count},
+                            {"last_timestamp", m.last_time ? json(*m.last_time) : json(nullptr)}});
+                     }
+                     return Response::Json({{"machines", items}});
+                   },
+                   {{"responses", {{"200", JsonResponse("{machines[]}")}}}}});
+}
+
+RequestHook TokenHook(server::Storage& storage) {
+  server::Storage* st = &storage;
+  return [st](const Request& req, const Route& route) {
+    if (!route.needs_token) return;
+    const auto auth = req.Header("authorization");
+    if (!auth || auth->rfind("Bearer ", 0) != 0 || auth->size() <= 7) {
+      throw Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
+    }
+    const std::string token = auth->substr(7);
+    if (!st->FindTokenRole(server::Sha256Hex(token))) {
+      throw Unauthorized("the token is not valid");
+    }
+  };
+}
+
+std::string EnsureAdminToken(server::Storage& storage, const std::string& bootstrap) {
+  if (storage.CountTokens() > 0) return {};
+  if (!bootstrap.empty()) {
+    storage.PutToken(server::Sha256Hex(bootstrap), "admin", "bootstrap");
+    return {};
+  }
+  const std::string token = server::NewRandomToken();
+  storage.PutToken(server::Sha256Hex(token), "admin", "generated at first start");
+  return token;
+}
+
+}  // namespace km::api

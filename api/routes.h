@@ -1,0 +1,23 @@
+// Every route of the kinemetric API in one table (see http.h).
+#pragma once
+
+#include "api/http.h"
+#include "server/service.h"
+
+namespace km::api {
+
+inline constexpr const char* kApiVersion = "0.1.0";
+
+// Adds the routes of the service to the router.
+void AddRoutes(Router& router, server::Service& service);
+
+// Access control: every route that needs a token checks `Authorization: Bearer TOKEN` against
+// the stored token hashes.
+RequestHook TokenHook(server::Storage& storage);
+
+// First start: make sure an admin token exists. Uses `bootstrap` when given (the value of
+// KINEMETRIC_BOOTSTRAP_TOKEN), else generates one; returns the new token text when one was
+// created by generation (to be printed once), empty otherwise.
+std::string EnsureAdminToken(server::Storage& storage, const std::string& bootstrap);
+
+}  // namespace km::api

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Builds kinemetric and runs every test (unit, integration, browser) through CTest, then once
+# more under AddressSanitizer + UndefinedBehaviorSanitizer. Exits non-zero on any failure.
+#   KINEMETRIC_SKIP_SANITIZERS=1  skip the sanitizer pass (local quick runs only)
+#   KINEMETRIC_LONG=1             also run the long soak / load tests
+set -euo pipefail
+cd "$(dirname "$0")/.."
+jobs=$(nproc)
+
+deploy/install-deps.sh
+
+echo "== format check (clang-format)"
+files=$(git ls-files '*.cpp' '*.h' 2>/dev/null || true)
+if [ -n "$files" ]; then
+  # shellcheck disable=SC2086
+  clang-format --dry-run --Werror $files
+fi
+
+echo "== Release build"
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=ON >/dev/null
+cmake --build build -j"$jobs"
+
+label_args=()
+if [ "${KINEMETRIC_LONG:-0}" != 1 ]; then label_args=(-LE long); fi
+
+echo "== tests (Release)"
+(cd build && ctest --output-on-failure -j"$jobs" "${label_args[@]}")
+
+echo "== benchmarks (short smoke run; full figures: build/bench/<name>)"
+for b in build/bench/*; do
+  [ -x "$b" ] || continue
+  "$b" --benchmark_min_time=0.01 >/dev/null
+done
+
+if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
+  echo "== AddressSanitizer + UBSan build"
+  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
+    -DKINEMETRIC_SANITIZE=ON -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=OFF >/dev/null
+  cmake --build build-asan -j"$jobs"
+  echo "== tests (ASan + UBSan)"
+  (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    ctest --output-on-failure -j"$jobs" "${label_args[@]}")
+fi
+echo "== all tests passed"

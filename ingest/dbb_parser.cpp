@@ -1,0 +1,148 @@
+#include "ingest/dbb_parser.h"
+
+#include <cmath>
+#include <numbers>
+#include <regex>
+
+#include "analysis/core/errors.h"
+#include "ingest/text_format.h"
+
+namespace km::ingest {
+namespace {
+
+std::array<double, 3> Vec3(const std::vector<double>& v) {
+  return {v[0], v[1], v[2]};
+}
+
+void RequirePositive(const TextTable& t, const std::string& key, double v) {
+  if (!(v > 0.0)) {
+    throw InvalidInput(t.file, t.Find(key)->line, key, "must be greater than zero");
+  }
+}
+
+bool LooksIso8601(const std::string& s) {
+  static const std::regex re(
+      R"(^\d{4}-\d{2}-\d{2}([T ]\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})?)?$)");
+  return std::regex_match(s, re);
+}
+
+}  // namespace
+
+dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
+                      const DbbParseOptions& options) {
+  ReadOptions ro;
+  ro.max_bytes = options.max_bytes;
+  ro.max_rows = options.max_samples;
+  const TextTable t = ReadTextTable(bytes, file, ro);
+  if (t.format != kDbbFormat) {
+    throw InvalidInput(file, t.format_line, "format",
+                       "unknown format '" + t.format + "'; expected '" + kDbbFormat + "'");
+  }
+  dbb::DbbTest d;
+  d.metadata = t.Metadata();
+  d.machine_id = t.RequireString("machine_id");
+  d.test_id = t.RequireString("test_id");
+  const std::string dir = t.RequireString("direction");
+  if (dir == "ccw" || dir == "CCW") {
+    d.direction = dbb::Direction::kCcw;
+  } else if (dir == "cw" || dir == "CW") {
+    d.direction = dbb::Direction::kCw;
+  } else {
+    throw InvalidInput(file, t.Find("direction")->line, "direction",
+                       "'" + dir + "' is neither 'ccw' nor 'cw'");
+  }
+  if (const auto* p = t.Find("plane")) {
+    if (p->value == "XY") {
+      d.plane = dbb::Plane::kXY;
+    } else if (p->value == "YZ") {
+      d.plane = dbb::Plane::kYZ;
+    } else if (p->value == "ZX") {
+      d.plane = dbb::Plane::kZX;
+    } else {
+      throw InvalidInput(file, p->line, "plane", "'" + p->value + "' is not XY, YZ or ZX");
+    }
+  }
+  d.bar_length_mm = t.RequireNumber("bar_length_mm");
+  RequirePositive(t, "bar_length_mm", d.bar_length_mm);
+  d.radius_mm = t.OptionalNumber("radius_mm").value_or(d.bar_length_mm);
+  if (t.Has("radius_mm")) RequirePositive(t, "radius_mm", d.radius_mm);
+  d.centre_mm = Vec3(t.RequireNumbers("centre_mm", 3));
+  d.z_offset_mm = t.OptionalNumber("z_offset_mm").value_or(0.0);
+  d.feed_mm_min = t.RequireNumber("feed_mm_min");
+  RequirePositive(t, "feed_mm_min", d.feed_mm_min);
+  if (auto v = t.OptionalNumbers("tilt_deg", 3)) d.tilt_deg = Vec3(*v);
+  d.tool_length_mm = t.OptionalNumber("tool_length_mm");
+  if (auto v = t.OptionalNumbers("fixed_ball_mm", 3)) d.fixed_ball_mm = Vec3(*v);
+  if (const auto* ts = t.Find("timestamp")) {
+    if (!LooksIso8601(ts->value)) {
+      throw InvalidInput(file, ts->line, "timestamp",
+                         "'" + ts->value.substr(0, 40) + "' is not an ISO 8601 time");
+    }
+    d.timestamp = ts->value;
+  }
+  d.temperature_c = t.OptionalNumber("temperature_c");
+
+  const int dr_col = t.ColumnIndex("dr_um");
+  const int angle_col = t.ColumnIndex("angle_deg");
+  const int time_col = t.ColumnIndex("t_s");
+  if (dr_col < 0) {
+    throw InvalidInput(file, t.columns_line, "dr_um", "the column 'dr_um' is missing");
+  }
+  if (angle_col < 0 && time_col < 0) {
+    throw InvalidInput(file, t.columns_line, "angle_deg",
+                       "neither 'angle_deg' nor 't_s' column is present");
+  }
+  if (angle_col >= 0 && time_col >= 0) {
+    throw InvalidInput(file, t.columns_line, "t_s", "give either 'angle_deg' or 't_s', not both");
+  }
+  const double sign = d.direction == dbb::Direction::kCcw ? 1.0 : -1.0;
+  double start_deg = 0.0;
+  if (time_col >= 0) start_deg = t.OptionalNumber("start_angle_deg").value_or(0.0);
+  // Angular speed from feed and radius: ω = V / R (deg/s).
+  const double omega_deg_s = d.feed_mm_min / 60.0 / d.radius_mm * 180.0 / std::numbers::pi;
+  const std::string angle_field = angle_col >= 0 ? "angle_deg" : "t_s";
+  d.angle_deg.reserve(t.rows.size());
+  d.dr_um.reserve(t.rows.size());
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const auto& row = t.rows[i];
+    const double angle =
+        angle_col >= 0 ? row[static_cast<std::size_t>(angle_col)]
+                       : start_deg + sign * omega_deg_s * row[static_cast<std::size_t>(time_col)];
+    if (!d.angle_deg.empty()) {
+      const double prev = d.angle_deg.back();
+      if (!(sign * (angle - prev) > 0.0)) {
+        throw InvalidInput(file, t.row_lines[i], angle_field,
+                           angle_col >= 0 ? std::string("angles must ") +
+                                                (sign > 0 ? "increase (direction ccw)"
+                                                          : "decrease (direction cw)") +
+                                                " strictly from row to row"
+                                          : "times must increase strictly from row to row");
+      }
+    }
+    d.angle_deg.push_back(angle);
+    d.dr_um.push_back(row[static_cast<std::size_t>(dr_col)]);
+  }
+  if (d.angle_deg.empty()) {
+    throw InvalidInput(file, t.columns_line, "dr_um", "the file has no data rows");
+  }
+  // One full turn is required for every figure (contract §1.1).
+  const double span = std::abs(d.angle_deg.back() - d.angle_deg.front());
+  const double step =
+      d.angle_deg.size() > 1 ? span / static_cast<double>(d.angle_deg.size() - 1) : 0.0;
+  if (d.angle_deg.size() < 16 || span + step < 360.0 - 1e-6) {
+    throw InvalidInput(file, t.row_lines.back(), angle_field,
+                       "too few samples for a full turn: " + std::to_string(d.angle_deg.size()) +
+                           " samples covering " + std::to_string(span) +
+                           " degrees (a full turn of 360 degrees with at least 16 samples is "
+                           "needed)");
+  }
+  for (std::size_t i = 1; i < d.angle_deg.size(); ++i) {
+    if (std::abs(d.angle_deg[i] - d.angle_deg[i - 1]) > 10.0) {
+      throw InvalidInput(file, t.row_lines[i], angle_field,
+                         "gap of more than 10 degrees between consecutive samples");
+    }
+  }
+  return d;
+}
+
+}  // namespace km::ingest

@@ -1,0 +1,34 @@
+// Server configuration: defaults, then the config file (JSON), then command-line options.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace km::server {
+
+struct ServerConfig {
+  std::string host = "127.0.0.1";
+  int port = 8080;
+  std::string data_dir = "./var";
+  std::string web_root;    // empty: <repo>/web/static found next to the binary
+  bool demo_data = false;  // load demo data when the database is empty
+  std::size_t max_upload_bytes = 32u << 20;
+  int threads = 8;
+  std::size_t queue_limit = 64;  // requests waiting for a thread; more are refused
+  int read_timeout_s = 10;
+  int write_timeout_s = 10;
+  int keep_alive_max_count = 100;
+  int keep_alive_timeout_s = 5;
+};
+
+// Applies a JSON config file: keys listen ("HOST:PORT"), data_dir, web_root, demo_data,
+// max_upload_bytes, threads, queue_limit, read_timeout_s, write_timeout_s,
+// keep_alive_max_count, keep_alive_timeout_s. Unknown keys are an error (typos are not ignored).
+void ApplyConfigFile(ServerConfig& cfg, const std::string& path);
+// Applies "HOST:PORT".
+void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where);
+// Parses argv (after the program name); throws km::InvalidInput on a bad option.
+ServerConfig ParseServerArgs(const std::vector<std::string>& args);
+
+}  // namespace km::server

@@ -1,0 +1,92 @@
+#include "server/service.h"
+
+#include "analysis/core/errors.h"
+#include "ingest/text_format.h"
+#include "server/sha256.h"
+#include "server/time_util.h"
+
+namespace km::server {
+
+Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
+    : storage_(std::move(storage)), options_(options) {}
+
+void Service::RegisterKind(const std::string& format, KindHandler handler) {
+  kinds_[format] = std::move(handler);
+}
+
+std::vector<std::string> Service::Formats() const {
+  std::vector<std::string> out;
+  for (const auto& [k, v] : kinds_) out.push_back(k);
+  return out;
+}
+
+UploadOutcome Service::Upload(std::string_view bytes, const std::string& filename) {
+  const std::string file = filename.empty() ? "upload" : filename;
+  if (bytes.size() > options_.max_upload_bytes) {
+    throw TooLarge(file, 0, "",
+                   "the upload is " + std::to_string(bytes.size()) + " bytes; the limit is " +
+                       std::to_string(options_.max_upload_bytes));
+  }
+  const std::string format = ingest::PeekFormat(bytes, file);
+  const auto it = kinds_.find(format);
+  if (it == kinds_.end()) {
+    std::string known;
+    for (const auto& [k, v] : kinds_) known += (known.empty() ? "" : ", ") + k;
+    throw InvalidInput(file, 1, "format",
+                       "unknown format '" + format + "'; this server accepts: " + known);
+  }
+  const std::string sha = Sha256Hex(bytes);
+  if (const auto existing = storage_->FindBySha256(sha)) {
+    const auto rec = storage_->GetMeasurement(*existing);
+    return UploadOutcome{*existing, false, sha, rec ? rec->kind : ""};
+  }
+  Ingested in = it->second(bytes, file);
+  NewMeasurement m;
+  m.sha256 = sha;
+  m.kind = in.kind;
+  m.format = format;
+  m.machine_id = in.machine_id;
+  m.test_id = in.test_id;
+  m.direction = in.direction;
+  if (in.measured_at) {
+    m.measured_at = NormalizeIso8601(*in.measured_at);
+    if (!m.measured_at) {
+      throw InvalidInput(file, 0, "timestamp", "'" + *in.measured_at + "' is not ISO 8601");
+    }
+  }
+  m.filename = filename;
+  m.metadata_json = in.metadata.dump();
+  m.raw.assign(bytes);
+  m.samples = std::move(in.samples);
+  const auto put = storage_->PutMeasurement(m, in.results);
+  return UploadOutcome{put.id, put.created, sha, in.kind};
+}
+
+nlohmann::json Service::Results(std::int64_t id) {
+  const auto rec = storage_->GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  const auto results = storage_->GetResults(id);
+  if (results.empty()) {
+    throw NotFound("measurement " + std::to_string(id) + " has no stored results");
+  }
+  // Newest stored result (results are appended as analysis versions are added).
+  return nlohmann::json::parse(results.back().result_json);
+}
+
+nlohmann::json Service::MeasurementJson(const MeasurementRecord& r) const {
+  nlohmann::json j;
+  j["id"] = r.id;
+  j["sha256"] = r.sha256;
+  j["kind"] = r.kind;
+  j["format"] = r.format;
+  j["machine_id"] = r.machine_id;
+  j["test_id"] = r.test_id;
+  j["direction"] = r.direction;
+  j["timestamp"] = r.measured_at ? nlohmann::json(*r.measured_at) : nlohmann::json(nullptr);
+  j["uploaded_at"] = r.uploaded_at;
+  j["filename"] = r.filename;
+  j["sample_count"] = r.sample_count;
+  return j;
+}
+
+}  // namespace km::server

@@ -1,0 +1,71 @@
+// The service core: turns uploaded bytes into a stored, analysed measurement, and answers the
+// questions the API asks. The API layer is a thin mapping onto these calls.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "server/storage.h"
+
+namespace km::server {
+
+// What one kind of measurement file turns into before it is stored.
+struct Ingested {
+  std::string kind;
+  std::string machine_id, test_id, direction;
+  std::optional<std::string> measured_at;  // as written in the file
+  nlohmann::json metadata = nlohmann::json::object();
+  SampleBlock samples;
+  std::vector<NewResult> results;  // computed at upload, stored in the same transaction
+};
+
+// Parses and analyses one file of a format; throws km::InvalidInput naming file/line/field.
+using KindHandler = std::function<Ingested(std::string_view bytes, const std::string& file)>;
+
+struct ServiceOptions {
+  std::size_t max_upload_bytes = 32u << 20;
+};
+
+struct UploadOutcome {
+  std::int64_t id = 0;
+  bool created = false;
+  std::string sha256;
+  std::string kind;
+};
+
+class Service {
+ public:
+  Service(std::unique_ptr<Storage> storage, ServiceOptions options);
+
+  // Registers the handler of a format name (e.g. "kinemetric-dbb/1").
+  void RegisterKind(const std::string& format, KindHandler handler);
+  std::vector<std::string> Formats() const;
+
+  // Validates, analyses and stores. Same bytes again → the existing id, created = false.
+  // Nothing is stored when the input is bad (km::InvalidInput / km::TooLarge).
+  UploadOutcome Upload(std::string_view bytes, const std::string& filename);
+
+  // Results as the CLI prints them (the newest analysis version of each analysis).
+  nlohmann::json Results(std::int64_t id);
+  // Plot data of a DBB measurement (recomputed from the stored bytes).
+  nlohmann::json DbbTrace(std::int64_t id);
+  nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
+
+  Storage& storage() { return *storage_; }
+
+ private:
+  std::unique_ptr<Storage> storage_;
+  ServiceOptions options_;
+  std::map<std::string, KindHandler> kinds_;
+};
+
+// The handlers of every measurement kind the product knows; call once at start-up.
+void RegisterBuiltinKinds(Service& service);
+
+}  // namespace km::server

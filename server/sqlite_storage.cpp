@@ -1,0 +1,385 @@
+#include "server/sqlite_storage.h"
+
+#include <sqlite3.h>
+
+#include <cstring>
+#include <stdexcept>
+
+#include "analysis/core/errors.h"
+#include "server/time_util.h"
+
+namespace km::server {
+namespace {
+
+class StorageError : public Error {
+ public:
+  using Error::Error;
+};
+
+[[noreturn]] void Fail(sqlite3* db, const std::string& what) {
+  throw StorageError("storage: " + what + ": " + (db ? sqlite3_errmsg(db) : "no database"));
+}
+
+void Exec(sqlite3* db, const char* sql) {
+  char* err = nullptr;
+  if (sqlite3_exec(db, sql, nullptr, nullptr, &err) != SQLITE_OK) {
+    std::string msg = err ? err : "unknown error";
+    sqlite3_free(err);
+    throw StorageError(std::string("storage: ") + msg);
+  }
+}
+
+// Prepared statement with RAII finalisation.
+class Stmt {
+ public:
+  Stmt(sqlite3* db, const char* sql) : db_(db) {
+    if (sqlite3_prepare_v2(db, sql, -1, &s_, nullptr) != SQLITE_OK) Fail(db, "prepare");
+  }
+  ~Stmt() { sqlite3_finalize(s_); }
+  Stmt(const Stmt&) = delete;
+  Stmt& operator=(const Stmt&) = delete;
+
+  Stmt& Bind(int i, std::int64_t v) {
+    Check(sqlite3_bind_int64(s_, i, v));
+    return *this;
+  }
+  Stmt& Bind(int i, const std::string& v) {
+    Check(sqlite3_bind_text(s_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
+    return *this;
+  }
+  Stmt& Bind(int i, const std::optional<std::string>& v) {
+    if (v) return Bind(i, *v);
+    Check(sqlite3_bind_null(s_, i));
+    return *this;
+  }
+  Stmt& BindBlob(int i, const std::string& v) {
+    Check(sqlite3_bind_blob64(s_, i, v.data(), v.size(), SQLITE_TRANSIENT));
+    return *this;
+  }
+  // true while a row is available.
+  bool Step() {
+    const int rc = sqlite3_step(s_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    Fail(db_, "step");
+  }
+  std::int64_t Int(int c) const { return sqlite3_column_int64(s_, c); }
+  bool IsNull(int c) const { return sqlite3_column_type(s_, c) == SQLITE_NULL; }
+  std::string Text(int c) const {
+    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(s_, c));
+    return p ? std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(s_, c))) : "";
+  }
+  std::optional<std::string> OptText(int c) const {
+    if (IsNull(c)) return std::nullopt;
+    return Text(c);
+  }
+  std::string Blob(int c) const {
+    const auto* p = static_cast<const char*>(sqlite3_column_blob(s_, c));
+    return p ? std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(s_, c))) : "";
+  }
+
+ private:
+  void Check(int rc) {
+    if (rc != SQLITE_OK) Fail(db_, "bind");
+  }
+  sqlite3* db_;
+  sqlite3_stmt* s_ = nullptr;
+};
+
+// Rolls back unless Commit() was called (SQLiteCpp Transaction style).
+class Transaction {
+ public:
+  explicit Transaction(sqlite3* db) : db_(db) { Exec(db_, "BEGIN IMMEDIATE"); }
+  ~Transaction() {
+    if (!done_) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+  }
+  Transaction(const Transaction&) = delete;
+  Transaction& operator=(const Transaction&) = delete;
+  void Commit() {
+    Exec(db_, "COMMIT");
+    done_ = true;
+  }
+
+ private:
+  sqlite3* db_;
+  bool done_ = false;
+};
+
+// Numbered migrations: migration i brings the schema from user_version i to i + 1.
+const char* const kMigrations[] = {
+    // 1: measurements, results, tokens.
+    R"sql(
+CREATE TABLE measurements (
+  id            INTEGER PRIMARY KEY,
+  sha256        TEXT NOT NULL UNIQUE,
+  kind          TEXT NOT NULL,
+  format        TEXT NOT NULL,
+  machine_id    TEXT NOT NULL,
+  test_id       TEXT NOT NULL DEFAULT '',
+  direction     TEXT NOT NULL DEFAULT '',
+  measured_at   TEXT,
+  uploaded_at   TEXT NOT NULL,
+  filename      TEXT NOT NULL DEFAULT '',
+  sample_count  INTEGER NOT NULL,
+  metadata_json TEXT NOT NULL,
+  raw           BLOB NOT NULL,
+  samples       BLOB NOT NULL
+);
+CREATE INDEX measurements_by_machine ON measurements(machine_id, kind);
+CREATE INDEX measurements_by_time ON measurements(COALESCE(measured_at, uploaded_at));
+CREATE TRIGGER measurements_immutable BEFORE UPDATE ON measurements
+  BEGIN SELECT RAISE(ABORT, 'measurements are immutable'); END;
+CREATE TRIGGER measurements_kept BEFORE DELETE ON measurements
+  BEGIN SELECT RAISE(ABORT, 'measurements are never deleted'); END;
+CREATE TABLE results (
+  id               INTEGER PRIMARY KEY,
+  measurement_id   INTEGER NOT NULL REFERENCES measurements(id),
+  analysis         TEXT NOT NULL,
+  analysis_version TEXT NOT NULL,
+  input_sha256     TEXT NOT NULL,
+  created_at       TEXT NOT NULL,
+  result_json      TEXT NOT NULL,
+  UNIQUE (measurement_id, analysis, analysis_version)
+);
+CREATE TABLE tokens (
+  id           INTEGER PRIMARY KEY,
+  token_sha256 TEXT NOT NULL UNIQUE,
+  role         TEXT NOT NULL,
+  label        TEXT NOT NULL DEFAULT '',
+  created_at   TEXT NOT NULL
+);
+)sql",
+};
+
+constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));
+
+MeasurementRecord ReadRecord(const Stmt& s) {
+  MeasurementRecord r;
+  r.id = s.Int(0);
+  r.sha256 = s.Text(1);
+  r.kind = s.Text(2);
+  r.format = s.Text(3);
+  r.machine_id = s.Text(4);
+  r.test_id = s.Text(5);
+  r.direction = s.Text(6);
+  r.measured_at = s.OptText(7);
+  r.uploaded_at = s.Text(8);
+  r.filename = s.Text(9);
+  r.sample_count = s.Int(10);
+  r.metadata_json = s.Text(11);
+  return r;
+}
+
+constexpr const char* kRecordColumns =
+    "id, sha256, kind, format, machine_id, test_id, direction, measured_at, uploaded_at, "
+    "filename, sample_count, metadata_json";
+
+}  // namespace
+
+int SqliteStorage::SchemaVersion() {
+  return kSchemaVersion;
+}
+
+SqliteStorage::SqliteStorage(const std::string& path) {
+  if (sqlite3_open_v2(path.c_str(), &db_,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
+                      nullptr) != SQLITE_OK) {
+    std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw StorageError("storage: cannot open " + path + ": " + msg);
+  }
+  try {
+    sqlite3_busy_timeout(db_, 5000);
+    Exec(db_, "PRAGMA journal_mode=WAL");
+    Exec(db_, "PRAGMA synchronous=FULL");
+    Exec(db_, "PRAGMA foreign_keys=ON");
+    Migrate();
+  } catch (...) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
+  }
+}
+
+SqliteStorage::~SqliteStorage() {
+  if (db_) sqlite3_close(db_);
+}
+
+void SqliteStorage::Migrate() {
+  int version = 0;
+  {
+    Stmt s(db_, "PRAGMA user_version");
+    if (s.Step()) version = static_cast<int>(s.Int(0));
+  }
+  if (version > kSchemaVersion) {
+    throw StorageError("storage: the database schema version " + std::to_string(version) +
+                       " is newer than this program knows (" + std::to_string(kSchemaVersion) +
+                       "); refusing to touch it");
+  }
+  for (int v = version; v < kSchemaVersion; ++v) {
+    Transaction tx(db_);
+    Exec(db_, kMigrations[v]);
+    Exec(db_, ("PRAGMA user_version=" + std::to_string(v + 1)).c_str());
+    tx.Commit();
+  }
+}
+
+void SqliteStorage::InsertResult(std::int64_t id, const std::string& sha, const NewResult& r) {
+  Stmt s(db_,
+         "INSERT INTO results (measurement_id, analysis, analysis_version, input_sha256, "
+         "created_at, result_json) VALUES (?, ?, ?, ?, ?, ?) "
+         "ON CONFLICT (measurement_id, analysis, analysis_version) DO NOTHING");
+  s.Bind(1, id).Bind(2, r.analysis).Bind(3, r.analysis_version).Bind(4, sha);
+  s.Bind(5, NowUtcIso8601()).Bind(6, r.result_json);
+  s.Step();
+}
+
+PutOutcome SqliteStorage::PutMeasurement(const NewMeasurement& m,
+                                         const std::vector<NewResult>& results) {
+  std::lock_guard lock(mu_);
+  Transaction tx(db_);
+  {
+    Stmt find(db_, "SELECT id FROM measurements WHERE sha256 = ?");
+    find.Bind(1, m.sha256);
+    if (find.Step()) return PutOutcome{find.Int(0), false};
+  }
+  Stmt s(db_,
+         "INSERT INTO measurements (sha256, kind, format, machine_id, test_id, direction, "
+         "measured_at, uploaded_at, filename, sample_count, metadata_json, raw, samples) "
+         "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  s.Bind(1, m.sha256).Bind(2, m.kind).Bind(3, m.format).Bind(4, m.machine_id);
+  s.Bind(5, m.test_id).Bind(6, m.direction).Bind(7, m.measured_at).Bind(8, NowUtcIso8601());
+  s.Bind(9, m.filename).Bind(10, static_cast<std::int64_t>(m.samples.rows()));
+  s.Bind(11, m.metadata_json).BindBlob(12, m.raw).BindBlob(13, EncodeSamples(m.samples));
+  s.Step();
+  const std::int64_t id = sqlite3_last_insert_rowid(db_);
+  for (const auto& r : results) InsertResult(id, m.sha256, r);
+  tx.Commit();
+  return PutOutcome{id, true};
+}
+
+std::optional<MeasurementRecord> SqliteStorage::GetMeasurement(std::int64_t id) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_,
+         (std::string("SELECT ") + kRecordColumns + " FROM measurements WHERE id = ?").c_str());
+  s.Bind(1, id);
+  if (!s.Step()) return std::nullopt;
+  return ReadRecord(s);
+}
+
+std::optional<std::int64_t> SqliteStorage::FindBySha256(const std::string& sha256) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "SELECT id FROM measurements WHERE sha256 = ?");
+  s.Bind(1, sha256);
+  if (!s.Step()) return std::nullopt;
+  return s.Int(0);
+}
+
+std::string SqliteStorage::GetRaw(std::int64_t id) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "SELECT raw FROM measurements WHERE id = ?");
+  s.Bind(1, id);
+  if (!s.Step()) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  return s.Blob(0);
+}
+
+SampleBlock SqliteStorage::GetSamples(std::int64_t id) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "SELECT samples FROM measurements WHERE id = ?");
+  s.Bind(1, id);
+  if (!s.Step()) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  return DecodeSamples(s.Blob(0));
+}
+
+MeasurementPage SqliteStorage::ListMeasurements(const MeasurementFilter& f) {
+  std::lock_guard lock(mu_);
+  std::string where = " WHERE 1=1";
+  if (f.machine_id) where += " AND machine_id = :machine";
+  if (f.kind) where += " AND kind = :kind";
+  if (f.test_id) where += " AND test_id = :test";
+  if (f.from) where += " AND COALESCE(measured_at, uploaded_at) >= :from";
+  if (f.to) where += " AND COALESCE(measured_at, uploaded_at) < :to";
+  auto bind = [&](Stmt& s, sqlite3* db) {
+    (void)db;
+    int i = 1;
+    if (f.machine_id) s.Bind(i++, *f.machine_id);
+    if (f.kind) s.Bind(i++, *f.kind);
+    if (f.test_id) s.Bind(i++, *f.test_id);
+    if (f.from) s.Bind(i++, *f.from);
+    if (f.to) s.Bind(i++, *f.to);
+    return i;
+  };
+  MeasurementPage page;
+  {
+    Stmt c(db_, ("SELECT COUNT(*) FROM measurements" + where).c_str());
+    bind(c, db_);
+    if (c.Step()) page.total = c.Int(0);
+  }
+  Stmt s(db_, (std::string("SELECT ") + kRecordColumns + " FROM measurements" + where +
+               " ORDER BY COALESCE(measured_at, uploaded_at), id LIMIT ? OFFSET ?")
+                  .c_str());
+  const int next = bind(s, db_);
+  s.Bind(next, f.limit).Bind(next + 1, f.offset);
+  while (s.Step()) page.items.push_back(ReadRecord(s));
+  return page;
+}
+
+std::vector<ResultRecord> SqliteStorage::GetResults(std::int64_t id) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_,
+         "SELECT measurement_id, analysis, analysis_version, input_sha256, created_at, "
+         "result_json FROM results WHERE measurement_id = ? ORDER BY id");
+  s.Bind(1, id);
+  std::vector<ResultRecord> out;
+  while (s.Step()) {
+    out.push_back(ResultRecord{s.Int(0), s.Text(1), s.Text(2), s.Text(3), s.Text(4), s.Text(5)});
+  }
+  return out;
+}
+
+void SqliteStorage::PutResult(std::int64_t id, const NewResult& r) {
+  std::lock_guard lock(mu_);
+  Transaction tx(db_);
+  Stmt s(db_, "SELECT sha256 FROM measurements WHERE id = ?");
+  s.Bind(1, id);
+  if (!s.Step()) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  InsertResult(id, s.Text(0), r);
+  tx.Commit();
+}
+
+std::vector<MachineSummary> SqliteStorage::ListMachines() {
+  std::lock_guard lock(mu_);
+  Stmt s(db_,
+         "SELECT machine_id, COUNT(*), MAX(COALESCE(measured_at, uploaded_at)) FROM measurements "
+         "GROUP BY machine_id ORDER BY machine_id");
+  std::vector<MachineSummary> out;
+  while (s.Step()) out.push_back(MachineSummary{s.Text(0), s.Int(1), s.OptText(2)});
+  return out;
+}
+
+std::int64_t SqliteStorage::CountTokens() {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "SELECT COUNT(*) FROM tokens");
+  return s.Step() ? s.Int(0) : 0;
+}
+
+void SqliteStorage::PutToken(const std::string& token_sha256, const std::string& role,
+                             const std::string& label) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_,
+         "INSERT INTO tokens (token_sha256, role, label, created_at) VALUES (?, ?, ?, ?) "
+         "ON CONFLICT (token_sha256) DO NOTHING");
+  s.Bind(1, token_sha256).Bind(2, role).Bind(3, label).Bind(4, NowUtcIso8601());
+  s.Step();
+}
+
+std::optional<std::string> SqliteStorage::FindTokenRole(const std::string& token_sha256) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "SELECT role FROM tokens WHERE token_sha256 = ?");
+  s.Bind(1, token_sha256);
+  if (!s.Step()) return std::nullopt;
+  return s.Text(0);
+}
+
+}  // namespace km::server

@@ -1,0 +1,47 @@
+// Embedded SQLite backend of the storage interface: WAL journal, synchronous=FULL,
+// foreign_keys=ON, numbered migrations (PRAGMA user_version), RAII transactions that roll back
+// unless committed, raw measurements protected against UPDATE/DELETE by triggers.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "server/storage.h"
+
+struct sqlite3;
+
+namespace km::server {
+
+class SqliteStorage final : public Storage {
+ public:
+  // Opens (creating if needed) the database file and brings its schema up to date.
+  explicit SqliteStorage(const std::string& path);
+  ~SqliteStorage() override;
+  SqliteStorage(const SqliteStorage&) = delete;
+  SqliteStorage& operator=(const SqliteStorage&) = delete;
+
+  static int SchemaVersion();
+
+  PutOutcome PutMeasurement(const NewMeasurement& m, const std::vector<NewResult>& r) override;
+  std::optional<MeasurementRecord> GetMeasurement(std::int64_t id) override;
+  std::optional<std::int64_t> FindBySha256(const std::string& sha256) override;
+  std::string GetRaw(std::int64_t id) override;
+  SampleBlock GetSamples(std::int64_t id) override;
+  MeasurementPage ListMeasurements(const MeasurementFilter& f) override;
+  std::vector<ResultRecord> GetResults(std::int64_t id) override;
+  void PutResult(std::int64_t id, const NewResult& r) override;
+  std::vector<MachineSummary> ListMachines() override;
+  std::int64_t CountTokens() override;
+  void PutToken(const std::string& token_sha256, const std::string& role,
+                const std::string& label) override;
+  std::optional<std::string> FindTokenRole(const std::string& token_sha256) override;
+
+ private:
+  void Migrate();
+  void InsertResult(std::int64_t id, const std::string& sha, const NewResult& r);
+  sqlite3* db_ = nullptr;
+  std::mutex mu_;  // one connection, used by one thread at a time
+};
+
+}  // namespace km::server

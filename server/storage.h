@@ -1,0 +1,112 @@
+// The server's storage interface. Everything the service keeps goes through it, so a
+// PostgreSQL backend for fleets can sit beside the embedded SQLite default.
+//
+// Invariants every backend keeps:
+//  * a measurement is stored once, immutable, keyed by the SHA-256 of its bytes;
+//  * a measurement and the results computed at upload are written in one transaction;
+//  * results carry the analysis name and version and the input's content hash.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace km::server {
+
+// Raw samples, stored compactly as one blob per measurement.
+struct SampleBlock {
+  std::vector<std::string> columns;
+  std::vector<double> values;  // row-major, columns.size() values a row
+
+  std::size_t rows() const { return columns.empty() ? 0 : values.size() / columns.size(); }
+  std::vector<double> Column(std::size_t c) const;
+};
+
+std::string EncodeSamples(const SampleBlock& block);
+SampleBlock DecodeSamples(const std::string& blob);
+
+struct NewResult {
+  std::string analysis;          // e.g. "dbb"
+  std::string analysis_version;  // e.g. "dbb/1.0"
+  std::string result_json;
+};
+
+struct NewMeasurement {
+  std::string sha256;
+  std::string kind;    // dbb, tracker, straightness, flatness, parallelism
+  std::string format;  // e.g. kinemetric-dbb/1
+  std::string machine_id;
+  std::string test_id;
+  std::string direction;
+  std::optional<std::string> measured_at;  // UTC ISO 8601, from the file
+  std::string filename;
+  std::string metadata_json;  // header keys → values
+  std::string raw;            // the file's bytes, exactly as uploaded
+  SampleBlock samples;
+};
+
+struct MeasurementRecord {
+  std::int64_t id = 0;
+  std::string sha256, kind, format, machine_id, test_id, direction;
+  std::optional<std::string> measured_at;
+  std::string uploaded_at, filename, metadata_json;
+  std::int64_t sample_count = 0;
+};
+
+struct ResultRecord {
+  std::int64_t measurement_id = 0;
+  std::string analysis, analysis_version, input_sha256, created_at, result_json;
+};
+
+struct MeasurementFilter {
+  std::optional<std::string> machine_id;
+  std::optional<std::string> kind;
+  std::optional<std::string> test_id;
+  std::optional<std::string> from;  // UTC ISO 8601, inclusive (measured_at, else uploaded_at)
+  std::optional<std::string> to;    // exclusive
+  std::int64_t limit = 50;
+  std::int64_t offset = 0;
+};
+
+struct MeasurementPage {
+  std::vector<MeasurementRecord> items;
+  std::int64_t total = 0;
+};
+
+struct MachineSummary {
+  std::string machine_id;
+  std::int64_t measurement_count = 0;
+  std::optional<std::string> last_time;
+};
+
+struct PutOutcome {
+  std::int64_t id = 0;
+  bool created = false;
+};
+
+class Storage {
+ public:
+  virtual ~Storage() = default;
+
+  // Stores the measurement and its results atomically; the same bytes stored before give the
+  // existing id and created = false (nothing is written then).
+  virtual PutOutcome PutMeasurement(const NewMeasurement& m, const std::vector<NewResult>& r) = 0;
+  virtual std::optional<MeasurementRecord> GetMeasurement(std::int64_t id) = 0;
+  virtual std::optional<std::int64_t> FindBySha256(const std::string& sha256) = 0;
+  virtual std::string GetRaw(std::int64_t id) = 0;      // throws NotFound
+  virtual SampleBlock GetSamples(std::int64_t id) = 0;  // throws NotFound
+  virtual MeasurementPage ListMeasurements(const MeasurementFilter& f) = 0;
+  virtual std::vector<ResultRecord> GetResults(std::int64_t id) = 0;
+  // Adds a result computed later (e.g. by a newer analysis version); keeps older ones.
+  virtual void PutResult(std::int64_t id, const NewResult& r) = 0;
+  virtual std::vector<MachineSummary> ListMachines() = 0;
+
+  // Access tokens are stored only as SHA-256 hashes.
+  virtual std::int64_t CountTokens() = 0;
+  virtual void PutToken(const std::string& token_sha256, const std::string& role,
+                        const std::string& label) = 0;
+  virtual std::optional<std::string> FindTokenRole(const std::string& token_sha256) = 0;
+};
+
+}  // namespace km::server

@@ -1,0 +1,241 @@
+// Integration test: a real kinemetricd on a free port with a temporary data dir; upload, query,
+// restart, and every kind of bad file — 400 with a precise problem document, nothing changed.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <string>
+
+#include "tests/integration/server/server_process.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const char* kToken = "integration-secret-token";
+
+std::string DbbFile(const std::string& test_id, bool ccw, double ellipse_um) {
+  std::string s = "# format: kinemetric-dbb/1\n# machine_id: it-vmc\n# test_id: " + test_id +
+                  "\n# direction: " + (ccw ? "ccw" : "cw") +
+                  "\n# bar_length_mm: 150\n# centre_mm: 0, 0, 0\n# feed_mm_min: 1000\n"
+                  "# timestamp: 2026-11-20T10:00:00+01:00\nangle_deg,dr_um\n";
+  char buf[64];
+  for (int i = 0; i < 720; ++i) {
+    const double deg = (ccw ? 1 : -1) * 0.5 * i;
+    const double th = deg * std::numbers::pi / 180;
+    std::snprintf(buf, sizeof buf, "%.3f,%.5f\n", deg,
+                  ellipse_um * std::cos(2 * th) + 2.0 * std::cos(th) - 1.0 * std::sin(th) + 0.5);
+    s += buf;
+  }
+  return s;
+}
+
+class Api {
+ public:
+  explicit Api(int port) : c_("127.0.0.1", port) {
+    c_.set_read_timeout(10, 0);
+    c_.set_default_headers({{"Authorization", std::string("Bearer ") + kToken}});
+  }
+  httplib::Result Get(const std::string& p) { return c_.Get(p.c_str()); }
+  httplib::Result Post(const std::string& body, const std::string& name = "f.dbb") {
+    httplib::Headers h = {{"X-Filename", name}};
+    return c_.Post("/api/v1/measurements", h, body, "text/plain");
+  }
+
+ private:
+  httplib::Client c_;
+};
+
+class ServerIntegration : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("kinemetric-it-" + std::to_string(::getpid()) + "-" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::unique_ptr<km::test::ServerProcess> Start(const std::string& extra = "") {
+    return std::make_unique<km::test::ServerProcess>(KINEMETRICD_BIN, dir_.string(), kToken, extra);
+  }
+  fs::path dir_;
+};
+
+std::int64_t Total(Api& api) {
+  auto r = api.Get("/api/v1/measurements");
+  EXPECT_TRUE(r);
+  return json::parse(r->body)["total"].get<std::int64_t>();
+}
+
+TEST_F(ServerIntegration, UploadQueryRestartAndNothingLost) {
+  auto server = Start();
+  Api api(server->port());
+
+  // Health needs no token; the API does.
+  httplib::Client anon("127.0.0.1", server->port());
+  EXPECT_EQ(anon.Get("/healthz")->status, 200);
+  auto denied = anon.Get("/api/v1/machines");
+  ASSERT_TRUE(denied);
+  EXPECT_EQ(denied->status, 401);
+  EXPECT_EQ(denied->get_header_value("Content-Type"), "application/problem+json");
+  httplib::Client wrong("127.0.0.1", server->port());
+  wrong.set_default_headers({{"Authorization", "Bearer nope"}});
+  EXPECT_EQ(wrong.Get("/api/v1/machines")->status, 401);
+
+  const std::string ccw = DbbFile("xy-150", true, 3.0), cw = DbbFile("xy-150", false, 3.0);
+  auto r1 = api.Post(ccw, "ccw.dbb");
+  ASSERT_TRUE(r1);
+  ASSERT_EQ(r1->status, 201) << r1->body;
+  const auto id1 = json::parse(r1->body)["id"].get<std::int64_t>();
+  auto again = api.Post(ccw, "ccw-again.dbb");
+  ASSERT_EQ(again->status, 200);
+  EXPECT_EQ(json::parse(again->body)["id"].get<std::int64_t>(), id1);
+  EXPECT_FALSE(json::parse(again->body)["created"].get<bool>());
+  auto r2 = api.Post(cw, "cw.dbb");
+  ASSERT_EQ(r2->status, 201);
+  const auto id2 = json::parse(r2->body)["id"].get<std::int64_t>();
+
+  // Results: the same object the CLI prints for the file.
+  auto res = api.Get("/api/v1/measurements/" + std::to_string(id1) + "/results");
+  ASSERT_EQ(res->status, 200) << res->body;
+  const json stored = json::parse(res->body);
+  EXPECT_EQ(stored["mode"], "centre_corrected");
+  EXPECT_EQ(stored["direction"], "ccw");
+  EXPECT_NEAR(stored["centre_offset_um"][0].get<double>(), 2.0, 1e-3);
+  EXPECT_NEAR(stored["centre_offset_um"][1].get<double>(), -1.0, 1e-3);
+  EXPECT_NEAR(stored["average_radial_error_um"].get<double>(), 0.5, 1e-3);
+  EXPECT_NEAR(stored["circularity_um"].get<double>(), 6.0, 2e-3);
+  {
+    const fs::path f = dir_ / "cli-input.dbb";
+    FILE* fp = std::fopen(f.c_str(), "w");
+    std::fwrite(ccw.data(), 1, ccw.size(), fp);
+    std::fclose(fp);
+    const std::string cmd =
+        std::string(KINEMETRIC_BIN) + " dbb analyze '" + f.string() + "' --json";
+    FILE* p = popen(cmd.c_str(), "r");
+    std::string out;
+    char buf[4096];
+    while (std::fgets(buf, sizeof buf, p)) out += buf;
+    ASSERT_EQ(pclose(p), 0);
+    EXPECT_EQ(json::parse(out)["tests"][0], stored);
+  }
+
+  auto one = api.Get("/api/v1/measurements/" + std::to_string(id2));
+  ASSERT_EQ(one->status, 200);
+  const json m = json::parse(one->body);
+  EXPECT_EQ(m["samples"]["angle_deg"].size(), 720u);
+  EXPECT_EQ(m["metadata"]["test_id"], "xy-150");
+  EXPECT_EQ(m["timestamp"], "2026-11-20T09:00:00Z");  // normalised to UTC
+
+  auto trace = api.Get("/api/v1/measurements/" + std::to_string(id2) + "/trace");
+  ASSERT_EQ(trace->status, 200);
+  EXPECT_EQ(json::parse(trace->body)["radial_error_um"].size(), 720u);
+
+  auto list = json::parse(api.Get("/api/v1/measurements?machine_id=it-vmc&kind=dbb&limit=1")->body);
+  EXPECT_EQ(list["total"], 2);
+  EXPECT_EQ(list["items"].size(), 1u);
+  auto page2 =
+      json::parse(api.Get("/api/v1/measurements?machine_id=it-vmc&limit=1&offset=1")->body);
+  EXPECT_EQ(page2["items"][0]["id"], id2);
+  EXPECT_EQ(json::parse(api.Get("/api/v1/measurements?machine_id=other")->body)["total"], 0);
+  EXPECT_EQ(json::parse(api.Get("/api/v1/measurements?from=2026-11-21")->body)["total"], 0);
+  EXPECT_EQ(
+      json::parse(api.Get("/api/v1/measurements?from=2026-11-20T08:59:00Z&to=2026-11-20T09:01:00Z")
+                      ->body)["total"],
+      2);
+  EXPECT_EQ(api.Get("/api/v1/measurements?limit=0")->status, 400);
+  EXPECT_EQ(api.Get("/api/v1/measurements?from=yesterday")->status, 400);
+  EXPECT_EQ(api.Get("/api/v1/measurements/999")->status, 404);
+  EXPECT_EQ(api.Get("/api/v1/measurements/abc")->status, 400);
+
+  auto machines = json::parse(api.Get("/api/v1/machines")->body);
+  ASSERT_EQ(machines["machines"].size(), 1u);
+  EXPECT_EQ(machines["machines"][0]["measurement_count"], 2);
+
+  // The OpenAPI document lists every route.
+  const json doc = json::parse(api.Get("/api/v1/openapi.json")->body);
+  EXPECT_EQ(doc["openapi"], "3.0.3");
+  for (const char* p : {"/api/v1/measurements", "/api/v1/measurements/{id}",
+                        "/api/v1/measurements/{id}/results", "/api/v1/machines", "/healthz"}) {
+    EXPECT_TRUE(doc["paths"].contains(p)) << p;
+  }
+  EXPECT_TRUE(doc["paths"]["/api/v1/measurements"].contains("post"));
+
+  // Restart: everything is still there.
+  EXPECT_EQ(server->Stop(), 0);
+  server = Start();
+  Api api2(server->port());
+  EXPECT_EQ(Total(api2), 2);
+  auto res2 = api2.Get("/api/v1/measurements/" + std::to_string(id1) + "/results");
+  ASSERT_EQ(res2->status, 200);
+  EXPECT_EQ(json::parse(res2->body), stored);
+  EXPECT_EQ(json::parse(api2.Post(cw)->body)["id"], id2);
+}
+
+TEST_F(ServerIntegration, BadFilesGetPreciseProblemsAndChangeNothing) {
+  auto server = Start("--max-upload-bytes 200000");
+  Api api(server->port());
+  const std::string good = DbbFile("base", true, 1.0);
+  ASSERT_EQ(api.Post(good)->status, 201);
+  const auto before = api.Get("/api/v1/measurements")->body;
+
+  auto replace = [&](const std::string& from, const std::string& to) {
+    std::string s = good;
+    const auto at = s.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return s.replace(at, from.size(), to);
+  };
+  struct Case {
+    const char* name;
+    std::string body;
+    int line;
+    const char* field;
+  };
+  const Case cases[] = {
+      {"missing key", replace("# test_id: base\n", ""), 0, "test_id"},
+      {"unknown format", replace("kinemetric-dbb/1", "kinemetric-dbb/9"), 1, "format"},
+      {"not numeric", replace("\n1.000,", "\n1.000,x"), 12, "dr_um"},
+      {"nan", replace("\n1.000,", "\nnan,"), 12, "angle_deg"},
+      {"inf", replace("\n1.000,", "\n1.000,-inf"), 12, "dr_um"},
+      {"duplicated key",
+       replace("# feed_mm_min: 1000\n", "# feed_mm_min: 1000\n# feed_mm_min: 900\n"), 8,
+       "feed_mm_min"},
+      {"too few samples", good.substr(0, good.find("\n90.000,")), 0, "angle_deg"},
+      {"non-monotonic", replace("\n1.000,", "\n0.250,"), 12, "angle_deg"},
+      {"empty", "", 0, "format"},
+      {"binary", std::string("\x89PNG\r\n\x1a\n\0\0", 10), 0, ""},
+  };
+  for (const auto& c : cases) {
+    auto r = api.Post(c.body, "bad.dbb");
+    ASSERT_TRUE(r) << c.name;
+    EXPECT_EQ(r->status, 400) << c.name << ": " << r->body;
+    EXPECT_EQ(r->get_header_value("Content-Type"), "application/problem+json") << c.name;
+    const json p = json::parse(r->body);
+    EXPECT_EQ(p["status"], 400);
+    EXPECT_FALSE(p["detail"].get<std::string>().empty());
+    if (c.line) {
+      EXPECT_EQ(p.value("line", 0), c.line) << c.name << ": " << p.dump();
+    }
+    if (*c.field) {
+      EXPECT_EQ(p.value("field", ""), c.field) << c.name << ": " << p.dump();
+    }
+    EXPECT_EQ(p.value("file", ""), "bad.dbb") << c.name;
+  }
+  // Over the upload limit: 413 with a problem document.
+  const std::string huge = good + std::string(250000, '\n');
+  auto big = api.Post(huge);
+  ASSERT_TRUE(big);
+  EXPECT_EQ(big->status, 413);
+  EXPECT_NE(json::parse(big->body)["detail"].get<std::string>().find("limit"), std::string::npos);
+  EXPECT_EQ(api.Get("/api/v1/measurements")->body, before);
+  EXPECT_EQ(api.Get("/api/v1/nothing")->status, 404);
+}
+
+}  // namespace

@@ -1,0 +1,125 @@
+#include "analysis/geometry/circle_fit.h"
+
+#include <Eigen/Dense>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <numbers>
+#include <random>
+
+#include "analysis/core/errors.h"
+
+namespace km::geometry {
+namespace {
+
+std::vector<Eigen::Vector2d> Trace(double cx, double cy, double r, int n,
+                                   const std::function<double(double)>& form, double noise,
+                                   unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> nd(0.0, noise);
+  std::vector<Eigen::Vector2d> p;
+  for (int i = 0; i < n; ++i) {
+    const double th = 2 * std::numbers::pi * i / n;
+    const double rr = r + (form ? form(th) : 0.0) + (noise > 0 ? nd(rng) : 0.0);
+    p.emplace_back(cx + rr * std::cos(th), cy + rr * std::sin(th));
+  }
+  return p;
+}
+
+// Independent check: minimise the variance of the distances over the centre by Newton's method
+// with finite-difference derivatives (R0 is then the mean distance).
+Circle IndependentFit(const std::vector<Eigen::Vector2d>& p, Eigen::Vector2d c) {
+  auto cost = [&](const Eigen::Vector2d& q) {
+    double m = 0;
+    for (const auto& x : p) m += (x - q).norm();
+    m /= static_cast<double>(p.size());
+    double s = 0;
+    for (const auto& x : p) s += std::pow((x - q).norm() - m, 2);
+    return s;
+  };
+  const double h = 1e-3;
+  for (int it = 0; it < 50; ++it) {
+    Eigen::Vector2d g;
+    Eigen::Matrix2d hess;
+    for (int a = 0; a < 2; ++a) {
+      Eigen::Vector2d e = Eigen::Vector2d::Zero();
+      e(a) = h;
+      g(a) = (cost(c + e) - cost(c - e)) / (2 * h);
+      for (int b = 0; b < 2; ++b) {
+        Eigen::Vector2d f = Eigen::Vector2d::Zero();
+        f(b) = h;
+        hess(a, b) =
+            (cost(c + e + f) - cost(c + e - f) - cost(c - e + f) + cost(c - e - f)) / (4 * h * h);
+      }
+    }
+    const Eigen::Vector2d step = hess.ldlt().solve(-g);
+    c += step;
+    if (step.norm() < 1e-9) break;
+  }
+  double m = 0;
+  for (const auto& x : p) m += (x - c).norm();
+  return Circle{c, m / static_cast<double>(p.size())};
+}
+
+TEST(CircleFit, NoiseFreeCircleIsRecoveredExactly) {
+  // µm units, as the DBB analysis uses them: R = 150 mm.
+  const auto p = Trace(12.345, -6.789, 150000.0, 3600, nullptr, 0.0, 1);
+  const auto fit = FitCircleLeastSquares(p);
+  EXPECT_NEAR(fit.circle.centre.x(), 12.345, 1e-6);
+  EXPECT_NEAR(fit.circle.centre.y(), -6.789, 1e-6);
+  EXPECT_NEAR(fit.circle.radius, 150000.0, 1e-6);
+  EXPECT_LT(fit.rms_residual, 1e-6);
+}
+
+TEST(CircleFit, AgreesWithIndependentComputationOnFormErrors) {
+  // Elliptic + trefoil + 5th-order form error and a centre offset: the least-squares circle
+  // of the two algorithms must agree to 0.001 µm.
+  auto form = [](double th) {
+    return 4.0 * std::cos(2 * th - 0.3) + 1.5 * std::cos(3 * th + 1.0) + 0.7 * std::sin(5 * th);
+  };
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const auto p = Trace(-3.0 * seed, 7.5, 100000.0 + seed, 1440, form, 0.0, seed);
+    const auto fit = FitCircleLeastSquares(p);
+    const auto ind = IndependentFit(p, Eigen::Vector2d(50.0, -50.0));
+    EXPECT_NEAR(fit.circle.centre.x(), ind.centre.x(), 1e-3);
+    EXPECT_NEAR(fit.circle.centre.y(), ind.centre.y(), 1e-3);
+    EXPECT_NEAR(fit.circle.radius, ind.radius, 1e-3);
+  }
+}
+
+TEST(CircleFit, RecoversCentreWithinThreeSigmaOfNoise) {
+  const double sigma = 0.5;
+  const int n = 3600;
+  // Standard deviation of the centre estimate: σ·sqrt(2/n); of the radius: σ/sqrt(n).
+  const double sc = sigma * std::sqrt(2.0 / n), sr = sigma / std::sqrt(n);
+  for (unsigned seed = 10; seed < 20; ++seed) {
+    const auto p = Trace(4.0, -2.0, 150000.0 + 3.0, n, nullptr, sigma, seed);
+    const auto fit = FitCircleLeastSquares(p);
+    EXPECT_LT(std::abs(fit.circle.centre.x() - 4.0), 3 * sc) << "seed " << seed;
+    EXPECT_LT(std::abs(fit.circle.centre.y() + 2.0), 3 * sc) << "seed " << seed;
+    EXPECT_LT(std::abs(fit.circle.radius - 150003.0), 3 * sr) << "seed " << seed;
+    EXPECT_NEAR(fit.rms_residual, sigma, 0.05);
+  }
+}
+
+TEST(CircleFit, PartialArcFarFromOrigin) {
+  std::vector<Eigen::Vector2d> p;
+  for (int i = 0; i < 100; ++i) {
+    const double th = 0.2 + 1.0 * i / 99;
+    p.emplace_back(1e5 + 50.0 * std::cos(th), -2e5 + 50.0 * std::sin(th));
+  }
+  const auto fit = FitCircleLeastSquares(p);
+  EXPECT_NEAR(fit.circle.radius, 50.0, 1e-6);
+  EXPECT_NEAR(fit.circle.centre.x(), 1e5, 1e-6);
+}
+
+TEST(CircleFit, RejectsDegenerateInput) {
+  EXPECT_THROW(FitCircleLeastSquares({{0, 0}, {1, 1}}), InvalidInput);
+  EXPECT_THROW(FitCircleLeastSquares({{0, 0}, {1, 1}, {2, 2}, {3, 3}}), InvalidInput);
+  EXPECT_THROW(FitCircleLeastSquares({{1, 1}, {1, 1}, {1, 1}}), InvalidInput);
+}
+
+}  // namespace
+}  // namespace km::geometry

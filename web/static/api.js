@@ -1,0 +1,111 @@
+// Thin client for the kinemetricd HTTP API (see the server's /api/v1/openapi.json).
+// Every /api/ call carries `Authorization: Bearer <token>`; failures are thrown as ApiError
+// built from the server's application/problem+json body (title, detail, file, line, field).
+
+const TOKEN_KEY = 'kinemetric.token';
+let memoryToken = '';
+
+export class ApiError extends Error {
+  constructor(status, problem) {
+    const title = problem.title || `HTTP ${status}`;
+    super(problem.detail ? `${title}: ${problem.detail}` : title);
+    this.name = 'ApiError';
+    this.status = status;
+    this.title = title;
+    this.detail = problem.detail || '';
+    this.file = problem.file;
+    this.line = problem.line;
+    this.field = problem.field;
+  }
+}
+
+export function getToken() {
+  try {
+    return localStorage.getItem(TOKEN_KEY) || '';
+  } catch {
+    return '';
+  }
+}
+
+export function setToken(token) {
+  try {
+    if (token) localStorage.setItem(TOKEN_KEY, token);
+    else localStorage.removeItem(TOKEN_KEY);
+  } catch {
+    // Storage may be disabled (private mode); the token then lives for this page only.
+  }
+  memoryToken = token;
+}
+
+function currentToken() {
+  return getToken() || memoryToken;
+}
+
+// Takes `#token=...` from the URL fragment (if present), stores it and removes it from the
+// address bar so it does not linger in history or screenshots. Returns true if one was found.
+export function takeTokenFromFragment() {
+  const hash = window.location.hash.replace(/^#/, '');
+  if (!hash) return false;
+  const params = new URLSearchParams(hash);
+  const token = params.get('token');
+  if (token === null) return false;
+  setToken(token.trim());
+  params.delete('token');
+  const rest = params.toString();
+  const url = window.location.pathname + window.location.search + (rest ? `#${rest}` : '');
+  window.history.replaceState(null, '', url);
+  return true;
+}
+
+async function readProblem(response) {
+  const text = await response.text();
+  try {
+    const body = JSON.parse(text);
+    if (body && typeof body === 'object') return body;
+  } catch {
+    // not JSON: fall through
+  }
+  return { title: response.statusText || `HTTP ${response.status}`, detail: text.slice(0, 500) };
+}
+
+export async function apiFetch(path, { method = 'GET', body, headers = {} } = {}) {
+  const allHeaders = { Accept: 'application/json', ...headers };
+  const token = currentToken();
+  if (token) allHeaders.Authorization = `Bearer ${token}`;
+  let response;
+  try {
+    response = await fetch(path, { method, body, headers: allHeaders, cache: 'no-store' });
+  } catch (err) {
+    throw new ApiError(0, {
+      title: 'Server not reachable',
+      detail: `Could not contact the kinemetric server (${err.message}).`,
+    });
+  }
+  if (!response.ok) throw new ApiError(response.status, await readProblem(response));
+  if (response.status === 204) return null;
+  const text = await response.text();
+  return text ? JSON.parse(text) : null;
+}
+
+export const api = {
+  machines: () => apiFetch('/api/v1/machines'),
+  measurements: (machineId, { limit = 200, offset = 0 } = {}) => {
+    const q = new URLSearchParams({ machine_id: machineId, limit: String(limit), offset: String(offset) });
+    return apiFetch(`/api/v1/measurements?${q}`);
+  },
+  measurement: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}`),
+  results: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}/results`),
+  trace: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}/trace`),
+  upload: (file, bytes) =>
+    apiFetch('/api/v1/measurements', {
+      method: 'POST',
+      body: bytes,
+      headers: { 'Content-Type': 'text/plain', 'X-Filename': sanitizeFilename(file.name) },
+    }),
+};
+
+// Header values must be ISO-8859-1 without control characters; keep the name readable.
+function sanitizeFilename(name) {
+  const clean = String(name || 'upload.txt').replace(/[^\x20-\x7e]/g, '_');
+  return clean.slice(0, 200) || 'upload.txt';
+}
