@@ -159,6 +159,40 @@ void AddRoutes(Router& router, server::Service& service) {
       [svc](const Request& req) { return Response::Json(svc->DbbTrace(req.PathId("id"))); },
       {{"responses", {{"200", JsonResponse("{angle_deg[], radial_error_um[], ...}")}}}}});
 
+  router.Add(Route{
+      "GET",
+      "/api/v1/measurements/{id}/pair",
+      "DBB: CW/CCW pair analysis with the opposite-direction test of the same machine and "
+      "test_id (circular hysteresis, bidirectional deviation, joint diagnosis)",
+      true,
+      [svc](const Request& req) {
+        const auto id = req.PathId("id");
+        auto j = svc->DbbPairJson(id);
+        if (j.is_null()) {
+          throw NotFound("measurement " + std::to_string(id) +
+                         " has no stored test of the opposite direction");
+        }
+        return Response::Json(j);
+      },
+      {{"responses", {{"200", JsonResponse("{partner_id, pair{...}, joint_diagnosis[]}")}}}}});
+
+  router.Add(
+      Route{"GET",
+            "/api/v1/measurements/{id}/plot.png",
+            "DBB: polar plot (both directions when the partner test is stored)",
+            true,
+            [svc](const Request& req) {
+              Response r;
+              r.content_type = "image/png";
+              r.body = svc->DbbPlotPng(req.PathId("id"));
+              return r;
+            },
+            {{"responses",
+              {{"200",
+                {{"description", "PNG image"},
+                 {"content",
+                  {{"image/png", {{"schema", {{"type", "string"}, {"format", "binary"}}}}}}}}}}}}});
+
   router.Add(Route{"GET",
                    "/api/v1/machines",
                    "Machines with stored measurements",

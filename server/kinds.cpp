@@ -1,7 +1,14 @@
-// The measurement kinds the server accepts, one handler per format (contract §1).
+// The measurement kinds the server accepts, one handler per format (contract §1), and the
+// DBB-specific queries (trace, pair analysis, plot).
+#include <cstdlib>
+
 #include "analysis/core/errors.h"
 #include "analysis/dbb/circular_test.h"
+#include "analysis/dbb/full_analysis.h"
+#include "analysis/dbb/report_json.h"
 #include "ingest/dbb_parser.h"
+#include "ingest/form_parsers.h"
+#include "server/form_report.h"
 #include "server/report.h"
 #include "server/service.h"
 
@@ -10,9 +17,9 @@ namespace {
 
 Ingested IngestDbb(std::string_view bytes, const std::string& file) {
   const dbb::DbbTest test = ingest::ParseDbb(bytes, file);
-  dbb::CircularTestResult r;
+  nlohmann::json result;
   try {
-    r = dbb::AnalyzeCircularTest(test);
+    result = DbbTestJson(test);
   } catch (const InvalidInput& e) {
     // Analysis-level problems name the file too.
     throw InvalidInput(file, e.line(), e.field(), e.reason());
@@ -30,7 +37,60 @@ Ingested IngestDbb(std::string_view bytes, const std::string& file) {
     in.samples.values.push_back(test.angle_deg[i]);
     in.samples.values.push_back(test.dr_um[i]);
   }
-  in.results.push_back(NewResult{"dbb", kDbbAnalysisVersion, DbbTestJson(test, r).dump()});
+  in.results.push_back(NewResult{"dbb", kDbbAnalysisVersion, result.dump()});
+  return in;
+}
+
+template <typename File>
+Ingested Common(const File& f, const std::string& kind) {
+  Ingested in;
+  in.kind = kind;
+  in.machine_id = f.machine_id;
+  for (const auto& [k, v] : f.metadata) in.metadata[k] = v;
+  if (auto it = f.metadata.find("timestamp"); it != f.metadata.end()) in.measured_at = it->second;
+  return in;
+}
+
+SampleBlock ProfileSamples(const form::Profile& p) {
+  SampleBlock b;
+  b.columns = {"position_mm", "deviation_um"};
+  for (std::size_t i = 0; i < p.position_mm.size(); ++i) {
+    b.values.push_back(p.position_mm[i]);
+    b.values.push_back(p.deviation_um[i]);
+  }
+  return b;
+}
+
+constexpr const char* kFormAnalysisVersion = "form/1";
+
+Ingested IngestStraightness(std::string_view bytes, const std::string& file) {
+  const auto f = ingest::ParseStraightnessFile(bytes, file);
+  Ingested in = Common(f, "straightness");
+  in.test_id = f.pair_id;
+  in.direction = f.reversal;
+  in.samples = ProfileSamples(f.profile);
+  in.results.push_back({"straightness", kFormAnalysisVersion, StraightnessFilesToJson({f}).dump()});
+  return in;
+}
+
+Ingested IngestFlatness(std::string_view bytes, const std::string& file) {
+  const auto f = ingest::ParseFlatnessFile(bytes, file);
+  Ingested in = Common(f, "flatness");
+  in.samples.columns = {"x_mm", "y_mm", "z_um"};
+  for (std::size_t i = 0; i < f.grid.x_mm.size(); ++i) {
+    in.samples.values.insert(in.samples.values.end(),
+                             {f.grid.x_mm[i], f.grid.y_mm[i], f.grid.z_um[i]});
+  }
+  in.results.push_back({"flatness", kFormAnalysisVersion, FlatnessFileToJson(f).dump()});
+  return in;
+}
+
+Ingested IngestParallelism(std::string_view bytes, const std::string& file) {
+  const auto f = ingest::ParseParallelismFile(bytes, file);
+  Ingested in = Common(f, "parallelism");
+  in.test_id = f.axis;
+  in.samples = ProfileSamples(f.profile);
+  in.results.push_back({"parallelism", kFormAnalysisVersion, ParallelismFileToJson(f).dump()});
   return in;
 }
 
@@ -38,17 +98,68 @@ Ingested IngestDbb(std::string_view bytes, const std::string& file) {
 
 void RegisterBuiltinKinds(Service& service) {
   service.RegisterKind(ingest::kDbbFormat, IngestDbb);
+  service.RegisterKind(std::string(ingest::kStraightnessFormat), IngestStraightness);
+  service.RegisterKind(std::string(ingest::kFlatnessFormat), IngestFlatness);
+  service.RegisterKind(std::string(ingest::kParallelismFormat), IngestParallelism);
 }
 
-nlohmann::json Service::DbbTrace(std::int64_t id) {
+dbb::DbbTest Service::LoadDbb(std::int64_t id, MeasurementRecord* record) {
   const auto rec = storage_->GetMeasurement(id);
   if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
   if (rec->kind != "dbb") {
     throw InvalidInput("", 0, "id", "measurement " + std::to_string(id) + " is not a DBB test");
   }
-  const std::string raw = storage_->GetRaw(id);
-  const dbb::DbbTest test = ingest::ParseDbb(raw, rec->filename);
+  if (record) *record = *rec;
+  return ingest::ParseDbb(storage_->GetRaw(id), rec->filename);
+}
+
+std::optional<std::int64_t> Service::DbbPartner(const MeasurementRecord& rec) {
+  MeasurementFilter f;
+  f.machine_id = rec.machine_id;
+  f.kind = "dbb";
+  f.test_id = rec.test_id;
+  f.limit = 1000;
+  std::optional<std::int64_t> best;
+  const std::string other = rec.direction == "ccw" ? "cw" : "ccw";
+  // The opposite-direction test stored nearest to this one (a CW/CCW pair is uploaded
+  // together); on a tie the later one.
+  for (const auto& m : storage_->ListMeasurements(f).items) {
+    if (m.direction != other) continue;
+    if (!best || std::abs(m.id - rec.id) <= std::abs(*best - rec.id)) best = m.id;
+  }
+  return best;
+}
+
+nlohmann::json Service::DbbTrace(std::int64_t id) {
+  const dbb::DbbTest test = LoadDbb(id);
   return DbbTraceJson(test, dbb::AnalyzeCircularTest(test));
+}
+
+nlohmann::json Service::DbbPairJson(std::int64_t id) {
+  MeasurementRecord rec;
+  const dbb::DbbTest test = LoadDbb(id, &rec);
+  const auto partner = DbbPartner(rec);
+  if (!partner) return nullptr;
+  const dbb::DbbTest other = LoadDbb(*partner);
+  const std::vector<dbb::DbbTest> both{test, other};
+  const dbb::DbbReport report = dbb::AnalyzeDbbSet(both);
+  const nlohmann::json j = DbbReportJson(both, report);
+  nlohmann::json out;
+  out["partner_id"] = *partner;
+  if (!j["pairs"].empty()) {
+    out["pair"] = j["pairs"][0];
+  }
+  out["joint_diagnosis"] = j["tests"][0]["diagnosis"];
+  return out;
+}
+
+std::string Service::DbbPlotPng(std::int64_t id) {
+  MeasurementRecord rec;
+  std::vector<dbb::DbbTest> tests{LoadDbb(id, &rec)};
+  if (const auto partner = DbbPartner(rec)) tests.push_back(LoadDbb(*partner));
+  const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
+  const auto png = dbb::PolarPlotPng(report, 0);
+  return std::string(png.begin(), png.end());
 }
 
 }  // namespace km::server

@@ -8,15 +8,17 @@
 
 #include "analysis/dbb/circular_test.h"
 #include "analysis/dbb/dbb_types.h"
+#include "analysis/dbb/full_analysis.h"
 
 namespace km::server {
 
-inline constexpr const char* kDbbAnalysisVersion = "dbb/1";
+inline constexpr const char* kDbbAnalysisVersion = "dbb/2";
 
-// One element of `tests[]` for `kinemetric dbb analyze`.
-nlohmann::json DbbTestJson(const dbb::DbbTest& test, const dbb::CircularTestResult& r);
 // The whole `kinemetric dbb analyze` object for a set of files: {tests[], pairs[]}.
+nlohmann::json DbbReportJson(const std::vector<dbb::DbbTest>& tests, const dbb::DbbReport& report);
 nlohmann::json DbbReportJson(const std::vector<dbb::DbbTest>& tests);
+// One element of `tests[]` for one file analysed on its own (what the API stores at upload).
+nlohmann::json DbbTestJson(const dbb::DbbTest& test);
 // Evaluated turn for plots: angle_deg[], radial_error_um[] about the least-squares circle.
 nlohmann::json DbbTraceJson(const dbb::DbbTest& test, const dbb::CircularTestResult& r);
 

@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/dbb/dbb_types.h"
 #include "server/storage.h"
 
 namespace km::server {
@@ -53,13 +54,20 @@ class Service {
 
   // Results as the CLI prints them (the newest analysis version of each analysis).
   nlohmann::json Results(std::int64_t id);
-  // Plot data of a DBB measurement (recomputed from the stored bytes).
+  // DBB queries, recomputed from the stored bytes: the plot data of the evaluated turn; the
+  // CW/CCW pair analysis with the opposite-direction test of the same machine and test_id
+  // (null when there is none); the polar plot PNG (both directions when the partner exists).
   nlohmann::json DbbTrace(std::int64_t id);
+  nlohmann::json DbbPairJson(std::int64_t id);
+  std::string DbbPlotPng(std::int64_t id);
   nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
 
   Storage& storage() { return *storage_; }
 
  private:
+  dbb::DbbTest LoadDbb(std::int64_t id, MeasurementRecord* record = nullptr);
+  std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
+
   std::unique_ptr<Storage> storage_;
   ServiceOptions options_;
   std::map<std::string, KindHandler> kinds_;

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <string>
+#include <tuple>
 
 #include "tests/integration/server/server_process.h"
 
@@ -98,6 +99,16 @@ TEST_F(ServerIntegration, UploadQueryRestartAndNothingLost) {
   ASSERT_EQ(again->status, 200);
   EXPECT_EQ(json::parse(again->body)["id"].get<std::int64_t>(), id1);
   EXPECT_FALSE(json::parse(again->body)["created"].get<bool>());
+  // curl --data-binary sends application/x-www-form-urlencoded: the body is still the file.
+  {
+    httplib::Client raw("127.0.0.1", server->port());
+    raw.set_default_headers({{"Authorization", std::string("Bearer ") + kToken}});
+    const std::string other = DbbFile("xy-form", true, 1.0);
+    ASSERT_GT(other.size(), 8192u);
+    auto r = raw.Post("/api/v1/measurements", other, "application/x-www-form-urlencoded");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 201) << r->body;
+  }
   auto r2 = api.Post(cw, "cw.dbb");
   ASSERT_EQ(r2->status, 201);
   const auto id2 = json::parse(r2->body)["id"].get<std::int64_t>();
@@ -139,17 +150,17 @@ TEST_F(ServerIntegration, UploadQueryRestartAndNothingLost) {
   EXPECT_EQ(json::parse(trace->body)["radial_error_um"].size(), 720u);
 
   auto list = json::parse(api.Get("/api/v1/measurements?machine_id=it-vmc&kind=dbb&limit=1")->body);
-  EXPECT_EQ(list["total"], 2);
+  EXPECT_EQ(list["total"], 3);
   EXPECT_EQ(list["items"].size(), 1u);
-  auto page2 =
-      json::parse(api.Get("/api/v1/measurements?machine_id=it-vmc&limit=1&offset=1")->body);
+  auto page2 = json::parse(
+      api.Get("/api/v1/measurements?machine_id=it-vmc&test_id=xy-150&limit=1&offset=1")->body);
   EXPECT_EQ(page2["items"][0]["id"], id2);
   EXPECT_EQ(json::parse(api.Get("/api/v1/measurements?machine_id=other")->body)["total"], 0);
   EXPECT_EQ(json::parse(api.Get("/api/v1/measurements?from=2026-11-21")->body)["total"], 0);
   EXPECT_EQ(
       json::parse(api.Get("/api/v1/measurements?from=2026-11-20T08:59:00Z&to=2026-11-20T09:01:00Z")
                       ->body)["total"],
-      2);
+      3);
   EXPECT_EQ(api.Get("/api/v1/measurements?limit=0")->status, 400);
   EXPECT_EQ(api.Get("/api/v1/measurements?from=yesterday")->status, 400);
   EXPECT_EQ(api.Get("/api/v1/measurements/999")->status, 404);
@@ -157,7 +168,20 @@ TEST_F(ServerIntegration, UploadQueryRestartAndNothingLost) {
 
   auto machines = json::parse(api.Get("/api/v1/machines")->body);
   ASSERT_EQ(machines["machines"].size(), 1u);
-  EXPECT_EQ(machines["machines"][0]["measurement_count"], 2);
+  EXPECT_EQ(machines["machines"][0]["measurement_count"], 3);
+
+  // CW/CCW pair analysis and the polar plot.
+  auto pair = api.Get("/api/v1/measurements/" + std::to_string(id1) + "/pair");
+  ASSERT_EQ(pair->status, 200) << pair->body;
+  const json pj = json::parse(pair->body);
+  EXPECT_EQ(pj["partner_id"], id2);
+  EXPECT_EQ(pj["pair"]["test_id"], "xy-150");
+  EXPECT_GE(pj["pair"]["bidirectional_circular_deviation_um"].get<double>(),
+            stored["circularity_um"].get<double>() - 1e-9);
+  auto png = api.Get("/api/v1/measurements/" + std::to_string(id1) + "/plot.png");
+  ASSERT_EQ(png->status, 200);
+  EXPECT_EQ(png->get_header_value("Content-Type"), "image/png");
+  EXPECT_EQ(png->body.substr(1, 3), "PNG");
 
   // The OpenAPI document lists every route.
   const json doc = json::parse(api.Get("/api/v1/openapi.json")->body);
@@ -172,7 +196,7 @@ TEST_F(ServerIntegration, UploadQueryRestartAndNothingLost) {
   EXPECT_EQ(server->Stop(), 0);
   server = Start();
   Api api2(server->port());
-  EXPECT_EQ(Total(api2), 2);
+  EXPECT_EQ(Total(api2), 3);
   auto res2 = api2.Get("/api/v1/measurements/" + std::to_string(id1) + "/results");
   ASSERT_EQ(res2->status, 200);
   EXPECT_EQ(json::parse(res2->body), stored);
@@ -236,6 +260,67 @@ TEST_F(ServerIntegration, BadFilesGetPreciseProblemsAndChangeNothing) {
   EXPECT_NE(json::parse(big->body)["detail"].get<std::string>().find("limit"), std::string::npos);
   EXPECT_EQ(api.Get("/api/v1/measurements")->body, before);
   EXPECT_EQ(api.Get("/api/v1/nothing")->status, 404);
+}
+
+}  // namespace
+
+namespace {
+
+std::string RunCli(const std::string& args) {
+  FILE* p = popen((std::string(KINEMETRIC_BIN) + " " + args).c_str(), "r");
+  std::string out;
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  EXPECT_EQ(pclose(p), 0) << args;
+  return out;
+}
+
+TEST_F(ServerIntegration, FormFilesAreStoredAndGiveTheCliResult) {
+  auto server = Start();
+  Api api(server->port());
+  std::string straight =
+      "# format: kinemetric-straightness/1\n# machine_id: it-form\n# axis: X\n"
+      "# error_direction: Z\n# sensor: capacitance\n# reference: optical_flat\n"
+      "position_mm,deviation_um\n";
+  char buf[64];
+  for (int i = 0; i <= 200; ++i) {
+    const double x = 2.0 * i;
+    std::snprintf(buf, sizeof buf, "%.3f,%.5f\n", x,
+                  0.2 * std::sin(2 * std::numbers::pi * x / 55.0) + 0.001 * x);
+    straight += buf;
+  }
+  std::string flat =
+      "# format: kinemetric-flatness/1\n# machine_id: it-form\n# datum: table\nx_mm,y_mm,z_um\n";
+  for (int i = 0; i < 10; ++i) {
+    for (int j = 0; j < 10; ++j) {
+      std::snprintf(buf, sizeof buf, "%d,%d,%.4f\n", 40 * i, 40 * j,
+                    0.01 * i - 0.02 * j + 0.5 * std::cos(0.3 * i * j));
+      flat += buf;
+    }
+  }
+  for (const auto& [name, body, cmd] : {std::tuple{"s.txt", straight, "form straightness"},
+                                        std::tuple{"f.txt", flat, "form flatness"}}) {
+    auto r = api.Post(body, name);
+    ASSERT_EQ(r->status, 201) << r->body;
+    const auto id = json::parse(r->body)["id"].get<std::int64_t>();
+    const json stored =
+        json::parse(api.Get("/api/v1/measurements/" + std::to_string(id) + "/results")->body);
+    const fs::path f = dir_ / name;
+    FILE* fp = std::fopen(f.c_str(), "w");
+    std::fwrite(body.data(), 1, body.size(), fp);
+    std::fclose(fp);
+    json cli = json::parse(RunCli(std::string(cmd) + " '" + f.string() + "' --json"));
+    // The file name appears in the CLI output as given; the upload names it the same way.
+    EXPECT_EQ(cli.value("flatness_min_zone_um", -1.0), stored.value("flatness_min_zone_um", -1.0));
+    EXPECT_EQ(cli.value("straightness_min_zone_um", -1.0),
+              stored.value("straightness_min_zone_um", -1.0));
+    EXPECT_EQ(cli.size(), stored.size()) << cli.dump() << "\n" << stored.dump();
+  }
+  std::string bad = straight;
+  bad.replace(bad.find("\n4.000,"), 7, "\n1.000,");
+  auto r = api.Post(bad, "bad-straight.txt");
+  EXPECT_EQ(r->status, 400);
+  EXPECT_EQ(json::parse(r->body).value("field", ""), "position_mm") << r->body;
 }
 
 }  // namespace

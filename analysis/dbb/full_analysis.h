@@ -1,0 +1,75 @@
+// One entry point for the DBB analysis of a set of tests (CLI `dbb analyze`, API results):
+//
+//  per test   circular-test figures (circular_test.h, seed 000 eqs. 4.6–4.8), minimum-zone
+//             circularity (analysis/geometry/min_zone_circle.h), ISO 230-4 figures (iso230.h),
+//             harmonics of the radial error (harmonics.h) and the named diagnosis (diagnosis.h);
+//  per pair   one cw + one ccw test with the same test_id: circular hysteresis and
+//             bidirectional circular deviation; the pair is diagnosed jointly (how an effect
+//             looks in both directions is what separates e.g. servo mismatch from squareness).
+//
+// Harmonics use the deviation the test evaluates: about the least-squares circle
+// (centre_corrected) or about the nominal centre (absolute, where the first order is the
+// machine's centre positioning error). Minimum zone is computed on the planar representation
+// about the nominal centre, started from the least-squares centre.
+//
+// servo_lag vs radius_error: both are constant radius changes in one test; they are separated
+// only when the set holds tests of the same machine, plane, radius and centre at different
+// feeds: the units' mean radius changes m_i are regressed as m_i = ρ + c·g_i with
+// g_i = −V_i²/(2R) (seed 002 eq. 2.1, c = (1 − K_f²)/K_pp²); then radius_error = ρ and
+// servo_lag = c·g_i for each test. Otherwise the whole mean change is reported as radius_error.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/dbb/circular_test.h"
+#include "analysis/dbb/dbb_types.h"
+#include "analysis/dbb/diagnosis.h"
+#include "analysis/dbb/harmonics.h"
+#include "analysis/dbb/iso230.h"
+#include "analysis/dbb/polar_plot.h"
+#include "analysis/geometry/min_zone_circle.h"
+
+namespace km::dbb {
+
+struct DbbTestReport {
+  CircularTestResult circular;  // lead's figures (first six JSON keys)
+  double min_zone_circularity_um = 0.0;
+  geometry::MinZoneCircleResult min_zone;  // µm, about the nominal centre
+  Iso230Figures iso230_4;
+  HarmonicsResult harmonics;
+  std::vector<DiagnosisEntry> diagnosis;  // named effects, ranked for this test;
+                                          // contribution_pct[0] is this test's
+  std::vector<std::string> not_identifiable;
+  Plane plane = Plane::kXY;
+  std::optional<std::size_t> pair;  // index into DbbReport::pairs
+};
+
+struct DbbPairReport {
+  std::string test_id;
+  std::size_t cw = 0;  // test indices (input order)
+  std::size_t ccw = 0;
+  Iso230PairFigures iso230_4;
+};
+
+struct DbbReport {
+  std::vector<DbbTestReport> tests;  // input order
+  std::vector<DbbPairReport> pairs;
+};
+
+struct DbbAnalysisOptions {
+  int harmonic_orders = 10;
+  bool diagnose = true;
+  DiagnosisOptions diagnosis;
+};
+
+// Throws km::InvalidInput for unusable tests (the message names the test_id).
+DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOptions& options = {});
+
+// Polar plot (PNG bytes) of one test together with its pair partner, if any: deviations about
+// the test's least-squares centre, its minimum-zone circles.
+std::vector<unsigned char> PolarPlotPng(const DbbReport& report, std::size_t test_index,
+                                        const PolarPlotOptions& options = {});
+
+}  // namespace km::dbb

@@ -1,0 +1,179 @@
+#include "analysis/dbb/iso230.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
+#include "analysis/core/errors.h"
+
+namespace km::dbb {
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// Samples of a periodic function of the angle, sorted by angle in [0, 2π).
+struct PeriodicTrace {
+  std::vector<double> a;
+  std::vector<double> v;
+};
+
+PeriodicTrace MakePeriodic(const std::vector<double>& angle_rad, const std::vector<double>& val) {
+  std::vector<std::pair<double, double>> s(angle_rad.size());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    double t = std::fmod(angle_rad[i], 2.0 * std::numbers::pi);
+    if (t < 0.0) t += 2.0 * std::numbers::pi;
+    s[i] = {t, val[i]};
+  }
+  // One turn in time order is a rotation of the sorted order (reversed for cw): rotate when
+  // that is the case, sort otherwise.
+  if (s.size() > 1 && s[1].first < s[0].first) std::reverse(s.begin(), s.end());
+  const auto first = std::min_element(s.begin(), s.end());
+  std::rotate(s.begin(), first, s.end());
+  if (!std::is_sorted(s.begin(), s.end())) std::sort(s.begin(), s.end());
+  PeriodicTrace p;
+  p.a.reserve(s.size());
+  p.v.reserve(s.size());
+  for (const auto& [t, v] : s) {
+    if (!p.a.empty() && t <= p.a.back()) continue;  // duplicate angle: keep the first
+    p.a.push_back(t);
+    p.v.push_back(v);
+  }
+  return p;
+}
+
+// max |q.v − src(q.a)| over the samples of q, with src interpolated periodically; both sorted,
+// so one merge walk suffices.
+double MaxDifference(const PeriodicTrace& q, const PeriodicTrace& src) {
+  const std::size_t n = src.a.size();
+  double h = 0.0;
+  std::size_t hi = 0;  // first src angle > query angle
+  for (std::size_t i = 0; i < q.a.size(); ++i) {
+    const double t = q.a[i];
+    while (hi < n && src.a[hi] <= t) ++hi;
+    const std::size_t i1 = hi % n;
+    const std::size_t i0 = (hi + n - 1) % n;
+    double a0 = src.a[i0], a1 = src.a[i1];
+    if (hi == 0) a0 -= 2.0 * std::numbers::pi;
+    if (hi == n) a1 += 2.0 * std::numbers::pi;
+    const double span = a1 - a0;
+    const double w = span > 0.0 ? (t - a0) / span : 0.0;
+    h = std::max(h, std::abs(q.v[i] - (src.v[i0] * (1.0 - w) + src.v[i1] * w)));
+  }
+  return h;
+}
+
+}  // namespace
+
+double NominalRadiusUm(const CircularTestResult& r) {
+  return r.fitted_radius_mm * 1000.0 - r.average_radial_error_um;
+}
+
+std::vector<double> DeviationAboutNominalCentre(const CircularTestResult& r) {
+  const std::size_t n = r.angle_deg.size();
+  const double r0 = r.fitted_radius_mm * 1000.0;
+  const double rn = NominalRadiusUm(r);
+  const double cx = r.centre_offset_um[0], cy = r.centre_offset_um[1];
+  const double c2 = cx * cx + cy * cy;
+  std::vector<double> dev(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = r.angle_deg[i] * kDeg;
+    const double nc = std::cos(t) * cx + std::sin(t) * cy;
+    const double q = r0 + r.radial_error_um[i];
+    dev[i] = nc + std::sqrt(std::max(0.0, nc * nc - c2 + q * q)) - rn;
+  }
+  return dev;
+}
+
+Iso230Figures ComputeIso230(const CircularTestResult& r) {
+  if (r.radial_error_um.empty()) throw InvalidInput("", 0, "dr_um", "empty trace");
+  Iso230Figures f;
+  const auto [mn, mx] = std::minmax_element(r.radial_error_um.begin(), r.radial_error_um.end());
+  f.circular_deviation_um = *mx - *mn;
+  if (r.mode == Mode::kAbsolute) {
+    const auto dev = DeviationAboutNominalCentre(r);
+    const auto [dmn, dmx] = std::minmax_element(dev.begin(), dev.end());
+    f.radial_deviation_max_um = *dmx;
+    f.radial_deviation_min_um = *dmn;
+    f.radial_reference = "nominal_centre";
+  } else {
+    f.radial_deviation_max_um = *mx + r.average_radial_error_um;
+    f.radial_deviation_min_um = *mn + r.average_radial_error_um;
+    f.radial_reference = "least_squares_centre";
+  }
+  return f;
+}
+
+Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw) {
+  return ComputeIso230Pair(cw, ccw, DeviationAboutNominalCentre(cw),
+                           DeviationAboutNominalCentre(ccw));
+}
+
+Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw,
+                                    const std::vector<double>& dcw,
+                                    const std::vector<double>& dccw) {
+  if (dcw.size() != cw.angle_deg.size() || dccw.size() != ccw.angle_deg.size()) {
+    throw InvalidInput("", 0, "dr_um", "deviation and angle sizes differ");
+  }
+  if (cw.direction != Direction::kCw || ccw.direction != Direction::kCcw) {
+    throw InvalidInput("", 0, "direction", "a pair needs one cw and one ccw test");
+  }
+  if (cw.test_id != ccw.test_id) {
+    throw InvalidInput("", 0, "test_id", "a pair needs the same test_id");
+  }
+  const double rn_ccw = NominalRadiusUm(ccw);
+  std::vector<Eigen::Vector2d> pts;
+  pts.reserve(dcw.size() + dccw.size());
+  // Each trace in its planar representation (own nominal radius; equal for a proper pair).
+  auto add = [&](const CircularTestResult& r, const std::vector<double>& d) {
+    const double rt = NominalRadiusUm(r);
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const double t = r.angle_deg[i] * kDeg;
+      const double rho = rt + d[i];
+      pts.emplace_back(rho * std::cos(t), rho * std::sin(t));
+    }
+  };
+  add(cw, dcw);
+  add(ccw, dccw);
+  // Common least-squares circle: Gauss–Newton on the orthogonal distances started from the
+  // nominal circle (the traces are µm from it, so two or three steps reach machine precision).
+  Eigen::Vector3d x(0.0, 0.0, rn_ccw);  // centre x, y, radius
+  std::vector<double> res(pts.size());
+  for (int it = 0; it < 8; ++it) {
+    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const Eigen::Vector2d d = pts[i] - x.head<2>();
+      const double n = d.norm();
+      res[i] = n - x[2];
+      const Eigen::Vector3d j(-d.x() / n, -d.y() / n, -1.0);
+      jtj += j * j.transpose();
+      jtr += j * res[i];
+    }
+    const Eigen::Vector3d step = -jtj.ldlt().solve(jtr);
+    x += step;
+    if (step.norm() < 1e-12 * x[2]) break;
+  }
+  for (std::size_t i = 0; i < pts.size(); ++i) res[i] = (pts[i] - x.head<2>()).norm() - x[2];
+
+  Iso230PairFigures f;
+  f.common_centre_um = {x[0], x[1]};
+  const auto [mn, mx] = std::minmax_element(res.begin(), res.end());
+  f.bidirectional_circular_deviation_um = *mx - *mn;
+  const std::size_t ncw = dcw.size();
+  std::vector<double> acw(ncw), accw(dccw.size());
+  for (std::size_t i = 0; i < ncw; ++i) acw[i] = cw.angle_deg[i] * kDeg;
+  for (std::size_t i = 0; i < accw.size(); ++i) accw[i] = ccw.angle_deg[i] * kDeg;
+  const std::vector<double> rcw(res.begin(), res.begin() + static_cast<long>(ncw));
+  const std::vector<double> rccw(res.begin() + static_cast<long>(ncw), res.end());
+  const PeriodicTrace pcw = MakePeriodic(acw, rcw);
+  const PeriodicTrace pccw = MakePeriodic(accw, rccw);
+  const double h = std::max(MaxDifference(pccw, pcw), MaxDifference(pcw, pccw));
+  f.circular_hysteresis_um = h;
+  return f;
+}
+
+}  // namespace km::dbb

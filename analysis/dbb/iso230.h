@@ -1,0 +1,55 @@
+// ISO 230-4 figures of circular tests, computed from one evaluated turn (circular_test.h).
+//
+// Per trace:
+//  * circular deviation G: range of the radial deviation about the least-squares circle centre
+//    (= circularity_um of seed 000 eq. 4.8);
+//  * radial deviation F_max / F_min: deviation of the actual radius from the NOMINAL radius R,
+//      centre_corrected mode: measured from the least-squares centre, F = |P − c_LS| − R;
+//      absolute mode:         measured from the nominal centre (the measured fixed ball),
+//                             F = bar deviation minus the nominal set-up term.
+// Per cw/ccw pair (same test_id):
+//  * circular hysteresis H: max |r_ccw(θ) − r_cw(θ)| with both traces taken about their
+//    COMMON least-squares centre and each interpolated (linearly, periodically) onto the
+//    other's angles;
+//  * bidirectional circular deviation G(b): range of both traces together about their common
+//    least-squares centre.
+// All values in µm, in bar-length units (as circularity_um).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "analysis/dbb/circular_test.h"
+
+namespace km::dbb {
+
+struct Iso230Figures {
+  double circular_deviation_um = 0.0;
+  double radial_deviation_max_um = 0.0;
+  double radial_deviation_min_um = 0.0;
+  std::string radial_reference;  // "least_squares_centre" or "nominal_centre"
+};
+
+struct Iso230PairFigures {
+  double circular_hysteresis_um = 0.0;
+  double bidirectional_circular_deviation_um = 0.0;
+  std::array<double, 2> common_centre_um{};  // common least-squares centre (plane axes)
+};
+
+// Commanded radius R in µm recovered from a result (R0 − average radial error).
+double NominalRadiusUm(const CircularTestResult& r);
+
+// Bar deviation of each sample about the nominal centre (µm): the inverse of the planar
+// representation, exact: ρ = n·c + √((n·c)² − |c|² + (R0 + e)²), deviation = ρ − R.
+std::vector<double> DeviationAboutNominalCentre(const CircularTestResult& r);
+
+Iso230Figures ComputeIso230(const CircularTestResult& r);
+
+// `cw` and `ccw` must be the two directions of one test_id. Throws km::InvalidInput otherwise.
+Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw);
+// Same, with DeviationAboutNominalCentre of both already computed.
+Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw,
+                                    const std::vector<double>& dev_cw_um,
+                                    const std::vector<double>& dev_ccw_um);
+
+}  // namespace km::dbb

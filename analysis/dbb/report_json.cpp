@@ -1,0 +1,75 @@
+#include "analysis/dbb/report_json.h"
+
+namespace km::dbb {
+
+namespace {
+
+nlohmann::json Values(const std::vector<double>& v) {
+  if (v.size() == 1) return v[0];
+  return nlohmann::json(v);
+}
+
+}  // namespace
+
+nlohmann::json DbbTestToJson(const DbbTestReport& t) {
+  const auto& c = t.circular;
+  nlohmann::json j;
+  j["test_id"] = c.test_id;
+  j["direction"] = ToString(c.direction);
+  j["mode"] = ToString(c.mode);
+  j["plane"] = ToString(t.plane);
+  j["centre_offset_um"] = {c.centre_offset_um[0], c.centre_offset_um[1]};
+  j["average_radial_error_um"] = c.average_radial_error_um;
+  j["circularity_um"] = c.circularity_um;
+  j["min_zone_circularity_um"] = t.min_zone_circularity_um;
+  j["iso230_4"] = {{"circular_deviation_um", t.iso230_4.circular_deviation_um},
+                   {"radial_deviation_max_um", t.iso230_4.radial_deviation_max_um},
+                   {"radial_deviation_min_um", t.iso230_4.radial_deviation_min_um},
+                   {"radial_reference", t.iso230_4.radial_reference}};
+  nlohmann::json h = nlohmann::json::array();
+  for (const auto& k : t.harmonics.harmonics) {
+    h.push_back({{"order", k.order}, {"amplitude_um", k.amplitude_um}, {"phase_deg", k.phase_deg}});
+  }
+  j["harmonics"] = h;
+  nlohmann::json d = nlohmann::json::array();
+  for (const auto& e : t.diagnosis) {
+    nlohmann::json x = {
+        {"effect", e.effect},
+        {"value", Values(e.value)},
+        {"unit", e.unit},
+        {"contribution_pct", e.contribution_pct.empty() ? 0.0 : e.contribution_pct[0]},
+        {"uncertainty", Values(e.uncertainty)},
+        {"significance", e.significance}};
+    for (const auto& [k, v] : e.shape) x[k] = v;
+    d.push_back(x);
+  }
+  j["diagnosis"] = d;
+  j["not_identifiable"] = t.not_identifiable;
+  j["sample_count"] = c.sample_count;
+  j["turn_start_deg"] = c.turn_start_deg;
+  j["turn_end_deg"] = c.turn_end_deg;
+  j["fit_rms_um"] = c.fit_rms_um;
+  j["min_zone_centre_um"] = {t.min_zone.centre.x(), t.min_zone.centre.y()};
+  if (c.radial_error_range_um) j["radial_error_range_um"] = *c.radial_error_range_um;
+  if (c.machine_centre_error_um) {
+    j["machine_centre_error_um"] = {(*c.machine_centre_error_um)[0],
+                                    (*c.machine_centre_error_um)[1]};
+  }
+  return j;
+}
+
+nlohmann::json DbbPairToJson(const DbbPairReport& p) {
+  return {{"test_id", p.test_id},
+          {"circular_hysteresis_um", p.iso230_4.circular_hysteresis_um},
+          {"bidirectional_circular_deviation_um", p.iso230_4.bidirectional_circular_deviation_um}};
+}
+
+nlohmann::json DbbReportToJson(const DbbReport& r) {
+  nlohmann::json tests = nlohmann::json::array();
+  for (const auto& t : r.tests) tests.push_back(DbbTestToJson(t));
+  nlohmann::json pairs = nlohmann::json::array();
+  for (const auto& p : r.pairs) pairs.push_back(DbbPairToJson(p));
+  return {{"tests", tests}, {"pairs", pairs}};
+}
+
+}  // namespace km::dbb

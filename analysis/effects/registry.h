@@ -1,0 +1,81 @@
+// Registry of the serial-machine error effects seen by a DBB circular test (contract §4).
+// Generated from KM_SERIAL_EFFECT_LIST (effect_list.h), COLMAP sensor/models.h style: every
+// effect has an id, a name (axis letter filled in from the plane), parameter names, a unit for
+// its reported value and a templated forward model of the machine position error e(θ) whose
+// radial projection is the DBB signature (see effect_model.h for the conventions).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "analysis/effects/effect_list.h"
+
+namespace km::effects {
+
+enum class EffectId {
+#define KM_EFFECT_ENUM(id, type) id,
+  KM_SERIAL_EFFECT_LIST(KM_EFFECT_ENUM)
+#undef KM_EFFECT_ENUM
+      kCount
+};
+
+struct EffectInfo {
+  EffectId id;
+  std::string base_name;  // e.g. "backlash"
+  int axis = -1;          // −1, 0 (first plane axis), 1 (second)
+  int num_params = 0;
+  int num_linear = 0;
+  std::vector<std::string> param_names;
+  std::string unit;
+  bool in_form = true;     // counts in the circularity (false: centre, radius, servo-lag radius)
+  bool linear_fit = true;  // identified by the linear least-squares fit
+  std::vector<double> default_shape;
+};
+
+const std::vector<EffectInfo>& AllEffects();
+const EffectInfo& Info(EffectId id);
+
+// Contract name for a plane with axis letters (first, second), e.g. 'x','y' → "backlash_x".
+std::string EffectName(EffectId id, char first_axis = 'x', char second_axis = 'y');
+// Inverse of EffectName for the same axis letters; false when unknown.
+bool EffectIdFromName(const std::string& name, char first_axis, char second_axis, EffectId* id);
+
+// Position error e = (e_u, e_v) in µm at commanded angle θ (rad).
+void PositionError(EffectId id, const EffectContext& ctx, double theta, const double* params,
+                   double e[2]);
+// Radial signature Δr(θ) = e_u cos θ + e_v sin θ (µm).
+double RadialSignature(EffectId id, const EffectContext& ctx, double theta, const double* params);
+double RadialSignature(EffectId id, const EffectContext& ctx, const Angle<double>& a,
+                       const double* params);
+
+// Radial signatures of the linear parameters at once (the columns of a linear fit): for the
+// shape parameters `shape` (num_params − num_linear values), columns[j] = ∂Δr/∂p_j, j <
+// num_linear. Evaluated in one pass with ceres::Jet dual parts on the linear parameters.
+constexpr int kMaxLinearParams = 2;
+void RadialBasis(EffectId id, const EffectContext& ctx, const Angle<double>& a, const double* shape,
+                 double* columns);
+
+// Reported value (contract §4 unit) and its jacobian with respect to the parameters.
+std::vector<double> Value(EffectId id, const EffectContext& ctx, const double* params);
+Eigen::MatrixXd ValueJacobian(EffectId id, const EffectContext& ctx, const double* params);
+
+// Templated position error for automatic differentiation (T = double or ceres::Jet).
+template <typename T>
+void PositionErrorT(EffectId id, const EffectContext& ctx, const Angle<T>& a, const T* params,
+                    T* e) {
+  switch (id) {
+#define KM_EFFECT_CASE(eid, type)                       \
+  case EffectId::eid:                                   \
+    type::template PositionError<T>(ctx, a, params, e); \
+    return;
+    KM_SERIAL_EFFECT_LIST(KM_EFFECT_CASE)
+#undef KM_EFFECT_CASE
+    default:
+      e[0] = T(0.0);
+      e[1] = T(0.0);
+  }
+}
+
+}  // namespace km::effects

@@ -1,0 +1,198 @@
+#include "ingest/form_parsers.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <set>
+#include <utility>
+
+#include "analysis/core/errors.h"
+#include "ingest/text_format.h"
+
+namespace km::ingest {
+namespace {
+
+TextTable ReadForm(std::string_view bytes, const std::string& file, std::string_view format) {
+  TextTable t = ReadTextTable(bytes, file);
+  if (t.format != format) {
+    throw InvalidInput(file, t.format_line, "format",
+                       "expected '" + std::string(format) + "', found '" + t.format + "'");
+  }
+  if (!t.markers.empty()) {
+    throw InvalidInput(file, t.markers.front().line, t.markers.front().key,
+                       "header lines must come before the column-header row");
+  }
+  return t;
+}
+
+// Index of a required column; names the column-header line when it is missing.
+std::size_t RequireColumn(const TextTable& t, const std::string& name) {
+  const int idx = t.ColumnIndex(name);
+  if (idx < 0) {
+    throw InvalidInput(t.file, t.columns_line, name, "required column is missing");
+  }
+  return static_cast<std::size_t>(idx);
+}
+
+std::size_t LineOf(const TextTable& t, const std::string& key) {
+  const auto* v = t.Find(key);
+  return v ? v->line : 0;
+}
+
+std::string Upper(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string RequireAxis(const TextTable& t, const std::string& key) {
+  const std::string v = Upper(t.RequireString(key));
+  static const std::set<std::string> kAxes{"X", "Y", "Z", "U", "V", "W"};
+  if (!kAxes.count(v)) {
+    throw InvalidInput(t.file, LineOf(t, key), key,
+                       "'" + v + "' is not an axis (X, Y, Z, U, V or W)");
+  }
+  return v;
+}
+
+std::string RequireOneOf(const TextTable& t, const std::string& key,
+                         const std::set<std::string>& allowed) {
+  const std::string v = Lower(t.RequireString(key));
+  if (!allowed.count(v)) {
+    std::string list;
+    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+    throw InvalidInput(t.file, LineOf(t, key), key, "'" + v + "' is not one of " + list);
+  }
+  return v;
+}
+
+void RequireRows(const TextTable& t, std::size_t min_rows, const std::string& field) {
+  if (t.rows.size() < min_rows) {
+    const std::size_t line = t.row_lines.empty() ? t.columns_line : t.row_lines.back();
+    throw InvalidInput(t.file, line, field,
+                       "found " + std::to_string(t.rows.size()) + " data rows; at least " +
+                           std::to_string(min_rows) + " are needed");
+  }
+}
+
+// position_mm, deviation_um with strictly increasing positions.
+form::Profile ReadProfile(const TextTable& t, std::size_t min_rows) {
+  const std::size_t ip = RequireColumn(t, "position_mm");
+  const std::size_t id = RequireColumn(t, "deviation_um");
+  RequireRows(t, min_rows, "position_mm");
+  form::Profile p;
+  p.position_mm.reserve(t.rows.size());
+  p.deviation_um.reserve(t.rows.size());
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const double x = t.rows[i][ip];
+    if (i > 0 && !(x > p.position_mm.back())) {
+      throw InvalidInput(t.file, t.row_lines[i], "position_mm",
+                         "positions must be strictly increasing (previous value on line " +
+                             std::to_string(t.row_lines[i - 1]) + ")");
+    }
+    p.position_mm.push_back(x);
+    p.deviation_um.push_back(t.rows[i][id]);
+  }
+  return p;
+}
+
+}  // namespace
+
+StraightnessFile ParseStraightnessFile(std::string_view bytes, const std::string& file) {
+  const TextTable t = ReadForm(bytes, file, kStraightnessFormat);
+  StraightnessFile f;
+  f.file = file;
+  f.machine_id = t.RequireString("machine_id");
+  f.axis = RequireAxis(t, "axis");
+  f.error_direction = RequireAxis(t, "error_direction");
+  if (f.error_direction == f.axis) {
+    throw InvalidInput(file, LineOf(t, "error_direction"), "error_direction",
+                       "must differ from the travel axis " + f.axis);
+  }
+  f.sensor = RequireOneOf(t, "sensor", {"capacitance", "laser", "indicator"});
+  f.reference = t.RequireString("reference");
+  if (t.Has("reversal")) {
+    f.reversal = RequireOneOf(t, "reversal", {"a", "b"});
+    f.reversal_line = LineOf(t, "reversal");
+    if (!t.Has("pair_id")) {
+      throw InvalidInput(file, LineOf(t, "reversal"), "pair_id",
+                         "a reversal profile needs a pair_id");
+    }
+    f.pair_id = t.RequireString("pair_id");
+  } else if (t.Has("pair_id")) {
+    throw InvalidInput(file, LineOf(t, "pair_id"), "reversal",
+                       "pair_id given without reversal (a or b)");
+  }
+  f.metadata = t.Metadata();
+  f.profile = ReadProfile(t, kMinStraightnessPoints);
+  f.row_lines = t.row_lines;
+  return f;
+}
+
+ParallelismFile ParseParallelismFile(std::string_view bytes, const std::string& file) {
+  const TextTable t = ReadForm(bytes, file, kParallelismFormat);
+  ParallelismFile f;
+  f.file = file;
+  f.machine_id = t.RequireString("machine_id");
+  f.axis = RequireAxis(t, "axis");
+  f.datum = t.RequireString("datum");
+  f.metadata = t.Metadata();
+  f.profile = ReadProfile(t, kMinParallelismPoints);
+  f.row_lines = t.row_lines;
+  return f;
+}
+
+FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file) {
+  const TextTable t = ReadForm(bytes, file, kFlatnessFormat);
+  FlatnessFile f;
+  f.file = file;
+  f.machine_id = t.RequireString("machine_id");
+  if (t.Has("datum")) f.datum = t.RequireString("datum");
+  f.metadata = t.Metadata();
+  const std::size_t ix = RequireColumn(t, "x_mm");
+  const std::size_t iy = RequireColumn(t, "y_mm");
+  const std::size_t iz = RequireColumn(t, "z_um");
+  RequireRows(t, kMinFlatnessPoints, "z_um");
+  std::map<std::pair<double, double>, std::size_t> seen;  // (x, y) -> line
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const double x = t.rows[i][ix], y = t.rows[i][iy];
+    const auto [it, fresh] = seen.emplace(std::make_pair(x, y), t.row_lines[i]);
+    if (!fresh) {
+      throw InvalidInput(
+          file, t.row_lines[i], "x_mm",
+          "grid point repeated (first given on line " + std::to_string(it->second) + ")");
+    }
+    f.grid.x_mm.push_back(x);
+    f.grid.y_mm.push_back(y);
+    f.grid.z_um.push_back(t.rows[i][iz]);
+  }
+  // A plane needs three points not on one line: twice the largest triangle area spanned
+  // with the first point and the point farthest from it, relative to that distance squared.
+  std::size_t far = 0;
+  double far_d = 0.0;
+  for (std::size_t i = 1; i < t.rows.size(); ++i) {
+    const double d = std::hypot(f.grid.x_mm[i] - f.grid.x_mm[0], f.grid.y_mm[i] - f.grid.y_mm[0]);
+    if (d > far_d) {
+      far_d = d;
+      far = i;
+    }
+  }
+  double area = 0.0;
+  const double ux = f.grid.x_mm[far] - f.grid.x_mm[0], uy = f.grid.y_mm[far] - f.grid.y_mm[0];
+  for (std::size_t i = 1; i < t.rows.size(); ++i) {
+    area = std::max(area, std::abs(ux * (f.grid.y_mm[i] - f.grid.y_mm[0]) -
+                                   uy * (f.grid.x_mm[i] - f.grid.x_mm[0])));
+  }
+  if (!(area > 1e-9 * far_d * far_d)) {
+    throw InvalidInput(file, t.columns_line, "y_mm",
+                       "all grid points lie on one line; flatness needs a surface");
+  }
+  f.row_lines = t.row_lines;
+  return f;
+}
+
+}  // namespace km::ingest
