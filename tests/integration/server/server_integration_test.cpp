@@ -1,5 +1,9 @@
 // Integration test: a real kinemetricd on a free port with a temporary data dir; upload, query,
 // restart, and every kind of bad file — 400 with a precise problem document, nothing changed.
+// Eigen before httplib: <resolv.h> (pulled in by httplib) defines the macro _res.
+#include "analysis/tracker/tracker_sim.h"
+#include "ingest/tracker_parser.h"
+
 #include <gtest/gtest.h>
 #include <httplib.h>
 
@@ -321,6 +325,48 @@ TEST_F(ServerIntegration, FormFilesAreStoredAndGiveTheCliResult) {
   auto r = api.Post(bad, "bad-straight.txt");
   EXPECT_EQ(r->status, 400);
   EXPECT_EQ(json::parse(r->body).value("field", ""), "position_mm") << r->body;
+}
+
+}  // namespace
+
+namespace {
+
+TEST_F(ServerIntegration, TrackerSurveyIsSelfCalibratedAtUpload) {
+  auto server = Start();
+  Api api(server->port());
+  km::tracker::TrackerSimOptions o;
+  const Eigen::Vector3d centre(0, 0, 200);
+  o.commanded_mm = km::tracker::GridPoints(centre, 400.0, 4);
+  o.trackers_mm = km::tracker::PlaceTrackers(centre, 4, 600.0, 1200.0, 3);
+  o.machine.centre_mm = centre;
+  o.machine.half_range_mm = Eigen::Vector3d::Constant(200.0);
+  o.machine.squareness_um_per_m = Eigen::Vector3d(10.0, 0.0, 0.0);
+  o.noise_um = 0.2;
+  auto sim = km::tracker::SimulateTrackerSurvey(o);
+  sim.readings.machine_id = "it-tracker";
+  const std::string body = km::ingest::WriteTrackerFile(sim.readings);
+  auto r = api.Post(body, "survey.txt");
+  ASSERT_EQ(r->status, 201) << r->body;
+  const auto id = json::parse(r->body)["id"].get<std::int64_t>();
+  const json res =
+      json::parse(api.Get("/api/v1/measurements/" + std::to_string(id) + "/results")->body);
+  ASSERT_EQ(res["volumetric_error_um"].size(), o.commanded_mm.size());
+  EXPECT_LT(res["residual_rms_um"].get<double>(), 1.0);
+  const fs::path f = dir_ / "survey.txt";
+  FILE* fp = std::fopen(f.c_str(), "w");
+  std::fwrite(body.data(), 1, body.size(), fp);
+  std::fclose(fp);
+  const json cli = json::parse(RunCli("tracker selfcal '" + f.string() + "' --json"));
+  EXPECT_EQ(cli["volumetric_error_um"], res["volumetric_error_um"]);
+
+  // Three trackers cannot self-calibrate: refused with a clear problem, nothing stored.
+  auto three = sim.readings;
+  three.displacement_um.conservativeResize(Eigen::NoChange, 3);
+  const std::string body3 = km::ingest::WriteTrackerFile(three);
+  auto r3 = api.Post(body3, "three.txt");
+  EXPECT_GE(r3->status, 400);
+  EXPECT_LT(r3->status, 500);
+  EXPECT_EQ(Total(api), 1);
 }
 
 }  // namespace

@@ -1,0 +1,100 @@
+// Laser-tracker multilateration self-calibration (seed 001 §4, methods §8).
+//
+// Given each tracker's displacement readings d_ij relative to point 1 (seed 001 eq. 1) and the
+// commanded target positions c_i, estimate the tracker positions U_j, the true target positions
+// u_i and one dead path per interferometer segment by least squares on
+//
+//   r_ij = |u_i − U_j| − L_s(i,j) − d_ij        (seed 001 eqs. 1–4; see selfcal_problem.h)
+//
+// in the gauge of contract §3 (U_1 = 0, U_2 on +x, U_3 in the xy-plane with y > 0, z of
+// U_4 > 0). `simultaneous` (n trackers at once) and `sequential` (one tracker at n stations,
+// the same points repeated per station) have the same unknowns; each station has its own dead
+// path. The solve: per-tracker initialisation (selfcal_problem.h), a least-squares pass, a
+// short robust (Cauchy) pass that exposes gross errors (only readings beyond 3× the threshold
+// are taken out from it), then rounds of rejection (|z| > k·σ_robust on residuals standardised
+// by their leverage, σ_robust = 1.4826·median|z|) with least-squares re-solves, and a spatial
+// consistency test of the volumetric error (SelfCalOptions::spatial_check). A point seen by
+// only 4 trackers has one redundant reading, so a gross error cannot be pinned on one tracker:
+// all its readings are rejected (the point is dropped); with ≥ 5 readings only the worst
+// reading is rejected per round.
+//
+// The volumetric error of point i is R·u_i + t − c_i after the best-fit rigid transform
+// (R, t) of the estimated points to the commanded frame; R may be a mirror when the gauge frame
+// is the mirror image of the machine frame (distances cannot tell them apart). Its uncertainty
+// comes from the Schur-reduced JᵀJ with the rigid motion of the point set projected out.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "analysis/tracker/selfcal_problem.h"
+#include "analysis/tracker/tracker_types.h"
+#include "analysis/tracker/volumetric_decomposition.h"
+
+namespace km::tracker {
+
+struct SelfCalOptions {
+  bool reject_outliers = true;
+  double outlier_k = 6.0;          // rejection threshold in robust σ
+  double outlier_floor_um = 0.05;  // the threshold is never below this
+  int max_rejection_rounds = 8;
+  double robust_scale_um = 1.0;  // Cauchy scale of the first pass; 0 = none
+  int max_iterations = 100;
+  double max_condition_number = 1e8;  // of the reduced Jacobian; larger = NotObservable
+  double prior_sigma_um = 0.2;        // reading σ used when there is no redundancy
+  int num_threads = 1;
+  bool sparse_schur = false;
+  // Second test for 4-tracker set-ups, where two gross errors on one point can cancel in its
+  // single redundant reading: a point whose volumetric error departs from a smooth (cubic)
+  // field by more than outlier_k robust σ (scaled by its own precision) is dropped.
+  bool spatial_check = true;
+
+  // Throws km::InvalidInput naming the bad option.
+  void Check() const;
+};
+
+struct RejectedReading {
+  int row = 0;                   // 0-based row (point index in the file)
+  int point_id = 0;              // as in the file
+  int tracker = 0;               // 0-based
+  double residual_um = 0.0;      // residual of eq. (1) when rejected
+  double standardised_um = 0.0;  // residual / √(1 − leverage): comparable between readings
+  std::string reason;            // "residual" or "spatial"
+};
+
+struct SelfCalResult {
+  TrackerMode mode = TrackerMode::kSimultaneous;
+  std::vector<Eigen::Vector3d> trackers_mm;             // gauge frame
+  std::vector<Eigen::Vector3d> tracker_uncertainty_um;  // 1σ per axis, gauge frame
+  std::vector<double> dead_path_mm;                     // per segment
+  std::vector<int> dead_path_tracker;                   // 0-based tracker of each segment
+  std::vector<Eigen::Vector3d> points_mm;               // gauge frame (NaN when dropped)
+  std::vector<char> point_valid;                        // 0 = all readings rejected
+  std::vector<Eigen::Vector3d> volumetric_error_um;     // commanded frame (NaN when dropped)
+  // 1σ per axis of the volumetric error (commanded frame, rigid motion removed: gauge-free).
+  std::vector<Eigen::Vector3d> position_uncertainty_um;
+  // 1σ per axis of points_mm in the gauge frame (includes the uncertainty of the gauge itself).
+  std::vector<Eigen::Vector3d> gauge_uncertainty_um;
+  // Full covariance of the volumetric errors (commanded frame, low-rank form) for
+  // DecomposeVolumetricError, which then propagates the tracker-induced correlations.
+  VolumetricCovariance error_covariance;
+  RigidTransform gauge_to_commanded;
+  double residual_rms_um = 0.0;
+  double sigma_um = 0.0;  // a-posteriori reading σ
+  double condition_number = 0.0;
+  std::vector<RejectedReading> rejected;
+  std::size_t readings_used = 0;
+  std::size_t unknowns = 0;
+  int rounds = 0;
+  int iterations = 0;
+  std::vector<double> initial_rms_um;  // per tracker, fit of the initialisation
+  std::vector<std::string> warnings;   // solvable but weak or ambiguous set-ups
+};
+
+// Throws km::NotObservable (counting condition, rank deficiency, condition number) or
+// km::InvalidInput (inconsistent readings) or km::DidNotConverge.
+SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOptions& options = {});
+
+}  // namespace km::tracker

@@ -1,0 +1,50 @@
+// Records of a laser-tracker multilateration survey (seed 001, contract §1.2).
+//
+// Tracker j (station j in sequential mode) sits at U_j; the target (a corner cube on the
+// spindle) is commanded to c_i and really stands at u_i. Each tracker's interferometer reads
+// the displacement relative to the first point (seed 001 eq. 1):
+//
+//   d_ij = |u_i − U_j| − |u_1 − U_j|.
+//
+// A beam break re-zeroes the interferometer: from that row on, tracker j's readings are
+// relative to an unknown new reference ("dead path"), which adds one unknown offset.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace km::tracker {
+
+enum class TrackerMode { kSimultaneous, kSequential };
+
+const char* ModeName(TrackerMode mode);
+
+// From row `row` on (0-based, inclusive), tracker `tracker` (0-based) has a new dead path.
+struct BeamBreak {
+  int tracker = 0;
+  std::size_t row = 0;
+};
+
+// Rough tracker (station) position in the machine frame of the commanded points.
+struct TrackerGuess {
+  int tracker = 0;  // 0-based
+  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
+};
+
+struct TrackerReadings {
+  std::string machine_id;
+  TrackerMode mode = TrackerMode::kSimultaneous;
+  std::vector<int> point_ids;                 // m, as in the file
+  std::vector<Eigen::Vector3d> commanded_mm;  // m, machine frame
+  Eigen::MatrixXd displacement_um;            // m × n, d_ij; a non-finite value = missing
+  std::vector<BeamBreak> beam_breaks;
+  std::vector<TrackerGuess> guesses;
+
+  int NumPoints() const { return static_cast<int>(commanded_mm.size()); }
+  int NumTrackers() const { return static_cast<int>(displacement_um.cols()); }
+};
+
+}  // namespace km::tracker

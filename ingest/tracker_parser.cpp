@@ -1,0 +1,199 @@
+#include "ingest/tracker_parser.h"
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+
+#include "analysis/core/errors.h"
+#include "ingest/text_format.h"
+
+namespace km::ingest {
+
+namespace {
+
+// A strict integer from a number already parsed (the text reader gives doubles).
+bool AsInt(double v, long long& out) {
+  if (!std::isfinite(v) || std::abs(v) > 1e15 || std::floor(v) != v) return false;
+  out = static_cast<long long>(v);
+  return true;
+}
+
+}  // namespace
+
+TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file) {
+  ReadOptions opt;
+  opt.repeatable_keys = {"tracker_guess_mm"};
+  const TextTable t = ReadTextTable(bytes, file, opt);
+  if (t.format != kTrackerFormat) {
+    throw InvalidInput(file, t.format_line, "format",
+                       "expected '" + std::string(kTrackerFormat) + "', found '" + t.format + "'");
+  }
+  TrackerFile out;
+  auto& r = out.readings;
+  out.metadata = t.Metadata();
+  r.machine_id = t.RequireString("machine_id");
+
+  const double nd = t.RequireNumber("trackers");
+  long long n = 0;
+  if (!AsInt(nd, n) || n < 4) {
+    throw InvalidInput(file, t.Find("trackers")->line, "trackers",
+                       "must be an integer ≥ 4 (multilateration self-calibration needs at least "
+                       "4 trackers or stations)");
+  }
+  if (n > 64) throw InvalidInput(file, t.Find("trackers")->line, "trackers", "at most 64");
+  const std::string mode = t.RequireString("mode");
+  if (mode == "simultaneous") {
+    r.mode = tracker::TrackerMode::kSimultaneous;
+  } else if (mode == "sequential") {
+    r.mode = tracker::TrackerMode::kSequential;
+  } else {
+    throw InvalidInput(file, t.Find("mode")->line, "mode",
+                       "'" + mode + "' is neither 'simultaneous' nor 'sequential'");
+  }
+  std::set<long long> guessed;
+  for (const HeaderValue* g : t.FindAll("tracker_guess_mm")) {
+    const auto v = ParseNumberList(g->value);
+    if (!v || v->size() != 4) {
+      throw InvalidInput(file, g->line, "tracker_guess_mm",
+                         "expected 'j, x, y, z' (tracker number and its position in mm)");
+    }
+    long long j = 0;
+    if (!AsInt((*v)[0], j) || j < 1 || j > n) {
+      throw InvalidInput(file, g->line, "tracker_guess_mm",
+                         "tracker number must be an integer within 1.." + std::to_string(n));
+    }
+    if (!guessed.insert(j).second) {
+      throw InvalidInput(file, g->line, "tracker_guess_mm",
+                         "tracker " + std::to_string(j) + " is given twice");
+    }
+    tracker::TrackerGuess guess;
+    guess.tracker = static_cast<int>(j - 1);
+    guess.position_mm = {(*v)[1], (*v)[2], (*v)[3]};
+    r.guesses.push_back(guess);
+  }
+
+  // Columns.
+  auto need = [&](const std::string& name) {
+    const int c = t.ColumnIndex(name);
+    if (c < 0) {
+      throw InvalidInput(file, t.columns_line, name,
+                         "required column is missing (expected point,x_mm,y_mm,z_mm,d1_um,…,d" +
+                             std::to_string(n) + "_um)");
+    }
+    return c;
+  };
+  const int cp = need("point"), cx = need("x_mm"), cy = need("y_mm"), cz = need("z_mm");
+  std::vector<int> cd;
+  for (long long j = 1; j <= n; ++j) cd.push_back(need("d" + std::to_string(j) + "_um"));
+  for (const auto& name : t.columns) {
+    if (name.size() > 4 && name[0] == 'd' && name.substr(name.size() - 3) == "_um") {
+      const auto k = ParseNumber(std::string_view(name).substr(1, name.size() - 4));
+      long long kk = 0;
+      if (k && AsInt(*k, kk) && (kk < 1 || kk > n)) {
+        throw InvalidInput(
+            file, t.columns_line, name,
+            "column for tracker " + std::to_string(kk) + " but 'trackers' is " + std::to_string(n));
+      }
+    }
+  }
+  if (t.rows.empty()) throw InvalidInput(file, t.columns_line, "", "no data rows");
+
+  std::map<long long, std::size_t> row_of;
+  r.displacement_um.resize(static_cast<long>(t.rows.size()), static_cast<long>(n));
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const auto& row = t.rows[i];
+    long long id = 0;
+    if (!AsInt(row[static_cast<std::size_t>(cp)], id)) {
+      throw InvalidInput(file, t.row_lines[i], "point", "point id must be an integer");
+    }
+    const auto [it, fresh] = row_of.emplace(id, i);
+    if (!fresh) {
+      throw InvalidInput(file, t.row_lines[i], "point",
+                         "point " + std::to_string(id) + " repeated (first on line " +
+                             std::to_string(t.row_lines[it->second]) + ")");
+    }
+    r.point_ids.push_back(static_cast<int>(id));
+    r.commanded_mm.emplace_back(row[static_cast<std::size_t>(cx)],
+                                row[static_cast<std::size_t>(cy)],
+                                row[static_cast<std::size_t>(cz)]);
+    for (long long j = 0; j < n; ++j) {
+      r.displacement_um(static_cast<long>(i), static_cast<long>(j)) =
+          row[static_cast<std::size_t>(cd[static_cast<std::size_t>(j)])];
+    }
+  }
+  for (const auto& m : t.markers) {
+    if (m.key != "beam_break") {
+      throw InvalidInput(file, m.line, m.key,
+                         "unexpected '# " + m.key +
+                             "' line among the data rows (only "
+                             "'# beam_break: tracker, point' is allowed there)");
+    }
+    const auto v = ParseNumberList(m.value);
+    long long j = 0, id = 0;
+    if (!v || v->size() != 2 || !AsInt((*v)[0], j) || !AsInt((*v)[1], id)) {
+      throw InvalidInput(file, m.line, "beam_break", "expected 'tracker, point' (two integers)");
+    }
+    if (j < 1 || j > n) {
+      throw InvalidInput(file, m.line, "beam_break",
+                         "tracker must be within 1.." + std::to_string(n));
+    }
+    const auto it = row_of.find(id);
+    if (it == row_of.end()) {
+      throw InvalidInput(file, m.line, "beam_break",
+                         "point " + std::to_string(id) + " is not in the data");
+    }
+    if (it->second == 0) {
+      throw InvalidInput(file, m.line, "beam_break",
+                         "a beam break at the first point is meaningless (readings start there)");
+    }
+    r.beam_breaks.push_back({static_cast<int>(j - 1), it->second});
+  }
+  return out;
+}
+
+std::string WriteTrackerFile(const tracker::TrackerReadings& r) {
+  const int n = r.NumTrackers();
+  const int m = r.NumPoints();
+  if (static_cast<int>(r.point_ids.size()) != m || r.displacement_um.rows() != m) {
+    throw InvalidInput("", 0, "readings", "points, ids and readings differ in number");
+  }
+  std::string s = "# format: " + std::string(kTrackerFormat) + "\n";
+  s += "# machine_id: " + r.machine_id + "\n";
+  s += "# trackers: " + std::to_string(n) + "\n";
+  s += "# mode: " + std::string(tracker::ModeName(r.mode)) + "\n";
+  char buf[160];
+  for (const auto& g : r.guesses) {
+    std::snprintf(buf, sizeof buf, "# tracker_guess_mm: %d, %.6f, %.6f, %.6f\n", g.tracker + 1,
+                  g.position_mm.x(), g.position_mm.y(), g.position_mm.z());
+    s += buf;
+  }
+  s += "point,x_mm,y_mm,z_mm";
+  for (int j = 1; j <= n; ++j) s += ",d" + std::to_string(j) + "_um";
+  s += "\n";
+  for (int i = 0; i < m; ++i) {
+    for (const auto& b : r.beam_breaks) {
+      if (static_cast<int>(b.row) == i) {
+        s += "# beam_break: " + std::to_string(b.tracker + 1) + ", " +
+             std::to_string(r.point_ids[static_cast<std::size_t>(i)]) + "\n";
+      }
+    }
+    const auto& c = r.commanded_mm[static_cast<std::size_t>(i)];
+    std::snprintf(buf, sizeof buf, "%d,%.6f,%.6f,%.6f", r.point_ids[static_cast<std::size_t>(i)],
+                  c.x(), c.y(), c.z());
+    s += buf;
+    for (int j = 0; j < n; ++j) {
+      const double d = r.displacement_um(i, j);
+      if (!std::isfinite(d)) {
+        throw InvalidInput("", 0, "d" + std::to_string(j + 1) + "_um",
+                           "a missing reading cannot be written");
+      }
+      std::snprintf(buf, sizeof buf, ",%.4f", d);
+      s += buf;
+    }
+    s += "\n";
+  }
+  return s;
+}
+
+}  // namespace km::ingest

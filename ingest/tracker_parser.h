@@ -1,0 +1,31 @@
+// Parser of laser-tracker multilateration files, `# format: kinemetric-tracker/1` (contract
+// §1.2; seed 001 eq. 1): header `machine_id`, `trackers` (n ≥ 4), `mode` (`simultaneous` or
+// `sequential`), any number of `tracker_guess_mm: j, x, y, z` lines (machine frame); columns
+// `point,x_mm,y_mm,z_mm,d1_um,…,dn_um`; `# beam_break: tracker, point` lines among the data
+// rows start a new dead path for that tracker from that point on. Validation is strict: every
+// error names the file, the line and the field.
+#pragma once
+
+#include <map>
+#include <string>
+#include <string_view>
+
+#include "analysis/tracker/tracker_types.h"
+
+namespace km::ingest {
+
+inline constexpr const char* kTrackerFormat = "kinemetric-tracker/1";
+
+struct TrackerFile {
+  tracker::TrackerReadings readings;
+  std::map<std::string, std::string> metadata;  // every header key (unknown ones too)
+};
+
+// Throws km::InvalidInput (or km::TooLarge) naming file, line and field.
+TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file);
+
+// Writes readings in the same format (readings with 0.1 nm, positions with 1 nm resolution);
+// missing (non-finite) readings cannot be written and are refused with InvalidInput.
+std::string WriteTrackerFile(const tracker::TrackerReadings& readings);
+
+}  // namespace km::ingest
