@@ -193,6 +193,59 @@ void AddRoutes(Router& router, server::Service& service) {
                  {"content",
                   {{"image/png", {{"schema", {{"type", "string"}, {"format", "binary"}}}}}}}}}}}}});
 
+  router.Add(Route{
+      "POST",
+      "/api/v1/calibrations",
+      "Hexapod calibration study (machine definition + DBB measurement ids + mode) as a "
+      "background job",
+      true,
+      [svc](const Request& req) {
+        nlohmann::json body;
+        try {
+          body = nlohmann::json::parse(req.body);
+        } catch (const nlohmann::json::parse_error& e) {
+          throw InvalidInput("request", 0, "", std::string("the body is not JSON: ") + e.what());
+        }
+        const auto id = svc->SubmitCalibration(body);
+        Response r = Response::Json(
+            {{"job_id", id}, {"status_url", "/api/v1/jobs/" + std::to_string(id)}}, 202);
+        r.headers["Location"] = "/api/v1/jobs/" + std::to_string(id);
+        return r;
+      },
+      {{"requestBody",
+        {{"required", true},
+         {"content",
+          {{"application/json",
+            {{"schema",
+              {{"type", "object"},
+               {"required", json::array({"machine", "measurement_ids"})},
+               {"properties",
+                {{"machine", {{"type", "object"}}},
+                 {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
+                 {"method",
+                  {{"type", "string"}, {"enum", json::array({"absolute", "centre-corrected"})}}},
+                 {"reduction_study_min_tests", {{"type", "integer"}}},
+                 {"max_samples_per_test", {{"type", "integer"}}}}}}}}}}}}},
+       {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}});
+
+  router.Add(
+      Route{"GET",
+            "/api/v1/jobs/{id}",
+            "A background job: status, progress, result",
+            true,
+            [svc](const Request& req) { return Response::Json(svc->Job(req.PathId("id"))); },
+            {{"responses",
+              {{"200", JsonResponse("{id, kind, status, progress, stage, result?, error?}")}}}}});
+
+  router.Add(Route{"GET",
+                   "/api/v1/jobs",
+                   "Recent background jobs",
+                   true,
+                   [svc](const Request& req) {
+                     return Response::Json(svc->Jobs(QueryInt(req, "limit", 50, 1, 1000)));
+                   },
+                   {{"responses", {{"200", JsonResponse("{items[]}")}}}}});
+
   router.Add(Route{"GET",
                    "/api/v1/machines",
                    "Machines with stored measurements",

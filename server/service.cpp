@@ -8,7 +8,9 @@
 namespace km::server {
 
 Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
-    : storage_(std::move(storage)), options_(options) {}
+    : storage_(std::move(storage)),
+      options_(options),
+      jobs_(std::make_unique<JobQueue>(*storage_)) {}
 
 void Service::RegisterKind(const std::string& format, KindHandler handler) {
   kinds_[format] = std::move(handler);

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/dbb/dbb_types.h"
+#include "server/jobs.h"
 #include "server/storage.h"
 
 namespace km::server {
@@ -62,6 +63,15 @@ class Service {
   std::string DbbPlotPng(std::int64_t id);
   nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
 
+  // Hexapod calibration study as a background job. Request (JSON): {"machine": {machine
+  // definition, contract §2}, "measurement_ids": [DBB ids], "method": "absolute" |
+  // "centre-corrected" (optional), "reduction_study_min_tests": N (optional),
+  // "max_samples_per_test": N (optional)}. Validated now (InvalidInput / NotFound); returns
+  // the job id. The job's result is the `hexapod calibrate` object plus the calibrated machine.
+  std::int64_t SubmitCalibration(const nlohmann::json& request);
+  nlohmann::json Job(std::int64_t id);
+  nlohmann::json Jobs(std::int64_t limit);
+
   Storage& storage() { return *storage_; }
 
  private:
@@ -71,6 +81,7 @@ class Service {
   std::unique_ptr<Storage> storage_;
   ServiceOptions options_;
   std::map<std::string, KindHandler> kinds_;
+  std::unique_ptr<JobQueue> jobs_;  // last: stopped first
 };
 
 // The handlers of every measurement kind the product knows; call once at start-up.

@@ -52,6 +52,10 @@ class Stmt {
     Check(sqlite3_bind_null(s_, i));
     return *this;
   }
+  Stmt& BindReal(int i, double v) {
+    Check(sqlite3_bind_double(s_, i, v));
+    return *this;
+  }
   Stmt& BindBlob(int i, const std::string& v) {
     Check(sqlite3_bind_blob64(s_, i, v.data(), v.size(), SQLITE_TRANSIENT));
     return *this;
@@ -64,6 +68,7 @@ class Stmt {
     Fail(db_, "step");
   }
   std::int64_t Int(int c) const { return sqlite3_column_int64(s_, c); }
+  double Real(int c) const { return sqlite3_column_double(s_, c); }
   bool IsNull(int c) const { return sqlite3_column_type(s_, c) == SQLITE_NULL; }
   std::string Text(int c) const {
     const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(s_, c));
@@ -147,6 +152,21 @@ CREATE TABLE tokens (
   role         TEXT NOT NULL,
   label        TEXT NOT NULL DEFAULT '',
   created_at   TEXT NOT NULL
+);
+)sql",
+    // 2: background jobs (calibration studies) and their stored results.
+    R"sql(
+CREATE TABLE jobs (
+  id           INTEGER PRIMARY KEY,
+  kind         TEXT NOT NULL,
+  status       TEXT NOT NULL,
+  progress     REAL NOT NULL DEFAULT 0,
+  stage        TEXT NOT NULL DEFAULT '',
+  request_json TEXT NOT NULL,
+  result_json  TEXT NOT NULL DEFAULT '',
+  error        TEXT NOT NULL DEFAULT '',
+  created_at   TEXT NOT NULL,
+  updated_at   TEXT NOT NULL
 );
 )sql",
 };
@@ -356,6 +376,74 @@ std::vector<MachineSummary> SqliteStorage::ListMachines() {
   std::vector<MachineSummary> out;
   while (s.Step()) out.push_back(MachineSummary{s.Text(0), s.Int(1), s.OptText(2)});
   return out;
+}
+
+namespace {
+constexpr const char* kJobColumns =
+    "id, kind, status, progress, stage, request_json, result_json, error, created_at, updated_at";
+JobRecord ReadJob(const Stmt& s) {
+  JobRecord j;
+  j.id = s.Int(0);
+  j.kind = s.Text(1);
+  j.status = s.Text(2);
+  j.progress = s.Real(3);
+  j.stage = s.Text(4);
+  j.request_json = s.Text(5);
+  j.result_json = s.Text(6);
+  j.error = s.Text(7);
+  j.created_at = s.Text(8);
+  j.updated_at = s.Text(9);
+  return j;
+}
+}  // namespace
+
+std::int64_t SqliteStorage::CreateJob(const std::string& kind, const std::string& request_json) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_,
+         "INSERT INTO jobs (kind, status, request_json, created_at, updated_at) "
+         "VALUES (?, 'queued', ?, ?, ?)");
+  const std::string now = NowUtcIso8601();
+  s.Bind(1, kind).Bind(2, request_json).Bind(3, now).Bind(4, now);
+  s.Step();
+  return sqlite3_last_insert_rowid(db_);
+}
+
+void SqliteStorage::UpdateJob(const JobRecord& job) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_,
+         "UPDATE jobs SET status = ?, progress = ?, stage = ?, result_json = ?, error = ?, "
+         "updated_at = ? WHERE id = ?");
+  s.Bind(1, job.status).BindReal(2, job.progress).Bind(3, job.stage).Bind(4, job.result_json);
+  s.Bind(5, job.error).Bind(6, NowUtcIso8601()).Bind(7, job.id);
+  s.Step();
+}
+
+std::optional<JobRecord> SqliteStorage::GetJob(std::int64_t id) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, (std::string("SELECT ") + kJobColumns + " FROM jobs WHERE id = ?").c_str());
+  s.Bind(1, id);
+  if (!s.Step()) return std::nullopt;
+  return ReadJob(s);
+}
+
+std::vector<JobRecord> SqliteStorage::ListJobs(std::int64_t limit) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_,
+         (std::string("SELECT ") + kJobColumns + " FROM jobs ORDER BY id DESC LIMIT ?").c_str());
+  s.Bind(1, limit);
+  std::vector<JobRecord> out;
+  while (s.Step()) out.push_back(ReadJob(s));
+  return out;
+}
+
+int SqliteStorage::FailInterruptedJobs(const std::string& reason) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_,
+         "UPDATE jobs SET status = 'failed', error = ?, updated_at = ? "
+         "WHERE status IN ('queued', 'running')");
+  s.Bind(1, reason).Bind(2, NowUtcIso8601());
+  s.Step();
+  return sqlite3_changes(db_);
 }
 
 std::int64_t SqliteStorage::CountTokens() {

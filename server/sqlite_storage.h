@@ -32,6 +32,11 @@ class SqliteStorage final : public Storage {
   std::vector<ResultRecord> GetResults(std::int64_t id) override;
   void PutResult(std::int64_t id, const NewResult& r) override;
   std::vector<MachineSummary> ListMachines() override;
+  std::int64_t CreateJob(const std::string& kind, const std::string& request_json) override;
+  void UpdateJob(const JobRecord& job) override;
+  std::optional<JobRecord> GetJob(std::int64_t id) override;
+  std::vector<JobRecord> ListJobs(std::int64_t limit) override;
+  int FailInterruptedJobs(const std::string& reason) override;
   std::int64_t CountTokens() override;
   void PutToken(const std::string& token_sha256, const std::string& role,
                 const std::string& label) override;

@@ -85,6 +85,19 @@ struct PutOutcome {
   bool created = false;
 };
 
+// A background job (e.g. a hexapod calibration study) and its stored outcome.
+struct JobRecord {
+  std::int64_t id = 0;
+  std::string kind;
+  std::string status;  // queued, running, done, failed
+  double progress = 0.0;
+  std::string stage;
+  std::string request_json;
+  std::string result_json;  // when done
+  std::string error;        // when failed
+  std::string created_at, updated_at;
+};
+
 class Storage {
  public:
   virtual ~Storage() = default;
@@ -101,6 +114,14 @@ class Storage {
   // Adds a result computed later (e.g. by a newer analysis version); keeps older ones.
   virtual void PutResult(std::int64_t id, const NewResult& r) = 0;
   virtual std::vector<MachineSummary> ListMachines() = 0;
+
+  // Background jobs.
+  virtual std::int64_t CreateJob(const std::string& kind, const std::string& request_json) = 0;
+  virtual void UpdateJob(const JobRecord& job) = 0;  // status, progress, stage, result, error
+  virtual std::optional<JobRecord> GetJob(std::int64_t id) = 0;
+  virtual std::vector<JobRecord> ListJobs(std::int64_t limit) = 0;
+  // Marks jobs left queued or running by a previous process as failed; returns how many.
+  virtual int FailInterruptedJobs(const std::string& reason) = 0;
 
   // Access tokens are stored only as SHA-256 hashes.
   virtual std::int64_t CountTokens() = 0;

@@ -1,7 +1,10 @@
 // Integration test: a real kinemetricd on a free port with a temporary data dir; upload, query,
 // restart, and every kind of bad file — 400 with a precise problem document, nothing changed.
 // Eigen before httplib: <resolv.h> (pulled in by httplib) defines the macro _res.
+#include "analysis/sim/hexapod_dbb_sim.h"
 #include "analysis/tracker/tracker_sim.h"
+#include "ingest/dbb_writer.h"
+#include "ingest/machine_json.h"
 #include "ingest/tracker_parser.h"
 
 #include <gtest/gtest.h>
@@ -367,6 +370,72 @@ TEST_F(ServerIntegration, TrackerSurveyIsSelfCalibratedAtUpload) {
   EXPECT_GE(r3->status, 400);
   EXPECT_LT(r3->status, 500);
   EXPECT_EQ(Total(api), 1);
+}
+
+}  // namespace
+
+namespace {
+
+std::string ReadText(const std::string& path) {
+  FILE* f = std::fopen(path.c_str(), "rb");
+  std::string out;
+  char buf[4096];
+  std::size_t n = 0;
+  while (f && (n = std::fread(buf, 1, sizeof buf, f)) > 0) out.append(buf, n);
+  if (f) std::fclose(f);
+  return out;
+}
+
+TEST_F(ServerIntegration, HexapodCalibrationRunsAsABackgroundJob) {
+  auto server = Start();
+  Api api(server->port());
+  const std::string machine_text =
+      ReadText(KINEMETRIC_SOURCE_DIR "/tests/fixtures/pm600-like.json");
+  ASSERT_FALSE(machine_text.empty());
+  const auto machine = km::ingest::ParseHexapodMachineJson(machine_text, "pm600-like.json");
+  const auto truth = km::sim::PerturbGeometry(machine.geometry, 0.3, 0.1, 11);
+  km::sim::HexapodDbbSimOptions so;
+  so.noise_um = 0.3;
+  const auto tests = km::sim::SimulateHexapodDbbPlan(machine.geometry, truth,
+                                                     km::sim::Table21Plan(180, false), so);
+  json ids = json::array();
+  for (const auto& t : tests) {
+    auto r = api.Post(km::ingest::WriteDbb(t), t.test_id + ".dbb");
+    ASSERT_EQ(r->status, 201) << r->body;
+    ids.push_back(json::parse(r->body)["id"]);
+  }
+  httplib::Client c("127.0.0.1", server->port());
+  c.set_default_headers({{"Authorization", std::string("Bearer ") + kToken}});
+  const json req = {{"machine", json::parse(machine_text)}, {"measurement_ids", ids}};
+  auto sub = c.Post("/api/v1/calibrations", req.dump(), "application/json");
+  ASSERT_EQ(sub->status, 202) << sub->body;
+  const auto job_id = json::parse(sub->body)["job_id"].get<std::int64_t>();
+  json job;
+  for (int i = 0; i < 600; ++i) {
+    job = json::parse(api.Get("/api/v1/jobs/" + std::to_string(job_id))->body);
+    if (job["status"] == "done" || job["status"] == "failed") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_EQ(job["status"], "done") << job.dump();
+  const json& res = job["result"];
+  EXPECT_EQ(res["method"], "absolute");
+  EXPECT_EQ(res["tests"].size(), tests.size());
+  // Recovered parameters: true − nominal within 5 µm.
+  for (int j = 0; j < 6; ++j) {
+    const double truth_um = (truth.strut_offset_mm[j] - machine.geometry.strut_offset_mm[j]) * 1000;
+    EXPECT_NEAR(res["parameters"]["strut_offset_um"][j].get<double>(), truth_um, 5.0) << j;
+  }
+  EXPECT_TRUE(res.contains("calibrated_machine"));
+
+  // A bad request is refused at once, with no job.
+  auto bad = c.Post("/api/v1/calibrations", R"({"measurement_ids":[1]})", "application/json");
+  EXPECT_EQ(bad->status, 400);
+  auto missing =
+      c.Post("/api/v1/calibrations",
+             json({{"machine", json::parse(machine_text)}, {"measurement_ids", {9999}}}).dump(),
+             "application/json");
+  EXPECT_EQ(missing->status, 404);
+  EXPECT_EQ(json::parse(api.Get("/api/v1/jobs")->body)["items"].size(), 1u);
 }
 
 }  // namespace

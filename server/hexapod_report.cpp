@@ -1,0 +1,108 @@
+#include "server/hexapod_report.h"
+
+#include "analysis/core/errors.h"
+
+namespace km::server {
+namespace {
+
+nlohmann::json ParameterJson(const hexapod::ParameterVector& k) {
+  nlohmann::json strut = nlohmann::json::array(), base = nlohmann::json::array();
+  for (int j = 0; j < 6; ++j) {
+    strut.push_back(k[j]);
+    base.push_back({k[6 + 3 * j], k[7 + 3 * j], k[8 + 3 * j]});
+  }
+  return {{"strut_offset_um", strut}, {"base_joint_offset_um", base}};
+}
+
+nlohmann::json CalibrationJson(const hexapod::CalibrationResult& r,
+                               const std::vector<hexapod::TestPrediction>& pred,
+                               const std::vector<std::string>& names) {
+  nlohmann::json j;
+  j["method"] = hexapod::ToString(r.method);
+  j["parameters"] = ParameterJson(r.parameters_um);
+  j["parameter_uncertainty_um"] = ParameterJson(r.uncertainty_um);
+  j["fixed_parameters"] = r.fixed_parameters;
+  j["tests"] = nlohmann::json::array();
+  for (std::size_t i = 0; i < pred.size(); ++i) {
+    nlohmann::json t;
+    t["test_id"] = pred[i].test_id;
+    t["direction"] = dbb::ToString(pred[i].direction);
+    if (i < names.size()) t["file"] = names[i];
+    t["circularity_before_um"] = pred[i].circularity_before_um;
+    t["predicted_circularity_after_um"] = pred[i].predicted_circularity_after_um;
+    if (i < r.fixed_balls_mm.size()) {
+      const auto& f = r.fixed_balls_mm[i];
+      t["fixed_ball_mm"] = {f.x(), f.y(), f.z()};
+    }
+    j["tests"].push_back(t);
+  }
+  j["residual_rms_um"] = r.residual_rms_um;
+  j["condition_number"] = r.condition_number;
+  j["iterations"] = r.iterations;
+  j["converged"] = r.converged;
+  return j;
+}
+
+}  // namespace
+
+std::optional<hexapod::CalibrationMethod> ParseCalibrationMethod(const std::string& text,
+                                                                 const std::string& field) {
+  if (text.empty()) return std::nullopt;
+  if (text == "absolute") return hexapod::CalibrationMethod::kAbsolute;
+  if (text == "centre-corrected" || text == "centre_corrected") {
+    return hexapod::CalibrationMethod::kCentreCorrected;
+  }
+  throw InvalidInput("", 0, field, "'" + text + "' is neither absolute nor centre-corrected");
+}
+
+CalibrationOutcome RunCalibrationStudy(const CalibrationStudy& study, const ProgressFn& progress) {
+  auto report = [&](double f, const std::string& stage) {
+    if (progress) progress(f, stage);
+  };
+  if (study.tests.empty()) throw InvalidInput("", 0, "tests", "no DBB test given");
+  bool all_have_ball = true;
+  for (const auto& t : study.tests) all_have_ball = all_have_ball && t.fixed_ball_mm.has_value();
+  hexapod::CalibrationOptions options;
+  options.method =
+      study.method.value_or(all_have_ball ? hexapod::CalibrationMethod::kAbsolute
+                                          : hexapod::CalibrationMethod::kCentreCorrected);
+  options.max_samples_per_test = study.max_samples_per_test;
+  for (std::size_t i = 0; i < study.tests.size(); ++i) {
+    const auto& t = study.tests[i];
+    const std::string name = i < study.names.size() ? study.names[i] : t.test_id;
+    if (!t.tool_length_mm) {
+      throw InvalidInput(name, 0, "tool_length_mm", "hexapod calibration needs the tool length");
+    }
+    if (options.method == hexapod::CalibrationMethod::kAbsolute && !t.fixed_ball_mm) {
+      throw InvalidInput(name, 0, "fixed_ball_mm",
+                         "absolute calibration needs the measured fixed-ball position");
+    }
+  }
+  report(0.05, "calibrating");
+  const auto result = hexapod::Calibrate(study.machine.geometry, study.tests, options);
+  report(0.6, "predicting the traces after calibration");
+  const auto pred = hexapod::PredictAfterCalibration(study.machine.geometry, result.calibrated,
+                                                     study.tests, result.fixed_balls_mm);
+  CalibrationOutcome out;
+  out.report = CalibrationJson(result, pred, study.names);
+  out.calibrated = study.machine;
+  out.calibrated.geometry = result.calibrated;
+  if (study.reduction_min_tests > 0) {  // seed 000 §5.2.3
+    report(0.7, "test-set reduction study");
+    nlohmann::json steps = nlohmann::json::array();
+    for (const auto& st : hexapod::TestSetReductionStudy(study.machine.geometry, study.tests,
+                                                         options, study.reduction_min_tests)) {
+      steps.push_back({{"tests_kept", st.groups_kept},
+                       {"kept_test_ids", st.kept_test_ids},
+                       {"dropped_test_id", st.dropped_test_id},
+                       {"mean_predicted_circularity_um", st.mean_predicted_circularity_um},
+                       {"max_predicted_circularity_um", st.max_predicted_circularity_um},
+                       {"condition_number", st.condition_number}});
+    }
+    out.report["reduction_study"] = steps;
+  }
+  report(1.0, "done");
+  return out;
+}
+
+}  // namespace km::server
