@@ -87,6 +87,25 @@ export async function apiFetch(path, { method = 'GET', body, headers = {} } = {}
   return text ? JSON.parse(text) : null;
 }
 
+// Binary resources (the PNG plot): an <img src> cannot send the Authorization header, so the
+// image is fetched here and shown through an object URL.
+export async function apiFetchBlob(path) {
+  const headers = { Accept: 'image/png' };
+  const token = currentToken();
+  if (token) headers.Authorization = `Bearer ${token}`;
+  let response;
+  try {
+    response = await fetch(path, { headers, cache: 'no-store' });
+  } catch (err) {
+    throw new ApiError(0, {
+      title: 'Server not reachable',
+      detail: `Could not contact the kinemetric server (${err.message}).`,
+    });
+  }
+  if (!response.ok) throw new ApiError(response.status, await readProblem(response));
+  return response.blob();
+}
+
 export const api = {
   machines: () => apiFetch('/api/v1/machines'),
   measurements: (machineId, { limit = 200, offset = 0 } = {}) => {
@@ -96,6 +115,13 @@ export const api = {
   measurement: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}`),
   results: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}/results`),
   trace: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}/trace`),
+  // 404 when no opposite-direction test is stored: resolves to null then.
+  pair: (id) =>
+    apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}/pair`).catch((err) => {
+      if (err instanceof ApiError && err.status === 404) return null;
+      throw err;
+    }),
+  plotPng: (id) => apiFetchBlob(`/api/v1/measurements/${encodeURIComponent(id)}/plot.png`),
   upload: (file, bytes) =>
     apiFetch('/api/v1/measurements', {
       method: 'POST',

@@ -1,12 +1,17 @@
-// kinemetric dashboard: machines → measurements → DBB polar plot and figures, plus upload.
+// kinemetric dashboard: machines → measurements → DBB polar plot, figures and diagnosis;
+// straightness / parallelism profiles and flatness maps with their figures; plus upload.
 // Plain ES module, no build step, nothing loaded from outside the server.
 
 import { api, ApiError, getToken, setToken, takeTokenFromFragment } from './api.js';
+import { renderColourMap, renderContributionChart, renderHarmonicsChart, renderProfilePlot } from './charts.js';
 import {
+  displayUnit,
+  effectWords,
   formatDirection,
   formatMode,
   formatNumber,
   formatTimestamp,
+  fullLabelOf,
   labelOf,
   unitOf,
 } from './format.js';
@@ -20,7 +25,10 @@ const state = {
   measurements: [],
   measurementId: null,
   selectSeq: 0, // guards against out-of-order responses when clicking quickly
+  pngUrl: null, // object URL of the PNG plot shown in the dialog
 };
+
+const FORM_KINDS = ['straightness', 'parallelism', 'flatness'];
 
 // ---------------------------------------------------------------- small DOM helpers
 
@@ -183,10 +191,11 @@ async function selectMachine(machineId, { selectMeasurement } = {}) {
       total > state.measurements.length ? `showing ${state.measurements.length} of ${total}` : `${total}`;
     renderMeasurements();
     const target = selectMeasurement ?? state.measurementId;
-    // Keep the selection; otherwise show the newest DBB test of the machine straight away.
+    // Keep the selection; otherwise show the newest DBB test (else the newest measurement).
     const item =
       state.measurements.find((m) => m.id === target) ||
-      state.measurements.filter((m) => m.kind === 'dbb').sort((x, y) => y.id - x.id)[0];
+      state.measurements.filter((m) => m.kind === 'dbb').sort((x, y) => y.id - x.id)[0] ||
+      [...state.measurements].sort((x, y) => y.id - x.id)[0];
     if (item) await selectMeasurementItem(item);
   } catch (err) {
     if (!handleAuth(err)) list.replaceChildren(h('li', { class: 'empty' }, errorBox(err)));
@@ -254,10 +263,38 @@ function resetDetail() {
   $('#detail-heading').textContent = 'Polar plot and figures';
   $('#plot-note').textContent = '';
   $('#polar-plot').replaceChildren(
-    h('p', { class: 'placeholder' }, 'Select a DBB measurement to see its polar plot.'),
+    h('p', { class: 'placeholder' }, 'Select a measurement to see its plot.'),
   );
   $('#figures').replaceChildren(h('p', { class: 'placeholder' }, 'Figures appear here.'));
   $('#figures-extra').replaceChildren();
+  resetAnalysis();
+  setDetailLayout(null);
+}
+
+function resetAnalysis() {
+  $('#analysis').hidden = true;
+  $('#diagnosis-table-box').replaceChildren();
+  $('#contribution-chart').replaceChildren();
+  $('#harmonics-chart').replaceChildren();
+  $('#diagnosis-source').textContent = '';
+  $('#not-identifiable').hidden = true;
+  $('#not-identifiable').replaceChildren();
+  $('#plot-png-button').hidden = true;
+}
+
+// DBB: polar plot beside the figures; form measurements: the wide plot above the figures.
+function setDetailLayout(kind) {
+  const wide = FORM_KINDS.includes(kind);
+  $('#detail-body').classList.toggle('wide', wide);
+  $('#polar-plot').classList.toggle('polar-figure', !wide);
+}
+
+function detailHeading(item) {
+  const machine = item.machine_id || state.machineId;
+  if (item.kind === 'dbb') return `${item.test_id || item.filename || `Measurement #${item.id}`} — ${machine}`;
+  const kind = String(item.kind || 'measurement');
+  const what = `${kind.charAt(0).toUpperCase()}${kind.slice(1)}`;
+  return `${what} ${item.test_id ? `${item.test_id} ` : ''}· ${item.filename || `#${item.id}`} — ${machine}`;
 }
 
 async function selectMeasurementItem(item) {
@@ -269,27 +306,41 @@ async function selectMeasurementItem(item) {
   // Fixed order: CCW first, then CW, so colours and columns do not swap between clicks.
   items.sort((a, b) => (a.direction === 'ccw' ? 0 : 1) - (b.direction === 'ccw' ? 0 : 1));
 
-  $('#detail-heading').textContent = `${item.test_id || item.filename || `Measurement #${item.id}`} — ${item.machine_id || state.machineId}`;
+  $('#detail-heading').textContent = detailHeading(item);
   $('#polar-plot').setAttribute('aria-busy', 'true');
   $('#figures').setAttribute('aria-busy', 'true');
   try {
     const wantTrace = item.kind === 'dbb';
-    const settled = await Promise.allSettled(
-      items.map(async (m) => {
-        const [results, trace] = await Promise.all([
-          api.results(m.id),
-          wantTrace ? api.trace(m.id) : Promise.resolve(null),
-        ]);
-        return { item: m, results, trace };
-      }),
-    );
+    const wantSamples = FORM_KINDS.includes(item.kind);
+    // The pair analysis (joint CW + CCW diagnosis, hysteresis) only when a partner is listed.
+    const pairPromise = wantTrace && partner ? api.pair(item.id) : Promise.resolve(null);
+    const [settled, pairSettled] = await Promise.all([
+      Promise.allSettled(
+        items.map(async (m) => {
+          const [results, trace, measurement] = await Promise.all([
+            api.results(m.id),
+            wantTrace ? api.trace(m.id) : Promise.resolve(null),
+            wantSamples ? api.measurement(m.id) : Promise.resolve(null),
+          ]);
+          return { item: m, results, trace, measurement };
+        }),
+      ),
+      pairPromise.then(
+        (value) => ({ status: 'fulfilled', value }),
+        (reason) => ({ status: 'rejected', reason }),
+      ),
+    ]);
     if (seq !== state.selectSeq) return;
     // The selected measurement must evaluate; a partner that does not is reported and left out.
     const own = settled[items.indexOf(item)];
     if (own.status === 'rejected') throw own.reason;
     const fetched = settled.filter((r) => r.status === 'fulfilled').map((r) => r.value);
+    const pair = pairSettled.status === 'fulfilled' ? pairSettled.value : null;
+    if (pairSettled.status === 'rejected' && handleAuth(pairSettled.reason)) return;
+    setDetailLayout(item.kind);
     renderPlot(item, fetched);
-    renderFigures(fetched);
+    renderFigures(fetched, { kind: item.kind, pair });
+    renderAnalysis(item, fetched, pair, pairSettled.status === 'rejected' ? pairSettled.reason : null);
     const failedPartner = settled.find((r) => r.status === 'rejected');
     if (failedPartner) {
       if (handleAuth(failedPartner.reason)) return;
@@ -303,6 +354,7 @@ async function selectMeasurementItem(item) {
       $('#polar-plot').replaceChildren(errorBox(err));
       $('#figures').replaceChildren();
       $('#figures-extra').replaceChildren();
+      resetAnalysis();
     }
   } finally {
     if (seq === state.selectSeq) {
@@ -317,9 +369,13 @@ async function selectMeasurementItem(item) {
 function renderPlot(item, fetched) {
   const container = $('#polar-plot');
   const note = $('#plot-note');
+  if (FORM_KINDS.includes(item.kind)) {
+    renderFormPlot(item, fetched.find((f) => f.item.id === item.id));
+    return;
+  }
   if (item.kind !== 'dbb') {
     container.replaceChildren(
-      h('p', { class: 'placeholder' }, `No polar plot for ${String(item.kind).toUpperCase()} measurements.`),
+      h('p', { class: 'placeholder' }, `No plot for ${String(item.kind).toUpperCase()} measurements yet.`),
     );
     note.textContent = '';
     return;
@@ -342,17 +398,58 @@ function renderPlot(item, fetched) {
 
 const LEAD_ROWS = ['test_id', 'direction', 'mode', 'centre_offset_x_um', 'centre_offset_y_um', 'average_radial_error_um', 'circularity_um'];
 
+// The headline figures of each kind, in this order, before everything else.
+const KIND_ROWS = {
+  dbb: [
+    ...LEAD_ROWS,
+    'min_zone_circularity_um',
+    'iso230_4.circular_deviation_um',
+    'iso230_4.radial_deviation_max_um',
+    'iso230_4.radial_deviation_min_um',
+  ],
+  straightness: [
+    'straightness_lsq_um',
+    'straightness_min_zone_um',
+    'straightness_end_point_um',
+    'slope_um_per_m',
+    'length_mm',
+    'points',
+  ],
+  parallelism: ['parallelism_um', 'slope_um_per_m', 'straightness_lsq_um', 'length_mm', 'points'],
+  flatness: [
+    'flatness_lsq_um',
+    'flatness_min_zone_um',
+    'range_um',
+    'plane.slope_x_um_per_m',
+    'plane.slope_y_um_per_m',
+    'plane.offset_um',
+    'points',
+  ],
+};
+
+const CAPTIONS = {
+  dbb: 'DBB figures',
+  straightness: 'Straightness figures',
+  parallelism: 'Parallelism figures',
+  flatness: 'Flatness figures',
+};
+
+// Arrays drawn as charts / tables of their own rather than as rows of the figures table.
+const OWN_VIEWS = new Set(['harmonics', 'diagnosis', 'not_identifiable', 'periodic', 'references', 'measurement']);
+
 // Flattens one results object into {key: value} rows; arrays of objects are returned apart.
 function flattenResults(results) {
   const flat = {};
   const tables = {};
   for (const [key, value] of Object.entries(results || {})) {
+    if (OWN_VIEWS.has(key)) continue;
     if (key === 'centre_offset_um' && Array.isArray(value)) {
       flat.centre_offset_x_um = value[0];
       flat.centre_offset_y_um = value[1];
     } else if (typeof value === 'number' || typeof value === 'string' || typeof value === 'boolean') {
       flat[key] = value;
     } else if (Array.isArray(value)) {
+      if (!value.length) continue;
       if (value.every((v) => typeof v === 'number')) flat[key] = value;
       else if (value.every((v) => v && typeof v === 'object' && !Array.isArray(v))) tables[key] = value;
     } else if (value && typeof value === 'object') {
@@ -374,18 +471,21 @@ function cellText(key, value) {
     const sep = leaf.endsWith('_deg') && value.length === 2 ? ' to ' : ', ';
     return value.map((v) => formatNumber(v, leaf)).join(sep);
   }
-  return String(value);
+  return String(value).replace(/_/g, ' ');
 }
 
 function rowLabel(key) {
+  const full = fullLabelOf(key);
+  if (full) return full;
   const [parent, leaf] = key.includes('.') ? key.split('.', 2) : [null, key];
   const label = labelOf(leaf);
   if (!parent || /ISO 230-4/.test(label)) return label;
   return `${labelOf(parent)}: ${label.charAt(0).toLowerCase()}${label.slice(1)}`;
 }
 
-function renderFigures(fetched) {
+function renderFigures(fetched, { kind = 'dbb', pair = null } = {}) {
   const columns = fetched.map((f) => ({ item: f.item, ...flattenResults(f.results) }));
+  const lead = KIND_ROWS[kind] || [];
   // Row order: the lead rows, then every other numeric key, then other values (e.g. versions).
   const seen = new Set();
   const keys = [];
@@ -395,7 +495,7 @@ function renderFigures(fetched) {
       keys.push(k);
     }
   };
-  LEAD_ROWS.forEach(push);
+  lead.forEach(push);
   const rest = [];
   seen.add('machine_id'); // already in the heading
   for (const c of columns) for (const k of Object.keys(c.flat)) if (!seen.has(k) && !rest.includes(k)) rest.push(k);
@@ -415,22 +515,23 @@ function renderFigures(fetched) {
         h(
           'th',
           { scope: 'col', class: `num dir-${c.item.direction || 'none'}`, 'data-direction': c.item.direction || '' },
-          c.item.direction ? formatDirection(c.item.direction) : `#${c.item.id}`,
+          c.item.direction ? formatDirection(c.item.direction) : 'Value',
           h('span', { class: 'col-id' }, ` #${c.item.id}`),
         ),
       ),
     ),
   );
   const tbody = h('tbody');
+  const alwaysShown = kind === 'dbb' ? LEAD_ROWS.slice(0, 2) : [];
   for (const key of keys) {
-    if (columns.every((c) => c.flat[key] === undefined) && !LEAD_ROWS.slice(0, 2).includes(key)) continue;
+    if (columns.every((c) => c.flat[key] === undefined) && !alwaysShown.includes(key)) continue;
     const leaf = key.split('.').pop();
     const numeric = isNumeric(key);
     const { unit } = unitOf(leaf);
     tbody.append(
       h(
         'tr',
-        { 'data-key': key, class: LEAD_ROWS.includes(key) ? 'lead' : '' },
+        { 'data-key': key, class: lead.includes(key) ? 'lead' : '' },
         h('th', { scope: 'row' }, rowLabel(key)),
         h('td', { class: 'unit' }, numeric ? unit : ''),
         ...columns.map((c) =>
@@ -443,16 +544,40 @@ function renderFigures(fetched) {
       ),
     );
   }
-  const table = h('table', { class: 'figures', 'data-testid': 'figures-table' }, h('caption', {}, 'DBB figures'), thead, tbody);
+  // CW + CCW figures of the pair (ISO 230-4): one value for both directions.
+  if (pair && pair.pair) {
+    const rows = ['circular_hysteresis_um', 'bidirectional_circular_deviation_um'].filter((k) => typeof pair.pair[k] === 'number');
+    const firstLeadRow = [...tbody.children].findIndex((tr) => !tr.classList.contains('lead') && !KIND_ROWS.dbb.includes(tr.dataset.key));
+    const anchor = firstLeadRow >= 0 ? tbody.children[firstLeadRow] : null;
+    for (const k of rows) {
+      tbody.insertBefore(
+        h(
+          'tr',
+          { 'data-key': `pair.${k}`, class: 'lead pair-row' },
+          h('th', { scope: 'row' }, labelOf(k)),
+          h('td', { class: 'unit' }, unitOf(k).unit),
+          h('td', { class: 'num', colspan: columns.length, 'data-key': `pair.${k}`, 'data-testid': `pair-${k}` }, formatNumber(pair.pair[k], k)),
+        ),
+        anchor,
+      );
+    }
+  }
+  const table = h('table', { class: 'figures', 'data-testid': 'figures-table', 'data-kind': kind }, h('caption', {}, CAPTIONS[kind] || 'Figures'), thead, tbody);
   $('#figures').replaceChildren(table);
-  renderExtraTables(columns);
+  renderExtraTables(columns, fetched, kind);
 }
 
-// Arrays of objects (e.g. harmonics[], diagnosis[]) as small tables, folded by default.
-function renderExtraTables(columns) {
+// The periodic components of a straightness profile as a visible table; any other arrays of
+// objects as small tables, folded by default.
+function renderExtraTables(columns, fetched, kind) {
   const box = $('#figures-extra');
-  const names = [...new Set(columns.flatMap((c) => Object.keys(c.tables)))];
   const blocks = [];
+  if (kind === 'straightness') {
+    const own = fetched[0]?.results || {};
+    const periodic = Array.isArray(own.periodic) ? own.periodic : [];
+    blocks.push(periodicTable(periodic));
+  }
+  const names = [...new Set(columns.flatMap((c) => Object.keys(c.tables)))];
   for (const name of names) {
     for (const c of columns) {
       const rows = c.tables[name];
@@ -483,9 +608,290 @@ function renderExtraTables(columns) {
   box.replaceChildren(...blocks);
 }
 
+function periodicTable(periodic) {
+  const caption = h('caption', {}, 'Periodic components (in the least-squares residual)');
+  if (!periodic.length) {
+    return h(
+      'table',
+      { class: 'figures small periodic', 'data-testid': 'periodic-table' },
+      caption,
+      h('tbody', {}, h('tr', {}, h('td', { class: 'text-left' }, 'No significant periodic component found.'))),
+    );
+  }
+  const cols = [
+    ['period_mm', 'Period', 'mm', (v) => formatNumber(v, '_um')],
+    ['amplitude_um', 'Amplitude', 'µm', (v) => formatNumber(v, '_um')],
+    ['peak_to_valley_um', 'Peak to valley', 'µm', (v) => formatNumber(v, '_um')],
+    ['phase_deg', 'Phase', '°', (v) => formatNumber(v, '_deg')],
+  ];
+  return h(
+    'table',
+    { class: 'figures small periodic', 'data-testid': 'periodic-table' },
+    caption,
+    h('thead', {}, h('tr', {}, ...cols.map(([, label, unit]) => h('th', { scope: 'col', class: 'num' }, unit ? `${label} (${unit})` : label)))),
+    h(
+      'tbody',
+      {},
+      ...periodic.map((p, i) =>
+        h(
+          'tr',
+          { 'data-index': i },
+          ...cols.map(([key, , , fmt]) => {
+            const v = key === 'peak_to_valley_um' ? 2 * p.amplitude_um : p[key];
+            return h('td', { class: 'num', 'data-key': key }, fmt(v));
+          }),
+        ),
+      ),
+    ),
+  );
+}
+
 function labelWithUnit(key) {
   const { unit } = unitOf(key);
   return unit ? `${labelOf(key)} (${unit})` : labelOf(key);
+}
+
+// ---------------------------------------------------------------- DBB diagnosis and harmonics
+
+function valueText(v) {
+  if (Array.isArray(v)) return v.map((x) => formatNumber(x, '_um')).join(', ');
+  return formatNumber(v, '_um');
+}
+
+function shapeText(d) {
+  const parts = [];
+  if (typeof d.period_mm === 'number') parts.push(`period ${formatNumber(d.period_mm, '_um')} mm`);
+  if (typeof d.width_deg === 'number') parts.push(`width ${formatNumber(d.width_deg, '_deg')}°`);
+  if (typeof d.period_deg === 'number') parts.push(`period ${formatNumber(d.period_deg, '_deg')}°`);
+  return parts.join(', ');
+}
+
+function renderAnalysis(item, fetched, pair, pairError) {
+  resetAnalysis();
+  if (item.kind !== 'dbb') return;
+  $('#analysis').hidden = false;
+  $('#plot-png-button').hidden = false;
+  const own = fetched.find((f) => f.item.id === item.id);
+  const results = own?.results || {};
+  const joint = pair && Array.isArray(pair.joint_diagnosis);
+  const diagnosis = [...(joint ? pair.joint_diagnosis : results.diagnosis || [])];
+  diagnosis.sort((a, b) => (b.contribution_pct || 0) - (a.contribution_pct || 0));
+  const dir = formatDirection(item.direction);
+  const source = $('#diagnosis-source');
+  source.dataset.source = joint ? 'pair' : 'single';
+  if (joint) {
+    const other = formatDirection(item.direction === 'ccw' ? 'cw' : 'ccw');
+    source.textContent =
+      `Joint diagnosis of CW and CCW fitted together (with ${other} #${pair.partner_id}) — the better one, ` +
+      `because each effect shows differently in the two directions. Contributions are to the ${dir} circularity.`;
+  } else {
+    source.textContent =
+      `Diagnosis of the ${dir} test alone (#${item.id}). ` +
+      (pairError
+        ? `The joint CW + CCW diagnosis could not be fetched: ${pairError.detail || pairError.message}`
+        : 'Upload the opposite direction with the same test_id for the better, joint CW + CCW diagnosis.');
+  }
+
+  if (!diagnosis.length) {
+    $('#diagnosis-table-box').replaceChildren(
+      h('p', { class: 'placeholder', 'data-testid': 'diagnosis-empty' }, 'No significant error found: the circularity is within the noise.'),
+    );
+  } else {
+    const tbody = h(
+      'tbody',
+      {},
+      ...diagnosis.map((d, i) =>
+        h(
+          'tr',
+          { 'data-effect': d.effect, 'data-testid': 'diagnosis-row' },
+          h('td', { class: 'num rank' }, String(i + 1)),
+          h(
+            'th',
+            { scope: 'row' },
+            h('span', { class: 'effect-words' }, effectWords(d.effect)),
+            h('span', { class: 'effect-name' }, d.effect),
+            shapeText(d) ? h('span', { class: 'effect-shape' }, shapeText(d)) : '',
+          ),
+          h('td', { class: 'num', 'data-key': 'value' }, valueText(d.value)),
+          h('td', { class: 'unit' }, displayUnit(d.unit)),
+          h('td', { class: 'num', 'data-key': 'uncertainty' }, `± ${valueText(d.uncertainty)}`),
+          h('td', { class: 'num', 'data-key': 'contribution_pct' }, formatNumber(d.contribution_pct, '_pct')),
+        ),
+      ),
+    );
+    $('#diagnosis-table-box').replaceChildren(
+      h(
+        'table',
+        { class: 'figures diagnosis', 'data-testid': 'diagnosis-table', 'data-source': joint ? 'pair' : 'single' },
+        h(
+          'thead',
+          {},
+          h(
+            'tr',
+            {},
+            h('th', { scope: 'col', class: 'num' }, '#'),
+            h('th', { scope: 'col' }, 'Effect'),
+            h('th', { scope: 'col', class: 'num' }, 'Value'),
+            h('th', { scope: 'col', class: 'unit' }, 'Unit'),
+            h('th', { scope: 'col', class: 'num', title: 'standard uncertainty' }, 'Uncertainty'),
+            h('th', { scope: 'col', class: 'num' }, 'Share %'),
+          ),
+        ),
+        tbody,
+      ),
+    );
+    const total = diagnosis.reduce((s, d) => s + (Number(d.contribution_pct) || 0), 0);
+    const rest = Math.max(0, 100 - total);
+    $('#contribution-chart').replaceChildren(
+      renderContributionChart(diagnosis, { unexplained: rest, title: `Share of the ${dir} circularity` }),
+      h('figcaption', {}, `Share of the ${dir} circularity (peak to valley) explained by each effect.`),
+    );
+  }
+  const ni = Array.isArray(results.not_identifiable) ? results.not_identifiable : [];
+  if (ni.length) {
+    const box = $('#not-identifiable');
+    box.hidden = false;
+    box.replaceChildren(
+      h('strong', {}, joint ? `Not identifiable from the ${dir} test alone: ` : 'Not identifiable from this data: '),
+      ni.map((s) => String(s).replace(/^([a-z_]+)/, (m) => `${effectWords(m)} (${m})`)).join('; '),
+      '.',
+    );
+  }
+  const series = fetched
+    .filter((f) => Array.isArray(f.results?.harmonics) && f.results.harmonics.length)
+    .map((f) => ({ direction: f.item.direction, harmonics: f.results.harmonics }));
+  if (series.length) $('#harmonics-chart').replaceChildren(renderHarmonicsChart(series));
+  else $('#harmonics-chart').replaceChildren(h('p', { class: 'placeholder' }, 'No harmonics in the results.'));
+}
+
+// ---------------------------------------------------------------- form plots
+
+function sampleColumns(f) {
+  const s = f?.measurement?.samples || {};
+  return s;
+}
+
+function renderFormPlot(item, f) {
+  const container = $('#polar-plot');
+  const note = $('#plot-note');
+  const r = f?.results || {};
+  const s = sampleColumns(f);
+  const meta = f?.measurement?.metadata || {};
+  const n = (s.x_mm || s.position_mm || []).length;
+  if (n < 2 || !Object.keys(r).length) {
+    container.replaceChildren(h('p', { class: 'placeholder' }, 'No samples to plot for this measurement.'));
+    note.textContent = '';
+    return;
+  }
+  if (item.kind === 'flatness') {
+    const x = s.x_mm || [];
+    const y = s.y_mm || [];
+    const z = s.z_um || [];
+    const p = r.plane || {};
+    const pts = x.map((xi, i) => ({
+      x: xi,
+      y: y[i],
+      v: z[i] - (p.offset_um + (p.slope_x_um_per_m / 1000) * xi + (p.slope_y_um_per_m / 1000) * y[i]),
+    }));
+    container.replaceChildren(
+      renderColourMap(pts, { title: `Flatness of ${item.machine_id || ''}`.trim(), xLabel: 'X position (mm)', yLabel: 'Y position (mm)' }),
+    );
+    note.textContent =
+      `Height at each point above (red) or below (blue) the least-squares plane, in µm` +
+      `${meta.datum ? `; readings taken from the ${String(meta.datum).replace(/_/g, ' ')}` : ''}.`;
+    return;
+  }
+  const x = s.position_mm || [];
+  const d = s.deviation_um || [];
+  const axis = meta.axis ? String(meta.axis).toUpperCase() : '';
+  const xLabel = `Position along ${axis || 'the axis'} (mm)`;
+  if (item.kind === 'parallelism') {
+    // The datum is the reference of parallelism_um: the readings are drawn as they are, with
+    // the least-squares line (its slope is slope_um_per_m) and the band of the readings.
+    const mx = x.reduce((a, b) => a + b, 0) / n;
+    const md = d.reduce((a, b) => a + b, 0) / n;
+    const slope = r.slope_um_per_m / 1000;
+    const lo = Math.min(...d);
+    const hi = Math.max(...d);
+    container.replaceChildren(
+      renderProfilePlot({
+        x,
+        y: d,
+        lines: [{ label: 'Least-squares line', cls: 'ls', y0: md - slope * mx, slope, testid: 'ls-line' }],
+        bands: [{ label: `Parallelism ${formatNumber(hi - lo, '_um')} µm`, cls: 'zone', lo0: lo, hi0: hi, slope: 0, testid: 'parallelism-band' }],
+        xLabel,
+        yLabel: `Distance from the datum (µm)`,
+        title: `Parallelism of ${axis || 'the axis'} to the ${meta.datum || 'datum'}`,
+      }),
+    );
+    note.textContent = `Distance from the ${String(meta.datum || 'datum').replace(/_/g, ' ')} while ${axis || 'the axis'} travels; the shaded band is the parallelism (full range of the readings).`;
+    return;
+  }
+  // Straightness: deviation about the least-squares line (intercept_um at 0 mm, slope_um_per_m).
+  const lsSlope = r.slope_um_per_m / 1000;
+  const res = x.map((xi, i) => d[i] - (r.intercept_um + lsSlope * xi));
+  const lines = [{ label: 'Least-squares line', cls: 'ls', y0: 0, slope: 0, testid: 'ls-line' }];
+  const bands = [];
+  // Minimum-zone lines: slope min_zone_slope_um_per_m; in the residual their slope is the
+  // difference of the slopes, and they touch the extreme points.
+  let zone = null;
+  if (typeof r.min_zone_slope_um_per_m === 'number' && res.length) {
+    const k = (r.min_zone_slope_um_per_m - r.slope_um_per_m) / 1000;
+    const u = res.map((v, i) => v - k * x[i]);
+    const lo = Math.min(...u);
+    const hi = Math.max(...u);
+    // Use it only if it reproduces the reported minimum-zone straightness.
+    if (Math.abs(hi - lo - r.straightness_min_zone_um) <= 1e-3 + 1e-6 * Math.abs(r.straightness_min_zone_um)) {
+      zone = { label: `Minimum zone ${formatNumber(r.straightness_min_zone_um, '_um')} µm`, cls: 'zone', lo0: lo, hi0: hi, slope: k, testid: 'min-zone-band' };
+    }
+  }
+  if (zone) bands.push(zone);
+  else {
+    bands.push({ label: `Least-squares band ${formatNumber(Math.max(...res) - Math.min(...res), '_um')} µm`, cls: 'zone', lo0: Math.min(...res), hi0: Math.max(...res), slope: 0, testid: 'ls-band' });
+  }
+  const errDir = meta.error_direction ? String(meta.error_direction).toUpperCase() : '';
+  container.replaceChildren(
+    renderProfilePlot({
+      x,
+      y: res,
+      lines,
+      bands,
+      xLabel,
+      yLabel: `Deviation${errDir ? ` in ${errDir}` : ''} (µm)`,
+      title: `Straightness of ${axis || 'the axis'}${errDir ? ` in ${errDir}` : ''}`,
+    }),
+  );
+  note.textContent =
+    `Deviation after removing the least-squares line (slope ${formatNumber(r.slope_um_per_m, '_um_per_m')} µm/m); ` +
+    (zone ? 'the shaded band is the minimum zone (two parallel lines enclosing all points).' : 'the shaded band is the least-squares band.');
+}
+
+// ---------------------------------------------------------------- PNG plot from the server
+
+async function openPlotPng() {
+  const id = state.measurementId;
+  const button = $('#plot-png-button');
+  if (!id) return;
+  button.disabled = true;
+  try {
+    const blob = await api.plotPng(id);
+    if (state.pngUrl) URL.revokeObjectURL(state.pngUrl);
+    state.pngUrl = URL.createObjectURL(blob);
+    const img = $('#png-image');
+    img.src = state.pngUrl;
+    img.dataset.measurementId = id;
+    $('#png-download').href = state.pngUrl;
+    $('#png-download').download = `kinemetric-${id}-polar.png`;
+    $('#png-dialog').showModal();
+  } catch (err) {
+    if (!handleAuth(err)) $('#plot-note').replaceChildren(errorBox(err));
+  } finally {
+    button.disabled = false;
+  }
+}
+
+function closePlotPng() {
+  $('#png-dialog').close();
 }
 
 // ---------------------------------------------------------------- upload
@@ -577,6 +983,11 @@ function start() {
   $('#token-forget').addEventListener('click', onTokenForget);
   $('#upload-form').addEventListener('submit', onUpload);
   $('#machines-refresh').addEventListener('click', () => loadMachines());
+  $('#plot-png-button').addEventListener('click', openPlotPng);
+  $('#png-close').addEventListener('click', closePlotPng);
+  $('#png-dialog').addEventListener('click', (e) => {
+    if (e.target === e.currentTarget) closePlotPng(); // click on the backdrop
+  });
   window.addEventListener('hashchange', () => {
     if (takeTokenFromFragment()) {
       updateTokenStatus();

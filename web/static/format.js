@@ -33,7 +33,83 @@ const LABELS = {
   radius_mm: 'Commanded radius',
   bar_length_mm: 'Bar length',
   plane: 'Plane',
+  turn_start_deg: 'Evaluated turn start',
+  turn_end_deg: 'Evaluated turn end',
+  min_zone_centre_um: 'Minimum-zone centre',
+  radial_error_range_um: 'Radial error range',
+  machine_centre_error_um: 'Machine centre error',
+  circular_hysteresis_um: 'Circular hysteresis H (ISO 230-4)',
+  bidirectional_circular_deviation_um: 'Bidirectional circular deviation G(b) (ISO 230-4)',
+  straightness_lsq_um: 'Straightness (least-squares line)',
+  straightness_min_zone_um: 'Straightness (minimum zone)',
+  straightness_end_point_um: 'Straightness (end-point line)',
+  slope_um_per_m: 'Slope (least-squares line)',
+  intercept_um: 'Least-squares line at 0 mm',
+  min_zone_slope_um_per_m: 'Slope of the minimum-zone lines',
+  end_point_slope_um_per_m: 'Slope of the end-point line',
+  slope_with_periodic_um_per_m: 'Slope (fitted with the periodic terms)',
+  flatness_lsq_um: 'Flatness (least-squares plane)',
+  flatness_min_zone_um: 'Flatness (minimum zone)',
+  range_um: 'Range of readings (from the datum)',
+  parallelism_um: 'Parallelism (to the datum)',
+  points: 'Points',
+  length_mm: 'Length of travel',
+  period_mm: 'Period',
+  amplitude_um: 'Amplitude',
+  phase_deg: 'Phase',
+  false_alarm_probability: 'False-alarm probability',
+  order: 'Order',
 };
+
+// Dotted keys (nested objects of the results) whose label is not "parent: leaf".
+const FULL_LABELS = {
+  'plane.slope_x_um_per_m': 'Least-squares plane: slope in X',
+  'plane.slope_y_um_per_m': 'Least-squares plane: slope in Y',
+  'plane.offset_um': 'Least-squares plane: height at x = y = 0',
+  'min_zone_plane.slope_x_um_per_m': 'Minimum-zone plane: slope in X',
+  'min_zone_plane.slope_y_um_per_m': 'Minimum-zone plane: slope in Y',
+  'min_zone_plane.offset_um': 'Minimum-zone plane: height at x = y = 0',
+};
+
+export function fullLabelOf(key) {
+  return FULL_LABELS[key] || null;
+}
+
+// Effect names of contract §4 in words (the axis letter, if any, is appended).
+const EFFECT_WORDS = {
+  centre_offset: 'Centre offset (set-up)',
+  radius_error: 'Radius error',
+  servo_lag: 'Servo lag',
+  servo_mismatch: 'Servo gain mismatch',
+  squareness: 'Squareness error',
+  scale_mismatch: 'Scale mismatch',
+  backlash: 'Backlash',
+  reversal_spike: 'Reversal spike',
+  lateral_play: 'Lateral play',
+  cyclic_error: 'Cyclic error',
+  straightness: 'Straightness error',
+  stick_slip: 'Stick-slip',
+  kinematic_parameters: 'Kinematic parameters',
+  gravity_deflection: 'Gravity deflection',
+  joint_friction: 'Joint friction',
+  tool_length_error: 'Tool length error',
+  thermal_drift: 'Thermal drift',
+};
+
+// "backlash_x" → "Backlash in X"; unknown names are shown as they are.
+export function effectWords(name) {
+  const s = String(name || '');
+  if (EFFECT_WORDS[s]) return EFFECT_WORDS[s];
+  const m = s.match(/^(.*)_([a-z])$/);
+  if (m && EFFECT_WORDS[m[1]]) return `${EFFECT_WORDS[m[1]]} in ${m[2].toUpperCase()}`;
+  return s.replace(/_/g, ' ');
+}
+
+// Units as the analysis writes them ("um", "um/m", "ppm", "ms") → display text.
+export function displayUnit(u) {
+  const map = { um: 'µm', 'um/m': 'µm/m', ppm: 'ppm', ms: 'ms', deg: '°', mm: 'mm' };
+  return map[u] ?? String(u || '');
+}
 
 const MODE_LABELS = {
   centre_corrected: 'centre corrected',

@@ -12,8 +12,11 @@
 // It starts the server on a free port with a fresh data dir and a bootstrap token, drives the
 // dashboard with headless Chromium (upload CCW + CW DBB files of one test through the form,
 // polar plot with both traces, figures table, a bad file's validation message, a wrong
-// token's 401 message), compares what is drawn with the API's numbers, takes a screenshot,
-// and always stops the server. Missing prerequisites make the test FAIL with the reason.
+// token's 401 message), the DBB diagnosis (joint CW + CCW from /pair), ISO 230-4 figures,
+// harmonics and the server's PNG plot, then straightness, flatness and parallelism uploads
+// with their plots and figures; compares what is drawn with the API's numbers, takes
+// screenshots, and always stops the server. Missing prerequisites make the test FAIL with the
+// reason. Fixtures: tests/fixtures/browser/make_{dbb,form}_fixtures.mjs.
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
@@ -36,6 +39,12 @@ const chromiumPath = process.env.KINEMETRIC_CHROMIUM || '/usr/bin/chromium';
 const fixtures = join(repo, 'tests/fixtures/browser');
 const MACHINE = 'browser-test-vmc';
 const TEST_ID = 'xy-r150';
+const DBB_FIXTURES = ['dbb_xy-r150_ccw.txt', 'dbb_xy-r150_cw.txt', 'dbb_bad_value.txt'];
+const FORM_FIXTURES = {
+  straightness: 'straightness_x_y.txt',
+  flatness: 'flatness_table.txt',
+  parallelism: 'parallelism_x_tslot.txt',
+};
 const CHROMIUM_ARGS = [
   '--headless',
   '--no-sandbox',
@@ -68,7 +77,7 @@ function checkPrerequisites() {
     problems.push(`${chromiumPath} is missing: install Chromium (apt-get install -y chromium; deploy/install-deps.sh)`);
   }
   if (!existsSync(join(webRoot, 'index.html'))) problems.push(`no dashboard at ${webRoot}/index.html`);
-  for (const f of ['dbb_xy-r150_ccw.txt', 'dbb_xy-r150_cw.txt', 'dbb_bad_value.txt']) {
+  for (const f of [...DBB_FIXTURES, ...Object.values(FORM_FIXTURES)]) {
     if (!existsSync(join(fixtures, f))) problems.push(`fixture ${join(fixtures, f)} is missing`);
   }
   if (problems.length) throw new Error(`browser_dashboard cannot run:\n  - ${problems.join('\n  - ')}`);
@@ -175,6 +184,18 @@ function um3(v) {
 // Parses "M x,y L x,y ... Z" into [[x, y], ...].
 function pathPoints(d) {
   return [...d.matchAll(/[ML](-?[\d.]+),(-?[\d.]+)/g)].map((m) => [Number(m[1]), Number(m[2])]);
+}
+
+// The dashboard's percentage format: 1 decimal.
+function fixed1(v) {
+  let s = v.toFixed(1);
+  if (/^-0\.?0*$/.test(s)) s = s.slice(1);
+  return s.replace('-', '−');
+}
+
+// Diagnosis value / uncertainty as the dashboard writes them: µm-style 3 decimals, [x, y] as "x, y".
+function valueText(v) {
+  return Array.isArray(v) ? v.map(um3).join(', ') : um3(v);
 }
 
 function badLineOf(text) {
@@ -372,6 +393,111 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       }
     });
 
+    await step('ISO 230-4 and minimum-zone figures, pair hysteresis in the figures table', async () => {
+      const pair = await apiGet(server, `/api/v1/measurements/${ids.ccw}/pair`);
+      assert.equal(pair.partner_id, ids.cw, 'the CW file is the partner of the CCW file');
+      for (const dir of ['ccw', 'cw']) {
+        const res = await apiGet(server, `/api/v1/measurements/${ids[dir]}/results`);
+        const cell = (key) => page.textContent(`#figures td[data-key="${key}"][data-direction="${dir}"]`);
+        assert.equal(await cell('min_zone_circularity_um'), um3(res.min_zone_circularity_um));
+        for (const k of ['circular_deviation_um', 'radial_deviation_max_um', 'radial_deviation_min_um']) {
+          assert.equal(await cell(`iso230_4.${k}`), um3(res.iso230_4[k]), k);
+        }
+        // Minimum zone never exceeds the least-squares circularity.
+        assert.ok(res.min_zone_circularity_um <= res.circularity_um + 1e-9);
+      }
+      const label = await page.textContent('#figures tr[data-key="iso230_4.circular_deviation_um"] th');
+      assert.match(label, /ISO 230-4/);
+      for (const k of ['circular_hysteresis_um', 'bidirectional_circular_deviation_um']) {
+        assert.equal(await page.textContent(`#figures td[data-testid="pair-${k}"]`), um3(pair.pair[k]), k);
+      }
+    });
+
+    await step('diagnosis table and contribution chart show the joint CW + CCW diagnosis', async () => {
+      const pair = await apiGet(server, `/api/v1/measurements/${ids.ccw}/pair`);
+      const res = await apiGet(server, `/api/v1/measurements/${ids.ccw}/results`);
+      await page.waitForSelector('#analysis:not([hidden])');
+      assert.equal(await page.getAttribute('#diagnosis-source', 'data-source'), 'pair');
+      assert.match(await page.textContent('#diagnosis-source'), /Joint diagnosis of CW and CCW/);
+      const expected = [...pair.joint_diagnosis].sort((a, b) => b.contribution_pct - a.contribution_pct);
+      assert.ok(expected.length >= 1, `the fixtures have named effects: ${JSON.stringify(pair.joint_diagnosis)}`);
+      await page.waitForSelector('#diagnosis-table-box table[data-source="pair"]');
+      const rows = await page.$$eval('#diagnosis-table-box tbody tr', (trs) =>
+        trs.map((tr) => ({
+          effect: tr.dataset.effect,
+          name: tr.querySelector('.effect-name').textContent,
+          words: tr.querySelector('.effect-words').textContent,
+          value: tr.querySelector('td[data-key="value"]').textContent,
+          uncertainty: tr.querySelector('td[data-key="uncertainty"]').textContent,
+          pct: tr.querySelector('td[data-key="contribution_pct"]').textContent,
+        })),
+      );
+      assert.deepEqual(rows.map((r) => r.effect), expected.map((d) => d.effect), 'ranked by contribution');
+      rows.forEach((r, i) => {
+        const d = expected[i];
+        assert.equal(r.name, d.effect);
+        assert.ok(r.words.length > 0 && r.words !== d.effect, `effect in words: ${r.words}`);
+        assert.equal(r.value, valueText(d.value), `${d.effect} value`);
+        assert.equal(r.uncertainty, `± ${valueText(d.uncertainty)}`, `${d.effect} uncertainty`);
+        assert.equal(r.pct, fixed1(d.contribution_pct), `${d.effect} contribution`);
+      });
+      const bars = await page.$$eval('#contribution-chart svg g.bar', (gs) =>
+        gs.map((g) => ({ effect: g.dataset.effect, pct: Number(g.dataset.pct), width: Number(g.querySelector('rect').getAttribute('width')), rest: g.classList.contains('rest') })),
+      );
+      const named = bars.filter((b) => !b.rest);
+      assert.deepEqual(named.map((b) => b.effect), expected.map((d) => d.effect));
+      named.forEach((b, i) => assert.equal(b.pct, expected[i].contribution_pct));
+      // Bar lengths are proportional to the contributions.
+      const scale = named[0].width / named[0].pct;
+      for (const b of named) assert.ok(Math.abs(b.width - b.pct * scale) < 0.05, `bar ${b.effect}`);
+      const total = expected.reduce((s, d) => s + d.contribution_pct, 0);
+      const rest = bars.find((b) => b.rest);
+      assert.ok(rest && Math.abs(rest.pct - Math.max(0, 100 - total)) < 1e-9, 'unexplained share drawn');
+      // Effects that cannot be told apart are listed (muted) when the analysis says so.
+      const ni = res.not_identifiable || [];
+      assert.equal(await page.isHidden('#not-identifiable'), ni.length === 0);
+      for (const n of ni) assert.ok((await page.textContent('#not-identifiable')).includes(n.split(' ')[0]));
+    });
+
+    await step('harmonics chart shows the amplitudes of both directions', async () => {
+      const drawn = await page.$$eval('#harmonics-chart svg rect[data-order]', (rs) =>
+        rs.map((r) => ({ order: Number(r.dataset.order), dir: r.dataset.direction, amp: Number(r.dataset.amplitudeUm), h: Number(r.getAttribute('height')) })),
+      );
+      let count = 0;
+      for (const dir of ['ccw', 'cw']) {
+        const res = await apiGet(server, `/api/v1/measurements/${ids[dir]}/results`);
+        for (const k of res.harmonics) {
+          const bar = drawn.find((b) => b.dir === dir && b.order === k.order);
+          assert.ok(bar, `bar for ${dir} order ${k.order}`);
+          assert.equal(bar.amp, k.amplitude_um);
+          ++count;
+        }
+        // The fixture's 2nd harmonic (oval, 3.0 / 2.4 µm) shows.
+        const second = res.harmonics.find((k) => k.order === 2);
+        assert.ok(second && second.amplitude_um > 1.5, `2nd harmonic ${JSON.stringify(second)}`);
+      }
+      assert.equal(drawn.length, count);
+      const tallest = drawn.reduce((a, b) => (b.amp > a.amp ? b : a));
+      const ratio = tallest.h / tallest.amp;
+      for (const b of drawn) assert.ok(Math.abs(b.h - b.amp * ratio) < 0.05, `height of ${b.dir} ${b.order}`);
+    });
+
+    await step('plot.png opens through an authorised fetch', async () => {
+      await page.click('#plot-png-button');
+      await page.waitForSelector('#png-dialog[open]');
+      await page.waitForFunction(() => {
+        const img = document.querySelector('#png-image');
+        return img.complete && img.naturalWidth > 0;
+      });
+      const img = await page.$eval('#png-image', (i) => ({ src: i.src, w: i.naturalWidth, h: i.naturalHeight, id: i.dataset.measurementId }));
+      assert.match(img.src, /^blob:/);
+      assert.equal(Number(img.id), ids.ccw);
+      assert.ok(img.w >= 200 && img.h >= 200, `PNG size ${img.w}×${img.h}`);
+      await page.screenshot({ path: join(outDir, 'dashboard-png.png') });
+      await page.click('#png-close');
+      await page.waitForSelector('#png-dialog:not([open])', { state: 'attached' });
+    });
+
     await step('a bad file shows the server validation message', async () => {
       const badPath = join(fixtures, 'dbb_bad_value.txt');
       const bytes = readFileSync(badPath);
@@ -406,12 +532,105 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       await page.screenshot({ path: shot });
       assert.ok(existsSync(shot));
       t.diagnostic(`screenshot: ${shot}`);
+      await page.screenshot({ path: join(outDir, 'dashboard-dbb-full.png'), fullPage: true });
       const overflow = await page.evaluate(() => document.documentElement.scrollWidth);
       assert.ok(overflow <= 1280, `no horizontal scrolling (scrollWidth ${overflow})`);
       const box = await page.locator('#polar-plot svg').boundingBox();
       assert.ok(box && box.x + box.width <= 1280 && box.y + box.height <= 800, `plot visible: ${JSON.stringify(box)}`);
       const tbox = await page.locator('#figures table').boundingBox();
       assert.ok(tbox && tbox.x + tbox.width <= 1280, `figures visible: ${JSON.stringify(tbox)}`);
+    });
+
+    const formIds = {};
+    const uploadForm = async (kind) => {
+      await page.setInputFiles('#upload-file', join(fixtures, FORM_FIXTURES[kind]));
+      await page.click('#upload-button');
+      const msg = await page.waitForSelector(`#upload-message.success:has-text("${FORM_FIXTURES[kind]}")`);
+      const m = (await msg.textContent()).match(/#(\d+)/);
+      assert.ok(m, 'success message names the id');
+      formIds[kind] = Number(m[1]);
+      await page.waitForSelector(`#measurements button[data-id="${formIds[kind]}"][aria-current="true"]`);
+      await page.waitForSelector(`#figures table[data-kind="${kind}"]`);
+      assert.equal(await page.isHidden('#analysis'), true, 'no DBB diagnosis for a form measurement');
+      const [meas, res] = await Promise.all([
+        apiGet(server, `/api/v1/measurements/${formIds[kind]}`),
+        apiGet(server, `/api/v1/measurements/${formIds[kind]}/results`),
+      ]);
+      assert.equal(meas.kind, kind);
+      const cell = (key) => page.textContent(`#figures td[data-key="${key}"][data-id="${formIds[kind]}"]`);
+      return { meas, res, cell };
+    };
+
+    await step('straightness upload: profile about the LS line, minimum zone, figures', async () => {
+      const { meas, res, cell } = await uploadForm('straightness');
+      await page.waitForSelector('#polar-plot svg[data-testid="profile-plot"]');
+      for (const k of ['straightness_lsq_um', 'straightness_min_zone_um', 'straightness_end_point_um', 'slope_um_per_m']) {
+        assert.equal(await cell(k), um3(res[k]), k);
+      }
+      // The fixture: slope 12 µm/m plus the bow's zero net slope; waviness 55 mm, 0.2 µm.
+      assert.ok(Math.abs(res.slope_um_per_m - 12) < 0.5, `slope ${res.slope_um_per_m}`);
+      const wave = res.periodic.find((p) => Math.abs(p.period_mm - 55) < 2);
+      assert.ok(wave && Math.abs(wave.amplitude_um - 0.2) < 0.03, `55 mm waviness: ${JSON.stringify(res.periodic)}`);
+      const periodicRows = await page.$$eval('[data-testid="periodic-table"] tbody tr[data-index]', (trs) =>
+        trs.map((tr) => Object.fromEntries([...tr.querySelectorAll('td')].map((td) => [td.dataset.key, td.textContent]))),
+      );
+      assert.equal(periodicRows.length, res.periodic.length);
+      res.periodic.forEach((p, i) => {
+        assert.equal(periodicRows[i].period_mm, um3(p.period_mm));
+        assert.equal(periodicRows[i].amplitude_um, um3(p.amplitude_um));
+        assert.equal(periodicRows[i].peak_to_valley_um, um3(2 * p.amplitude_um));
+      });
+      const plot = await page.$eval('#polar-plot svg', (svg) => ({
+        points: Number(svg.querySelector('[data-testid="profile-trace"]').dataset.points),
+        ls: svg.querySelectorAll('[data-testid="ls-line"]').length,
+        zone: svg.querySelector('[data-testid="min-zone-band"]')?.dataset.widthUm,
+        text: svg.textContent,
+      }));
+      assert.equal(plot.points, meas.samples.position_mm.length);
+      assert.equal(plot.points, 201);
+      assert.equal(plot.ls, 1, 'least-squares zero line');
+      assert.ok(plot.zone !== undefined, 'minimum-zone band drawn');
+      assert.ok(Math.abs(Number(plot.zone) - res.straightness_min_zone_um) < 1e-3, `zone ${plot.zone} vs ${res.straightness_min_zone_um}`);
+      assert.match(plot.text, /Position along X \(mm\)/);
+      assert.match(plot.text, /\(µm\)/);
+      await page.screenshot({ path: join(outDir, 'dashboard-straightness.png') });
+    });
+
+    await step('flatness upload: colour map about the LS plane with a µm scale, figures', async () => {
+      const { meas, res, cell } = await uploadForm('flatness');
+      await page.waitForSelector('#polar-plot svg[data-testid="flatness-map"]');
+      for (const k of ['flatness_lsq_um', 'flatness_min_zone_um', 'range_um']) assert.equal(await cell(k), um3(res[k]), k);
+      for (const k of ['slope_x_um_per_m', 'slope_y_um_per_m', 'offset_um']) assert.equal(await cell(`plane.${k}`), um3(res.plane[k]), k);
+      const cells = await page.$$eval('#polar-plot svg .cells [data-um]', (cs) =>
+        cs.map((c) => ({ x: Number(c.dataset.xMm), y: Number(c.dataset.yMm), um: Number(c.dataset.um), fill: c.getAttribute('fill') })),
+      );
+      const { x_mm: xs, y_mm: ys, z_um: zs } = meas.samples;
+      assert.equal(cells.length, zs.length);
+      assert.equal(cells.length, 63);
+      const p = res.plane;
+      for (let i = 0; i < zs.length; ++i) {
+        const c = cells.find((q) => q.x === xs[i] && q.y === ys[i]);
+        const expectUm = zs[i] - (p.offset_um + (p.slope_x_um_per_m / 1000) * xs[i] + (p.slope_y_um_per_m / 1000) * ys[i]);
+        assert.ok(c && Math.abs(c.um - expectUm) < 1e-9, `cell ${xs[i]},${ys[i]}`);
+      }
+      // Peak to valley of the drawn deviations is the least-squares flatness.
+      const pv = Math.max(...cells.map((c) => c.um)) - Math.min(...cells.map((c) => c.um));
+      assert.ok(Math.abs(pv - res.flatness_lsq_um) < 1e-6, `${pv} vs ${res.flatness_lsq_um}`);
+      assert.ok(new Set(cells.map((c) => c.fill)).size > 5, 'colours vary');
+      const scale = await page.textContent('#polar-plot [data-testid="colour-scale"]');
+      assert.match(scale, /µm/);
+      await page.screenshot({ path: join(outDir, 'dashboard-flatness.png') });
+    });
+
+    await step('parallelism upload: readings from the datum with the LS line, figures', async () => {
+      const { meas, res, cell } = await uploadForm('parallelism');
+      await page.waitForSelector('#polar-plot svg[data-testid="profile-plot"]');
+      for (const k of ['parallelism_um', 'slope_um_per_m', 'straightness_lsq_um']) assert.equal(await cell(k), um3(res[k]), k);
+      const band = await page.$eval('#polar-plot [data-testid="parallelism-band"]', (b) => Number(b.dataset.widthUm));
+      const d = meas.samples.deviation_um;
+      assert.ok(Math.abs(band - res.parallelism_um) < 1e-9);
+      assert.ok(Math.abs(Math.max(...d) - Math.min(...d) - res.parallelism_um) < 1e-9);
+      await page.screenshot({ path: join(outDir, 'dashboard-parallelism.png') });
     });
 
     await step('every /api/ call carried the bearer token; no script errors', async () => {
