@@ -105,8 +105,7 @@ Ingested IngestTracker(std::string_view bytes, const std::string& file) {
   Ingested in;
   in.kind = "tracker";
   in.machine_id = f.readings.machine_id;
-  in.direction =
-      f.readings.mode == tracker::TrackerMode::kSequential ? "sequential" : "simultaneous";
+  // The mode (simultaneous / sequential) stays in the metadata; direction is for DBB tests.
   for (const auto& [k, v] : f.metadata) in.metadata[k] = v;
   if (auto it = f.metadata.find("timestamp"); it != f.metadata.end()) in.measured_at = it->second;
   const int n = f.readings.NumTrackers();
@@ -181,6 +180,8 @@ nlohmann::json Service::DbbPairJson(std::int64_t id) {
     out["pair"] = j["pairs"][0];
   }
   out["joint_diagnosis"] = j["tests"][0]["diagnosis"];
+  out["joint_not_identifiable"] = j["tests"][0]["not_identifiable"];
+  out["partner_joint_diagnosis"] = j["tests"][1]["diagnosis"];
   return out;
 }
 

@@ -122,6 +122,14 @@ export const api = {
       throw err;
     }),
   plotPng: (id) => apiFetchBlob(`/api/v1/measurements/${encodeURIComponent(id)}/plot.png`),
+  // Hexapod calibration study → 202 {job_id}; the job is polled with job(id).
+  calibrate: (body) =>
+    apiFetch('/api/v1/calibrations', {
+      method: 'POST',
+      body: JSON.stringify(body),
+      headers: { 'Content-Type': 'application/json' },
+    }),
+  job: (id) => apiFetch(`/api/v1/jobs/${encodeURIComponent(id)}`),
   upload: (file, bytes) =>
     apiFetch('/api/v1/measurements', {
       method: 'POST',

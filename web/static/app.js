@@ -16,6 +16,7 @@ import {
   unitOf,
 } from './format.js';
 import { renderPolarPlot } from './polar.js';
+import { renderTrackerVectorPlot } from './tracker.js';
 
 const $ = (sel) => document.querySelector(sel);
 
@@ -26,9 +27,15 @@ const state = {
   measurementId: null,
   selectSeq: 0, // guards against out-of-order responses when clicking quickly
   pngUrl: null, // object URL of the PNG plot shown in the dialog
+  calibChecked: new Set(), // DBB measurement ids ticked in the calibration panel
+  calibSeq: 0, // a new job or another machine stops the polling of the previous job
 };
 
+const JOB_POLL_MS = 500;
+
 const FORM_KINDS = ['straightness', 'parallelism', 'flatness'];
+// Kinds drawn wide (plot above the figures); they need the stored samples as well.
+const WIDE_KINDS = [...FORM_KINDS, 'tracker'];
 
 // ---------------------------------------------------------------- small DOM helpers
 
@@ -181,6 +188,7 @@ async function selectMachine(machineId, { selectMeasurement } = {}) {
   if (changed) {
     state.measurementId = null;
     resetDetail();
+    resetCalibration();
   }
   try {
     const data = await api.measurements(machineId);
@@ -190,6 +198,7 @@ async function selectMachine(machineId, { selectMeasurement } = {}) {
     $('#measurements-count').textContent =
       total > state.measurements.length ? `showing ${state.measurements.length} of ${total}` : `${total}`;
     renderMeasurements();
+    renderCalibrationChoices();
     const target = selectMeasurement ?? state.measurementId;
     // Keep the selection; otherwise show the newest DBB test (else the newest measurement).
     const item =
@@ -284,7 +293,7 @@ function resetAnalysis() {
 
 // DBB: polar plot beside the figures; form measurements: the wide plot above the figures.
 function setDetailLayout(kind) {
-  const wide = FORM_KINDS.includes(kind);
+  const wide = WIDE_KINDS.includes(kind);
   $('#detail-body').classList.toggle('wide', wide);
   $('#polar-plot').classList.toggle('polar-figure', !wide);
 }
@@ -311,7 +320,7 @@ async function selectMeasurementItem(item) {
   $('#figures').setAttribute('aria-busy', 'true');
   try {
     const wantTrace = item.kind === 'dbb';
-    const wantSamples = FORM_KINDS.includes(item.kind);
+    const wantSamples = WIDE_KINDS.includes(item.kind);
     // The pair analysis (joint CW + CCW diagnosis, hysteresis) only when a partner is listed.
     const pairPromise = wantTrace && partner ? api.pair(item.id) : Promise.resolve(null);
     const [settled, pairSettled] = await Promise.all([
@@ -373,6 +382,10 @@ function renderPlot(item, fetched) {
     renderFormPlot(item, fetched.find((f) => f.item.id === item.id));
     return;
   }
+  if (item.kind === 'tracker') {
+    renderTrackerPlot(item, fetched.find((f) => f.item.id === item.id));
+    return;
+  }
   if (item.kind !== 'dbb') {
     container.replaceChildren(
       h('p', { class: 'placeholder' }, `No plot for ${String(item.kind).toUpperCase()} measurements yet.`),
@@ -416,6 +429,7 @@ const KIND_ROWS = {
     'points',
   ],
   parallelism: ['parallelism_um', 'slope_um_per_m', 'straightness_lsq_um', 'length_mm', 'points'],
+  tracker: ['residual_rms_um', 'condition_number', 'rejected_readings_count', 'sigma_um', 'readings_used', 'unknowns', 'iterations'],
   flatness: [
     'flatness_lsq_um',
     'flatness_min_zone_um',
@@ -432,10 +446,11 @@ const CAPTIONS = {
   straightness: 'Straightness figures',
   parallelism: 'Parallelism figures',
   flatness: 'Flatness figures',
+  tracker: 'Laser-tracker self-calibration',
 };
 
 // Arrays drawn as charts / tables of their own rather than as rows of the figures table.
-const OWN_VIEWS = new Set(['harmonics', 'diagnosis', 'not_identifiable', 'periodic', 'references', 'measurement']);
+const OWN_VIEWS = new Set(['harmonics', 'diagnosis', 'not_identifiable', 'periodic', 'references', 'measurement', 'decomposition', 'transform', 'point_ids']);
 
 // Flattens one results object into {key: value} rows; arrays of objects are returned apart.
 function flattenResults(results) {
@@ -443,6 +458,11 @@ function flattenResults(results) {
   const tables = {};
   for (const [key, value] of Object.entries(results || {})) {
     if (OWN_VIEWS.has(key)) continue;
+    if (key === 'rejected_readings' && Array.isArray(value)) {
+      flat.rejected_readings_count = value.length; // the list itself is a table below
+      if (value.length && value.every((v) => v && typeof v === 'object')) tables[key] = value;
+      continue;
+    }
     if (key === 'centre_offset_um' && Array.isArray(value)) {
       flat.centre_offset_x_um = value[0];
       flat.centre_offset_y_um = value[1];
@@ -515,7 +535,7 @@ function renderFigures(fetched, { kind = 'dbb', pair = null } = {}) {
         h(
           'th',
           { scope: 'col', class: `num dir-${c.item.direction || 'none'}`, 'data-direction': c.item.direction || '' },
-          c.item.direction ? formatDirection(c.item.direction) : 'Value',
+          c.item.direction && kind === 'dbb' ? formatDirection(c.item.direction) : 'Value',
           h('span', { class: 'col-id' }, ` #${c.item.id}`),
         ),
       ),
@@ -577,6 +597,7 @@ function renderExtraTables(columns, fetched, kind) {
     const periodic = Array.isArray(own.periodic) ? own.periodic : [];
     blocks.push(periodicTable(periodic));
   }
+  if (kind === 'tracker') blocks.push(decompositionTable(fetched[0]?.results?.decomposition));
   const names = [...new Set(columns.flatMap((c) => Object.keys(c.tables)))];
   for (const name of names) {
     for (const c of columns) {
@@ -644,6 +665,95 @@ function periodicTable(periodic) {
       ),
     ),
   );
+}
+
+// Tracker decomposition (scale per axis in ppm, squareness per plane in µm/m, each ± σ).
+function decompositionTable(dec) {
+  const caption = h('caption', {}, 'Error decomposition (machine axes)');
+  if (!dec || typeof dec !== 'object') {
+    return h(
+      'table',
+      { class: 'figures small decomposition', 'data-testid': 'decomposition-table' },
+      caption,
+      h('tbody', {}, h('tr', {}, h('td', { class: 'text-left' }, 'No decomposition in the results.'))),
+    );
+  }
+  const rows = [
+    ...['x', 'y', 'z'].map((a) => ({ key: `scale_ppm.${a}`, label: `Scale ${a.toUpperCase()}`, unit: 'ppm', v: dec.scale_ppm?.[a], s: dec.scale_sigma_ppm?.[a] })),
+    ...['xy', 'yz', 'zx'].map((p) => ({
+      key: `squareness_um_per_m.${p}`,
+      label: `Squareness ${p.toUpperCase()}`,
+      unit: 'µm/m',
+      v: dec.squareness_um_per_m?.[p],
+      s: dec.squareness_sigma_um_per_m?.[p],
+    })),
+  ];
+  const f3 = (v) => formatNumber(v, '_um');
+  const table = h(
+    'table',
+    { class: 'figures small decomposition', 'data-testid': 'decomposition-table' },
+    caption,
+    h(
+      'thead',
+      {},
+      h(
+        'tr',
+        {},
+        h('th', { scope: 'col' }, 'Term'),
+        h('th', { scope: 'col', class: 'num' }, 'Value'),
+        h('th', { scope: 'col', class: 'num', title: 'standard uncertainty' }, '± σ'),
+        h('th', { scope: 'col', class: 'unit' }, 'Unit'),
+      ),
+    ),
+    h(
+      'tbody',
+      {},
+      ...rows.map((r) =>
+        h(
+          'tr',
+          { 'data-key': r.key },
+          h('th', { scope: 'row' }, r.label),
+          h('td', { class: 'num', 'data-key': 'value' }, f3(r.v)),
+          h('td', { class: 'num', 'data-key': 'sigma' }, `± ${f3(r.s)}`),
+          h('td', { class: 'unit' }, r.unit),
+        ),
+      ),
+    ),
+  );
+  const fixed = Array.isArray(dec.fixed) ? dec.fixed : [];
+  if (!fixed.length) return table;
+  return h(
+    'div',
+    {},
+    table,
+    h(
+      'details',
+      { 'data-table': 'decomposition-fixed' },
+      h('summary', {}, `Terms not identified (${fixed.length})`),
+      h('ul', { class: 'fixed-terms' }, ...fixed.map((t) => h('li', {}, String(t)))),
+    ),
+  );
+}
+
+function renderTrackerPlot(item, f) {
+  const container = $('#polar-plot');
+  const note = $('#plot-note');
+  const r = f?.results || {};
+  const s = f?.measurement?.samples || {};
+  const xs = s.x_mm || [];
+  const errors = Array.isArray(r.volumetric_error_um) ? r.volumetric_error_um : [];
+  if (!xs.length || xs.length !== errors.length) {
+    container.replaceChildren(h('p', { class: 'placeholder' }, 'No volumetric error map for this measurement.'));
+    note.textContent = '';
+    return;
+  }
+  const points = xs.map((x, i) => [x, s.y_mm[i], s.z_mm[i]]);
+  const { svg } = renderTrackerVectorPlot(points, errors, { title: `Volumetric error of ${item.machine_id || ''}`.trim() });
+  container.replaceChildren(svg);
+  const dropped = errors.filter((e) => !e).length;
+  note.textContent =
+    'Volumetric error at each commanded point (arrow, magnified) after the best-fit placement of the machine frame' +
+    (dropped ? `; ${dropped} point${dropped === 1 ? '' : 's'} dropped (hollow).` : '.');
 }
 
 function labelWithUnit(key) {
@@ -894,6 +1004,230 @@ function closePlotPng() {
   $('#png-dialog').close();
 }
 
+// ---------------------------------------------------------------- hexapod calibration
+
+function dbbOfMachine() {
+  return state.measurements.filter((m) => m.kind === 'dbb').sort((a, b) => a.id - b.id);
+}
+
+function resetCalibration() {
+  state.calibSeq += 1; // stops any polling
+  state.calibChecked = new Set();
+  $('#calibration').hidden = true;
+  $('#calib-measurements').replaceChildren();
+  setMessage($('#calib-status'), null);
+  $('#calib-results').replaceChildren();
+}
+
+// The panel lists the DBB tests of the selected machine; it is hidden when there are none.
+function renderCalibrationChoices() {
+  const dbb = dbbOfMachine();
+  $('#calibration').hidden = dbb.length === 0;
+  const known = new Set(dbb.map((m) => m.id));
+  state.calibChecked = new Set([...state.calibChecked].filter((id) => known.has(id)));
+  $('#calib-measurements').replaceChildren(
+    ...dbb.map((m) => {
+      const id = `calib-m-${m.id}`;
+      return h(
+        'label',
+        { class: 'calib-choice', for: id },
+        h('input', {
+          type: 'checkbox',
+          id,
+          value: m.id,
+          'data-testid': 'calib-choice',
+          'data-id': m.id,
+          checked: state.calibChecked.has(m.id),
+          onchange: (e) => {
+            if (e.target.checked) state.calibChecked.add(m.id);
+            else state.calibChecked.delete(m.id);
+          },
+        }),
+        h('span', {}, `${m.test_id || m.filename || `#${m.id}`}`),
+        m.direction ? h('span', { class: `badge dir-${m.direction}` }, formatDirection(m.direction)) : '',
+        h('span', { class: 'item-meta' }, `#${m.id}`),
+      );
+    }),
+  );
+}
+
+function setAllCalibChecks(on) {
+  state.calibChecked = on ? new Set(dbbOfMachine().map((m) => m.id)) : new Set();
+  for (const box of document.querySelectorAll('#calib-measurements input[type="checkbox"]')) box.checked = on;
+}
+
+function calibError(title, detail) {
+  setMessage($('#calib-status'), 'error', h('strong', { class: 'problem-title' }, title), h('span', { class: 'problem-detail' }, detail));
+}
+
+async function onCalibrate(event) {
+  event.preventDefault();
+  const ids = dbbOfMachine()
+    .map((m) => m.id)
+    .filter((id) => state.calibChecked.has(id));
+  const fileInput = $('#calib-machine-file');
+  const file = fileInput.files && fileInput.files[0];
+  if (!ids.length) {
+    calibError('No measurement chosen', 'Tick the DBB measurements to use.');
+    return;
+  }
+  if (!file) {
+    calibError('No machine definition', 'Choose the machine definition JSON file (kinemetric-machine/1).');
+    fileInput.focus();
+    return;
+  }
+  let machine;
+  try {
+    machine = JSON.parse(await file.text());
+  } catch (err) {
+    calibError('Machine definition is not valid JSON', `${file.name}: ${err.message}`);
+    return;
+  }
+  if (!machine || typeof machine !== 'object' || Array.isArray(machine)) {
+    calibError('Machine definition is not a JSON object', file.name);
+    return;
+  }
+  const body = { machine, measurement_ids: ids };
+  const method = $('#calib-method').value;
+  if (method) body.method = method;
+  const seq = ++state.calibSeq;
+  const button = $('#calib-run');
+  button.disabled = true;
+  $('#calib-results').replaceChildren();
+  setMessage($('#calib-status'), 'info', `Submitting a calibration with ${ids.length} DBB test${ids.length === 1 ? '' : 's'}…`);
+  try {
+    const { job_id: jobId } = await api.calibrate(body);
+    $('#calib-status').dataset.jobId = jobId;
+    await pollJob(jobId, seq);
+  } catch (err) {
+    if (seq !== state.calibSeq) return;
+    if (!handleAuth(err)) setMessage($('#calib-status'), 'error', ...problemContent(err instanceof ApiError ? err : { title: 'Calibration failed', detail: String(err.message || err) }));
+  } finally {
+    if (seq === state.calibSeq) button.disabled = false;
+  }
+}
+
+function jobStatusContent(job) {
+  const pct = Math.round(100 * (Number(job.progress) || 0));
+  return [
+    h('strong', { class: 'problem-title' }, `Job #${job.id}: ${job.status}`),
+    h('span', { class: 'job-stage', 'data-testid': 'calib-stage' }, `${job.stage || ''}`.replace(/_/g, ' ')),
+    h('progress', { max: 100, value: pct, 'data-testid': 'calib-progress' }, `${pct} %`),
+  ];
+}
+
+async function pollJob(jobId, seq) {
+  const status = $('#calib-status');
+  for (;;) {
+    const job = await api.job(jobId);
+    if (seq !== state.calibSeq) return;
+    status.dataset.status = job.status;
+    if (job.status === 'done') {
+      setMessage(status, 'success', h('strong', { class: 'problem-title' }, `Job #${job.id}: done`), h('span', {}, 'Calibration finished.'));
+      renderCalibrationResult(job.result || {});
+      return;
+    }
+    if (job.status === 'failed') {
+      setMessage(status, 'error', h('strong', { class: 'problem-title' }, `Job #${job.id}: failed`), h('span', { class: 'problem-detail', 'data-testid': 'calib-error' }, job.error || 'no reason given'));
+      return;
+    }
+    setMessage(status, 'info', ...jobStatusContent(job));
+    await new Promise((r) => setTimeout(r, JOB_POLL_MS));
+    if (seq !== state.calibSeq) return;
+  }
+}
+
+function renderCalibrationResult(r) {
+  const f3 = (v) => formatNumber(v, '_um');
+  const tests = Array.isArray(r.tests) ? r.tests : [];
+  const testsTable = h(
+    'table',
+    { class: 'figures small calib-tests', 'data-testid': 'calib-tests-table' },
+    h('caption', {}, 'Circularity before and predicted after the correction'),
+    h(
+      'thead',
+      {},
+      h(
+        'tr',
+        {},
+        h('th', { scope: 'col' }, 'Test'),
+        h('th', { scope: 'col' }, 'Direction'),
+        h('th', { scope: 'col', class: 'num' }, 'Before (µm)'),
+        h('th', { scope: 'col', class: 'num' }, 'Predicted after (µm)'),
+      ),
+    ),
+    h(
+      'tbody',
+      {},
+      ...tests.map((t, i) =>
+        h(
+          'tr',
+          { 'data-index': i },
+          h('td', { 'data-key': 'test_id' }, t.test_id ?? '—'),
+          h('td', { 'data-key': 'direction' }, formatDirection(t.direction)),
+          h('td', { class: 'num', 'data-key': 'circularity_before_um' }, f3(t.circularity_before_um)),
+          h('td', { class: 'num', 'data-key': 'predicted_circularity_after_um' }, f3(t.predicted_circularity_after_um)),
+        ),
+      ),
+    ),
+  );
+  const p = r.parameters || {};
+  const u = r.parameter_uncertainty_um || {};
+  const fixed = new Set(Array.isArray(r.fixed_parameters) ? r.fixed_parameters : []);
+  const cell = (name, v, s) =>
+    h(
+      'td',
+      { class: `num${fixed.has(name) ? ' fixed' : ''}`, 'data-param': name, title: fixed.has(name) ? 'fixed (not identifiable from these tests)' : null },
+      fixed.has(name) ? `${f3(v)} (fixed)` : `${f3(v)} ± ${f3(s)}`,
+    );
+  const paramsTable = h(
+    'table',
+    { class: 'figures small calib-params', 'data-testid': 'calib-params-table' },
+    h('caption', {}, 'Identified parameters (µm, ± standard uncertainty)'),
+    h(
+      'thead',
+      {},
+      h(
+        'tr',
+        {},
+        h('th', { scope: 'col' }, 'Strut'),
+        h('th', { scope: 'col', class: 'num' }, 'Length offset'),
+        h('th', { scope: 'col', class: 'num' }, 'Base joint X'),
+        h('th', { scope: 'col', class: 'num' }, 'Base joint Y'),
+        h('th', { scope: 'col', class: 'num' }, 'Base joint Z'),
+      ),
+    ),
+    h(
+      'tbody',
+      {},
+      ...[0, 1, 2, 3, 4, 5].map((j) =>
+        h(
+          'tr',
+          { 'data-strut': j },
+          h('th', { scope: 'row' }, String(j + 1)),
+          cell(`strut_offset_um[${j}]`, p.strut_offset_um?.[j], u.strut_offset_um?.[j]),
+          ...[0, 1, 2].map((c) => cell(`base_joint_offset_um[${j}][${c}]`, p.base_joint_offset_um?.[j]?.[c], u.base_joint_offset_um?.[j]?.[c])),
+        ),
+      ),
+    ),
+  );
+  const summary = h(
+    'dl',
+    { class: 'calib-summary', 'data-testid': 'calib-summary' },
+    h('dt', {}, 'Method'),
+    h('dd', { 'data-key': 'method' }, formatMode(r.method)),
+    h('dt', {}, 'Residual RMS'),
+    h('dd', { 'data-key': 'residual_rms_um' }, `${f3(r.residual_rms_um)} µm`),
+    h('dt', {}, 'Condition number'),
+    h('dd', { 'data-key': 'condition_number' }, formatNumber(r.condition_number)),
+    h('dt', {}, 'Converged'),
+    h('dd', { 'data-key': 'converged' }, r.converged === undefined ? '—' : r.converged ? `yes (${r.iterations ?? '?'} iterations)` : 'no'),
+    h('dt', {}, 'Fixed parameters'),
+    h('dd', { 'data-key': 'fixed_parameters' }, fixed.size ? [...fixed].join(', ') : 'none'),
+  );
+  $('#calib-results').replaceChildren(summary, testsTable, paramsTable);
+}
+
 // ---------------------------------------------------------------- upload
 
 async function onUpload(event) {
@@ -973,6 +1307,7 @@ function onTokenForget() {
   $('#measurements-machine').textContent = 'Select a machine.';
   $('#measurements-count').textContent = '';
   resetDetail();
+  resetCalibration();
   showAuthProblem(null);
 }
 
@@ -985,6 +1320,9 @@ function start() {
   $('#machines-refresh').addEventListener('click', () => loadMachines());
   $('#plot-png-button').addEventListener('click', openPlotPng);
   $('#png-close').addEventListener('click', closePlotPng);
+  $('#calib-form').addEventListener('submit', onCalibrate);
+  $('#calib-all').addEventListener('click', () => setAllCalibChecks(true));
+  $('#calib-none').addEventListener('click', () => setAllCalibChecks(false));
   $('#png-dialog').addEventListener('click', (e) => {
     if (e.target === e.currentTarget) closePlotPng(); // click on the backdrop
   });

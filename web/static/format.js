@@ -59,6 +59,13 @@ const LABELS = {
   phase_deg: 'Phase',
   false_alarm_probability: 'False-alarm probability',
   order: 'Order',
+  residual_rms_um: 'Residual RMS',
+  condition_number: 'Condition number',
+  rejected_readings_count: 'Rejected readings',
+  sigma_um: 'Reading noise σ',
+  readings_used: 'Readings used',
+  unknowns: 'Unknowns',
+  iterations: 'Iterations',
 };
 
 // Dotted keys (nested objects of the results) whose label is not "parent: leaf".

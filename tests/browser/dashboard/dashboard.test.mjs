@@ -14,9 +14,12 @@
 // polar plot with both traces, figures table, a bad file's validation message, a wrong
 // token's 401 message), the DBB diagnosis (joint CW + CCW from /pair), ISO 230-4 figures,
 // harmonics and the server's PNG plot, then straightness, flatness and parallelism uploads
-// with their plots and figures; compares what is drawn with the API's numbers, takes
-// screenshots, and always stops the server. Missing prerequisites make the test FAIL with the
-// reason. Fixtures: tests/fixtures/browser/make_{dbb,form}_fixtures.mjs.
+// with their plots and figures, then a laser-tracker upload (volumetric error vectors in XY
+// and XZ, decomposition table) and a hexapod calibration job run from the "Calibrate hexapod"
+// panel (before/after circularity and identified parameters = the job's result); compares
+// what is drawn with the API's numbers, takes screenshots, and always stops the server.
+// Missing prerequisites make the test FAIL with the reason. Fixtures:
+// tests/fixtures/browser/make_{dbb,form,tracker}_fixture(s).mjs and hexapod/ (CLI simulator).
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
@@ -45,6 +48,13 @@ const FORM_FIXTURES = {
   flatness: 'flatness_table.txt',
   parallelism: 'parallelism_x_tslot.txt',
 };
+const TRACKER_FIXTURE = 'tracker_browser-vmc.txt'; // make_tracker_fixture.mjs
+const TRACKER_MACHINE = 'browser-vmc';
+// Hexapod DBB tests: kinemetric simulate dbb --machine tests/fixtures/pm600-like.json --absolute
+// --samples 180 --seed 5 --single-direction (tests a–j, CCW).
+const HEXAPOD_FIXTURES = 'abcdefghij'.split('').map((t) => `hexapod/dbb_${t}_ccw.txt`);
+const HEXAPOD_MACHINE_JSON = join(repo, 'tests/fixtures/pm600-like.json');
+const HEXAPOD_MACHINE = 'pm600-like';
 const CHROMIUM_ARGS = [
   '--headless',
   '--no-sandbox',
@@ -77,9 +87,10 @@ function checkPrerequisites() {
     problems.push(`${chromiumPath} is missing: install Chromium (apt-get install -y chromium; deploy/install-deps.sh)`);
   }
   if (!existsSync(join(webRoot, 'index.html'))) problems.push(`no dashboard at ${webRoot}/index.html`);
-  for (const f of [...DBB_FIXTURES, ...Object.values(FORM_FIXTURES)]) {
+  for (const f of [...DBB_FIXTURES, ...Object.values(FORM_FIXTURES), TRACKER_FIXTURE, ...HEXAPOD_FIXTURES]) {
     if (!existsSync(join(fixtures, f))) problems.push(`fixture ${join(fixtures, f)} is missing`);
   }
+  if (!existsSync(HEXAPOD_MACHINE_JSON)) problems.push(`machine definition ${HEXAPOD_MACHINE_JSON} is missing`);
   if (problems.length) throw new Error(`browser_dashboard cannot run:\n  - ${problems.join('\n  - ')}`);
 }
 
@@ -184,6 +195,11 @@ function um3(v) {
 // Parses "M x,y L x,y ... Z" into [[x, y], ...].
 function pathPoints(d) {
   return [...d.matchAll(/[ML](-?[\d.]+),(-?[\d.]+)/g)].map((m) => [Number(m[1]), Number(m[2])]);
+}
+
+// A number as the dashboard writes it ("−1.5", thin spaces removed) → Number.
+function shown(text) {
+  return Number(String(text).replace(/\u2212/g, '-').replace(/[\s\u2009]/g, ''));
 }
 
 // The dashboard's percentage format: 1 decimal.
@@ -661,6 +677,172 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       } finally {
         await other.close();
       }
+    });
+
+    await step('tracker upload: volumetric error vectors in XY and XZ, decomposition, figures', async () => {
+      await page.setInputFiles('#upload-file', join(fixtures, TRACKER_FIXTURE));
+      await page.click('#upload-button');
+      const msg = await page.waitForSelector(`#upload-message.success:has-text("${TRACKER_FIXTURE}")`);
+      const m = (await msg.textContent()).match(/#(\d+)/);
+      assert.ok(m, 'success message names the id');
+      const id = Number(m[1]);
+      await page.waitForSelector(`#machines button[data-machine-id="${TRACKER_MACHINE}"][aria-current="true"]`);
+      await page.waitForSelector(`#measurements button[data-id="${id}"][aria-current="true"]`);
+      await page.waitForSelector('#polar-plot svg[data-testid="tracker-vector-plot"]');
+      await page.waitForSelector('#figures table[data-kind="tracker"]');
+      assert.equal(await page.isHidden('#analysis'), true, 'no DBB diagnosis for a tracker measurement');
+      assert.equal(await page.isHidden('#calibration'), true, 'no hexapod panel without DBB tests');
+      const [meas, res] = await Promise.all([
+        apiGet(server, `/api/v1/measurements/${id}`),
+        apiGet(server, `/api/v1/measurements/${id}/results`),
+      ]);
+      assert.equal(meas.kind, 'tracker');
+      const { x_mm: xs, y_mm: ys, z_mm: zs } = meas.samples;
+      const errors = res.volumetric_error_um;
+      assert.equal(xs.length, 64, '4×4×4 commanded points');
+      assert.equal(errors.length, xs.length);
+      const plot = await page.$eval('#polar-plot svg', (svg) => ({
+        pxPerUm: Number(svg.dataset.pxPerUm),
+        pxPerMm: Number(svg.dataset.pxPerMm),
+        magnification: Number(svg.dataset.magnification),
+        mag: svg.querySelector('[data-testid="tracker-magnification"]').textContent,
+        bar: { um: Number(svg.querySelector('[data-testid="tracker-scale"]').dataset.barUm), px: Number(svg.querySelector('[data-testid="tracker-scale"]').dataset.barPx), text: svg.querySelector('[data-testid="tracker-scale"]').textContent },
+        views: [...svg.querySelectorAll('g.view')].map((g) => g.dataset.view),
+        dots: svg.querySelectorAll('g.view circle[data-point]').length,
+        vectors: [...svg.querySelectorAll('line.vector[data-point]')].map((l) => ({
+          view: l.dataset.view,
+          i: Number(l.dataset.point),
+          e1: l.dataset.e1Um,
+          e2: l.dataset.e2Um,
+          x1: Number(l.getAttribute('x1')),
+          y1: Number(l.getAttribute('y1')),
+          x2: Number(l.getAttribute('x2')),
+          y2: Number(l.getAttribute('y2')),
+        })),
+      }));
+      assert.deepEqual(plot.views, ['xy', 'xz']);
+      assert.equal(plot.dots, 2 * xs.length, 'every commanded point in both views');
+      assert.ok(plot.magnification >= 1000, `magnification ${plot.magnification}`);
+      assert.equal(plot.pxPerUm, plot.magnification * 1e-3 * plot.pxPerMm);
+      assert.match(plot.mag, new RegExp(`×${plot.magnification}\\b`));
+      assert.ok(Math.abs(plot.bar.px - plot.bar.um * plot.pxPerUm) < 1e-9, 'scale bar length');
+      assert.ok(plot.bar.px >= 40 && plot.bar.px <= 130, `scale bar ${plot.bar.px} px`);
+      assert.match(plot.bar.text, new RegExp(`^${plot.bar.um} µm$`));
+      const kept = errors.filter(Boolean).length;
+      assert.ok(kept > 0 && kept <= xs.length, `${kept} points with an error`);
+      const tol = 0.02 / plot.pxPerUm; // coordinates are kept to 0.01 px
+      for (const [view, a, b, pos] of [['xy', 0, 1, ys], ['xz', 0, 2, zs]]) {
+        const lines = plot.vectors.filter((v) => v.view === view);
+        assert.equal(lines.length, kept, `${view}: one arrow per kept point`);
+        const first = lines.find((v) => v.i === 0) || lines[0];
+        for (const v of lines) {
+          const e = errors[v.i];
+          assert.ok(e, `point ${v.i} has an error`);
+          // The arrow is the API's error to 3 decimals...
+          assert.equal(um3(Number(v.e1)), um3(e[a]), `${view} point ${v.i} e${a}`);
+          assert.equal(um3(Number(v.e2)), um3(e[b]), `${view} point ${v.i} e${b}`);
+          assert.ok(Math.abs((v.x2 - v.x1) / plot.pxPerUm - e[a]) <= tol, `${view} arrow ${v.i} along ${a}`);
+          assert.ok(Math.abs(-(v.y2 - v.y1) / plot.pxPerUm - e[b]) <= tol, `${view} arrow ${v.i} along ${b}`);
+          // ...drawn at the commanded point (same mm scale in both directions, y up).
+          assert.ok(Math.abs(v.x1 - first.x1 - (xs[v.i] - xs[first.i]) * plot.pxPerMm) < 0.02, `${view} x of point ${v.i}`);
+          assert.ok(Math.abs(-(v.y1 - first.y1) - (pos[v.i] - pos[first.i]) * plot.pxPerMm) < 0.02, `${view} y of point ${v.i}`);
+        }
+      }
+      // Decomposition table = results.decomposition, 3 decimals, ± σ.
+      const dec = res.decomposition;
+      const rows = await page.$$eval('[data-testid="decomposition-table"] tbody tr[data-key]', (trs) =>
+        trs.map((tr) => ({ key: tr.dataset.key, value: tr.querySelector('td[data-key="value"]').textContent, sigma: tr.querySelector('td[data-key="sigma"]').textContent })),
+      );
+      const expected = [
+        ...['x', 'y', 'z'].map((k) => [`scale_ppm.${k}`, dec.scale_ppm[k], dec.scale_sigma_ppm[k]]),
+        ...['xy', 'yz', 'zx'].map((k) => [`squareness_um_per_m.${k}`, dec.squareness_um_per_m[k], dec.squareness_sigma_um_per_m[k]]),
+      ];
+      assert.deepEqual(rows.map((r) => r.key), expected.map((e) => e[0]));
+      rows.forEach((r, i) => {
+        assert.equal(r.value, um3(expected[i][1]), r.key);
+        assert.equal(r.sigma, `± ${um3(expected[i][2])}`, `${r.key} σ`);
+      });
+      // The fixture's squareness (XY 8 µm/m, ZX −5 µm/m) and Z scale (6 ppm) are recovered.
+      assert.ok(Math.abs(Math.abs(dec.squareness_um_per_m.xy) - 8) < 1, `xy ${dec.squareness_um_per_m.xy}`);
+      assert.ok(Math.abs(Math.abs(dec.squareness_um_per_m.zx) - 5) < 1, `zx ${dec.squareness_um_per_m.zx}`);
+      assert.ok(Math.abs(dec.scale_ppm.z - 6) < 1, `scale z ${dec.scale_ppm.z}`);
+      const cell = (key) => page.textContent(`#figures td[data-key="${key}"][data-id="${id}"]`);
+      assert.equal(await cell('residual_rms_um'), um3(res.residual_rms_um));
+      assert.equal(shown(await cell('condition_number')).toFixed(3), res.condition_number.toFixed(3));
+      assert.equal(await cell('rejected_readings_count'), String(res.rejected_readings.length));
+      await page.screenshot({ path: join(outDir, 'dashboard-tracker.png') });
+    });
+
+    await step('hexapod: upload DBB tests, calibrate from the panel, before/after table', async () => {
+      const hexIds = [];
+      for (const f of HEXAPOD_FIXTURES) {
+        const r = await fetch(`${server.base}/api/v1/measurements`, {
+          method: 'POST',
+          body: readFileSync(join(fixtures, f)),
+          headers: { Authorization: `Bearer ${server.token}`, 'Content-Type': 'text/plain', 'X-Filename': f.split('/').pop() },
+        });
+        assert.equal(r.status, 201, `upload ${f}`);
+        hexIds.push((await r.json()).id);
+      }
+      await page.click('#machines-refresh');
+      await page.click(`#machines button[data-machine-id="${HEXAPOD_MACHINE}"]`);
+      await page.waitForSelector(`#machines button[data-machine-id="${HEXAPOD_MACHINE}"][aria-current="true"]`);
+      await page.waitForSelector('#calibration:not([hidden])');
+      const choices = await page.$$eval('#calib-measurements input[data-testid="calib-choice"]', (bs) => bs.map((b) => Number(b.dataset.id)));
+      assert.deepEqual(choices, [...hexIds].sort((a, b) => a - b));
+      // Without a machine file the panel says so and submits nothing.
+      await page.click('#calib-all');
+      await page.click('#calib-run');
+      await page.waitForSelector('#calib-status.error:has-text("machine definition")');
+      await page.setInputFiles('#calib-machine-file', HEXAPOD_MACHINE_JSON);
+      await page.selectOption('#calib-method', 'absolute');
+      const t0 = Date.now();
+      await page.click('#calib-run');
+      await page.waitForSelector('#calib-status[data-status="done"]', { timeout: 60_000 });
+      t.diagnostic(`calibration job took ${Date.now() - t0} ms`);
+      const jobId = Number(await page.getAttribute('#calib-status', 'data-job-id'));
+      const job = await apiGet(server, `/api/v1/jobs/${jobId}`);
+      assert.equal(job.status, 'done');
+      assert.deepEqual(job.request.measurement_ids, [...hexIds].sort((a, b) => a - b));
+      assert.equal(job.request.method, 'absolute');
+      const res = job.result;
+      const rows = await page.$$eval('[data-testid="calib-tests-table"] tbody tr', (trs) =>
+        trs.map((tr) => Object.fromEntries([...tr.querySelectorAll('td')].map((td) => [td.dataset.key, td.textContent]))),
+      );
+      assert.equal(rows.length, res.tests.length);
+      assert.equal(rows.length, HEXAPOD_FIXTURES.length);
+      res.tests.forEach((tt, i) => {
+        assert.equal(rows[i].test_id, tt.test_id);
+        assert.equal(rows[i].direction, tt.direction.toUpperCase());
+        assert.equal(rows[i].circularity_before_um, um3(tt.circularity_before_um), `before ${tt.test_id}`);
+        assert.equal(rows[i].predicted_circularity_after_um, um3(tt.predicted_circularity_after_um), `after ${tt.test_id}`);
+      });
+      // The simulated machine is off its nominal geometry: the correction must help.
+      const meanOf = (k) => res.tests.reduce((s, tt) => s + tt[k], 0) / res.tests.length;
+      assert.ok(meanOf('predicted_circularity_after_um') < 0.5 * meanOf('circularity_before_um'), 'predicted improvement');
+      const params = await page.$$eval('[data-testid="calib-params-table"] td[data-param]', (tds) =>
+        Object.fromEntries(tds.map((td) => [td.dataset.param, { text: td.textContent, fixed: td.classList.contains('fixed') }])),
+      );
+      assert.equal(Object.keys(params).length, 24);
+      const fixedSet = new Set(res.fixed_parameters);
+      for (let j = 0; j < 6; ++j) {
+        const check = (name, v, u) => {
+          const want = fixedSet.has(name) ? `${um3(v)} (fixed)` : `${um3(v)} ± ${um3(u)}`;
+          assert.equal(params[name].text, want, name);
+          assert.equal(params[name].fixed, fixedSet.has(name), `${name} fixed mark`);
+        };
+        check(`strut_offset_um[${j}]`, res.parameters.strut_offset_um[j], res.parameter_uncertainty_um.strut_offset_um[j]);
+        for (let c = 0; c < 3; ++c) {
+          check(`base_joint_offset_um[${j}][${c}]`, res.parameters.base_joint_offset_um[j][c], res.parameter_uncertainty_um.base_joint_offset_um[j][c]);
+        }
+      }
+      assert.equal(await page.textContent('[data-testid="calib-summary"] dd[data-key="residual_rms_um"]'), `${um3(res.residual_rms_um)} µm`);
+      assert.equal(shown(await page.textContent('[data-testid="calib-summary"] dd[data-key="condition_number"]')).toFixed(3), res.condition_number.toFixed(3));
+      await page.locator('#calibration').scrollIntoViewIfNeeded();
+      await page.screenshot({ path: join(outDir, 'dashboard-hexapod.png') });
+      const overflow = await page.evaluate(() => document.documentElement.scrollWidth);
+      assert.ok(overflow <= 1280, `no horizontal scrolling (scrollWidth ${overflow})`);
+      assert.deepEqual(pageErrors, []);
     });
   } finally {
     if (failed && page) {
