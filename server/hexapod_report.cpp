@@ -1,6 +1,9 @@
 #include "server/hexapod_report.h"
 
+#include <cmath>
+
 #include "analysis/core/errors.h"
+#include "analysis/dbb/circular_test.h"
 
 namespace km::server {
 namespace {
@@ -14,9 +17,18 @@ nlohmann::json ParameterJson(const hexapod::ParameterVector& k) {
   return {{"strut_offset_um", strut}, {"base_joint_offset_um", base}};
 }
 
+// Seed 000 table 2.2 figures of one trace: centre deviation |(X0, Y0)| (absolute mode: the
+// machine's centre positioning error against the jig ball), average radial error, circularity.
+void AddFigures(nlohmann::json& t, const dbb::DbbTest& test, const std::string& suffix) {
+  const auto f = dbb::AnalyzeCircularTest(test);
+  t["centre_deviation" + suffix] = std::hypot(f.centre_offset_um[0], f.centre_offset_um[1]);
+  t["average_radial_error" + suffix] = f.average_radial_error_um;
+}
+
 nlohmann::json CalibrationJson(const hexapod::CalibrationResult& r,
                                const std::vector<hexapod::TestPrediction>& pred,
-                               const std::vector<std::string>& names) {
+                               const std::vector<std::string>& names,
+                               const std::vector<dbb::DbbTest>& tests) {
   nlohmann::json j;
   j["method"] = hexapod::ToString(r.method);
   j["parameters"] = ParameterJson(r.parameters_um);
@@ -30,6 +42,12 @@ nlohmann::json CalibrationJson(const hexapod::CalibrationResult& r,
     if (i < names.size()) t["file"] = names[i];
     t["circularity_before_um"] = pred[i].circularity_before_um;
     t["predicted_circularity_after_um"] = pred[i].predicted_circularity_after_um;
+    if (i < tests.size() && pred[i].predicted_dr_um.size() == tests[i].dr_um.size()) {
+      AddFigures(t, tests[i], "_before_um");
+      dbb::DbbTest after = tests[i];
+      after.dr_um = pred[i].predicted_dr_um;
+      AddFigures(t, after, "_predicted_after_um");
+    }
     if (i < r.fixed_balls_mm.size()) {
       const auto& f = r.fixed_balls_mm[i];
       t["fixed_ball_mm"] = {f.x(), f.y(), f.z()};
@@ -84,7 +102,7 @@ CalibrationOutcome RunCalibrationStudy(const CalibrationStudy& study, const Prog
   const auto pred = hexapod::PredictAfterCalibration(study.machine.geometry, result.calibrated,
                                                      study.tests, result.fixed_balls_mm);
   CalibrationOutcome out;
-  out.report = CalibrationJson(result, pred, study.names);
+  out.report = CalibrationJson(result, pred, study.names, study.tests);
   out.calibrated = study.machine;
   out.calibrated.geometry = result.calibrated;
   if (study.reduction_min_tests > 0) {  // seed 000 §5.2.3

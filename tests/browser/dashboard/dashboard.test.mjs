@@ -816,6 +816,10 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
         assert.equal(rows[i].direction, tt.direction.toUpperCase());
         assert.equal(rows[i].circularity_before_um, um3(tt.circularity_before_um), `before ${tt.test_id}`);
         assert.equal(rows[i].predicted_circularity_after_um, um3(tt.predicted_circularity_after_um), `after ${tt.test_id}`);
+        for (const k of ['centre_deviation_before_um', 'centre_deviation_predicted_after_um',
+                         'average_radial_error_before_um', 'average_radial_error_predicted_after_um']) {
+          assert.equal(rows[i][k], um3(tt[k]), `${k} ${tt.test_id}`);
+        }
       });
       // The simulated machine is off its nominal geometry: the correction must help.
       const meanOf = (k) => res.tests.reduce((s, tt) => s + tt[k], 0) / res.tests.length;
