@@ -118,8 +118,7 @@ Ingested IngestTracker(std::string_view bytes, const std::string& file) {
     }
     for (int j = 0; j < n; ++j) in.samples.values.push_back(f.readings.displacement_um(i, j));
   }
-  in.results.push_back(
-      {"tracker", kTrackerAnalysisVersion, AnalyzeTrackerFile(bytes, file).dump()});
+  in.results.push_back({"tracker", kTrackerAnalysisVersion, AnalyzeTracker(f).dump()});
   return in;
 }
 

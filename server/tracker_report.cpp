@@ -125,10 +125,8 @@ json TrackerResultToJson(const tracker::TrackerReadings& readings, const tracker
   return out;
 }
 
-json AnalyzeTrackerFile(std::string_view bytes, const std::string& file,
-                        const tracker::SelfCalOptions& options,
-                        const tracker::DecompositionOptions& decomposition) {
-  const ingest::TrackerFile f = ingest::ParseTrackerFile(bytes, file);
+json AnalyzeTracker(const ingest::TrackerFile& f, const tracker::SelfCalOptions& options,
+                    const tracker::DecompositionOptions& decomposition) {
   const tracker::SelfCalResult r = tracker::SelfCalibrate(f.readings, options);
   try {
     const auto d = tracker::DecomposeVolumetricError(f.readings.commanded_mm, r.volumetric_error_um,
@@ -139,6 +137,12 @@ json AnalyzeTrackerFile(std::string_view bytes, const std::string& file,
     out["decomposition_error"] = e.what();
     return out;
   }
+}
+
+json AnalyzeTrackerFile(std::string_view bytes, const std::string& file,
+                        const tracker::SelfCalOptions& options,
+                        const tracker::DecompositionOptions& decomposition) {
+  return AnalyzeTracker(ingest::ParseTrackerFile(bytes, file), options, decomposition);
 }
 
 }  // namespace km::server

@@ -10,6 +10,7 @@
 #include "analysis/tracker/tracker_selfcal.h"
 #include "analysis/tracker/tracker_types.h"
 #include "analysis/tracker/volumetric_decomposition.h"
+#include "ingest/tracker_parser.h"
 
 namespace km::server {
 
@@ -25,6 +26,12 @@ nlohmann::json TrackerResultToJson(const tracker::TrackerReadings& readings,
 // `tracker selfcal --json` object for a file's bytes. Throws km::InvalidInput on bad input,
 // km::NotObservable / km::DidNotConverge when the survey cannot be solved. A decomposition
 // that is not observable gives "decomposition": null and "decomposition_error": reason.
+// Self-calibration and decomposition of parsed readings (the decomposition is left out, with
+// `decomposition_error`, when the map cannot be decomposed).
+nlohmann::json AnalyzeTracker(const ingest::TrackerFile& file,
+                              const tracker::SelfCalOptions& options = {},
+                              const tracker::DecompositionOptions& decomposition = {});
+
 nlohmann::json AnalyzeTrackerFile(std::string_view bytes, const std::string& file,
                                   const tracker::SelfCalOptions& options = {},
                                   const tracker::DecompositionOptions& decomposition = {});
