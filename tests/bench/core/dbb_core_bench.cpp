@@ -5,6 +5,7 @@
 
 #include "analysis/dbb/circular_test.h"
 #include "ingest/dbb_parser.h"
+#include "ingest/dbb_writer.h"
 #include "tests/unit/dbb_core/dbb_synth.h"
 
 namespace {
@@ -24,7 +25,7 @@ void BM_AnalyzeCircularTest3600(benchmark::State& state) {
 BENCHMARK(BM_AnalyzeCircularTest3600)->Unit(benchmark::kMicrosecond);
 
 void BM_ParseDbb3600(benchmark::State& state) {
-  const std::string text = km::test::ToFileText(Trace());
+  const std::string text = km::ingest::WriteDbb(Trace());
   for (auto _ : state) benchmark::DoNotOptimize(km::ingest::ParseDbb(text, "bench.dbb"));
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * text.size()));
 }

@@ -10,6 +10,7 @@
 
 #include "api/http_server.h"
 #include "api/routes.h"
+#include "ingest/dbb_writer.h"
 #include "server/service.h"
 #include "server/sqlite_storage.h"
 #include "tests/unit/dbb_core/dbb_synth.h"
@@ -44,7 +45,7 @@ void BM_UploadToStoredResult(benchmark::State& state) {
     for (auto _ : state) {
       state.PauseTiming();
       trace.test_id = "bench-" + std::to_string(n++);
-      const std::string body = km::test::ToFileText(trace);
+      const std::string body = km::ingest::WriteDbb(trace);
       state.ResumeTiming();
       const auto t0 = std::chrono::steady_clock::now();
       auto r = c.Post("/api/v1/measurements", body, "text/plain");

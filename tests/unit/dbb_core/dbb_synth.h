@@ -3,7 +3,6 @@
 #pragma once
 
 #include <cmath>
-#include <cstdio>
 #include <functional>
 #include <numbers>
 #include <random>
@@ -58,28 +57,6 @@ inline dbb::DbbTest MakeTrace(const SynthOptions& o) {
     t.dr_um.push_back((bar - o.bar_mm) * 1000.0 + (o.noise_um > 0 ? noise(rng) : 0.0));
   }
   return t;
-}
-
-inline std::string ToFileText(const dbb::DbbTest& t) {
-  std::string s = "# format: kinemetric-dbb/1\n# machine_id: " + t.machine_id +
-                  "\n# test_id: " + t.test_id +
-                  "\n# direction: " + (t.direction == dbb::Direction::kCcw ? "ccw" : "cw") + "\n";
-  char buf[128];
-  std::snprintf(buf, sizeof buf, "# bar_length_mm: %.6f\n# radius_mm: %.6f\n", t.bar_length_mm,
-                t.radius_mm);
-  s += buf;
-  s += "# centre_mm: 0, 0, 0\n# feed_mm_min: 1000\n";
-  if (t.fixed_ball_mm) {
-    std::snprintf(buf, sizeof buf, "# fixed_ball_mm: %.9f, %.9f, %.9f\n", (*t.fixed_ball_mm)[0],
-                  (*t.fixed_ball_mm)[1], (*t.fixed_ball_mm)[2]);
-    s += buf;
-  }
-  s += "angle_deg,dr_um\n";
-  for (std::size_t i = 0; i < t.angle_deg.size(); ++i) {
-    std::snprintf(buf, sizeof buf, "%.6f,%.6f\n", t.angle_deg[i], t.dr_um[i]);
-    s += buf;
-  }
-  return s;
 }
 
 }  // namespace km::test
