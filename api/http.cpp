@@ -77,6 +77,16 @@ Response Problem(int status, const std::string& title, const std::string& detail
   return r;
 }
 
+bool Router::StreamsBody(const std::string& method, const std::string& path) const {
+  std::map<std::string, std::string> params;
+  for (const auto& route : routes_) {
+    if (route.method == method && MatchPattern(route.pattern, path, params)) {
+      return route.streams_body;
+    }
+  }
+  return false;
+}
+
 Response Router::Dispatch(Request& req) const {
   try {
     bool path_known = false;

@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -20,8 +21,12 @@ struct Request {
   std::map<std::string, std::string> path_params;  // {id} → "7"
   std::multimap<std::string, std::string> query;
   std::map<std::string, std::string> headers;  // lower-case names
-  std::string body;
+  std::string body;  // empty for routes with streams_body (read with read_body instead)
   std::string remote_addr;
+  // Routes with streams_body: reads the body as it arrives, calling the sink with each piece
+  // until the body ends or the sink returns false. Returns false when the connection failed
+  // before the body was complete.
+  std::function<bool(const std::function<bool(std::string_view)>&)> read_body;
 
   std::optional<std::string> Query(const std::string& key) const;
   std::optional<std::string> Header(const std::string& lower_name) const;
@@ -43,7 +48,8 @@ struct Route {
   std::string summary;
   bool needs_token = true;
   std::function<Response(const Request&)> handler;
-  nlohmann::json openapi;  // operation object extras: parameters, requestBody, responses
+  nlohmann::json openapi;     // operation object extras: parameters, requestBody, responses
+  bool streams_body = false;  // the handler reads the body itself, piece by piece (unbounded)
 };
 
 // Called before every route's handler (access control sits here); throws to refuse.
@@ -54,6 +60,8 @@ class Router {
   void Add(Route r) { routes_.push_back(std::move(r)); }
   void SetHook(RequestHook hook) { hook_ = std::move(hook); }
   const std::vector<Route>& routes() const { return routes_; }
+  // Whether the route for this method and path reads its body as a stream.
+  bool StreamsBody(const std::string& method, const std::string& path) const;
 
   // Finds the route, runs the hook and the handler, maps every exception to a problem+json
   // response in one place. Never throws.

@@ -107,7 +107,8 @@ struct HttpServer::Impl {
     res.set_header("Cache-Control", "no-cache");
   }
 
-  void Handle(const httplib::Request& hreq, httplib::Response& hres) {
+  void Handle(const httplib::Request& hreq, httplib::Response& hres,
+              const httplib::ContentReader* reader = nullptr) {
     Request req;
     req.method = hreq.method;
     req.path = hreq.path;
@@ -119,6 +120,12 @@ struct HttpServer::Impl {
     }
     req.body = hreq.body;
     req.remote_addr = hreq.remote_addr;
+    if (reader) {
+      req.read_body = [reader](const std::function<bool(std::string_view)>& sink) {
+        return (*reader)(
+            [&sink](const char* data, std::size_t n) { return sink(std::string_view(data, n)); });
+      };
+    }
     const Response res = router.Dispatch(req);
     hres.status = res.status;
     for (const auto& [k, v] : res.headers) hres.set_header(k.c_str(), v);
@@ -146,14 +153,34 @@ HttpServer::HttpServer(const Router& router, HttpOptions options)
   auto api = [impl](const httplib::Request& q, httplib::Response& r) { impl->Handle(q, r); };
   // Bodies are read raw, whatever their Content-Type: a measurement file sent as
   // application/x-www-form-urlencoded (curl --data-binary) must not be parsed as a form.
+  // Routes that stream their body (sensor frames) read it piece by piece; every other body is
+  // read whole, capped at the payload limit also when it arrives chunked (httplib checks only
+  // Content-Length).
   auto with_body = [impl](const httplib::Request& q, httplib::Response& r,
                           const httplib::ContentReader& reader) {
+    if (impl->router.StreamsBody(q.method, q.path)) {
+      impl->Handle(q, r, &reader);
+      return;
+    }
     httplib::Request copy = q;
     copy.body.clear();
-    reader([&copy](const char* data, std::size_t n) {
+    bool too_large = false;
+    const std::size_t limit = impl->options.max_payload_bytes;
+    reader([&](const char* data, std::size_t n) {
+      if (copy.body.size() + n > limit) {
+        too_large = true;
+        return false;
+      }
       copy.body.append(data, n);
       return true;
     });
+    if (too_large) {
+      const auto pr = Problem(413, "Payload Too Large",
+                              "the request body exceeds " + std::to_string(limit) + " bytes");
+      r.status = pr.status;
+      r.set_content(pr.body, pr.content_type.c_str());
+      return;
+    }
     impl->Handle(copy, r);
   };
   s.Get(".*", api);

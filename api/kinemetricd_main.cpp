@@ -38,7 +38,8 @@ int main(int argc, char** argv) {
   } catch (const km::InvalidInput& e) {
     std::cerr << "kinemetricd: " << e.what() << "\n"
               << "usage: kinemetricd --listen HOST:PORT --data-dir DIR [--config FILE] "
-                 "[--web-root DIR] [--demo-data] [--threads N] [--max-upload-bytes N]\n";
+                 "[--web-root DIR] [--demo-data] [--threads N] [--max-upload-bytes N] "
+                 "[--modbus-config FILE]\n";
     return 2;
   }
   // SIGINT / SIGTERM are taken by a waiting thread that stops the server cleanly.
@@ -69,6 +70,12 @@ int main(int argc, char** argv) {
         ++n;
       }
       std::cout << "kinemetricd: loaded " << n << " demo measurements" << std::endl;
+    }
+
+    if (!cfg.modbus_config.empty()) {
+      service.acquisition().StartFromFile(cfg.modbus_config);
+      std::cout << "kinemetricd: acquiring from " << service.acquisition().Devices().size()
+                << " Modbus devices" << std::endl;
     }
 
     km::api::Router router;

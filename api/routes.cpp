@@ -1,52 +1,11 @@
 #include "api/routes.h"
 
-#include <charconv>
-
 #include "analysis/core/errors.h"
+#include "api/route_util.h"
 #include "server/sha256.h"
 #include "server/time_util.h"
 
 namespace km::api {
-namespace {
-
-using nlohmann::json;
-
-std::int64_t QueryInt(const Request& req, const std::string& key, std::int64_t fallback,
-                      std::int64_t lo, std::int64_t hi) {
-  const auto v = req.Query(key);
-  if (!v) return fallback;
-  std::int64_t n = 0;
-  const auto [ptr, ec] = std::from_chars(v->data(), v->data() + v->size(), n);
-  if (ec != std::errc() || ptr != v->data() + v->size() || n < lo || n > hi) {
-    throw InvalidInput("", 0, key,
-                       "'" + *v + "' must be a whole number from " + std::to_string(lo) + " to " +
-                           std::to_string(hi));
-  }
-  return n;
-}
-
-std::optional<std::string> QueryTime(const Request& req, const std::string& key) {
-  const auto v = req.Query(key);
-  if (!v) return std::nullopt;
-  auto t = server::NormalizeIso8601(*v);
-  if (!t) throw InvalidInput("", 0, key, "'" + *v + "' is not an ISO 8601 date or time");
-  return t;
-}
-
-json Param(const std::string& name, const std::string& type, const std::string& description) {
-  return {{"name", name},
-          {"in", "query"},
-          {"required", false},
-          {"description", description},
-          {"schema", {{"type", type}}}};
-}
-
-json JsonResponse(const std::string& description) {
-  return {{"description", description},
-          {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}};
-}
-
-}  // namespace
 
 void AddRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
@@ -261,6 +220,8 @@ void AddRoutes(Router& router, server::Service& service) {
                      return Response::Json({{"machines", items}});
                    },
                    {{"responses", {{"200", JsonResponse("{machines[]}")}}}}});
+
+  AddStreamRoutes(router, service);
 }
 
 RequestHook TokenHook(server::Storage& storage) {

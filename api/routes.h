@@ -11,6 +11,9 @@ inline constexpr const char* kApiVersion = "0.1.0";
 // Adds the routes of the service to the router.
 void AddRoutes(Router& router, server::Service& service);
 
+// The capacitance-sensor stream and acquisition-device routes (api/stream_routes.cpp).
+void AddStreamRoutes(Router& router, server::Service& service);
+
 // Access control: every route that needs a token checks `Authorization: Bearer TOKEN` against
 // the stored token hashes.
 RequestHook TokenHook(server::Storage& storage);

@@ -64,6 +64,8 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
         cfg.keep_alive_max_count = v.get<int>();
       } else if (key == "keep_alive_timeout_s") {
         cfg.keep_alive_timeout_s = v.get<int>();
+      } else if (key == "modbus_config") {
+        cfg.modbus_config = v.get<std::string>();
       } else {
         throw InvalidInput(path, 0, key, "unknown configuration key");
       }
@@ -101,6 +103,8 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
       value();
     } else if (a == "--web-root") {
       cfg.web_root = value();
+    } else if (a == "--modbus-config") {
+      cfg.modbus_config = value();
     } else if (a == "--demo-data") {
       cfg.demo_data = true;
     } else if (a == "--threads") {

@@ -20,11 +20,13 @@ struct ServerConfig {
   int write_timeout_s = 10;
   int keep_alive_max_count = 100;
   int keep_alive_timeout_s = 5;
+  std::string modbus_config;  // Modbus TCP devices to acquire from (docs/modbus.md); empty: none
 };
 
 // Applies a JSON config file: keys listen ("HOST:PORT"), data_dir, web_root, demo_data,
 // max_upload_bytes, threads, queue_limit, read_timeout_s, write_timeout_s,
-// keep_alive_max_count, keep_alive_timeout_s. Unknown keys are an error (typos are not ignored).
+// keep_alive_max_count, keep_alive_timeout_s, modbus_config. Unknown keys are an error (typos are
+// not ignored).
 void ApplyConfigFile(ServerConfig& cfg, const std::string& path);
 // Applies "HOST:PORT".
 void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where);

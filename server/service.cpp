@@ -10,6 +10,8 @@ namespace km::server {
 Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
     : storage_(std::move(storage)),
       options_(options),
+      streams_(std::make_unique<StreamHub>(*storage_, StreamOptions{})),
+      acquisition_(std::make_unique<Acquisition>(*this)),
       jobs_(std::make_unique<JobQueue>(*storage_)) {}
 
 void Service::RegisterKind(const std::string& format, KindHandler handler) {

@@ -12,8 +12,10 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/dbb/dbb_types.h"
+#include "server/acquisition.h"
 #include "server/jobs.h"
 #include "server/storage.h"
+#include "server/streams.h"
 
 namespace km::server {
 
@@ -72,6 +74,29 @@ class Service {
   nlohmann::json Job(std::int64_t id);
   nlohmann::json Jobs(std::int64_t limit);
 
+  // Capacitance-sensor streams (docs/streams.md). CreateStream: {"machine_id", "name"?,
+  // "channels"?: [{"channel", "name"?, "unit"?, "rate_hz"?}], …} → the stream id.
+  // IngestFrames decodes frames as the body arrives (format from the Content-Type), stores
+  // them and answers what was received, stored, dropped as duplicate, and the gaps found.
+  // Samples of frames before a bad frame are kept; the bad frame is reported (InvalidInput).
+  using BodyReader = std::function<bool(const std::function<bool(std::string_view)>&)>;
+  std::int64_t CreateStream(const nlohmann::json& request, const std::string& source = "http");
+  nlohmann::json IngestFrames(std::int64_t stream_id, const std::string& content_type,
+                              const BodyReader& read_body);
+  nlohmann::json StreamJson(std::int64_t stream_id);
+  nlohmann::json ListStreams(const std::optional<std::string>& machine_id, std::int64_t limit);
+  nlohmann::json StreamGapsJson(std::int64_t stream_id, std::int64_t limit);
+  nlohmann::json StreamSamples(std::int64_t stream_id, std::int64_t channel,
+                               std::optional<std::int64_t> from_us,
+                               std::optional<std::int64_t> to_us, std::size_t max_points);
+  // Turns a stretch of one channel into a straightness profile (position from an encoder
+  // channel or from feed × time), stores it as a kinemetric-straightness/1 measurement and
+  // analyses it like an upload. Request: see docs/streams.md.
+  UploadOutcome StreamProfile(std::int64_t stream_id, const nlohmann::json& request);
+  StreamHub& streams() { return *streams_; }
+  // Modbus TCP devices (server/acquisition.h).
+  Acquisition& acquisition() { return *acquisition_; }
+
   Storage& storage() { return *storage_; }
 
  private:
@@ -81,7 +106,9 @@ class Service {
   std::unique_ptr<Storage> storage_;
   ServiceOptions options_;
   std::map<std::string, KindHandler> kinds_;
-  std::unique_ptr<JobQueue> jobs_;  // last: stopped first
+  std::unique_ptr<StreamHub> streams_;
+  std::unique_ptr<Acquisition> acquisition_;  // after streams_: stopped before it
+  std::unique_ptr<JobQueue> jobs_;            // last: stopped first
 };
 
 // The handlers of every measurement kind the product knows; call once at start-up.

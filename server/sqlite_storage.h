@@ -37,6 +37,17 @@ class SqliteStorage final : public Storage {
   std::optional<JobRecord> GetJob(std::int64_t id) override;
   std::vector<JobRecord> ListJobs(std::int64_t limit) override;
   int FailInterruptedJobs(const std::string& reason) override;
+  std::int64_t CreateStream(const NewStream& s) override;
+  std::optional<StreamRecord> GetStream(std::int64_t id) override;
+  std::vector<StreamRecord> ListStreams(const std::optional<std::string>& machine_id,
+                                        std::int64_t limit) override;
+  void AppendStream(const std::vector<StreamChunk>& chunks,
+                    const std::vector<StreamGap>& gaps) override;
+  std::vector<StreamChannelSummary> StreamChannels(std::int64_t stream_id) override;
+  std::vector<StreamChunk> ReadStreamChunks(std::int64_t stream_id, std::int64_t channel,
+                                            std::int64_t from_us, std::int64_t to_us,
+                                            bool with_data) override;
+  std::vector<StreamGap> StreamGaps(std::int64_t stream_id, std::int64_t limit) override;
   std::int64_t CountTokens() override;
   void PutToken(const std::string& token_sha256, const std::string& role,
                 const std::string& label) override;

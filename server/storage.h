@@ -98,6 +98,51 @@ struct JobRecord {
   std::string created_at, updated_at;
 };
 
+// Capacitance-sensor streams (contract §1.6). A stream belongs to a machine and has a source
+// (an HTTP client, or a Modbus device); its samples are kept per channel in immutable chunks of
+// consecutive counters, never a row per sample. Gaps (counter jumps) are recorded as found.
+struct NewStream {
+  std::string machine_id;
+  std::string name;
+  std::string source;         // "http" or "modbus:<device name>"
+  std::string metadata_json;  // channel descriptions and anything the client sent
+};
+
+struct StreamRecord {
+  std::int64_t id = 0;
+  std::string machine_id, name, source, metadata_json, created_at;
+};
+
+// One stored chunk: counters first_counter … first_counter + n − 1 of one channel.
+struct StreamChunk {
+  std::int64_t stream_id = 0;
+  std::int64_t channel = 0;
+  std::int64_t first_counter = 0;
+  std::int64_t n = 0;
+  std::int64_t t_first_us = 0, t_last_us = 0;
+  double value_min = 0.0, value_max = 0.0, value_sum = 0.0;
+  std::int64_t flagged = 0;  // samples with a non-zero status
+  std::string data;          // encoded samples (server/stream_chunks.h); empty when not read
+};
+
+struct StreamGap {
+  std::int64_t stream_id = 0;
+  std::int64_t channel = 0;
+  std::int64_t first_missing = 0;  // first counter that never arrived
+  std::int64_t missing = 0;        // how many counters
+  std::int64_t t_before_us = 0;    // last sample before the gap
+  std::int64_t t_after_us = 0;     // first sample after it
+  std::string detected_at;
+};
+
+struct StreamChannelSummary {
+  std::int64_t channel = 0;
+  std::int64_t samples = 0, chunks = 0, flagged = 0;
+  std::int64_t first_t_us = 0, last_t_us = 0;
+  std::int64_t next_counter = 0;  // one past the highest stored counter
+  std::int64_t gaps = 0, missing = 0;
+};
+
 class Storage {
  public:
   virtual ~Storage() = default;
@@ -122,6 +167,22 @@ class Storage {
   virtual std::vector<JobRecord> ListJobs(std::int64_t limit) = 0;
   // Marks jobs left queued or running by a previous process as failed; returns how many.
   virtual int FailInterruptedJobs(const std::string& reason) = 0;
+
+  // Streams. AppendStream writes chunks and gaps in one transaction; a chunk whose
+  // (stream, channel, first_counter) is stored already is refused (InvalidInput).
+  virtual std::int64_t CreateStream(const NewStream& s) = 0;
+  virtual std::optional<StreamRecord> GetStream(std::int64_t id) = 0;
+  virtual std::vector<StreamRecord> ListStreams(const std::optional<std::string>& machine_id,
+                                                std::int64_t limit) = 0;
+  virtual void AppendStream(const std::vector<StreamChunk>& chunks,
+                            const std::vector<StreamGap>& gaps) = 0;
+  virtual std::vector<StreamChannelSummary> StreamChannels(std::int64_t stream_id) = 0;
+  // Chunks of one channel overlapping [from_us, to_us), in counter order; with_data = false
+  // leaves StreamChunk::data empty (the per-chunk statistics suffice for coarse plots).
+  virtual std::vector<StreamChunk> ReadStreamChunks(std::int64_t stream_id, std::int64_t channel,
+                                                    std::int64_t from_us, std::int64_t to_us,
+                                                    bool with_data) = 0;
+  virtual std::vector<StreamGap> StreamGaps(std::int64_t stream_id, std::int64_t limit) = 0;
 
   // Access tokens are stored only as SHA-256 hashes.
   virtual std::int64_t CountTokens() = 0;

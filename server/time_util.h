@@ -1,12 +1,15 @@
 // Time stamps as UTC ISO 8601 text ("2026-11-21T21:05:24Z"), which sorts chronologically.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 
 namespace km::server {
 
 std::string NowUtcIso8601();
+// Microseconds since the Unix epoch as "YYYY-MM-DDTHH:MM:SS.ffffffZ".
+std::string UtcIso8601FromMicros(std::int64_t t_us);
 // Normalises an ISO 8601 date or date-time (with Z, ±hh:mm or no zone = UTC) to UTC
 // "YYYY-MM-DDTHH:MM:SS[.fff]Z". nullopt when the text is not such a time.
 std::optional<std::string> NormalizeIso8601(const std::string& text);

@@ -17,6 +17,8 @@ import {
 } from './format.js';
 import { renderPolarPlot } from './polar.js';
 import { renderTrackerVectorPlot } from './tracker.js';
+import { renderComponentCharts } from './components.js';
+import { initStreams, refreshStreams } from './streams.js';
 
 const $ = (sel) => document.querySelector(sel);
 
@@ -750,6 +752,7 @@ function renderTrackerPlot(item, f) {
   const points = xs.map((x, i) => [x, s.y_mm[i], s.z_mm[i]]);
   const { svg } = renderTrackerVectorPlot(points, errors, { title: `Volumetric error of ${item.machine_id || ''}`.trim() });
   container.replaceChildren(svg);
+  if (r.decomposition && typeof r.decomposition === 'object') container.append(renderComponentCharts(r.decomposition));
   const dropped = errors.filter((e) => !e).length;
   note.textContent =
     'Volumetric error at each commanded point (arrow, magnified) after the best-fit placement of the machine frame' +
@@ -1340,12 +1343,14 @@ function start() {
       loadMachines();
     }
   });
+  initStreams();
   resetDetail();
   if (!getToken()) {
     showAuthProblem(null);
     $('#machines').replaceChildren(h('li', { class: 'empty' }, 'Waiting for an access token…'));
   } else {
     loadMachines();
+    refreshStreams();
   }
   document.body.dataset.ready = 'true';
 }

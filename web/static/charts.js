@@ -8,7 +8,7 @@ import { DIRECTION_STYLE } from './polar.js';
 
 const SVG_NS = 'http://www.w3.org/2000/svg';
 
-function el(name, attrs = {}, text) {
+export function el(name, attrs = {}, text) {
   const node = document.createElementNS(SVG_NS, name);
   for (const [k, v] of Object.entries(attrs)) {
     if (v === undefined || v === null) continue;
@@ -18,18 +18,18 @@ function el(name, attrs = {}, text) {
   return node;
 }
 
-const r2 = (v) => Math.round(v * 100) / 100;
+export const r2 = (v) => Math.round(v * 100) / 100;
 const minus = (s) => String(s).replace('-', '−');
 
 // Tick values from lo to hi with a 1-2-5 step giving about `count` intervals.
-function ticks(lo, hi, count = 5) {
+export function ticks(lo, hi, count = 5) {
   const step = niceStep((hi - lo) / count || 1);
   const out = [];
   for (let v = Math.ceil(lo / step - 1e-9) * step; v <= hi + step * 1e-9; v += step) out.push(Math.abs(v) < step * 1e-9 ? 0 : v);
   return { values: out, step };
 }
 
-function tickText(v, step) {
+export function tickText(v, step) {
   const decimals = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
   return minus(v.toFixed(decimals));
 }

@@ -773,6 +773,102 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       await page.screenshot({ path: join(outDir, 'dashboard-tracker.png') });
     });
 
+    await step('tracker: geometric error components along X, Y, Z (curves = decomposition terms)', async () => {
+      // The tracker measurement of the previous step is still selected.
+      const id = Number(await page.getAttribute('#measurements button[aria-current="true"]', 'data-id'));
+      const res = await apiGet(server, `/api/v1/measurements/${id}/results`);
+      const dec = res.decomposition;
+      assert.ok(dec && Array.isArray(dec.terms), 'results carry a decomposition with terms');
+      await page.waitForSelector('#polar-plot [data-testid="component-charts"] svg[data-testid="component-chart"]');
+      const charts = await page.$$eval('#polar-plot svg[data-testid="component-chart"]', (svgs) =>
+        svgs.map((svg) => ({
+          axis: svg.dataset.axis,
+          lo: Number(svg.dataset.loMm),
+          hi: Number(svg.dataset.hiMm),
+          pxPerUm: Number(svg.dataset.pxPerUm),
+          zeroPx: Number(svg.dataset.zeroPx),
+          zeroY: Number(svg.querySelector('[data-testid="component-zero"]')?.getAttribute('y1')),
+          legend: svg.querySelector('[data-testid="component-legend"]')?.textContent || '',
+          titles: [...svg.querySelectorAll('text.axis-title')].map((t) => t.textContent),
+          bands: svg.querySelectorAll('polygon, .band').length,
+          curves: [...svg.querySelectorAll('g.components-curves path')].map((p) => ({
+            direction: p.dataset.direction,
+            kind: p.dataset.kind,
+            pair: p.dataset.pair || null,
+            ends: JSON.parse(p.dataset.endValues),
+            d: p.getAttribute('d'),
+          })),
+        })),
+      );
+      assert.deepEqual(charts.map((c) => c.axis), ['x', 'y', 'z'], 'one component chart per axis');
+      // Independent evaluation at the axis ends t = ±1, where P_k(±1) = (±1)^k (Legendre basis):
+      //   positioning  E_AA = 1e-3·scale_ppm·(±h) + Σ c_k (±1)^k
+      //   straightness E_BA = Σ c_k (±1)^k           squareness share in B: −½·1e-3·S_AB·(±h)
+      const pairs = { xy: ['x', 'y'], yz: ['y', 'z'], zx: ['z', 'x'] };
+      const checked = [];
+      charts.forEach((c, i) => {
+        const a = c.axis;
+        const A = a.toUpperCase();
+        const centre = dec.centre_mm[i];
+        const half = dec.half_range_mm[i];
+        assert.ok(half > 0, `${a} moves`);
+        assert.ok(Math.abs(c.lo - (centre - half)) < 1e-9 && Math.abs(c.hi - (centre + half)) < 1e-9, `${a} range`);
+        assert.ok(c.titles.includes(`${A} position (mm)`) && c.titles.includes('Error (µm)'), `${a} axis titles ${c.titles}`);
+        assert.ok(Math.abs(c.zeroY - Math.round(c.zeroPx * 100) / 100) < 1e-9, `${a} zero line`);
+        assert.equal(c.bands, 0, 'no ±1σ band (correlated terms, no covariance reported)');
+        const solid = c.curves.filter((k) => k.kind !== 'squareness');
+        assert.deepEqual(solid.map((k) => [k.direction, k.kind]).sort(), ['x', 'y', 'z'].map((b) => [b, b === a ? 'positioning' : 'straightness']));
+        const shares = c.curves.filter((k) => k.kind === 'squareness');
+        const wantPairs = Object.keys(pairs).filter((p) => pairs[p].includes(a) && !dec.fixed.some((f) => f.startsWith(`squareness_${p}`)));
+        assert.deepEqual(shares.map((k) => k.pair).sort(), wantPairs.sort(), `${a} squareness shares`);
+        for (const k of c.curves) {
+          const b = k.direction;
+          const expect = [-1, 1].map((sgn) => {
+            if (k.kind === 'squareness') return -0.5e-3 * dec.squareness_um_per_m[k.pair] * sgn * half;
+            let v = b === a ? 1e-3 * dec.scale_ppm[a] * sgn * half : 0;
+            for (const t of dec.terms) if (t.axis === a && t.direction === b) v += t.value_um * sgn ** t.order;
+            return v;
+          });
+          const tag = `${a}: E${b.toUpperCase()}${A} ${k.kind}${k.pair ? ` ${k.pair}` : ''}`;
+          assert.equal(k.ends.length, 2, tag);
+          k.ends.forEach((v, j) => assert.ok(Math.abs(v - expect[j]) < 1e-6, `${tag} end ${j}: drawn ${v}, from the terms ${expect[j]}`));
+          // ...and that is what is drawn: first/last path vertex at the ends, µm → px.
+          const pts = pathPoints(k.d);
+          assert.ok(pts.length >= 50, `${tag} sampled`);
+          for (const [j, pt] of [[0, pts[0]], [1, pts[pts.length - 1]]]) {
+            assert.ok(Math.abs(c.zeroPx - pt[1] - expect[j] * c.pxPerUm) < 0.011, `${tag} end ${j} at ${pt[1]} px`);
+          }
+          checked.push(tag);
+        }
+        assert.match(c.legend, new RegExp(`E${A}${A} positioning`), `${a} legend`);
+      });
+      assert.equal(checked.length, 3 * 3 + 3 * 2, 'three curves and two squareness shares per axis');
+      // The fixture's Z scale error (6 ppm) shows as the slope of E_ZZ: ≈ ±0.9 µm at z = ±150 mm.
+      const ezz = charts[2].curves.find((k) => k.kind === 'positioning').ends;
+      assert.ok(Math.abs(ezz[1] - ezz[0] - 1e-3 * 6 * 2 * dec.half_range_mm[2]) < 0.2, `E_ZZ ends ${ezz}`);
+      // Uncertainty: no band, per-term σ in the table; fixed components named under the charts.
+      const notes = await page.textContent('[data-testid="component-uncertainty"]');
+      assert.match(notes, /uncertainty per term in the table/);
+      const cells = await page.$$eval('[data-testid="component-terms"] tbody td[data-order]', (tds) =>
+        tds.map((td) => ({ axis: td.closest('tr').dataset.axis, direction: td.closest('tr').dataset.direction, order: Number(td.dataset.order), key: td.dataset.key, text: td.textContent })),
+      );
+      const cell = (t, key) => cells.find((c) => c.axis === t.axis && c.direction === t.direction && c.order === t.order && c.key === key)?.text;
+      for (const t of dec.terms) {
+        assert.equal(cell(t, 'value'), um3(t.value_um), `term ${t.axis}${t.direction} order ${t.order}`);
+        assert.equal(cell(t, 'sigma'), `± ${um3(t.sigma_um)}`, `σ of term ${t.axis}${t.direction} order ${t.order}`);
+      }
+      assert.equal(cells.filter((c) => c.key === 'value' && c.text !== '—').length, dec.terms.length, 'one table cell per term');
+      const fixedBox = await page.$eval('[data-testid="component-charts"]', (box) => ({
+        text: box.textContent,
+        items: [...box.querySelectorAll('[data-testid="component-fixed"] li')].map((li) => li.textContent),
+      }));
+      assert.deepEqual(fixedBox.items, dec.fixed);
+      assert.match(fixedBox.text, /not identifiable from this map \(held at zero\)/i);
+      const box = await page.$('[data-testid="component-charts"]');
+      await box.scrollIntoViewIfNeeded();
+      await box.screenshot({ path: join(outDir, 'dashboard-tracker-components.png') });
+    });
+
     await step('hexapod: upload DBB tests, calibrate from the panel, before/after table', async () => {
       const hexIds = [];
       for (const f of HEXAPOD_FIXTURES) {

@@ -1,0 +1,64 @@
+// Small helpers shared by the route files: query parameters and OpenAPI fragments.
+#pragma once
+
+#include <charconv>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "analysis/core/errors.h"
+#include "api/http.h"
+#include "server/time_util.h"
+
+namespace km::api {
+
+using nlohmann::json;
+
+inline std::int64_t QueryInt(const Request& req, const std::string& key, std::int64_t fallback,
+                             std::int64_t lo, std::int64_t hi) {
+  const auto v = req.Query(key);
+  if (!v) return fallback;
+  std::int64_t n = 0;
+  const auto [ptr, ec] = std::from_chars(v->data(), v->data() + v->size(), n);
+  if (ec != std::errc() || ptr != v->data() + v->size() || n < lo || n > hi) {
+    throw InvalidInput("", 0, key,
+                       "'" + *v + "' must be a whole number from " + std::to_string(lo) + " to " +
+                           std::to_string(hi));
+  }
+  return n;
+}
+
+inline std::optional<std::string> QueryTime(const Request& req, const std::string& key) {
+  const auto v = req.Query(key);
+  if (!v) return std::nullopt;
+  auto t = server::NormalizeIso8601(*v);
+  if (!t) throw InvalidInput("", 0, key, "'" + *v + "' is not an ISO 8601 date or time");
+  return t;
+}
+
+inline json Param(const std::string& name, const std::string& type,
+                  const std::string& description) {
+  return {{"name", name},
+          {"in", "query"},
+          {"required", false},
+          {"description", description},
+          {"schema", {{"type", type}}}};
+}
+
+inline json JsonResponse(const std::string& description) {
+  return {{"description", description},
+          {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}};
+}
+
+// The request body as JSON; InvalidInput when it is not.
+inline json JsonBody(const Request& req) {
+  try {
+    return json::parse(req.body);
+  } catch (const json::parse_error& e) {
+    throw InvalidInput("request", 0, "", std::string("the body is not JSON: ") + e.what());
+  }
+}
+
+}  // namespace km::api

@@ -1,0 +1,55 @@
+// Modbus TCP acquisition in the server: the configured devices, each polled by its own thread
+// (ingest/modbus_device.h) into its own stream (server/streams.h).
+//
+// A device entry is the ingest device object (docs/modbus.md) plus the server's key
+// "machine_id" (the machine the sensors measure). Each time a device starts — at server start
+// from the `modbus_config` file, or when added through the API — a new stream is opened for
+// it (source "modbus:<name>"), since the device's sample counters start at 0 with every
+// acquisition run. Devices added through the API run until the server stops; devices that
+// must come back after a restart belong in the config file.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "ingest/modbus_device.h"
+
+namespace km::server {
+
+class Service;
+
+class Acquisition {
+ public:
+  explicit Acquisition(Service& service);
+  ~Acquisition();  // stops every device
+  Acquisition(const Acquisition&) = delete;
+  Acquisition& operator=(const Acquisition&) = delete;
+
+  // Loads {"devices": [...]} from a file and starts every device (InvalidInput naming the file
+  // and JSON path of a bad field; nothing is started then).
+  void StartFromFile(const std::string& path);
+  // One device object (with machine_id); starts it and returns its entry (Devices() item).
+  nlohmann::json Add(const nlohmann::json& device, const std::string& file = "request");
+  // Stops a device; its stream and samples stay. NotFound for an unknown name.
+  void Remove(const std::string& name);
+  // [{name, machine_id, stream_id, config, status}] in the order added.
+  nlohmann::json Devices() const;
+  void StopAll();
+
+ private:
+  struct Entry;
+  std::unique_ptr<Entry> Prepare(const nlohmann::json& device, const std::string& file,
+                                 const std::string& path);
+  void StartEntry(std::unique_ptr<Entry> e);
+  nlohmann::json EntryJson(const Entry& e) const;
+
+  Service& service_;
+  mutable std::mutex mu_;
+  std::vector<std::unique_ptr<Entry>> entries_;
+};
+
+}  // namespace km::server

@@ -1,0 +1,85 @@
+#include "server/stream_profile.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "analysis/core/errors.h"
+
+namespace km::server {
+
+std::vector<double> InterpolatePositionMm(const std::vector<std::int64_t>& encoder_t_us,
+                                          const std::vector<double>& encoder_um,
+                                          const std::vector<std::int64_t>& t_us) {
+  std::vector<double> out(t_us.size(), std::numeric_limits<double>::quiet_NaN());
+  if (encoder_t_us.empty()) return out;
+  for (std::size_t i = 0; i < t_us.size(); ++i) {
+    const std::int64_t t = t_us[i];
+    auto it = std::lower_bound(encoder_t_us.begin(), encoder_t_us.end(), t);
+    if (it == encoder_t_us.end()) continue;
+    auto k = static_cast<std::size_t>(it - encoder_t_us.begin());
+    if (encoder_t_us[k] == t) {
+      out[i] = encoder_um[k] / 1000.0;
+      continue;
+    }
+    if (k == 0) continue;
+    const double t0 = static_cast<double>(encoder_t_us[k - 1]);
+    const double t1 = static_cast<double>(encoder_t_us[k]);
+    const double w = (static_cast<double>(t) - t0) / (t1 - t0);
+    out[i] = ((1.0 - w) * encoder_um[k - 1] + w * encoder_um[k]) / 1000.0;
+  }
+  return out;
+}
+
+std::vector<double> FeedPositionMm(const std::vector<std::int64_t>& t_us, double start_mm,
+                                   double feed_mm_min) {
+  std::vector<double> out(t_us.size());
+  if (t_us.empty()) return out;
+  const double mm_per_us = feed_mm_min / 60.0 / 1e6;
+  for (std::size_t i = 0; i < t_us.size(); ++i) {
+    out[i] = start_mm + mm_per_us * static_cast<double>(t_us[i] - t_us.front());
+  }
+  return out;
+}
+
+form::Profile BinProfile(const std::vector<double>& position_mm,
+                         const std::vector<double>& deviation_um, std::size_t bins) {
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -lo;
+  for (double x : position_mm) {
+    if (!std::isfinite(x)) continue;
+    lo = std::min(lo, x);
+    hi = std::max(hi, x);
+  }
+  if (!(hi > lo) || bins < 3) {
+    throw InvalidInput("", 0, "position",
+                       "the samples do not travel along the axis (no position range to bin)");
+  }
+  std::vector<double> sx(bins, 0.0), sy(bins, 0.0);
+  std::vector<std::size_t> n(bins, 0);
+  const double width = (hi - lo) / static_cast<double>(bins);
+  for (std::size_t i = 0; i < position_mm.size(); ++i) {
+    const double x = position_mm[i];
+    if (!std::isfinite(x)) continue;
+    auto b = static_cast<std::size_t>((x - lo) / width);
+    b = std::min(b, bins - 1);
+    sx[b] += x;
+    sy[b] += deviation_um[i];
+    ++n[b];
+  }
+  form::Profile p;
+  for (std::size_t b = 0; b < bins; ++b) {
+    if (n[b] == 0) continue;
+    const double x = sx[b] / static_cast<double>(n[b]);
+    // Means of disjoint intervals increase; guard the rounding of equal means anyway.
+    if (!p.position_mm.empty() && !(x > p.position_mm.back())) continue;
+    p.position_mm.push_back(x);
+    p.deviation_um.push_back(sy[b] / static_cast<double>(n[b]));
+  }
+  if (p.position_mm.size() < 3) {
+    throw InvalidInput("", 0, "bins", "fewer than 3 position intervals hold samples");
+  }
+  return p;
+}
+
+}  // namespace km::server

@@ -1,0 +1,301 @@
+// Service calls of the capacitance-sensor streams (docs/streams.md).
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "analysis/core/errors.h"
+#include "ingest/stream_frames.h"
+#include "server/service.h"
+#include "server/stream_chunks.h"
+#include "server/stream_profile.h"
+#include "server/time_util.h"
+
+namespace km::server {
+namespace {
+
+using nlohmann::json;
+
+const char* const kRequest = "request";
+
+std::string RequiredString(const json& j, const std::string& key) {
+  if (!j.contains(key) || !j[key].is_string() || j[key].get<std::string>().empty()) {
+    throw InvalidInput(kRequest, 0, key, "a non-empty string is required");
+  }
+  return j[key].get<std::string>();
+}
+
+std::string OptionalString(const json& j, const std::string& key, const std::string& fallback) {
+  if (!j.contains(key)) return fallback;
+  if (!j[key].is_string()) throw InvalidInput(kRequest, 0, key, "must be a string");
+  return j[key].get<std::string>();
+}
+
+double OptionalNumber(const json& j, const std::string& key, std::optional<double> fallback) {
+  if (!j.contains(key)) {
+    if (!fallback) throw InvalidInput(kRequest, 0, key, "a number is required");
+    return *fallback;
+  }
+  if (!j[key].is_number() || !std::isfinite(j[key].get<double>())) {
+    throw InvalidInput(kRequest, 0, key, "must be a finite number");
+  }
+  return j[key].get<double>();
+}
+
+std::int64_t RequiredInt(const json& j, const std::string& key, std::int64_t lo, std::int64_t hi,
+                         std::optional<std::int64_t> fallback = std::nullopt) {
+  if (!j.contains(key)) {
+    if (!fallback) throw InvalidInput(kRequest, 0, key, "a whole number is required");
+    return *fallback;
+  }
+  if (!j[key].is_number_integer() || j[key].get<std::int64_t>() < lo ||
+      j[key].get<std::int64_t>() > hi) {
+    throw InvalidInput(
+        kRequest, 0, key,
+        "must be a whole number from " + std::to_string(lo) + " to " + std::to_string(hi));
+  }
+  return j[key].get<std::int64_t>();
+}
+
+void CheckMachineId(const std::string& id, const std::string& field) {
+  for (char c : id) {
+    const bool ok =
+        std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == ':';
+    if (!ok) {
+      throw InvalidInput(kRequest, 0, field,
+                         "'" + id + "' may only hold letters, digits and - _ . :");
+    }
+  }
+}
+
+json GapJson(const StreamGap& g) {
+  return {{"channel", g.channel},       {"first_missing", g.first_missing},
+          {"missing", g.missing},       {"t_before_us", g.t_before_us},
+          {"t_after_us", g.t_after_us}, {"detected_at", g.detected_at}};
+}
+
+// All samples of a channel in [from, to), in counter order.
+ingest::SampleRun ReadChannel(Storage& storage, std::int64_t stream, std::int64_t channel,
+                              std::int64_t from_us, std::int64_t to_us) {
+  ingest::SampleRun out;
+  out.channel = static_cast<std::uint32_t>(channel);
+  for (const auto& c : storage.ReadStreamChunks(stream, channel, from_us, to_us, true)) {
+    const auto run = DecodeStreamChunk(c);
+    for (std::size_t i = 0; i < run.size(); ++i) {
+      if (run.t_us[i] < from_us || run.t_us[i] >= to_us) continue;
+      out.t_us.push_back(run.t_us[i]);
+      out.value_um.push_back(run.value_um[i]);
+      out.status.push_back(run.status[i]);
+    }
+  }
+  return out;
+}
+
+std::string FormatNumber(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.12g", v);
+  return buf;
+}
+
+}  // namespace
+
+std::int64_t Service::CreateStream(const json& request, const std::string& source) {
+  if (!request.is_object()) throw InvalidInput(kRequest, 0, "", "a JSON object is required");
+  NewStream s;
+  s.machine_id = RequiredString(request, "machine_id");
+  CheckMachineId(s.machine_id, "machine_id");
+  s.name = OptionalString(request, "name", "");
+  s.source = source;
+  std::set<std::uint32_t> declared;
+  if (request.contains("channels")) {
+    const auto& chans = request["channels"];
+    if (!chans.is_array()) throw InvalidInput(kRequest, 0, "channels", "must be an array");
+    for (std::size_t i = 0; i < chans.size(); ++i) {
+      const std::string field = "channels[" + std::to_string(i) + "]";
+      if (!chans[i].is_object()) throw InvalidInput(kRequest, 0, field, "must be an object");
+      const auto& c = chans[i];
+      if (!c.contains("channel") || !c["channel"].is_number_unsigned() ||
+          c["channel"].get<std::uint64_t>() > 65535) {
+        throw InvalidInput(kRequest, 0, field + ".channel", "a whole number 0…65535 is required");
+      }
+      if (!declared.insert(c["channel"].get<std::uint32_t>()).second) {
+        throw InvalidInput(kRequest, 0, field + ".channel", "the channel is declared twice");
+      }
+      if (c.contains("rate_hz") &&
+          (!c["rate_hz"].is_number() || !(c["rate_hz"].get<double>() > 0))) {
+        throw InvalidInput(kRequest, 0, field + ".rate_hz", "must be a positive number");
+      }
+    }
+  }
+  s.metadata_json = request.dump();
+  return streams_->Create(s);
+}
+
+json Service::IngestFrames(std::int64_t stream_id, const std::string& content_type,
+                           const BodyReader& read_body) {
+  if (!storage_->GetStream(stream_id)) {
+    throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+  }
+  const std::string source = "stream " + std::to_string(stream_id) + " frames";
+  ingest::StreamFrameDecoder decoder(ingest::FrameFormatFromContentType(content_type), source);
+  IngestCounts counts;
+  const auto on_run = [&](ingest::SampleRun&& run) {
+    streams_->Accept(stream_id, std::move(run), counts);
+  };
+  bool complete = false;
+  try {
+    complete = read_body([&](std::string_view piece) {
+      decoder.Feed(piece, on_run);
+      return true;
+    });
+    if (complete) decoder.Finish(on_run);
+  } catch (...) {
+    streams_->Flush(stream_id);  // every frame before the bad one is kept
+    throw;
+  }
+  streams_->Flush(stream_id);
+  if (!complete) {
+    throw InvalidInput(source, 0, "body",
+                       "the connection ended before the body was complete; the " +
+                           std::to_string(decoder.frames()) +
+                           " complete frames were stored, resend from the next counter");
+  }
+  json gaps = json::array();
+  for (const auto& g : counts.gaps) gaps.push_back(GapJson(g));
+  return {{"stream_id", stream_id},          {"frames", decoder.frames()},
+          {"samples", counts.samples},       {"stored", counts.accepted},
+          {"duplicates", counts.duplicates}, {"gaps", gaps}};
+}
+
+json Service::StreamJson(std::int64_t stream_id) {
+  const auto rec = storage_->GetStream(stream_id);
+  if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+  json j;
+  j["id"] = rec->id;
+  j["machine_id"] = rec->machine_id;
+  j["name"] = rec->name;
+  j["source"] = rec->source;
+  j["created_at"] = rec->created_at;
+  j["metadata"] = json::parse(rec->metadata_json, nullptr, false);
+  const auto pending = streams_->Pending(stream_id);
+  json chans = json::array();
+  std::int64_t total = 0, gaps = 0, missing = 0;
+  for (const auto& c : storage_->StreamChannels(stream_id)) {
+    const auto p = pending.find(static_cast<std::uint32_t>(c.channel));
+    chans.push_back({{"channel", c.channel},
+                     {"samples", c.samples},
+                     {"chunks", c.chunks},
+                     {"flagged", c.flagged},
+                     {"first_t_us", c.first_t_us},
+                     {"last_t_us", c.last_t_us},
+                     {"next_counter", c.next_counter},
+                     {"gaps", c.gaps},
+                     {"missing", c.missing},
+                     {"buffered", p == pending.end() ? 0 : p->second}});
+    total += c.samples;
+    gaps += c.gaps;
+    missing += c.missing;
+  }
+  j["channels"] = chans;
+  j["samples"] = total;
+  j["gap_count"] = gaps;
+  j["missing"] = missing;
+  return j;
+}
+
+json Service::ListStreams(const std::optional<std::string>& machine_id, std::int64_t limit) {
+  json items = json::array();
+  for (const auto& s : storage_->ListStreams(machine_id, limit)) items.push_back(StreamJson(s.id));
+  return {{"items", items}};
+}
+
+json Service::StreamGapsJson(std::int64_t stream_id, std::int64_t limit) {
+  if (!storage_->GetStream(stream_id)) {
+    throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+  }
+  json items = json::array();
+  for (const auto& g : storage_->StreamGaps(stream_id, limit)) items.push_back(GapJson(g));
+  return {{"stream_id", stream_id}, {"items", items}};
+}
+
+json Service::StreamSamples(std::int64_t stream_id, std::int64_t channel,
+                            std::optional<std::int64_t> from_us, std::optional<std::int64_t> to_us,
+                            std::size_t max_points) {
+  std::int64_t lo = std::numeric_limits<std::int64_t>::min();
+  std::int64_t hi = std::numeric_limits<std::int64_t>::max();
+  return StreamSamplesJson(*storage_, stream_id, channel, from_us.value_or(lo), to_us.value_or(hi),
+                           max_points);
+}
+
+UploadOutcome Service::StreamProfile(std::int64_t stream_id, const json& request) {
+  const auto rec = storage_->GetStream(stream_id);
+  if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+  if (!request.is_object()) throw InvalidInput(kRequest, 0, "", "a JSON object is required");
+  const auto channel = RequiredInt(request, "channel", 0, 65535);
+  const auto from_us = RequiredInt(request, "from_us", std::numeric_limits<std::int64_t>::min(),
+                                   std::numeric_limits<std::int64_t>::max(),
+                                   std::numeric_limits<std::int64_t>::min());
+  const auto to_us = RequiredInt(request, "to_us", std::numeric_limits<std::int64_t>::min(),
+                                 std::numeric_limits<std::int64_t>::max(),
+                                 std::numeric_limits<std::int64_t>::max());
+  const std::string axis = RequiredString(request, "axis");
+  const std::string error_direction = RequiredString(request, "error_direction");
+  const auto bins = static_cast<std::size_t>(RequiredInt(request, "points", 3, 100000, 1000));
+  streams_->Flush(stream_id);  // a profile sees every sample received so far
+  const auto sensor = ReadChannel(*storage_, stream_id, channel, from_us, to_us);
+  if (sensor.size() < 3) {
+    throw InvalidInput(kRequest, 0, "channel",
+                       "channel " + std::to_string(channel) + " has " +
+                           std::to_string(sensor.size()) + " samples in the chosen time range");
+  }
+  if (!request.contains("position") || !request["position"].is_object()) {
+    throw InvalidInput(kRequest, 0, "position",
+                       "an object {\"encoder_channel\": N} or {\"feed_mm_min\": F, "
+                       "\"start_mm\": X} is required");
+  }
+  const auto& pos = request["position"];
+  std::vector<double> x;
+  std::string position_source;
+  if (pos.contains("encoder_channel")) {
+    const auto enc = RequiredInt(pos, "encoder_channel", 0, 65535);
+    const auto e = ReadChannel(*storage_, stream_id, enc, from_us, to_us);
+    if (e.size() < 2) {
+      throw InvalidInput(kRequest, 0, "position.encoder_channel",
+                         "encoder channel " + std::to_string(enc) + " has no samples in range");
+    }
+    x = InterpolatePositionMm(e.t_us, e.value_um, sensor.t_us);
+    position_source = "encoder channel " + std::to_string(enc);
+  } else {
+    const double feed = OptionalNumber(pos, "feed_mm_min", std::nullopt);
+    const double start = OptionalNumber(pos, "start_mm", 0.0);
+    if (feed == 0.0) throw InvalidInput(kRequest, 0, "position.feed_mm_min", "must not be 0");
+    x = FeedPositionMm(sensor.t_us, start, feed);
+    position_source = "feed " + FormatNumber(feed) + " mm/min from " + FormatNumber(start) + " mm";
+  }
+  const auto profile = BinProfile(x, sensor.value_um, bins);
+  // The profile is a straightness file like any other (contract §1.3), so it is stored,
+  // analysed and reproducible the same way; the header says where it came from.
+  std::string text = "# format: kinemetric-straightness/1\n";
+  text += "# machine_id: " + rec->machine_id + "\n";
+  text += "# axis: " + axis + "\n";
+  text += "# error_direction: " + error_direction + "\n";
+  text += "# sensor: " + OptionalString(request, "sensor", "capacitance") + "\n";
+  text += "# reference: " + OptionalString(request, "reference", "optical_flat") + "\n";
+  const std::string test_id = OptionalString(request, "test_id", "");
+  if (!test_id.empty()) text += "# test_id: " + test_id + "\n";
+  text += "# timestamp: " + UtcIso8601FromMicros(sensor.t_us.front()) + "\n";
+  text += "# source_stream: " + std::to_string(stream_id) + "\n";
+  text += "# source_channel: " + std::to_string(channel) + "\n";
+  text += "# source_time_us: " + std::to_string(sensor.t_us.front()) + ", " +
+          std::to_string(sensor.t_us.back()) + "\n";
+  text += "# source_samples: " + std::to_string(sensor.size()) + "\n";
+  text += "# position_from: " + position_source + "\n";
+  text += "position_mm,deviation_um\n";
+  for (std::size_t i = 0; i < profile.position_mm.size(); ++i) {
+    text +=
+        FormatNumber(profile.position_mm[i]) + "," + FormatNumber(profile.deviation_um[i]) + "\n";
+  }
+  return Upload(text,
+                "stream-" + std::to_string(stream_id) + "-ch" + std::to_string(channel) + ".csv");
+}
+
+}  // namespace km::server

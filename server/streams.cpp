@@ -1,0 +1,321 @@
+#include "server/streams.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "analysis/core/errors.h"
+#include "server/stream_chunks.h"
+#include "server/time_util.h"
+
+namespace km::server {
+
+StreamHub::StreamHub(Storage& storage, StreamOptions options)
+    : storage_(storage), options_(options) {
+  if (options_.chunk_samples == 0) options_.chunk_samples = 1;
+  flusher_ = std::thread([this] { FlusherLoop(); });
+}
+
+StreamHub::~StreamHub() {
+  {
+    std::lock_guard lock(flusher_mu_);
+    stopping_ = true;
+  }
+  flusher_cv_.notify_all();
+  flusher_.join();
+  try {
+    FlushAll();
+  } catch (...) {
+    // Storage failing at shutdown: nothing more can be done here; the error was reported
+    // by the flusher before.
+  }
+}
+
+void StreamHub::FlusherLoop() {
+  std::unique_lock lock(flusher_mu_);
+  while (!stopping_) {
+    flusher_cv_.wait_for(lock, std::chrono::milliseconds(options_.flush_interval_ms));
+    if (stopping_) break;
+    lock.unlock();
+    try {
+      FlushAll();
+    } catch (...) {
+      // Kept in memory (ready chunks stay queued) and retried on the next tick.
+    }
+    lock.lock();
+  }
+}
+
+std::int64_t StreamHub::Create(const NewStream& stream) {
+  const std::int64_t id = storage_.CreateStream(stream);
+  Get(id);
+  return id;
+}
+
+StreamHub::State& StreamHub::Get(std::int64_t stream_id) {
+  State* state = nullptr;
+  {
+    std::lock_guard lock(mu_);
+    auto it = states_.find(stream_id);
+    if (it == states_.end()) {
+      const auto rec = storage_.GetStream(stream_id);
+      if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+      it = states_.emplace(stream_id, std::make_unique<State>()).first;
+      if (!rec->metadata_json.empty()) {
+        const auto meta = nlohmann::json::parse(rec->metadata_json, nullptr, false);
+        if (meta.is_object() && meta.contains("channels") && meta["channels"].is_array()) {
+          for (const auto& c : meta["channels"]) {
+            if (c.is_object() && c.contains("channel") && c["channel"].is_number_unsigned()) {
+              it->second->declared.insert(c["channel"].get<std::uint32_t>());
+            }
+          }
+        }
+      }
+    }
+    state = it->second.get();
+  }
+  std::lock_guard lock(state->mu);
+  if (!state->loaded) Load(stream_id, *state);
+  return *state;
+}
+
+void StreamHub::Load(std::int64_t stream_id, State& s) {
+  for (const auto& c : storage_.StreamChannels(stream_id)) {
+    Channel& ch = s.channels[static_cast<std::uint32_t>(c.channel)];
+    ch.known = true;
+    ch.next_counter = static_cast<std::uint64_t>(c.next_counter);
+    ch.last_t_us = c.last_t_us;
+  }
+  s.loaded = true;
+}
+
+void StreamHub::Seal(std::int64_t stream_id, Channel& ch, State& s) {
+  auto& p = ch.pending;
+  std::size_t begin = 0;
+  while (begin < p.size()) {
+    const std::size_t end = std::min(p.size(), begin + options_.chunk_samples);
+    StreamChunk c = EncodeStreamChunk(p, begin, end);
+    c.stream_id = stream_id;
+    s.ready.push_back(std::move(c));
+    begin = end;
+  }
+  p.t_us.clear();
+  p.value_um.clear();
+  p.status.clear();
+}
+
+void StreamHub::Write(State& s) {
+  if (s.ready.empty() && s.gaps.empty()) return;
+  storage_.AppendStream(s.ready, s.gaps);  // throws: both stay queued for the next attempt
+  s.ready.clear();
+  s.gaps.clear();
+}
+
+void StreamHub::Accept(std::int64_t stream_id, ingest::SampleRun run, IngestCounts& counts) {
+  const std::size_t n = run.value_um.size();
+  if (run.t_us.size() != n || (!run.status.empty() && run.status.size() != n)) {
+    throw InvalidInput("", 0, "samples", "a run's timestamps, values and status differ in length");
+  }
+  if (run.status.empty()) run.status.assign(n, ingest::kStatusGood);
+  ++counts.runs;
+  counts.samples += n;
+  if (n == 0) return;
+  State& s = Get(stream_id);
+  std::lock_guard lock(s.mu);
+  if (!s.declared.empty() && !s.declared.count(run.channel)) {
+    throw InvalidInput("", 0, "channel",
+                       "channel " + std::to_string(run.channel) + " is not declared for stream " +
+                           std::to_string(stream_id));
+  }
+  Channel& ch = s.channels[run.channel];
+  if (!ch.known) {
+    ch.known = true;
+    ch.next_counter = run.first_counter;
+    ch.pending.channel = run.channel;
+  }
+  ch.pending.channel = run.channel;
+  std::size_t skip = 0;
+  if (run.first_counter < ch.next_counter) {
+    const std::uint64_t behind = ch.next_counter - run.first_counter;
+    skip = behind >= n ? n : static_cast<std::size_t>(behind);
+    counts.duplicates += skip;
+    if (skip == n) return;
+  }
+  const std::uint64_t first = run.first_counter + skip;
+  if (first > ch.next_counter) {
+    StreamGap g;
+    g.stream_id = stream_id;
+    g.channel = run.channel;
+    g.first_missing = static_cast<std::int64_t>(ch.next_counter);
+    g.missing = static_cast<std::int64_t>(first - ch.next_counter);
+    g.t_before_us = ch.last_t_us;
+    g.t_after_us = run.t_us[skip];
+    g.detected_at = NowUtcIso8601();
+    s.gaps.push_back(g);
+    counts.gaps.push_back(g);
+    Seal(stream_id, ch, s);  // a chunk holds consecutive counters only
+  }
+  auto& p = ch.pending;
+  if (p.size() == 0) p.first_counter = first;
+  p.t_us.insert(p.t_us.end(), run.t_us.begin() + static_cast<std::ptrdiff_t>(skip), run.t_us.end());
+  p.value_um.insert(p.value_um.end(), run.value_um.begin() + static_cast<std::ptrdiff_t>(skip),
+                    run.value_um.end());
+  p.status.insert(p.status.end(), run.status.begin() + static_cast<std::ptrdiff_t>(skip),
+                  run.status.end());
+  counts.accepted += n - skip;
+  ch.next_counter = first + (n - skip);
+  ch.last_t_us = run.t_us.back();
+  // Move whole chunks out of the pending buffer.
+  if (p.size() >= options_.chunk_samples) {
+    const std::size_t whole = p.size() / options_.chunk_samples * options_.chunk_samples;
+    for (std::size_t b = 0; b < whole; b += options_.chunk_samples) {
+      StreamChunk c = EncodeStreamChunk(p, b, b + options_.chunk_samples);
+      c.stream_id = stream_id;
+      s.ready.push_back(std::move(c));
+    }
+    const auto w = static_cast<std::ptrdiff_t>(whole);
+    p.t_us.erase(p.t_us.begin(), p.t_us.begin() + w);
+    p.value_um.erase(p.value_um.begin(), p.value_um.begin() + w);
+    p.status.erase(p.status.begin(), p.status.begin() + w);
+    p.first_counter += whole;
+  }
+  if (s.ready.size() >= options_.ready_chunks) Write(s);
+}
+
+void StreamHub::FlushLocked(std::int64_t stream_id, State& s) {
+  for (auto& [id, ch] : s.channels) Seal(stream_id, ch, s);
+  Write(s);
+}
+
+void StreamHub::Flush(std::int64_t stream_id) {
+  State& s = Get(stream_id);
+  std::lock_guard lock(s.mu);
+  FlushLocked(stream_id, s);
+}
+
+void StreamHub::FlushAll() {
+  std::vector<std::pair<std::int64_t, State*>> all;
+  {
+    std::lock_guard lock(mu_);
+    for (auto& [id, st] : states_) all.emplace_back(id, st.get());
+  }
+  std::exception_ptr first_error;
+  for (auto& [id, st] : all) {
+    std::lock_guard lock(st->mu);
+    try {
+      FlushLocked(id, *st);
+    } catch (...) {
+      if (!first_error) first_error = std::current_exception();
+    }
+  }
+  if (first_error) std::rethrow_exception(first_error);
+}
+
+std::map<std::uint32_t, std::size_t> StreamHub::Pending(std::int64_t stream_id) {
+  State& s = Get(stream_id);
+  std::lock_guard lock(s.mu);
+  std::map<std::uint32_t, std::size_t> out;
+  for (const auto& [id, ch] : s.channels) out[id] = ch.pending.size();
+  for (const auto& c : s.ready) out[static_cast<std::uint32_t>(c.channel)] += c.n;
+  return out;
+}
+
+namespace {
+class HubSink final : public ingest::SampleSink {
+ public:
+  HubSink(StreamHub& hub, std::int64_t id) : hub_(hub), id_(id) {}
+  void Deliver(const std::vector<ingest::StreamSample>& samples) override {
+    IngestCounts counts;
+    for (const auto& smp : samples) {
+      ingest::SampleRun run;
+      run.channel = smp.channel;
+      run.first_counter = smp.counter;
+      run.t_us.push_back(smp.t_us);
+      run.value_um.push_back(smp.value_um);
+      run.status.push_back(smp.status);
+      hub_.Accept(id_, std::move(run), counts);
+    }
+  }
+
+ private:
+  StreamHub& hub_;
+  std::int64_t id_;
+};
+}  // namespace
+
+std::unique_ptr<ingest::SampleSink> StreamHub::SinkFor(std::int64_t stream_id) {
+  Get(stream_id);  // NotFound now rather than in the acquisition thread
+  return std::make_unique<HubSink>(*this, stream_id);
+}
+
+nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::int64_t channel,
+                                 std::int64_t from_us, std::int64_t to_us, std::size_t max_points) {
+  using nlohmann::json;
+  if (!storage.GetStream(stream_id)) {
+    throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+  }
+  if (to_us <= from_us) throw InvalidInput("", 0, "to_us", "must be later than from_us");
+  if (max_points < 2) max_points = 2;
+  const auto chunks = storage.ReadStreamChunks(stream_id, channel, from_us, to_us, true);
+  json out = {{"stream_id", stream_id}, {"channel", channel}};
+  // Samples inside the range (chunks overlap its ends).
+  std::vector<std::int64_t> t, counter;
+  std::vector<double> v;
+  std::vector<std::uint8_t> status;
+  for (const auto& c : chunks) {
+    const auto run = DecodeStreamChunk(c);
+    for (std::size_t i = 0; i < run.size(); ++i) {
+      if (run.t_us[i] < from_us || run.t_us[i] >= to_us) continue;
+      t.push_back(run.t_us[i]);
+      counter.push_back(static_cast<std::int64_t>(run.first_counter + i));
+      v.push_back(run.value_um[i]);
+      status.push_back(run.status[i]);
+    }
+  }
+  out["samples_in_range"] = t.size();
+  if (t.size() <= max_points) {
+    out["downsampled"] = false;
+    out["t_us"] = t;
+    out["counter"] = counter;
+    out["value_um"] = v;
+    out["status"] = status;
+    return out;
+  }
+  // Buckets of equal time over the span actually covered, so a short burst is not squeezed.
+  const std::int64_t lo = *std::min_element(t.begin(), t.end());
+  const std::int64_t hi = *std::max_element(t.begin(), t.end()) + 1;
+  const double width = static_cast<double>(hi - lo) / static_cast<double>(max_points);
+  std::vector<double> mn(max_points, std::numeric_limits<double>::infinity());
+  std::vector<double> mx(max_points, -std::numeric_limits<double>::infinity());
+  std::vector<double> sum(max_points, 0.0);
+  std::vector<std::int64_t> cnt(max_points, 0);
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    auto b = static_cast<std::size_t>(static_cast<double>(t[i] - lo) / width);
+    b = std::min(b, max_points - 1);
+    mn[b] = std::min(mn[b], v[i]);
+    mx[b] = std::max(mx[b], v[i]);
+    sum[b] += v[i];
+    ++cnt[b];
+  }
+  json bt = json::array(), bmin = json::array(), bmax = json::array(), bmean = json::array(),
+       bn = json::array();
+  for (std::size_t b = 0; b < max_points; ++b) {
+    if (cnt[b] == 0) continue;  // a gap or a quiet stretch: no bucket is invented
+    bt.push_back(lo + std::llround((static_cast<double>(b) + 0.5) * width));
+    bmin.push_back(mn[b]);
+    bmax.push_back(mx[b]);
+    bmean.push_back(sum[b] / static_cast<double>(cnt[b]));
+    bn.push_back(cnt[b]);
+  }
+  out["downsampled"] = true;
+  out["bucket_us"] = width;
+  out["t_us"] = bt;
+  out["min_um"] = bmin;
+  out["max_um"] = bmax;
+  out["mean_um"] = bmean;
+  out["count"] = bn;
+  return out;
+}
+
+}  // namespace km::server
