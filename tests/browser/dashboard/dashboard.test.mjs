@@ -944,6 +944,62 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       assert.ok(overflow <= 1280, `no horizontal scrolling (scrollWidth ${overflow})`);
       assert.deepEqual(pageErrors, []);
     });
+
+    await step('sensor streams: counts, gaps, downsampled envelope broken at the gap', async () => {
+      const post = async (path, body, type) => {
+        const r = await fetch(`${server.base}${path}`, {
+          method: 'POST',
+          headers: { Authorization: `Bearer ${server.token}`, 'Content-Type': type },
+          body,
+        });
+        const text = await r.text();
+        assert.ok(r.ok, `${path}: HTTP ${r.status} ${text}`);
+        return JSON.parse(text);
+      };
+      const stream = await post(
+        '/api/v1/streams',
+        JSON.stringify({ machine_id: MACHINE, name: 'browser stream', channels: [{ channel: 1 }, { channel: 2 }] }),
+        'application/json',
+      );
+      const t0 = 1763700000000000;
+      const lines = [];
+      for (const ch of [1, 2]) {
+        for (let b = 0; b < 4000; b += 1000) {
+          if (ch === 1 && b === 2000) continue; // a lost frame: a gap of 1000 samples
+          const values = Array.from({ length: 1000 }, (_, k) => 0.2 * Math.sin((b + k) / 300) + 0.01 * ch);
+          lines.push(JSON.stringify({ channel: ch, first_counter: b, t0_us: t0 + b * 100, dt_us: 100, values_um: values }));
+        }
+      }
+      const ingest = await post(`/api/v1/streams/${stream.id}/frames`, `${lines.join('\n')}\n`, 'application/x-ndjson');
+      assert.equal(ingest.stored, 7000);
+      assert.equal(ingest.gaps.length, 1);
+      await page.click('[data-testid="streams-refresh"]');
+      const row = page.locator(`[data-testid="streams-table"] tr[data-stream="${stream.id}"]`);
+      await row.waitFor();
+      assert.equal((await row.locator('td[data-col="samples"]').textContent()).trim(), '7,000');
+      assert.equal((await row.locator('td[data-col="gaps"]').textContent()).trim(), '1 (1,000 missing)');
+      await row.locator('button.link').click();
+      const svg = page.locator('[data-testid="stream-svg"]');
+      await svg.waitFor();
+      const api1 = await apiGet(server, `/api/v1/streams/${stream.id}/samples?channel=1&max_points=600`);
+      assert.equal(api1.downsampled, true);
+      assert.equal(await svg.getAttribute('data-samples'), '3000');
+      assert.equal(await svg.getAttribute('data-points'), String(api1.t_us.length));
+      assert.equal(await svg.getAttribute('data-downsampled'), 'true');
+      assert.equal(await svg.getAttribute('data-segments'), '2', 'the line is broken at the gap');
+      assert.equal(await svg.locator('rect.gap').count(), 1);
+      assert.equal(await svg.locator('rect.gap').getAttribute('data-missing'), '1000');
+      assert.equal((await page.textContent('[data-testid="gaps-table"] td[data-col="missing"]')).trim(), '1,000');
+      await page.selectOption('[data-testid="stream-channel"]', '2');
+      await page.waitForFunction(
+        () => document.querySelector('[data-testid="stream-svg"]')?.getAttribute('data-samples') === '4000',
+      );
+      assert.equal(await page.locator('[data-testid="stream-svg"]').getAttribute('data-segments'), '1');
+      assert.equal(await page.locator('[data-testid="stream-svg"] rect.gap').count(), 0);
+      await page.locator('#streams-section').scrollIntoViewIfNeeded();
+      await page.locator('#streams-section').screenshot({ path: join(outDir, 'dashboard-streams.png') });
+      assert.deepEqual(pageErrors, []);
+    });
   } finally {
     if (failed && page) {
       const shot = join(outDir, 'dashboard-failure.png');
