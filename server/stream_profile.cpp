@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "analysis/core/errors.h"
+#include "server/time_util.h"
 
 namespace km::server {
 
@@ -80,6 +82,60 @@ form::Profile BinProfile(const std::vector<double>& position_mm,
     throw InvalidInput("", 0, "bins", "fewer than 3 position intervals hold samples");
   }
   return p;
+}
+
+namespace {
+std::string Num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.12g", v);
+  return buf;
+}
+}  // namespace
+
+std::string StraightnessFileFromStream(const ProfileSpec& spec, const ingest::SampleRun& sensor,
+                                       const ingest::SampleRun* encoder) {
+  if (sensor.size() < 3) {
+    throw InvalidInput("request", 0, "channel",
+                       "channel " + std::to_string(sensor.channel) + " has " +
+                           std::to_string(sensor.size()) + " samples in the chosen time range");
+  }
+  std::vector<double> x;
+  std::string position_from;
+  if (encoder) {
+    if (encoder->size() < 2) {
+      throw InvalidInput("request", 0, "position.encoder_channel",
+                         "encoder channel " + std::to_string(encoder->channel) +
+                             " has fewer than 2 samples in the chosen time range");
+    }
+    x = InterpolatePositionMm(encoder->t_us, encoder->value_um, sensor.t_us);
+    position_from = "encoder channel " + std::to_string(encoder->channel);
+  } else {
+    if (!std::isfinite(spec.feed_mm_min) || spec.feed_mm_min == 0.0) {
+      throw InvalidInput("request", 0, "position.feed_mm_min", "must be a non-zero number");
+    }
+    x = FeedPositionMm(sensor.t_us, spec.start_mm, spec.feed_mm_min);
+    position_from = "feed " + Num(spec.feed_mm_min) + " mm/min from " + Num(spec.start_mm) + " mm";
+  }
+  const auto profile = BinProfile(x, sensor.value_um, spec.points);
+  std::string text = "# format: kinemetric-straightness/1\n";
+  text += "# machine_id: " + spec.machine_id + "\n";
+  text += "# axis: " + spec.axis + "\n";
+  text += "# error_direction: " + spec.error_direction + "\n";
+  text += "# sensor: " + spec.sensor + "\n";
+  text += "# reference: " + spec.reference + "\n";
+  if (!spec.test_id.empty()) text += "# test_id: " + spec.test_id + "\n";
+  text += "# timestamp: " + UtcIso8601FromMicros(sensor.t_us.front()) + "\n";
+  for (const auto& [k, v] : spec.provenance) text += "# " + k + ": " + v + "\n";
+  text += "# source_channel: " + std::to_string(sensor.channel) + "\n";
+  text += "# source_time_us: " + std::to_string(sensor.t_us.front()) + ", " +
+          std::to_string(sensor.t_us.back()) + "\n";
+  text += "# source_samples: " + std::to_string(sensor.size()) + "\n";
+  text += "# position_from: " + position_from + "\n";
+  text += "position_mm,deviation_um\n";
+  for (std::size_t i = 0; i < profile.position_mm.size(); ++i) {
+    text += Num(profile.position_mm[i]) + "," + Num(profile.deviation_um[i]) + "\n";
+  }
+  return text;
 }
 
 }  // namespace km::server

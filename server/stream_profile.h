@@ -10,9 +10,13 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "analysis/form/profile.h"
+#include "ingest/stream_record.h"
 
 namespace km::server {
 
@@ -29,5 +33,22 @@ std::vector<double> FeedPositionMm(const std::vector<std::int64_t>& t_us, double
 // Bin means; NaN positions are ignored. Throws InvalidInput when fewer than 3 bins are filled.
 form::Profile BinProfile(const std::vector<double>& position_mm,
                          const std::vector<double>& deviation_um, std::size_t bins);
+
+// What turns a sensor channel into a straightness file.
+struct ProfileSpec {
+  std::string machine_id, axis, error_direction;
+  std::string sensor = "capacitance", reference = "optical_flat", test_id;
+  std::size_t points = 1000;
+  double feed_mm_min = 0.0, start_mm = 0.0;                     // used when there is no encoder
+  std::vector<std::pair<std::string, std::string>> provenance;  // extra header keys
+};
+
+// The kinemetric-straightness/1 file (contract §1.3) of the sensor samples, positioned by the
+// encoder run when given (its channel named in the header), else by feed × time. The header
+// records where the profile came from (source_channel, source_time_us, source_samples,
+// position_from and the spec's provenance keys). Throws InvalidInput (field names as in the
+// API request) when the data cannot make a profile.
+std::string StraightnessFileFromStream(const ProfileSpec& spec, const ingest::SampleRun& sensor,
+                                       const ingest::SampleRun* encoder);
 
 }  // namespace km::server

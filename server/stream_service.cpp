@@ -90,12 +90,6 @@ ingest::SampleRun ReadChannel(Storage& storage, std::int64_t stream, std::int64_
   return out;
 }
 
-std::string FormatNumber(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.12g", v);
-  return buf;
-}
-
 }  // namespace
 
 std::int64_t Service::CreateStream(const json& request, const std::string& source) {
@@ -242,58 +236,30 @@ UploadOutcome Service::StreamProfile(std::int64_t stream_id, const json& request
   const auto bins = static_cast<std::size_t>(RequiredInt(request, "points", 3, 100000, 1000));
   streams_->Flush(stream_id);  // a profile sees every sample received so far
   const auto sensor = ReadChannel(*storage_, stream_id, channel, from_us, to_us);
-  if (sensor.size() < 3) {
-    throw InvalidInput(kRequest, 0, "channel",
-                       "channel " + std::to_string(channel) + " has " +
-                           std::to_string(sensor.size()) + " samples in the chosen time range");
-  }
   if (!request.contains("position") || !request["position"].is_object()) {
     throw InvalidInput(kRequest, 0, "position",
                        "an object {\"encoder_channel\": N} or {\"feed_mm_min\": F, "
                        "\"start_mm\": X} is required");
   }
   const auto& pos = request["position"];
-  std::vector<double> x;
-  std::string position_source;
+  ProfileSpec spec;
+  spec.machine_id = rec->machine_id;
+  spec.axis = axis;
+  spec.error_direction = error_direction;
+  spec.sensor = OptionalString(request, "sensor", spec.sensor);
+  spec.reference = OptionalString(request, "reference", spec.reference);
+  spec.test_id = OptionalString(request, "test_id", "");
+  spec.points = bins;
+  spec.provenance = {{"source_stream", std::to_string(stream_id)}};
+  std::optional<ingest::SampleRun> encoder;
   if (pos.contains("encoder_channel")) {
     const auto enc = RequiredInt(pos, "encoder_channel", 0, 65535);
-    const auto e = ReadChannel(*storage_, stream_id, enc, from_us, to_us);
-    if (e.size() < 2) {
-      throw InvalidInput(kRequest, 0, "position.encoder_channel",
-                         "encoder channel " + std::to_string(enc) + " has no samples in range");
-    }
-    x = InterpolatePositionMm(e.t_us, e.value_um, sensor.t_us);
-    position_source = "encoder channel " + std::to_string(enc);
+    encoder = ReadChannel(*storage_, stream_id, enc, from_us, to_us);
   } else {
-    const double feed = OptionalNumber(pos, "feed_mm_min", std::nullopt);
-    const double start = OptionalNumber(pos, "start_mm", 0.0);
-    if (feed == 0.0) throw InvalidInput(kRequest, 0, "position.feed_mm_min", "must not be 0");
-    x = FeedPositionMm(sensor.t_us, start, feed);
-    position_source = "feed " + FormatNumber(feed) + " mm/min from " + FormatNumber(start) + " mm";
+    spec.feed_mm_min = OptionalNumber(pos, "feed_mm_min", std::nullopt);
+    spec.start_mm = OptionalNumber(pos, "start_mm", 0.0);
   }
-  const auto profile = BinProfile(x, sensor.value_um, bins);
-  // The profile is a straightness file like any other (contract §1.3), so it is stored,
-  // analysed and reproducible the same way; the header says where it came from.
-  std::string text = "# format: kinemetric-straightness/1\n";
-  text += "# machine_id: " + rec->machine_id + "\n";
-  text += "# axis: " + axis + "\n";
-  text += "# error_direction: " + error_direction + "\n";
-  text += "# sensor: " + OptionalString(request, "sensor", "capacitance") + "\n";
-  text += "# reference: " + OptionalString(request, "reference", "optical_flat") + "\n";
-  const std::string test_id = OptionalString(request, "test_id", "");
-  if (!test_id.empty()) text += "# test_id: " + test_id + "\n";
-  text += "# timestamp: " + UtcIso8601FromMicros(sensor.t_us.front()) + "\n";
-  text += "# source_stream: " + std::to_string(stream_id) + "\n";
-  text += "# source_channel: " + std::to_string(channel) + "\n";
-  text += "# source_time_us: " + std::to_string(sensor.t_us.front()) + ", " +
-          std::to_string(sensor.t_us.back()) + "\n";
-  text += "# source_samples: " + std::to_string(sensor.size()) + "\n";
-  text += "# position_from: " + position_source + "\n";
-  text += "position_mm,deviation_um\n";
-  for (std::size_t i = 0; i < profile.position_mm.size(); ++i) {
-    text +=
-        FormatNumber(profile.position_mm[i]) + "," + FormatNumber(profile.deviation_um[i]) + "\n";
-  }
+  const std::string text = StraightnessFileFromStream(spec, sensor, encoder ? &*encoder : nullptr);
   return Upload(text,
                 "stream-" + std::to_string(stream_id) + "-ch" + std::to_string(channel) + ".csv");
 }

@@ -83,9 +83,7 @@ StreamHub::State& StreamHub::Get(std::int64_t stream_id) {
 void StreamHub::Load(std::int64_t stream_id, State& s) {
   for (const auto& c : storage_.StreamChannels(stream_id)) {
     Channel& ch = s.channels[static_cast<std::uint32_t>(c.channel)];
-    ch.known = true;
-    ch.next_counter = static_cast<std::uint64_t>(c.next_counter);
-    ch.last_t_us = c.last_t_us;
+    ch.counters = ingest::ChannelCounters(static_cast<std::uint64_t>(c.next_counter), c.last_t_us);
   }
   s.loaded = true;
 }
@@ -129,28 +127,20 @@ void StreamHub::Accept(std::int64_t stream_id, ingest::SampleRun run, IngestCoun
                            std::to_string(stream_id));
   }
   Channel& ch = s.channels[run.channel];
-  if (!ch.known) {
-    ch.known = true;
-    ch.next_counter = run.first_counter;
-    ch.pending.channel = run.channel;
-  }
   ch.pending.channel = run.channel;
-  std::size_t skip = 0;
-  if (run.first_counter < ch.next_counter) {
-    const std::uint64_t behind = ch.next_counter - run.first_counter;
-    skip = behind >= n ? n : static_cast<std::size_t>(behind);
-    counts.duplicates += skip;
-    if (skip == n) return;
-  }
+  const auto verdict = ch.counters.Take(run);
+  const std::size_t skip = verdict.duplicates;
+  counts.duplicates += skip;
+  if (skip == n) return;
   const std::uint64_t first = run.first_counter + skip;
-  if (first > ch.next_counter) {
+  if (verdict.gap) {
     StreamGap g;
     g.stream_id = stream_id;
     g.channel = run.channel;
-    g.first_missing = static_cast<std::int64_t>(ch.next_counter);
-    g.missing = static_cast<std::int64_t>(first - ch.next_counter);
-    g.t_before_us = ch.last_t_us;
-    g.t_after_us = run.t_us[skip];
+    g.first_missing = static_cast<std::int64_t>(verdict.gap->first_missing);
+    g.missing = static_cast<std::int64_t>(verdict.gap->missing);
+    g.t_before_us = verdict.gap->t_before_us;
+    g.t_after_us = verdict.gap->t_after_us;
     g.detected_at = NowUtcIso8601();
     s.gaps.push_back(g);
     counts.gaps.push_back(g);
@@ -164,8 +154,6 @@ void StreamHub::Accept(std::int64_t stream_id, ingest::SampleRun run, IngestCoun
   p.status.insert(p.status.end(), run.status.begin() + static_cast<std::ptrdiff_t>(skip),
                   run.status.end());
   counts.accepted += n - skip;
-  ch.next_counter = first + (n - skip);
-  ch.last_t_us = run.t_us.back();
   // Move whole chunks out of the pending buffer.
   if (p.size() >= options_.chunk_samples) {
     const std::size_t whole = p.size() / options_.chunk_samples * options_.chunk_samples;

@@ -28,6 +28,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ingest/stream_counters.h"
 #include "ingest/stream_record.h"
 #include "server/storage.h"
 
@@ -73,9 +74,7 @@ class StreamHub {
 
  private:
   struct Channel {
-    bool known = false;
-    std::uint64_t next_counter = 0;
-    std::int64_t last_t_us = 0;
+    ingest::ChannelCounters counters;
     ingest::SampleRun pending;
   };
   struct State {

@@ -317,6 +317,7 @@ TEST_F(StreamIntegration, StreamBecomesAStraightnessProfile) {
   }
   auto r = api.PostBody("/api/v1/streams/" + std::to_string(id) + "/frames", body, kBinary);
   ASSERT_EQ(r->status, 200) << r->body;
+  json encoder_results;
   for (const json& position :
        {json{{"feed_mm_min", feed}, {"start_mm", 50.0}}, json{{"encoder_channel", 2}}}) {
     auto p = api.PostJson("/api/v1/streams/" + std::to_string(id) + "/profile",
@@ -337,6 +338,48 @@ TEST_F(StreamIntegration, StreamBecomesAStraightnessProfile) {
     // The measurement is stored like an upload, and says where it came from.
     const json m = api.Get("/api/v1/measurements/" + std::to_string(out["id"].get<int>()));
     EXPECT_EQ(m["machine_id"], "vmc-7");
+    if (position.contains("encoder_channel")) encoder_results = res;
+  }
+  // The same frames captured to a file give the same figures offline (kinemetric stream
+  // profile), with a dropped frame reported as a gap.
+  {
+    const fs::path frames = dir_ / "capture.kmsf";
+    std::string capture = body;
+    // Drop the second frame of channel 1 (frames alternate sensor, encoder).
+    const std::size_t frame_bytes = 32 + 5000 * 16 + 4;
+    capture.erase(2 * frame_bytes, frame_bytes);
+    FILE* fp = std::fopen(frames.c_str(), "wb");
+    std::fwrite(capture.data(), 1, capture.size(), fp);
+    std::fclose(fp);
+    const std::string cmd = std::string(KINEMETRIC_BIN) + " stream profile '" + frames.string() +
+                            "' --channel 1 --encoder-channel 2 --axis X --error-direction Z "
+                            "--points 1500 --json";
+    FILE* p = popen(cmd.c_str(), "r");
+    std::string text;
+    char buf[4096];
+    while (std::size_t n = std::fread(buf, 1, sizeof buf, p)) text.append(buf, n);
+    ASSERT_EQ(pclose(p), 0) << text;
+    const json cli = json::parse(text);
+    ASSERT_EQ(cli["stream"]["gaps"].size(), 1u) << text;
+    EXPECT_EQ(cli["stream"]["gaps"][0]["channel"], 1);
+    EXPECT_EQ(cli["stream"]["gaps"][0]["first_missing"], 5000);
+    EXPECT_EQ(cli["stream"]["gaps"][0]["missing"], 5000);
+    EXPECT_EQ(cli["stream"]["sensor_samples"], n - 5000);
+    EXPECT_NEAR(cli["periodic"][0]["period_mm"].get<double>(), 55.0, 55.0 * 0.02) << text;
+    // Without the dropped frame the CLI and the server agree exactly.
+    FILE* fp2 = std::fopen(frames.c_str(), "wb");
+    std::fwrite(body.data(), 1, body.size(), fp2);
+    std::fclose(fp2);
+    FILE* p2 = popen(cmd.c_str(), "r");
+    text.clear();
+    while (std::size_t n2 = std::fread(buf, 1, sizeof buf, p2)) text.append(buf, n2);
+    ASSERT_EQ(pclose(p2), 0) << text;
+    const json cli_full = json::parse(text);
+    EXPECT_EQ(cli_full["stream"]["gaps"].size(), 0u);
+    EXPECT_EQ(cli_full["straightness_lsq_um"], encoder_results["straightness_lsq_um"]);
+    EXPECT_EQ(cli_full["straightness_min_zone_um"], encoder_results["straightness_min_zone_um"]);
+    EXPECT_EQ(cli_full["slope_um_per_m"], encoder_results["slope_um_per_m"]);
+    EXPECT_EQ(cli_full["periodic"], encoder_results["periodic"]);
   }
   auto bad = api.PostJson("/api/v1/streams/" + std::to_string(id) + "/profile",
                           {{"channel", 1}, {"axis", "X"}, {"error_direction", "Z"}});
