@@ -647,6 +647,17 @@ std::vector<StreamChunk> SqliteStorage::ReadStreamChunks(std::int64_t stream_id,
   return out;
 }
 
+std::string SqliteStorage::ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
+                                               std::int64_t first_counter) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_,
+         "SELECT data FROM stream_chunks WHERE stream_id = ? AND channel = ? AND "
+         "first_counter = ?");
+  s.Bind(1, stream_id).Bind(2, channel).Bind(3, first_counter);
+  if (!s.Step()) throw NotFound("no stream chunk at that counter");
+  return s.Blob(0);
+}
+
 std::vector<StreamGap> SqliteStorage::StreamGaps(std::int64_t stream_id, std::int64_t limit) {
   std::lock_guard lock(mu_);
   Stmt s(db_,

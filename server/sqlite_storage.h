@@ -47,6 +47,8 @@ class SqliteStorage final : public Storage {
   std::vector<StreamChunk> ReadStreamChunks(std::int64_t stream_id, std::int64_t channel,
                                             std::int64_t from_us, std::int64_t to_us,
                                             bool with_data) override;
+  std::string ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
+                                  std::int64_t first_counter) override;
   std::vector<StreamGap> StreamGaps(std::int64_t stream_id, std::int64_t limit) override;
   std::int64_t CountTokens() override;
   void PutToken(const std::string& token_sha256, const std::string& role,

@@ -182,6 +182,9 @@ class Storage {
   virtual std::vector<StreamChunk> ReadStreamChunks(std::int64_t stream_id, std::int64_t channel,
                                                     std::int64_t from_us, std::int64_t to_us,
                                                     bool with_data) = 0;
+  // The encoded samples of one chunk (NotFound when there is none at that first counter).
+  virtual std::string ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
+                                          std::int64_t first_counter) = 0;
   virtual std::vector<StreamGap> StreamGaps(std::int64_t stream_id, std::int64_t limit) = 0;
 
   // Access tokens are stored only as SHA-256 hashes.

@@ -237,6 +237,35 @@ std::unique_ptr<ingest::SampleSink> StreamHub::SinkFor(std::int64_t stream_id) {
   return std::make_unique<HubSink>(*this, stream_id);
 }
 
+namespace {
+
+// Min / max / sum / count per time bucket.
+struct Buckets {
+  std::int64_t lo = 0;
+  double width = 1.0;
+  std::vector<double> mn, mx, sum;
+  std::vector<std::int64_t> cnt;
+  Buckets(std::int64_t lo_us, std::int64_t hi_us, std::size_t n)
+      : lo(lo_us),
+        width(static_cast<double>(hi_us - lo_us) / static_cast<double>(n)),
+        mn(n, std::numeric_limits<double>::infinity()),
+        mx(n, -std::numeric_limits<double>::infinity()),
+        sum(n, 0.0),
+        cnt(n, 0) {}
+  std::size_t Of(std::int64_t t) const {
+    const auto b = static_cast<std::size_t>(static_cast<double>(t - lo) / width);
+    return std::min(b, cnt.size() - 1);
+  }
+  void Add(std::size_t b, double vmin, double vmax, double vsum, std::int64_t n) {
+    mn[b] = std::min(mn[b], vmin);
+    mx[b] = std::max(mx[b], vmax);
+    sum[b] += vsum;
+    cnt[b] += n;
+  }
+};
+
+}  // namespace
+
 nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::int64_t channel,
                                  std::int64_t from_us, std::int64_t to_us, std::size_t max_points) {
   using nlohmann::json;
@@ -245,59 +274,105 @@ nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::
   }
   if (to_us <= from_us) throw InvalidInput("", 0, "to_us", "must be later than from_us");
   if (max_points < 2) max_points = 2;
-  const auto chunks = storage.ReadStreamChunks(stream_id, channel, from_us, to_us, true);
   json out = {{"stream_id", stream_id}, {"channel", channel}};
-  // Samples inside the range (chunks overlap its ends).
-  std::vector<std::int64_t> t, counter;
-  std::vector<double> v;
-  std::vector<std::uint8_t> status;
-  for (const auto& c : chunks) {
-    const auto run = DecodeStreamChunk(c);
+  const auto meta = storage.ReadStreamChunks(stream_id, channel, from_us, to_us, false);
+  std::int64_t stored = 0;
+  for (const auto& c : meta) stored += c.n;
+  // Samples of one chunk inside [from_us, to_us).
+  struct Loose {
+    std::vector<std::int64_t> t, counter;
+    std::vector<double> v;
+    std::vector<std::uint8_t> status;
+  } loose;
+  const auto take = [&](const StreamChunk& c) {
+    StreamChunk with = c;
+    with.data = storage.ReadStreamChunkData(stream_id, channel, c.first_counter);
+    const auto run = DecodeStreamChunk(with);
     for (std::size_t i = 0; i < run.size(); ++i) {
       if (run.t_us[i] < from_us || run.t_us[i] >= to_us) continue;
-      t.push_back(run.t_us[i]);
-      counter.push_back(static_cast<std::int64_t>(run.first_counter + i));
-      v.push_back(run.value_um[i]);
-      status.push_back(run.status[i]);
+      loose.t.push_back(run.t_us[i]);
+      loose.counter.push_back(static_cast<std::int64_t>(run.first_counter + i));
+      loose.v.push_back(run.value_um[i]);
+      loose.status.push_back(run.status[i]);
+    }
+  };
+  // Few samples: read them all. Many: chunks wholly inside the range that also fall in one
+  // bucket enter with their stored statistics (exactly the min, max and sum of their samples);
+  // only the others are decoded. The buckets are therefore the same as from every sample.
+  constexpr std::int64_t kDecodeAll = 200000;
+  const bool all =
+      stored <= std::max<std::int64_t>(kDecodeAll, static_cast<std::int64_t>(max_points));
+  std::vector<const StreamChunk*> whole;
+  for (const auto& c : meta) {
+    const bool inside = c.t_first_us >= from_us && c.t_last_us < to_us;
+    if (all || !inside) {
+      take(c);
+    } else {
+      whole.push_back(&c);
     }
   }
-  out["samples_in_range"] = t.size();
-  if (t.size() <= max_points) {
+  std::int64_t in_range = static_cast<std::int64_t>(loose.t.size());
+  for (const auto* c : whole) in_range += c->n;
+  out["samples_in_range"] = in_range;
+  if (in_range <= static_cast<std::int64_t>(max_points)) {
+    if (!whole.empty()) {
+      for (const auto* c : whole) take(*c);
+      // Back into counter order (chunks were read in counter order, but in two groups).
+      std::vector<std::size_t> order(loose.t.size());
+      for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::sort(order.begin(), order.end(),
+                [&](std::size_t a, std::size_t b) { return loose.counter[a] < loose.counter[b]; });
+      Loose sorted;
+      for (const auto i : order) {
+        sorted.t.push_back(loose.t[i]);
+        sorted.counter.push_back(loose.counter[i]);
+        sorted.v.push_back(loose.v[i]);
+        sorted.status.push_back(loose.status[i]);
+      }
+      loose = std::move(sorted);
+    }
     out["downsampled"] = false;
-    out["t_us"] = t;
-    out["counter"] = counter;
-    out["value_um"] = v;
-    out["status"] = status;
+    out["t_us"] = loose.t;
+    out["counter"] = loose.counter;
+    out["value_um"] = loose.v;
+    out["status"] = loose.status;
     return out;
   }
   // Buckets of equal time over the span actually covered, so a short burst is not squeezed.
-  const std::int64_t lo = *std::min_element(t.begin(), t.end());
-  const std::int64_t hi = *std::max_element(t.begin(), t.end()) + 1;
-  const double width = static_cast<double>(hi - lo) / static_cast<double>(max_points);
-  std::vector<double> mn(max_points, std::numeric_limits<double>::infinity());
-  std::vector<double> mx(max_points, -std::numeric_limits<double>::infinity());
-  std::vector<double> sum(max_points, 0.0);
-  std::vector<std::int64_t> cnt(max_points, 0);
-  for (std::size_t i = 0; i < t.size(); ++i) {
-    auto b = static_cast<std::size_t>(static_cast<double>(t[i] - lo) / width);
-    b = std::min(b, max_points - 1);
-    mn[b] = std::min(mn[b], v[i]);
-    mx[b] = std::max(mx[b], v[i]);
-    sum[b] += v[i];
-    ++cnt[b];
+  std::int64_t lo = std::numeric_limits<std::int64_t>::max();
+  std::int64_t hi = std::numeric_limits<std::int64_t>::min();
+  for (const auto t : loose.t) {
+    lo = std::min(lo, t);
+    hi = std::max(hi, t);
+  }
+  for (const auto* c : whole) {
+    lo = std::min(lo, c->t_first_us);
+    hi = std::max(hi, c->t_last_us);
+  }
+  Buckets b(lo, hi + 1, max_points);
+  for (const auto* c : whole) {
+    const std::size_t b1 = b.Of(c->t_first_us), b2 = b.Of(c->t_last_us);
+    if (b1 == b2) {
+      b.Add(b1, c->value_min, c->value_max, c->value_sum, c->n);
+    } else {
+      take(*c);  // appended to loose, after the ones counted above
+    }
+  }
+  for (std::size_t i = 0; i < loose.t.size(); ++i) {
+    b.Add(b.Of(loose.t[i]), loose.v[i], loose.v[i], loose.v[i], 1);
   }
   json bt = json::array(), bmin = json::array(), bmax = json::array(), bmean = json::array(),
        bn = json::array();
-  for (std::size_t b = 0; b < max_points; ++b) {
-    if (cnt[b] == 0) continue;  // a gap or a quiet stretch: no bucket is invented
-    bt.push_back(lo + std::llround((static_cast<double>(b) + 0.5) * width));
-    bmin.push_back(mn[b]);
-    bmax.push_back(mx[b]);
-    bmean.push_back(sum[b] / static_cast<double>(cnt[b]));
-    bn.push_back(cnt[b]);
+  for (std::size_t k = 0; k < max_points; ++k) {
+    if (b.cnt[k] == 0) continue;  // a gap or a quiet stretch: no bucket is invented
+    bt.push_back(lo + std::llround((static_cast<double>(k) + 0.5) * b.width));
+    bmin.push_back(b.mn[k]);
+    bmax.push_back(b.mx[k]);
+    bmean.push_back(b.sum[k] / static_cast<double>(b.cnt[k]));
+    bn.push_back(b.cnt[k]);
   }
   out["downsampled"] = true;
-  out["bucket_us"] = width;
+  out["bucket_us"] = b.width;
   out["t_us"] = bt;
   out["min_um"] = bmin;
   out["max_um"] = bmax;

@@ -294,6 +294,53 @@ TEST_F(StreamHubTest, DownsampledBucketsMatchABruteForceOverTheSamples) {
   EXPECT_THROW(StreamSamplesJson(st, id, 1, to, from, 10), InvalidInput);
 }
 
+// Long streams: whole chunks inside one bucket enter with their stored statistics; the buckets
+// must equal those computed from every sample.
+TEST_F(StreamHubTest, LongStreamBucketsFromChunkStatisticsEqualTheSamples) {
+  SqliteStorage st(path_.string());
+  StreamOptions opt;
+  opt.chunk_samples = 300;
+  StreamHub hub(st, opt);
+  const auto id = hub.Create({"m1", "", "modbus:dev", "{}"});
+  IngestCounts counts;
+  const auto run = MakeRun(4, 0, 400000, 0, 10, 9);
+  hub.Accept(id, run, counts);
+  hub.Flush(id);
+  for (const std::size_t buckets : {std::size_t{97}, std::size_t{1000}}) {
+    const std::int64_t from = run.t_us[777], to = run.t_us[399000];
+    const auto ds = StreamSamplesJson(st, id, 4, from, to, buckets);
+    ASSERT_TRUE(ds["downsampled"].get<bool>());
+    ASSERT_EQ(ds["samples_in_range"].get<std::int64_t>(), 399000 - 777);
+    const double lo = static_cast<double>(from), hi = static_cast<double>(run.t_us[398999] + 1);
+    const double w = (hi - lo) / static_cast<double>(buckets);
+    std::vector<double> mn(buckets, 1e300), mx(buckets, -1e300), sum(buckets, 0.0);
+    std::vector<std::int64_t> n(buckets, 0);
+    for (std::size_t i = 777; i < 399000; ++i) {
+      const auto b = std::min<std::size_t>(
+          buckets - 1, static_cast<std::size_t>((static_cast<double>(run.t_us[i]) - lo) / w));
+      mn[b] = std::min(mn[b], run.value_um[i]);
+      mx[b] = std::max(mx[b], run.value_um[i]);
+      sum[b] += run.value_um[i];
+      ++n[b];
+    }
+    ASSERT_EQ(ds["count"].size(), buckets);
+    for (std::size_t b = 0; b < buckets; ++b) {
+      EXPECT_EQ(ds["count"][b].get<std::int64_t>(), n[b]);
+      EXPECT_EQ(ds["min_um"][b].get<double>(), mn[b]);
+      EXPECT_EQ(ds["max_um"][b].get<double>(), mx[b]);
+      EXPECT_NEAR(ds["mean_um"][b].get<double>(), sum[b] / static_cast<double>(n[b]), 1e-12);
+    }
+  }
+  // Asking for every sample of a long range still gives every sample, in counter order.
+  const auto raw = StreamSamplesJson(st, id, 4, run.t_us[1000], run.t_us[251000], 300000);
+  ASSERT_FALSE(raw["downsampled"].get<bool>());
+  ASSERT_EQ(raw["counter"].size(), 250000u);
+  for (std::size_t i = 0; i < 250000; i += 4999) {
+    EXPECT_EQ(raw["counter"][i].get<std::int64_t>(), static_cast<std::int64_t>(1000 + i));
+    EXPECT_TRUE(BitEqual(raw["value_um"][i].get<double>(), run.value_um[1000 + i]));
+  }
+}
+
 TEST(StreamProfile, FeedTimesTimeAndEncoderPositionsBinToTheTrueProfile) {
   // 20 kHz over 10 s at 600 mm/min: 100 mm of travel; true straightness f(x) known.
   const auto f = [](double x) { return 0.2 * std::sin(2 * M_PI * x / 55.0) + 0.001 * x; };
