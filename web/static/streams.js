@@ -82,7 +82,7 @@ function renderDevices(items) {
       h('td', { 'data-col': 'connection_errors', class: 'num' }, fmtInt(s.connection_errors)),
       h('td', { 'data-col': 'reconnects', class: 'num' }, fmtInt(s.reconnects)),
       h('td', { class: 'wrap' }, s.last_error || '—'),
-      h('td', {}, h('button', { type: 'button', class: 'secondary small', onclick: () => selectStream(d.stream_id) }, `stream ${d.stream_id}`)),
+      h('td', {}, h('button', { type: 'button', class: 'secondary small', onclick: () => selectStream(d.stream_id) }, `#${d.stream_id}`)),
     );
   });
   box.replaceChildren(

@@ -1000,6 +1000,64 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       await page.locator('#streams-section').screenshot({ path: join(outDir, 'dashboard-streams.png') });
       assert.deepEqual(pageErrors, []);
     });
+
+    await step('Modbus device: live status from a real Modbus TCP server, its stream plotted', async () => {
+      const bin = process.env.KM_MODBUS_TEST_SERVER;
+      assert.ok(bin && existsSync(bin), `KM_MODBUS_TEST_SERVER (the libmodbus test server) is needed: '${bin}'`);
+      const mb = spawn(bin, ['--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
+      try {
+        const mport = await new Promise((res, rej) => {
+          let buf = '';
+          mb.stdout.on('data', (d) => {
+            buf += String(d);
+            const m = /listening (\d+)/.exec(buf);
+            if (m) res(Number(m[1]));
+          });
+          mb.on('exit', (code) => rej(new Error(`Modbus test server exited (${code})`)));
+        });
+        const device = {
+          machine_id: MACHINE,
+          name: 'browser-rig',
+          host: '127.0.0.1',
+          port: mport,
+          poll_interval_ms: 20,
+          channels: [{ channel: 1, name: 'uptime', address: 100, type: 'uint32', scale: 0.001 }],
+        };
+        const r = await fetch(`${server.base}/api/v1/devices`, {
+          method: 'POST',
+          headers: { Authorization: `Bearer ${server.token}`, 'Content-Type': 'application/json' },
+          body: JSON.stringify(device),
+        });
+        const added = await r.json();
+        assert.equal(r.status, 201, JSON.stringify(added));
+        await page.check('[data-testid="streams-live"]');
+        const row = page.locator('[data-testid="devices-table"] tr[data-device="browser-rig"]');
+        await row.waitFor();
+        await page.waitForFunction(() => {
+          const tr = document.querySelector('[data-testid="devices-table"] tr[data-device="browser-rig"]');
+          if (!tr) return false;
+          const polls = Number(tr.querySelector('td[data-col="polls"]').textContent.replace(/,/g, ''));
+          return tr.querySelector('td[data-col="state"]').textContent.trim() === 'connected' && polls >= 20;
+        }, null, { timeout: 15_000 });
+        const shownPolls = Number((await row.locator('td[data-col="polls"]').textContent()).replace(/,/g, ''));
+        const api = (await apiGet(server, '/api/v1/devices')).items.find((d) => d.name === 'browser-rig');
+        assert.ok(api.status.polls_ok >= shownPolls, `API polls ${api.status.polls_ok} ≥ shown ${shownPolls}`);
+        assert.equal((await row.locator('td[data-col="exceptions"]').textContent()).trim(), '0');
+        assert.equal(api.stream_id, added.stream_id);
+        await row.locator('button').click();
+        await page.waitForFunction(
+          () => Number(document.querySelector('[data-testid="stream-svg"]')?.getAttribute('data-samples') || 0) > 0,
+          null,
+          { timeout: 10_000 },
+        );
+        assert.match(await page.textContent('#stream-title'), /modbus:browser-rig/);
+        await page.locator('#streams-section').screenshot({ path: join(outDir, 'dashboard-devices.png') });
+        await page.uncheck('[data-testid="streams-live"]');
+        assert.deepEqual(pageErrors, []);
+      } finally {
+        mb.kill('SIGKILL');
+      }
+    });
   } finally {
     if (failed && page) {
       const shot = join(outDir, 'dashboard-failure.png');
