@@ -69,7 +69,9 @@ int main(int argc, char** argv) {
         service.Upload(f.bytes, f.name);
         ++n;
       }
-      std::cout << "kinemetricd: loaded " << n << " demo measurements" << std::endl;
+      const auto stream = km::server::LoadDemoStream(service);
+      std::cout << "kinemetricd: loaded " << n + 1 << " demo measurements and demo stream "
+                << stream << std::endl;
     }
 
     if (!cfg.modbus_config.empty()) {

@@ -107,8 +107,8 @@ std::int64_t Service::CreateStream(const json& request, const std::string& sourc
       const std::string field = "channels[" + std::to_string(i) + "]";
       if (!chans[i].is_object()) throw InvalidInput(kRequest, 0, field, "must be an object");
       const auto& c = chans[i];
-      if (!c.contains("channel") || !c["channel"].is_number_unsigned() ||
-          c["channel"].get<std::uint64_t>() > 65535) {
+      if (!c.contains("channel") || !c["channel"].is_number_integer() ||
+          c["channel"].get<std::int64_t>() < 0 || c["channel"].get<std::int64_t>() > 65535) {
         throw InvalidInput(kRequest, 0, field + ".channel", "a whole number 0…65535 is required");
       }
       if (!declared.insert(c["channel"].get<std::uint32_t>()).second) {

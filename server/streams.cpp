@@ -66,7 +66,8 @@ StreamHub::State& StreamHub::Get(std::int64_t stream_id) {
         const auto meta = nlohmann::json::parse(rec->metadata_json, nullptr, false);
         if (meta.is_object() && meta.contains("channels") && meta["channels"].is_array()) {
           for (const auto& c : meta["channels"]) {
-            if (c.is_object() && c.contains("channel") && c["channel"].is_number_unsigned()) {
+            if (c.is_object() && c.contains("channel") && c["channel"].is_number_integer() &&
+                c["channel"].get<std::int64_t>() >= 0) {
               it->second->declared.insert(c["channel"].get<std::uint32_t>());
             }
           }

@@ -54,6 +54,25 @@ TEST(Service, DemoDataGoesThroughTheNormalPathAndRoutesAnswer) {
     EXPECT_EQ(resp.status, 400);
     EXPECT_EQ(resp.content_type, "application/problem+json");
     EXPECT_NE(resp.body.find("unknown format"), std::string::npos);
+
+    // The demo stream: 30 s of a capacitance sensor and the X encoder, one lost frame, and the
+    // straightness profile made from it finds the injected 55 mm waviness and 10 mm lead.
+    const auto stream = LoadDemoStream(svc);
+    const auto sj = svc.StreamJson(stream);
+    ASSERT_EQ(sj["channels"].size(), 2u);
+    EXPECT_EQ(sj["gap_count"], 1);
+    EXPECT_EQ(sj["missing"], 200);
+    EXPECT_EQ(sj["channels"][1]["samples"], 60000);
+    MeasurementFilter straightness;
+    straightness.kind = "straightness";
+    const auto profiles = svc.storage().ListMeasurements(straightness);
+    ASSERT_EQ(profiles.items.size(), 1u);
+    const auto pr = svc.Results(profiles.items[0].id);
+    ASSERT_GE(pr["periodic"].size(), 2u) << pr.dump();
+    EXPECT_NEAR(pr["periodic"][0]["period_mm"].get<double>(), 55.0, 55.0 * 0.02);
+    EXPECT_NEAR(pr["periodic"][0]["amplitude_um"].get<double>(), 0.2, 0.01);
+    EXPECT_NEAR(pr["periodic"][1]["period_mm"].get<double>(), 10.0, 10.0 * 0.02);
+    EXPECT_NEAR(pr["periodic"][1]["amplitude_um"].get<double>(), 0.05, 0.005);
   }
   for (const char* ext : {"", "-wal", "-shm"}) fs::remove(db.string() + ext);
 }
