@@ -184,8 +184,9 @@ void ModbusDevice::RunLoop() {
       }
       set_state("connecting", false);
       if (modbus_connect(ctx.get()) == -1) {
+        const int err = errno;
         set_error(&DeviceStatus::connection_errors,
-                  std::string("connect: ") + modbus_strerror(errno));
+                  std::string("connect: ") + modbus_strerror(err));
         modbus_close(ctx.get());
         set_state("backoff", false);
         if (!WaitUntil(Clock::now() + std::chrono::milliseconds(backoff_ms))) break;
