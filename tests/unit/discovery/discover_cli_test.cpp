@@ -108,8 +108,12 @@ TEST_F(DiscoverCli, JsonHasTheContractKeysAndFindsTheEffects) {
         EXPECT_EQ(m["unit"], "ms");
         EXPECT_NEAR(m["value"].get<double>(), 1.0, 0.05);
       }
-      if (m["effect"] == "backlash_x") EXPECT_NEAR(m["value"].get<double>(), 3.0, 0.15);
-      if (m["effect"] == "centre_offset") EXPECT_EQ(m["value"].size(), 2u);
+      if (m["effect"] == "backlash_x") {
+        EXPECT_NEAR(m["value"].get<double>(), 3.0, 0.15);
+      }
+      if (m["effect"] == "centre_offset") {
+        EXPECT_EQ(m["value"].size(), 2u);
+      }
     }
     EXPECT_TRUE(names.count("centre_offset") && names.count("radius_error"));
     EXPECT_NEAR(j["unexplained_rms_um"].get<double>(), 0.2, 0.03);

@@ -54,7 +54,9 @@ std::string Describe(const DiscoveryResult& r) {
          " (p=" + std::to_string(st.evidence.log10_p_value) + " log10, gap " +
          std::to_string(st.gap_rms_before_um) + "->" + std::to_string(st.gap_rms_after_um) + ") ";
   }
-  s += "| unexplained " + std::to_string(r.unexplained_rms_um) + " floor " +
+  s += "| final:";
+  for (const auto& e : r.final_model) s += " " + e.effect + "=" + std::to_string(e.value[0]);
+  s += " | unexplained " + std::to_string(r.unexplained_rms_um) + " floor " +
        std::to_string(r.noise_floor_um) + " stop: " + r.stop_reason;
   for (const auto& x : r.rejected) s += " rejected: " + x;
   return s;
@@ -177,6 +179,25 @@ TEST(Discovery, HiddenEffectsAreAddedAndRecovered) {
     EXPECT_NEAR(r.noise_floor_um, 0.2, 0.15 * 0.2);
     EXPECT_NEAR(r.unexplained_rms_um, r.noise_floor_um, 0.15 * r.noise_floor_um);
   }
+}
+
+TEST(Discovery, NoiseFreeDataStopAtTheTrueEffects) {
+  // Without noise the F-test is always significant; the floor (data resolution, second-order
+  // bar geometry max|g|²/(2R) ≈ 1e-5 µm here) stops the ladder once the true effects are in.
+  SerialDbbSimOptions o;
+  o.seed = 9;
+  o.noise_um = 0.0;
+  o.step_deg = 0.5;
+  o.effects = {{EffectId::kScaleMismatch, {-12.0}}, {EffectId::kBacklashV, {2.0}}};
+  const auto r = DiscoverSerialDbb(Traces(Simulate(o, {1500.0})), Plane::kXY);
+  SCOPED_TRACE(Describe(r));
+  ASSERT_EQ(r.steps.size(), 2u);
+  const auto* sc = Find(r, "scale_mismatch");
+  const auto* bl = Find(r, "backlash_y");
+  ASSERT_TRUE(sc && bl);
+  EXPECT_NEAR(sc->value[0], -12.0, 1e-3);
+  EXPECT_NEAR(bl->value[0], 2.0, 1e-4);
+  EXPECT_LT(r.unexplained_rms_um, 2e-5);
 }
 
 TEST(Discovery, PerfectMachineAddsNothing) {

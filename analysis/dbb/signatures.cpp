@@ -1,0 +1,215 @@
+#include "analysis/dbb/signatures.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <utility>
+
+#include <Eigen/LU>
+#include <opencv2/core.hpp>
+
+#include "analysis/core/errors.h"
+
+namespace km::dbb {
+
+using Eigen::VectorXd;
+
+void StackedTraces::RemoveSetup(VectorXd& col, std::vector<Eigen::Vector3d>* coef) const {
+  if (coef) coef->assign(static_cast<std::size_t>(traces), Eigen::Vector3d::Zero());
+  for (int t = 0; t < traces; ++t) {
+    Eigen::Vector3d stc = Eigen::Vector3d::Zero();
+    for (std::size_t i = begin[t]; i < begin[t + 1]; ++i) {
+      const auto& a = samples[i].a;
+      stc += Eigen::Vector3d(a.c, a.s, 1.0) * col[static_cast<Eigen::Index>(i)];
+    }
+    const Eigen::Vector3d c = setup_inv[t] * stc;
+    for (std::size_t i = begin[t]; i < begin[t + 1]; ++i) {
+      const auto& a = samples[i].a;
+      col[static_cast<Eigen::Index>(i)] -= c[0] * a.c + c[1] * a.s + c[2];
+    }
+    if (coef) (*coef)[static_cast<std::size_t>(t)] = c;
+  }
+}
+
+StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
+  StackedTraces p;
+  p.traces = static_cast<int>(traces.size());
+  p.begin.push_back(0);
+  for (const auto& tr : traces) {
+    if (tr.angle_rad.size() != tr.dev_um.size() || tr.angle_rad.size() < 16) {
+      throw InvalidInput("", 0, "dr_um", "diagnosis needs at least 16 samples per trace");
+    }
+    if (!(tr.radius_mm > 0.0)) throw InvalidInput("", 0, "radius_mm", "must be positive");
+    effects::EffectContext c;
+    c.radius_mm = tr.radius_mm;
+    c.feed_mm_min = tr.feed_mm_min;
+    c.direction = tr.direction == Direction::kCcw ? 1 : -1;
+    const int t = static_cast<int>(p.ctx.size());
+    p.ctx.push_back(c);
+    Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
+    for (double th : tr.angle_rad) {
+      SignatureSample s{effects::MakeAngle(th), t};
+      const Eigen::Vector3d v(s.a.c, s.a.s, 1.0);
+      g += v * v.transpose();
+      p.samples.push_back(s);
+    }
+    if (std::abs(g.determinant()) < 1e-9 * std::pow(static_cast<double>(tr.angle_rad.size()), 3)) {
+      throw InvalidInput("", 0, "angle_deg", "the trace does not go around the circle");
+    }
+    p.setup_inv.push_back(g.inverse());
+    p.begin.push_back(p.samples.size());
+  }
+  p.n = static_cast<int>(p.samples.size());
+  p.y.resize(p.n);
+  {
+    int i = 0;
+    for (const auto& tr : traces)
+      for (double d : tr.dev_um) p.y[i++] = d;
+  }
+  return p;
+}
+
+EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
+                                 std::vector<double> shape) {
+  const auto& info = effects::Info(id);
+  EffectColumns c;
+  c.id = id;
+  if (shape.empty()) shape = info.default_shape;
+  c.shape = shape;
+  const int nl = info.num_linear;
+  std::vector<VectorXd> cols(static_cast<std::size_t>(nl), VectorXd(p.n));
+  if (nl == 1) {
+    // One linear parameter: the signature at p_0 = 1 is the column (plain doubles).
+    std::vector<double> params(static_cast<std::size_t>(info.num_params), 1.0);
+    std::copy(shape.begin(), shape.end(), params.begin() + 1);
+    for (int i = 0; i < p.n; ++i) {
+      const auto& s = p.samples[static_cast<std::size_t>(i)];
+      cols[0][i] = effects::RadialSignature(id, p.ctx[static_cast<std::size_t>(s.trace)], s.a,
+                                            params.data());
+    }
+  } else {
+    // Several linear parameters: all columns in one evaluation (Jet dual parts).
+    double basis[effects::kMaxLinearParams];
+    for (int i = 0; i < p.n; ++i) {
+      const auto& s = p.samples[static_cast<std::size_t>(i)];
+      effects::RadialBasis(id, p.ctx[static_cast<std::size_t>(s.trace)], s.a, shape.data(), basis);
+      for (int j = 0; j < nl; ++j) cols[static_cast<std::size_t>(j)][i] = basis[j];
+    }
+  }
+  for (auto& col : cols) {
+    std::vector<Eigen::Vector3d> part;
+    p.RemoveSetup(col, &part);
+    c.cols.push_back(std::move(col));
+    c.setup_part.push_back(std::move(part));
+  }
+  return c;
+}
+
+double DiffNoiseUm(const StackedTraces& p, const VectorXd& r) {
+  double ss = 0.0;
+  int cnt = 0;
+  for (int t = 0; t < p.traces; ++t) {
+    for (std::size_t i = p.begin[t] + 1; i < p.begin[t + 1]; ++i) {
+      const double d = r[static_cast<Eigen::Index>(i)] - r[static_cast<Eigen::Index>(i - 1)];
+      ss += d * d;
+      ++cnt;
+    }
+  }
+  return cnt > 0 ? std::sqrt(ss / (2.0 * cnt)) : 0.0;
+}
+
+// Periodogram of the residual against a cyclic error of axis `axis`: bins the numerator
+// Σ r·n_a over the axis position and transforms it; returns the period of the strongest peak
+// in the admissible band (0 if none).
+double CyclicPeriodPeak(const StackedTraces& p, const VectorXd& r, int axis, double pmin,
+                        double pmax) {
+  double rmax = 0.0;
+  for (const auto& c : p.ctx) rmax = std::max(rmax, c.radius_mm);
+  const int m = kCyclicBins;
+  const int l = kCyclicFft;
+  const double dx = 2.0 * rmax / m;
+  cv::Mat buf = cv::Mat::zeros(1, l, CV_64F);
+  auto* b = buf.ptr<double>();
+  for (int i = 0; i < p.n; ++i) {
+    const auto& s = p.samples[static_cast<std::size_t>(i)];
+    const double rad = p.ctx[static_cast<std::size_t>(s.trace)].radius_mm;
+    const double pos = axis == 0 ? rad * s.a.c : rad * s.a.s;
+    const double w = axis == 0 ? s.a.c : s.a.s;
+    int bin = static_cast<int>(std::floor((pos + rmax) / dx));
+    bin = std::clamp(bin, 0, m - 1);
+    b[bin] += r[i] * w;
+  }
+  cv::Mat spec;
+  cv::dft(buf, spec, cv::DFT_COMPLEX_OUTPUT);
+  const auto* z = spec.ptr<cv::Vec2d>();
+  const double df = 1.0 / (l * dx);
+  const int kmin = std::max(1, static_cast<int>(std::ceil(1.0 / pmax / df)));
+  const int kmax = std::min(l / 2 - 2, static_cast<int>(std::floor(1.0 / pmin / df)));
+  if (kmin + 1 >= kmax) return 0.0;
+  auto power = [&](int k) { return z[k][0] * z[k][0] + z[k][1] * z[k][1]; };
+  int best = -1;
+  double bp = 0.0;
+  for (int k = kmin; k <= kmax; ++k) {
+    const double pw = power(k);
+    if (pw > bp) {
+      bp = pw;
+      best = k;
+    }
+  }
+  if (best < 0) return 0.0;
+  double kk = best;
+  if (best > kmin && best < kmax) {
+    const double y0 = power(best - 1), y1 = power(best), y2 = power(best + 1);
+    const double den = y0 - 2.0 * y1 + y2;
+    if (den < 0.0) kk += 0.5 * (y0 - y2) / den;
+  }
+  return 1.0 / (kk * df);
+}
+
+// Energy of the residual's projection on a cyclic error of period `period` (axis `axis`),
+// using every `stride`-th sample.
+double CyclicEnergy(const StackedTraces& p, const VectorXd& r, int axis, double period,
+                    int stride) {
+  Eigen::Matrix2d g = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  for (int i = 0; i < p.n; i += stride) {
+    const auto& s = p.samples[static_cast<std::size_t>(i)];
+    const double rad = p.ctx[static_cast<std::size_t>(s.trace)].radius_mm;
+    const double pos = axis == 0 ? rad * s.a.c : rad * s.a.s;
+    const double w = axis == 0 ? s.a.c : s.a.s;
+    const double arg = 2.0 * std::numbers::pi * pos / period;
+    const Eigen::Vector2d v(w * std::cos(arg), w * std::sin(arg));
+    g += v * v.transpose();
+    b += v * r[i];
+  }
+  if (!(std::abs(g.determinant()) > 0.0)) return 0.0;
+  return b.dot(g.inverse() * b);
+}
+
+// Golden-section refinement of the periodogram peak within ±rel of `period`.
+double RefinePeriod(const StackedTraces& p, const VectorXd& r, int axis, double period, double rel,
+                    double spacing_mm) {
+  const int stride = std::max(1, static_cast<int>(period * (1.0 - rel) / (4.0 * spacing_mm)));
+  double lo = period * (1.0 - rel), hi = period * (1.0 + rel);
+  const double gr = (std::sqrt(5.0) - 1.0) / 2.0;
+  double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
+  double f1 = CyclicEnergy(p, r, axis, x1, stride), f2 = CyclicEnergy(p, r, axis, x2, stride);
+  for (int it = 0; it < 10; ++it) {
+    if (f1 > f2) {
+      hi = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = hi - gr * (hi - lo);
+      f1 = CyclicEnergy(p, r, axis, x1, stride);
+    } else {
+      lo = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = lo + gr * (hi - lo);
+      f2 = CyclicEnergy(p, r, axis, x2, stride);
+    }
+  }
+  return 0.5 * (lo + hi);
+}
+
+}  // namespace km::dbb

@@ -1,0 +1,87 @@
+// Radial signatures of the serial-machine error effects over a set of DBB traces, free of the
+// set-up terms — the shared design-matrix builder of the diagnosis (diagnosis.h) and the
+// discovery ladder (discovery.h).
+//
+// Traces t = 1…T are stacked into one sample vector y (in-plane radial deviation about the
+// nominal centre, µm). Each trace has its own set-up columns S_t = {cos θ, sin θ, 1} (centre
+// offset and radius change: the linearised least-squares circle, seed 000 eq. 2.6). A registry
+// effect k with fixed shape parameters contributes the columns s_kj(θ; s_t, V_t, R_t) = ∂Δr/∂p_j
+// of its linear parameters (effects::RadialBasis). RemoveSetup projects a column on the
+// orthogonal complement of the set-up columns, trace by trace:
+//
+//   c ← c − S_t (S_tᵀ S_t)⁻¹ S_tᵀ c,
+//
+// so a least-squares fit of set-up-free columns to the set-up-free data equals the joint fit
+// with the set-up terms, and the removed coefficients (the effect's own centre/radius part) are
+// kept to give the set-up values back net of the named effects.
+//
+// Also here: the successive-difference noise estimate σ = rms(Δr)/√2 of a residual, and the
+// cyclic-period search of a residual over the axis position (binned periodogram, projection
+// energy, golden-section refinement) used to choose the period shape parameter.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "analysis/dbb/diagnosis.h"
+#include "analysis/effects/registry.h"
+
+namespace km::dbb {
+
+inline constexpr int kCyclicBins = 1024;  // bins of the axis position for the periodogram
+inline constexpr int kCyclicFft = 8192;   // zero-padded transform length
+
+struct SignatureSample {
+  effects::Angle<double> a;
+  int trace = 0;
+};
+
+// Stacked traces with their set-up columns {cos θ, sin θ, 1} per trace.
+struct StackedTraces {
+  std::vector<SignatureSample> samples;
+  std::vector<std::size_t> begin;  // first sample of each trace (plus end)
+  std::vector<effects::EffectContext> ctx;
+  std::vector<Eigen::Matrix3d> setup_inv;  // (S_tᵀ S_t)⁻¹
+  Eigen::VectorXd y;
+  int n = 0;
+  int traces = 0;
+
+  // Removes from `col` its least-squares projection on each trace's set-up columns; returns
+  // the set-up coefficients of trace t in coef (3 per trace) when wanted.
+  void RemoveSetup(Eigen::VectorXd& col, std::vector<Eigen::Vector3d>* coef = nullptr) const;
+};
+
+// Validates and stacks the traces (≥ 16 samples each, positive radius, going around the
+// circle); throws km::InvalidInput otherwise.
+StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces);
+
+// Set-up-free radial signature columns of one effect with fixed shape parameters (empty:
+// the registry default) and the set-up part removed from each column (per trace).
+struct EffectColumns {
+  effects::EffectId id = effects::EffectId::kSquareness;
+  std::vector<double> shape;
+  std::vector<Eigen::VectorXd> cols;                     // one per linear parameter
+  std::vector<std::vector<Eigen::Vector3d>> setup_part;  // [column][trace]
+};
+EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
+                                 std::vector<double> shape);
+
+// σ from successive differences of r within each trace: sqrt(Σ Δ² / (2·count)).
+double DiffNoiseUm(const StackedTraces& p, const Eigen::VectorXd& r);
+
+// Periodogram of the residual against a cyclic error of axis `axis`: bins the numerator
+// Σ r·n_a over the axis position and transforms it; returns the period of the strongest peak
+// in [pmin, pmax] mm (0 if none).
+double CyclicPeriodPeak(const StackedTraces& p, const Eigen::VectorXd& r, int axis, double pmin,
+                        double pmax);
+// Energy of the residual's projection on a cyclic error of period `period` (axis `axis`),
+// using every `stride`-th sample.
+double CyclicEnergy(const StackedTraces& p, const Eigen::VectorXd& r, int axis, double period,
+                    int stride);
+// Golden-section refinement of the periodogram peak within ±rel of `period`.
+double RefinePeriod(const StackedTraces& p, const Eigen::VectorXd& r, int axis, double period,
+                    double rel, double spacing_mm);
+
+}  // namespace km::dbb
