@@ -161,11 +161,24 @@ nlohmann::json OpenApiDocument(const Router& router, const std::string& version)
         {"description", "error"},
         {"content",
          {{"application/problem+json", {{"schema", {{"$ref", "#/components/schemas/Problem"}}}}}}}};
-    if (r.pattern.find("{id}") != std::string::npos) {
-      op["parameters"].push_back({{"name", "id"},
-                                  {"in", "path"},
-                                  {"required", true},
-                                  {"schema", {{"type", "integer"}, {"minimum", 1}}}});
+    // Every {name} of the pattern is a required path parameter ({id}: a positive integer),
+    // unless the route declares it itself.
+    for (std::size_t open = r.pattern.find('{'); open != std::string::npos;
+         open = r.pattern.find('{', open + 1)) {
+      const std::string name = r.pattern.substr(open + 1, r.pattern.find('}', open) - open - 1);
+      bool declared = false;
+      if (op.contains("parameters")) {
+        for (const auto& p : op["parameters"]) {
+          declared = declared || (p.value("in", "") == "path" && p.value("name", "") == name);
+        }
+      }
+      if (declared) continue;
+      op["parameters"].push_back(
+          {{"name", name},
+           {"in", "path"},
+           {"required", true},
+           {"schema", name == "id" ? nlohmann::json{{"type", "integer"}, {"minimum", 1}}
+                                   : nlohmann::json{{"type", "string"}}}});
     }
     doc["paths"][r.pattern][method] = op;
   }

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "analysis/core/errors.h"
@@ -54,6 +55,29 @@ TEST(Service, DemoDataGoesThroughTheNormalPathAndRoutesAnswer) {
     EXPECT_EQ(resp.status, 400);
     EXPECT_EQ(resp.content_type, "application/problem+json");
     EXPECT_NE(resp.body.find("unknown format"), std::string::npos);
+
+    // The OpenAPI document declares every path parameter of every route exactly once.
+    const auto doc = api::OpenApiDocument(router, "test");
+    std::size_t operations = 0;
+    for (const auto& [path, ops] : doc["paths"].items()) {
+      for (const auto& [method, op] : ops.items()) {
+        ++operations;
+        std::vector<std::string> declared;
+        if (op.contains("parameters")) {
+          for (const auto& prm : op["parameters"]) {
+            if (prm["in"] == "path") declared.push_back(prm["name"].get<std::string>());
+          }
+        }
+        std::vector<std::string> wanted;
+        for (std::size_t o = path.find('{'); o != std::string::npos; o = path.find('{', o + 1)) {
+          wanted.push_back(path.substr(o + 1, path.find('}', o) - o - 1));
+        }
+        std::sort(declared.begin(), declared.end());
+        std::sort(wanted.begin(), wanted.end());
+        EXPECT_EQ(declared, wanted) << method << " " << path;
+      }
+    }
+    EXPECT_EQ(operations, router.routes().size());
 
     // The demo stream: 30 s of a capacitance sensor and the X encoder, one lost frame, and the
     // straightness profile made from it finds the injected 55 mm waviness and 10 mm lead.
