@@ -37,6 +37,23 @@ export function tickText(v, step) {
 // ---------------------------------------------------------------- contribution bars
 
 // rows: [{effect, contribution_pct}], ranked. `unexplained` (0..100) is drawn last in grey.
+// Grid lines, tick labels and the frame of a chart with linear axes, as one <g class="grid">.
+// px / py map data to pixels; xt / yt are ticks() results; the plot area is the box inside
+// the margins L, R, T, B of a W × H chart. xTickGap / yTickGap: distance of the labels.
+export function axesGrid({ W, H, L, R, T, B, px, py, xt, yt, xTickGap = 18, yTickGap = 7 }) {
+  const grid = el('g', { class: 'grid' });
+  for (const v of xt.values) {
+    grid.append(el('line', { x1: r2(px(v)), x2: r2(px(v)), y1: T, y2: H - B, class: 'gridline' }));
+    grid.append(el('text', { x: r2(px(v)), y: H - B + xTickGap, 'text-anchor': 'middle', class: 'tick' }, tickText(v, xt.step)));
+  }
+  for (const v of yt.values) {
+    grid.append(el('line', { x1: L, x2: W - R, y1: r2(py(v)), y2: r2(py(v)), class: 'gridline' }));
+    grid.append(el('text', { x: L - yTickGap, y: r2(py(v)), dy: '0.35em', 'text-anchor': 'end', class: 'tick' }, tickText(v, yt.step)));
+  }
+  grid.append(el('rect', { x: L, y: T, width: W - L - R, height: H - T - B, class: 'frame' }));
+  return grid;
+}
+
 export function renderContributionChart(rows, { unexplained = null, title = 'Contribution to the circularity' } = {}) {
   const items = rows.map((r) => ({ label: effectWords(r.effect), key: r.effect, pct: Number(r.contribution_pct) || 0 }));
   if (unexplained !== null) items.push({ label: 'Not explained (noise, other)', key: '', pct: unexplained, rest: true });
@@ -184,17 +201,7 @@ export function renderProfilePlot({ x, y, lines = [], bands = [], xLabel, yLabel
     'aria-label': `${title}: ${yLabel} against ${xLabel}, ${n} points.`,
   });
   svg.append(el('title', {}, title));
-  const grid = el('g', { class: 'grid' });
-  for (const v of xt.values) {
-    grid.append(el('line', { x1: r2(px(v)), x2: r2(px(v)), y1: T, y2: H - B, class: 'gridline' }));
-    grid.append(el('text', { x: r2(px(v)), y: H - B + 18, 'text-anchor': 'middle', class: 'tick' }, tickText(v, xt.step)));
-  }
-  for (const v of yt.values) {
-    grid.append(el('line', { x1: L, x2: W - R, y1: r2(py(v)), y2: r2(py(v)), class: 'gridline' }));
-    grid.append(el('text', { x: L - 7, y: r2(py(v)), dy: '0.35em', 'text-anchor': 'end', class: 'tick' }, tickText(v, yt.step)));
-  }
-  grid.append(el('rect', { x: L, y: T, width: W - L - R, height: H - T - B, class: 'frame' }));
-  svg.append(grid);
+  svg.append(axesGrid({ W, H, L, R, T, B, px, py, xt, yt }));
   svg.append(el('text', { x: r2(L + (W - L - R) / 2), y: H - 10, 'text-anchor': 'middle', class: 'axis-title' }, xLabel));
   const my = r2((T + H - B) / 2);
   svg.append(el('text', { x: 16, y: my, 'text-anchor': 'middle', class: 'axis-title', transform: `rotate(-90 16 ${my})` }, yLabel));

@@ -15,7 +15,7 @@
 // tracker parameters, and the discrete Legendre columns are not orthogonal) and the covariance
 // is not reported, so a band from the per-term σ alone would be wrong. σ are in the term table.
 
-import { el, r2, ticks, tickText } from './charts.js';
+import { axesGrid, el, r2, ticks } from './charts.js';
 import { formatNumber } from './format.js';
 
 const AXES = ['x', 'y', 'z'];
@@ -125,16 +125,7 @@ function componentChart(m) {
   });
   svg.append(el('title', {}, title));
   svg.append(el('text', { x: L, y: 18, class: 'axis-title' }, `${A} axis`));
-  const grid = el('g', { class: 'grid' });
-  for (const v of xt.values) {
-    grid.append(el('line', { x1: r2(px(v)), x2: r2(px(v)), y1: T, y2: H - B, class: 'gridline' }));
-    grid.append(el('text', { x: r2(px(v)), y: H - B + 17, 'text-anchor': 'middle', class: 'tick' }, tickText(v, xt.step)));
-  }
-  for (const v of yt.values) {
-    grid.append(el('line', { x1: L, x2: W - R, y1: r2(py(v)), y2: r2(py(v)), class: 'gridline' }));
-    grid.append(el('text', { x: L - 6, y: r2(py(v)), dy: '0.35em', 'text-anchor': 'end', class: 'tick' }, tickText(v, yt.step)));
-  }
-  grid.append(el('rect', { x: L, y: T, width: W - L - R, height: H - T - B, class: 'frame' }));
+  const grid = axesGrid({ W, H, L, R, T, B, px, py, xt, yt, xTickGap: 17, yTickGap: 6 });
   grid.append(el('line', { x1: L, x2: W - R, y1: r2(py(0)), y2: r2(py(0)), class: 'axis components-zero', 'data-testid': 'component-zero' }));
   svg.append(grid);
   svg.append(el('text', { x: r2(L + (W - L - R) / 2), y: H - B + 36, 'text-anchor': 'middle', class: 'axis-title' }, `${A} position (mm)`));

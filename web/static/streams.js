@@ -4,7 +4,7 @@
 // shaded. "Live" refreshes every second.
 
 import { apiFetch } from './api.js';
-import { el, r2, ticks, tickText } from './charts.js';
+import { axesGrid, el, r2, ticks } from './charts.js';
 
 const $ = (sel) => document.querySelector(sel);
 
@@ -159,19 +159,7 @@ function renderChart(data, gaps, channel) {
     'data-samples': data.samples_in_range,
     'aria-label': `Channel ${channel}: value in µm against time, ${data.samples_in_range} samples${data.downsampled ? ` in ${t.length} buckets` : ''}.`,
   });
-  const grid = el('g', { class: 'grid' });
-  const xt = ticks(xmin, xmax, 8);
-  const yt = ticks(ylo, yhi, 6);
-  for (const v of xt.values) {
-    grid.append(el('line', { x1: r2(px(v)), x2: r2(px(v)), y1: T, y2: H - B, class: 'gridline' }));
-    grid.append(el('text', { x: r2(px(v)), y: H - B + 18, 'text-anchor': 'middle', class: 'tick' }, tickText(v, xt.step)));
-  }
-  for (const v of yt.values) {
-    grid.append(el('line', { x1: L, x2: W - R, y1: r2(py(v)), y2: r2(py(v)), class: 'gridline' }));
-    grid.append(el('text', { x: L - 7, y: r2(py(v)), dy: '0.35em', 'text-anchor': 'end', class: 'tick' }, tickText(v, yt.step)));
-  }
-  grid.append(el('rect', { x: L, y: T, width: W - L - R, height: H - T - B, class: 'frame' }));
-  svg.append(grid);
+  svg.append(axesGrid({ W, H, L, R, T, B, px, py, xt: ticks(xmin, xmax, 8), yt: ticks(ylo, yhi, 6) }));
   // Recorded gaps of this channel, shaded where they fall in the plotted span.
   const gapLayer = el('g', { class: 'gaps' });
   for (const g of gaps) {

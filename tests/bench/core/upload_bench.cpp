@@ -8,11 +8,8 @@
 #include <filesystem>
 #include <thread>
 
-#include "api/http_server.h"
-#include "api/routes.h"
 #include "ingest/dbb_writer.h"
-#include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "tests/bench/bench_server.h"
 #include "tests/unit/dbb_core/dbb_synth.h"
 
 namespace {
@@ -23,18 +20,8 @@ void BM_UploadToStoredResult(benchmark::State& state) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   {
-    km::server::Service svc(std::make_unique<km::server::SqliteStorage>((dir / "k.db").string()),
-                            {});
-    km::server::RegisterBuiltinKinds(svc);
-    km::api::EnsureAdminToken(svc.storage(), "bench");
-    km::api::Router router;
-    km::api::AddRoutes(router, svc);
-    router.SetHook(km::api::TokenHook(svc.storage()));
-    km::api::HttpOptions o;
-    o.port = 0;
-    km::api::HttpServer http(router, o);
-    const int port = http.Bind();
-    std::thread serve([&] { http.Serve(); });
+    km::bench::BenchServer server(dir / "k.db");
+    const int port = server.port();
     httplib::Client c("127.0.0.1", port);
     c.set_default_headers({{"Authorization", "Bearer bench"}});
     km::test::SynthOptions so;
@@ -61,8 +48,6 @@ void BM_UploadToStoredResult(benchmark::State& state) {
       state.counters["p50_ms"] = ms[ms.size() / 2];
       state.counters["p95_ms"] = ms[std::min(ms.size() - 1, ms.size() * 95 / 100)];
     }
-    http.Stop();
-    serve.join();
   }
   fs::remove_all(dir);
 }

@@ -11,12 +11,11 @@
 #include <filesystem>
 #include <thread>
 
-#include "api/http_server.h"
-#include "api/routes.h"
 #include "ingest/stream_frames.h"
 #include "server/service.h"
 #include "server/sqlite_storage.h"
 #include "server/streams.h"
+#include "tests/bench/bench_server.h"
 
 namespace {
 
@@ -81,21 +80,12 @@ BENCHMARK(BM_StreamIngestToStorage)->Unit(benchmark::kMillisecond)->UseRealTime(
 void BM_HttpStreamIngest(benchmark::State& state) {
   const fs::path dir = TempDir("http-streams");
   {
-    km::server::Service svc(std::make_unique<km::server::SqliteStorage>((dir / "k.db").string()),
-                            {});
-    km::api::EnsureAdminToken(svc.storage(), "bench");
-    km::api::Router router;
-    km::api::AddRoutes(router, svc);
-    router.SetHook(km::api::TokenHook(svc.storage()));
-    km::api::HttpOptions o;
-    o.port = 0;
-    km::api::HttpServer http(router, o);
-    const int port = http.Bind();
-    std::thread serve([&] { http.Serve(); });
+    km::bench::BenchServer server(dir / "k.db");
+    const int port = server.port();
     httplib::Client c("127.0.0.1", port);
     c.set_read_timeout(60, 0);
     c.set_default_headers({{"Authorization", "Bearer bench"}});
-    const auto id = svc.CreateStream({{"machine_id", "bench"}});
+    const auto id = server.service().CreateStream({{"machine_id", "bench"}});
     const std::string path = "/api/v1/streams/" + std::to_string(id) + "/frames";
     constexpr std::size_t kPerFrame = 1000, kFrames = 100;  // 4 × 100 000 samples a request
     std::uint64_t next = 0;
@@ -113,8 +103,6 @@ void BM_HttpStreamIngest(benchmark::State& state) {
       samples += 4 * static_cast<std::int64_t>(kFrames * kPerFrame);
     }
     state.SetItemsProcessed(samples);
-    http.Stop();
-    serve.join();
   }
   fs::remove_all(dir);
 }
