@@ -120,7 +120,7 @@ function renderStreamList() {
   );
 }
 
-function renderChart(data, gaps, channel) {
+function renderChart(data, gaps, channel, streamId) {
   const W = 900;
   const H = 300;
   const L = 70;
@@ -154,6 +154,8 @@ function renderChart(data, gaps, channel) {
     role: 'img',
     class: 'chart stream-chart',
     'data-testid': 'stream-svg',
+    'data-stream': streamId,
+    'data-channel': channel,
     'data-points': t.length,
     'data-downsampled': String(data.downsampled),
     'data-samples': data.samples_in_range,
@@ -232,6 +234,7 @@ async function refreshSelected() {
   const id = state.selected;
   if (id === null) return;
   const s = await apiFetch(`/api/v1/streams/${id}`);
+  if (state.selected !== id) return; // another stream was chosen meanwhile
   const sel = $('#stream-channel');
   const chans = s.channels.map((c) => c.channel);
   if (state.channel === null || !chans.includes(state.channel)) state.channel = chans.length ? chans[0] : null;
@@ -244,6 +247,7 @@ async function refreshSelected() {
   const summary = s.channels.map((c) => `channel ${c.channel}: ${fmtInt(c.samples)} samples, ${c.gaps} gaps`).join(' · ');
   $('#stream-summary').textContent = summary || 'no samples yet';
   const gaps = (await apiFetch(`/api/v1/streams/${id}/gaps?limit=1000`)).items;
+  if (state.selected !== id) return;
   if (state.channel === null) {
     $('#stream-chart').replaceChildren(h('p', { class: 'note' }, 'No samples yet.'));
   } else {
@@ -254,7 +258,8 @@ async function refreshSelected() {
       q.set('from_us', String(last - Number(win) * 1e6));
     }
     const data = await apiFetch(`/api/v1/streams/${id}/samples?${q}`);
-    renderChart(data, gaps, state.channel);
+    if (state.selected !== id) return;
+    renderChart(data, gaps, state.channel, id);
   }
   renderGaps(gaps);
 }

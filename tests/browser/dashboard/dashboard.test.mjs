@@ -979,7 +979,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       assert.equal((await row.locator('td[data-col="samples"]').textContent()).trim(), '7,000');
       assert.equal((await row.locator('td[data-col="gaps"]').textContent()).trim(), '1 (1,000 missing)');
       await row.locator('button.link').click();
-      const svg = page.locator('[data-testid="stream-svg"]');
+      const svg = page.locator(`[data-testid="stream-svg"][data-stream="${stream.id}"]`);
       await svg.waitFor();
       const api1 = await apiGet(server, `/api/v1/streams/${stream.id}/samples?channel=1&max_points=600`);
       assert.equal(api1.downsampled, true);
@@ -1046,8 +1046,11 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
         assert.equal(api.stream_id, added.stream_id);
         await row.locator('button').click();
         await page.waitForFunction(
-          () => Number(document.querySelector('[data-testid="stream-svg"]')?.getAttribute('data-samples') || 0) > 0,
-          null,
+          (id) => {
+            const svg = document.querySelector(`[data-testid="stream-svg"][data-stream="${id}"]`);
+            return Number(svg?.getAttribute('data-samples') || 0) > 0;
+          },
+          added.stream_id,
           { timeout: 10_000 },
         );
         assert.match(await page.textContent('#stream-title'), /modbus:browser-rig/);
