@@ -49,7 +49,7 @@ std::unique_ptr<Acquisition::Entry> Acquisition::Prepare(const nlohmann::json& d
   return e;
 }
 
-void Acquisition::StartEntry(std::unique_ptr<Entry> e) {
+nlohmann::json Acquisition::StartEntry(std::unique_ptr<Entry> e) {
   nlohmann::json channels = nlohmann::json::array();
   for (const auto& c : e->config.channels) {
     channels.push_back({{"channel", c.channel},
@@ -65,8 +65,10 @@ void Acquisition::StartEntry(std::unique_ptr<Entry> e) {
   e->sink = service_.streams().SinkFor(e->stream_id);
   e->device = std::make_unique<mb::ModbusDevice>(e->config, *e->sink);
   e->device->Start();
+  nlohmann::json entry = EntryJson(*e);
   std::lock_guard lock(mu_);
   entries_.push_back(std::move(e));
+  return entry;
 }
 
 void Acquisition::StartFromFile(const std::string& path) {
@@ -107,14 +109,7 @@ void Acquisition::StartFromFile(const std::string& path) {
 }
 
 nlohmann::json Acquisition::Add(const nlohmann::json& device, const std::string& file) {
-  auto e = Prepare(device, file, "");
-  const std::string name = e->config.name;
-  StartEntry(std::move(e));
-  std::lock_guard lock(mu_);
-  for (const auto& x : entries_) {
-    if (x->config.name == name) return EntryJson(*x);
-  }
-  throw NotFound("device " + name + " stopped at once");
+  return StartEntry(Prepare(device, file, ""));
 }
 
 void Acquisition::Remove(const std::string& name) {

@@ -44,7 +44,7 @@ class Acquisition {
   struct Entry;
   std::unique_ptr<Entry> Prepare(const nlohmann::json& device, const std::string& file,
                                  const std::string& path);
-  void StartEntry(std::unique_ptr<Entry> e);
+  nlohmann::json StartEntry(std::unique_ptr<Entry> e);  // its Devices() item
   nlohmann::json EntryJson(const Entry& e) const;
 
   Service& service_;

@@ -3,23 +3,12 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
 #include "server/hexapod_report.h"
+#include "server/request_json.h"
 #include "server/service.h"
 
 namespace km::server {
-namespace {
 
-int OptionalInt(const nlohmann::json& req, const char* key, int lo, int hi) {
-  if (!req.contains(key)) return 0;
-  const auto& v = req[key];
-  if (!v.is_number_integer() || v.get<long long>() < lo || v.get<long long>() > hi) {
-    throw InvalidInput(
-        "request", 0, key,
-        "must be a whole number from " + std::to_string(lo) + " to " + std::to_string(hi));
-  }
-  return v.get<int>();
-}
-
-}  // namespace
+namespace req = km::server::request;
 
 std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
   if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
@@ -47,8 +36,10 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
     }
     study->method = ParseCalibrationMethod(request["method"].get<std::string>(), "method");
   }
-  study->reduction_min_tests = OptionalInt(request, "reduction_study_min_tests", 1, 1000);
-  study->max_samples_per_test = OptionalInt(request, "max_samples_per_test", 0, 10'000'000);
+  study->reduction_min_tests =
+      static_cast<int>(req::WholeNumber(request, "reduction_study_min_tests", 1, 1000, 0));
+  study->max_samples_per_test =
+      static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
   // The checks that need no solve (tool length, fixed balls) happen now, not in the job.
   for (std::size_t i = 0; i < study->tests.size(); ++i) {
     if (!study->tests[i].tool_length_mm) {

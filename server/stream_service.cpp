@@ -5,6 +5,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/stream_frames.h"
+#include "server/request_json.h"
 #include "server/service.h"
 #include "server/stream_chunks.h"
 #include "server/stream_profile.h"
@@ -15,53 +16,16 @@ namespace {
 
 using nlohmann::json;
 
-const char* const kRequest = "request";
-
-std::string RequiredString(const json& j, const std::string& key) {
-  if (!j.contains(key) || !j[key].is_string() || j[key].get<std::string>().empty()) {
-    throw InvalidInput(kRequest, 0, key, "a non-empty string is required");
-  }
-  return j[key].get<std::string>();
-}
-
-std::string OptionalString(const json& j, const std::string& key, const std::string& fallback) {
-  if (!j.contains(key)) return fallback;
-  if (!j[key].is_string()) throw InvalidInput(kRequest, 0, key, "must be a string");
-  return j[key].get<std::string>();
-}
-
-double OptionalNumber(const json& j, const std::string& key, std::optional<double> fallback) {
-  if (!j.contains(key)) {
-    if (!fallback) throw InvalidInput(kRequest, 0, key, "a number is required");
-    return *fallback;
-  }
-  if (!j[key].is_number() || !std::isfinite(j[key].get<double>())) {
-    throw InvalidInput(kRequest, 0, key, "must be a finite number");
-  }
-  return j[key].get<double>();
-}
-
-std::int64_t RequiredInt(const json& j, const std::string& key, std::int64_t lo, std::int64_t hi,
-                         std::optional<std::int64_t> fallback = std::nullopt) {
-  if (!j.contains(key)) {
-    if (!fallback) throw InvalidInput(kRequest, 0, key, "a whole number is required");
-    return *fallback;
-  }
-  if (!j[key].is_number_integer() || j[key].get<std::int64_t>() < lo ||
-      j[key].get<std::int64_t>() > hi) {
-    throw InvalidInput(
-        kRequest, 0, key,
-        "must be a whole number from " + std::to_string(lo) + " to " + std::to_string(hi));
-  }
-  return j[key].get<std::int64_t>();
-}
+namespace req = km::server::request;
+using req::OptionalString;
+using req::RequiredString;
 
 void CheckMachineId(const std::string& id, const std::string& field) {
   for (char c : id) {
     const bool ok =
         std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == ':';
     if (!ok) {
-      throw InvalidInput(kRequest, 0, field,
+      throw InvalidInput(req::kFile, 0, field,
                          "'" + id + "' may only hold letters, digits and - _ . :");
     }
   }
@@ -73,27 +37,22 @@ json GapJson(const StreamGap& g) {
           {"t_after_us", g.t_after_us}, {"detected_at", g.detected_at}};
 }
 
-// All samples of a channel in [from, to), in counter order.
+// All samples of a channel in [from, to), in counter order, as one run.
 ingest::SampleRun ReadChannel(Storage& storage, std::int64_t stream, std::int64_t channel,
                               std::int64_t from_us, std::int64_t to_us) {
+  auto samples = ReadChannelSamples(storage, stream, channel, from_us, to_us);
   ingest::SampleRun out;
   out.channel = static_cast<std::uint32_t>(channel);
-  for (const auto& c : storage.ReadStreamChunks(stream, channel, from_us, to_us, true)) {
-    const auto run = DecodeStreamChunk(c);
-    for (std::size_t i = 0; i < run.size(); ++i) {
-      if (run.t_us[i] < from_us || run.t_us[i] >= to_us) continue;
-      out.t_us.push_back(run.t_us[i]);
-      out.value_um.push_back(run.value_um[i]);
-      out.status.push_back(run.status[i]);
-    }
-  }
+  out.t_us = std::move(samples.t_us);
+  out.value_um = std::move(samples.value_um);
+  out.status = std::move(samples.status);
   return out;
 }
 
 }  // namespace
 
 std::int64_t Service::CreateStream(const json& request, const std::string& source) {
-  if (!request.is_object()) throw InvalidInput(kRequest, 0, "", "a JSON object is required");
+  if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
   NewStream s;
   s.machine_id = RequiredString(request, "machine_id");
   CheckMachineId(s.machine_id, "machine_id");
@@ -102,21 +61,21 @@ std::int64_t Service::CreateStream(const json& request, const std::string& sourc
   std::set<std::uint32_t> declared;
   if (request.contains("channels")) {
     const auto& chans = request["channels"];
-    if (!chans.is_array()) throw InvalidInput(kRequest, 0, "channels", "must be an array");
+    if (!chans.is_array()) throw InvalidInput(req::kFile, 0, "channels", "must be an array");
     for (std::size_t i = 0; i < chans.size(); ++i) {
       const std::string field = "channels[" + std::to_string(i) + "]";
-      if (!chans[i].is_object()) throw InvalidInput(kRequest, 0, field, "must be an object");
+      if (!chans[i].is_object()) throw InvalidInput(req::kFile, 0, field, "must be an object");
       const auto& c = chans[i];
       if (!c.contains("channel") || !c["channel"].is_number_integer() ||
           c["channel"].get<std::int64_t>() < 0 || c["channel"].get<std::int64_t>() > 65535) {
-        throw InvalidInput(kRequest, 0, field + ".channel", "a whole number 0…65535 is required");
+        throw InvalidInput(req::kFile, 0, field + ".channel", "a whole number 0…65535 is required");
       }
       if (!declared.insert(c["channel"].get<std::uint32_t>()).second) {
-        throw InvalidInput(kRequest, 0, field + ".channel", "the channel is declared twice");
+        throw InvalidInput(req::kFile, 0, field + ".channel", "the channel is declared twice");
       }
       if (c.contains("rate_hz") &&
           (!c["rate_hz"].is_number() || !(c["rate_hz"].get<double>() > 0))) {
-        throw InvalidInput(kRequest, 0, field + ".rate_hz", "must be a positive number");
+        throw InvalidInput(req::kFile, 0, field + ".rate_hz", "must be a positive number");
       }
     }
   }
@@ -223,21 +182,21 @@ json Service::StreamSamples(std::int64_t stream_id, std::int64_t channel,
 UploadOutcome Service::StreamProfile(std::int64_t stream_id, const json& request) {
   const auto rec = storage_->GetStream(stream_id);
   if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
-  if (!request.is_object()) throw InvalidInput(kRequest, 0, "", "a JSON object is required");
-  const auto channel = RequiredInt(request, "channel", 0, 65535);
-  const auto from_us = RequiredInt(request, "from_us", std::numeric_limits<std::int64_t>::min(),
-                                   std::numeric_limits<std::int64_t>::max(),
-                                   std::numeric_limits<std::int64_t>::min());
-  const auto to_us = RequiredInt(request, "to_us", std::numeric_limits<std::int64_t>::min(),
-                                 std::numeric_limits<std::int64_t>::max(),
-                                 std::numeric_limits<std::int64_t>::max());
+  if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
+  const auto channel = req::WholeNumber(request, "channel", 0, 65535);
+  const auto from_us = req::WholeNumber(
+      request, "from_us", std::numeric_limits<std::int64_t>::min(),
+      std::numeric_limits<std::int64_t>::max(), std::numeric_limits<std::int64_t>::min());
+  const auto to_us = req::WholeNumber(request, "to_us", std::numeric_limits<std::int64_t>::min(),
+                                      std::numeric_limits<std::int64_t>::max(),
+                                      std::numeric_limits<std::int64_t>::max());
   const std::string axis = RequiredString(request, "axis");
   const std::string error_direction = RequiredString(request, "error_direction");
-  const auto bins = static_cast<std::size_t>(RequiredInt(request, "points", 3, 100000, 1000));
+  const auto bins = static_cast<std::size_t>(req::WholeNumber(request, "points", 3, 100000, 1000));
   streams_->Flush(stream_id);  // a profile sees every sample received so far
   const auto sensor = ReadChannel(*storage_, stream_id, channel, from_us, to_us);
   if (!request.contains("position") || !request["position"].is_object()) {
-    throw InvalidInput(kRequest, 0, "position",
+    throw InvalidInput(req::kFile, 0, "position",
                        "an object {\"encoder_channel\": N} or {\"feed_mm_min\": F, "
                        "\"start_mm\": X} is required");
   }
@@ -253,11 +212,11 @@ UploadOutcome Service::StreamProfile(std::int64_t stream_id, const json& request
   spec.provenance = {{"source_stream", std::to_string(stream_id)}};
   std::optional<ingest::SampleRun> encoder;
   if (pos.contains("encoder_channel")) {
-    const auto enc = RequiredInt(pos, "encoder_channel", 0, 65535);
+    const auto enc = req::WholeNumber(pos, "encoder_channel", 0, 65535);
     encoder = ReadChannel(*storage_, stream_id, enc, from_us, to_us);
   } else {
-    spec.feed_mm_min = OptionalNumber(pos, "feed_mm_min", std::nullopt);
-    spec.start_mm = OptionalNumber(pos, "start_mm", 0.0);
+    spec.feed_mm_min = req::Number(pos, "feed_mm_min", std::nullopt);
+    spec.start_mm = req::Number(pos, "start_mm", 0.0);
   }
   const std::string text = StraightnessFileFromStream(spec, sensor, encoder ? &*encoder : nullptr);
   return Upload(text,

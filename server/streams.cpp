@@ -267,6 +267,26 @@ struct Buckets {
 
 }  // namespace
 
+void ChannelSamples::AppendInRange(const ingest::SampleRun& run, std::int64_t from_us,
+                                   std::int64_t to_us) {
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    if (run.t_us[i] < from_us || run.t_us[i] >= to_us) continue;
+    t_us.push_back(run.t_us[i]);
+    counter.push_back(static_cast<std::int64_t>(run.first_counter + i));
+    value_um.push_back(run.value_um[i]);
+    status.push_back(run.status[i]);
+  }
+}
+
+ChannelSamples ReadChannelSamples(Storage& storage, std::int64_t stream_id, std::int64_t channel,
+                                  std::int64_t from_us, std::int64_t to_us) {
+  ChannelSamples out;
+  for (const auto& c : storage.ReadStreamChunks(stream_id, channel, from_us, to_us, true)) {
+    out.AppendInRange(DecodeStreamChunk(c), from_us, to_us);
+  }
+  return out;
+}
+
 nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::int64_t channel,
                                  std::int64_t from_us, std::int64_t to_us, std::size_t max_points) {
   using nlohmann::json;
@@ -280,22 +300,11 @@ nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::
   std::int64_t stored = 0;
   for (const auto& c : meta) stored += c.n;
   // Samples of one chunk inside [from_us, to_us).
-  struct Loose {
-    std::vector<std::int64_t> t, counter;
-    std::vector<double> v;
-    std::vector<std::uint8_t> status;
-  } loose;
+  ChannelSamples loose;
   const auto take = [&](const StreamChunk& c) {
     StreamChunk with = c;
     with.data = storage.ReadStreamChunkData(stream_id, channel, c.first_counter);
-    const auto run = DecodeStreamChunk(with);
-    for (std::size_t i = 0; i < run.size(); ++i) {
-      if (run.t_us[i] < from_us || run.t_us[i] >= to_us) continue;
-      loose.t.push_back(run.t_us[i]);
-      loose.counter.push_back(static_cast<std::int64_t>(run.first_counter + i));
-      loose.v.push_back(run.value_um[i]);
-      loose.status.push_back(run.status[i]);
-    }
+    loose.AppendInRange(DecodeStreamChunk(with), from_us, to_us);
   };
   // Few samples: read them all. Many: chunks wholly inside the range that also fall in one
   // bucket enter with their stored statistics (exactly the min, max and sum of their samples);
@@ -304,45 +313,49 @@ nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::
   const bool all =
       stored <= std::max<std::int64_t>(kDecodeAll, static_cast<std::int64_t>(max_points));
   std::vector<const StreamChunk*> whole;
-  for (const auto& c : meta) {
-    const bool inside = c.t_first_us >= from_us && c.t_last_us < to_us;
-    if (all || !inside) {
-      take(c);
-    } else {
-      whole.push_back(&c);
+  if (all) {
+    loose = ReadChannelSamples(storage, stream_id, channel, from_us, to_us);
+  } else {
+    for (const auto& c : meta) {
+      const bool inside = c.t_first_us >= from_us && c.t_last_us < to_us;
+      if (inside) {
+        whole.push_back(&c);
+      } else {
+        take(c);
+      }
     }
   }
-  std::int64_t in_range = static_cast<std::int64_t>(loose.t.size());
+  std::int64_t in_range = static_cast<std::int64_t>(loose.t_us.size());
   for (const auto* c : whole) in_range += c->n;
   out["samples_in_range"] = in_range;
   if (in_range <= static_cast<std::int64_t>(max_points)) {
     if (!whole.empty()) {
       for (const auto* c : whole) take(*c);
       // Back into counter order (chunks were read in counter order, but in two groups).
-      std::vector<std::size_t> order(loose.t.size());
+      std::vector<std::size_t> order(loose.t_us.size());
       for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
       std::sort(order.begin(), order.end(),
                 [&](std::size_t a, std::size_t b) { return loose.counter[a] < loose.counter[b]; });
-      Loose sorted;
+      ChannelSamples sorted;
       for (const auto i : order) {
-        sorted.t.push_back(loose.t[i]);
+        sorted.t_us.push_back(loose.t_us[i]);
         sorted.counter.push_back(loose.counter[i]);
-        sorted.v.push_back(loose.v[i]);
+        sorted.value_um.push_back(loose.value_um[i]);
         sorted.status.push_back(loose.status[i]);
       }
       loose = std::move(sorted);
     }
     out["downsampled"] = false;
-    out["t_us"] = loose.t;
+    out["t_us"] = loose.t_us;
     out["counter"] = loose.counter;
-    out["value_um"] = loose.v;
+    out["value_um"] = loose.value_um;
     out["status"] = loose.status;
     return out;
   }
   // Buckets of equal time over the span actually covered, so a short burst is not squeezed.
   std::int64_t lo = std::numeric_limits<std::int64_t>::max();
   std::int64_t hi = std::numeric_limits<std::int64_t>::min();
-  for (const auto t : loose.t) {
+  for (const auto t : loose.t_us) {
     lo = std::min(lo, t);
     hi = std::max(hi, t);
   }
@@ -359,8 +372,8 @@ nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::
       take(*c);  // appended to loose, after the ones counted above
     }
   }
-  for (std::size_t i = 0; i < loose.t.size(); ++i) {
-    b.Add(b.Of(loose.t[i]), loose.v[i], loose.v[i], loose.v[i], 1);
+  for (std::size_t i = 0; i < loose.t_us.size(); ++i) {
+    b.Add(b.Of(loose.t_us[i]), loose.value_um[i], loose.value_um[i], loose.value_um[i], 1);
   }
   json bt = json::array(), bmin = json::array(), bmax = json::array(), bmean = json::array(),
        bn = json::array();

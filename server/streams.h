@@ -102,6 +102,18 @@ class StreamHub {
   std::thread flusher_;
 };
 
+// Stored samples of one channel with from_us ≤ t_us < to_us, in counter order.
+struct ChannelSamples {
+  std::vector<std::int64_t> t_us, counter;
+  std::vector<double> value_um;
+  std::vector<std::uint8_t> status;
+  std::size_t size() const { return t_us.size(); }
+  // Appends the samples of a decoded chunk that fall in [from_us, to_us).
+  void AppendInRange(const ingest::SampleRun& run, std::int64_t from_us, std::int64_t to_us);
+};
+ChannelSamples ReadChannelSamples(Storage& storage, std::int64_t stream_id, std::int64_t channel,
+                                  std::int64_t from_us, std::int64_t to_us);
+
 // Samples of one channel in [from_us, to_us) for plots: the samples themselves when there are
 // at most max_points, else max_points time buckets with min, max, mean and count.
 nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::int64_t channel,

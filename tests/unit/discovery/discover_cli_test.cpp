@@ -15,11 +15,11 @@
 #include "analysis/dbb/serial_sim.h"
 #include "cli/command.h"
 #include "ingest/dbb_writer.h"
+#include "tests/unit/cli_test_fixture.h"
 
 namespace km::cli {
 namespace {
 
-namespace fs = std::filesystem;
 using effects::EffectId;
 
 std::set<std::string> Keys(const nlohmann::json& j) {
@@ -28,22 +28,8 @@ std::set<std::string> Keys(const nlohmann::json& j) {
   return k;
 }
 
-class DiscoverCli : public ::testing::Test {
+class DiscoverCli : public test::CliTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("km_discover_cli_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string Write(const std::string& name, const std::string& text) {
-    const fs::path p = dir_ / name;
-    std::ofstream(p) << text;
-    return p.string();
-  }
-
   // A cw + ccw pair at 1000 mm/min of a machine with squareness, servo mismatch, backlash.
   std::vector<std::string> WritePair(unsigned seed) {
     std::vector<std::string> files;
@@ -61,16 +47,6 @@ class DiscoverCli : public ::testing::Test {
     }
     return files;
   }
-
-  static Args JsonArgs(std::vector<std::string> files) {
-    Args args;
-    args.positional = std::move(files);
-    args.options["--json"] = "";
-    args.json = true;
-    return args;
-  }
-
-  fs::path dir_;
 };
 
 TEST_F(DiscoverCli, JsonHasTheContractKeysAndFindsTheEffects) {

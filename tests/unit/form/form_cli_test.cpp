@@ -14,39 +14,18 @@
 
 #include "analysis/core/errors.h"
 #include "cli/command.h"
+#include "tests/unit/cli_test_fixture.h"
 
 namespace km::cli {
 namespace {
 
-namespace fs = std::filesystem;
-
-class FormCli : public ::testing::Test {
+class FormCli : public test::CliTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("km_form_cli_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string Write(const std::string& name, const std::string& text) {
-    const fs::path p = dir_ / name;
-    std::ofstream(p) << text;
-    return p.string();
-  }
-
   static nlohmann::json Run(const std::string& command, std::vector<std::string> files) {
-    Args args;
-    args.positional = std::move(files);
-    args.options["--json"] = "";
-    args.json = true;
     std::ostringstream out;
-    EXPECT_EQ(Registry().at(command).run(args, out), 0);
+    EXPECT_EQ(Registry().at(command).run(JsonArgs(std::move(files)), out), 0);
     return nlohmann::json::parse(out.str());
   }
-
-  fs::path dir_;
 };
 
 // A straightness file with a 55 mm waviness; `sign` = +1 for set-up a, -1 for b.
