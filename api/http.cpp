@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <exception>
+#include <iostream>
 
 #include "analysis/core/errors.h"
 
@@ -56,10 +57,17 @@ std::int64_t Request::PathId(const std::string& name) const {
   return id;
 }
 
+namespace {
+// Text from clients or old rows may hold invalid UTF-8: it is replaced (U+FFFD), never thrown.
+std::string Dump(const nlohmann::json& j) {
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+}  // namespace
+
 Response Response::Json(const nlohmann::json& j, int status) {
   Response r;
   r.status = status;
-  r.body = j.dump();
+  r.body = Dump(j);
   return r;
 }
 
@@ -73,36 +81,49 @@ Response Problem(int status, const std::string& title, const std::string& detail
   Response r;
   r.status = status;
   r.content_type = "application/problem+json";
-  r.body = j.dump();
+  r.body = Dump(j);
   return r;
 }
 
-bool Router::StreamsBody(const std::string& method, const std::string& path) const {
-  std::map<std::string, std::string> params;
+const Route* Router::Admit(Request& req, Response& refusal) const {
+  bool path_known = false;
   for (const auto& route : routes_) {
-    if (route.method == method && MatchPattern(route.pattern, path, params)) {
-      return route.streams_body;
+    std::map<std::string, std::string> params;
+    if (!MatchPattern(route.pattern, req.path, params)) continue;
+    path_known = true;
+    if (route.method != req.method) continue;
+    req.path_params = std::move(params);
+    try {
+      if (hook_) hook_(req, route);
+    } catch (...) {
+      refusal = ErrorResponse(std::current_exception(), req);
+      return nullptr;
     }
+    return &route;
   }
-  return false;
+  refusal = path_known
+                ? Problem(405, "Method Not Allowed", req.method + " is not allowed on " + req.path)
+                : Problem(404, "Not Found", "no such resource: " + req.path);
+  return nullptr;
+}
+
+Response Router::Run(const Route& route, const Request& req) const {
+  try {
+    return route.handler(req);
+  } catch (...) {
+    return ErrorResponse(std::current_exception(), req);
+  }
 }
 
 Response Router::Dispatch(Request& req) const {
+  Response refusal;
+  const Route* route = Admit(req, refusal);
+  return route ? Run(*route, req) : refusal;
+}
+
+Response ErrorResponse(std::exception_ptr error, const Request& req) {
   try {
-    bool path_known = false;
-    for (const auto& route : routes_) {
-      std::map<std::string, std::string> params;
-      if (!MatchPattern(route.pattern, req.path, params)) continue;
-      path_known = true;
-      if (route.method != req.method) continue;
-      req.path_params = std::move(params);
-      if (hook_) hook_(req, route);
-      return route.handler(req);
-    }
-    if (path_known) {
-      return Problem(405, "Method Not Allowed", req.method + " is not allowed on " + req.path);
-    }
-    return Problem(404, "Not Found", "no such resource: " + req.path);
+    std::rethrow_exception(error);
   } catch (const TooLarge& e) {
     return Problem(413, "Payload Too Large", e.what());
   } catch (const InvalidInput& e) {
@@ -118,13 +139,27 @@ Response Router::Dispatch(Request& req) const {
     Response r = Problem(401, "Unauthorized", e.what());
     r.headers["WWW-Authenticate"] = "Bearer";
     return r;
+  } catch (const Forbidden& e) {
+    return Problem(403, "Forbidden", e.what());
+  } catch (const Unavailable& e) {
+    Response r = Problem(503, "Service Unavailable", e.what());
+    r.headers["Retry-After"] = "1";
+    return r;
   } catch (const NotObservable& e) {
     return Problem(422, "Not observable", e.what());
   } catch (const DidNotConverge& e) {
     return Problem(422, "Did not converge", e.what());
   } catch (const std::exception& e) {
-    return Problem(500, "Internal Server Error", e.what());
+    std::cerr << "kinemetricd: request " << req.id << " " << req.method << " " << req.path
+              << " failed: " << e.what() << std::endl;
+  } catch (...) {
+    std::cerr << "kinemetricd: request " << req.id << " " << req.method << " " << req.path
+              << " failed with an unknown error" << std::endl;
   }
+  return Problem(500, "Internal Server Error",
+                 "the request failed on the server; the server log names it by request id " +
+                     (req.id.empty() ? std::string("(none)") : req.id),
+                 {{"request_id", req.id}});
 }
 
 nlohmann::json OpenApiDocument(const Router& router, const std::string& version) {

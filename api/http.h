@@ -4,8 +4,10 @@
 // table the server dispatches on.
 #pragma once
 
+#include <exception>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -21,12 +23,9 @@ struct Request {
   std::map<std::string, std::string> path_params;  // {id} → "7"
   std::multimap<std::string, std::string> query;
   std::map<std::string, std::string> headers;  // lower-case names
-  std::string body;  // empty for routes with streams_body (read with read_body instead)
+  std::string body;  // empty for routes with open_body (the body goes to the sink instead)
   std::string remote_addr;
-  // Routes with streams_body: reads the body as it arrives, calling the sink with each piece
-  // until the body ends or the sink returns false. Returns false when the connection failed
-  // before the body was complete.
-  std::function<bool(const std::function<bool(std::string_view)>&)> read_body;
+  std::string id;  // request id: in the X-Request-Id header and in the log of server errors
 
   std::optional<std::string> Query(const std::string& key) const;
   std::optional<std::string> Header(const std::string& lower_name) const;
@@ -42,14 +41,29 @@ struct Response {
   static Response Json(const nlohmann::json& j, int status = 200);
 };
 
+// A body consumed piece by piece as it arrives (routes with open_body, e.g. sensor frames of
+// any length). The HTTP layer reads the next piece only after Feed has returned, so no thread
+// waits for the network while a client is slow.
+class BodySink {
+ public:
+  virtual ~BodySink() = default;
+  virtual void Feed(std::string_view piece) = 0;  // throws to refuse the rest of the body
+  // complete = false: the connection failed or timed out before the body ended (what was fed
+  // is kept; the answer cannot be sent).
+  virtual Response Finish(bool complete) = 0;
+};
+using BodySinkFactory = std::function<std::unique_ptr<BodySink>(const Request&)>;
+
 struct Route {
   std::string method;   // GET, POST
   std::string pattern;  // "/api/v1/measurements/{id}"
   std::string summary;
   bool needs_token = true;
   std::function<Response(const Request&)> handler;
-  nlohmann::json openapi;     // operation object extras: parameters, requestBody, responses
-  bool streams_body = false;  // the handler reads the body itself, piece by piece (unbounded)
+  nlohmann::json openapi = nullptr;  // operation object extras: parameters, requestBody, responses
+  // Set for routes whose body is streamed (unbounded): opened after access was granted; the
+  // handler then serves only callers that pass the whole body in Request::body.
+  BodySinkFactory open_body = nullptr;
 };
 
 // Called before every route's handler (access control sits here); throws to refuse.
@@ -60,11 +74,13 @@ class Router {
   void Add(Route r) { routes_.push_back(std::move(r)); }
   void SetHook(RequestHook hook) { hook_ = std::move(hook); }
   const std::vector<Route>& routes() const { return routes_; }
-  // Whether the route for this method and path reads its body as a stream.
-  bool StreamsBody(const std::string& method, const std::string& path) const;
-
-  // Finds the route, runs the hook and the handler, maps every exception to a problem+json
-  // response in one place. Never throws.
+  // Finds the route of the request (filling path_params) and checks access from the headers
+  // alone, before any body is read. Returns the route, or sets `refusal` (401, 403, 404, 405,
+  // 400) and returns nullptr. Never throws.
+  const Route* Admit(Request& req, Response& refusal) const;
+  // Runs a route's handler; every exception becomes a problem+json answer. Never throws.
+  Response Run(const Route& route, const Request& req) const;
+  // Admit, then Run.
   Response Dispatch(Request& req) const;
 
  private:
@@ -75,6 +91,11 @@ class Router {
 // RFC 7807 problem document.
 Response Problem(int status, const std::string& title, const std::string& detail,
                  const nlohmann::json& extra = nlohmann::json::object());
+
+// The answer to an exception escaping a handler: 400 / 404 / 413 / 422 / 401 with the
+// exception's message; anything unexpected is logged on stderr with the request id and answered
+// 500 naming only that id.
+Response ErrorResponse(std::exception_ptr error, const Request& req);
 
 // OpenAPI 3 document made from the route table.
 nlohmann::json OpenApiDocument(const Router& router, const std::string& version);

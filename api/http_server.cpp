@@ -1,205 +1,118 @@
 #include "api/http_server.h"
 
-#include <httplib.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
 
-#include <condition_variable>
-#include <deque>
-#include <filesystem>
-#include <fstream>
-#include <mutex>
-#include <sstream>
+#include <chrono>
+#include <random>
 #include <thread>
+#include <vector>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
 
 #include "analysis/core/errors.h"
+#include "api/http_session.h"
 
 namespace km::api {
 namespace {
 
-// Worker pool with a bounded queue: enqueue blocks while the queue is full.
-class BoundedPool : public httplib::TaskQueue {
- public:
-  BoundedPool(int threads, std::size_t limit) : limit_(limit) {
-    for (int i = 0; i < threads; ++i) workers_.emplace_back([this] { Work(); });
-  }
-  ~BoundedPool() override = default;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
 
-  void enqueue(std::function<void()> fn) override {
-    std::unique_lock lock(mu_);
-    not_full_.wait(lock, [&] { return jobs_.size() < limit_ || stop_; });
-    jobs_.push_back(std::move(fn));
-    not_empty_.notify_one();
-  }
+// Each connection is a descriptor: allow as many as the hard limit permits.
+void RaiseDescriptorLimit(std::size_t wanted) {
+  rlimit lim{};
+  if (getrlimit(RLIMIT_NOFILE, &lim) != 0) return;
+  const rlim_t want = static_cast<rlim_t>(wanted) + 256;
+  if (lim.rlim_cur >= want) return;
+  lim.rlim_cur = lim.rlim_max == RLIM_INFINITY ? want : std::min(want, lim.rlim_max);
+  setrlimit(RLIMIT_NOFILE, &lim);
+}
 
-  void shutdown() override {
-    {
-      std::lock_guard lock(mu_);
-      stop_ = true;
-    }
-    not_empty_.notify_all();
-    not_full_.notify_all();
-    for (auto& t : workers_) t.join();
-  }
+std::string RandomPrefix() {
+  std::random_device rd;
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "%08x", rd());
+  return buf;
+}
 
- private:
-  void Work() {
-    while (true) {
-      std::function<void()> fn;
-      {
-        std::unique_lock lock(mu_);
-        not_empty_.wait(lock, [&] { return !jobs_.empty() || stop_; });
-        if (jobs_.empty()) return;  // stopping and drained
-        fn = std::move(jobs_.front());
-        jobs_.pop_front();
-        not_full_.notify_one();
-      }
-      fn();
-    }
-  }
-
-  std::size_t limit_;
-  std::vector<std::thread> workers_;
-  std::deque<std::function<void()>> jobs_;
-  std::mutex mu_;
-  std::condition_variable not_empty_, not_full_;
-  bool stop_ = false;
-};
-
-std::string ContentTypeFor(const std::filesystem::path& p) {
-  const auto ext = p.extension().string();
-  if (ext == ".html") return "text/html; charset=utf-8";
-  if (ext == ".js" || ext == ".mjs") return "text/javascript; charset=utf-8";
-  if (ext == ".css") return "text/css; charset=utf-8";
-  if (ext == ".svg") return "image/svg+xml";
-  if (ext == ".png") return "image/png";
-  if (ext == ".json") return "application/json";
-  return "application/octet-stream";
+// Over the connection cap: one short answer, written without waiting, then the socket closes.
+void RefuseConnection(tcp::socket& socket) {
+  static const std::string kBusy = [] {
+    const std::string body =
+        Problem(503, "Service Unavailable", "too many connections; retry shortly").body;
+    return "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/problem+json\r\n"
+           "Retry-After: 1\r\nConnection: close\r\nContent-Length: " +
+           std::to_string(body.size()) + "\r\n\r\n" + body;
+  }();
+  ::send(socket.native_handle(), kBusy.data(), kBusy.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+  boost::system::error_code ignored;
+  socket.close(ignored);
 }
 
 }  // namespace
 
 struct HttpServer::Impl {
-  const Router& router;
-  HttpOptions options;
-  httplib::Server server;
-  explicit Impl(const Router& r, HttpOptions o) : router(r), options(std::move(o)) {}
+  Impl(const Router& router, HttpOptions options)
+      : ctx(router, std::move(options)), acceptor(ioc), retry(ioc) {
+    ctx.request_id_prefix = RandomPrefix();
+  }
+  ~Impl() { StopAll(); }
 
-  void ServeStatic(const httplib::Request& req, httplib::Response& res) {
-    namespace fs = std::filesystem;
-    std::string rel =
-        req.path == "/" ? "index.html" : req.path.substr(std::string("/static/").size());
-    // Only plain names below the root: no "..", no hidden files.
-    if (rel.empty() || rel.find("..") != std::string::npos || rel.front() == '/' ||
-        rel.front() == '.') {
-      res.status = 404;
-      return;
-    }
-    const fs::path p = fs::path(options.static_root) / rel;
-    std::ifstream in(p, std::ios::binary);
-    if (options.static_root.empty() || !in) {
-      const auto pr = Problem(404, "Not Found", "no such file: " + req.path);
-      res.status = pr.status;
-      res.set_content(pr.body, pr.content_type.c_str());
-      return;
-    }
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    res.set_content(ss.str(), ContentTypeFor(p).c_str());
-    res.set_header("Cache-Control", "no-cache");
+  void Accept() {
+    acceptor.async_accept(net::make_strand(ioc),
+                          [this](boost::system::error_code ec, tcp::socket socket) {
+                            OnAccept(ec, std::move(socket));
+                          });
   }
 
-  void Handle(const httplib::Request& hreq, httplib::Response& hres,
-              const httplib::ContentReader* reader = nullptr) {
-    Request req;
-    req.method = hreq.method;
-    req.path = hreq.path;
-    for (const auto& [k, v] : hreq.params) req.query.emplace(k, v);
-    for (const auto& [k, v] : hreq.headers) {
-      std::string lower = k;
-      for (auto& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      req.headers[lower] = v;
+  void OnAccept(boost::system::error_code ec, tcp::socket socket) {
+    if (ec == net::error::operation_aborted || !acceptor.is_open()) return;
+    if (ec) {
+      // Out of descriptors or memory: pause accepting briefly instead of spinning.
+      retry.expires_after(std::chrono::milliseconds(50));
+      retry.async_wait([this](boost::system::error_code wait_ec) {
+        if (!wait_ec) Accept();
+      });
+      return;
     }
-    req.body = hreq.body;
-    req.remote_addr = hreq.remote_addr;
-    if (reader) {
-      req.read_body = [reader](const std::function<bool(std::string_view)>& sink) {
-        return (*reader)(
-            [&sink](const char* data, std::size_t n) { return sink(std::string_view(data, n)); });
-      };
+    boost::system::error_code opt_ec;
+    socket.set_option(tcp::no_delay(true), opt_ec);
+    if (ctx.connections.load() >= ctx.options.max_connections) {
+      RefuseConnection(socket);
+    } else {
+      StartSession(std::move(socket), ctx);
     }
-    const Response res = router.Dispatch(req);
-    hres.status = res.status;
-    for (const auto& [k, v] : res.headers) hres.set_header(k.c_str(), v);
-    hres.set_header("X-Content-Type-Options", "nosniff");
-    hres.set_content(res.body, res.content_type.c_str());
+    Accept();
   }
+
+  void StopAll() {
+    net::post(ioc, [this] {
+      boost::system::error_code ignored;
+      acceptor.close(ignored);
+      retry.cancel();
+    });
+    ioc.stop();
+    ctx.pool.Stop();
+  }
+
+  ServerContext ctx;  // outlives the event loop: sessions count themselves out of it
+  net::io_context ioc;
+  tcp::acceptor acceptor;
+  net::steady_timer retry;
 };
 
-HttpServer::HttpServer(const Router& router, HttpOptions options)
-    : impl_(std::make_unique<Impl>(router, std::move(options))) {
-  auto& s = impl_->server;
-  const auto& o = impl_->options;
-  s.set_payload_max_length(o.max_payload_bytes);
-  s.set_read_timeout(o.read_timeout_s, 0);
-  s.set_write_timeout(o.write_timeout_s, 0);
-  s.set_keep_alive_max_count(static_cast<std::size_t>(o.keep_alive_max_count));
-  s.set_keep_alive_timeout(o.keep_alive_timeout_s);
-  const int threads = o.threads;
-  const std::size_t limit = o.queue_limit;
-  s.new_task_queue = [threads, limit] { return new BoundedPool(threads, limit); };
-  Impl* impl = impl_.get();
-  s.Get("/", [impl](const httplib::Request& q, httplib::Response& r) { impl->ServeStatic(q, r); });
-  s.Get("/static/.*",
-        [impl](const httplib::Request& q, httplib::Response& r) { impl->ServeStatic(q, r); });
-  auto api = [impl](const httplib::Request& q, httplib::Response& r) { impl->Handle(q, r); };
-  // Bodies are read raw, whatever their Content-Type: a measurement file sent as
-  // application/x-www-form-urlencoded (curl --data-binary) must not be parsed as a form.
-  // Routes that stream their body (sensor frames) read it piece by piece; every other body is
-  // read whole, capped at the payload limit also when it arrives chunked (httplib checks only
-  // Content-Length).
-  auto with_body = [impl](const httplib::Request& q, httplib::Response& r,
-                          const httplib::ContentReader& reader) {
-    if (impl->router.StreamsBody(q.method, q.path)) {
-      impl->Handle(q, r, &reader);
-      return;
-    }
-    httplib::Request copy = q;
-    copy.body.clear();
-    bool too_large = false;
-    const std::size_t limit = impl->options.max_payload_bytes;
-    reader([&](const char* data, std::size_t n) {
-      if (copy.body.size() + n > limit) {
-        too_large = true;
-        return false;
-      }
-      copy.body.append(data, n);
-      return true;
-    });
-    if (too_large) {
-      const auto pr = Problem(413, "Payload Too Large",
-                              "the request body exceeds " + std::to_string(limit) + " bytes");
-      r.status = pr.status;
-      r.set_content(pr.body, pr.content_type.c_str());
-      return;
-    }
-    impl->Handle(copy, r);
-  };
-  s.Get(".*", api);
-  s.Post(".*", with_body);
-  s.Put(".*", with_body);
-  s.Patch(".*", with_body);
-  s.Delete(".*", api);
-  s.set_exception_handler([](const httplib::Request&, httplib::Response& r, std::exception_ptr) {
-    const auto pr = Problem(500, "Internal Server Error", "unexpected error");
-    r.status = pr.status;
-    r.set_content(pr.body, pr.content_type.c_str());
-  });
-  // Requests over the payload limit are refused by httplib with 413 before reaching a route.
-  s.set_error_handler([](const httplib::Request&, httplib::Response& r) {
-    if (!r.body.empty()) return;
-    const auto pr = Problem(r.status, r.status == 413 ? "Payload Too Large" : "HTTP error",
-                            "the request was refused (status " + std::to_string(r.status) + ")");
-    r.set_content(pr.body, pr.content_type.c_str());
-  });
+HttpServer::HttpServer(const Router& router, HttpOptions options) {
+  if (options.threads < 1 || options.io_threads < 1 || options.queue_limit < 1 ||
+      options.max_connections < 1) {
+    throw InvalidInput("", 0, "threads",
+                       "threads, io_threads, queue_limit and max_connections must be at least 1");
+  }
+  impl_ = std::make_unique<Impl>(router, std::move(options));
 }
 
 HttpServer::~HttpServer() {
@@ -207,26 +120,36 @@ HttpServer::~HttpServer() {
 }
 
 int HttpServer::Bind() {
-  auto& s = impl_->server;
-  const auto& o = impl_->options;
-  if (o.port == 0) {
-    const int port = s.bind_to_any_port(o.host);
-    if (port <= 0) throw Error("cannot bind to " + o.host);
-    return port;
+  auto& a = impl_->acceptor;
+  const auto& o = impl_->ctx.options;
+  RaiseDescriptorLimit(o.max_connections);
+  boost::system::error_code ec;
+  const auto address = net::ip::make_address(o.host, ec);
+  if (ec) throw Error("cannot bind: '" + o.host + "' is not an IP address");
+  const tcp::endpoint endpoint(address, static_cast<unsigned short>(o.port));
+  a.open(endpoint.protocol(), ec);
+  if (!ec) a.set_option(net::socket_base::reuse_address(true), ec);
+  if (!ec) a.bind(endpoint, ec);
+  if (!ec) a.listen(o.backlog, ec);
+  if (ec) {
+    throw Error("cannot bind to " + o.host + ":" + std::to_string(o.port) + " (" + ec.message() +
+                "; is another server running there?)");
   }
-  if (!s.bind_to_port(o.host, o.port)) {
-    throw Error("cannot bind to " + o.host + ":" + std::to_string(o.port) +
-                " (is another server running there?)");
-  }
-  return o.port;
+  return a.local_endpoint().port();
 }
 
 void HttpServer::Serve() {
-  impl_->server.listen_after_bind();
+  impl_->Accept();
+  std::vector<std::thread> extra;
+  for (int i = 1; i < impl_->ctx.options.io_threads; ++i) {
+    extra.emplace_back([this] { impl_->ioc.run(); });
+  }
+  impl_->ioc.run();
+  for (auto& t : extra) t.join();
 }
 
 void HttpServer::Stop() {
-  if (impl_) impl_->server.stop();
+  if (impl_) impl_->StopAll();
 }
 
 }  // namespace km::api

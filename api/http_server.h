@@ -1,10 +1,13 @@
-// The HTTP server: cpp-httplib behind the project's own types. Limits are explicit: payload
-// size, read/write timeouts, keep-alive count and timeout, worker threads, and a bounded queue
-// of accepted connections (the acceptor waits when it is full, so the kernel backlog absorbs
-// bursts instead of unbounded memory).
+// The HTTP server: Boost.Beast on an Asio event loop, handlers on a worker pool. Sockets are
+// read and written asynchronously by the event loop, so idle, slow or streaming clients hold no
+// thread; only a complete request (or one piece of a streamed body) occupies a worker. Every
+// limit is explicit: connections (more are refused with 503), header size and deadline, idle
+// keep-alive deadline, body size and inactivity deadline, write deadline, requests per
+// connection, and the queue of requests waiting for a worker (full: 503 with Retry-After).
+// Access is checked from the headers before any body is read.
 #pragma once
 
-#include <atomic>
+#include <cstddef>
 #include <memory>
 #include <string>
 
@@ -16,12 +19,17 @@ struct HttpOptions {
   std::string host = "127.0.0.1";
   int port = 8080;  // 0: any free port
   std::size_t max_payload_bytes = 32u << 20;
-  int read_timeout_s = 10;
-  int write_timeout_s = 10;
-  int keep_alive_max_count = 100;
-  int keep_alive_timeout_s = 5;
-  int threads = 8;
-  std::size_t queue_limit = 64;
+  std::size_t max_header_bytes = 16u << 10;
+  int header_timeout_s = 10;  // the request line and headers must arrive within this
+  int read_timeout_s = 10;    // a body may pause at most this long between pieces
+  int write_timeout_s = 10;   // an answer must be taken by the client within this
+  int keep_alive_max_count = 1000;
+  int keep_alive_timeout_s = 5;  // an idle keep-alive connection is closed after this
+  int threads = 8;               // handler (worker) threads
+  int io_threads = 1;            // event-loop threads
+  std::size_t queue_limit = 64;  // requests waiting for a worker; more get 503
+  std::size_t max_connections = 4096;
+  int backlog = 1024;       // listen backlog (the kernel caps it at somaxconn)
   std::string static_root;  // dashboard files (served at "/" and "/static/…")
 };
 
@@ -29,10 +37,11 @@ class HttpServer {
  public:
   HttpServer(const Router& router, HttpOptions options);
   ~HttpServer();
-  // Binds; returns the port (useful with port 0). Throws km::Error when it cannot bind.
+  // Binds and listens; returns the port (useful with port 0). Throws km::Error when it cannot.
   int Bind();
   // Serves until Stop(); blocks.
   void Serve();
+  // Stops accepting and serving; safe from any thread, also before Serve.
   void Stop();
 
  private:

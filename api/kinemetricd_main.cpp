@@ -13,6 +13,7 @@
 #include "server/config.h"
 #include "server/demo_data.h"
 #include "server/service.h"
+#include "server/sha256.h"
 #include "server/sqlite_storage.h"
 
 namespace fs = std::filesystem;
@@ -62,6 +63,12 @@ int main(int argc, char** argv) {
         km::api::EnsureAdminToken(service.storage(), bootstrap ? bootstrap : "");
     if (!generated.empty()) {
       std::cout << "kinemetricd: first start; admin token (shown once): " << generated << std::endl;
+    }
+    if (bootstrap && *bootstrap &&
+        !service.storage().FindTokenRole(km::server::Sha256Hex(bootstrap))) {
+      std::cout << "kinemetricd: KINEMETRIC_BOOTSTRAP_TOKEN is ignored: the database already has "
+                   "tokens and this is not one of them (it is used only on the first start)"
+                << std::endl;
     }
     if (cfg.demo_data && service.storage().ListMachines().empty()) {
       int n = 0;

@@ -1,11 +1,31 @@
 #include "api/routes.h"
 
 #include "analysis/core/errors.h"
+#include "api/http_target.h"
 #include "api/route_util.h"
 #include "server/sha256.h"
 #include "server/time_util.h"
 
 namespace km::api {
+namespace {
+
+// The X-Filename of an upload: shown in messages and lists, so it must be printable text.
+std::string UploadFilename(const Request& req) {
+  const auto name = req.Header("x-filename");
+  if (!name || name->empty()) return "upload";
+  const auto refuse = [](const std::string& why) {
+    throw InvalidInput("", 0, "X-Filename", "the X-Filename header " + why);
+  };
+  if (name->size() > 255) refuse("is longer than 255 bytes");
+  if (!IsUtf8(*name)) refuse("is not valid UTF-8");
+  for (const char c : *name) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7F) refuse("holds a control character");
+  }
+  return *name;
+}
+
+}  // namespace
 
 void AddRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
@@ -34,7 +54,7 @@ void AddRoutes(Router& router, server::Service& service) {
       "Upload a measurement file (any kind of contract §1)",
       true,
       [svc](const Request& req) {
-        const std::string name = req.Header("x-filename").value_or("upload");
+        const std::string name = UploadFilename(req);
         const auto out = svc->Upload(req.body, name);
         return Response::Json(
             {{"id", out.id}, {"sha256", out.sha256}, {"kind", out.kind}, {"created", out.created}},
@@ -45,7 +65,9 @@ void AddRoutes(Router& router, server::Service& service) {
        {"parameters", json::array({{{"name", "X-Filename"},
                                     {"in", "header"},
                                     {"required", false},
-                                    {"description", "file name used in validation messages"},
+                                    {"description",
+                                     "file name used in validation messages: UTF-8 without "
+                                     "control characters, at most 255 bytes"},
                                     {"schema", {{"type", "string"}}}}})},
        {"responses",
         {{"201", JsonResponse("stored: {id, sha256, kind, created: true}")},

@@ -18,6 +18,20 @@ json PathParam(const std::string& description) {
 }
 constexpr std::int64_t kMaxI64 = std::numeric_limits<std::int64_t>::max();
 constexpr std::int64_t kMinI64 = std::numeric_limits<std::int64_t>::min();
+
+using server::FrameIngestion;
+
+// Frames stored as the body arrives.
+class FrameSink : public BodySink {
+ public:
+  FrameSink(server::Service& svc, std::int64_t id, const std::string& content_type)
+      : ingestion_(svc, id, content_type) {}
+  void Feed(std::string_view piece) override { ingestion_.Feed(piece); }
+  Response Finish(bool complete) override { return Response::Json(ingestion_.Finish(complete)); }
+
+ private:
+  FrameIngestion ingestion_;
+};
 }  // namespace
 
 void AddStreamRoutes(Router& router, server::Service& service) {
@@ -55,17 +69,10 @@ void AddStreamRoutes(Router& router, server::Service& service) {
       "arrive, the answer comes when the body ends",
       true,
       [svc](const Request& req) {
-        const std::string ct = req.Header("content-type").value_or("");
-        if (!req.read_body) {
-          // Not reached through the HTTP server (which streams this route); decode the body.
-          const std::string body = req.body;
-          return Response::Json(svc->IngestFrames(
-              req.PathId("id"), ct, [&body](const std::function<bool(std::string_view)>& sink) {
-                sink(body);
-                return true;
-              }));
-        }
-        return Response::Json(svc->IngestFrames(req.PathId("id"), ct, req.read_body));
+        // Callers that hold the whole body (tests, tools); the HTTP server uses open_body.
+        FrameIngestion ingestion(*svc, req.PathId("id"), req.Header("content-type").value_or(""));
+        ingestion.Feed(req.body);
+        return Response::Json(ingestion.Finish(true));
       },
       {{"parameters", json::array({PathParam("stream id")})},
        {"requestBody",
@@ -75,7 +82,10 @@ void AddStreamRoutes(Router& router, server::Service& service) {
             {{"schema", {{"type", "string"}, {"format", "binary"}}}}},
            {"application/x-ndjson", {{"schema", {{"type", "string"}}}}}}}}},
        {"responses", {{"200", JsonResponse("{frames, samples, stored, duplicates, gaps[]}")}}}}};
-  frames.streams_body = true;
+  frames.open_body = [svc](const Request& req) -> std::unique_ptr<BodySink> {
+    return std::make_unique<FrameSink>(*svc, req.PathId("id"),
+                                       req.Header("content-type").value_or(""));
+  };
   router.Add(std::move(frames));
 
   router.Add(Route{"GET",

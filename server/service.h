@@ -43,6 +43,26 @@ struct UploadOutcome {
   std::string kind;
 };
 
+class Service;
+
+// One body of stream frames being received: Feed stores every complete frame as it arrives;
+// Finish answers what was received (frames, samples, stored, duplicates, gaps). Samples of
+// frames before a bad frame are kept; the bad frame is reported (InvalidInput). Used by the
+// HTTP layer, which feeds pieces as they come off the socket.
+class FrameIngestion {
+ public:
+  // Throws NotFound when the stream does not exist.
+  FrameIngestion(Service& service, std::int64_t stream_id, const std::string& content_type);
+  ~FrameIngestion();
+  void Feed(std::string_view piece);
+  // complete = false: the body ended early; what was stored stays, InvalidInput says so.
+  nlohmann::json Finish(bool complete);
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
 class Service {
  public:
   Service(std::unique_ptr<Storage> storage, ServiceOptions options);
@@ -100,6 +120,7 @@ class Service {
   Storage& storage() { return *storage_; }
 
  private:
+  friend class FrameIngestion;
   dbb::DbbTest LoadDbb(std::int64_t id, MeasurementRecord* record = nullptr);
   std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
 

@@ -83,40 +83,81 @@ std::int64_t Service::CreateStream(const json& request, const std::string& sourc
   return streams_->Create(s);
 }
 
-json Service::IngestFrames(std::int64_t stream_id, const std::string& content_type,
-                           const BodyReader& read_body) {
-  if (!storage_->GetStream(stream_id)) {
+struct FrameIngestion::State {
+  StreamHub& hub;
+  std::int64_t stream_id;
+  std::string source;
+  ingest::StreamFrameDecoder decoder;
+  IngestCounts counts;
+  bool finished = false;
+  void OnRun(ingest::SampleRun&& run) { hub.Accept(stream_id, std::move(run), counts); }
+};
+
+FrameIngestion::FrameIngestion(Service& service, std::int64_t stream_id,
+                               const std::string& content_type) {
+  if (!service.storage_->GetStream(stream_id)) {
     throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
   }
   const std::string source = "stream " + std::to_string(stream_id) + " frames";
-  ingest::StreamFrameDecoder decoder(ingest::FrameFormatFromContentType(content_type), source);
-  IngestCounts counts;
-  const auto on_run = [&](ingest::SampleRun&& run) {
-    streams_->Accept(stream_id, std::move(run), counts);
-  };
-  bool complete = false;
+  state_.reset(new State{
+      *service.streams_,
+      stream_id,
+      source,
+      ingest::StreamFrameDecoder(ingest::FrameFormatFromContentType(content_type), source),
+      {}});
+}
+
+FrameIngestion::~FrameIngestion() {
+  if (state_ && !state_->finished) {
+    try {
+      state_->hub.Flush(state_->stream_id);
+    } catch (...) {  // NOLINT(bugprone-empty-catch): a destructor must not throw
+    }
+  }
+}
+
+void FrameIngestion::Feed(std::string_view piece) {
+  auto& s = *state_;
   try {
-    complete = read_body([&](std::string_view piece) {
-      decoder.Feed(piece, on_run);
-      return true;
-    });
-    if (complete) decoder.Finish(on_run);
+    s.decoder.Feed(piece, [&s](ingest::SampleRun&& run) { s.OnRun(std::move(run)); });
   } catch (...) {
-    streams_->Flush(stream_id);  // every frame before the bad one is kept
+    s.finished = true;
+    s.hub.Flush(s.stream_id);  // every frame before the bad one is kept
     throw;
   }
-  streams_->Flush(stream_id);
+}
+
+json FrameIngestion::Finish(bool complete) {
+  auto& s = *state_;
+  s.finished = true;
+  try {
+    if (complete) s.decoder.Finish([&s](ingest::SampleRun&& run) { s.OnRun(std::move(run)); });
+  } catch (...) {
+    s.hub.Flush(s.stream_id);
+    throw;
+  }
+  s.hub.Flush(s.stream_id);
   if (!complete) {
-    throw InvalidInput(source, 0, "body",
+    throw InvalidInput(s.source, 0, "body",
                        "the connection ended before the body was complete; the " +
-                           std::to_string(decoder.frames()) +
+                           std::to_string(s.decoder.frames()) +
                            " complete frames were stored, resend from the next counter");
   }
   json gaps = json::array();
-  for (const auto& g : counts.gaps) gaps.push_back(GapJson(g));
-  return {{"stream_id", stream_id},          {"frames", decoder.frames()},
-          {"samples", counts.samples},       {"stored", counts.accepted},
-          {"duplicates", counts.duplicates}, {"gaps", gaps}};
+  for (const auto& g : s.counts.gaps) gaps.push_back(GapJson(g));
+  return {{"stream_id", s.stream_id},          {"frames", s.decoder.frames()},
+          {"samples", s.counts.samples},       {"stored", s.counts.accepted},
+          {"duplicates", s.counts.duplicates}, {"gaps", gaps}};
+}
+
+json Service::IngestFrames(std::int64_t stream_id, const std::string& content_type,
+                           const BodyReader& read_body) {
+  FrameIngestion ingestion(*this, stream_id, content_type);
+  const bool complete = read_body([&ingestion](std::string_view piece) {
+    ingestion.Feed(piece);
+    return true;
+  });
+  return ingestion.Finish(complete);
 }
 
 json Service::StreamJson(std::int64_t stream_id) {

@@ -57,8 +57,20 @@ class NotFound : public Error {
   using Error::Error;
 };
 
-// The caller is not authenticated / not allowed.
+// The caller is not authenticated (no token, or an unknown one).
 class Unauthorized : public Error {
+ public:
+  using Error::Error;
+};
+
+// The caller is authenticated but its role does not allow the request.
+class Forbidden : public Error {
+ public:
+  using Error::Error;
+};
+
+// The service is busy (a queue is full); the same request may succeed a little later.
+class Unavailable : public Error {
  public:
   using Error::Error;
 };

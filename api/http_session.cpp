@@ -1,0 +1,333 @@
+#include "api/http_session.h"
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <optional>
+
+#include <boost/asio/dispatch.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+
+#include "api/http_target.h"
+
+namespace km::api {
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using std::chrono::seconds;
+
+constexpr const char* kApiCsp = "default-src 'none'; frame-ancestors 'none'";
+constexpr const char* kPageCsp =
+    "default-src 'self'; img-src 'self' blob: data:; object-src 'none'; base-uri 'none'; "
+    "frame-ancestors 'none'; form-action 'self'";
+constexpr std::size_t kStreamPieceBytes = 64u << 10;
+constexpr std::size_t kMaxDrainBytes = 1u << 20;
+// "No limit" for Beast's parser. Not boost::none: Boost 1.74 compares lengths against an empty
+// optional as if it were smaller than any value and refuses every body.
+constexpr std::uint64_t kUnlimited = std::numeric_limits<std::uint64_t>::max();
+
+bool IsStaticPath(const std::string& path) {
+  return path == "/" || path.rfind("/static/", 0) == 0;
+}
+
+class Session : public std::enable_shared_from_this<Session> {
+ public:
+  Session(tcp::socket&& socket, ServerContext& ctx) : stream_(std::move(socket)), ctx_(ctx) {
+    ++ctx_.connections;
+  }
+  ~Session() { --ctx_.connections; }
+
+  void Start() {
+    net::dispatch(stream_.get_executor(), [self = shared_from_this()] { self->ReadHeader(); });
+  }
+
+ private:
+  // ---- request line and headers -------------------------------------------------------------
+  void ReadHeader() {
+    has_body_ = head_ = false;
+    header_.emplace();
+    header_->header_limit(static_cast<std::uint32_t>(ctx_.options.max_header_bytes));
+    header_->body_limit(kUnlimited);
+    const int wait =
+        served_ == 0 ? ctx_.options.header_timeout_s : ctx_.options.keep_alive_timeout_s;
+    stream_.expires_after(seconds(wait));
+    http::async_read_header(
+        stream_, buffer_, *header_,
+        [self = shared_from_this()](beast::error_code ec, std::size_t) { self->OnHeader(ec); });
+  }
+
+  void OnHeader(beast::error_code ec) {
+    if (ec == http::error::header_limit) {
+      return Respond(Problem(431, "Request Header Fields Too Large",
+                             "the request headers exceed " +
+                                 std::to_string(ctx_.options.max_header_bytes) + " bytes"),
+                     true);
+    }
+    if (ec == http::error::end_of_stream || ec == beast::error::timeout ||
+        ec == net::error::connection_reset || ec == net::error::eof) {
+      return Close();
+    }
+    if (ec) return Respond(Problem(400, "Bad Request", "the request is not valid HTTP/1.1"), true);
+    const auto& msg = header_->get();
+    req_ = Request{};
+    req_.id = ctx_.NextRequestId();
+    req_.method = std::string(msg.method_string());
+    head_ = msg.method() == http::verb::head;
+    if (head_) req_.method = "GET";
+    beast::error_code ep_ec;
+    const auto ep = stream_.socket().remote_endpoint(ep_ec);
+    if (!ep_ec) req_.remote_addr = ep.address().to_string();
+    for (const auto& field : msg) {
+      std::string name(field.name_string());
+      for (auto& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      req_.headers[name] = std::string(field.value());
+    }
+    keep_alive_ = msg.keep_alive();
+    has_body_ = header_->chunked() || header_->content_length().value_or(0) > 0;
+    std::string error;
+    auto target = ParseTarget(std::string_view(msg.target().data(), msg.target().size()), error);
+    if (!target) return Respond(Problem(400, "Bad Request", error), true);
+    req_.path = std::move(target->path);
+    req_.query = std::move(target->query);
+    if (req_.method == "GET" && IsStaticPath(req_.path)) {
+      return Enqueue([self = shared_from_this()] {
+        self->PostRespond(ServeStatic(self->ctx_.options.static_root, self->req_.path), false);
+      });
+    }
+    Enqueue([self = shared_from_this()] { self->AdmitOnWorker(); });
+  }
+
+  // Runs on a worker: access from the headers, then the handler or the body.
+  void AdmitOnWorker() {
+    Response refusal;
+    route_ = ctx_.router.Admit(req_, refusal);
+    if (!route_) return PostRespond(std::move(refusal), false);
+    if (!has_body_) return PostRespond(ctx_.router.Run(*route_, req_), false);
+    if (route_->open_body) {
+      try {
+        sink_ = route_->open_body(req_);
+      } catch (...) {
+        return PostRespond(ErrorResponse(std::current_exception(), req_), true);
+      }
+      return Post([self = shared_from_this()] { self->StartStreamBody(); });
+    }
+    const auto length = header_->content_length();
+    if (length && *length > ctx_.options.max_payload_bytes) {
+      return PostRespond(TooLargeProblem(), true);
+    }
+    Post([self = shared_from_this()] { self->StartBody(); });
+  }
+
+  // ---- whole bodies -------------------------------------------------------------------------
+  void StartBody() {
+    body_.emplace(std::move(*header_));
+    body_->body_limit(ctx_.options.max_payload_bytes);
+    SendContinueThen([self = shared_from_this()] { self->ReadBody(); });
+  }
+
+  void ReadBody() {
+    stream_.expires_after(seconds(ctx_.options.read_timeout_s));
+    http::async_read_some(
+        stream_, buffer_, *body_,
+        [self = shared_from_this()](beast::error_code ec, std::size_t) { self->OnBody(ec); });
+  }
+
+  void OnBody(beast::error_code ec) {
+    if (ec == http::error::body_limit) return Respond(TooLargeProblem(), true);
+    if (ec) return Close();
+    if (!body_->is_done()) return ReadBody();
+    req_.body = body_->release().body();
+    Enqueue(
+        [self = shared_from_this()] {
+          self->PostRespond(self->ctx_.router.Run(*self->route_, self->req_), false);
+        },
+        true);
+  }
+
+  // ---- streamed bodies: one piece at a time, fed on a worker, no thread waits ----------------
+  void StartStreamBody() {
+    stream_body_.emplace(std::move(*header_));
+    stream_body_->body_limit(kUnlimited);
+    piece_.resize(kStreamPieceBytes);
+    SendContinueThen([self = shared_from_this()] { self->ReadPiece(); });
+  }
+
+  void ReadPiece() {
+    auto& body = stream_body_->get().body();
+    body.data = piece_.data();
+    body.size = piece_.size();
+    body.more = true;
+    stream_.expires_after(seconds(ctx_.options.read_timeout_s));
+    http::async_read_some(
+        stream_, buffer_, *stream_body_,
+        [self = shared_from_this()](beast::error_code ec, std::size_t) { self->OnPiece(ec); });
+  }
+
+  void OnPiece(beast::error_code ec) {
+    if (ec == http::error::need_buffer) ec = {};
+    if (ec) {
+      // The client went away or stalled: keep what arrived, answer nobody.
+      return Enqueue(
+          [self = shared_from_this()] {
+            try {
+              self->sink_->Finish(false);
+            } catch (...) {  // NOLINT(bugprone-empty-catch): the answer cannot be delivered
+            }
+            self->Post([self] { self->Close(); });
+          },
+          true);
+    }
+    const std::size_t got = piece_.size() - stream_body_->get().body().size;
+    const bool done = stream_body_->is_done();
+    Enqueue(
+        [self = shared_from_this(), got, done] {
+          try {
+            if (got > 0) self->sink_->Feed(std::string_view(self->piece_.data(), got));
+            if (done) return self->PostRespond(self->sink_->Finish(true), false);
+          } catch (...) {
+            return self->PostRespond(ErrorResponse(std::current_exception(), self->req_), true);
+          }
+          self->Post([self] { self->ReadPiece(); });
+        },
+        true);
+  }
+
+  // ---- answers ------------------------------------------------------------------------------
+  void SendContinueThen(std::function<void()> next) {
+    const auto expect = req_.Header("expect");
+    if (!expect || (*expect != "100-continue" && *expect != "100-Continue")) return next();
+    static const std::string kContinue = "HTTP/1.1 100 Continue\r\n\r\n";
+    stream_.expires_after(seconds(ctx_.options.write_timeout_s));
+    net::async_write(stream_, net::buffer(kContinue),
+                     [self = shared_from_this(), next](beast::error_code ec, std::size_t) {
+                       if (ec) return self->Close();
+                       next();
+                     });
+  }
+
+  Response TooLargeProblem() const {
+    return Problem(
+        413, "Payload Too Large",
+        "the request body exceeds " + std::to_string(ctx_.options.max_payload_bytes) + " bytes");
+  }
+
+  // A new request goes to the workers, or is refused at once when their queue is full.
+  void Enqueue(std::function<void()> task, bool continuation = false) {
+    if (continuation) return ctx_.pool.Post(std::move(task));
+    if (ctx_.pool.TryPost(std::move(task))) return;
+    Response busy = Problem(503, "Service Unavailable",
+                            "the server is busy (all workers occupied, queue full); retry shortly");
+    busy.headers["Retry-After"] = "1";
+    Respond(std::move(busy), has_body_);
+  }
+
+  void Post(std::function<void()> fn) { net::post(stream_.get_executor(), std::move(fn)); }
+
+  void PostRespond(Response res, bool close) {
+    Post([self = shared_from_this(), res = std::move(res), close]() mutable {
+      self->Respond(std::move(res), close);
+    });
+  }
+
+  // close: the connection ends after the answer (also when a body was left unread).
+  void Respond(Response res, bool close) {
+    const bool body_unread =
+        has_body_ && !(body_ && body_->is_done()) && !(stream_body_ && stream_body_->is_done());
+    ++served_;
+    keep_ = keep_alive_ && !close && !body_unread && served_ < ctx_.options.keep_alive_max_count;
+    drain_ = body_unread;
+    auto out = std::make_shared<http::response<http::string_body>>();
+    out->version(11);
+    out->result(static_cast<unsigned>(res.status));
+    out->set(http::field::content_type, res.content_type);
+    for (const auto& [k, v] : res.headers) out->set(k, v);
+    out->set("X-Content-Type-Options", "nosniff");
+    if (!out->count("Content-Security-Policy")) {
+      const bool page = res.content_type.rfind("text/html", 0) == 0;
+      out->set("Content-Security-Policy", page ? kPageCsp : kApiCsp);
+    }
+    out->set("Referrer-Policy", "no-referrer");
+    if (!req_.id.empty()) out->set("X-Request-Id", req_.id);
+    out->keep_alive(keep_);
+    out->body() = std::move(res.body);
+    out->prepare_payload();
+    if (head_) out->body().clear();  // Content-Length stays that of the GET answer
+    stream_.expires_after(seconds(ctx_.options.write_timeout_s));
+    http::async_write(stream_, *out,
+                      [self = shared_from_this(), out](beast::error_code ec, std::size_t) {
+                        self->OnWritten(ec);
+                      });
+  }
+
+  void OnWritten(beast::error_code ec) {
+    if (ec) return Close();
+    if (!keep_) return drain_ ? Drain() : Close();
+    header_.reset();
+    body_.reset();
+    stream_body_.reset();
+    sink_.reset();
+    route_ = nullptr;
+    ReadHeader();
+  }
+
+  // After refusing a request whose body was not read: stop sending, read (and drop) a little of
+  // what the client is still sending so that it sees the answer rather than a reset.
+  void Drain() {
+    beast::error_code ignored;
+    stream_.socket().shutdown(tcp::socket::shutdown_send, ignored);
+    stream_.expires_after(seconds(2));
+    DrainSome();
+  }
+
+  void DrainSome() {
+    stream_.async_read_some(net::buffer(discard_),
+                            [self = shared_from_this()](beast::error_code ec, std::size_t n) {
+                              self->drained_ += n;
+                              if (ec || self->drained_ > kMaxDrainBytes) return self->Close();
+                              self->DrainSome();
+                            });
+  }
+
+  void Close() {
+    beast::error_code ignored;
+    stream_.socket().shutdown(tcp::socket::shutdown_both, ignored);
+    stream_.close();
+  }
+
+  beast::tcp_stream stream_;
+  ServerContext& ctx_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::empty_body>> header_;
+  std::optional<http::request_parser<http::string_body>> body_;
+  std::optional<http::request_parser<http::buffer_body>> stream_body_;
+  std::unique_ptr<BodySink> sink_;
+  std::string piece_;
+  std::array<char, 16384> discard_{};
+  Request req_;
+  const Route* route_ = nullptr;
+  int served_ = 0;
+  std::size_t drained_ = 0;
+  bool head_ = false, keep_alive_ = false, has_body_ = false, keep_ = false, drain_ = false;
+};
+
+}  // namespace
+
+std::string ServerContext::NextRequestId() {
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%06llx",
+                static_cast<unsigned long long>(requests.fetch_add(1) + 1));
+  return request_id_prefix + "-" + buf;
+}
+
+void StartSession(tcp::socket socket, ServerContext& context) {
+  std::make_shared<Session>(std::move(socket), context)->Start();
+}
+
+}  // namespace km::api
