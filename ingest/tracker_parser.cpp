@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -70,6 +71,13 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file) {
     tracker::TrackerGuess guess;
     guess.tracker = static_cast<int>(j - 1);
     guess.position_mm = {(*v)[1], (*v)[2], (*v)[3]};
+    if (!guess.position_mm.allFinite() ||
+        guess.position_mm.cwiseAbs().maxCoeff() > tracker::kMaxTrackerGuessMm) {
+      throw InvalidInput(file, g->line, "tracker_guess_mm",
+                         "tracker " + std::to_string(j) +
+                             ": a guessed position farther than 100 m (1e5 mm) from the machine "
+                             "origin is not a rough position of a tracker");
+    }
     r.guesses.push_back(guess);
   }
 
@@ -106,6 +114,11 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file) {
     long long id = 0;
     if (!AsInt(row[static_cast<std::size_t>(cp)], id)) {
       throw InvalidInput(file, t.row_lines[i], "point", "point id must be an integer");
+    }
+    if (id > std::numeric_limits<int>::max() || id < std::numeric_limits<int>::min()) {
+      throw InvalidInput(file, t.row_lines[i], "point",
+                         "point id " + std::to_string(id) + " is out of range (at most " +
+                             std::to_string(std::numeric_limits<int>::max()) + ")");
     }
     const auto [it, fresh] = row_of.emplace(id, i);
     if (!fresh) {

@@ -257,7 +257,20 @@ TrackerInit InitialiseTracker(const SelfCalProblem& problem, const TrackerReadin
 
   if (guess_mm) {
     try_start(*guess_mm);
+    if (!std::isfinite(best.rms_um) ||
+        best.offsets_mm.size() != static_cast<std::size_t>(num_seg)) {
+      throw DidNotConverge(
+          "laser-tracker self-calibration: the fit from the guessed position of "
+          "tracker " +
+          std::to_string(tracker + 1) +
+          " failed (tracker_guess_mm); give a rough position in the machine "
+          "frame of the commanded points, or leave the guess out");
+    }
     return best;
+  }
+  if (num_seg < 1) {
+    throw NotObservable("laser-tracker self-calibration: tracker " + std::to_string(tracker + 1) +
+                        " has no interferometer segment");
   }
   // Closed form on the largest segment: 2cᵀU + 2dL − (|U|² − L²) = |c|² − d² (centred c).
   std::vector<int> seg_count(static_cast<std::size_t>(num_seg), 0);
@@ -301,7 +314,7 @@ TrackerInit InitialiseTracker(const SelfCalProblem& problem, const TrackerReadin
       }
     }
   }
-  if (!std::isfinite(best.rms_um)) {
+  if (!std::isfinite(best.rms_um) || best.offsets_mm.size() != static_cast<std::size_t>(num_seg)) {
     throw DidNotConverge("laser-tracker self-calibration: no initial position found for tracker " +
                          std::to_string(tracker + 1));
   }
@@ -336,6 +349,9 @@ RigidTransform GaugeTransform(const std::vector<Eigen::Vector3d>& U) {
 
 RigidTransform FitRigid(const std::vector<Eigen::Vector3d>& from,
                         const std::vector<Eigen::Vector3d>& to, const std::vector<char>* use) {
+  if (to.size() != from.size() || (use && use->size() != from.size())) {
+    throw InvalidInput("", 0, "points", "a rigid fit needs as many target points as points");
+  }
   Eigen::Vector3d cf = Eigen::Vector3d::Zero(), ct = Eigen::Vector3d::Zero();
   double w = 0;
   for (std::size_t i = 0; i < from.size(); ++i) {
@@ -437,6 +453,10 @@ SelfCalCovariance ComputeCovariance(const SelfCalProblem& problem, const SelfCal
     S.noalias() -= E[i].transpose() * B[i];
   }
   S = 0.5 * (S + S.transpose());
+  if (c == 0) {
+    throw NotObservable(
+        "laser-tracker self-calibration: no tracker or dead-path parameter to solve");
+  }
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S);
   const Eigen::VectorXd ev = eig.eigenvalues();
   const double lmax = ev.maxCoeff();

@@ -187,6 +187,19 @@ SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOption
   if (static_cast<int>(readings.point_ids.size()) != m) {
     throw InvalidInput("", 0, "point", "one point id per commanded point needed");
   }
+  for (const auto& g : readings.guesses) {
+    if (g.tracker < 0 || g.tracker >= n) {
+      throw InvalidInput("", 0, "tracker_guess_mm",
+                         "tracker " + std::to_string(g.tracker + 1) + " does not exist");
+    }
+    if (!g.position_mm.allFinite() || g.position_mm.cwiseAbs().maxCoeff() > kMaxTrackerGuessMm) {
+      std::ostringstream os;
+      os << "tracker " << g.tracker + 1 << ": the guessed position (" << g.position_mm.x() << ", "
+         << g.position_mm.y() << ", " << g.position_mm.z()
+         << ") mm is farther than 100 m from the machine origin";
+      throw InvalidInput("", 0, "tracker_guess_mm", os.str());
+    }
+  }
   SelfCalProblem problem = SelfCalProblem::FromReadings(readings);
   problem.CheckCounting();
 
@@ -207,11 +220,14 @@ SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOption
     const TrackerInit init = InitialiseTracker(problem, readings, j, guess);
     U0[static_cast<std::size_t>(j)] = init.position_mm;
     res.initial_rms_um.push_back(init.rms_um);
-    int local = 0;
+    std::size_t local = 0;
     for (int s = 0; s < problem.NumSegments(); ++s) {
       if (problem.segment_tracker[static_cast<std::size_t>(s)] == j) {
-        state.offsets_mm[static_cast<std::size_t>(s)] =
-            init.offsets_mm[static_cast<std::size_t>(local++)];
+        if (local >= init.offsets_mm.size()) {
+          throw DidNotConverge("laser-tracker self-calibration: the initial fit of tracker " +
+                               std::to_string(j + 1) + " gave no dead path for every segment");
+        }
+        state.offsets_mm[static_cast<std::size_t>(s)] = init.offsets_mm[local++];
       }
     }
   }
@@ -328,7 +344,12 @@ SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOption
                      : options.prior_sigma_um;
   const SelfCalCovariance cov = ComputeCovariance(problem, state, res.sigma_um);
   res.condition_number = cov.condition_number;
-  if (cov.rank_deficiency > 0 || !(cov.condition_number <= options.max_condition_number)) {
+  const auto mm = static_cast<std::size_t>(m);
+  const bool complete = cov.point_block_um2.size() == mm && cov.coupling.size() == mm &&
+                        cov.point_free_um2.size() == mm && cov.point_gauge_um2.size() == mm &&
+                        cov.tracker_um2.size() == static_cast<std::size_t>(n);
+  if (cov.rank_deficiency > 0 || !complete ||
+      !(cov.condition_number <= options.max_condition_number)) {
     std::ostringstream os;
     os << "laser-tracker self-calibration is not observable: the Jacobian of the gauge-fixed "
           "problem is ";

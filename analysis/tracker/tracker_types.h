@@ -28,7 +28,10 @@ struct BeamBreak {
   std::size_t row = 0;
 };
 
-// Rough tracker (station) position in the machine frame of the commanded points.
+// Rough tracker (station) position in the machine frame of the commanded points. A guess
+// farther than kMaxTrackerGuessMm from the origin in any coordinate (or not finite) is refused:
+// no laser-tracker survey of a machine tool spans 100 m.
+inline constexpr double kMaxTrackerGuessMm = 1e5;
 struct TrackerGuess {
   int tracker = 0;  // 0-based
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();

@@ -1,0 +1,48 @@
+// `kinemetric tracker selfcal` run through the command registry (the command file is compiled
+// into this test): an absurd tracker guess is bad input (exit status 2 in main), not a crash.
+#include <gtest/gtest.h>
+
+#include <sstream>
+#include <string>
+
+#include "analysis/core/errors.h"
+#include "cli/command.h"
+#include "ingest/tracker_parser.h"
+#include "tests/unit/cli_test_fixture.h"
+#include "tests/unit/tracker/tracker_test_util.h"
+
+namespace km::cli {
+namespace {
+
+class TrackerCli : public test::CliTest {
+ protected:
+  std::string SurveyFile(const std::string& header) {
+    const auto o = tracker::testing::MakeSetup(400.0, 4, 4, 13);
+    std::string text = ingest::WriteTrackerFile(tracker::SimulateTrackerSurvey(o).readings);
+    const std::string mode = "# mode: simultaneous\n";
+    text.insert(text.find(mode) + mode.size(), header);
+    return Write("survey.txt", text);
+  }
+};
+
+TEST_F(TrackerCli, AbsurdGuessIsBadInputNamingTheLine) {
+  const std::string path = SurveyFile("# tracker_guess_mm: 1, 1e300, 1e300, 1e300\n");
+  std::ostringstream out;
+  try {
+    Registry().at("tracker selfcal").run(JsonArgs({path}), out);
+    FAIL() << "accepted: " << out.str();
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.line(), 5u);
+    EXPECT_EQ(e.field(), "tracker_guess_mm");
+  }
+}
+
+TEST_F(TrackerCli, ASurveyWithoutGuessesSolves) {
+  std::ostringstream out;
+  EXPECT_EQ(Registry().at("tracker selfcal").run(JsonArgs({SurveyFile("")}), out), 0);
+  EXPECT_NE(out.str().find("volumetric_error_um"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace km::cli
