@@ -2,9 +2,9 @@
 
 #include <cmath>
 #include <numbers>
-#include <regex>
 
 #include "analysis/core/errors.h"
+#include "ingest/iso8601.h"
 #include "ingest/text_format.h"
 
 namespace km::ingest {
@@ -18,12 +18,6 @@ void RequirePositive(const TextTable& t, const std::string& key, double v) {
   if (!(v > 0.0)) {
     throw InvalidInput(t.file, t.Find(key)->line, key, "must be greater than zero");
   }
-}
-
-bool LooksIso8601(const std::string& s) {
-  static const std::regex re(
-      R"(^\d{4}-\d{2}-\d{2}([T ]\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})?)?$)");
-  return std::regex_match(s, re);
 }
 
 }  // namespace
@@ -74,7 +68,13 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
   d.tool_length_mm = t.OptionalNumber("tool_length_mm");
   if (auto v = t.OptionalNumbers("fixed_ball_mm", 3)) d.fixed_ball_mm = Vec3(*v);
   if (const auto* ts = t.Find("timestamp")) {
-    if (!LooksIso8601(ts->value)) {
+    if (ts->value.size() > kMaxIso8601Length) {
+      throw InvalidInput(file, ts->line, "timestamp",
+                         "the value has " + std::to_string(ts->value.size()) +
+                             " characters; an ISO 8601 time has at most " +
+                             std::to_string(kMaxIso8601Length));
+    }
+    if (!ParseIso8601(ts->value)) {
       throw InvalidInput(file, ts->line, "timestamp",
                          "'" + ts->value.substr(0, 40) + "' is not an ISO 8601 time");
     }

@@ -3,7 +3,8 @@
 #include <chrono>
 #include <cstdio>
 #include <ctime>
-#include <regex>
+
+#include "ingest/iso8601.h"
 
 namespace km::server {
 
@@ -35,32 +36,29 @@ std::string UtcIso8601FromMicros(std::int64_t t_us) {
 }
 
 std::optional<std::string> NormalizeIso8601(const std::string& text) {
-  static const std::regex re(
-      R"(^(\d{4})-(\d{2})-(\d{2})(?:[T ](\d{2}):(\d{2})(?::(\d{2})(\.\d+)?)?(Z|([+-])(\d{2}):?(\d{2}))?)?$)");
-  std::smatch m;
-  if (!std::regex_match(text, m, re)) return std::nullopt;
+  const auto p = ingest::ParseIso8601(text);  // nullopt beyond kMaxIso8601Length characters
+  if (!p) return std::nullopt;
   std::tm tm{};
-  tm.tm_year = std::stoi(m[1]) - 1900;
-  tm.tm_mon = std::stoi(m[2]) - 1;
-  tm.tm_mday = std::stoi(m[3]);
-  tm.tm_hour = m[4].matched ? std::stoi(m[4]) : 0;
-  tm.tm_min = m[5].matched ? std::stoi(m[5]) : 0;
-  tm.tm_sec = m[6].matched ? std::stoi(m[6]) : 0;
+  tm.tm_year = p->year - 1900;
+  tm.tm_mon = p->month - 1;
+  tm.tm_mday = p->day;
+  tm.tm_hour = p->hour;
+  tm.tm_min = p->minute;
+  tm.tm_sec = p->second;
   if (tm.tm_mon < 0 || tm.tm_mon > 11 || tm.tm_mday < 1 || tm.tm_mday > 31 || tm.tm_hour > 23 ||
       tm.tm_min > 59 || tm.tm_sec > 60) {
     return std::nullopt;
   }
   std::time_t t = timegm(&tm);
-  if (m[9].matched) {
-    const int off = (std::stoi(m[10]) * 60 + std::stoi(m[11])) * 60;
-    t -= (m[9] == "+" ? off : -off);
+  if (p->zone == ingest::Iso8601Time::Zone::kOffset) {
+    t -= p->offset_sign * (p->offset_hours * 60 + p->offset_minutes) * 60;
   }
   std::tm out{};
   gmtime_r(&t, &out);
   char buf[32];
   std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &out);
   std::string s = buf;
-  if (m[7].matched) s += m[7].str().substr(0, 7);
+  if (p->has_seconds && !p->fraction.empty()) s += "." + p->fraction.substr(0, 6);
   return s + "Z";
 }
 

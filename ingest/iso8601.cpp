@@ -1,0 +1,78 @@
+#include "ingest/iso8601.h"
+
+namespace km::ingest {
+namespace {
+
+bool IsDigit(char c) {
+  return c >= '0' && c <= '9';
+}
+
+// Reads exactly n digits at pos as a number; false (pos unchanged) when they are not there.
+bool Digits(std::string_view s, std::size_t& pos, std::size_t n, int& out) {
+  if (s.size() - pos < n) return false;
+  int v = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const char c = s[pos + k];
+    if (!IsDigit(c)) return false;
+    v = 10 * v + (c - '0');
+  }
+  pos += n;
+  out = v;
+  return true;
+}
+
+bool Char(std::string_view s, std::size_t& pos, char c) {
+  if (pos < s.size() && s[pos] == c) {
+    ++pos;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+std::optional<Iso8601Time> ParseIso8601(std::string_view s) {
+  if (s.size() > kMaxIso8601Length) return std::nullopt;
+  Iso8601Time t;
+  std::size_t pos = 0;
+  if (!Digits(s, pos, 4, t.year) || !Char(s, pos, '-') || !Digits(s, pos, 2, t.month) ||
+      !Char(s, pos, '-') || !Digits(s, pos, 2, t.day)) {
+    return std::nullopt;
+  }
+  if (pos == s.size()) return t;
+  // The time: [T ]hh:mm, then optional :ss with an optional fraction.
+  if (s[pos] != 'T' && s[pos] != ' ') return std::nullopt;
+  ++pos;
+  if (!Digits(s, pos, 2, t.hour) || !Char(s, pos, ':') || !Digits(s, pos, 2, t.minute)) {
+    return std::nullopt;
+  }
+  t.has_time = true;
+  if (Char(s, pos, ':')) {
+    if (!Digits(s, pos, 2, t.second)) return std::nullopt;
+    t.has_seconds = true;
+    if (Char(s, pos, '.')) {
+      const std::size_t start = pos;
+      while (pos < s.size() && IsDigit(s[pos])) ++pos;
+      if (pos == start) return std::nullopt;
+      t.fraction.assign(s.substr(start, pos - start));
+    }
+  }
+  if (pos == s.size()) return t;
+  // The zone: Z or ±hh[:]mm, and nothing after it.
+  if (Char(s, pos, 'Z')) {
+    t.zone = Iso8601Time::Zone::kUtc;
+  } else if (s[pos] == '+' || s[pos] == '-') {
+    t.offset_sign = s[pos] == '+' ? 1 : -1;
+    ++pos;
+    if (!Digits(s, pos, 2, t.offset_hours)) return std::nullopt;
+    Char(s, pos, ':');
+    if (!Digits(s, pos, 2, t.offset_minutes)) return std::nullopt;
+    t.zone = Iso8601Time::Zone::kOffset;
+  } else {
+    return std::nullopt;
+  }
+  if (pos != s.size()) return std::nullopt;
+  return t;
+}
+
+}  // namespace km::ingest

@@ -1,0 +1,89 @@
+// NormalizeIso8601 (server/time_util.h): the same answers as the regular expression that used
+// to define it, and very long texts (100 KB query values) refused without deep recursion.
+#include "server/time_util.h"
+
+#include <gtest/gtest.h>
+
+#include <ctime>
+#include <random>
+#include <regex>
+#include <string>
+
+namespace km::server {
+namespace {
+
+// The former implementation, kept as the reference (short texts only).
+std::optional<std::string> Reference(const std::string& text) {
+  static const std::regex re(
+      R"(^(\d{4})-(\d{2})-(\d{2})(?:[T ](\d{2}):(\d{2})(?::(\d{2})(\.\d+)?)?(Z|([+-])(\d{2}):?(\d{2}))?)?$)");
+  std::smatch m;
+  if (!std::regex_match(text, m, re)) return std::nullopt;
+  std::tm tm{};
+  tm.tm_year = std::stoi(m[1]) - 1900;
+  tm.tm_mon = std::stoi(m[2]) - 1;
+  tm.tm_mday = std::stoi(m[3]);
+  tm.tm_hour = m[4].matched ? std::stoi(m[4]) : 0;
+  tm.tm_min = m[5].matched ? std::stoi(m[5]) : 0;
+  tm.tm_sec = m[6].matched ? std::stoi(m[6]) : 0;
+  if (tm.tm_mon < 0 || tm.tm_mon > 11 || tm.tm_mday < 1 || tm.tm_mday > 31 || tm.tm_hour > 23 ||
+      tm.tm_min > 59 || tm.tm_sec > 60) {
+    return std::nullopt;
+  }
+  std::time_t t = timegm(&tm);
+  if (m[9].matched) {
+    const int off = (std::stoi(m[10]) * 60 + std::stoi(m[11])) * 60;
+    t -= (m[9] == "+" ? off : -off);
+  }
+  std::tm out{};
+  gmtime_r(&t, &out);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &out);
+  std::string s = buf;
+  if (m[7].matched) s += m[7].str().substr(0, 7);
+  return s + "Z";
+}
+
+TEST(TimeUtil, NormalisesLikeBefore) {
+  EXPECT_EQ(NormalizeIso8601("2026-11-20T10:00:00+01:00"), "2026-11-20T09:00:00Z");
+  EXPECT_EQ(NormalizeIso8601("2026-11-20"), "2026-11-20T00:00:00Z");
+  EXPECT_EQ(NormalizeIso8601("2026-11-20 23:30-02:30"), "2026-11-21T02:00:00Z");
+  EXPECT_EQ(NormalizeIso8601("2026-11-20T23:30:59.123456789Z"), "2026-11-20T23:30:59.123456Z");
+  EXPECT_EQ(NormalizeIso8601("2026-12-31T23:59:60Z"), "2027-01-01T00:00:00Z");
+  EXPECT_FALSE(NormalizeIso8601("2026-13-01"));
+  EXPECT_FALSE(NormalizeIso8601("2026-11-20T24:00"));
+  EXPECT_FALSE(NormalizeIso8601("soon"));
+  std::mt19937 rng(7);
+  const std::string alphabet = "0123456789-T :.Z+";
+  const std::vector<std::string> seeds = {"2026-11-20",
+                                          "1999-12-31T23:59",
+                                          "2026-02-29 10:00:00",
+                                          "2026-11-20T10:00:00.25Z",
+                                          "2026-01-01T00:30-02:30",
+                                          "2026-11-20T10:00:00.1234567+0100"};
+  int valid = 0;
+  for (int n = 0; n < 20000; ++n) {
+    std::string s = seeds[rng() % seeds.size()];
+    for (int e = 0; e < 2; ++e) {
+      const std::size_t at = rng() % s.size();
+      if (rng() % 2) {
+        s[at] = alphabet[rng() % alphabet.size()];
+      } else {
+        s.erase(at, 1);
+      }
+    }
+    const auto ref = Reference(s);
+    valid += ref.has_value();
+    ASSERT_EQ(NormalizeIso8601(s), ref) << "'" << s << "'";
+  }
+  EXPECT_GT(valid, 1000);
+}
+
+TEST(TimeUtil, HugeTextsAreNotTimes) {
+  EXPECT_FALSE(NormalizeIso8601(std::string(110'000, '1')));
+  EXPECT_FALSE(NormalizeIso8601("2026-11-20T10:00:00." + std::string(110'000, '7')));
+  EXPECT_FALSE(NormalizeIso8601("2026-11-20T10:00:00." + std::string(45, '7')));  // 65 chars
+  EXPECT_TRUE(NormalizeIso8601("2026-11-20T10:00:00." + std::string(44, '7')));   // 64 chars
+}
+
+}  // namespace
+}  // namespace km::server
