@@ -1,12 +1,17 @@
 #include "server/sqlite_storage.h"
 
+#include <fcntl.h>
 #include <sqlite3.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cstring>
 #include <stdexcept>
 
 #include "analysis/core/errors.h"
 #include "server/time_util.h"
+#include "server/utf8.h"
 
 namespace km::server {
 namespace {
@@ -82,9 +87,13 @@ class Stmt {
   std::int64_t Int(int c) const { return sqlite3_column_int64(s_, c); }
   double Real(int c) const { return sqlite3_column_double(s_, c); }
   bool IsNull(int c) const { return sqlite3_column_type(s_, c) == SQLITE_NULL; }
+  // Text as stored, made valid UTF-8 (rows written before uploads were checked may hold
+  // other bytes; everything read here may end up in JSON).
   std::string Text(int c) const {
     const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(s_, c));
-    return p ? std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(s_, c))) : "";
+    return p ? SanitizeUtf8(
+                   std::string_view(p, static_cast<std::size_t>(sqlite3_column_bytes(s_, c))))
+             : "";
   }
   std::optional<std::string> OptText(int c) const {
     if (IsNull(c)) return std::nullopt;
@@ -228,6 +237,26 @@ CREATE INDEX stream_gaps_by_stream ON stream_gaps(stream_id, channel);
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));
 
+// A database file on disk (not ":memory:", a temporary or a URI)?
+bool IsFilePath(const std::string& path) {
+  return !path.empty() && path != ":memory:" && path.rfind("file:", 0) != 0;
+}
+
+// The database holds measurements and token hashes: owner-only (0600) whatever the umask.
+// The file is created here before SQLite opens it (SQLite gives its -wal, -shm and -journal
+// files the mode of the database file); an existing one is tightened.
+void MakeOwnerOnly(const std::string& path, bool create) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC | (create ? O_CREAT : 0), 0600);
+  if (fd < 0) return;  // absent (-wal, -shm), or SQLite reports why it cannot open it
+  const int rc = ::fchmod(fd, 0600);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) {
+    throw StorageError("storage: cannot make " + path +
+                       " owner-only (0600): " + std::strerror(err));
+  }
+}
+
 MeasurementRecord ReadRecord(const Stmt& s) {
   MeasurementRecord r;
   r.id = s.Int(0);
@@ -256,6 +285,8 @@ int SqliteStorage::SchemaVersion() {
 }
 
 SqliteStorage::SqliteStorage(const std::string& path) {
+  const bool on_disk = IsFilePath(path);
+  if (on_disk) MakeOwnerOnly(path, true);
   if (sqlite3_open_v2(path.c_str(), &db_,
                       SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
                       nullptr) != SQLITE_OK) {
@@ -270,6 +301,9 @@ SqliteStorage::SqliteStorage(const std::string& path) {
     Exec(db_, "PRAGMA synchronous=FULL");
     Exec(db_, "PRAGMA foreign_keys=ON");
     Migrate();
+    if (on_disk) {
+      for (const char* ext : {"-wal", "-shm", "-journal"}) MakeOwnerOnly(path + ext, false);
+    }
   } catch (...) {
     sqlite3_close(db_);
     db_ = nullptr;
