@@ -1,8 +1,34 @@
 #include "server/jobs.h"
 
+#include <iostream>
+#include <optional>
+
 #include "analysis/core/errors.h"
 
 namespace km::server {
+namespace {
+
+// One storage update of the worker. A storage error (a full disk, a locked or damaged
+// database) must not end the process: it is reported on stderr with the job id and returned.
+std::optional<std::string> TryUpdate(Storage& storage, const JobRecord& job, const char* what) {
+  std::string error;
+  try {
+    storage.UpdateJob(job);
+    return std::nullopt;
+  } catch (const std::exception& e) {
+    error = e.what();
+  } catch (...) {
+    error = "unknown storage error";
+  }
+  try {
+    std::cerr << "kinemetricd: job " << job.id << ": could not store " << what << " (" << job.status
+              << "): " << error << std::endl;
+  } catch (...) {  // NOLINT(bugprone-empty-catch): nothing is left to report to
+  }
+  return error;
+}
+
+}  // namespace
 
 JobQueue::JobQueue(Storage& storage, std::size_t max_queued)
     : storage_(storage), max_queued_(max_queued) {
@@ -22,7 +48,10 @@ JobQueue::~JobQueue() {
     j.id = id;
     j.status = "failed";
     j.error = "the server stopped before the job started; submit it again";
-    storage_.UpdateJob(j);
+    try {
+      TryUpdate(storage_, j, "that it was not started");
+    } catch (...) {  // NOLINT(bugprone-empty-catch): a destructor must not throw
+    }
   }
 }
 
@@ -48,27 +77,49 @@ void JobQueue::Run() {
       item = std::move(queue_.front());
       queue_.pop_front();
     }
-    JobRecord job;
-    job.id = item.first;
-    job.status = "running";
-    job.stage = "started";
-    storage_.UpdateJob(job);
-    auto progress = [&](double f, const std::string& stage) {
-      job.progress = f;
-      job.stage = stage;
-      storage_.UpdateJob(job);
-    };
+    // Every storage call below is guarded: the job runs even when its status cannot be
+    // written, and the worker goes on to the next job whatever happens to this one.
     try {
-      const nlohmann::json result = item.second(progress);
-      job.status = "done";
-      job.progress = 1.0;
-      job.stage = "done";
-      job.result_json = result.dump();
-    } catch (const std::exception& e) {
-      job.status = "failed";
-      job.error = e.what();
+      JobRecord job;
+      job.id = item.first;
+      job.status = "running";
+      job.stage = "started";
+      TryUpdate(storage_, job, "its start");
+      auto progress = [&](double f, const std::string& stage) {
+        job.progress = f;
+        job.stage = stage;
+        TryUpdate(storage_, job, "its progress");
+      };
+      try {
+        const nlohmann::json result = item.second(progress);
+        job.status = "done";
+        job.progress = 1.0;
+        job.stage = "done";
+        job.result_json = result.dump();
+      } catch (const std::exception& e) {
+        job.status = "failed";
+        job.error = e.what();
+      } catch (...) {
+        job.status = "failed";
+        job.error = "the job failed with an unknown error";
+      }
+      const auto error = TryUpdate(storage_, job, "its outcome");
+      if (error && job.status == "done") {
+        // The result could not be written (too large, disk full): record at least the failure.
+        JobRecord failed = job;
+        failed.status = "failed";
+        failed.stage = "storing the result";
+        failed.result_json.clear();
+        failed.error = "the result could not be stored: " + *error;
+        TryUpdate(storage_, failed, "its failure");
+      }
+    } catch (...) {
+      // Out of memory or the like while handling one job: the worker stays for the next.
+      try {
+        std::cerr << "kinemetricd: job " << item.first << ": aborted" << std::endl;
+      } catch (...) {  // NOLINT(bugprone-empty-catch): nothing is left to report to
+      }
     }
-    storage_.UpdateJob(job);
   }
 }
 
