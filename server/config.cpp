@@ -1,5 +1,8 @@
 #include "server/config.h"
 
+#include <charconv>
+#include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <sstream>
 
@@ -8,21 +11,81 @@
 #include "analysis/core/errors.h"
 
 namespace km::server {
+namespace {
+
+// Ranges of the numeric settings; one table for the command line and the config file.
+struct Range {
+  std::int64_t lo, hi;
+  const char* unit;
+};
+constexpr Range kThreads{1, 256, ""};
+constexpr Range kQueueLimit{1, 1'000'000, ""};
+constexpr Range kTimeout{1, 3600, " s"};
+constexpr Range kKeepAliveCount{1, 1'000'000, ""};
+constexpr Range kUploadBytes{1, std::int64_t{4} << 30, " bytes"};  // 4 GiB
+
+std::string RangeText(const Range& r) {
+  return "a whole number from " + std::to_string(r.lo) + " to " + std::to_string(r.hi) + r.unit;
+}
+
+// A whole number written in decimal digits (an optional leading '-'), nothing else.
+std::int64_t WholeFromText(const std::string& text, const Range& r, const std::string& where,
+                           const std::string& field) {
+  std::int64_t v = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+  if (text.empty() || ec != std::errc() || ptr != end || v < r.lo || v > r.hi) {
+    throw InvalidInput(where, 0, field, "'" + text.substr(0, 40) + "' is not " + RangeText(r));
+  }
+  return v;
+}
+
+// A JSON number that is a whole number within the range (4 and 4.0 both are).
+std::int64_t WholeFromJson(const nlohmann::json& v, const Range& r, const std::string& where,
+                           const std::string& field) {
+  bool ok = false;
+  std::int64_t out = 0;
+  if (v.is_number_unsigned()) {
+    const auto u = v.get<std::uint64_t>();
+    ok = u <= static_cast<std::uint64_t>(r.hi);
+    out = ok ? static_cast<std::int64_t>(u) : 0;
+  } else if (v.is_number_integer()) {
+    out = v.get<std::int64_t>();
+    ok = true;
+  } else if (v.is_number_float()) {
+    const double d = v.get<double>();
+    ok = std::isfinite(d) && std::floor(d) == d && d >= static_cast<double>(r.lo) &&
+         d <= static_cast<double>(r.hi);
+    out = ok ? static_cast<std::int64_t>(d) : 0;
+  }
+  if (!ok || out < r.lo || out > r.hi) {
+    throw InvalidInput(where, 0, field, v.dump().substr(0, 40) + " is not " + RangeText(r));
+  }
+  return out;
+}
+
+std::string NonEmpty(const std::string& v, const std::string& where, const std::string& field) {
+  if (v.empty()) throw InvalidInput(where, 0, field, "must not be empty");
+  return v;
+}
+
+}  // namespace
 
 void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where) {
   const auto colon = listen.rfind(':');
   if (colon == std::string::npos || colon == 0) {
     throw InvalidInput(where, 0, "listen", "expected HOST:PORT, got '" + listen + "'");
   }
+  const std::string digits = listen.substr(colon + 1);
   int port = 0;
-  try {
-    std::size_t used = 0;
-    port = std::stoi(listen.substr(colon + 1), &used);
-    if (used != listen.size() - colon - 1) throw std::invalid_argument("junk");
-  } catch (const std::exception&) {
+  const char* end = digits.data() + digits.size();
+  const auto [ptr, ec] = std::from_chars(digits.data(), end, port);
+  if (digits.empty() || digits[0] == '-' || ec != std::errc() || ptr != end) {
     throw InvalidInput(where, 0, "listen", "bad port in '" + listen + "'");
   }
-  if (port < 0 || port > 65535) throw InvalidInput(where, 0, "listen", "port out of range");
+  if (port < 0 || port > 65535) {
+    throw InvalidInput(where, 0, "listen", "port out of range (0 to 65535; 0: any free port)");
+  }
   cfg.host = listen.substr(0, colon);
   if (cfg.host.size() > 2 && cfg.host.front() == '[' && cfg.host.back() == ']') {
     cfg.host = cfg.host.substr(1, cfg.host.size() - 2);
@@ -45,25 +108,25 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
       if (key == "listen") {
         ApplyListen(cfg, v.get<std::string>(), path);
       } else if (key == "data_dir") {
-        cfg.data_dir = v.get<std::string>();
+        cfg.data_dir = NonEmpty(v.get<std::string>(), path, key);
       } else if (key == "web_root") {
         cfg.web_root = v.get<std::string>();
       } else if (key == "demo_data") {
         cfg.demo_data = v.get<bool>();
       } else if (key == "max_upload_bytes") {
-        cfg.max_upload_bytes = v.get<std::size_t>();
+        cfg.max_upload_bytes = static_cast<std::size_t>(WholeFromJson(v, kUploadBytes, path, key));
       } else if (key == "threads") {
-        cfg.threads = v.get<int>();
+        cfg.threads = static_cast<int>(WholeFromJson(v, kThreads, path, key));
       } else if (key == "queue_limit") {
-        cfg.queue_limit = v.get<std::size_t>();
+        cfg.queue_limit = static_cast<std::size_t>(WholeFromJson(v, kQueueLimit, path, key));
       } else if (key == "read_timeout_s") {
-        cfg.read_timeout_s = v.get<int>();
+        cfg.read_timeout_s = static_cast<int>(WholeFromJson(v, kTimeout, path, key));
       } else if (key == "write_timeout_s") {
-        cfg.write_timeout_s = v.get<int>();
+        cfg.write_timeout_s = static_cast<int>(WholeFromJson(v, kTimeout, path, key));
       } else if (key == "keep_alive_max_count") {
-        cfg.keep_alive_max_count = v.get<int>();
+        cfg.keep_alive_max_count = static_cast<int>(WholeFromJson(v, kKeepAliveCount, path, key));
       } else if (key == "keep_alive_timeout_s") {
-        cfg.keep_alive_timeout_s = v.get<int>();
+        cfg.keep_alive_timeout_s = static_cast<int>(WholeFromJson(v, kTimeout, path, key));
       } else if (key == "modbus_config") {
         cfg.modbus_config = v.get<std::string>();
       } else {
@@ -73,7 +136,6 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
       throw InvalidInput(path, 0, key, std::string("wrong type: ") + e.what());
     }
   }
-  if (cfg.threads < 1 || cfg.threads > 256) throw InvalidInput(path, 0, "threads", "1 to 256");
 }
 
 ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
@@ -88,17 +150,15 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
       if (i + 1 >= args.size()) throw InvalidInput("", 0, a, "option needs a value");
       return args[++i];
     };
-    auto number = [&](const std::string& v) {
-      try {
-        return std::stoi(v);
-      } catch (const std::exception&) {
-        throw InvalidInput("", 0, a, "'" + v + "' is not a whole number");
-      }
-    };
     if (a == "--listen") {
-      ApplyListen(cfg, value(), "--listen");
+      const std::string v = value();
+      try {
+        ApplyListen(cfg, v, "");
+      } catch (const InvalidInput& e) {
+        throw InvalidInput("", 0, a, e.reason());
+      }
     } else if (a == "--data-dir") {
-      cfg.data_dir = value();
+      cfg.data_dir = NonEmpty(value(), "", a);
     } else if (a == "--config") {
       value();
     } else if (a == "--web-root") {
@@ -108,9 +168,9 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
     } else if (a == "--demo-data") {
       cfg.demo_data = true;
     } else if (a == "--threads") {
-      cfg.threads = number(value());
+      cfg.threads = static_cast<int>(WholeFromText(value(), kThreads, "", a));
     } else if (a == "--max-upload-bytes") {
-      cfg.max_upload_bytes = static_cast<std::size_t>(number(value()));
+      cfg.max_upload_bytes = static_cast<std::size_t>(WholeFromText(value(), kUploadBytes, "", a));
     } else {
       throw InvalidInput("", 0, a, "unknown option");
     }

@@ -1,0 +1,112 @@
+// Server options and config-file keys: every number is a whole number within its range, or the
+// start is refused naming the option (a server with 0 threads never answers; a negative upload
+// limit used to wrap around to 16 EiB).
+#include "server/config.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "analysis/core/errors.h"
+#include "tests/unit/server/temp_dir.h"
+
+namespace km::server {
+namespace {
+
+class ServerConfigTest : public testing::TempDirTest {
+ protected:
+  std::string File(const std::string& json) {
+    const std::string p = Path("config.json");
+    std::ofstream(p) << json;
+    return p;
+  }
+  // Expects InvalidInput naming `field` (and the file when `file` is set).
+  static void ExpectRefused(const std::vector<std::string>& args, const std::string& field,
+                            const std::string& file = "") {
+    try {
+      const auto cfg = ParseServerArgs(args);
+      ADD_FAILURE() << "accepted " << ::testing::PrintToString(args) << " (threads " << cfg.threads
+                    << ", max_upload_bytes " << cfg.max_upload_bytes << ")";
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.field(), field) << e.what();
+      EXPECT_EQ(e.file(), file) << e.what();
+    }
+  }
+};
+
+TEST_F(ServerConfigTest, AcceptsSensibleOptions) {
+  const auto cfg = ParseServerArgs({"--listen", "0.0.0.0:9000", "--threads", "256",
+                                    "--max-upload-bytes", "4294967296", "--data-dir", "d"});
+  EXPECT_EQ(cfg.host, "0.0.0.0");
+  EXPECT_EQ(cfg.port, 9000);
+  EXPECT_EQ(cfg.threads, 256);
+  EXPECT_EQ(cfg.max_upload_bytes, std::size_t{4} << 30);
+  EXPECT_EQ(ParseServerArgs({"--threads", "1", "--max-upload-bytes", "1"}).threads, 1);
+  EXPECT_EQ(ParseServerArgs({"--listen", "127.0.0.1:0"}).port, 0);  // any free port
+  EXPECT_EQ(ParseServerArgs({"--listen", "[::1]:8080"}).host, "::1");
+
+  const auto f = ParseServerArgs({"--config", File(R"({"threads": 3, "queue_limit": 1,
+      "read_timeout_s": 1, "write_timeout_s": 3600, "keep_alive_max_count": 1,
+      "keep_alive_timeout_s": 60, "max_upload_bytes": 1024, "listen": "localhost:81",
+      "data_dir": "x", "web_root": "", "demo_data": true, "modbus_config": ""})")});
+  EXPECT_EQ(f.threads, 3);
+  EXPECT_EQ(f.queue_limit, 1u);
+  EXPECT_EQ(f.read_timeout_s, 1);
+  EXPECT_EQ(f.write_timeout_s, 3600);
+  EXPECT_EQ(f.keep_alive_max_count, 1);
+  EXPECT_EQ(f.keep_alive_timeout_s, 60);
+  EXPECT_EQ(f.max_upload_bytes, 1024u);
+  EXPECT_EQ(f.port, 81);
+  EXPECT_TRUE(f.demo_data);
+  // Command-line options win over the file.
+  EXPECT_EQ(ParseServerArgs({"--threads", "5", "--config", File(R"({"threads": 3})")}).threads, 5);
+}
+
+TEST_F(ServerConfigTest, RefusesOutOfRangeAndNonIntegerOptions) {
+  for (const char* v :
+       {"0", "-1", "257", "8abc", "abc", "", "1e3", "2.5", " 8", "+8", "99999999999999999999"}) {
+    SCOPED_TRACE(v);
+    ExpectRefused({"--threads", v}, "--threads");
+  }
+  for (const char* v : {"0", "-1", "4294967297", "18446744073709551615", "1k", "0x10", "1.5"}) {
+    SCOPED_TRACE(v);
+    ExpectRefused({"--max-upload-bytes", v}, "--max-upload-bytes");
+  }
+  ExpectRefused({"--threads"}, "--threads");
+  ExpectRefused({"--data-dir", ""}, "--data-dir");
+  for (const char* v : {"host:", "host:-1", "host:65536", "host:80x", "host: 80", ":80", "80"}) {
+    SCOPED_TRACE(v);
+    ExpectRefused({"--listen", v}, "--listen");
+  }
+}
+
+TEST_F(ServerConfigTest, RefusesOutOfRangeAndNonIntegerConfigKeys) {
+  const std::vector<std::pair<std::string, std::vector<std::string>>> bad = {
+      {"threads", {"0", "257", "-3", "2.5", "\"8\"", "1e9", "true", "null"}},
+      {"queue_limit", {"0", "-1", "1.5", "\"64\"", "18446744073709551615"}},
+      {"read_timeout_s", {"0", "-1", "3601", "2.5"}},
+      {"write_timeout_s", {"0", "3601", "1e10"}},
+      {"keep_alive_timeout_s", {"0", "3601", "-5"}},
+      {"keep_alive_max_count", {"0", "-1", "0.5"}},
+      {"max_upload_bytes", {"0", "-1", "4294967297", "1e300", "\"1\""}},
+      {"listen", {"\"host:99999\"", "8080"}},
+      {"data_dir", {"\"\"", "1"}},
+      {"demo_data", {"\"yes\""}},
+  };
+  for (const auto& [key, values] : bad) {
+    for (const auto& v : values) {
+      SCOPED_TRACE(key + " = " + v);
+      const std::string path = File("{\"" + key + "\": " + v + "}");
+      ExpectRefused({"--config", path}, key, path);
+    }
+  }
+  // Whole numbers written with a fraction of zero are whole numbers.
+  EXPECT_EQ(ParseServerArgs({"--config", File(R"({"threads": 4.0})")}).threads, 4);
+  const std::string typo = File(R"({"thread": 4})");
+  ExpectRefused({"--config", typo}, "thread", typo);
+}
+
+}  // namespace
+}  // namespace km::server
