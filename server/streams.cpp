@@ -240,22 +240,42 @@ std::unique_ptr<ingest::SampleSink> StreamHub::SinkFor(std::int64_t stream_id) {
 
 namespace {
 
-// Min / max / sum / count per time bucket.
+// Min / max / sum / count per time bucket over [lo, hi] (both inclusive). Times enter as
+// offsets from lo in unsigned 64-bit arithmetic, so that any two int64 time stamps (a span of
+// up to 2^64 − 1 µs) are bucketed without overflow.
 struct Buckets {
   std::int64_t lo = 0;
-  double width = 1.0;
+  std::uint64_t span = 0;  // hi − lo, exact
+  double width = 1.0;      // (span + 1) / n µs
   std::vector<double> mn, mx, sum;
   std::vector<std::int64_t> cnt;
   Buckets(std::int64_t lo_us, std::int64_t hi_us, std::size_t n)
       : lo(lo_us),
-        width(static_cast<double>(hi_us - lo_us) / static_cast<double>(n)),
+        span(static_cast<std::uint64_t>(hi_us) - static_cast<std::uint64_t>(lo_us)),
+        width((static_cast<double>(span) + 1.0) / static_cast<double>(n)),
         mn(n, std::numeric_limits<double>::infinity()),
         mx(n, -std::numeric_limits<double>::infinity()),
         sum(n, 0.0),
         cnt(n, 0) {}
+  std::uint64_t Offset(std::int64_t t) const {
+    return static_cast<std::uint64_t>(t) - static_cast<std::uint64_t>(lo);
+  }
   std::size_t Of(std::int64_t t) const {
-    const auto b = static_cast<std::size_t>(static_cast<double>(t - lo) / width);
-    return std::min(b, cnt.size() - 1);
+    const double q = static_cast<double>(Offset(t)) / width;
+    const auto last = cnt.size() - 1;
+    return q < static_cast<double>(last) ? static_cast<std::size_t>(q) : last;
+  }
+  // Middle of bucket k, rounded to the µs and kept within [lo, hi].
+  std::int64_t Centre(std::size_t k) const {
+    const double c = (static_cast<double>(k) + 0.5) * width;
+    std::uint64_t off = span;
+    if (c < 0x1p63) {
+      off = static_cast<std::uint64_t>(std::llround(c));
+    } else if (c < 0x1p64) {
+      off = static_cast<std::uint64_t>(c);  // doubles this large are whole numbers
+    }
+    off = std::min(off, span);
+    return static_cast<std::int64_t>(static_cast<std::uint64_t>(lo) + off);
   }
   void Add(std::size_t b, double vmin, double vmax, double vsum, std::int64_t n) {
     mn[b] = std::min(mn[b], vmin);
@@ -363,7 +383,7 @@ nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::
     lo = std::min(lo, c->t_first_us);
     hi = std::max(hi, c->t_last_us);
   }
-  Buckets b(lo, hi + 1, max_points);
+  Buckets b(lo, hi, max_points);
   for (const auto* c : whole) {
     const std::size_t b1 = b.Of(c->t_first_us), b2 = b.Of(c->t_last_us);
     if (b1 == b2) {
@@ -379,7 +399,7 @@ nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::
        bn = json::array();
   for (std::size_t k = 0; k < max_points; ++k) {
     if (b.cnt[k] == 0) continue;  // a gap or a quiet stretch: no bucket is invented
-    bt.push_back(lo + std::llround((static_cast<double>(k) + 0.5) * b.width));
+    bt.push_back(b.Centre(k));
     bmin.push_back(b.mn[k]);
     bmax.push_back(b.mx[k]);
     bmean.push_back(b.sum[k] / static_cast<double>(b.cnt[k]));
