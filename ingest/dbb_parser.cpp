@@ -1,6 +1,7 @@
 #include "ingest/dbb_parser.h"
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include "analysis/core/errors.h"
@@ -17,6 +18,39 @@ std::array<double, 3> Vec3(const std::vector<double>& v) {
 void RequirePositive(const TextTable& t, const std::string& key, double v) {
   if (!(v > 0.0)) {
     throw InvalidInput(t.file, t.Find(key)->line, key, "must be greater than zero");
+  }
+}
+
+// Magnitudes beyond these are not measurements of a machine tool; they would only make the
+// analysis overflow. Lengths and positions in mm, bar deviations in µm, angles in degrees.
+constexpr double kMaxLengthMm = 1e5;     // 100 m
+constexpr double kMaxPositionMm = 1e6;   // 1 km from the machine origin
+constexpr double kMaxDeviationUm = 1e6;  // 1 m
+constexpr double kMaxFeedMmMin = 1e7;    // 10 km/min
+constexpr double kMaxAngleDeg = 1e6;     // some 2 800 turns
+
+std::string Number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+// Refuses |v| > limit (a value too large to analyse), naming the field.
+void RequireAtMost(const std::string& file, std::size_t line, const std::string& field, double v,
+                   double limit, const char* what) {
+  if (std::abs(v) > limit) {
+    throw InvalidInput(
+        file, line, field,
+        Number(v) + " is too large to analyse: " + what + " must be within ±" + Number(limit));
+  }
+}
+
+void RequireHeaderAtMost(const TextTable& t, const std::string& key, double limit,
+                         const char* what) {
+  const auto* h = t.Find(key);
+  if (!h) return;
+  for (double v : t.RequireNumbers(key, key == "centre_mm" || key == "fixed_ball_mm" ? 3 : 1)) {
+    RequireAtMost(t.file, h->line, key, v, limit, what);
   }
 }
 
@@ -67,6 +101,14 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
   if (auto v = t.OptionalNumbers("tilt_deg", 3)) d.tilt_deg = Vec3(*v);
   d.tool_length_mm = t.OptionalNumber("tool_length_mm");
   if (auto v = t.OptionalNumbers("fixed_ball_mm", 3)) d.fixed_ball_mm = Vec3(*v);
+  RequireHeaderAtMost(t, "bar_length_mm", kMaxLengthMm, "a bar length in mm");
+  RequireHeaderAtMost(t, "radius_mm", kMaxLengthMm, "a radius in mm");
+  RequireHeaderAtMost(t, "tool_length_mm", kMaxLengthMm, "a tool length in mm");
+  RequireHeaderAtMost(t, "centre_mm", kMaxPositionMm, "a position in mm");
+  RequireHeaderAtMost(t, "fixed_ball_mm", kMaxPositionMm, "a position in mm");
+  RequireHeaderAtMost(t, "z_offset_mm", kMaxPositionMm, "an offset in mm");
+  RequireHeaderAtMost(t, "feed_mm_min", kMaxFeedMmMin, "a feed in mm/min");
+  RequireHeaderAtMost(t, "start_angle_deg", kMaxAngleDeg, "an angle in degrees");
   if (const auto* ts = t.Find("timestamp")) {
     if (ts->value.size() > kMaxIso8601Length) {
       throw InvalidInput(file, ts->line, "timestamp",
@@ -108,6 +150,9 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
     const double angle =
         angle_col >= 0 ? row[static_cast<std::size_t>(angle_col)]
                        : start_deg + sign * omega_deg_s * row[static_cast<std::size_t>(time_col)];
+    RequireAtMost(file, t.row_lines[i], angle_field, angle, kMaxAngleDeg, "an angle in degrees");
+    RequireAtMost(file, t.row_lines[i], "dr_um", row[static_cast<std::size_t>(dr_col)],
+                  kMaxDeviationUm, "a bar deviation in µm");
     if (!d.angle_deg.empty()) {
       const double prev = d.angle_deg.back();
       if (!(sign * (angle - prev) > 0.0)) {

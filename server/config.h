@@ -26,7 +26,10 @@ struct ServerConfig {
 // Applies a JSON config file: keys listen ("HOST:PORT"), data_dir, web_root, demo_data,
 // max_upload_bytes, threads, queue_limit, read_timeout_s, write_timeout_s,
 // keep_alive_max_count, keep_alive_timeout_s, modbus_config. Unknown keys are an error (typos are
-// not ignored).
+// not ignored). Numbers must be whole and within range (the command line too): threads 1–256,
+// queue_limit and keep_alive_max_count 1–1 000 000, timeouts 1–3600 s, max_upload_bytes
+// 1 B–4 GiB, port 0–65535 (0: any free port); data_dir must not be empty. Anything else is
+// km::InvalidInput naming the option or key.
 void ApplyConfigFile(ServerConfig& cfg, const std::string& path);
 // Applies "HOST:PORT".
 void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where);

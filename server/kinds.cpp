@@ -1,5 +1,7 @@
 // The measurement kinds the server accepts, one handler per format (contract §1), and the
 // DBB-specific queries (trace, pair analysis, plot).
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 
 #include "analysis/core/errors.h"
@@ -9,6 +11,7 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/form_parsers.h"
 #include "ingest/tracker_parser.h"
+#include "server/finite_result.h"
 #include "server/form_report.h"
 #include "server/report.h"
 #include "server/service.h"
@@ -16,6 +19,78 @@
 
 namespace km::server {
 namespace {
+
+// Magnitudes beyond these are not measurements of a machine tool; they would only make the
+// analysis overflow. Checked after parsing, before the analysis (the DBB parser checks its own).
+constexpr double kMaxPositionMm = 1e6;        // 1 km from the machine origin
+constexpr double kMaxDeviationUm = 1e6;       // 1 m off a line or a plane
+constexpr double kMaxTrackerReadingUm = 1e9;  // 1 km of interferometer travel
+
+std::string Number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+void RequireAtMost(const std::string& file, std::size_t line, const std::string& field, double v,
+                   double limit, const std::string& what) {
+  if (std::abs(v) > limit) {
+    throw InvalidInput(
+        file, line, field,
+        Number(v) + " is too large to analyse: " + what + " must be within ±" + Number(limit));
+  }
+}
+
+template <typename Lines>
+std::size_t LineOf(const Lines& lines, std::size_t i) {
+  return i < lines.size() ? lines[i] : 0;
+}
+
+template <typename Lines>
+void CheckProfile(const std::string& file, const form::Profile& p, const Lines& lines) {
+  for (std::size_t i = 0; i < p.position_mm.size(); ++i) {
+    RequireAtMost(file, LineOf(lines, i), "position_mm", p.position_mm[i], kMaxPositionMm,
+                  "a position in mm");
+  }
+  for (std::size_t i = 0; i < p.deviation_um.size(); ++i) {
+    RequireAtMost(file, LineOf(lines, i), "deviation_um", p.deviation_um[i], kMaxDeviationUm,
+                  "a deviation in µm");
+  }
+}
+
+template <typename Lines>
+void CheckGrid(const std::string& file, const form::Grid& g, const Lines& lines) {
+  for (std::size_t i = 0; i < g.x_mm.size(); ++i) {
+    const std::size_t line = LineOf(lines, i);
+    RequireAtMost(file, line, "x_mm", g.x_mm[i], kMaxPositionMm, "a position in mm");
+    if (i < g.y_mm.size()) {
+      RequireAtMost(file, line, "y_mm", g.y_mm[i], kMaxPositionMm, "a position in mm");
+    }
+    if (i < g.z_um.size()) {
+      RequireAtMost(file, line, "z_um", g.z_um[i], kMaxDeviationUm, "a deviation in µm");
+    }
+  }
+}
+
+// The tracker file keeps no line per point: the point id names the row.
+void CheckTracker(const std::string& file, const tracker::TrackerReadings& r) {
+  const char* axes[] = {"x_mm", "y_mm", "z_mm"};
+  for (std::size_t i = 0; i < r.commanded_mm.size(); ++i) {
+    const std::string point =
+        "point " + std::to_string(i < r.point_ids.size() ? r.point_ids[i] : 0) + ": ";
+    for (int k = 0; k < 3; ++k) {
+      RequireAtMost(file, 0, axes[k], r.commanded_mm[i](k), kMaxPositionMm,
+                    point + "a position in mm");
+    }
+    for (Eigen::Index j = 0; j < r.displacement_um.cols(); ++j) {
+      if (static_cast<Eigen::Index>(i) >= r.displacement_um.rows()) break;
+      const double d = r.displacement_um(static_cast<Eigen::Index>(i), j);
+      if (!std::isfinite(d)) continue;  // a missing reading
+      RequireAtMost(file, 0, "d" + std::to_string(j + 1) + "_um", d, kMaxTrackerReadingUm,
+                    point + "a reading in µm");
+    }
+  }
+}
 
 Ingested IngestDbb(std::string_view bytes, const std::string& file) {
   const dbb::DbbTest test = ingest::ParseDbb(bytes, file);
@@ -26,6 +101,7 @@ Ingested IngestDbb(std::string_view bytes, const std::string& file) {
     // Analysis-level problems name the file too.
     throw InvalidInput(file, e.line(), e.field(), e.reason());
   }
+  RequireFiniteResult(result, file);
   Ingested in;
   in.kind = "dbb";
   in.machine_id = test.machine_id;
@@ -67,32 +143,41 @@ constexpr const char* kFormAnalysisVersion = "form/1";
 
 Ingested IngestStraightness(std::string_view bytes, const std::string& file) {
   const auto f = ingest::ParseStraightnessFile(bytes, file);
+  CheckProfile(file, f.profile, f.row_lines);
   Ingested in = Common(f, "straightness");
   in.test_id = f.pair_id;
   in.direction = f.reversal;
   in.samples = ProfileSamples(f.profile);
-  in.results.push_back({"straightness", kFormAnalysisVersion, StraightnessFilesToJson({f}).dump()});
+  const nlohmann::json result = StraightnessFilesToJson({f});
+  RequireFiniteResult(result, file);
+  in.results.push_back({"straightness", kFormAnalysisVersion, result.dump()});
   return in;
 }
 
 Ingested IngestFlatness(std::string_view bytes, const std::string& file) {
   const auto f = ingest::ParseFlatnessFile(bytes, file);
+  CheckGrid(file, f.grid, f.row_lines);
   Ingested in = Common(f, "flatness");
   in.samples.columns = {"x_mm", "y_mm", "z_um"};
   for (std::size_t i = 0; i < f.grid.x_mm.size(); ++i) {
     in.samples.values.insert(in.samples.values.end(),
                              {f.grid.x_mm[i], f.grid.y_mm[i], f.grid.z_um[i]});
   }
-  in.results.push_back({"flatness", kFormAnalysisVersion, FlatnessFileToJson(f).dump()});
+  const nlohmann::json result = FlatnessFileToJson(f);
+  RequireFiniteResult(result, file);
+  in.results.push_back({"flatness", kFormAnalysisVersion, result.dump()});
   return in;
 }
 
 Ingested IngestParallelism(std::string_view bytes, const std::string& file) {
   const auto f = ingest::ParseParallelismFile(bytes, file);
+  CheckProfile(file, f.profile, f.row_lines);
   Ingested in = Common(f, "parallelism");
   in.test_id = f.axis;
   in.samples = ProfileSamples(f.profile);
-  in.results.push_back({"parallelism", kFormAnalysisVersion, ParallelismFileToJson(f).dump()});
+  const nlohmann::json result = ParallelismFileToJson(f);
+  RequireFiniteResult(result, file);
+  in.results.push_back({"parallelism", kFormAnalysisVersion, result.dump()});
   return in;
 }
 
@@ -102,6 +187,7 @@ constexpr const char* kTrackerAnalysisVersion = "tracker/1";
 // unobservable set-up is refused (NotObservable → 422) and nothing is stored.
 Ingested IngestTracker(std::string_view bytes, const std::string& file) {
   const auto f = ingest::ParseTrackerFile(bytes, file);
+  CheckTracker(file, f.readings);
   Ingested in;
   in.kind = "tracker";
   in.machine_id = f.readings.machine_id;
@@ -118,7 +204,15 @@ Ingested IngestTracker(std::string_view bytes, const std::string& file) {
     }
     for (int j = 0; j < n; ++j) in.samples.values.push_back(f.readings.displacement_um(i, j));
   }
-  in.results.push_back({"tracker", kTrackerAnalysisVersion, AnalyzeTracker(f).dump()});
+  nlohmann::json result;
+  try {
+    result = AnalyzeTracker(f);
+  } catch (const InvalidInput& e) {
+    if (!e.file().empty()) throw;
+    throw InvalidInput(file, e.line(), e.field(), e.reason());  // name the file
+  }
+  RequireFiniteResult(result, file);
+  in.results.push_back({"tracker", kTrackerAnalysisVersion, result.dump()});
   return in;
 }
 
