@@ -271,7 +271,8 @@ DiscoveryResult DiscoverSerialDbb(const std::vector<DiagnosisTrace>& traces, Pla
   if (traces.empty()) throw InvalidInput("", 0, "tests", "no trace to discover from");
   const auto [first, second] = AxisLetters(plane);
   const StackedTraces p = StackTraces(traces);
-  auto name = [&](EffectId id) { return effects::EffectName(id, first, second); };
+  // The letters are copied into the lambda: capturing structured bindings needs clang 16.
+  auto name = [a = first, b = second](EffectId id) { return effects::EffectName(id, a, b); };
 
   // Model 0: the set-up terms (least-squares circle of each trace); e0 = the gap about it.
   VectorXd e0 = p.y;
