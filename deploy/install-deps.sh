@@ -7,6 +7,7 @@ cd "$(dirname "$0")/.."
 
 packages=(
   build-essential cmake pkg-config git clang-format
+  clang libclang-rt-14-dev libboost-dev wrk
   libeigen3-dev libceres-dev libopencv-dev libmodbus-dev libsqlite3-dev sqlite3
   libcpp-httplib-dev nlohmann-json3-dev libssl-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Builds kinemetric and runs every test (unit, integration, browser) through CTest, then once
-# more under AddressSanitizer + UndefinedBehaviorSanitizer. Exits non-zero on any failure.
+# more under AddressSanitizer + UndefinedBehaviorSanitizer, then fuzzes every parser for a
+# bounded time (clang, libFuzzer). Exits non-zero on any failure.
 #   KINEMETRIC_SKIP_SANITIZERS=1  skip the sanitizer pass (local quick runs only)
-#   KINEMETRIC_LONG=1             also run the long soak / load tests
+#   KINEMETRIC_LONG=1             also run the long soak / load tests, and fuzz 300 s a target
+#   KINEMETRIC_SKIP_FUZZ=1        skip the fuzz stage (libFuzzer targets, docs/fuzzing.md)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
@@ -41,5 +43,16 @@ if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
   (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --output-on-failure -j"$jobs" "${label_args[@]}")
+fi
+if [ "${KINEMETRIC_SKIP_FUZZ:-0}" != 1 ]; then
+  # Every parser under libFuzzer + ASan + UBSan: known crash inputs (tests/fuzz/crashes/) are
+  # replayed, then each target fuzzes from its seed corpus for a bounded time.
+  echo "== fuzz build (clang, libFuzzer + ASan + UBSan)"
+  CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
+    -DKINEMETRIC_FUZZ=ON -DKINEMETRIC_TESTS=OFF -DKINEMETRIC_BENCHMARKS=OFF >/dev/null
+  cmake --build build-fuzz -j"$jobs" --target fuzz_targets
+  fuzz_seconds=20
+  if [ "${KINEMETRIC_LONG:-0}" = 1 ]; then fuzz_seconds=300; fi
+  KINEMETRIC_FUZZ_BUILD=build-fuzz KINEMETRIC_FUZZ_SECONDS=$fuzz_seconds tests/fuzz/run.sh
 fi
 echo "== all tests passed"
