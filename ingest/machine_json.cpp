@@ -45,7 +45,7 @@ MachineDefinition ParseMachineJson(std::string_view bytes, const std::string& fi
   json doc;
   try {
     doc = json::parse(bytes.begin(), bytes.end());
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // syntax, or a number that overflows a double
     throw InvalidInput(file, 0, "", std::string("not valid JSON: ") + e.what());
   }
   if (!doc.is_object()) throw InvalidInput(file, 0, "", "the machine file must be a JSON object");

@@ -88,6 +88,20 @@ TEST(HexapodIo, MachineJsonErrorsNameTheField) {
   expect_field("{not json", "");
 }
 
+TEST(HexapodIo, MachineJsonRefusesNumbersBeyondDouble) {
+  // The JSON reader reports a number that overflows a double as out of range, not as a syntax
+  // error; both are bad input.
+  for (const char* text : {"6e400", R"({"format": -1e999})"}) {
+    try {
+      (void)ParseMachineJson(text, "m.json");
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.file(), "m.json");
+      EXPECT_NE(std::string(e.what()).find("not valid JSON"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(HexapodIo, DbbWriterRoundTripsThroughTheParser) {
   const auto g = hexapod::testing::Pm600Like();
   const auto truth = sim::PerturbGeometry(g, 0.3, 0.1, 2);
