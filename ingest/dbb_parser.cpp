@@ -61,6 +61,9 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
   ReadOptions ro;
   ro.max_bytes = options.max_bytes;
   ro.max_rows = options.max_samples;
+  ro.keep_column = [](std::string_view c) {
+    return c == "angle_deg" || c == "t_s" || c == "dr_um";
+  };
   const TextTable t = ReadTextTable(bytes, file, ro);
   if (t.format != kDbbFormat) {
     throw InvalidInput(file, t.format_line, "format",
@@ -77,7 +80,7 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
     d.direction = dbb::Direction::kCw;
   } else {
     throw InvalidInput(file, t.Find("direction")->line, "direction",
-                       "'" + dir + "' is neither 'ccw' nor 'cw'");
+                       Quote(dir) + " is neither 'ccw' nor 'cw'");
   }
   if (const auto* p = t.Find("plane")) {
     if (p->value == "XY") {
@@ -87,7 +90,7 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
     } else if (p->value == "ZX") {
       d.plane = dbb::Plane::kZX;
     } else {
-      throw InvalidInput(file, p->line, "plane", "'" + p->value + "' is not XY, YZ or ZX");
+      throw InvalidInput(file, p->line, "plane", Quote(p->value) + " is not XY, YZ or ZX");
     }
   }
   d.bar_length_mm = t.RequireNumber("bar_length_mm");
@@ -118,7 +121,7 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
     }
     if (!ParseIso8601(ts->value)) {
       throw InvalidInput(file, ts->line, "timestamp",
-                         "'" + ts->value.substr(0, 40) + "' is not an ISO 8601 time");
+                         Quote(ts->value) + " is not an ISO 8601 time");
     }
     d.timestamp = ts->value;
   }
@@ -143,10 +146,10 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
   // Angular speed from feed and radius: ω = V / R (deg/s).
   const double omega_deg_s = d.feed_mm_min / 60.0 / d.radius_mm * 180.0 / std::numbers::pi;
   const std::string angle_field = angle_col >= 0 ? "angle_deg" : "t_s";
-  d.angle_deg.reserve(t.rows.size());
-  d.dr_um.reserve(t.rows.size());
-  for (std::size_t i = 0; i < t.rows.size(); ++i) {
-    const auto& row = t.rows[i];
+  d.angle_deg.reserve(t.NumRows());
+  d.dr_um.reserve(t.NumRows());
+  for (std::size_t i = 0; i < t.NumRows(); ++i) {
+    const auto row = t.Row(i);
     const double angle =
         angle_col >= 0 ? row[static_cast<std::size_t>(angle_col)]
                        : start_deg + sign * omega_deg_s * row[static_cast<std::size_t>(time_col)];

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <set>
 #include <utility>
 
@@ -12,8 +13,14 @@
 namespace km::ingest {
 namespace {
 
-TextTable ReadForm(std::string_view bytes, const std::string& file, std::string_view format) {
-  TextTable t = ReadTextTable(bytes, file);
+TextTable ReadForm(std::string_view bytes, const std::string& file, std::string_view format,
+                   const TextLimits& limits, std::set<std::string> columns) {
+  ReadOptions options;
+  static_cast<TextLimits&>(options) = limits;
+  options.keep_column = [columns = std::move(columns)](std::string_view name) {
+    return columns.count(std::string(name)) > 0;
+  };
+  TextTable t = ReadTextTable(bytes, file, options);
   if (t.format != format) {
     throw InvalidInput(file, t.format_line, "format",
                        "expected '" + std::string(format) + "', found '" + t.format + "'");
@@ -54,7 +61,7 @@ std::string RequireAxis(const TextTable& t, const std::string& key) {
   static const std::set<std::string> kAxes{"X", "Y", "Z", "U", "V", "W"};
   if (!kAxes.count(v)) {
     throw InvalidInput(t.file, LineOf(t, key), key,
-                       "'" + v + "' is not an axis (X, Y, Z, U, V or W)");
+                       Quote(v) + " is not an axis (X, Y, Z, U, V or W)");
   }
   return v;
 }
@@ -65,45 +72,54 @@ std::string RequireOneOf(const TextTable& t, const std::string& key,
   if (!allowed.count(v)) {
     std::string list;
     for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-    throw InvalidInput(t.file, LineOf(t, key), key, "'" + v + "' is not one of " + list);
+    throw InvalidInput(t.file, LineOf(t, key), key, Quote(v) + " is not one of " + list);
   }
   return v;
 }
 
 void RequireRows(const TextTable& t, std::size_t min_rows, const std::string& field) {
-  if (t.rows.size() < min_rows) {
+  if (t.NumRows() < min_rows) {
     const std::size_t line = t.row_lines.empty() ? t.columns_line : t.row_lines.back();
     throw InvalidInput(t.file, line, field,
-                       "found " + std::to_string(t.rows.size()) + " data rows; at least " +
+                       "found " + std::to_string(t.NumRows()) + " data rows; at least " +
                            std::to_string(min_rows) + " are needed");
   }
 }
 
-// position_mm, deviation_um with strictly increasing positions.
-form::Profile ReadProfile(const TextTable& t, std::size_t min_rows) {
+// position_mm, deviation_um with strictly increasing positions; the columns move out of the
+// table.
+form::Profile ReadProfile(TextTable& t, std::size_t min_rows) {
   const std::size_t ip = RequireColumn(t, "position_mm");
   const std::size_t id = RequireColumn(t, "deviation_um");
   RequireRows(t, min_rows, "position_mm");
-  form::Profile p;
-  p.position_mm.reserve(t.rows.size());
-  p.deviation_um.reserve(t.rows.size());
-  for (std::size_t i = 0; i < t.rows.size(); ++i) {
-    const double x = t.rows[i][ip];
-    if (i > 0 && !(x > p.position_mm.back())) {
+  const std::vector<double>& x = t.Column(ip);
+  for (std::size_t i = 1; i < x.size(); ++i) {
+    if (!(x[i] > x[i - 1])) {
       throw InvalidInput(t.file, t.row_lines[i], "position_mm",
                          "positions must be strictly increasing (previous value on line " +
                              std::to_string(t.row_lines[i - 1]) + ")");
     }
-    p.position_mm.push_back(x);
-    p.deviation_um.push_back(t.rows[i][id]);
   }
+  form::Profile p;
+  p.position_mm = std::move(t.values[ip]);
+  p.deviation_um = std::move(t.values[id]);
   return p;
 }
 
+const std::set<std::string> kProfileColumns{"position_mm", "deviation_um"};
+
 }  // namespace
 
-StraightnessFile ParseStraightnessFile(std::string_view bytes, const std::string& file) {
-  const TextTable t = ReadForm(bytes, file, kStraightnessFormat);
+TextLimits DefaultFormLimits() {
+  TextLimits l;
+  l.max_rows = 1'000'000;
+  l.max_columns = 32;
+  return l;
+}
+
+StraightnessFile ParseStraightnessFile(std::string_view bytes, const std::string& file,
+                                       const TextLimits& limits) {
+  TextTable t = ReadForm(bytes, file, kStraightnessFormat, limits, kProfileColumns);
   StraightnessFile f;
   f.file = file;
   f.machine_id = t.RequireString("machine_id");
@@ -129,12 +145,13 @@ StraightnessFile ParseStraightnessFile(std::string_view bytes, const std::string
   }
   f.metadata = t.Metadata();
   f.profile = ReadProfile(t, kMinStraightnessPoints);
-  f.row_lines = t.row_lines;
+  f.row_lines = std::move(t.row_lines);
   return f;
 }
 
-ParallelismFile ParseParallelismFile(std::string_view bytes, const std::string& file) {
-  const TextTable t = ReadForm(bytes, file, kParallelismFormat);
+ParallelismFile ParseParallelismFile(std::string_view bytes, const std::string& file,
+                                     const TextLimits& limits) {
+  TextTable t = ReadForm(bytes, file, kParallelismFormat, limits, kProfileColumns);
   ParallelismFile f;
   f.file = file;
   f.machine_id = t.RequireString("machine_id");
@@ -142,12 +159,13 @@ ParallelismFile ParseParallelismFile(std::string_view bytes, const std::string& 
   f.datum = t.RequireString("datum");
   f.metadata = t.Metadata();
   f.profile = ReadProfile(t, kMinParallelismPoints);
-  f.row_lines = t.row_lines;
+  f.row_lines = std::move(t.row_lines);
   return f;
 }
 
-FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file) {
-  const TextTable t = ReadForm(bytes, file, kFlatnessFormat);
+FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file,
+                               const TextLimits& limits) {
+  TextTable t = ReadForm(bytes, file, kFlatnessFormat, limits, {"x_mm", "y_mm", "z_um"});
   FlatnessFile f;
   f.file = file;
   f.machine_id = t.RequireString("machine_id");
@@ -157,24 +175,43 @@ FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file) 
   const std::size_t iy = RequireColumn(t, "y_mm");
   const std::size_t iz = RequireColumn(t, "z_um");
   RequireRows(t, kMinFlatnessPoints, "z_um");
-  std::map<std::pair<double, double>, std::size_t> seen;  // (x, y) -> line
-  for (std::size_t i = 0; i < t.rows.size(); ++i) {
-    const double x = t.rows[i][ix], y = t.rows[i][iy];
-    const auto [it, fresh] = seen.emplace(std::make_pair(x, y), t.row_lines[i]);
-    if (!fresh) {
-      throw InvalidInput(
-          file, t.row_lines[i], "x_mm",
-          "grid point repeated (first given on line " + std::to_string(it->second) + ")");
+  const std::size_t n = t.NumRows();
+  {
+    // A repeated (x, y): rows sorted by position (ties in file order); the first row in file
+    // order that repeats an earlier one is reported, with the line of that earlier one.
+    const std::vector<double>& x = t.Column(ix);
+    const std::vector<double>& y = t.Column(iy);
+    std::vector<std::uint32_t> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return x[a] < x[b] || (x[a] == x[b] && y[a] < y[b]);
+    });
+    std::size_t repeat = n, first = n;
+    for (std::size_t k = 1; k < n; ++k) {
+      const std::uint32_t a = order[k - 1], b = order[k];
+      if (x[a] == x[b] && y[a] == y[b] && b < repeat) {
+        // b follows the first row of its group when a is that first row; otherwise a later
+        // member of the group, which is never the smallest repeat of it.
+        repeat = b;
+        std::size_t g = k - 1;
+        while (g > 0 && x[order[g - 1]] == x[b] && y[order[g - 1]] == y[b]) --g;
+        first = order[g];
+      }
     }
-    f.grid.x_mm.push_back(x);
-    f.grid.y_mm.push_back(y);
-    f.grid.z_um.push_back(t.rows[i][iz]);
+    if (repeat < n) {
+      throw InvalidInput(
+          file, t.row_lines[repeat], "x_mm",
+          "grid point repeated (first given on line " + std::to_string(t.row_lines[first]) + ")");
+    }
   }
+  f.grid.x_mm = std::move(t.values[ix]);
+  f.grid.y_mm = std::move(t.values[iy]);
+  f.grid.z_um = std::move(t.values[iz]);
   // A plane needs three points not on one line: twice the largest triangle area spanned
   // with the first point and the point farthest from it, relative to that distance squared.
   std::size_t far = 0;
   double far_d = 0.0;
-  for (std::size_t i = 1; i < t.rows.size(); ++i) {
+  for (std::size_t i = 1; i < n; ++i) {
     const double d = std::hypot(f.grid.x_mm[i] - f.grid.x_mm[0], f.grid.y_mm[i] - f.grid.y_mm[0]);
     if (d > far_d) {
       far_d = d;
@@ -183,7 +220,7 @@ FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file) 
   }
   double area = 0.0;
   const double ux = f.grid.x_mm[far] - f.grid.x_mm[0], uy = f.grid.y_mm[far] - f.grid.y_mm[0];
-  for (std::size_t i = 1; i < t.rows.size(); ++i) {
+  for (std::size_t i = 1; i < n; ++i) {
     area = std::max(area, std::abs(ux * (f.grid.y_mm[i] - f.grid.y_mm[0]) -
                                    uy * (f.grid.x_mm[i] - f.grid.x_mm[0])));
   }
@@ -191,7 +228,7 @@ FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file) 
     throw InvalidInput(file, t.columns_line, "y_mm",
                        "all grid points lie on one line; flatness needs a surface");
   }
-  f.row_lines = t.row_lines;
+  f.row_lines = std::move(t.row_lines);
   return f;
 }
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "analysis/form/profile.h"
+#include "ingest/text_format.h"
 
 namespace km::ingest {
 
@@ -36,7 +37,7 @@ struct StraightnessFile {
   std::size_t reversal_line = 0;                // line of the `reversal` header key (0 when absent)
   std::map<std::string, std::string> metadata;  // every header key
   form::Profile profile;
-  std::vector<std::size_t> row_lines;  // file line of each point
+  RowLines row_lines;  // file line of each point
 };
 
 struct FlatnessFile {
@@ -45,7 +46,7 @@ struct FlatnessFile {
   std::string datum;  // optional, "" when absent
   std::map<std::string, std::string> metadata;
   form::Grid grid;
-  std::vector<std::size_t> row_lines;
+  RowLines row_lines;
 };
 
 struct ParallelismFile {
@@ -55,7 +56,7 @@ struct ParallelismFile {
   std::string datum;  // e.g. t_slot, table
   std::map<std::string, std::string> metadata;
   form::Profile profile;
-  std::vector<std::size_t> row_lines;
+  RowLines row_lines;
 };
 
 // Minimum numbers of data rows.
@@ -63,9 +64,18 @@ inline constexpr std::size_t kMinStraightnessPoints = 3;
 inline constexpr std::size_t kMinFlatnessPoints = 3;  // and not all on one line
 inline constexpr std::size_t kMinParallelismPoints = 2;
 
-// Each throws km::InvalidInput (or km::TooLarge) naming file, line and field.
-StraightnessFile ParseStraightnessFile(std::string_view bytes, const std::string& file);
-FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file);
-ParallelismFile ParseParallelismFile(std::string_view bytes, const std::string& file);
+// What one form file may hold at most (ingest/text_format.h): 1 000 000 points, lines of
+// 4 KiB, 32 columns. The server refuses larger uploads with its own, lower or equal, limits
+// (ServiceOptions::upload_limits) before parsing.
+TextLimits DefaultFormLimits();
+
+// Each throws km::InvalidInput (or km::TooLarge) naming file, line and field. Parsing keeps
+// the needed columns only: about 8 bytes a value, nothing per row.
+StraightnessFile ParseStraightnessFile(std::string_view bytes, const std::string& file,
+                                       const TextLimits& limits = DefaultFormLimits());
+FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file,
+                               const TextLimits& limits = DefaultFormLimits());
+ParallelismFile ParseParallelismFile(std::string_view bytes, const std::string& file,
+                                     const TextLimits& limits = DefaultFormLimits());
 
 }  // namespace km::ingest

@@ -4,6 +4,8 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstring>
+#include <stdexcept>
 
 #include "analysis/core/errors.h"
 
@@ -54,6 +56,78 @@ std::optional<std::vector<double>> ParseNumberList(std::string_view text) {
 
 namespace {
 
+// Length of the valid UTF-8 sequence starting at s[i] (Unicode table 3-7), or 0 with the
+// reason when the bytes there are not one.
+std::size_t Utf8SequenceLength(std::string_view s, std::size_t i, const char** reason) {
+  const auto at = [&](std::size_t k) { return static_cast<unsigned char>(s[k]); };
+  const unsigned char c = at(i);
+  if (c < 0x80) return 1;
+  std::size_t n = 0;
+  unsigned char lo = 0x80, hi = 0xBF;  // allowed range of the second byte
+  if (c >= 0xC2 && c <= 0xDF) {
+    n = 2;
+  } else if (c == 0xE0) {
+    n = 3;
+    lo = 0xA0;  // E0 80..9F would be an overlong form
+  } else if (c == 0xED) {
+    n = 3;
+    hi = 0x9F;  // ED A0..BF would be a UTF-16 surrogate
+  } else if (c >= 0xE1 && c <= 0xEF) {
+    n = 3;
+  } else if (c == 0xF0) {
+    n = 4;
+    lo = 0x90;  // F0 80..8F would be an overlong form
+  } else if (c >= 0xF1 && c <= 0xF3) {
+    n = 4;
+  } else if (c == 0xF4) {
+    n = 4;
+    hi = 0x8F;  // F4 90.. would be above U+10FFFF
+  } else {
+    *reason = c < 0xC0   ? "a continuation byte without a lead byte"
+              : c < 0xC2 ? "an overlong encoding"
+                         : "a byte that never occurs in UTF-8";
+    return 0;
+  }
+  if (i + n > s.size()) {
+    *reason = "a sequence cut short by the end of the file";
+    return 0;
+  }
+  const unsigned char second = at(i + 1);
+  if (second < lo || second > hi) {
+    if ((second & 0xC0) != 0x80) {
+      *reason = "a sequence cut short";
+    } else if (c == 0xE0 || c == 0xF0) {
+      *reason = "an overlong encoding";
+    } else if (c == 0xED) {
+      *reason = "a UTF-16 surrogate";
+    } else {
+      *reason = "a code point above U+10FFFF";
+    }
+    return 0;
+  }
+  for (std::size_t k = 2; k < n; ++k) {
+    if ((at(i + k) & 0xC0) != 0x80) {
+      *reason = "a sequence cut short";
+      return 0;
+    }
+  }
+  return n;
+}
+
+std::string Hex(unsigned char c) {
+  static const char* digits = "0123456789ABCDEF";
+  return {'\\', 'x', digits[c >> 4], digits[c & 15]};
+}
+
+// 1-based line of byte `offset` and its 1-based byte column within that line.
+std::pair<std::size_t, std::size_t> LineAndColumn(std::string_view bytes, std::size_t offset) {
+  const auto head = bytes.substr(0, offset);
+  const std::size_t line = 1 + static_cast<std::size_t>(std::count(head.begin(), head.end(), '\n'));
+  const auto nl = head.rfind('\n');
+  const std::size_t column = nl == std::string_view::npos ? offset + 1 : offset - nl;
+  return {line, column};
+}
+
 // Splits `# key: value` (after the '#'); returns false when the line is not of that shape.
 bool SplitHeader(std::string_view body, std::string& key, std::string& value) {
   const auto colon = body.find(':');
@@ -71,123 +145,346 @@ bool SplitHeader(std::string_view body, std::string& key, std::string& value) {
   return true;
 }
 
-std::vector<std::string_view> SplitCsv(std::string_view line) {
-  std::vector<std::string_view> out;
-  std::size_t start = 0;
-  while (true) {
-    const auto comma = line.find(',', start);
-    out.push_back(
-        Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start)));
-    if (comma == std::string_view::npos) break;
-    start = comma + 1;
-  }
-  return out;
-}
+constexpr std::size_t kMaxFormatLength = 64;
 
-bool ValidUtf8(std::string_view s, std::size_t& bad_at) {
-  std::size_t i = 0;
-  while (i < s.size()) {
-    const auto c = static_cast<unsigned char>(s[i]);
-    std::size_t n = 0;
-    if (c < 0x80) {
-      n = 0;
-    } else if ((c & 0xE0) == 0xC0 && c >= 0xC2) {
-      n = 1;
-    } else if ((c & 0xF0) == 0xE0) {
-      n = 2;
-    } else if ((c & 0xF8) == 0xF0 && c <= 0xF4) {
-      n = 3;
-    } else {
-      bad_at = i;
-      return false;
-    }
-    if (n > 0 && i + n >= s.size()) {
-      bad_at = i;
-      return false;
-    }
-    for (std::size_t k = 1; k <= n; ++k) {
-      if ((static_cast<unsigned char>(s[i + k]) & 0xC0) != 0x80) {
-        bad_at = i;
+// NAME/VERSION: NAME of letters, digits, '.', '_', '-'; VERSION of digits.
+bool ValidFormatName(std::string_view v) {
+  if (v.empty() || v.size() > kMaxFormatLength) return false;
+  const auto slash = v.find('/');
+  if (slash == std::string_view::npos || slash == 0 || slash + 1 == v.size()) return false;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const char c = v[i];
+    const bool digit = c >= '0' && c <= '9';
+    if (i > slash) {
+      if (!digit) return false;
+    } else if (i < slash) {
+      if (!(digit || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '.' || c == '_' ||
+            c == '-')) {
         return false;
       }
     }
-    i += n + 1;
   }
   return true;
 }
 
+// The value of a format line `# format: NAME/VERSION` (line already trimmed, non-empty).
+// Throws InvalidInput quoting at most a short, escaped excerpt of the line.
+std::string FormatFromLine(std::string_view line, const std::string& file, std::size_t line_no) {
+  std::string key, value;
+  if (line.front() != '#' || !SplitHeader(line.substr(1), key, value) || key != "format") {
+    throw InvalidInput(file, line_no, "format",
+                       "the first line must be '# format: NAME/VERSION', found " + Quote(line));
+  }
+  if (value.empty()) throw InvalidInput(file, line_no, "format", "empty format name");
+  if (!ValidFormatName(value)) {
+    throw InvalidInput(file, line_no, "format",
+                       Quote(value) +
+                           " is not a format name (NAME/VERSION: letters, digits, '.', '_', '-', "
+                           "then '/' and a version number; at most " +
+                           std::to_string(kMaxFormatLength) + " characters)");
+  }
+  return value;
+}
+
+// Walks the lines of a text (after an optional byte-order mark). Each line is found without
+// reading more than the line limit ahead, so a line beyond it is refused where it starts.
+class LineCursor {
+ public:
+  LineCursor(std::string_view bytes, std::size_t max_line_bytes)
+      : bytes_(bytes), max_line_(max_line_bytes) {
+    if (bytes_.substr(0, 3) == "\xEF\xBB\xBF") pos_ = 3;  // UTF-8 byte-order mark
+  }
+  bool Done() const { return pos_ > bytes_.size(); }
+  std::size_t line() const { return line_no_; }
+  std::size_t pos() const { return pos_; }  // start of the next line
+
+  // The next line without its line break. Throws TooLarge for a line beyond the limit.
+  std::string_view Next(const std::string& file) {
+    ++line_no_;
+    const std::size_t remaining = bytes_.size() - pos_;
+    // A line of max_line_ bytes may be followed by "\r\n".
+    const std::size_t window = std::min(remaining, max_line_ + 2);
+    const char* start = bytes_.data() + pos_;
+    const void* nl = window ? std::memchr(start, '\n', window) : nullptr;
+    std::size_t len = 0;
+    std::size_t next = 0;
+    if (nl) {
+      len = static_cast<std::size_t>(static_cast<const char*>(nl) - start);
+      next = pos_ + len + 1;
+    } else {
+      // The last line (no line break after it), or a line beyond the limit: no '\n' within
+      // the window. Either way the length check below decides.
+      len = remaining;
+      next = bytes_.size() + 1;
+    }
+    std::string_view line(start, len);
+    const std::size_t content = !line.empty() && line.back() == '\r' ? len - 1 : len;
+    if (content > max_line_) {
+      throw TooLarge(file, line_no_, "",
+                     "the line is longer than " + std::to_string(max_line_) +
+                         " bytes (the limit for one line)");
+    }
+    pos_ = next;
+    return line;
+  }
+
+ private:
+  std::string_view bytes_;
+  std::size_t max_line_;
+  std::size_t pos_ = 0;
+  std::size_t line_no_ = 0;
+};
+
+bool IsBlankOrSpace(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v';
+}
+
+// What a line is, from its first non-blank byte.
+enum class LineKind { kBlank, kHash, kOther };
+
+LineKind KindOf(std::string_view raw) {
+  for (char c : raw) {
+    if (IsBlankOrSpace(c)) continue;
+    return c == '#' ? LineKind::kHash : LineKind::kOther;
+  }
+  return LineKind::kBlank;
+}
+
+void CheckSize(std::string_view bytes, const std::string& file, std::size_t max_bytes) {
+  if (bytes.size() > max_bytes) {
+    throw TooLarge(file, 0, "",
+                   "the file is " + std::to_string(bytes.size()) + " bytes; the limit is " +
+                       std::to_string(max_bytes));
+  }
+  // Row and line numbers are kept in 32 bits (RowLines).
+  if (bytes.size() >= UINT32_MAX) {
+    throw TooLarge(file, 0, "", "the file is larger than 4 GiB");
+  }
+}
+
+struct TextScan {
+  std::size_t data_rows = 0;
+};
+
+// One pass over the lines checking every limit; parses nothing, keeps nothing.
+TextScan ScanText(std::string_view bytes, const std::string& file, const TextLimits& limits) {
+  CheckSize(bytes, file, limits.max_bytes);
+  TextScan scan;
+  LineCursor cur(bytes, limits.max_line_bytes);
+  std::size_t header_lines = 0, markers = 0, columns = 0;
+  bool have_columns = false;
+  while (!cur.Done()) {
+    const auto raw = cur.Next(file);
+    switch (KindOf(raw)) {
+      case LineKind::kBlank:
+        break;
+      case LineKind::kHash:
+        if (!have_columns) {
+          if (++header_lines > limits.max_header_lines) {
+            throw TooLarge(file, cur.line(), "",
+                           "more than " + std::to_string(limits.max_header_lines) +
+                               " '#' lines before the column-header row");
+          }
+        } else if (++markers > limits.max_markers) {
+          throw TooLarge(
+              file, cur.line(), "",
+              "more than " + std::to_string(limits.max_markers) + " '#' lines among the data rows");
+        }
+        break;
+      case LineKind::kOther:
+        if (!have_columns) {
+          have_columns = true;
+          columns = 1 + static_cast<std::size_t>(std::count(raw.begin(), raw.end(), ','));
+          if (columns > limits.max_columns) {
+            throw TooLarge(file, cur.line(), "",
+                           "the column-header row has " + std::to_string(columns) +
+                               " columns; the limit is " + std::to_string(limits.max_columns));
+          }
+          break;
+        }
+        if (++scan.data_rows > limits.max_rows) {
+          throw TooLarge(file, cur.line(), "",
+                         "more than " + std::to_string(limits.max_rows) +
+                             " data rows (the limit for this kind of file)");
+        }
+        if (scan.data_rows > limits.max_cells / columns) {
+          throw TooLarge(file, cur.line(), "",
+                         "more than " + std::to_string(limits.max_cells) +
+                             " data values (rows × columns; the limit for this kind of file)");
+        }
+        break;
+    }
+  }
+  return scan;
+}
+
+// Strict UTF-8 and no NUL byte; errors name line and byte column and show the bytes escaped.
+void CheckText(std::string_view bytes, const std::string& file) {
+  std::size_t bad_at = 0;
+  std::string reason;
+  if (!ValidUtf8(bytes, bad_at, &reason)) {
+    const auto [line, column] = LineAndColumn(bytes, bad_at);
+    std::string shown;
+    for (std::size_t k = bad_at; k < bytes.size() && k < bad_at + 4; ++k) {
+      shown += Hex(static_cast<unsigned char>(bytes[k]));
+    }
+    throw InvalidInput(file, line, "",
+                       "the file is not valid UTF-8 text: byte column " + std::to_string(column) +
+                           " (bytes " + shown + ") is " + reason);
+  }
+  if (const void* nul = std::memchr(bytes.data(), '\0', bytes.size())) {
+    const auto offset = static_cast<std::size_t>(static_cast<const char*>(nul) - bytes.data());
+    const auto [line, column] = LineAndColumn(bytes, offset);
+    throw InvalidInput(file, line, "",
+                       "the file contains a NUL byte (byte column " + std::to_string(column) +
+                           "); it is not a text file");
+  }
+}
+
 }  // namespace
 
-std::string PeekFormat(std::string_view bytes, const std::string& file) {
-  std::size_t pos = 0;
-  std::size_t line_no = 0;
-  if (bytes.substr(0, 3) == "\xEF\xBB\xBF") pos = 3;  // UTF-8 byte-order mark
-  while (pos <= bytes.size()) {
-    const auto nl = bytes.find('\n', pos);
-    const auto raw = bytes.substr(pos, nl == std::string_view::npos ? bytes.npos : nl - pos);
-    ++line_no;
-    const auto line = Trim(raw);
-    if (!line.empty()) {
-      std::string key, value;
-      if (line.front() != '#' || !SplitHeader(line.substr(1), key, value) || key != "format") {
-        throw InvalidInput(file, line_no, "format",
-                           "the first line must be '# format: NAME/VERSION'");
-      }
-      if (value.empty()) throw InvalidInput(file, line_no, "format", "empty format name");
-      return value;
+bool ValidUtf8(std::string_view s, std::size_t& bad_at, std::string* reason) {
+  std::size_t i = 0;
+  const std::size_t n = s.size();
+  while (i < n) {
+    // ASCII runs eight bytes at a time.
+    while (i + 8 <= n) {
+      std::uint64_t w = 0;
+      std::memcpy(&w, s.data() + i, 8);
+      if (w & 0x8080808080808080ull) break;
+      i += 8;
     }
-    if (nl == std::string_view::npos) break;
-    pos = nl + 1;
+    if (i >= n) break;
+    if (static_cast<unsigned char>(s[i]) < 0x80) {
+      ++i;
+      continue;
+    }
+    const char* why = "";
+    const std::size_t len = Utf8SequenceLength(s, i, &why);
+    if (len == 0) {
+      bad_at = i;
+      if (reason) *reason = why;
+      return false;
+    }
+    i += len;
+  }
+  return true;
+}
+
+std::string Quote(std::string_view text, std::size_t max_chars) {
+  std::string out = "'";
+  std::size_t i = 0, chars = 0;
+  while (i < text.size()) {
+    if (chars == max_chars) {
+      out += "...";
+      break;
+    }
+    const auto c = static_cast<unsigned char>(text[i]);
+    const char* why = "";
+    const std::size_t len = Utf8SequenceLength(text, i, &why);
+    if (len == 0) {
+      out += Hex(c);
+      i += 1;
+    } else if (len == 1) {
+      if (c < 0x20 || c == 0x7F) {
+        out += Hex(c);
+      } else if (c == '\\') {
+        out += "\\\\";
+      } else {
+        out += static_cast<char>(c);
+      }
+      i += 1;
+    } else {
+      out.append(text.substr(i, len));
+      i += len;
+    }
+    ++chars;
+  }
+  out += "'";
+  return out;
+}
+
+void RowLines::push_back(std::size_t line) {
+  if (size_ == 0 || line != last_ + 1) {
+    runs_.push_back({static_cast<std::uint32_t>(size_), static_cast<std::uint32_t>(line)});
+  }
+  last_ = line;
+  ++size_;
+}
+
+std::size_t RowLines::operator[](std::size_t row) const {
+  // The last run starting at or before `row`.
+  const auto it = std::upper_bound(runs_.begin(), runs_.end(), row,
+                                   [](std::size_t r, const Run& run) { return r < run.first_row; });
+  const Run& run = *(it - 1);
+  return run.first_line + (row - run.first_row);
+}
+
+double RowRef::operator[](std::size_t column) const {
+  return table_->values.at(column).at(row_);
+}
+
+const std::vector<double>& TextTable::Column(std::size_t column) const {
+  const auto& v = values.at(column);
+  if (v.size() != row_count) {
+    throw std::out_of_range("column '" + columns.at(column) + "' was not kept");
+  }
+  return v;
+}
+
+std::string PeekFormat(std::string_view bytes, const std::string& file) {
+  // The first line is read up to the default line limit; it is checked before anything uses it.
+  LineCursor cur(bytes, TextLimits{}.max_line_bytes);
+  while (!cur.Done()) {
+    std::string_view raw;
+    try {
+      raw = cur.Next(file);
+    } catch (const TooLarge&) {
+      throw InvalidInput(file, cur.line(), "format",
+                         "the first line must be '# format: NAME/VERSION', found a line of more "
+                         "than " +
+                             std::to_string(TextLimits{}.max_line_bytes) + " bytes starting " +
+                             Quote(bytes.substr(cur.pos(), 40)));
+    }
+    const auto line = Trim(raw);
+    if (!line.empty()) return FormatFromLine(line, file, cur.line());
   }
   throw InvalidInput(file, 0, "format", "the file is empty");
 }
 
+void CheckTextLimits(std::string_view bytes, const std::string& file, const TextLimits& limits) {
+  ScanText(bytes, file, limits);
+}
+
 TextTable ReadTextTable(std::string_view bytes, const std::string& file,
                         const ReadOptions& options) {
-  if (bytes.size() > options.max_bytes) {
-    throw TooLarge(file, 0, "",
-                   "file is " + std::to_string(bytes.size()) + " bytes; the limit is " +
-                       std::to_string(options.max_bytes));
-  }
-  std::size_t bad_at = 0;
-  if (!ValidUtf8(bytes, bad_at)) {
-    std::size_t line = 1;
-    for (std::size_t i = 0; i < bad_at; ++i) line += bytes[i] == '\n';
-    throw InvalidInput(file, line, "", "the file is not valid UTF-8 text");
-  }
-  if (bytes.find('\0') != std::string_view::npos) {
-    throw InvalidInput(file, 0, "", "the file contains a NUL byte; it is not a text file");
-  }
+  // Limits first (one cheap pass), then the text itself, then the content.
+  const TextScan scan = ScanText(bytes, file, options);
+  CheckText(bytes, file);
   TextTable t;
   t.file = file;
-  std::size_t pos = bytes.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
-  std::size_t line_no = 0;
+  LineCursor cur(bytes, options.max_line_bytes);
   bool have_columns = false;
   std::set<std::string> seen;
-  while (pos <= bytes.size()) {
-    const auto nl = bytes.find('\n', pos);
-    const auto raw = bytes.substr(pos, nl == std::string_view::npos ? bytes.npos : nl - pos);
-    ++line_no;
-    pos = (nl == std::string_view::npos) ? bytes.size() + 1 : nl + 1;
+  std::vector<char> keep;
+  std::size_t ncols = 0;
+  while (!cur.Done()) {
+    const auto raw = cur.Next(file);
+    const std::size_t line_no = cur.line();
     const auto line = Trim(raw);
     if (line.empty()) continue;
+    if (t.format.empty()) {
+      t.format = FormatFromLine(line, file, line_no);
+      t.format_line = line_no;
+      continue;
+    }
     if (line.front() == '#') {
       std::string key, value;
       if (!SplitHeader(line.substr(1), key, value)) {
         throw InvalidInput(file, line_no, "", "a '#' line must have the form '# key: value'");
       }
-      if (t.format.empty()) {
-        if (key != "format") {
-          throw InvalidInput(file, line_no, "format",
-                             "the first line must be '# format: NAME/VERSION'");
-        }
-        if (value.empty()) throw InvalidInput(file, line_no, "format", "empty format name");
-        t.format = value;
-        t.format_line = line_no;
-        continue;
-      }
       if (have_columns) {
-        t.markers.push_back({key, value, line_no, t.rows.size()});
+        t.markers.push_back({std::move(key), std::move(value), line_no, t.row_count});
         continue;
       }
       if (key == "format") {
@@ -200,17 +497,16 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
                                std::to_string(first ? first->line : 0) + ")");
       }
       seen.insert(key);
-      t.header.push_back({key, HeaderValue{value, line_no}});
+      t.header.push_back({key, HeaderValue{std::move(value), line_no}});
       continue;
     }
-    if (t.format.empty()) {
-      throw InvalidInput(file, line_no, "format",
-                         "the first line must be '# format: NAME/VERSION'");
-    }
-    const auto cells = SplitCsv(line);
     if (!have_columns) {
-      std::set<std::string> names;
-      for (const auto& c : cells) {
+      std::set<std::string_view> names;
+      std::size_t start = 0;
+      while (true) {
+        const auto comma = line.find(',', start);
+        const auto c =
+            Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
         if (c.empty()) throw InvalidInput(file, line_no, "", "empty column name in header row");
         const bool ident =
             (std::isalpha(static_cast<unsigned char>(c.front())) || c.front() == '_') &&
@@ -220,42 +516,53 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
         if (!ident) {
           throw InvalidInput(file, line_no, "",
                              "expected the CSV column-header row (names such as angle_deg,dr_um), "
-                             "found '" +
-                                 std::string(line.substr(0, 60)) + "'");
+                             "found " +
+                                 Quote(line, 60));
         }
-        if (!names.insert(std::string(c)).second) {
+        if (!names.insert(c).second) {
           throw InvalidInput(file, line_no, std::string(c), "duplicated column name");
         }
         t.columns.emplace_back(c);
+        if (comma == std::string_view::npos) break;
+        start = comma + 1;
       }
       t.columns_line = line_no;
       have_columns = true;
+      ncols = t.columns.size();
+      keep.assign(ncols, 1);
+      t.values.resize(ncols);
+      for (std::size_t c = 0; c < ncols; ++c) {
+        if (options.keep_column && !options.keep_column(t.columns[c])) keep[c] = 0;
+        // The scan counted the data rows: each kept column is allocated once, to size.
+        if (keep[c]) t.values[c].reserve(scan.data_rows);
+      }
       continue;
     }
-    if (cells.size() != t.columns.size()) {
-      throw InvalidInput(file, line_no, "",
-                         "expected " + std::to_string(t.columns.size()) + " values, found " +
-                             std::to_string(cells.size()));
+    const std::size_t found =
+        1 + static_cast<std::size_t>(std::count(line.begin(), line.end(), ','));
+    if (found != ncols) {
+      throw InvalidInput(
+          file, line_no, "",
+          "expected " + std::to_string(ncols) + " values, found " + std::to_string(found));
     }
-    if (t.rows.size() >= options.max_rows) {
-      throw TooLarge(file, line_no, "",
-                     "more than " + std::to_string(options.max_rows) + " data rows");
-    }
-    std::vector<double> row(cells.size());
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-      const auto v = ParseNumber(cells[i]);
+    std::size_t start = 0;
+    for (std::size_t c = 0; c < ncols; ++c) {
+      const auto comma = c + 1 < ncols ? line.find(',', start) : std::string_view::npos;
+      const auto cell =
+          line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
+      const auto v = ParseNumber(cell);
       if (!v) {
-        throw InvalidInput(
-            file, line_no, t.columns[i],
-            "'" + std::string(cells[i].substr(0, 40)) + "' is not a finite decimal number");
+        throw InvalidInput(file, line_no, t.columns[c],
+                           Quote(Trim(cell)) + " is not a finite decimal number");
       }
-      row[i] = *v;
+      if (keep[c]) t.values[c].push_back(*v);
+      start = comma + 1;
     }
-    t.rows.push_back(std::move(row));
     t.row_lines.push_back(line_no);
+    ++t.row_count;
   }
   if (t.format.empty()) throw InvalidInput(file, 0, "format", "the file is empty");
-  if (!have_columns) throw InvalidInput(file, line_no, "", "no CSV column-header row");
+  if (!have_columns) throw InvalidInput(file, cur.line(), "", "no CSV column-header row");
   return t;
 }
 
@@ -290,8 +597,7 @@ double TextTable::RequireNumber(const std::string& key) const {
   if (!v) throw InvalidInput(file, 0, key, "required header key is missing");
   const auto n = ParseNumber(v->value);
   if (!n) {
-    throw InvalidInput(file, v->line, key,
-                       "'" + v->value.substr(0, 40) + "' is not a finite decimal number");
+    throw InvalidInput(file, v->line, key, Quote(v->value) + " is not a finite decimal number");
   }
   return *n;
 }
@@ -308,7 +614,7 @@ std::vector<double> TextTable::RequireNumbers(const std::string& key, std::size_
   if (!n) {
     throw InvalidInput(
         file, v->line, key,
-        "'" + v->value.substr(0, 60) + "' is not a comma-separated list of finite decimal numbers");
+        Quote(v->value, 60) + " is not a comma-separated list of finite decimal numbers");
   }
   if (n->size() != count) {
     throw InvalidInput(file, v->line, key,

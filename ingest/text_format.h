@@ -2,9 +2,17 @@
 // lines `# key: value` (the first names the format), one CSV column-header row, then numeric
 // data rows. This reader validates the shape strictly and remembers the line of everything,
 // so each format parser can report errors naming file, line and field.
+//
+// Memory: the data are kept as one std::vector<double> per column (reserved once, never
+// regrown), the line of each row as runs of consecutive lines; nothing is allocated per row or
+// per cell. Columns a parser does not ask for are checked but not kept. What a file may hold is
+// bounded by TextLimits, and a file beyond a limit is refused (km::TooLarge) at the first line
+// that exceeds it, before the rest is read.
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -27,10 +35,57 @@ struct Marker {
   std::size_t before_row = 0;  // index of the data row that follows the marker
 };
 
-struct ReadOptions {
-  std::size_t max_bytes = 64u << 20;      // larger input is refused (TooLarge)
+// What one file may hold. Each is checked as the file is read; the first line beyond a limit is
+// refused with km::TooLarge naming the file and that line.
+struct TextLimits {
+  std::size_t max_bytes = 64u << 20;    // the whole file
+  std::size_t max_rows = 5'000'000;     // data rows
+  std::size_t max_line_bytes = 4096;    // one line, without its line break
+  std::size_t max_columns = 128;        // cells of the column-header row
+  std::size_t max_cells = SIZE_MAX;     // data values in all: rows × columns
+  std::size_t max_header_lines = 1000;  // '#' lines before the column-header row
+  std::size_t max_markers = 100'000;    // '#' lines among the data rows
+};
+
+struct ReadOptions : TextLimits {
   std::set<std::string> repeatable_keys;  // header keys that may occur more than once
-  std::size_t max_rows = 5'000'000;
+  // Columns whose values are kept (every cell of every column is checked all the same);
+  // empty: all columns.
+  std::function<bool(std::string_view name)> keep_column;
+};
+
+// The line of every data row, stored as runs of rows on consecutive lines: a file without
+// blank or '#' lines among its data rows needs one run.
+class RowLines {
+ public:
+  void push_back(std::size_t line);
+  std::size_t operator[](std::size_t row) const;  // row < size()
+  std::size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  std::size_t back() const { return last_; }
+  std::size_t runs() const { return runs_.size(); }
+
+ private:
+  struct Run {
+    std::uint32_t first_row = 0;
+    std::uint32_t first_line = 0;
+  };
+  std::vector<Run> runs_;
+  std::size_t size_ = 0;
+  std::size_t last_ = 0;
+};
+
+struct TextTable;
+
+// The values of one data row, read from the columns (only kept columns may be read).
+class RowRef {
+ public:
+  RowRef(const TextTable& table, std::size_t row) : table_(&table), row_(row) {}
+  double operator[](std::size_t column) const;
+
+ private:
+  const TextTable* table_;
+  std::size_t row_;
 };
 
 struct TextTable {
@@ -40,9 +95,16 @@ struct TextTable {
   std::vector<std::pair<std::string, HeaderValue>> header;  // in file order
   std::vector<std::string> columns;
   std::size_t columns_line = 0;
-  std::vector<std::vector<double>> rows;
-  std::vector<std::size_t> row_lines;
+  // values[c][row]: the data by column; empty for a column that was not kept.
+  std::vector<std::vector<double>> values;
+  std::size_t row_count = 0;
+  RowLines row_lines;
   std::vector<Marker> markers;
+
+  std::size_t NumRows() const { return row_count; }
+  RowRef Row(std::size_t row) const { return RowRef(*this, row); }
+  // The values of a kept column (throws std::out_of_range for a column not kept).
+  const std::vector<double>& Column(std::size_t column) const;
 
   bool Has(const std::string& key) const;
   // The single value of a key; nullptr when absent.
@@ -66,8 +128,14 @@ struct TextTable {
 TextTable ReadTextTable(std::string_view bytes, const std::string& file,
                         const ReadOptions& options = {});
 
-// The format line only (`# format: NAME/VERSION`), e.g. to dispatch on the kind of file.
-// Throws InvalidInput when the first non-blank line is not a format line.
+// Checks the limits alone, in one pass that parses no number and keeps nothing: how an upload
+// is refused before any parsing. Throws TooLarge naming file and line.
+void CheckTextLimits(std::string_view bytes, const std::string& file, const TextLimits& limits);
+
+// The format line only (`# format: NAME/VERSION`, NAME of letters, digits, '.', '_', '-',
+// VERSION of digits), e.g. to dispatch on the kind of file. Throws InvalidInput when the first
+// non-blank line is not such a line; the message never repeats more than a short, escaped
+// excerpt of it.
 std::string PeekFormat(std::string_view bytes, const std::string& file);
 
 // Strict decimal number: the whole text must be a finite number (no NaN / Inf, no junk).
@@ -76,5 +144,16 @@ std::optional<double> ParseNumber(std::string_view text);
 std::optional<std::vector<double>> ParseNumberList(std::string_view text);
 
 std::string_view Trim(std::string_view s);
+
+// Strict UTF-8 (Unicode table 3-7: no overlong forms, no UTF-16 surrogates, nothing above
+// U+10FFFF). On failure `bad_at` is the offset of the first byte of the bad sequence and
+// `reason` says what is wrong with it.
+bool ValidUtf8(std::string_view s, std::size_t& bad_at, std::string* reason = nullptr);
+
+// File content for an error message, between single quotes: at most `max_chars` characters
+// (cut at a character boundary, "..." appended when cut); control characters, DEL and bytes that
+// are not part of valid UTF-8 are written as \xNN, a backslash as \\. The result is valid
+// UTF-8 whatever the input.
+std::string Quote(std::string_view text, std::size_t max_chars = 40);
 
 }  // namespace km::ingest

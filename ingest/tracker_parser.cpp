@@ -1,10 +1,13 @@
 #include "ingest/tracker_parser.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <map>
 #include <set>
+#include <utility>
+#include <vector>
 
 #include "analysis/core/errors.h"
 #include "ingest/text_format.h"
@@ -20,11 +23,41 @@ bool AsInt(double v, long long& out) {
   return true;
 }
 
+// A reading column name: d<digits>_um.
+bool IsReadingColumn(std::string_view name) {
+  if (name.size() < 5 || name.front() != 'd' || name.substr(name.size() - 3) != "_um") {
+    return false;
+  }
+  const auto digits = name.substr(1, name.size() - 4);
+  return std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+// The first row (in file order) whose point id repeats an earlier row's, and that earlier row;
+// row = the number of rows when no id repeats. Ids are compared as read (equal numbers are equal
+// integers).
+struct Repeat {
+  std::size_t row = 0;
+  std::size_t first = 0;
+};
+
 }  // namespace
 
-TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file) {
+TextLimits DefaultTrackerLimits() {
+  TextLimits l;
+  l.max_rows = 200'000;
+  l.max_columns = 4 + 64 + 60;  // point, x, y, z, d1..d64 and a few more
+  l.max_markers = 10'000;
+  return l;
+}
+
+TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file,
+                             const TextLimits& limits) {
   ReadOptions opt;
+  static_cast<TextLimits&>(opt) = limits;
   opt.repeatable_keys = {"tracker_guess_mm"};
+  opt.keep_column = [](std::string_view c) {
+    return c == "point" || c == "x_mm" || c == "y_mm" || c == "z_mm" || IsReadingColumn(c);
+  };
   const TextTable t = ReadTextTable(bytes, file, opt);
   if (t.format != kTrackerFormat) {
     throw InvalidInput(file, t.format_line, "format",
@@ -50,7 +83,7 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file) {
     r.mode = tracker::TrackerMode::kSequential;
   } else {
     throw InvalidInput(file, t.Find("mode")->line, "mode",
-                       "'" + mode + "' is neither 'simultaneous' nor 'sequential'");
+                       Quote(mode) + " is neither 'simultaneous' nor 'sequential'");
   }
   std::set<long long> guessed;
   for (const HeaderValue* g : t.FindAll("tracker_guess_mm")) {
@@ -105,12 +138,30 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file) {
       }
     }
   }
-  if (t.rows.empty()) throw InvalidInput(file, t.columns_line, "", "no data rows");
+  if (t.NumRows() == 0) throw InvalidInput(file, t.columns_line, "", "no data rows");
 
-  std::map<long long, std::size_t> row_of;
-  r.displacement_um.resize(static_cast<long>(t.rows.size()), static_cast<long>(n));
-  for (std::size_t i = 0; i < t.rows.size(); ++i) {
-    const auto& row = t.rows[i];
+  // (id, row) sorted by id, rows in file order within an id: repeated ids and the rows of the
+  // beam breaks are found in it (16 bytes a point, no node per point).
+  const std::size_t rows = t.NumRows();
+  std::vector<std::pair<double, std::size_t>> by_id(rows);
+  {
+    const std::vector<double>& ids = t.Column(static_cast<std::size_t>(cp));
+    for (std::size_t i = 0; i < rows; ++i) by_id[i] = {ids[i], i};
+    std::sort(by_id.begin(), by_id.end());
+  }
+  Repeat repeat{rows, rows};
+  for (std::size_t k = 1; k < rows; ++k) {
+    if (by_id[k].first == by_id[k - 1].first && by_id[k].second < repeat.row) {
+      std::size_t g = k - 1;
+      while (g > 0 && by_id[g - 1].first == by_id[k].first) --g;
+      repeat = {by_id[k].second, by_id[g].second};
+    }
+  }
+  r.point_ids.reserve(rows);
+  r.commanded_mm.reserve(rows);
+  r.displacement_um.resize(static_cast<long>(rows), static_cast<long>(n));
+  for (std::size_t i = 0; i < rows; ++i) {
+    const auto row = t.Row(i);
     long long id = 0;
     if (!AsInt(row[static_cast<std::size_t>(cp)], id)) {
       throw InvalidInput(file, t.row_lines[i], "point", "point id must be an integer");
@@ -120,11 +171,10 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file) {
                          "point id " + std::to_string(id) + " is out of range (at most " +
                              std::to_string(std::numeric_limits<int>::max()) + ")");
     }
-    const auto [it, fresh] = row_of.emplace(id, i);
-    if (!fresh) {
+    if (i == repeat.row) {
       throw InvalidInput(file, t.row_lines[i], "point",
                          "point " + std::to_string(id) + " repeated (first on line " +
-                             std::to_string(t.row_lines[it->second]) + ")");
+                             std::to_string(t.row_lines[repeat.first]) + ")");
     }
     r.point_ids.push_back(static_cast<int>(id));
     r.commanded_mm.emplace_back(row[static_cast<std::size_t>(cx)],
@@ -151,8 +201,9 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file) {
       throw InvalidInput(file, m.line, "beam_break",
                          "tracker must be within 1.." + std::to_string(n));
     }
-    const auto it = row_of.find(id);
-    if (it == row_of.end()) {
+    const auto it = std::lower_bound(by_id.begin(), by_id.end(),
+                                     std::make_pair(static_cast<double>(id), std::size_t{0}));
+    if (it == by_id.end() || it->first != static_cast<double>(id)) {
       throw InvalidInput(file, m.line, "beam_break",
                          "point " + std::to_string(id) + " is not in the data");
     }

@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "analysis/tracker/tracker_types.h"
+#include "ingest/text_format.h"
 
 namespace km::ingest {
 
@@ -21,8 +22,15 @@ struct TrackerFile {
   std::map<std::string, std::string> metadata;  // every header key (unknown ones too)
 };
 
+// What one survey file may hold at most (ingest/text_format.h): 200 000 points, 128 columns,
+// 10 000 beam breaks, lines of 4 KiB. The self-calibration costs far more than the parse (about
+// 0.15 ms a point with 4 trackers, growing with the square of the number of trackers): the
+// server refuses uploads beyond its own, much lower, limits (ServiceOptions::upload_limits).
+TextLimits DefaultTrackerLimits();
+
 // Throws km::InvalidInput (or km::TooLarge) naming file, line and field.
-TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file);
+TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file,
+                             const TextLimits& limits = DefaultTrackerLimits());
 
 // Writes readings in the same format (readings with 0.1 nm, positions with 1 nm resolution);
 // missing (non-finite) readings cannot be written and are refused with InvalidInput.
