@@ -1,4 +1,13 @@
-// Hexapod calibration studies submitted through the API run as background jobs.
+// Hexapod calibration studies submitted through the API run as background jobs. A request is
+// checked completely before it is queued, from the stored records alone (no measurement file is
+// read): the number of tests and of their samples is bounded, every id is listed once and names
+// a stored DBB test with a tool length. The queued job keeps the ids, not the tests: it reads
+// each test once, when it runs.
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <memory>
+
 #include "analysis/core/errors.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
@@ -10,52 +19,137 @@ namespace km::server {
 
 namespace req = km::server::request;
 
+namespace {
+
+// What a queued calibration job needs to run: the request, checked, with ids instead of tests.
+struct CalibrationPlan {
+  ingest::MachineDefinition machine;
+  std::vector<std::int64_t> ids;
+  std::optional<hexapod::CalibrationMethod> method;
+  int max_samples_per_test = 0;
+  int reduction_min_tests = 0;
+};
+
+std::string TestName(std::int64_t id) {
+  return "measurement " + std::to_string(id);
+}
+
+// The measurement ids of the request: whole numbers ≥ 1, each listed once, at most `max_tests`.
+std::vector<std::int64_t> MeasurementIds(const nlohmann::json& request, std::size_t max_tests) {
+  if (!request.contains("measurement_ids") || !request["measurement_ids"].is_array() ||
+      request["measurement_ids"].empty()) {
+    throw InvalidInput("request", 0, "measurement_ids", "a non-empty list of DBB measurement ids");
+  }
+  const auto& list = request["measurement_ids"];
+  if (list.size() > max_tests) {
+    throw InvalidInput("request", 0, "measurement_ids",
+                       std::to_string(list.size()) + " ids; a calibration study takes at most " +
+                           std::to_string(max_tests) + " DBB tests");
+  }
+  std::vector<std::int64_t> ids;
+  ids.reserve(list.size());
+  std::map<std::int64_t, std::size_t> position;  // id -> 1-based position in the list
+  for (const auto& v : list) {
+    const bool whole = v.is_number_integer() &&
+                       !(v.is_number_unsigned() &&
+                         v.get<std::uint64_t>() >
+                             static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max()));
+    if (!whole || v.get<std::int64_t>() < 1) {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "ids must be whole numbers from 1 (entry " +
+                             std::to_string(ids.size() + 1) + " is " +
+                             v.dump(-1, ' ', true).substr(0, 40) + ")");
+    }
+    const std::int64_t id = v.get<std::int64_t>();
+    const auto [it, fresh] = position.emplace(id, ids.size() + 1);
+    if (!fresh) {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "measurement " + std::to_string(id) + " is listed twice (entries " +
+                             std::to_string(it->second) + " and " + std::to_string(ids.size() + 1) +
+                             "); list each DBB test once (duplicates are refused, not merged)");
+    }
+    ids.push_back(id);
+  }
+  return ids;
+}
+
+}  // namespace
+
 std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
   if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
   if (!request.contains("machine") || !request["machine"].is_object()) {
     throw InvalidInput("request", 0, "machine",
                        "the hexapod machine definition (contract §2) is required as an object");
   }
-  auto study = std::make_shared<CalibrationStudy>();
-  study->machine = ingest::ParseHexapodMachineJson(request["machine"].dump(), "request.machine");
-  if (!request.contains("measurement_ids") || !request["measurement_ids"].is_array() ||
-      request["measurement_ids"].empty()) {
-    throw InvalidInput("request", 0, "measurement_ids", "a non-empty list of DBB measurement ids");
-  }
-  for (const auto& v : request["measurement_ids"]) {
-    if (!v.is_number_integer()) {
-      throw InvalidInput("request", 0, "measurement_ids", "ids must be whole numbers");
-    }
-    const std::int64_t id = v.get<std::int64_t>();
-    study->tests.push_back(LoadDbb(id));
-    study->names.push_back("measurement " + std::to_string(id));
-  }
+  auto plan = std::make_shared<CalibrationPlan>();
+  plan->machine = ingest::ParseHexapodMachineJson(request["machine"].dump(), "request.machine");
+  plan->ids = MeasurementIds(request, options_.max_calibration_tests);
   if (request.contains("method")) {
     if (!request["method"].is_string()) {
       throw InvalidInput("request", 0, "method", "absolute or centre-corrected");
     }
-    study->method = ParseCalibrationMethod(request["method"].get<std::string>(), "method");
+    plan->method = ParseCalibrationMethod(request["method"].get<std::string>(), "method");
   }
-  study->reduction_min_tests =
+  plan->reduction_min_tests =
       static_cast<int>(req::WholeNumber(request, "reduction_study_min_tests", 1, 1000, 0));
-  study->max_samples_per_test =
+  plan->max_samples_per_test =
       static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
-  // The checks that need no solve (tool length, fixed balls) happen now, not in the job.
-  for (std::size_t i = 0; i < study->tests.size(); ++i) {
-    if (!study->tests[i].tool_length_mm) {
-      throw InvalidInput(study->names[i], 0, "tool_length_mm",
+
+  // Every test from its stored record (no file is read now): it exists, is a DBB test, and has
+  // what the calibration needs without a solve (tool length; the fixed ball when the method is
+  // absolute). The samples of all tests together are bounded: the job holds them all.
+  std::size_t samples = 0;
+  for (const std::int64_t id : plan->ids) {
+    const auto rec = storage_->GetMeasurement(id);
+    if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+    if (rec->kind != "dbb") {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "measurement " + std::to_string(id) + " is not a DBB test");
+    }
+    const auto meta = nlohmann::json::parse(rec->metadata_json, nullptr, false);
+    const auto has = [&](const char* key) { return meta.is_object() && meta.contains(key); };
+    if (!has("tool_length_mm")) {
+      throw InvalidInput(TestName(id), 0, "tool_length_mm",
                          "hexapod calibration needs the tool length");
     }
+    if (plan->method == hexapod::CalibrationMethod::kAbsolute && !has("fixed_ball_mm")) {
+      throw InvalidInput(TestName(id), 0, "fixed_ball_mm",
+                         "absolute calibration needs the measured fixed-ball position");
+    }
+    samples += static_cast<std::size_t>(std::max<std::int64_t>(rec->sample_count, 0));
   }
+  if (samples > options_.max_calibration_samples) {
+    throw InvalidInput("request", 0, "measurement_ids",
+                       "the " + std::to_string(plan->ids.size()) + " DBB tests hold " +
+                           std::to_string(samples) +
+                           " samples in all; a calibration study takes at most " +
+                           std::to_string(options_.max_calibration_samples));
+  }
+
   nlohmann::json stored = request;
   stored.erase("machine");
-  stored["machine_id"] = study->machine.machine_id;
-  return jobs_->Submit("hexapod_calibration", stored, [study](const JobQueue::Progress& p) {
-    auto outcome = RunCalibrationStudy(*study, p);
-    outcome.report["calibrated_machine"] =
-        nlohmann::json::parse(ingest::WriteMachineJson(outcome.calibrated));
-    return outcome.report;
-  });
+  stored["machine_id"] = plan->machine.machine_id;
+  // The job reads the tests when it runs (the Service outlives its job queue).
+  return jobs_->Submit(
+      "hexapod_calibration", stored,
+      [this, plan = std::shared_ptr<const CalibrationPlan>(plan)](const JobQueue::Progress& p) {
+        CalibrationStudy study;
+        study.machine = plan->machine;
+        study.method = plan->method;
+        study.max_samples_per_test = plan->max_samples_per_test;
+        study.reduction_min_tests = plan->reduction_min_tests;
+        if (p) p(0.0, "reading the DBB tests");
+        study.tests.reserve(plan->ids.size());
+        study.names.reserve(plan->ids.size());
+        for (const std::int64_t id : plan->ids) {
+          study.tests.push_back(LoadDbb(id));
+          study.names.push_back(TestName(id));
+        }
+        auto outcome = RunCalibrationStudy(study, p);
+        outcome.report["calibrated_machine"] =
+            nlohmann::json::parse(ingest::WriteMachineJson(outcome.calibrated));
+        return outcome.report;
+      });
 }
 
 nlohmann::json Service::Job(std::int64_t id) {

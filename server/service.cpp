@@ -1,11 +1,37 @@
 #include "server/service.h"
 
 #include "analysis/core/errors.h"
+#include "ingest/dbb_parser.h"
+#include "ingest/form_parsers.h"
 #include "ingest/text_format.h"
+#include "ingest/tracker_parser.h"
 #include "server/sha256.h"
 #include "server/time_util.h"
 
 namespace km::server {
+
+std::map<std::string, ingest::TextLimits> DefaultUploadLimits() {
+  const auto limits = [](std::size_t rows, std::size_t columns) {
+    ingest::TextLimits l;
+    l.max_rows = rows;
+    l.max_columns = columns;
+    l.max_line_bytes = 4096;
+    l.max_header_lines = 1000;
+    l.max_markers = 1000;
+    return l;
+  };
+  std::map<std::string, ingest::TextLimits> out;
+  out[ingest::kDbbFormat] = limits(500'000, 16);
+  out[std::string(ingest::kStraightnessFormat)] = limits(100'000, 16);
+  out[std::string(ingest::kParallelismFormat)] = limits(1'000'000, 16);
+  out[std::string(ingest::kFlatnessFormat)] = limits(1'000'000, 16);
+  // point, x, y, z, d1..d16 and a few more; 80 000 values: 10 000 points of 4 trackers, 4 000 of
+  // 16.
+  ingest::TextLimits tracker = limits(10'000, 24);
+  tracker.max_cells = 80'000;
+  out[ingest::kTrackerFormat] = tracker;
+  return out;
+}
 
 Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
     : storage_(std::move(storage)),
@@ -31,6 +57,7 @@ UploadOutcome Service::Upload(std::string_view bytes, const std::string& filenam
                    "the upload is " + std::to_string(bytes.size()) + " bytes; the limit is " +
                        std::to_string(options_.max_upload_bytes));
   }
+  // The format line is checked before it is used (a short name of plain characters).
   const std::string format = ingest::PeekFormat(bytes, file);
   const auto it = kinds_.find(format);
   if (it == kinds_.end()) {
@@ -39,6 +66,13 @@ UploadOutcome Service::Upload(std::string_view bytes, const std::string& filenam
     throw InvalidInput(file, 1, "format",
                        "unknown format '" + format + "'; this server accepts: " + known);
   }
+  // Limits before parsing: one pass, nothing kept; TooLarge names the first line beyond them.
+  ingest::TextLimits limits;
+  if (const auto l = options_.upload_limits.find(format); l != options_.upload_limits.end()) {
+    limits = l->second;
+  }
+  limits.max_bytes = options_.max_upload_bytes;
+  ingest::CheckTextLimits(bytes, file, limits);
   const std::string sha = Sha256Hex(bytes);
   if (const auto existing = storage_->FindBySha256(sha)) {
     const auto rec = storage_->GetMeasurement(*existing);

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/dbb/dbb_types.h"
+#include "ingest/text_format.h"
 #include "server/acquisition.h"
 #include "server/jobs.h"
 #include "server/storage.h"
@@ -32,8 +33,27 @@ struct Ingested {
 // Parses and analyses one file of a format; throws km::InvalidInput naming file/line/field.
 using KindHandler = std::function<Ingested(std::string_view bytes, const std::string& file)>;
 
+// What an upload of each format may hold, by format name (e.g. "kinemetric-dbb/1"): data rows,
+// line length, columns, values, header and marker lines (ingest/text_format.h). The defaults
+// keep the analysis done at upload within about 2 s of CPU and the parse within about 2× the
+// file size: DBB 500 000 samples (the analysis costs about 3 µs and 400 bytes a sample);
+// straightness 100 000 points (its periodic-component search costs about 10 µs a point);
+// parallelism and flatness 1 000 000 points; tracker 10 000 points, 24 columns and 80 000
+// values in all (the self-calibration costs about 0.15 ms a point with 4 to 8 trackers, 0.45 ms
+// with 16). Every format: lines of at most 4 KiB, 1 000 header lines, 1 000 '#' lines among the
+// data.
+std::map<std::string, ingest::TextLimits> DefaultUploadLimits();
+
 struct ServiceOptions {
   std::size_t max_upload_bytes = 32u << 20;
+  // Checked in one pass before anything is parsed; an upload beyond them is refused with
+  // km::TooLarge (HTTP 413) naming the file and the first line beyond the limit. A format
+  // without an entry gets the TextLimits defaults.
+  std::map<std::string, ingest::TextLimits> upload_limits = DefaultUploadLimits();
+  // Hexapod calibration requests: at most this many DBB tests (a study uses tens), and at most
+  // this many samples in all of them (the running job holds every test in memory).
+  std::size_t max_calibration_tests = 500;
+  std::size_t max_calibration_samples = 2'000'000;
 };
 
 struct UploadOutcome {
@@ -88,8 +108,12 @@ class Service {
   // Hexapod calibration study as a background job. Request (JSON): {"machine": {machine
   // definition, contract §2}, "measurement_ids": [DBB ids], "method": "absolute" |
   // "centre-corrected" (optional), "reduction_study_min_tests": N (optional),
-  // "max_samples_per_test": N (optional)}. Validated now (InvalidInput / NotFound); returns
-  // the job id. The job's result is the `hexapod calibrate` object plus the calibrated machine.
+  // "max_samples_per_test": N (optional)}. Validated now from the stored records, without
+  // reading any file (InvalidInput / NotFound): at most max_calibration_tests ids, each listed
+  // once (a repeated id is refused), each a DBB test with a tool length, at most
+  // max_calibration_samples samples in all. Returns the job id; the job reads each test once
+  // when it runs. The job's result is the `hexapod calibrate` object plus the calibrated
+  // machine.
   std::int64_t SubmitCalibration(const nlohmann::json& request);
   nlohmann::json Job(std::int64_t id);
   nlohmann::json Jobs(std::int64_t limit);

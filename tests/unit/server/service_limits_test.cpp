@@ -1,0 +1,347 @@
+// What a client sends is bounded before it costs memory or CPU: calibration requests (number of
+// tests, repeated ids, nothing read before the job runs, each test read once) and uploads
+// (per-format limits of rows, line length and columns, checked before parsing; the format line
+// checked before it is used).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "analysis/core/errors.h"
+#include "ingest/text_format.h"
+#include "server/service.h"
+#include "server/sqlite_storage.h"
+
+namespace km::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+// SQLite storage that counts the measurement files read, and on which thread.
+class CountingStorage final : public Storage {
+ public:
+  explicit CountingStorage(const std::string& path) : inner_(path) {}
+
+  std::size_t RawReads() const { return raw_reads_.load(); }
+  std::size_t RawReadsOn(std::thread::id thread) {
+    std::lock_guard<std::mutex> lock(mu_);
+    return by_thread_[thread];
+  }
+  std::multiset<std::int64_t> RawIds() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return ids_;
+  }
+
+  std::string GetRaw(std::int64_t id) override {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      ++by_thread_[std::this_thread::get_id()];
+      ids_.insert(id);
+    }
+    ++raw_reads_;
+    return inner_.GetRaw(id);
+  }
+
+  PutOutcome PutMeasurement(const NewMeasurement& m, const std::vector<NewResult>& r) override {
+    return inner_.PutMeasurement(m, r);
+  }
+  std::optional<MeasurementRecord> GetMeasurement(std::int64_t id) override {
+    return inner_.GetMeasurement(id);
+  }
+  std::optional<std::int64_t> FindBySha256(const std::string& sha256) override {
+    return inner_.FindBySha256(sha256);
+  }
+  SampleBlock GetSamples(std::int64_t id) override { return inner_.GetSamples(id); }
+  MeasurementPage ListMeasurements(const MeasurementFilter& f) override {
+    return inner_.ListMeasurements(f);
+  }
+  std::vector<ResultRecord> GetResults(std::int64_t id) override { return inner_.GetResults(id); }
+  void PutResult(std::int64_t id, const NewResult& r) override { inner_.PutResult(id, r); }
+  std::vector<MachineSummary> ListMachines() override { return inner_.ListMachines(); }
+  std::int64_t CreateJob(const std::string& kind, const std::string& request_json) override {
+    return inner_.CreateJob(kind, request_json);
+  }
+  void UpdateJob(const JobRecord& job) override { inner_.UpdateJob(job); }
+  std::optional<JobRecord> GetJob(std::int64_t id) override { return inner_.GetJob(id); }
+  std::vector<JobRecord> ListJobs(std::int64_t limit) override { return inner_.ListJobs(limit); }
+  int FailInterruptedJobs(const std::string& reason) override {
+    return inner_.FailInterruptedJobs(reason);
+  }
+  std::int64_t CreateStream(const NewStream& s) override { return inner_.CreateStream(s); }
+  std::optional<StreamRecord> GetStream(std::int64_t id) override { return inner_.GetStream(id); }
+  std::vector<StreamRecord> ListStreams(const std::optional<std::string>& machine_id,
+                                        std::int64_t limit) override {
+    return inner_.ListStreams(machine_id, limit);
+  }
+  void AppendStream(const std::vector<StreamChunk>& chunks,
+                    const std::vector<StreamGap>& gaps) override {
+    inner_.AppendStream(chunks, gaps);
+  }
+  std::vector<StreamChannelSummary> StreamChannels(std::int64_t stream_id) override {
+    return inner_.StreamChannels(stream_id);
+  }
+  std::vector<StreamChunk> ReadStreamChunks(std::int64_t stream_id, std::int64_t channel,
+                                            std::int64_t from_us, std::int64_t to_us,
+                                            bool with_data) override {
+    return inner_.ReadStreamChunks(stream_id, channel, from_us, to_us, with_data);
+  }
+  std::string ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
+                                  std::int64_t first_counter) override {
+    return inner_.ReadStreamChunkData(stream_id, channel, first_counter);
+  }
+  std::vector<StreamGap> StreamGaps(std::int64_t stream_id, std::int64_t limit) override {
+    return inner_.StreamGaps(stream_id, limit);
+  }
+  std::int64_t CountTokens() override { return inner_.CountTokens(); }
+  void PutToken(const std::string& token_sha256, const std::string& role,
+                const std::string& label) override {
+    inner_.PutToken(token_sha256, role, label);
+  }
+  std::optional<std::string> FindTokenRole(const std::string& token_sha256) override {
+    return inner_.FindTokenRole(token_sha256);
+  }
+
+ private:
+  SqliteStorage inner_;
+  std::atomic<std::size_t> raw_reads_{0};
+  std::mutex mu_;
+  std::map<std::thread::id, std::size_t> by_thread_;
+  std::multiset<std::int64_t> ids_;
+};
+
+std::string ReadFile(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// A service on a fresh SQLite file, removed at the end.
+class ServiceLimits : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    db_ = fs::temp_directory_path() /
+          ("km-limits-" + std::to_string(::getpid()) + "-" + info->name() + ".db");
+    Remove();
+  }
+  void TearDown() override {
+    service_.reset();
+    Remove();
+  }
+  void Start(ServiceOptions options = {}) {
+    auto storage = std::make_unique<CountingStorage>(db_.string());
+    storage_ = storage.get();
+    service_ = std::make_unique<Service>(std::move(storage), options);
+    RegisterBuiltinKinds(*service_);
+  }
+  void Remove() {
+    for (const char* ext : {"", "-wal", "-shm"}) fs::remove(db_.string() + ext);
+  }
+  // The ten hexapod DBB fixtures (with tool length and fixed ball), uploaded; their ids.
+  std::vector<std::int64_t> UploadHexapodTests() {
+    std::vector<std::int64_t> ids;
+    for (char c = 'a'; c <= 'j'; ++c) {
+      const std::string name = std::string("dbb_") + c + "_ccw.txt";
+      const auto out =
+          service_->Upload(ReadFile(fs::path("tests/fixtures/browser/hexapod") / name), name);
+      ids.push_back(out.id);
+    }
+    return ids;
+  }
+  nlohmann::json Request(const nlohmann::json& ids) {
+    return {{"machine", nlohmann::json::parse(ReadFile("tests/fixtures/pm600-like.json"))},
+            {"measurement_ids", ids}};
+  }
+  nlohmann::json WaitForJob(std::int64_t id) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::minutes(5);
+    while (std::chrono::steady_clock::now() < until) {
+      const auto j = service_->Job(id);
+      if (j["status"] == "done" || j["status"] == "failed") return j;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ADD_FAILURE() << "job " << id << " did not finish";
+    return service_->Job(id);
+  }
+
+  fs::path db_;
+  CountingStorage* storage_ = nullptr;
+  std::unique_ptr<Service> service_;
+};
+
+template <typename E, typename F>
+E Expect(F f) {
+  try {
+    f();
+  } catch (const E& e) {
+    return e;
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "unexpected error: " << e.what();
+    throw;
+  }
+  ADD_FAILURE() << "accepted";
+  throw std::runtime_error("accepted");
+}
+
+bool Contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+TEST_F(ServiceLimits, TooManyCalibrationTestsAreRefusedBeforeAnythingIsRead) {
+  Start();
+  const auto ids = UploadHexapodTests();
+  // 5 000 ids, the same ten over and over: refused at once, naming the field and the limit
+  // (each id used to be read and parsed: 100 000 of them took 1.5 GB).
+  nlohmann::json many = nlohmann::json::array();
+  for (int i = 0; i < 5'000; ++i) many.push_back(ids[static_cast<std::size_t>(i % 10)]);
+  const auto e = Expect<InvalidInput>([&] { service_->SubmitCalibration(Request(many)); });
+  EXPECT_EQ(e.field(), "measurement_ids");
+  EXPECT_TRUE(Contains(e.what(), "500")) << e.what();
+  EXPECT_TRUE(Contains(e.what(), "5000 ids")) << e.what();
+  // One more than the limit, all distinct ids (most do not exist): the count is refused first.
+  nlohmann::json over = nlohmann::json::array();
+  for (int i = 1; i <= 501; ++i) over.push_back(i);
+  const auto e2 = Expect<InvalidInput>([&] { service_->SubmitCalibration(Request(over)); });
+  EXPECT_EQ(e2.field(), "measurement_ids");
+  EXPECT_TRUE(Contains(e2.what(), "at most 500")) << e2.what();
+  EXPECT_EQ(storage_->RawReads(), 0u);
+}
+
+TEST_F(ServiceLimits, TheLimitOfCalibrationTestsIsConfiguration) {
+  ServiceOptions o;
+  o.max_calibration_tests = 3;
+  Start(o);
+  const auto ids = UploadHexapodTests();
+  const auto e = Expect<InvalidInput>([&] {
+    service_->SubmitCalibration(Request({ids[0], ids[1], ids[2], ids[3]}));
+  });
+  EXPECT_EQ(e.field(), "measurement_ids");
+  EXPECT_TRUE(Contains(e.what(), "at most 3")) << e.what();
+}
+
+TEST_F(ServiceLimits, RepeatedOrMalformedIdsAreRefused) {
+  Start();
+  const auto ids = UploadHexapodTests();
+  const auto e = Expect<InvalidInput>([&] {
+    service_->SubmitCalibration(Request({ids[0], ids[1], ids[0]}));
+  });
+  EXPECT_EQ(e.field(), "measurement_ids");
+  EXPECT_TRUE(Contains(e.what(), "listed twice (entries 1 and 3)")) << e.what();
+  for (const nlohmann::json& bad : {nlohmann::json(0), nlohmann::json(-3), nlohmann::json(1.5),
+                                    nlohmann::json("1"), nlohmann::json(18446744073709551615ull)}) {
+    SCOPED_TRACE(bad.dump());
+    const auto e2 = Expect<InvalidInput>([&] {
+      service_->SubmitCalibration(Request({ids[0], bad}));
+    });
+    EXPECT_EQ(e2.field(), "measurement_ids");
+    EXPECT_TRUE(Contains(e2.what(), "entry 2")) << e2.what();
+  }
+  // A missing test and a test without tool length are found from the stored records.
+  EXPECT_THROW(service_->SubmitCalibration(Request({ids[0], 999})), NotFound);
+  std::string no_tool = ReadFile("tests/fixtures/browser/hexapod/dbb_a_ccw.txt");
+  const auto tool = no_tool.find("# tool_length_mm");
+  no_tool.erase(tool, no_tool.find('\n', tool) - tool + 1);
+  const auto plain = service_->Upload(no_tool, "no_tool.txt").id;
+  const auto e3 = Expect<InvalidInput>([&] {
+    service_->SubmitCalibration(Request({ids[0], plain}));
+  });
+  EXPECT_EQ(e3.field(), "tool_length_mm");
+  EXPECT_EQ(storage_->RawReads(), 0u);
+}
+
+TEST_F(ServiceLimits, TheSamplesOfAStudyAreBounded) {
+  ServiceOptions o;
+  o.max_calibration_samples = 1000;  // the fixtures hold about 190 samples each
+  Start(o);
+  const auto ids = UploadHexapodTests();
+  const auto e = Expect<InvalidInput>([&] { service_->SubmitCalibration(Request(ids)); });
+  EXPECT_EQ(e.field(), "measurement_ids");
+  EXPECT_TRUE(Contains(e.what(), "at most 1000")) << e.what();
+  EXPECT_EQ(storage_->RawReads(), 0u);
+}
+
+TEST_F(ServiceLimits, AQueuedStudyHoldsIdsAndTheJobReadsEachTestOnce) {
+  Start();
+  const auto ids = UploadHexapodTests();
+  ASSERT_EQ(storage_->RawReads(), 0u);
+  const auto job = service_->SubmitCalibration(Request(ids));
+  // Nothing was read while the request was checked: the job reads the tests when it runs.
+  EXPECT_EQ(storage_->RawReadsOn(std::this_thread::get_id()), 0u);
+  const auto j = WaitForJob(job);
+  EXPECT_EQ(j["status"], "done") << j.dump();
+  // Each test was read exactly once.
+  EXPECT_EQ(storage_->RawReads(), ids.size());
+  const auto read = storage_->RawIds();
+  for (const auto id : ids) EXPECT_EQ(read.count(id), 1u) << id;
+}
+
+// A DBB file of `samples` rows.
+std::string DbbFile(int samples, const std::string& extra_header = "") {
+  std::string s =
+      "# format: kinemetric-dbb/1\n# machine_id: m1\n# test_id: t\n# direction: ccw\n"
+      "# bar_length_mm: 150\n# centre_mm: 0, 0, 0\n# feed_mm_min: 1000\n" +
+      extra_header + "angle_deg,dr_um\n";
+  for (int i = 0; i < samples; ++i) {
+    s += std::to_string(360.0 * i / samples) + "," + std::to_string(0.5 * (i % 7)) + "\n";
+  }
+  return s;
+}
+
+TEST_F(ServiceLimits, UploadsBeyondTheLimitsOfTheirFormatAreRefusedBeforeParsing) {
+  ServiceOptions o;
+  o.upload_limits["kinemetric-dbb/1"].max_rows = 100;
+  o.upload_limits["kinemetric-dbb/1"].max_line_bytes = 200;
+  o.upload_limits["kinemetric-dbb/1"].max_columns = 3;
+  Start(o);
+  EXPECT_TRUE(service_->Upload(DbbFile(100), "ok.txt").created);
+  // Row 101 is line 8 (header) + 101; the rest of the file is never looked at.
+  std::string rows = DbbFile(200);
+  rows += std::string(10'000, 'x');
+  const auto e = Expect<TooLarge>([&] { service_->Upload(rows, "rows.txt"); });
+  EXPECT_EQ(e.file(), "rows.txt");
+  EXPECT_EQ(e.line(), 8u + 101u) << e.what();
+  EXPECT_TRUE(Contains(e.what(), "100 data rows")) << e.what();
+  const auto e2 = Expect<TooLarge>([&] {
+    service_->Upload(DbbFile(50, "# note: " + std::string(300, 'n') + "\n"), "long.txt");
+  });
+  EXPECT_EQ(e2.line(), 8u) << e2.what();
+  const auto e3 = Expect<TooLarge>([&] {
+    std::string f = DbbFile(50);
+    f.replace(f.find("angle_deg,dr_um"), 15, "angle_deg,dr_um,a,b");
+    service_->Upload(f, "cols.txt");
+  });
+  EXPECT_EQ(e3.line(), 8u) << e3.what();
+  EXPECT_EQ(service_->storage().ListMeasurements({}).total, 1);
+  // The default limits of every built-in format are configuration.
+  const auto defaults = DefaultUploadLimits();
+  EXPECT_EQ(defaults.at("kinemetric-dbb/1").max_rows, 500'000u);
+  EXPECT_EQ(defaults.at("kinemetric-straightness/1").max_rows, 100'000u);
+  EXPECT_EQ(defaults.at("kinemetric-tracker/1").max_rows, 10'000u);
+  for (const auto& f : service_->Formats()) EXPECT_TRUE(defaults.count(f)) << f;
+}
+
+TEST_F(ServiceLimits, TheFormatLineIsCheckedBeforeItIsUsed) {
+  Start();
+  for (const std::string& bad :
+       {std::string("# format: kinemetric-\xff\xfe/1\nangle_deg,dr_um\n"),
+        std::string("# format: kinemetric-dbb/1 \x1b[2J\n"),
+        "# format: " + std::string(100'000, 'k') + "/1\n", std::string(100'000, '#') + "\n"}) {
+    const auto e = Expect<InvalidInput>([&] { service_->Upload(bad, "f.txt"); });
+    EXPECT_EQ(e.field(), "format") << e.what();
+    std::size_t at = 0;
+    EXPECT_TRUE(ingest::ValidUtf8(e.what(), at)) << e.what();
+    EXPECT_LT(std::string(e.what()).size(), 400u);
+    EXPECT_EQ(std::string(e.what()).find('\x1b'), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace km::server
