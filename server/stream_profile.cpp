@@ -39,7 +39,12 @@ std::vector<double> FeedPositionMm(const std::vector<std::int64_t>& t_us, double
   if (t_us.empty()) return out;
   const double mm_per_us = feed_mm_min / 60.0 / 1e6;
   for (std::size_t i = 0; i < t_us.size(); ++i) {
-    out[i] = start_mm + mm_per_us * static_cast<double>(t_us[i] - t_us.front());
+    // t − t_0 in int64 when it fits (exact), else in double (time stamps at both ends of int64).
+    std::int64_t dt = 0;
+    const double dt_us = __builtin_sub_overflow(t_us[i], t_us.front(), &dt)
+                             ? static_cast<double>(t_us[i]) - static_cast<double>(t_us.front())
+                             : static_cast<double>(dt);
+    out[i] = start_mm + mm_per_us * dt_us;
   }
   return out;
 }

@@ -7,6 +7,7 @@
 
 #include "server/sqlite_storage.h"
 #include "server/stream_chunks.h"
+#include "server/stream_profile.h"
 #include "server/streams.h"
 #include "tests/unit/server/temp_dir.h"
 
@@ -88,6 +89,18 @@ TEST_F(StreamExtremes, SamplesAtTheVeryEndsOfTheRange) {
     EXPECT_GE(tk.get<std::int64_t>(), kMin + 1);
     EXPECT_LT(tk.get<std::int64_t>(), kMax);
   }
+}
+
+// Feed × time positions of samples at both ends of int64 (t − t_0 does not fit an int64).
+TEST(StreamProfileExtremes, FeedPositionsAcrossTheWholeInt64Range) {
+  const auto x = FeedPositionMm({kMax, 0, kMin, kMax - 5}, 1.0, 600.0);  // 1e-5 mm/µs
+  ASSERT_EQ(x.size(), 4u);
+  EXPECT_DOUBLE_EQ(x[0], 1.0);
+  EXPECT_NEAR(x[1], 1.0 - 1e-5 * 9.223372036854775807e18, 1e-9 * 9.3e13);
+  EXPECT_NEAR(x[2], 1.0 - 1e-5 * 1.8446744073709551615e19, 1e-9 * 1.9e14);
+  EXPECT_NEAR(x[3], 1.0 - 5e-5, 1e-12);
+  const auto y = FeedPositionMm({kMin, kMax}, 0.0, 600.0);
+  EXPECT_NEAR(y[1], 1e-5 * 1.8446744073709551615e19, 1e-9 * 1.9e14);
 }
 
 }  // namespace
