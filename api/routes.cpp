@@ -1,5 +1,10 @@
 #include "api/routes.h"
 
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <unordered_map>
+
 #include "analysis/core/errors.h"
 #include "api/http_target.h"
 #include "api/route_util.h"
@@ -246,18 +251,45 @@ void AddRoutes(Router& router, server::Service& service) {
   AddStreamRoutes(router, service);
 }
 
+namespace {
+
+// Recently accepted token hashes, so that a busy client costs no database read per request. An
+// entry is trusted for kTrust only: a token removed from the store stops working within that.
+class TokenCache {
+ public:
+  bool Knows(const std::string& sha) {
+    std::lock_guard lock(mu_);
+    const auto it = known_.find(sha);
+    return it != known_.end() && std::chrono::steady_clock::now() - it->second < kTrust;
+  }
+  void Remember(const std::string& sha) {
+    std::lock_guard lock(mu_);
+    if (known_.size() >= kMaxEntries) known_.clear();
+    known_[sha] = std::chrono::steady_clock::now();
+  }
+
+ private:
+  static constexpr auto kTrust = std::chrono::seconds(2);
+  static constexpr std::size_t kMaxEntries = 1024;
+  std::mutex mu_;
+  std::unordered_map<std::string, std::chrono::steady_clock::time_point> known_;
+};
+
+}  // namespace
+
 RequestHook TokenHook(server::Storage& storage) {
   server::Storage* st = &storage;
-  return [st](const Request& req, const Route& route) {
+  auto cache = std::make_shared<TokenCache>();
+  return [st, cache](const Request& req, const Route& route) {
     if (!route.needs_token) return;
     const auto auth = req.Header("authorization");
     if (!auth || auth->rfind("Bearer ", 0) != 0 || auth->size() <= 7) {
       throw Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
     }
-    const std::string token = auth->substr(7);
-    if (!st->FindTokenRole(server::Sha256Hex(token))) {
-      throw Unauthorized("the token is not valid");
-    }
+    const std::string sha = server::Sha256Hex(auth->substr(7));
+    if (cache->Knows(sha)) return;
+    if (!st->FindTokenRole(sha)) throw Unauthorized("the token is not valid");
+    cache->Remember(sha);
   };
 }
 
