@@ -16,7 +16,7 @@ cd "$(dirname "$0")/../.."
 build=${KINEMETRIC_FUZZ_BUILD:-build-fuzz}
 seconds=${KINEMETRIC_FUZZ_SECONDS:-20}
 all_targets=(dbb tracker straightness flatness parallelism upload machine_json modbus_config
-  stream_frames request time)
+  stream_frames request time api)
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then targets=("${all_targets[@]}"); fi
 
