@@ -11,6 +11,7 @@
 #include "api/http_server.h"
 #include "api/routes.h"
 #include "server/config.h"
+#include "server/data_dir.h"
 #include "server/demo_data.h"
 #include "server/service.h"
 #include "server/sha256.h"
@@ -40,7 +41,8 @@ int main(int argc, char** argv) {
     std::cerr << "kinemetricd: " << e.what() << "\n"
               << "usage: kinemetricd --listen HOST:PORT --data-dir DIR [--config FILE] "
                  "[--web-root DIR] [--demo-data] [--threads N] [--max-upload-bytes N] "
-                 "[--modbus-config FILE]\n";
+                 "[--modbus-config FILE] [--io-threads N] [--queue-limit N] [--max-connections N] "
+                 "[--header-timeout-s S] … (docs/http.md)\n";
     return 2;
   }
   // SIGINT / SIGTERM are taken by a waiting thread that stops the server cleanly.
@@ -50,7 +52,7 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   try {
-    fs::create_directories(cfg.data_dir);
+    km::server::PrepareDataDir(cfg.data_dir);
     const std::string db_path = (fs::path(cfg.data_dir) / "kinemetric.db").string();
     auto storage = std::make_unique<km::server::SqliteStorage>(db_path);
     km::server::ServiceOptions so;
@@ -96,12 +98,17 @@ int main(int argc, char** argv) {
     ho.port = cfg.port;
     // A little above the upload limit, so the service answers with its own precise 413.
     ho.max_payload_bytes = cfg.max_upload_bytes + (1u << 20);
+    ho.header_timeout_s = cfg.header_timeout_s;
     ho.read_timeout_s = cfg.read_timeout_s;
     ho.write_timeout_s = cfg.write_timeout_s;
     ho.keep_alive_max_count = cfg.keep_alive_max_count;
     ho.keep_alive_timeout_s = cfg.keep_alive_timeout_s;
     ho.threads = cfg.threads;
+    ho.io_threads = cfg.io_threads;
     ho.queue_limit = cfg.queue_limit;
+    ho.max_connections = cfg.max_connections;
+    ho.backlog = cfg.backlog;
+    ho.max_header_bytes = cfg.max_header_bytes;
     ho.static_root = cfg.web_root.empty() ? DefaultWebRoot() : cfg.web_root;
     km::api::HttpServer http(router, ho);
     const int port = http.Bind();

@@ -23,6 +23,57 @@ constexpr Range kQueueLimit{1, 1'000'000, ""};
 constexpr Range kTimeout{1, 3600, " s"};
 constexpr Range kKeepAliveCount{1, 1'000'000, ""};
 constexpr Range kUploadBytes{1, std::int64_t{4} << 30, " bytes"};  // 4 GiB
+constexpr Range kIoThreads{1, 64, ""};
+constexpr Range kConnections{1, 1'000'000, ""};
+constexpr Range kBacklog{1, 65535, ""};
+constexpr Range kHeaderBytes{1024, 1 << 20, " bytes"};
+
+// Every whole-number setting: its config-file key (the command-line option is "--" + key with
+// '-' for '_'), its range and where it goes.
+struct NumberOption {
+  const char* key;
+  Range range;
+  void (*set)(ServerConfig&, std::int64_t);
+};
+const NumberOption kNumberOptions[] = {
+    {"max_upload_bytes", kUploadBytes,
+     [](ServerConfig& c, std::int64_t v) { c.max_upload_bytes = static_cast<std::size_t>(v); }},
+    {"threads", kThreads, [](ServerConfig& c, std::int64_t v) { c.threads = static_cast<int>(v); }},
+    {"io_threads", kIoThreads,
+     [](ServerConfig& c, std::int64_t v) { c.io_threads = static_cast<int>(v); }},
+    {"queue_limit", kQueueLimit,
+     [](ServerConfig& c, std::int64_t v) { c.queue_limit = static_cast<std::size_t>(v); }},
+    {"max_connections", kConnections,
+     [](ServerConfig& c, std::int64_t v) { c.max_connections = static_cast<std::size_t>(v); }},
+    {"backlog", kBacklog, [](ServerConfig& c, std::int64_t v) { c.backlog = static_cast<int>(v); }},
+    {"max_header_bytes", kHeaderBytes,
+     [](ServerConfig& c, std::int64_t v) { c.max_header_bytes = static_cast<std::size_t>(v); }},
+    {"header_timeout_s", kTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.header_timeout_s = static_cast<int>(v); }},
+    {"read_timeout_s", kTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.read_timeout_s = static_cast<int>(v); }},
+    {"write_timeout_s", kTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.write_timeout_s = static_cast<int>(v); }},
+    {"keep_alive_max_count", kKeepAliveCount,
+     [](ServerConfig& c, std::int64_t v) { c.keep_alive_max_count = static_cast<int>(v); }},
+    {"keep_alive_timeout_s", kTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.keep_alive_timeout_s = static_cast<int>(v); }},
+};
+
+const NumberOption* FindNumberOption(const std::string& key) {
+  for (const auto& o : kNumberOptions) {
+    if (key == o.key) return &o;
+  }
+  return nullptr;
+}
+
+// "--max-upload-bytes" → "max_upload_bytes"; empty when not an option.
+std::string KeyOfFlag(const std::string& flag) {
+  if (flag.rfind("--", 0) != 0 || flag.find('_') != std::string::npos) return {};
+  std::string key = flag.substr(2);
+  for (auto& c : key) c = c == '-' ? '_' : c;
+  return key;
+}
 
 std::string RangeText(const Range& r) {
   return "a whole number from " + std::to_string(r.lo) + " to " + std::to_string(r.hi) + r.unit;
@@ -113,20 +164,8 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
         cfg.web_root = v.get<std::string>();
       } else if (key == "demo_data") {
         cfg.demo_data = v.get<bool>();
-      } else if (key == "max_upload_bytes") {
-        cfg.max_upload_bytes = static_cast<std::size_t>(WholeFromJson(v, kUploadBytes, path, key));
-      } else if (key == "threads") {
-        cfg.threads = static_cast<int>(WholeFromJson(v, kThreads, path, key));
-      } else if (key == "queue_limit") {
-        cfg.queue_limit = static_cast<std::size_t>(WholeFromJson(v, kQueueLimit, path, key));
-      } else if (key == "read_timeout_s") {
-        cfg.read_timeout_s = static_cast<int>(WholeFromJson(v, kTimeout, path, key));
-      } else if (key == "write_timeout_s") {
-        cfg.write_timeout_s = static_cast<int>(WholeFromJson(v, kTimeout, path, key));
-      } else if (key == "keep_alive_max_count") {
-        cfg.keep_alive_max_count = static_cast<int>(WholeFromJson(v, kKeepAliveCount, path, key));
-      } else if (key == "keep_alive_timeout_s") {
-        cfg.keep_alive_timeout_s = static_cast<int>(WholeFromJson(v, kTimeout, path, key));
+      } else if (const auto* o = FindNumberOption(key)) {
+        o->set(cfg, WholeFromJson(v, o->range, path, key));
       } else if (key == "modbus_config") {
         cfg.modbus_config = v.get<std::string>();
       } else {
@@ -167,10 +206,8 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
       cfg.modbus_config = value();
     } else if (a == "--demo-data") {
       cfg.demo_data = true;
-    } else if (a == "--threads") {
-      cfg.threads = static_cast<int>(WholeFromText(value(), kThreads, "", a));
-    } else if (a == "--max-upload-bytes") {
-      cfg.max_upload_bytes = static_cast<std::size_t>(WholeFromText(value(), kUploadBytes, "", a));
+    } else if (const auto* o = FindNumberOption(KeyOfFlag(a))) {
+      o->set(cfg, WholeFromText(value(), o->range, "", a));
     } else {
       throw InvalidInput("", 0, a, "unknown option");
     }

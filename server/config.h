@@ -14,22 +14,30 @@ struct ServerConfig {
   std::string web_root;    // empty: <repo>/web/static found next to the binary
   bool demo_data = false;  // load demo data when the database is empty
   std::size_t max_upload_bytes = 32u << 20;
+  // The HTTP layer (docs/http.md).
   int threads = 8;
+  int io_threads = 1;
   std::size_t queue_limit = 64;  // requests waiting for a thread; more are refused
+  std::size_t max_connections = 4096;
+  int backlog = 1024;
+  std::size_t max_header_bytes = 16u << 10;
+  int header_timeout_s = 10;
   int read_timeout_s = 10;
   int write_timeout_s = 10;
-  int keep_alive_max_count = 100;
+  int keep_alive_max_count = 1000;
   int keep_alive_timeout_s = 5;
   std::string modbus_config;  // Modbus TCP devices to acquire from (docs/modbus.md); empty: none
 };
 
 // Applies a JSON config file: keys listen ("HOST:PORT"), data_dir, web_root, demo_data,
-// max_upload_bytes, threads, queue_limit, read_timeout_s, write_timeout_s,
-// keep_alive_max_count, keep_alive_timeout_s, modbus_config. Unknown keys are an error (typos are
-// not ignored). Numbers must be whole and within range (the command line too): threads 1–256,
-// queue_limit and keep_alive_max_count 1–1 000 000, timeouts 1–3600 s, max_upload_bytes
-// 1 B–4 GiB, port 0–65535 (0: any free port); data_dir must not be empty. Anything else is
-// km::InvalidInput naming the option or key.
+// modbus_config, and the whole numbers max_upload_bytes, threads, io_threads, queue_limit,
+// max_connections, backlog, max_header_bytes, header_timeout_s, read_timeout_s, write_timeout_s,
+// keep_alive_max_count, keep_alive_timeout_s (each also a command-line option, e.g.
+// --header-timeout-s). Unknown keys are an error (typos are not ignored). Numbers must be whole
+// and within range: threads 1–256, io_threads 1–64, queue_limit, keep_alive_max_count and
+// max_connections 1–1 000 000, backlog 1–65535, max_header_bytes 1 KiB–1 MiB, timeouts
+// 1–3600 s, max_upload_bytes 1 B–4 GiB, port 0–65535 (0: any free port); data_dir must not be
+// empty. Anything else is km::InvalidInput naming the option or key.
 void ApplyConfigFile(ServerConfig& cfg, const std::string& path);
 // Applies "HOST:PORT".
 void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where);

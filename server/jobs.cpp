@@ -58,8 +58,8 @@ JobQueue::~JobQueue() {
 std::int64_t JobQueue::Submit(const std::string& kind, const nlohmann::json& request, Work work) {
   std::lock_guard lock(mu_);
   if (queue_.size() >= max_queued_) {
-    throw Error("the job queue is full (" + std::to_string(max_queued_) +
-                " jobs waiting); try again later");
+    throw Unavailable("the job queue is full (" + std::to_string(max_queued_) +
+                      " jobs waiting); try again later");
   }
   const std::int64_t id = storage_.CreateJob(kind, request.dump());
   queue_.emplace_back(id, std::move(work));

@@ -64,6 +64,32 @@ TEST_F(ServerConfigTest, AcceptsSensibleOptions) {
   EXPECT_EQ(ParseServerArgs({"--threads", "5", "--config", File(R"({"threads": 3})")}).threads, 5);
 }
 
+TEST_F(ServerConfigTest, HttpLimitsFromFileAndCommandLine) {
+  const auto f = ParseServerArgs({"--config", File(R"({"io_threads": 2, "max_connections": 10,
+      "backlog": 64, "max_header_bytes": 8192, "header_timeout_s": 3})")});
+  EXPECT_EQ(f.io_threads, 2);
+  EXPECT_EQ(f.max_connections, 10u);
+  EXPECT_EQ(f.backlog, 64);
+  EXPECT_EQ(f.max_header_bytes, 8192u);
+  EXPECT_EQ(f.header_timeout_s, 3);
+  const auto c = ParseServerArgs({"--max-connections", "5", "--header-timeout-s", "7",
+                                  "--queue-limit", "9", "--keep-alive-timeout-s", "2"});
+  EXPECT_EQ(c.max_connections, 5u);
+  EXPECT_EQ(c.header_timeout_s, 7);
+  EXPECT_EQ(c.queue_limit, 9u);
+  EXPECT_EQ(c.keep_alive_timeout_s, 2);
+  for (const auto& [flag, v] :
+       std::vector<std::pair<std::string, std::string>>{{"--max-connections", "0"},
+                                                        {"--io-threads", "65"},
+                                                        {"--backlog", "-1"},
+                                                        {"--max-header-bytes", "100"},
+                                                        {"--header-timeout-s", "0"}}) {
+    SCOPED_TRACE(flag + " " + v);
+    ExpectRefused({flag, v}, flag);
+  }
+  ExpectRefused({"--max_connections", "5"}, "--max_connections");  // options use '-'
+}
+
 TEST_F(ServerConfigTest, RefusesOutOfRangeAndNonIntegerOptions) {
   for (const char* v :
        {"0", "-1", "257", "8abc", "abc", "", "1e3", "2.5", " 8", "+8", "99999999999999999999"}) {
