@@ -27,7 +27,6 @@ using nlohmann::json;
 
 constexpr const char* kToken = "stream-test-token";
 constexpr const char* kBinary = "application/vnd.kinemetric.stream-frame";
-constexpr const char* kNdjson = "application/x-ndjson";
 
 // Sensor value of channel c at counter k: smooth, distinct per channel, not a round number.
 double Value(std::uint32_t c, std::uint64_t k) {
@@ -210,6 +209,8 @@ TEST_F(StreamIntegration, KM_SUSTAINED_TEST_NAME) {
 }
 
 #ifndef KM_STREAM_SOAK_ONLY
+
+constexpr const char* kNdjson = "application/x-ndjson";
 
 TEST_F(StreamIntegration, NdjsonResendsBadLinesAndRestart) {
   std::int64_t id = 0;
