@@ -360,7 +360,16 @@ TEST_F(ServerIntegration, TrackerSurveyIsSelfCalibratedAtUpload) {
   std::fwrite(body.data(), 1, body.size(), fp);
   std::fclose(fp);
   const json cli = json::parse(RunCli("tracker selfcal '" + f.string() + "' --json"));
-  EXPECT_EQ(cli["volumetric_error_um"], res["volumetric_error_um"]);
+  // The same numbers to well below a nanometre: the least-squares solve goes through the
+  // system's BLAS, whose summation order may differ between two processes (1e-10 µm seen).
+  ASSERT_EQ(cli["volumetric_error_um"].size(), res["volumetric_error_um"].size());
+  for (std::size_t i = 0; i < res["volumetric_error_um"].size(); ++i) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      EXPECT_NEAR(cli["volumetric_error_um"][i][k].get<double>(),
+                  res["volumetric_error_um"][i][k].get<double>(), 1e-6)
+          << "point " << i << " axis " << k;
+    }
+  }
 
   // Three trackers cannot self-calibrate: refused with a clear problem, nothing stored.
   auto three = sim.readings;
