@@ -54,9 +54,14 @@ std::optional<std::string> NormalizeIso8601(const std::string& text) {
     t -= p->offset_sign * (p->offset_hours * 60 + p->offset_minutes) * 60;
   }
   std::tm out{};
-  gmtime_r(&t, &out);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &out);
+  // A zone offset may move a time out of the years 0000–9999, which have no ISO 8601 text of
+  // this form: not a time (its text would not read back).
+  if (!gmtime_r(&t, &out) || out.tm_year < -1900 || out.tm_year > 9999 - 1900) {
+    return std::nullopt;
+  }
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d", out.tm_year + 1900,
+                out.tm_mon + 1, out.tm_mday, out.tm_hour, out.tm_min, out.tm_sec);
   std::string s = buf;
   if (p->has_seconds && !p->fraction.empty()) s += "." + p->fraction.substr(0, 6);
   return s + "Z";
