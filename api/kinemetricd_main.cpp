@@ -57,6 +57,9 @@ int main(int argc, char** argv) {
     auto storage = std::make_unique<km::server::SqliteStorage>(db_path);
     km::server::ServiceOptions so;
     so.max_upload_bytes = cfg.max_upload_bytes;
+    km::server::ApplyUploadLimits(cfg, so.upload_limits);
+    so.max_calibration_tests = cfg.max_calibration_tests;
+    so.max_calibration_samples = cfg.max_calibration_samples;
     km::server::Service service(std::move(storage), so);
     km::server::RegisterBuiltinKinds(service);
 

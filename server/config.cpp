@@ -27,6 +27,7 @@ constexpr Range kIoThreads{1, 64, ""};
 constexpr Range kConnections{1, 1'000'000, ""};
 constexpr Range kBacklog{1, 65535, ""};
 constexpr Range kHeaderBytes{1024, 1 << 20, " bytes"};
+constexpr Range kCount{1, std::int64_t{1} << 40, ""};
 
 // Every whole-number setting: its config-file key (the command-line option is "--" + key with
 // '-' for '_'), its range and where it goes.
@@ -56,6 +57,14 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.write_timeout_s = static_cast<int>(v); }},
     {"keep_alive_max_count", kKeepAliveCount,
      [](ServerConfig& c, std::int64_t v) { c.keep_alive_max_count = static_cast<int>(v); }},
+    {"max_calibration_tests", kCount,
+     [](ServerConfig& c, std::int64_t v) {
+       c.max_calibration_tests = static_cast<std::size_t>(v);
+     }},
+    {"max_calibration_samples", kCount,
+     [](ServerConfig& c, std::int64_t v) {
+       c.max_calibration_samples = static_cast<std::size_t>(v);
+     }},
     {"keep_alive_timeout_s", kTimeout,
      [](ServerConfig& c, std::int64_t v) { c.keep_alive_timeout_s = static_cast<int>(v); }},
 };
@@ -115,6 +124,34 @@ std::int64_t WholeFromJson(const nlohmann::json& v, const Range& r, const std::s
   return out;
 }
 
+// The fields of one format's upload limits, by config name.
+std::size_t ingest::TextLimits::*LimitField(const std::string& name) {
+  if (name == "max_rows") return &ingest::TextLimits::max_rows;
+  if (name == "max_line_bytes") return &ingest::TextLimits::max_line_bytes;
+  if (name == "max_columns") return &ingest::TextLimits::max_columns;
+  if (name == "max_cells") return &ingest::TextLimits::max_cells;
+  if (name == "max_header_lines") return &ingest::TextLimits::max_header_lines;
+  if (name == "max_markers") return &ingest::TextLimits::max_markers;
+  return nullptr;
+}
+
+void ReadUploadLimits(ServerConfig& cfg, const nlohmann::json& v, const std::string& path) {
+  if (!v.is_object()) {
+    throw InvalidInput(path, 0, "upload_limits", "must be an object of formats");
+  }
+  for (const auto& [format, fields] : v.items()) {
+    const std::string where = "upload_limits." + format;
+    if (format.find('/') == std::string::npos || !fields.is_object()) {
+      throw InvalidInput(path, 0, where, "expected \"NAME/VERSION\": {limits}");
+    }
+    for (const auto& [name, n] : fields.items()) {
+      if (!LimitField(name)) throw InvalidInput(path, 0, where + "." + name, "unknown limit");
+      cfg.upload_limits[format][name] =
+          static_cast<std::size_t>(WholeFromJson(n, kCount, path, where + "." + name));
+    }
+  }
+}
+
 std::string NonEmpty(const std::string& v, const std::string& where, const std::string& field) {
   if (v.empty()) throw InvalidInput(where, 0, field, "must not be empty");
   return v;
@@ -166,6 +203,8 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
         cfg.demo_data = v.get<bool>();
       } else if (const auto* o = FindNumberOption(key)) {
         o->set(cfg, WholeFromJson(v, o->range, path, key));
+      } else if (key == "upload_limits") {
+        ReadUploadLimits(cfg, v, path);
       } else if (key == "modbus_config") {
         cfg.modbus_config = v.get<std::string>();
       } else {
@@ -174,6 +213,13 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
     } catch (const nlohmann::json::exception& e) {
       throw InvalidInput(path, 0, key, std::string("wrong type: ") + e.what());
     }
+  }
+}
+
+void ApplyUploadLimits(const ServerConfig& cfg, std::map<std::string, ingest::TextLimits>& limits) {
+  for (const auto& [format, fields] : cfg.upload_limits) {
+    auto& l = limits[format];
+    for (const auto& [name, n] : fields) l.*LimitField(name) = n;
   }
 }
 

@@ -2,8 +2,11 @@
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <string>
 #include <vector>
+
+#include "ingest/text_format.h"
 
 namespace km::server {
 
@@ -26,6 +29,13 @@ struct ServerConfig {
   int write_timeout_s = 10;
   int keep_alive_max_count = 1000;
   int keep_alive_timeout_s = 5;
+  // Uploads: per-format limits replacing the defaults (config key upload_limits:
+  // {"kinemetric-dbb/1": {"max_rows": N, "max_line_bytes": N, "max_columns": N, "max_cells": N,
+  // "max_header_lines": N, "max_markers": N}, …}; fields not given keep their defaults), and
+  // hexapod calibration requests.
+  std::map<std::string, std::map<std::string, std::size_t>> upload_limits;
+  std::size_t max_calibration_tests = 500;
+  std::size_t max_calibration_samples = 2'000'000;
   std::string modbus_config;  // Modbus TCP devices to acquire from (docs/modbus.md); empty: none
 };
 
@@ -41,6 +51,8 @@ struct ServerConfig {
 void ApplyConfigFile(ServerConfig& cfg, const std::string& path);
 // Applies "HOST:PORT".
 void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where);
+// Applies the upload_limits overrides of a config onto per-format limits.
+void ApplyUploadLimits(const ServerConfig& cfg, std::map<std::string, ingest::TextLimits>& limits);
 // Parses argv (after the program name); throws km::InvalidInput on a bad option.
 ServerConfig ParseServerArgs(const std::vector<std::string>& args);
 

@@ -90,6 +90,26 @@ TEST_F(ServerConfigTest, HttpLimitsFromFileAndCommandLine) {
   ExpectRefused({"--max_connections", "5"}, "--max_connections");  // options use '-'
 }
 
+TEST_F(ServerConfigTest, UploadLimitsPerFormat) {
+  const auto c = ParseServerArgs({"--config", File(R"({"upload_limits":
+      {"kinemetric-dbb/1": {"max_rows": 1000, "max_line_bytes": 200}},
+      "max_calibration_tests": 20})")});
+  std::map<std::string, ingest::TextLimits> limits;
+  limits["kinemetric-dbb/1"].max_columns = 7;
+  ApplyUploadLimits(c, limits);
+  EXPECT_EQ(limits["kinemetric-dbb/1"].max_rows, 1000u);
+  EXPECT_EQ(limits["kinemetric-dbb/1"].max_line_bytes, 200u);
+  EXPECT_EQ(limits["kinemetric-dbb/1"].max_columns, 7u);  // not given: kept
+  EXPECT_EQ(c.max_calibration_tests, 20u);
+  for (const char* bad : {R"({"upload_limits": 5})", R"({"upload_limits": {"dbb": {}}})",
+                          R"({"upload_limits": {"kinemetric-dbb/1": {"max_rowz": 5}}})",
+                          R"({"upload_limits": {"kinemetric-dbb/1": {"max_rows": 0}}})",
+                          R"({"upload_limits": {"kinemetric-dbb/1": {"max_rows": -5}}})"}) {
+    SCOPED_TRACE(bad);
+    EXPECT_THROW(ParseServerArgs({"--config", File(bad)}), InvalidInput);
+  }
+}
+
 TEST_F(ServerConfigTest, RefusesOutOfRangeAndNonIntegerOptions) {
   for (const char* v :
        {"0", "-1", "257", "8abc", "abc", "", "1e3", "2.5", " 8", "+8", "99999999999999999999"}) {
