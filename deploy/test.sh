@@ -33,6 +33,8 @@ for b in build/bench/*; do
   [ -x "$b" ] || continue
   "$b" --benchmark_min_time=0.01 >/dev/null
 done
+echo "== HTTP load benchmark (short form; full figures: tests/bench/http/load_bench.py)"
+/usr/bin/python3 tests/bench/http/load_bench.py build/bin/kinemetricd --seconds 2 --idle 200 --slow 20
 
 if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
   echo "== AddressSanitizer + UBSan build"
