@@ -101,10 +101,12 @@ UploadOutcome Service::Upload(std::string_view bytes, const std::string& filenam
 }
 
 nlohmann::json Service::Results(std::int64_t id) {
-  const auto rec = storage_->GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
   const auto results = storage_->GetResults(id);
   if (results.empty()) {
+    // One query in the common case; the second only tells the two refusals apart.
+    if (!storage_->GetMeasurement(id)) {
+      throw NotFound("measurement " + std::to_string(id) + " does not exist");
+    }
     throw NotFound("measurement " + std::to_string(id) + " has no stored results");
   }
   // Newest stored result (results are appended as analysis versions are added).
