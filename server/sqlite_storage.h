@@ -13,7 +13,7 @@ struct sqlite3;
 
 namespace km::server {
 
-class SqliteStorage final : public Storage {
+class SqliteStorage : public Storage {  // tests wrap single calls of it
  public:
   // Opens (creating if needed) the database file and brings its schema up to date.
   explicit SqliteStorage(const std::string& path);

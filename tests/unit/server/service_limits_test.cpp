@@ -26,9 +26,9 @@ namespace {
 namespace fs = std::filesystem;
 
 // SQLite storage that counts the measurement files read, and on which thread.
-class CountingStorage final : public Storage {
+class CountingStorage final : public SqliteStorage {
  public:
-  explicit CountingStorage(const std::string& path) : inner_(path) {}
+  explicit CountingStorage(const std::string& path) : SqliteStorage(path) {}
 
   std::size_t RawReads() const { return raw_reads_.load(); }
   std::size_t RawReadsOn(std::thread::id thread) {
@@ -47,70 +47,10 @@ class CountingStorage final : public Storage {
       ids_.insert(id);
     }
     ++raw_reads_;
-    return inner_.GetRaw(id);
-  }
-
-  PutOutcome PutMeasurement(const NewMeasurement& m, const std::vector<NewResult>& r) override {
-    return inner_.PutMeasurement(m, r);
-  }
-  std::optional<MeasurementRecord> GetMeasurement(std::int64_t id) override {
-    return inner_.GetMeasurement(id);
-  }
-  std::optional<std::int64_t> FindBySha256(const std::string& sha256) override {
-    return inner_.FindBySha256(sha256);
-  }
-  SampleBlock GetSamples(std::int64_t id) override { return inner_.GetSamples(id); }
-  MeasurementPage ListMeasurements(const MeasurementFilter& f) override {
-    return inner_.ListMeasurements(f);
-  }
-  std::vector<ResultRecord> GetResults(std::int64_t id) override { return inner_.GetResults(id); }
-  void PutResult(std::int64_t id, const NewResult& r) override { inner_.PutResult(id, r); }
-  std::vector<MachineSummary> ListMachines() override { return inner_.ListMachines(); }
-  std::int64_t CreateJob(const std::string& kind, const std::string& request_json) override {
-    return inner_.CreateJob(kind, request_json);
-  }
-  void UpdateJob(const JobRecord& job) override { inner_.UpdateJob(job); }
-  std::optional<JobRecord> GetJob(std::int64_t id) override { return inner_.GetJob(id); }
-  std::vector<JobRecord> ListJobs(std::int64_t limit) override { return inner_.ListJobs(limit); }
-  int FailInterruptedJobs(const std::string& reason) override {
-    return inner_.FailInterruptedJobs(reason);
-  }
-  std::int64_t CreateStream(const NewStream& s) override { return inner_.CreateStream(s); }
-  std::optional<StreamRecord> GetStream(std::int64_t id) override { return inner_.GetStream(id); }
-  std::vector<StreamRecord> ListStreams(const std::optional<std::string>& machine_id,
-                                        std::int64_t limit) override {
-    return inner_.ListStreams(machine_id, limit);
-  }
-  void AppendStream(const std::vector<StreamChunk>& chunks,
-                    const std::vector<StreamGap>& gaps) override {
-    inner_.AppendStream(chunks, gaps);
-  }
-  std::vector<StreamChannelSummary> StreamChannels(std::int64_t stream_id) override {
-    return inner_.StreamChannels(stream_id);
-  }
-  std::vector<StreamChunk> ReadStreamChunks(std::int64_t stream_id, std::int64_t channel,
-                                            std::int64_t from_us, std::int64_t to_us,
-                                            bool with_data) override {
-    return inner_.ReadStreamChunks(stream_id, channel, from_us, to_us, with_data);
-  }
-  std::string ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
-                                  std::int64_t first_counter) override {
-    return inner_.ReadStreamChunkData(stream_id, channel, first_counter);
-  }
-  std::vector<StreamGap> StreamGaps(std::int64_t stream_id, std::int64_t limit) override {
-    return inner_.StreamGaps(stream_id, limit);
-  }
-  std::int64_t CountTokens() override { return inner_.CountTokens(); }
-  void PutToken(const std::string& token_sha256, const std::string& role,
-                const std::string& label) override {
-    inner_.PutToken(token_sha256, role, label);
-  }
-  std::optional<std::string> FindTokenRole(const std::string& token_sha256) override {
-    return inner_.FindTokenRole(token_sha256);
+    return SqliteStorage::GetRaw(id);
   }
 
  private:
-  SqliteStorage inner_;
   std::atomic<std::size_t> raw_reads_{0};
   std::mutex mu_;
   std::map<std::thread::id, std::size_t> by_thread_;
