@@ -11,7 +11,7 @@
 #   KINEMETRIC_FUZZ_SECONDS=N            fuzzing time per target (default 20)
 #   KINEMETRIC_FUZZ_FLAGS="..."          extra libFuzzer flags (e.g. -jobs=2, -seed=1)
 set -uo pipefail
-cd "$(dirname "$0")/../.."
+cd "$(dirname "$0")/../.." || exit 1
 
 build=${KINEMETRIC_FUZZ_BUILD:-build-fuzz}
 seconds=${KINEMETRIC_FUZZ_SECONDS:-20}
