@@ -50,7 +50,10 @@ inline std::int64_t WholeNumber(const nlohmann::json& j, const std::string& key,
     if (!fallback) throw InvalidInput(kFile, 0, key, "a whole number is required");
     return *fallback;
   }
-  if (!j[key].is_number_integer() || j[key].get<std::int64_t>() < lo ||
+  // A whole number above the int64 range arrives unsigned; read as int64 it would wrap around.
+  const bool beyond_int64 = j[key].is_number_unsigned() &&
+                            j[key].get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX);
+  if (!j[key].is_number_integer() || beyond_int64 || j[key].get<std::int64_t>() < lo ||
       j[key].get<std::int64_t>() > hi) {
     throw InvalidInput(
         kFile, 0, key,
