@@ -1,8 +1,8 @@
 // `kinemetric hexapod calibrate --machine M.json FILE… [--method absolute|centre-corrected]
 //  [--write-machine OUT.json] [--max-samples-per-test N] [--reduction-study MIN_TESTS] [--json]`
 //  (contract §3): 24-parameter kinematic calibration of a
-// hexapod from DBB files (seed 000 §2.2–2.3), with the post-calibration prediction of every
-// trace (seed 000 eq. 5.2). Parsing in ingest/, numerics in analysis/hexapod, JSON mapping here.
+// hexapod from DBB files ([PM-600 report] §2.2–2.3), with the post-calibration prediction of every
+// trace ([PM-600 report] eq. 5.2). Parsing in ingest/, numerics in analysis/hexapod, JSON mapping here.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -41,7 +41,7 @@ int RunHexapodCalibrate(const Args& args, std::ostream& out) {
     throw InvalidInput("", 0, "--max-samples-per-test", "must be a non-negative integer");
   }
   study.max_samples_per_test = static_cast<int>(max_samples);
-  if (args.Has("--reduction-study")) {  // seed 000 §5.2.3
+  if (args.Has("--reduction-study")) {  // [PM-600 report] §5.2.3
     const double min_groups = args.GetNumber("--reduction-study", 8);
     if (!(min_groups >= 1 && min_groups <= 1000) || min_groups != std::floor(min_groups)) {
       throw InvalidInput("", 0, "--reduction-study", "must be a positive integer (minimum tests)");

@@ -1,5 +1,5 @@
 // `kinemetric tracker selfcal FILE [--json]`: laser-tracker multilateration self-calibration
-// (seed 001) and volumetric error map with its geometric decomposition.
+// ([Tracker paper]) and volumetric error map with its geometric decomposition.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

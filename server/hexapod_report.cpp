@@ -17,7 +17,7 @@ nlohmann::json ParameterJson(const hexapod::ParameterVector& k) {
   return {{"strut_offset_um", strut}, {"base_joint_offset_um", base}};
 }
 
-// Seed 000 table 2.2 figures of one trace: centre deviation |(X0, Y0)| (absolute mode: the
+// [PM-600 report] table 2.2 figures of one trace: centre deviation |(X0, Y0)| (absolute mode: the
 // machine's centre positioning error against the jig ball), average radial error, circularity.
 void AddFigures(nlohmann::json& t, const dbb::DbbTest& test, const std::string& suffix) {
   const auto f = dbb::AnalyzeCircularTest(test);
@@ -105,7 +105,7 @@ CalibrationOutcome RunCalibrationStudy(const CalibrationStudy& study, const Prog
   out.report = CalibrationJson(result, pred, study.names, study.tests);
   out.calibrated = study.machine;
   out.calibrated.geometry = result.calibrated;
-  if (study.reduction_min_tests > 0) {  // seed 000 §5.2.3
+  if (study.reduction_min_tests > 0) {  // [PM-600 report] §5.2.3
     report(0.7, "test-set reduction study");
     nlohmann::json steps = nlohmann::json::array();
     for (const auto& st : hexapod::TestSetReductionStudy(study.machine.geometry, study.tests,

@@ -153,7 +153,7 @@ CircularTestResult AnalyzeCircularTest(const DbbTest& test) {
     r.mean_radial_error_about_fixed_ball_um = mean / static_cast<double>(n);
   }
 
-  // Planar representation in µm about the commanded centre (seed 000 §4.2.4).
+  // Planar representation in µm about the commanded centre ([PM-600 report] §4.2.4).
   const double r_um = test.radius_mm * 1000.0;
   std::vector<Eigen::Vector2d> pts(n);
   for (std::size_t i = 0; i < n; ++i) {

@@ -1,4 +1,4 @@
-// Circular-test (DBB) figures of seed 000 §4.2.4 (eqs. 4.6–4.8):
+// Circular-test (DBB) figures of [PM-600 report] §4.2.4 (eqs. 4.6–4.8):
 //
 //   planar representation  X_n = (R + ΔR_n) cos θ_n,  Y_n = (R + ΔR_n) sin θ_n
 //   least-squares circle    (X0, Y0, R0) = argmin Σ (|(X_n, Y_n) − (X0, Y0)| − R0)²     (4.6)
@@ -15,7 +15,7 @@
 // Modes:
 //  * centre_corrected (no fixed_ball_mm): the fitted centre absorbs set-up errors (fixed-ball
 //    placement, moving-ball run-out); the centre offset is reported but is not a machine error.
-//  * absolute (fixed_ball_mm given, seed 000 §2.3 "jig"): the nominal bar length for a perfect
+//  * absolute (fixed_ball_mm given, [PM-600 report] §2.3 "jig"): the nominal bar length for a perfect
 //    machine, |P_cmd(θ) − F|, is computed in 3-D from the commanded circle (centre, radius,
 //    z offset, plane) and the measured fixed ball F, and subtracted. What remains is the
 //    machine's own error, so the fitted centre is the machine's positioning error of the circle

@@ -1,6 +1,6 @@
 // One entry point for the DBB analysis of a set of tests (CLI `dbb analyze`, API results):
 //
-//  per test   circular-test figures (circular_test.h, seed 000 eqs. 4.6–4.8), minimum-zone
+//  per test   circular-test figures (circular_test.h, [PM-600 report] eqs. 4.6–4.8), minimum-zone
 //             circularity (analysis/geometry/min_zone_circle.h), ISO 230-4 figures (iso230.h),
 //             harmonics of the radial error (harmonics.h) and the named diagnosis (diagnosis.h);
 //  per pair   one cw + one ccw test with the same test_id: circular hysteresis and
@@ -15,7 +15,7 @@
 // servo_lag vs radius_error: both are constant radius changes in one test; they are separated
 // only when the set holds tests of the same machine, plane, radius and centre at different
 // feeds: the units' mean radius changes m_i are regressed as m_i = ρ + c·g_i with
-// g_i = −V_i²/(2R) (seed 002 eq. 2.1, c = (1 − K_f²)/K_pp²); then radius_error = ρ and
+// g_i = −V_i²/(2R) ([Fujita thesis] eq. 2.1, c = (1 − K_f²)/K_pp²); then radius_error = ρ and
 // servo_lag = c·g_i for each test. Otherwise the whole mean change is reported as radius_error.
 #pragma once
 

@@ -2,7 +2,7 @@
 //
 // Per trace:
 //  * circular deviation G: range of the radial deviation about the least-squares circle centre
-//    (= circularity_um of seed 000 eq. 4.8);
+//    (= circularity_um of [PM-600 report] eq. 4.8);
 //  * radial deviation F_max / F_min: deviation of the actual radius from the NOMINAL radius R,
 //      centre_corrected mode: measured from the least-squares centre, F = |P − c_LS| − R;
 //      absolute mode:         measured from the nominal centre (the measured fixed ball),

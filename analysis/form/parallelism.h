@@ -1,4 +1,4 @@
-// Parallelism of an axis to a datum (e.g. the T-slot, seed 000 §2.4 fig. 2.4(b): 78 / 71 um
+// Parallelism of an axis to a datum (e.g. the T-slot, [PM-600 report] §2.4 fig. 2.4(b): 78 / 71 um
 // conventional, 19 um with the jig over X380 mm): the distance d(x) from the datum read while
 // the axis travels.
 //

@@ -1,6 +1,6 @@
 // Periodic components of a residual profile r(x) sampled at arbitrary (non-uniform) positions,
-// e.g. guide waviness (seed 002 fig. 4.10: 0.4 um P-V, ~55 mm period) or ball-screw lead
-// error (seed 002 ch. 8: 10 mm lead).
+// e.g. guide waviness ([Fujita thesis] fig. 4.10: 0.4 um P-V, ~55 mm period) or ball-screw lead
+// error ([Fujita thesis] ch. 8: 10 mm lead).
 //
 // Baseline: a polynomial of degree detrend_degree (default 2: offset, slope, bow) is removed
 // first and fitted jointly with every sinusoid, so smooth form is not reported as long periods.

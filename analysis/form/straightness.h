@@ -7,9 +7,9 @@
 //                               all points (exact: convex hull + rotating calipers)
 //   straightness_end_point_um = max - min of e_i about the line through the first and last point
 //   slope_um_per_m            = 1000 m of the least-squares line (first-order component, e.g.
-//                               squareness + artefact set-up, seed 002 ch. 8)
+//                               squareness + artefact set-up, [Fujita thesis] ch. 8)
 //   periodic[]                = significant periodic components of the least-squares residual
-//                               (analysis/form/periodic.h; seed 002 fig. 4.10 and ch. 8)
+//                               (analysis/form/periodic.h; [Fujita thesis] fig. 4.10 and ch. 8)
 //
 // Reversal (straightedge / optical-flat reversal). Sign convention: in set-up a the sensor
 // reads a(x) = M(x) + S(x), M the machine (carriage) straightness error, S the artefact form

@@ -1,4 +1,4 @@
-// Least-squares circle fit (seed 000 eq. 2.6 / 4.6):
+// Least-squares circle fit ([PM-600 report] eq. 2.6 / 4.6):
 //
 //   min over (x0, y0, r0) of  Σ_n ( sqrt((x_n − x0)² + (y_n − y0)²) − r0 )²
 //

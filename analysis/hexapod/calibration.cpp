@@ -201,7 +201,7 @@ void AnalyzeObservability(CalibrationProblem& problem) {
   null_dim += static_cast<int>(kNumKinematicParameters - sv.size());
   if (null_dim == 0) return;
   const Eigen::MatrixXd N = V.rightCols(null_dim);  // 24 × k null-space basis
-  // Prefer fixing base-joint coordinates (seed 000 §2.2): pivot among them first.
+  // Prefer fixing base-joint coordinates ([PM-600 report] §2.2): pivot among them first.
   auto pick = [&](int first) -> std::vector<int> {
     const Eigen::MatrixXd Nt = N.bottomRows(kNumKinematicParameters - first).transpose();
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Nt);

@@ -1,19 +1,19 @@
-// Kinematic calibration of a hexapod from DBB circular tests (seed 000 §2.2, §2.3, §5.2).
+// Kinematic calibration of a hexapod from DBB circular tests ([PM-600 report] §2.2, §2.3, §5.2).
 //
 // Parameters K (24, µm, relative to the nominal model the controller used during the tests):
 //   K[0..5]          Δo_j   strut offsets (true strut length − length the nominal commands)
 //   K[6 + 3j + c]    ΔQ_j,c base joint j, coordinate c (true − nominal), machine frame
-// Platform joints and tool length are taken as known (seed 000: measured by CMM).
+// Platform joints and tool length are taken as known ([PM-600 report]: measured by CMM).
 //
 // Measurement model for one sample of one test (commanded pose T, controller commands
 // s = IK_nominal(T)):   f(K) = |tip(FK_{nominal+K}(s)) − F| ,
 // residual r = 1000·(f(K) − (R_DBB + ΔR/1000)) µm. The pose derivative follows from the implicit
 // function theorem on IK_K(T') = s:  ∂f/∂Δo_j = w_j,  ∂f/∂ΔQ_j = w_j·u_jᵀ,  w = J⁻ᵀ[e; 0],
 // with J = ∂s/∂T at the real pose, u_j the unit strut vectors and e the unit bar vector.
-// Gauss–Newton on this model is seed 000 eqs. 2.2–2.5 (ΔR = A·ΔK); Ceres solves it.
+// Gauss–Newton on this model is [PM-600 report] eqs. 2.2–2.5 (ΔR = A·ΔK); Ceres solves it.
 //
 // Methods:
-//  * absolute (jig, seed 000 §2.3.3): F is the measured fixed ball of each test; all 24
+//  * absolute (jig, [PM-600 report] §2.3.3): F is the measured fixed ball of each test; all 24
 //    parameters are normally observable.
 //  * centre_corrected (conventional): F of every test is unknown and estimated as a nuisance
 //    parameter. A rigid motion of the whole base (6 combinations) is then invisible; the rank
@@ -149,7 +149,7 @@ void FillStatistics(const CalibrationProblem& problem, CalibrationResult& result
 CalibrationResult Calibrate(const HexapodGeometry& nominal, const std::vector<dbb::DbbTest>& tests,
                             const CalibrationOptions& options);
 
-// ---- Post-calibration prediction, seed 000 eq. 5.2 ----
+// ---- Post-calibration prediction, [PM-600 report] eq. 5.2 ----
 //
 //   R̂²_i = R̂¹_i + f(K2) − f(K1),   f(K_nc) = |tip(FK_{K2}(IK_{K_nc}(T_i))) − F|
 //
@@ -171,7 +171,7 @@ std::vector<TestPrediction> PredictAfterCalibration(
     const HexapodGeometry& nominal, const HexapodGeometry& calibrated,
     const std::vector<dbb::DbbTest>& tests, const std::vector<Eigen::Vector3d>& fixed_balls_mm);
 
-// ---- Test-set reduction study, seed 000 §5.2.3 ----
+// ---- Test-set reduction study, [PM-600 report] §5.2.3 ----
 // Tests are grouped by test_id (a CW/CCW pair drops together). From k = N groups down to
 // min_groups: drop greedily the group whose removal gives the smallest mean predicted
 // circularity over ALL tests, recalibrate, record.

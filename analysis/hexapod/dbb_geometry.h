@@ -1,11 +1,11 @@
-// Geometry shared by the hexapod DBB simulation and calibration (contract §1.1, seed 000 §2.3):
+// Geometry shared by the hexapod DBB simulation and calibration (contract §1.1, [PM-600 report] §2.3):
 //
 //   plane axes (e1, e2, n): XY → (x, y, z), YZ → (y, z, x), ZX → (z, x, y)
 //   commanded moving ball  M(θ) = c + z_offset·n + R·(cos θ·e1 + sin θ·e2)
 //   nominal fixed ball     F = c  (the commanded circle centre, contract §1.1 `centre_mm`)
 //   commanded tool pose    T(θ) = (M(θ), A, B, C) with the test's tilt
 //
-// and the circularity of a trace (seed 000 eqs. 4.6–4.8): X_n = (R + ΔR_n) cos θ_n,
+// and the circularity of a trace ([PM-600 report] eqs. 4.6–4.8): X_n = (R + ΔR_n) cos θ_n,
 // Y_n = (R + ΔR_n) sin θ_n, least-squares circle (X0, Y0, R0), circularity = range of
 // |(X_n, Y_n) − (X0, Y0)| − R0 (the R/R_DBB factors of eqs. 4.7 and 4.8 cancel). One turn is
 // used: samples whose angle lies within 360° of the first sample (half-open).

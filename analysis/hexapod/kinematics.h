@@ -1,4 +1,4 @@
-// Stewart-platform (hexapod) kinematics, seed 000 §1.4.
+// Stewart-platform (hexapod) kinematics, [PM-600 report] §1.4.
 //
 //   pose T = (X, Y, Z, A, B, C) of the TOOL TIP, R = Rx(A)·Ry(B)·Rz(C)            (eq. 1.4)
 //   platform frame: origin at the spindle nose, z up the spindle axis, tool tip at (0,0,−l)
@@ -46,7 +46,7 @@ struct Pose {
   static Pose FromVector(const Vector6d& v);
 };
 
-// R = Rx(A)·Ry(B)·Rz(C), seed 000 eq. 1.4.
+// R = Rx(A)·Ry(B)·Rz(C), [PM-600 report] eq. 1.4.
 Eigen::Matrix3d RotationABC(const Eigen::Vector3d& abc_rad);
 // ∂R/∂A, ∂R/∂B, ∂R/∂C.
 std::array<Eigen::Matrix3d, 3> RotationABCDerivatives(const Eigen::Vector3d& abc_rad);

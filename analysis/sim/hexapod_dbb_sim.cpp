@@ -20,7 +20,7 @@ struct PlanRow {
   double a_deg, b_deg, c_deg;
 };
 
-// Seed 000 table 2.1 (hole × level), with tilts added on some rows.
+// [PM-600 report] table 2.1 (hole × level), with tilts added on some rows.
 constexpr PlanRow kTable21[] = {
     {"a", 9, 1, 0, 0, 0},   {"b", 4, 1, 0, 0, 0},   {"c", 6, 1, 0, 0, 0},   {"d", 8, 1, 0, 0, 0},
     {"e", 2, 1, 0, 0, 0},   {"f", 9, 2, 0, 0, 0},   {"g", 3, 2, 15, 0, 0},  {"h", 5, 2, 0, 15, 0},
@@ -42,7 +42,7 @@ HexapodDbbSpec SpecFromRow(const PlanRow& row, int samples_per_turn) {
   s.test_id = row.id;
   s.centre_mm = JigHole(row.hole, row.level);
   s.tilt_deg = Eigen::Vector3d(row.a_deg, row.b_deg, row.c_deg);
-  if (row.level == 2) {  // cone test (seed 000 §4.2.4): R 144, bar 150, 42 mm offset
+  if (row.level == 2) {  // cone test ([PM-600 report] §4.2.4): R 144, bar 150, 42 mm offset
     s.radius_mm = 144.0;
     s.bar_length_mm = 150.0;
     s.z_offset_mm = 42.0;
@@ -83,7 +83,7 @@ std::vector<HexapodDbbSpec> Table21Plan(int samples_per_turn, bool both_directio
 }
 
 std::vector<HexapodDbbSpec> VerificationPlan(int samples_per_turn) {
-  // Seed 000 table 2.2 positions a, d, f, h, j, k, l, n — here flat and untilted.
+  // [PM-600 report] table 2.2 positions a, d, f, h, j, k, l, n — here flat and untilted.
   std::vector<HexapodDbbSpec> plan;
   for (const auto& row : kTable21) {
     const std::string id = row.id;

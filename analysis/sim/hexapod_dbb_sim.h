@@ -1,4 +1,4 @@
-// Synthetic DBB circular tests on a hexapod with known true parameters (seed 000 §2.3).
+// Synthetic DBB circular tests on a hexapod with known true parameters ([PM-600 report] §2.3).
 //
 // For every sample the controller commands the strut lengths of its own model (normally the
 // nominal machine file): s = IK_ctrl(T(θ)) with T(θ) the commanded tool pose of the test (see
@@ -53,7 +53,7 @@ struct HexapodDbbSimOptions {
   bool absolute = true;   // jig set-up (fixed_ball_mm written) or conventional set-up
   double noise_um = 0.0;  // σ of white Gaussian noise added to every dr sample
   // Jig set-up only: σ (per coordinate) of the difference between where the fixed ball really
-  // sits and the position written to the file (seed 000 §2.3.2: re-seating repeatability
+  // sits and the position written to the file ([PM-600 report] §2.3.2: re-seating repeatability
   // 1.0 µm short / 3.2 µm long support unit).
   double fixed_ball_error_um = 0.0;
   std::uint32_t seed = 1;
@@ -61,13 +61,13 @@ struct HexapodDbbSimOptions {
   StrutErrorHook extra_strut_error;  // optional
 };
 
-// The 15 calibration tests shaped like seed 000 table 2.1: jig holes (9 = centre, 1–8 on a
+// The 15 calibration tests shaped like [PM-600 report] table 2.1: jig holes (9 = centre, 1–8 on a
 // 100 mm ring every 45°) × platform height levels 1–3 (fixed-ball z = −1150, −1050, −950 mm).
 // Level 2 tests are cone tests (R 144, bar 150, z offset 42) and some tests are tilted
 // (|A|, |B| ≤ 15°) so that every kinematic parameter is seen. Both directions when asked.
 std::vector<HexapodDbbSpec> Table21Plan(int samples_per_turn = 720, bool both_directions = true);
 
-// 8 verification positions on the jig (flat, untilted; shape of seed 000 table 2.2).
+// 8 verification positions on the jig (flat, untilted; shape of [PM-600 report] table 2.2).
 std::vector<HexapodDbbSpec> VerificationPlan(int samples_per_turn = 720);
 
 // One simulated test. `rng_seed` seeds the noise of this test only.

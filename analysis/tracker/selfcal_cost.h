@@ -1,4 +1,4 @@
-// Ceres cost functor of one interferometer reading (seed 001 eq. 1 with an explicit dead path):
+// Ceres cost functor of one interferometer reading ([Tracker paper] eq. 1 with an explicit dead path):
 //
 //   r = scale · (|u − U| − L − d)
 //

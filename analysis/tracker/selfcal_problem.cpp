@@ -100,7 +100,7 @@ void SelfCalProblem::CheckCounting() const {
     os << "laser-tracker self-calibration is not observable: the readings must satisfy "
           "m·n ≥ 3m + 4n − 6"
        << (b > 0 ? " + b" : "")
-       << " (m points, n trackers, seed 001 eq. 1 with one dead path per tracker"
+       << " (m points, n trackers, [Tracker paper] eq. 1 with one dead path per tracker"
        << (b > 0 ? ", b beam breaks" : "") << "); here m = " << m << ", n = " << n;
     if (b > 0) os << ", b = " << b;
     os << ": " << readings << " readings < " << unknowns << " unknowns";

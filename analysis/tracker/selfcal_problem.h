@@ -1,4 +1,4 @@
-// Problem description of the multilateration self-calibration (seed 001 §4), separate from the
+// Problem description of the multilateration self-calibration ([Tracker paper] §4), separate from the
 // Ceres-specific solve (selfcal_ceres.h).
 //
 // Unknowns: target positions u_i (3m), tracker positions U_j (3n) and one dead-path length L_s
@@ -6,18 +6,18 @@
 //
 //   r_ij = |u_i − U_j| − L_s(i,j) − d_ij                                          (1)
 //
-// which, with L_s = |u_1 − U_j| for the first segment, is seed 001 eq. 1 written with an
+// which, with L_s = |u_1 − U_j| for the first segment, is [Tracker paper] eq. 1 written with an
 // explicit offset (the least-squares solution of eq. 2 with independent reading noise). The
-// seven-parameter gauge of distances (rigid motion and mirror image) is fixed as in seed 001
+// seven-parameter gauge of distances (rigid motion and mirror image) is fixed as in [Tracker paper]
 // and contract §3: U_1 = 0, U_2 on +x (V_2 = W_2 = 0), U_3 in the xy-plane with V_3 > 0, and
 // W_4 > 0. Counting unknowns: with m points, n trackers and b beam breaks there are
 // 3m + (3n − 6) + (n + b) of them, so the m·n readings must satisfy
 //
 //   m·n ≥ 3m + 4n − 6 + b                                                         (2)
 //
-// (seed 001 lists p = [U2 U3 V3 U4 V4 W4 u1ᵀ … umᵀ] for n = 4; the n offsets are the |u_1 − U_j|
+// ([Tracker paper] lists p = [U2 U3 V3 U4 V4 W4 u1ᵀ … umᵀ] for n = 4; the n offsets are the |u_1 − U_j|
 // that eq. 1 subtracts). n = 3 never satisfies (2); n = 4 needs m ≥ 10 points. The count is
-// necessary, not sufficient: all trackers in one plane (seed 001's set-up, four trackers on the
+// necessary, not sufficient: all trackers in one plane ([Tracker paper]'s set-up, four trackers on the
 // table) leave one direction of the tracker/dead-path parameters free, and nearly coplanar
 // trackers make the solution very uncertain; so do collinear points. The solver checks the
 // rank and condition of the Schur-reduced normal matrix (ComputeCovariance).

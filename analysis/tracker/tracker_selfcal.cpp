@@ -361,7 +361,7 @@ SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOption
       os << "ill-conditioned: condition number " << cov.condition_number << " > "
          << options.max_condition_number;
     }
-    // The usual cause: all trackers in one plane (e.g. all on the table, as in seed 001).
+    // The usual cause: all trackers in one plane (e.g. all on the table, as in [Tracker paper]).
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (const auto& u : state.trackers_mm) mean += u;
     mean /= static_cast<double>(n);

@@ -1,10 +1,10 @@
-// Laser-tracker multilateration self-calibration (seed 001 §4, methods §8).
+// Laser-tracker multilateration self-calibration ([Tracker paper] §4, methods §8).
 //
-// Given each tracker's displacement readings d_ij relative to point 1 (seed 001 eq. 1) and the
+// Given each tracker's displacement readings d_ij relative to point 1 ([Tracker paper] eq. 1) and the
 // commanded target positions c_i, estimate the tracker positions U_j, the true target positions
 // u_i and one dead path per interferometer segment by least squares on
 //
-//   r_ij = |u_i − U_j| − L_s(i,j) − d_ij        (seed 001 eqs. 1–4; see selfcal_problem.h)
+//   r_ij = |u_i − U_j| − L_s(i,j) − d_ij        ([Tracker paper] eqs. 1–4; see selfcal_problem.h)
 //
 // in the gauge of contract §3 (U_1 = 0, U_2 on +x, U_3 in the xy-plane with y > 0, z of
 // U_4 > 0). `simultaneous` (n trackers at once) and `sequential` (one tracker at n stations,

@@ -1,4 +1,4 @@
-// Synthetic laser-tracker surveys for tests, demos and benchmarks (seed 001 set-up: a target on
+// Synthetic laser-tracker surveys for tests, demos and benchmarks ([Tracker paper] set-up: a target on
 // the spindle of a 3-axis machine, trackers around the work volume).
 //
 // The machine places the target at u_i = c_i + e(c_i) with the geometric error model of

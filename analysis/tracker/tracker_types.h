@@ -1,8 +1,8 @@
-// Records of a laser-tracker multilateration survey (seed 001, contract §1.2).
+// Records of a laser-tracker multilateration survey ([Tracker paper], contract §1.2).
 //
 // Tracker j (station j in sequential mode) sits at U_j; the target (a corner cube on the
 // spindle) is commanded to c_i and really stands at u_i. Each tracker's interferometer reads
-// the displacement relative to the first point (seed 001 eq. 1):
+// the displacement relative to the first point ([Tracker paper] eq. 1):
 //
 //   d_ij = |u_i − U_j| − |u_1 − U_j|.
 //

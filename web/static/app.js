@@ -1146,7 +1146,7 @@ function renderCalibrationResult(r) {
   const testsTable = h(
     'table',
     { class: 'figures small calib-tests', 'data-testid': 'calib-tests-table' },
-    h('caption', {}, 'Before and predicted after the correction (seed 000 table 2.2: centre deviation, average radial error, circularity)'),
+    h('caption', {}, 'Before and predicted after the correction ([PM-600 report] table 2.2: centre deviation, average radial error, circularity)'),
     h(
       'thead',
       {},

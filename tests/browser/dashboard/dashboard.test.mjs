@@ -398,7 +398,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
         if (typeof res.min_zone_circularity_um === 'number') {
           assert.equal(await cell('min_zone_circularity_um'), um3(res.min_zone_circularity_um));
         }
-        // Consistency of the two endpoints (radius = bar length here, seed 000 eq. 4.8):
+        // Consistency of the two endpoints (radius = bar length here, [PM-600 report] eq. 4.8):
         // circularity = max − min of the radial error about the fitted centre.
         const pv = Math.max(...trace.radial_error_um) - Math.min(...trace.radial_error_um);
         assert.ok(Math.abs(pv - res.circularity_um) < 0.01, `circularity ${res.circularity_um} vs trace p-v ${pv}`);

@@ -435,7 +435,7 @@ TEST_F(ServerIntegration, HexapodCalibrationRunsAsABackgroundJob) {
     EXPECT_NEAR(res["parameters"]["strut_offset_um"][j].get<double>(), truth_um, 5.0) << j;
   }
   EXPECT_TRUE(res.contains("calibrated_machine"));
-  // Seed 000 table 2.2 shape: the jig calibration removes the centre deviation.
+  // [PM-600 report] table 2.2 shape: the jig calibration removes the centre deviation.
   double before = 0, after = 0;
   for (const auto& t : res["tests"]) {
     before += t["centre_deviation_before_um"].get<double>();

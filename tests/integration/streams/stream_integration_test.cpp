@@ -284,7 +284,7 @@ TEST_F(StreamIntegration, NdjsonResendsBadLinesAndRestart) {
   EXPECT_EQ(list["items"].size(), 1u);
 }
 
-// Seed 002 set-up: a capacitance sensor against an optical flat while X travels at constant
+// [Fujita thesis] set-up: a capacitance sensor against an optical flat while X travels at constant
 // feed; a 55 mm guide waviness of 0.2 µm in 0.02 µm noise. The stream becomes a straightness
 // measurement whose analysis finds the waviness.
 TEST_F(StreamIntegration, StreamBecomesAStraightnessProfile) {

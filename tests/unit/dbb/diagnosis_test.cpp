@@ -92,7 +92,7 @@ TEST(Diagnosis, PerfectMachineSingleTraceNamesNothing) {
 }
 
 TEST(Diagnosis, ConeTestAndAbsoluteModeRecoverInPlaneValues) {
-  // Cone test of seed 000: R = 144 mm, bar 150 mm, moving-ball plane 42 mm above the fixed
+  // Cone test of [PM-600 report]: R = 144 mm, bar 150 mm, moving-ball plane 42 mm above the fixed
   // ball; the bar sees (R / R_DBB)·Δr, the diagnosis scales back to the in-plane error.
   SerialDbbSimOptions o;
   o.seed = 61;

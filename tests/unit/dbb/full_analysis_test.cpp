@@ -98,7 +98,7 @@ TEST(FullAnalysis, ServoLagSeparatedByTwoFeeds) {
   const auto rep = AnalyzeDbbSet(tests);
   for (std::size_t i = 0; i < tests.size(); ++i) {
     const double v = tests[i].feed_mm_min / 60.0;
-    const double expected = -c * 1e-6 * v * v / (2.0 * 150.0) * 1e3;  // seed 002 eq. 2.1, µm
+    const double expected = -c * 1e-6 * v * v / (2.0 * 150.0) * 1e3;  // [Fujita thesis] eq. 2.1, µm
     const auto* re = Find(rep.tests[i], "radius_error");
     ASSERT_NE(re, nullptr);
     EXPECT_NEAR(re->value[0], 1.5, 0.075);

@@ -67,7 +67,7 @@ TEST(CircularTest, AbsoluteModeReportsTheMachineCentreError) {
 }
 
 TEST(CircularTest, ConeTestHonoursRadiusAndBarLength) {
-  // Seed 000 §4.2.4: R = 144 mm, bar 150 mm, moving-ball plane 42 mm above the fixed ball.
+  // [PM-600 report] §4.2.4: R = 144 mm, bar 150 mm, moving-ball plane 42 mm above the fixed ball.
   SynthOptions o;
   o.radius_mm = 144.0;
   o.bar_mm = 150.0;

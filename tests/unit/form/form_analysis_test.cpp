@@ -1,6 +1,6 @@
 // Straightness, periodic components, reversal, flatness and parallelism: synthetic
-// recover-the-truth tests with seeded noise (seed 002 fig. 4.10 waviness, seed 002 ch. 8 lead
-// error and set-up slope, seed 000 fig. 2.4 flatness / parallelism set-ups).
+// recover-the-truth tests with seeded noise ([Fujita thesis] fig. 4.10 waviness, [Fujita thesis] ch. 8 lead
+// error and set-up slope, [PM-600 report] fig. 2.4 flatness / parallelism set-ups).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -58,7 +58,7 @@ TEST(Straightness, RecoversTheSlopeAndBoundsTheReferences) {
 }
 
 TEST(Straightness, FindsGuideWavinessOf55mm) {
-  // Seed 002 fig. 4.10: capacitance sensor against an optical flat, 0.4 um P-V (amplitude
+  // [Fujita thesis] fig. 4.10: capacitance sensor against an optical flat, 0.4 um P-V (amplitude
   // 0.2 um) waviness with a ~55 mm period; here in 0.02 um noise with a set-up slope.
   for (unsigned seed : {201u, 202u, 203u}) {
     std::mt19937 rng(seed);
@@ -107,7 +107,7 @@ TEST(Straightness, ABowIsNotReportedAsAPeriod) {
 }
 
 TEST(Straightness, FindsBallScrewLeadOf10mmUnderASetUpSlope) {
-  // Seed 002 ch. 8: first-order slope (squareness + optical-flat set-up) plus a 10 mm periodic
+  // [Fujita thesis] ch. 8: first-order slope (squareness + optical-flat set-up) plus a 10 mm periodic
   // error (ball-screw lead), sampled non-uniformly.
   for (unsigned seed : {301u, 302u, 303u}) {
     std::mt19937 rng(seed);
@@ -235,7 +235,7 @@ TEST(Flatness, RecoversThePlaneAndStatesItsReferences) {
 }
 
 TEST(Flatness, EightPointTableCheckLikeSeed000) {
-  // Seed 000 fig. 2.4(a): 8 points in X, Y = -260..260, distance to the table read with a
+  // [PM-600 report] fig. 2.4(a): 8 points in X, Y = -260..260, distance to the table read with a
   // micrometer relative to (260, 260). A pure tilt has zero flatness but a large range.
   const std::vector<std::pair<double, double>> pts{
       {-260, -260}, {0, -260}, {260, -260}, {-260, 0}, {260, 0}, {-260, 260}, {0, 260}, {260, 260}};
@@ -265,7 +265,7 @@ TEST(Parallelism, FullRangeSlopeAndLength) {
     std::normal_distribution<double> noise(0.0, 0.3);
     Profile p;
     p.position_mm = JitteredPositions(rng, -190.0, 380.0, 10.0);
-    const double slope_um_per_m = 50.0;  // 19 um over X380 like the jig result of seed 000
+    const double slope_um_per_m = 50.0;  // 19 um over X380 like the jig result of [PM-600 report]
     for (double x : p.position_mm)
       p.deviation_um.push_back(3.0 + 1e-3 * slope_um_per_m * x + noise(rng));
     const ParallelismResult r = AnalyzeParallelism(p);

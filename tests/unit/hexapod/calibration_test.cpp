@@ -1,4 +1,4 @@
-// Hexapod kinematic calibration from simulated DBB tests (seed 000 §2.2–2.4, §5.2):
+// Hexapod kinematic calibration from simulated DBB tests ([PM-600 report] §2.2–2.4, §5.2):
 // analytic cost Jacobian vs numerical differentiation, recovery of the 24 true parameters in
 // absolute (jig) mode, centre-corrected mode up to a rigid base motion, post-calibration
 // prediction (eq. 5.2) vs re-simulation, the verification table (shape of table 2.2) and the
@@ -148,7 +148,7 @@ TEST(HexapodCalibration, CentreCorrectedModeFixesTheRigidBaseMotion) {
   for (std::uint32_t seed : {4u, 5u}) {
     const auto sc = MakeScenario(seed, false, 180);
     const auto r = Calibrate(sc.nominal, sc.tests, Options(CalibrationMethod::kCentreCorrected));
-    ASSERT_EQ(r.fixed_parameters.size(), 6u);  // seed 000 §2.2: six base-joint parameters
+    ASSERT_EQ(r.fixed_parameters.size(), 6u);  // [PM-600 report] §2.2: six base-joint parameters
     for (int i : r.fixed_parameter_indices) {
       EXPECT_GE(i, 6) << "a strut offset was fixed";
       EXPECT_EQ(r.parameters_um[i], 0.0);
@@ -208,9 +208,9 @@ TEST(HexapodCalibration, PredictionAgreesWithResimulationOfTheCalibratedMachine)
 }
 
 TEST(HexapodCalibration, JigCalibrationKeepsTheCircleCentresInPlace) {
-  // Shape of seed 000 table 2.2: calibrate conventionally (centre-corrected) and with the jig
+  // Shape of [PM-600 report] table 2.2: calibrate conventionally (centre-corrected) and with the jig
   // (absolute) on the same machine, then run DBB tests on the jig at 8 verification positions.
-  // The jig balls are re-seated with 1 µm (σ per coordinate) repeatability, seed 000 §2.3.2.
+  // The jig balls are re-seated with 1 µm (σ per coordinate) repeatability, [PM-600 report] §2.3.2.
   const std::uint32_t seed = 8;
   const auto conv_sc = MakeScenario(seed, false, 180);
   const auto jig_sc = MakeScenario(seed, true, 180, true, 1.0);
@@ -232,7 +232,7 @@ TEST(HexapodCalibration, JigCalibrationKeepsTheCircleCentresInPlace) {
     }
   }
   std::array<double, 3> mean_centre{}, mean_circ{};
-  std::printf("Verification on the jig (shape of seed 000 table 2.2), um\n");
+  std::printf("Verification on the jig (shape of [PM-600 report] table 2.2), um\n");
   std::printf("(a) centre deviation       Default   Conv(centre-corr.)   Proposed(jig)\n");
   for (std::size_t i = 0; i < verify.size(); ++i) {
     std::printf("    %-3s %22.1f %20.1f %15.1f\n", verify[i].test_id.c_str(),
@@ -274,7 +274,7 @@ TEST(HexapodCalibration, TestSetReductionStudy) {
               0);
     EXPECT_GE(steps[i].condition_number, 1.0);
   }
-  // Dropping tests worsens the conditioning overall (seed 000 fig. 5.2 trend).
+  // Dropping tests worsens the conditioning overall ([PM-600 report] fig. 5.2 trend).
   EXPECT_GT(steps.back().condition_number, steps.front().condition_number);
   std::printf("k  dropped  mean/max predicted circularity (um)  condition\n");
   for (const auto& s : steps) {

@@ -1,4 +1,4 @@
-// Hexapod kinematics (seed 000 §1.4): rotation convention, IK/FK round trip over the workspace,
+// Hexapod kinematics ([PM-600 report] §1.4): rotation convention, IK/FK round trip over the workspace,
 // analytic Jacobian vs numerical differentiation, singularity handling, strut-offset convention.
 #include <cmath>
 #include <cstdio>
@@ -40,7 +40,7 @@ Pose RandomWorkspacePose(std::mt19937& rng) {
 }
 
 TEST(HexapodKinematics, RotationMatchesSeedEquation14) {
-  // Independent: the explicit matrix of seed 000 eq. 1.4.
+  // Independent: the explicit matrix of [PM-600 report] eq. 1.4.
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int i = 0; i < 20; ++i) {

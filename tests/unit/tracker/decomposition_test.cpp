@@ -74,7 +74,7 @@ TEST(VolumetricDecomposition, RecoversComponentsOfAnErrorMap) {
 }
 
 TEST(VolumetricDecomposition, EndToEndFromTrackerSurvey) {
-  // Seed 001 set-up on a 400 mm volume: scale and squareness recovered within 10 %.
+  // [Tracker paper] set-up on a 400 mm volume: scale and squareness recovered within 10 %.
   for (unsigned seed : {1u, 2u, 3u}) {
     SCOPED_TRACE(seed);
     auto o = testing::MakeSetup(400.0, 6, 4, seed);
