@@ -82,7 +82,8 @@ int RunDiscover(const Args& args, std::ostream& out) {
     const auto m = ingest::ParseMachineJson(ReadFileBytes(*machine), *machine);
     if (m.kind == "hexapod") {
       throw Error(
-          "hexapod discovery (gravity deflection, joint friction of [PM-600 report] ch. 3-4) is not "
+          "hexapod discovery (gravity deflection, joint friction of [PM-600 report] ch. 3-4) is "
+          "not "
           "available yet; discover works on serial-machine DBB files");
     }
   }

@@ -2,7 +2,8 @@
 //  [--write-machine OUT.json] [--max-samples-per-test N] [--reduction-study MIN_TESTS] [--json]`
 //  (contract §3): 24-parameter kinematic calibration of a
 // hexapod from DBB files ([PM-600 report] §2.2–2.3), with the post-calibration prediction of every
-// trace ([PM-600 report] eq. 5.2). Parsing in ingest/, numerics in analysis/hexapod, JSON mapping here.
+// trace ([PM-600 report] eq. 5.2). Parsing in ingest/, numerics in analysis/hexapod, JSON mapping
+// here.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

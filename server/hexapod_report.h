@@ -1,5 +1,5 @@
-// Hexapod calibration study ([PM-600 report] ch. 2, §5.2): calibrate the 24 kinematic parameters from a
-// set of DBB tests, predict every trace after calibration (eq. 5.2), optionally run the
+// Hexapod calibration study ([PM-600 report] ch. 2, §5.2): calibrate the 24 kinematic parameters
+// from a set of DBB tests, predict every trace after calibration (eq. 5.2), optionally run the
 // test-set reduction study (§5.2.3), and map it all to the JSON of contract §3
 // `kinemetric hexapod calibrate`. Shared by the CLI and the server's background jobs.
 #pragma once

@@ -15,7 +15,8 @@
 // Modes:
 //  * centre_corrected (no fixed_ball_mm): the fitted centre absorbs set-up errors (fixed-ball
 //    placement, moving-ball run-out); the centre offset is reported but is not a machine error.
-//  * absolute (fixed_ball_mm given, [PM-600 report] §2.3 "jig"): the nominal bar length for a perfect
+//  * absolute (fixed_ball_mm given, [PM-600 report] §2.3 "jig"): the nominal bar length for a
+//  perfect
 //    machine, |P_cmd(θ) − F|, is computed in 3-D from the commanded circle (centre, radius,
 //    z offset, plane) and the measured fixed ball F, and subtracted. What remains is the
 //    machine's own error, so the fitted centre is the machine's positioning error of the circle

@@ -4,9 +4,9 @@
 //
 // Data y = in-plane radial deviation about the nominal centre of every trace (cw and ccw, any
 // feeds; diagnosis.h MakeDiagnosisTrace), stacked. Model 0 = the nominal machine: per trace the
-// set-up terms {cos θ, sin θ, 1} (centre offset and radius: the least-squares circle, [PM-600 report]
-// eq. 2.6). The gap g = y − model. Every candidate effect k (linear parameters x_k, shape fixed
-// as in the diagnosis: reversal-spike width from a small set, cyclic period from the
+// set-up terms {cos θ, sin θ, 1} (centre offset and radius: the least-squares circle, [PM-600
+// report] eq. 2.6). The gap g = y − model. Every candidate effect k (linear parameters x_k, shape
+// fixed as in the diagnosis: reversal-spike width from a small set, cyclic period from the
 // periodogram of the current gap) has set-up-free signature columns A_k (signatures.h). For a
 // model M with columns A_M, step m tries every candidate k ∉ M:
 //

@@ -4,9 +4,9 @@
 //
 // Traces t = 1…T are stacked into one sample vector y (in-plane radial deviation about the
 // nominal centre, µm). Each trace has its own set-up columns S_t = {cos θ, sin θ, 1} (centre
-// offset and radius change: the linearised least-squares circle, [PM-600 report] eq. 2.6). A registry
-// effect k with fixed shape parameters contributes the columns s_kj(θ; s_t, V_t, R_t) = ∂Δr/∂p_j
-// of its linear parameters (effects::RadialBasis). RemoveSetup projects a column on the
+// offset and radius change: the linearised least-squares circle, [PM-600 report] eq. 2.6). A
+// registry effect k with fixed shape parameters contributes the columns s_kj(θ; s_t, V_t, R_t) =
+// ∂Δr/∂p_j of its linear parameters (effects::RadialBasis). RemoveSetup projects a column on the
 // orthogonal complement of the set-up columns, trace by trace:
 //
 //   c ← c − S_t (S_tᵀ S_t)⁻¹ S_tᵀ c,

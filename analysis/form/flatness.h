@@ -1,9 +1,10 @@
 // Flatness of a surface measured as z_um at grid points (x_mm, y_mm), e.g. distance from the
-// table at 8 points over X380 x Y380 mm ([PM-600 report] §2.4 fig. 2.4(a): 186 / 194 um conventional,
-// 20 um with the jig).
+// table at 8 points over X380 x Y380 mm ([PM-600 report] §2.4 fig. 2.4(a): 186 / 194 um
+// conventional, 20 um with the jig).
 //
 //   range_um             = max z - min z: the raw readings relative to the datum, no plane removed
-//                          (how [PM-600 report] fig. 2.4 states it, relative to one reference point)
+//                          (how [PM-600 report] fig. 2.4 states it, relative to one reference
+//                          point)
 //   flatness_lsq_um      = max - min of z_i - (c + a x_i + b y_i), least-squares plane
 //   flatness_min_zone_um = smallest z-distance between two parallel planes enclosing all points
 //                          (exact LP, analysis/geometry/plane_fit.h)

@@ -57,11 +57,11 @@ CalibrationResult SolveCalibration(const CalibrationProblem& problem) {
   } else {
     so.linear_solver_type = ceres::DENSE_QR;
   }
-  // The model is nearly linear over the parameter range ([PM-600 report] iterates plain Gauss–Newton):
-  // start with a wide trust region so the first steps are full Gauss–Newton steps.
+  // The model is nearly linear over the parameter range ([PM-600 report] iterates plain
+  // Gauss–Newton): start with a wide trust region so the first steps are full Gauss–Newton steps.
   so.initial_trust_region_radius = 1e10;
-  // Dogleg: the Gauss–Newton model of this problem is accurate ([PM-600 report] eqs. 2.2–2.5 iterate
-  // plain Gauss–Newton); Levenberg–Marquardt was seen to stall in centre-corrected mode.
+  // Dogleg: the Gauss–Newton model of this problem is accurate ([PM-600 report] eqs. 2.2–2.5
+  // iterate plain Gauss–Newton); Levenberg–Marquardt was seen to stall in centre-corrected mode.
   so.trust_region_strategy_type = ceres::DOGLEG;
   so.max_num_iterations = problem.options.max_iterations;
   so.function_tolerance = problem.options.function_tolerance;

@@ -1,4 +1,5 @@
-// Geometry shared by the hexapod DBB simulation and calibration (contract §1.1, [PM-600 report] §2.3):
+// Geometry shared by the hexapod DBB simulation and calibration (contract §1.1, [PM-600 report]
+// §2.3):
 //
 //   plane axes (e1, e2, n): XY → (x, y, z), YZ → (y, z, x), ZX → (z, x, y)
 //   commanded moving ball  M(θ) = c + z_offset·n + R·(cos θ·e1 + sin θ·e2)

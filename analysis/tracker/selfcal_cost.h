@@ -1,4 +1,5 @@
-// Ceres cost functor of one interferometer reading ([Tracker paper] eq. 1 with an explicit dead path):
+// Ceres cost functor of one interferometer reading ([Tracker paper] eq. 1 with an explicit dead
+// path):
 //
 //   r = scale · (|u − U| − L − d)
 //

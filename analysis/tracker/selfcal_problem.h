@@ -1,5 +1,5 @@
-// Problem description of the multilateration self-calibration ([Tracker paper] §4), separate from the
-// Ceres-specific solve (selfcal_ceres.h).
+// Problem description of the multilateration self-calibration ([Tracker paper] §4), separate from
+// the Ceres-specific solve (selfcal_ceres.h).
 //
 // Unknowns: target positions u_i (3m), tracker positions U_j (3n) and one dead-path length L_s
 // per interferometer segment (one per tracker, plus one per beam break). Each reading gives
@@ -15,10 +15,10 @@
 //
 //   m·n ≥ 3m + 4n − 6 + b                                                         (2)
 //
-// ([Tracker paper] lists p = [U2 U3 V3 U4 V4 W4 u1ᵀ … umᵀ] for n = 4; the n offsets are the |u_1 − U_j|
-// that eq. 1 subtracts). n = 3 never satisfies (2); n = 4 needs m ≥ 10 points. The count is
-// necessary, not sufficient: all trackers in one plane ([Tracker paper]'s set-up, four trackers on the
-// table) leave one direction of the tracker/dead-path parameters free, and nearly coplanar
+// ([Tracker paper] lists p = [U2 U3 V3 U4 V4 W4 u1ᵀ … umᵀ] for n = 4; the n offsets are the |u_1 −
+// U_j| that eq. 1 subtracts). n = 3 never satisfies (2); n = 4 needs m ≥ 10 points. The count is
+// necessary, not sufficient: all trackers in one plane ([Tracker paper]'s set-up, four trackers on
+// the table) leave one direction of the tracker/dead-path parameters free, and nearly coplanar
 // trackers make the solution very uncertain; so do collinear points. The solver checks the
 // rank and condition of the Schur-reduced normal matrix (ComputeCovariance).
 #pragma once

@@ -1,7 +1,7 @@
 // Laser-tracker multilateration self-calibration ([Tracker paper] §4, methods §8).
 //
-// Given each tracker's displacement readings d_ij relative to point 1 ([Tracker paper] eq. 1) and the
-// commanded target positions c_i, estimate the tracker positions U_j, the true target positions
+// Given each tracker's displacement readings d_ij relative to point 1 ([Tracker paper] eq. 1) and
+// the commanded target positions c_i, estimate the tracker positions U_j, the true target positions
 // u_i and one dead path per interferometer segment by least squares on
 //
 //   r_ij = |u_i − U_j| − L_s(i,j) − d_ij        ([Tracker paper] eqs. 1–4; see selfcal_problem.h)

@@ -1,5 +1,5 @@
-// Synthetic laser-tracker surveys for tests, demos and benchmarks ([Tracker paper] set-up: a target on
-// the spindle of a 3-axis machine, trackers around the work volume).
+// Synthetic laser-tracker surveys for tests, demos and benchmarks ([Tracker paper] set-up: a target
+// on the spindle of a 3-axis machine, trackers around the work volume).
 //
 // The machine places the target at u_i = c_i + e(c_i) with the geometric error model of
 // volumetric_decomposition.h eq. (1) (scales, squareness, polynomial positioning/straightness).

@@ -1,6 +1,6 @@
 // reversal_spike_<axis>: at its reversal the axis sticks for a moment and only then follows
-// the command (friction changes sign — [Fujita thesis] §"stick motion", quadrant glitch). Fixed shape:
-// a one-sided exponential decay over the angle φ travelled since the reversal,
+// the command (friction changes sign — [Fujita thesis] §"stick motion", quadrant glitch). Fixed
+// shape: a one-sided exponential decay over the angle φ travelled since the reversal,
 //   e_a = −h·sign(v_a)·exp(−φ / w)
 // which is an outward radial spike of height h (µm) just after each reversal of that axis, on
 // the side of the reversal the motion goes to (so cw and ccw spikes lie on opposite sides).

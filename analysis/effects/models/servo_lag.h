@@ -1,4 +1,5 @@
-// servo_lag: radius reduction of a position loop with velocity feed-forward, [Fujita thesis] eq. 2.1:
+// servo_lag: radius reduction of a position loop with velocity feed-forward, [Fujita thesis]
+// eq. 2.1:
 //   Δr = −V²/(2R) · (1 − K_f²)/K_pp² = −c · V²/(2R),   c = (1 − K_f²)/K_pp²  [s²]
 // (a pure delay only rotates the point along the path; the loop dynamics shrink the radius).
 // Parameter c in ms²; e = Δr·n. The reported value is Δr in µm at the context's feed and

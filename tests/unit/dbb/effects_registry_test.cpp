@@ -116,7 +116,8 @@ TEST(EffectRegistry, RadialSignaturesMatchClosedForms) {
       EXPECT_NEAR(lp, s * 1.0 * std::abs(std::sin(th)), 1e-9);
       const double lag =
           RadialSignature(EffectId::kServoLag, ctx, th, Params(EffectId::kServoLag, 1.0).data());
-      EXPECT_NEAR(lag, -1e-6 * 50.0 * 50.0 / (2.0 * 200.0) * 1e3, 1e-12);  // [Fujita thesis] eq. 2.1
+      EXPECT_NEAR(lag, -1e-6 * 50.0 * 50.0 / (2.0 * 200.0) * 1e3,
+                  1e-12);  // [Fujita thesis] eq. 2.1
     }
   }
   // Reversal spike: outward, height h right after the reversal in the direction of motion.

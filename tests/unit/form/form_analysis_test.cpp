@@ -1,6 +1,6 @@
 // Straightness, periodic components, reversal, flatness and parallelism: synthetic
-// recover-the-truth tests with seeded noise ([Fujita thesis] fig. 4.10 waviness, [Fujita thesis] ch. 8 lead
-// error and set-up slope, [PM-600 report] fig. 2.4 flatness / parallelism set-ups).
+// recover-the-truth tests with seeded noise ([Fujita thesis] fig. 4.10 waviness, [Fujita thesis]
+// ch. 8 lead error and set-up slope, [PM-600 report] fig. 2.4 flatness / parallelism set-ups).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -107,8 +107,8 @@ TEST(Straightness, ABowIsNotReportedAsAPeriod) {
 }
 
 TEST(Straightness, FindsBallScrewLeadOf10mmUnderASetUpSlope) {
-  // [Fujita thesis] ch. 8: first-order slope (squareness + optical-flat set-up) plus a 10 mm periodic
-  // error (ball-screw lead), sampled non-uniformly.
+  // [Fujita thesis] ch. 8: first-order slope (squareness + optical-flat set-up) plus a 10 mm
+  // periodic error (ball-screw lead), sampled non-uniformly.
   for (unsigned seed : {301u, 302u, 303u}) {
     std::mt19937 rng(seed);
     std::normal_distribution<double> noise(0.0, 0.02);

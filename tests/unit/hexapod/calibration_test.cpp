@@ -208,8 +208,8 @@ TEST(HexapodCalibration, PredictionAgreesWithResimulationOfTheCalibratedMachine)
 }
 
 TEST(HexapodCalibration, JigCalibrationKeepsTheCircleCentresInPlace) {
-  // Shape of [PM-600 report] table 2.2: calibrate conventionally (centre-corrected) and with the jig
-  // (absolute) on the same machine, then run DBB tests on the jig at 8 verification positions.
+  // Shape of [PM-600 report] table 2.2: calibrate conventionally (centre-corrected) and with the
+  // jig (absolute) on the same machine, then run DBB tests on the jig at 8 verification positions.
   // The jig balls are re-seated with 1 µm (σ per coordinate) repeatability, [PM-600 report] §2.3.2.
   const std::uint32_t seed = 8;
   const auto conv_sc = MakeScenario(seed, false, 180);

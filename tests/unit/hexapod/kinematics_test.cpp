@@ -1,5 +1,6 @@
-// Hexapod kinematics ([PM-600 report] §1.4): rotation convention, IK/FK round trip over the workspace,
-// analytic Jacobian vs numerical differentiation, singularity handling, strut-offset convention.
+// Hexapod kinematics ([PM-600 report] §1.4): rotation convention, IK/FK round trip over the
+// workspace, analytic Jacobian vs numerical differentiation, singularity handling, strut-offset
+// convention.
 #include <cmath>
 #include <cstdio>
 #include <numbers>

@@ -237,7 +237,8 @@ TEST(TrackerSelfCal, RefusesThreeTrackers) {
 }
 
 TEST(TrackerSelfCal, RefusesTooFewPoints) {
-  // The 8 corners of [Tracker paper]'s cube with 4 trackers: 32 readings, 24 + 16 − 6 = 34 unknowns.
+  // The 8 corners of [Tracker paper]'s cube with 4 trackers: 32 readings, 24 + 16 − 6 = 34
+  // unknowns.
   auto o = MakeSetup(100.0, 2, 4, 52);
   const auto sim = SimulateTrackerSurvey(o);
   try {
@@ -264,8 +265,8 @@ TEST(TrackerSelfCal, RefusesRankDeficientCollinearPoints) {
 }
 
 TEST(TrackerSelfCal, RefusesCoplanarTrackers) {
-  // [Tracker paper]'s set-up: all four trackers on the table (one plane), target above. The distances
-  // do not fix the configuration (one direction of tracker/dead-path parameters is free).
+  // [Tracker paper]'s set-up: all four trackers on the table (one plane), target above. The
+  // distances do not fix the configuration (one direction of tracker/dead-path parameters is free).
   auto o = MakeSetup(100.0, 5, 4, 54);
   o.trackers_mm = {{-400, -500, 0}, {700, -450, 0}, {650, 800, 0}, {-350, 750, 0}};
   const auto sim = SimulateTrackerSurvey(o);

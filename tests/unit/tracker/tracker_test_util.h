@@ -1,5 +1,5 @@
-// Shared set-ups for the tracker tests: [Tracker paper]'s machine (target on the spindle of a 3-axis
-// machine, 4 trackers on the table 0.6–1.2 m away) with a few µm of geometric error.
+// Shared set-ups for the tracker tests: [Tracker paper]'s machine (target on the spindle of a
+// 3-axis machine, 4 trackers on the table 0.6–1.2 m away) with a few µm of geometric error.
 #pragma once
 
 #include <cmath>
