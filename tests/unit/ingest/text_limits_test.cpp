@@ -10,6 +10,7 @@
 #include "ingest/form_parsers.h"
 #include "ingest/text_format.h"
 #include "ingest/tracker_parser.h"
+#include "tests/unit/expect_error.h"
 
 namespace km::ingest {
 namespace {
@@ -19,23 +20,8 @@ bool Utf8(const std::string& s) {
   return ValidUtf8(s, at);
 }
 
-template <typename E, typename F>
-E Expect(F f) {
-  try {
-    f();
-  } catch (const E& e) {
-    return e;
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "unexpected error: " << e.what();
-    throw;
-  }
-  ADD_FAILURE() << "accepted";
-  throw std::runtime_error("accepted");
-}
-
-bool Contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
+using test::Contains;
+using test::Expect;
 
 const std::string kHead = "# format: x/1\n# note: ";  // the value is on line 2
 

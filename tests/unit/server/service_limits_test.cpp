@@ -3,6 +3,7 @@
 // (per-format limits of rows, line length and columns, checked before parsing; the format line
 // checked before it is used).
 #include <gtest/gtest.h>
+
 #include <unistd.h>
 
 #include <atomic>
@@ -19,6 +20,7 @@
 #include "ingest/text_format.h"
 #include "server/service.h"
 #include "server/sqlite_storage.h"
+#include "tests/unit/expect_error.h"
 
 namespace km::server {
 namespace {
@@ -117,23 +119,8 @@ class ServiceLimits : public ::testing::Test {
   std::unique_ptr<Service> service_;
 };
 
-template <typename E, typename F>
-E Expect(F f) {
-  try {
-    f();
-  } catch (const E& e) {
-    return e;
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "unexpected error: " << e.what();
-    throw;
-  }
-  ADD_FAILURE() << "accepted";
-  throw std::runtime_error("accepted");
-}
-
-bool Contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
+using test::Contains;
+using test::Expect;
 
 TEST_F(ServiceLimits, TooManyCalibrationTestsAreRefusedBeforeAnythingIsRead) {
   Start();
