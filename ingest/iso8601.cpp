@@ -1,5 +1,7 @@
 #include "ingest/iso8601.h"
 
+#include <string>
+
 namespace km::ingest {
 namespace {
 
@@ -73,6 +75,31 @@ std::optional<Iso8601Time> ParseIso8601(std::string_view s) {
   }
   if (pos != s.size()) return std::nullopt;
   return t;
+}
+
+}  // namespace km::ingest
+
+namespace km::ingest {
+
+std::optional<double> Iso8601EpochSeconds(std::string_view text) {
+  const auto t = ParseIso8601(text);
+  if (!t) return std::nullopt;
+  if (t->month < 1 || t->month > 12 || t->day < 1 || t->day > 31 || t->hour > 23 ||
+      t->minute > 59 || t->second > 60 || t->offset_hours > 23 || t->offset_minutes > 59)
+    return std::nullopt;
+  // Days from the civil date (proleptic Gregorian), H. Hinnant's algorithm.
+  const long y = t->year - (t->month <= 2 ? 1 : 0);
+  const long era = (y >= 0 ? y : y - 399) / 400;
+  const long yoe = y - era * 400;
+  const long mp = (t->month + 9) % 12;
+  const long doy = (153 * mp + 2) / 5 + t->day - 1;
+  const long doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  const long days = era * 146097 + doe - 719468;
+  double s = static_cast<double>(days) * 86400.0 + t->hour * 3600.0 + t->minute * 60.0 + t->second;
+  if (!t->fraction.empty()) s += std::stod("0." + t->fraction.substr(0, 15));
+  if (t->zone == Iso8601Time::Zone::kOffset)
+    s -= t->offset_sign * (t->offset_hours * 3600.0 + t->offset_minutes * 60.0);
+  return s;
 }
 
 }  // namespace km::ingest

@@ -33,3 +33,12 @@ struct Iso8601Time {
 std::optional<Iso8601Time> ParseIso8601(std::string_view text);
 
 }  // namespace km::ingest
+
+namespace km::ingest {
+
+// Seconds since 1970-01-01T00:00:00Z of an ISO 8601 text (a text without a zone counts as UTC;
+// a date alone as its midnight); nullopt when the text is not ISO 8601 or a field is out of
+// range.
+std::optional<double> Iso8601EpochSeconds(std::string_view text);
+
+}  // namespace km::ingest

@@ -96,6 +96,8 @@ MachineDefinition ParseMachineJson(std::string_view bytes, const std::string& fi
         }
       }
     }
+    m.physics = ParseMachinePhysics(doc, file);
+    m.effects = ParseMachineEffects(doc, file);
   }
   return m;
 }
@@ -130,6 +132,7 @@ std::string WriteMachineJson(const MachineDefinition& machine) {
     doc["base_joints_mm"] = base;
     doc["platform_joints_mm"] = plat;
     doc["strut_offset_mm"] = off;
+    if (!machine.effects.empty()) doc["effects"] = MachineEffectsJson(machine.effects);
   }
   return doc.dump(2) + "\n";
 }

@@ -5,10 +5,13 @@
 // original document (gravity, friction, description, extra keys) unchanged.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "analysis/hexapod/kinematics.h"
+#include "ingest/machine_physics.h"
 
 namespace km::ingest {
 
@@ -18,7 +21,11 @@ struct MachineDefinition {
   std::string machine_id;
   std::string kind;                   // "hexapod" or "serial"
   hexapod::HexapodGeometry geometry;  // filled for kind == "hexapod"
-  std::string source_json;            // the original document (kept for write-back)
+  // Hexapods: the gravity / friction blocks (docs/hexapod-effects.md) and the effects of the
+  // machine's model with their fitted parameters (the "effects" block).
+  std::optional<hexapod::MachinePhysics> physics;
+  std::vector<MachineEffect> effects;
+  std::string source_json;  // the original document (kept for write-back)
 };
 
 // Parses and validates. Throws km::InvalidInput (file, field).

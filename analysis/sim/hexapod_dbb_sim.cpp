@@ -6,6 +6,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/hexapod/dbb_geometry.h"
+#include "analysis/hexapod/effects/test_path.h"
 
 namespace km::sim {
 
@@ -64,6 +65,7 @@ dbb::DbbTest HeaderOf(const HexapodDbbSpec& spec, const std::string& machine_id)
   t.feed_mm_min = spec.feed_mm_min;
   t.tilt_deg = {spec.tilt_deg.x(), spec.tilt_deg.y(), spec.tilt_deg.z()};
   t.tool_length_mm = spec.tool_length_mm;
+  t.timestamp = spec.timestamp;
   return t;
 }
 
@@ -102,7 +104,8 @@ std::vector<HexapodDbbSpec> VerificationPlan(int samples_per_turn) {
 
 dbb::DbbTest SimulateHexapodDbb(const hexapod::HexapodGeometry& controller,
                                 const hexapod::HexapodGeometry& truth, const HexapodDbbSpec& spec,
-                                const HexapodDbbSimOptions& options, std::uint32_t rng_seed) {
+                                const HexapodDbbSimOptions& options, std::uint32_t rng_seed,
+                                const hexapod::Perturbation* effects) {
   if (!(options.noise_um >= 0.0) || !(options.fixed_ball_error_um >= 0.0)) {
     throw InvalidInput("", 0, "noise_um", "noise levels must not be negative");
   }
@@ -148,7 +151,12 @@ dbb::DbbTest SimulateHexapodDbb(const hexapod::HexapodGeometry& controller,
     hexapod::Vector6d s = hexapod::InverseKinematics(controller, cmd, l);
     if (options.extra_strut_error)
       s += options.extra_strut_error(cmd, s, angle_rad, spec.direction);
-    const auto real = hexapod::ForwardKinematics(truth, s, l, cmd);
+    double l_real = l;
+    if (effects) {
+      s += effects->ds_mm[static_cast<std::size_t>(k)];
+      l_real += effects->dl_mm[static_cast<std::size_t>(k)];
+    }
+    const auto real = hexapod::ForwardKinematics(truth, s, l_real, cmd);
     const double bar = (real.pose.tip_mm - F).norm();
     double dr = 1000.0 * (bar - spec.bar_length_mm);
     if (options.noise_um > 0.0) dr += noise(rng);
@@ -164,9 +172,29 @@ std::vector<dbb::DbbTest> SimulateHexapodDbbPlan(const hexapod::HexapodGeometry&
                                                  const HexapodDbbSimOptions& options) {
   std::vector<dbb::DbbTest> out;
   out.reserve(plan.size());
+  std::vector<hexapod::Perturbation> pert(plan.size());
+  if (!options.effects.empty()) {
+    // The commanded motion of every test (header and angles), then the effects over the plan.
+    std::vector<dbb::DbbTest> motion;
+    std::vector<std::optional<double>> starts;
+    for (const auto& spec : plan) {
+      dbb::DbbTest t = HeaderOf(spec, options.machine_id);
+      const double sign = spec.direction == dbb::Direction::kCw ? -1.0 : 1.0;
+      for (int k = 0; k <= spec.samples_per_turn; ++k) {
+        t.angle_deg.push_back(sign * 360.0 * k / spec.samples_per_turn);
+        t.dr_um.push_back(0.0);
+      }
+      motion.push_back(std::move(t));
+      starts.push_back(spec.start_time_s);
+    }
+    const auto prepared = hexapod::PrepareTests(controller, options.physics, motion, starts);
+    for (std::size_t i = 0; i < plan.size(); ++i)
+      hexapod::ApplyEffects(options.effects, prepared.paths[i], prepared.setup, pert[i]);
+  }
   for (std::size_t i = 0; i < plan.size(); ++i) {
     out.push_back(SimulateHexapodDbb(controller, truth, plan[i], options,
-                                     options.seed + 7919u * static_cast<std::uint32_t>(i)));
+                                     options.seed + 7919u * static_cast<std::uint32_t>(i),
+                                     options.effects.empty() ? nullptr : &pert[i]));
   }
   return out;
 }

@@ -19,12 +19,14 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "analysis/dbb/dbb_types.h"
+#include "analysis/hexapod/effects/registry.h"
 #include "analysis/hexapod/kinematics.h"
 
 namespace km::sim {
@@ -41,6 +43,8 @@ struct HexapodDbbSpec {
   dbb::Plane plane = dbb::Plane::kXY;
   int samples_per_turn = 720;
   double feed_mm_min = 1000.0;
+  std::optional<double> start_time_s;    // on any common scale (effects that depend on time)
+  std::optional<std::string> timestamp;  // written to the file
 };
 
 // Extra strut-length error (mm, added to the realised joint-to-joint length) for one sample:
@@ -59,6 +63,11 @@ struct HexapodDbbSimOptions {
   std::uint32_t seed = 1;
   std::string machine_id = "pm600-like";
   StrutErrorHook extra_strut_error;  // optional
+  // Hexapod effects of the real machine (analysis/hexapod/effects), evaluated on the commanded
+  // motion of the whole plan (times from the specs' start_time_s). Needs `physics` for the
+  // effects that use masses and compliance.
+  std::vector<hexapod::ActiveEffect> effects;
+  const hexapod::MachinePhysics* physics = nullptr;
 };
 
 // The 15 calibration tests shaped like [PM-600 report] table 2.1: jig holes (9 = centre, 1–8 on a
@@ -70,10 +79,12 @@ std::vector<HexapodDbbSpec> Table21Plan(int samples_per_turn = 720, bool both_di
 // 8 verification positions on the jig (flat, untilted; shape of [PM-600 report] table 2.2).
 std::vector<HexapodDbbSpec> VerificationPlan(int samples_per_turn = 720);
 
-// One simulated test. `rng_seed` seeds the noise of this test only.
+// One simulated test. `rng_seed` seeds the noise of this test only; `effects` (optional) are
+// the effects' strut- and tool-length changes for every sample (samples_per_turn + 1 of them).
 dbb::DbbTest SimulateHexapodDbb(const hexapod::HexapodGeometry& controller,
                                 const hexapod::HexapodGeometry& truth, const HexapodDbbSpec& spec,
-                                const HexapodDbbSimOptions& options, std::uint32_t rng_seed);
+                                const HexapodDbbSimOptions& options, std::uint32_t rng_seed,
+                                const hexapod::Perturbation* effects = nullptr);
 
 // All tests of a plan; test i uses noise seed options.seed + 7919·i.
 std::vector<dbb::DbbTest> SimulateHexapodDbbPlan(const hexapod::HexapodGeometry& controller,

@@ -1,0 +1,352 @@
+#include "analysis/discovery/engine.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numbers>
+
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+
+#include "analysis/core/errors.h"
+#include "analysis/dbb/discovery.h"
+
+namespace km::discovery {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+double Rms(const VectorXd& v) {
+  return v.size() > 0 ? std::sqrt(v.squaredNorm() / static_cast<double>(v.size())) : 0.0;
+}
+
+// Eliminates the local columns of a fit group by group: every vector handed to Project() loses
+// its component in the span of its group's local columns.
+class LocalProjector {
+ public:
+  explicit LocalProjector(const FitState& fit) : row_begin_(fit.row_begin) {
+    const int groups = static_cast<int>(row_begin_.size()) - 1;
+    basis_.resize(static_cast<std::size_t>(groups));
+    for (int g = 0; g < groups; ++g) {
+      std::vector<int> cols;
+      for (int c = 0; c < static_cast<int>(fit.column_group.size()); ++c)
+        if (fit.column_group[static_cast<std::size_t>(c)] == g) cols.push_back(c);
+      if (cols.empty()) continue;
+      const int r0 = row_begin_[g], m = row_begin_[g + 1] - r0;
+      MatrixXd local(m, static_cast<int>(cols.size()));
+      for (std::size_t k = 0; k < cols.size(); ++k)
+        local.col(static_cast<int>(k)) = fit.jacobian.block(r0, cols[k], m, 1);
+      const Eigen::HouseholderQR<MatrixXd> qr(local);
+      basis_[static_cast<std::size_t>(g)] =
+          qr.householderQ() * MatrixXd::Identity(m, static_cast<int>(cols.size()));
+    }
+  }
+  void Project(VectorXd& v) const {
+    for (std::size_t g = 0; g < basis_.size(); ++g) {
+      const auto& q = basis_[g];
+      if (q.size() == 0) continue;
+      const int r0 = row_begin_[g], m = static_cast<int>(q.rows());
+      auto seg = v.segment(r0, m);
+      seg -= q * (q.transpose() * seg);
+    }
+  }
+
+ private:
+  std::vector<int> row_begin_;
+  std::vector<MatrixXd> basis_;
+};
+
+// Normal equations of a global-only linear problem, accumulated per cross-validation fold.
+struct FoldSystem {
+  std::vector<MatrixXd> gram;
+  std::vector<VectorXd> rhs;
+  std::vector<double> yy;
+  MatrixXd gram_all;
+  VectorXd rhs_all;
+  double yy_all = 0.0;
+};
+
+VectorXd SolveSym(const MatrixXd& g, const VectorXd& b) {
+  if (g.rows() == 0) return VectorXd();
+  // Scaled, with a tiny ridge so that a parameter absent from the training rows stays at 0.
+  VectorXd d = g.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+  MatrixXd gs = d.asDiagonal() * g * d.asDiagonal();
+  gs.diagonal().array() += 1e-12;
+  return d.asDiagonal() * gs.ldlt().solve(d.asDiagonal() * b);
+}
+
+FoldSystem Accumulate(const MatrixXd& x, const VectorXd& y, const std::vector<int>& row_fold,
+                      int folds) {
+  FoldSystem s;
+  const int p = static_cast<int>(x.cols());
+  s.gram.assign(static_cast<std::size_t>(folds), MatrixXd::Zero(p, p));
+  s.rhs.assign(static_cast<std::size_t>(folds), VectorXd::Zero(p));
+  s.yy.assign(static_cast<std::size_t>(folds), 0.0);
+  int r = 0;
+  while (r < x.rows()) {
+    const int f = row_fold[static_cast<std::size_t>(r)];
+    int e = r;
+    while (e < x.rows() && row_fold[static_cast<std::size_t>(e)] == f) ++e;
+    const auto xb = x.middleRows(r, e - r);
+    const auto yb = y.segment(r, e - r);
+    s.gram[static_cast<std::size_t>(f)].noalias() += xb.transpose() * xb;
+    s.rhs[static_cast<std::size_t>(f)].noalias() += xb.transpose() * yb;
+    s.yy[static_cast<std::size_t>(f)] += yb.squaredNorm();
+    r = e;
+  }
+  s.gram_all = MatrixXd::Zero(p, p);
+  s.rhs_all = VectorXd::Zero(p);
+  for (int f = 0; f < folds; ++f) {
+    s.gram_all += s.gram[static_cast<std::size_t>(f)];
+    s.rhs_all += s.rhs[static_cast<std::size_t>(f)];
+    s.yy_all += s.yy[static_cast<std::size_t>(f)];
+  }
+  return s;
+}
+
+double Rss(const FoldSystem& s, VectorXd* beta) {
+  const VectorXd b = SolveSym(s.gram_all, s.rhs_all);
+  if (beta) *beta = b;
+  return std::max(0.0, s.yy_all - (b.size() ? s.rhs_all.dot(b) : 0.0));
+}
+
+double Press(const FoldSystem& s) {
+  double press = 0.0;
+  for (std::size_t f = 0; f < s.gram.size(); ++f) {
+    const VectorXd b = SolveSym(s.gram_all - s.gram[f], s.rhs_all - s.rhs[f]);
+    double sse = s.yy[f];
+    if (b.size()) sse += -2.0 * b.dot(s.rhs[f]) + b.dot(s.gram[f] * b);
+    press += std::max(0.0, sse);
+  }
+  return press;
+}
+
+// The step's linear workspace: the model's global columns and the gap, local parts removed.
+struct Workspace {
+  MatrixXd model;  // n × p_global
+  VectorXd gap;    // −(residual), projected
+  std::vector<int> row_fold;
+  int folds = 0;
+  int total_columns = 0;
+  FoldSystem base;
+};
+
+std::vector<int> RowFolds(const FitState& fit, const std::vector<int>& keys, int folds, int* used) {
+  std::vector<int> distinct = keys;
+  std::sort(distinct.begin(), distinct.end());
+  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+  *used = std::max(1, std::min(folds, static_cast<int>(distinct.size())));
+  std::vector<int> row_fold(static_cast<std::size_t>(fit.residual.size()), 0);
+  for (std::size_t g = 0; g + 1 < fit.row_begin.size(); ++g) {
+    const auto pos = std::lower_bound(distinct.begin(), distinct.end(), keys[g]) - distinct.begin();
+    const int f = static_cast<int>(pos) % *used;
+    for (int r = fit.row_begin[g]; r < fit.row_begin[g + 1]; ++r)
+      row_fold[static_cast<std::size_t>(r)] = f;
+  }
+  return row_fold;
+}
+
+Workspace MakeWorkspace(const FitState& fit, const LocalProjector& proj,
+                        const std::vector<int>& keys, int folds) {
+  Workspace w;
+  std::vector<int> global;
+  for (int c = 0; c < static_cast<int>(fit.column_group.size()); ++c)
+    if (fit.column_group[static_cast<std::size_t>(c)] < 0) global.push_back(c);
+  w.model.resize(fit.residual.size(), static_cast<int>(global.size()));
+  for (std::size_t k = 0; k < global.size(); ++k) {
+    VectorXd col = fit.jacobian.col(global[k]);
+    proj.Project(col);
+    w.model.col(static_cast<int>(k)) = col;
+  }
+  w.gap = -fit.residual;
+  proj.Project(w.gap);
+  w.total_columns = static_cast<int>(fit.jacobian.cols());
+  w.row_fold = RowFolds(fit, keys, folds, &w.folds);
+  w.base = Accumulate(w.model, w.gap, w.row_fold, w.folds);
+  return w;
+}
+
+struct Scored {
+  CandidateScore score;
+  double rss_before = 0.0;
+  double press_before = 0.0;
+  double f = 0.0;
+  int q = 0;
+  int dof = 0;
+  VectorXd contribution;
+};
+
+Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Candidate& c,
+                      ModelFamily& family, const EngineOptions& opt) {
+  Scored s;
+  s.score.effect = c.effect;
+  s.score.variant = c.variant;
+  const int n = static_cast<int>(w.gap.size()), p = static_cast<int>(w.model.cols());
+  s.q = static_cast<int>(c.columns.cols());
+  MatrixXd x(n, p + s.q);
+  x.leftCols(p) = w.model;
+  // Identifiability: each candidate column must keep part of its norm outside the model.
+  const MatrixXd gm = w.base.gram_all;
+  for (int k = 0; k < s.q; ++k) {
+    VectorXd a = c.columns.col(k);
+    const double full = a.squaredNorm();
+    proj.Project(a);
+    x.col(p + k) = a;
+    const VectorXd beta = SolveSym(gm, w.model.transpose() * a);
+    const double left = a.squaredNorm() - (beta.size() ? (w.model.transpose() * a).dot(beta) : 0.0);
+    if (!(full > 0.0) || left < opt.confound_ratio * opt.confound_ratio * full) {
+      s.score.identifiable = false;
+      s.score.rejected_because = "not identifiable: the model's parameters absorb it";
+    }
+  }
+  VectorXd y = w.gap;
+  if (c.offset.size() == n) {
+    VectorXd o = c.offset;
+    proj.Project(o);
+    y -= o;
+  }
+  const FoldSystem sys = Accumulate(x, y, w.row_fold, w.folds);
+  VectorXd beta;
+  s.rss_before = Rss(w.base, nullptr);
+  s.score.rss_after_um2 = Rss(sys, &beta);
+  s.score.estimate = beta.tail(s.q);
+  s.press_before = Press(w.base);
+  s.score.press_um2 = Press(sys);
+  s.dof = std::max(1, n - w.total_columns - s.q);
+  const double drop = s.rss_before - s.score.rss_after_um2;
+  s.f = drop > 0.0 ? (drop / s.q) / (s.score.rss_after_um2 / s.dof + 1e-300) : 0.0;
+  s.score.log10_p_value = dbb::LogFUpperTail(s.f, s.q, s.dof) / std::log(10.0);
+  // The fitted change of the model (the candidate with the model's readjustment), in the same
+  // terms as the gap: gap − contribution is what remains.
+  s.contribution = x * beta + (w.gap - y);
+  std::string why;
+  if (s.score.identifiable && !family.Physical(c, s.score.estimate, &why)) {
+    s.score.physical = false;
+    s.score.rejected_because = "not physical: " + why;
+  }
+  return s;
+}
+
+std::vector<GroupGap> GroupGaps(const FitState& before, const FitState& after) {
+  std::vector<GroupGap> out;
+  for (std::size_t g = 0; g + 1 < before.row_begin.size(); ++g) {
+    const int r0 = before.row_begin[g], m = before.row_begin[g + 1] - r0;
+    GroupGap gg;
+    gg.group = static_cast<int>(g);
+    gg.rms_before_um = Rms(before.residual.segment(r0, m));
+    gg.rms_after_um = Rms(after.residual.segment(r0, m));
+    out.push_back(gg);
+  }
+  return out;
+}
+
+}  // namespace
+
+void EngineOptions::Check() const {
+  if (!(max_p_value > 0.0 && max_p_value < 1.0))
+    throw InvalidInput("", 0, "max_p_value", "must be within (0, 1)");
+  if (folds < 2) throw InvalidInput("", 0, "folds", "at least 2");
+  if (!(min_cv_gain >= 0.0 && min_cv_gain < 1.0))
+    throw InvalidInput("", 0, "min_cv_gain", "must be within [0, 1)");
+  if (!(misfit_ratio >= 1.0)) throw InvalidInput("", 0, "misfit_ratio", "at least 1");
+  if (max_steps < 0) throw InvalidInput("", 0, "max_steps", ">= 0");
+}
+
+double NoiseFloor(const VectorXd& residual, const std::vector<int>& row_begin) {
+  std::vector<std::vector<double>> per;
+  for (std::size_t g = 0; g + 1 < row_begin.size(); ++g)
+    per.emplace_back(residual.data() + row_begin[g], residual.data() + row_begin[g + 1]);
+  return dbb::RobustDiffNoiseUm(per);
+}
+
+EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
+                          const EngineProgress& progress) {
+  opt.Check();
+  auto tell = [&](int step, const std::string& what) {
+    if (progress) progress(step, what);
+  };
+  EngineResult res;
+  tell(0, "fitting the base model");
+  res.base = family.FitBase();
+  FitState fit = res.base;
+  const std::vector<int> keys = family.FoldKeys();
+  res.verdict = "complete";
+  while (true) {
+    const int step_no = static_cast<int>(res.steps.size()) + 1;
+    const double gap_rms = Rms(fit.residual);
+    const double floor = std::max(NoiseFloor(fit.residual, fit.row_begin), opt.resolution_um);
+    if (gap_rms <= opt.noise_stop_ratio * floor) {
+      res.stop_reason = "the gap is at the noise floor";
+      break;
+    }
+    if (static_cast<int>(res.steps.size()) >= opt.max_steps) {
+      res.stop_reason = "maximum number of steps";
+      break;
+    }
+    const LocalProjector proj(fit);
+    const Workspace w = MakeWorkspace(fit, proj, keys, opt.folds);
+    const auto candidates = family.Candidates(fit);
+    std::vector<Scored> scored;
+    for (const auto& c : candidates) {
+      tell(step_no, "trying " + c.effect + (c.variant.empty() ? "" : " (" + c.variant + ")"));
+      scored.push_back(ScoreCandidate(w, proj, c, family, opt));
+    }
+    // Qualification of every candidate.
+    const double excess = std::max(
+        0.0, scored.empty() ? 0.0 : scored.front().rss_before - floor * floor * w.gap.size());
+    for (auto& s : scored) {
+      auto& sc = s.score;
+      if (!sc.rejected_because.empty()) continue;
+      if (sc.log10_p_value > std::log10(opt.max_p_value)) {
+        sc.rejected_because = "not significant (F-test)";
+      } else if (!(sc.press_um2 < (1.0 - opt.min_cv_gain) * s.press_before)) {
+        sc.rejected_because = "does not predict held-out tests better";
+      } else if (s.rss_before - sc.rss_after_um2 < opt.min_practical_fraction * excess) {
+        sc.rejected_because = "improvement too small to matter";
+      }
+    }
+    const Scored* best = nullptr;
+    for (const auto& s : scored) {
+      if (!s.score.rejected_because.empty()) continue;
+      if (!best || s.score.press_um2 < best->score.press_um2) best = &s;
+    }
+    std::vector<CandidateScore> all;
+    for (const auto& s : scored) all.push_back(s.score);
+    if (!best) {
+      res.last_candidates = all;
+      res.stop_reason = candidates.empty() ? "no candidate left" : "no candidate qualifies";
+      if (gap_rms > opt.misfit_ratio * floor) res.verdict = "model misfit";
+      break;
+    }
+    const Candidate& chosen = candidates[static_cast<std::size_t>(best - scored.data())];
+    tell(step_no, "adding " + chosen.effect);
+    Step st;
+    st.added_effect = chosen.effect;
+    st.variant = chosen.variant;
+    st.before = fit;
+    st.gap_rms_before_um = gap_rms;
+    st.rss_before_um2 = best->rss_before;
+    st.press_before_um2 = best->press_before;
+    st.press_after_um2 = best->score.press_um2;
+    st.f_statistic = best->f;
+    st.log10_p_value = best->score.log10_p_value;
+    st.df_numerator = best->q;
+    st.df_denominator = best->dof;
+    st.evidence = family.Describe(fit, chosen, best->contribution);
+    st.candidates = all;
+    fit = family.Accept(chosen, best->score.estimate);
+    st.after = fit;
+    st.rss_after_um2 = fit.residual.squaredNorm();
+    st.gap_rms_after_um = Rms(fit.residual);
+    st.groups = GroupGaps(st.before, st.after);
+    res.steps.push_back(std::move(st));
+  }
+  res.final_fit = fit;
+  res.unexplained_rms_um = Rms(fit.residual);
+  res.noise_floor_um = NoiseFloor(fit.residual, fit.row_begin);
+  return res;
+}
+
+}  // namespace km::discovery

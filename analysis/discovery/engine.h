@@ -1,0 +1,145 @@
+// The model-gap discovery engine shared by every machine family (serial 3-axis machines,
+// hexapods): forward stepwise model building where each step adds one named physical effect.
+//
+// A family (ModelFamily) owns the physics: it fits its base model, offers candidate effects
+// linearised at the current fit, and refits the model when a candidate is accepted. The engine
+// owns the step loop — fit, gap, candidates, scoring, acceptance, evidence, stop rule:
+//
+//  * gap g = residual of the current fit (rows grouped by test; columns of the model's
+//    Jacobian J are global or local to one test, e.g. a test's fixed-ball position);
+//  * candidate k = an offset o_k (its fixed part at the starting values) and columns A_k (its
+//    free parameters); the linearised fit of [J, A_k] to g − o_k gives its RSS and its values;
+//  * local columns are eliminated test by test (projection), so every score below works on
+//    Gram matrices per fold;
+//  * acceptance needs all of: the values physically possible (family bounds); the nested-model
+//    F-test p < max_p_value; a better prediction of tests held out of the fit (k-fold over
+//    test groups, PRESS(M ∪ k) < (1 − min_cv_gain)·PRESS(M)); and a practical improvement (the
+//    RSS drop is at least min_practical_fraction of the gap's excess over the noise floor);
+//  * it stops when the gap is at the noise floor, when no candidate qualifies (verdict "model
+//    misfit" if the gap is still above misfit_ratio × noise floor, else "complete"), or after
+//    max_steps.
+//
+// Noise floor: σ of the white part of the gap from successive differences inside each test,
+// 1.4826·MAD(Δg)/√2 — smooth effects barely change Δg at DBB sampling, so this is what no
+// smooth model can explain.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace km::discovery {
+
+struct FitState {
+  Eigen::VectorXd residual;           // n, µm
+  Eigen::MatrixXd jacobian;           // n × p (free parameters of the fitted model)
+  std::vector<int> column_group;      // per column: −1 global, g ≥ 0 local to group g
+  std::vector<int> row_begin;         // first row of each group (+ n at the end)
+  std::vector<std::string> in_model;  // effect names, in order
+};
+
+struct Candidate {
+  std::string effect;                        // name
+  std::string variant;                       // shape, e.g. "ramp_mm = 2" ("" when none)
+  int priority = 0;                          // lower wins when two cannot be told apart
+  Eigen::VectorXd offset;                    // n (may be empty: zero)
+  Eigen::MatrixXd columns;                   // n × q
+  std::vector<std::string> parameter_names;  // q
+};
+
+// Describes a step for people: which features of the gap made the effect the right one.
+struct Evidence {
+  std::string sentence;
+  std::map<std::string, double> figures;
+};
+
+class ModelFamily {
+ public:
+  virtual ~ModelFamily() = default;
+  virtual FitState FitBase() = 0;
+  virtual std::vector<Candidate> Candidates(const FitState& fit) = 0;
+  // Whether the linear estimate `x` of the candidate's parameters is physically possible;
+  // `why` names the violated bound.
+  virtual bool Physical(const Candidate& c, const Eigen::VectorXd& x, std::string* why) = 0;
+  // Nonlinear refit of the model with the candidate added (its estimate as start).
+  virtual FitState Accept(const Candidate& c, const Eigen::VectorXd& x) = 0;
+  virtual Evidence Describe(const FitState& before, const Candidate& c,
+                            const Eigen::VectorXd& contribution) = 0;
+  // Groups held out together in the cross-validation (e.g. a CW/CCW pair): fold key per group.
+  virtual std::vector<int> FoldKeys() const = 0;
+};
+
+struct EngineOptions {
+  double max_p_value = 1e-6;
+  int folds = 5;
+  double min_cv_gain = 0.02;
+  double min_practical_fraction = 0.1;
+  double noise_stop_ratio = 1.05;
+  double misfit_ratio = 1.3;
+  double confound_ratio = 0.1;  // part of a candidate's column left after projecting the model
+  int max_steps = 8;
+  double resolution_um = 1e-6;
+  void Check() const;
+};
+
+struct GroupGap {
+  int group = 0;
+  double rms_before_um = 0.0;
+  double rms_after_um = 0.0;
+};
+
+struct CandidateScore {
+  std::string effect;
+  std::string variant;
+  double rss_after_um2 = 0.0;  // linearised
+  double press_um2 = 0.0;      // cross-validated
+  double log10_p_value = 0.0;
+  bool identifiable = true;
+  bool physical = true;
+  std::string rejected_because;  // "" when it qualified
+  Eigen::VectorXd estimate;
+};
+
+struct Step {
+  std::string added_effect;
+  std::string variant;
+  double gap_rms_before_um = 0.0;
+  double gap_rms_after_um = 0.0;
+  double rss_before_um2 = 0.0;
+  double rss_after_um2 = 0.0;
+  double press_before_um2 = 0.0;
+  double press_after_um2 = 0.0;
+  double f_statistic = 0.0;
+  double log10_p_value = 0.0;
+  int df_numerator = 0;
+  int df_denominator = 0;
+  Evidence evidence;
+  std::vector<GroupGap> groups;
+  std::vector<CandidateScore> candidates;  // every candidate tried at this step
+  FitState before;
+  FitState after;
+};
+
+struct EngineResult {
+  FitState base;
+  std::vector<Step> steps;
+  FitState final_fit;
+  double unexplained_rms_um = 0.0;
+  double noise_floor_um = 0.0;
+  std::string verdict;  // "complete" | "model misfit"
+  std::string stop_reason;
+  std::vector<CandidateScore> last_candidates;  // at the stop
+};
+
+using EngineProgress = std::function<void(int step, const std::string& what)>;
+
+EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& options = {},
+                          const EngineProgress& progress = {});
+
+// Robust white-noise σ of a residual grouped by rows: 1.4826·MAD(Δ)/√2 over all groups.
+double NoiseFloor(const Eigen::VectorXd& residual, const std::vector<int>& row_begin);
+
+}  // namespace km::discovery

@@ -1,0 +1,319 @@
+#include "analysis/hexapod/effect_fit.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <Eigen/SVD>
+
+#include "analysis/core/errors.h"
+
+namespace km::hexapod {
+namespace {
+
+// Where every free parameter of a fit lives.
+struct Layout {
+  std::vector<int> k;                       // free kinematic indices
+  std::vector<std::pair<int, int>> effect;  // (effect, parameter) of free effect parameters
+  std::vector<std::pair<int, int>> ball;    // (test, coordinate) of estimated ball coordinates
+  int size() const { return static_cast<int>(k.size() + effect.size() + ball.size()); }
+};
+
+Layout LayoutOf(const EffectFitData& d, const EffectFitResult& s) {
+  Layout l;
+  for (int i = 0; i < kNumKinematicParameters; ++i)
+    if (!d.problem.fixed[static_cast<std::size_t>(i)]) l.k.push_back(i);
+  for (std::size_t e = 0; e < s.effects.size(); ++e)
+    for (std::size_t p = 0; p < s.effects[e].params.size(); ++p)
+      if (s.effects[e].params[p].free) l.effect.emplace_back(e, p);
+  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+    const auto& test = d.problem.tests[t];
+    if (test.fixed_ball_known) continue;
+    for (int c = 0; c < 3; ++c)
+      if (c != test.ball_fixed_axis) l.ball.emplace_back(static_cast<int>(t), c);
+  }
+  return l;
+}
+
+Eigen::VectorXd Pack(const Layout& l, const EffectFitResult& s) {
+  Eigen::VectorXd x(l.size());
+  int i = 0;
+  for (int k : l.k) x[i++] = s.k_um[k];
+  for (auto [e, p] : l.effect) x[i++] = s.effects[e].params[p].value;
+  for (auto [t, c] : l.ball) x[i++] = s.fixed_balls_mm[t][c];
+  return x;
+}
+
+void Unpack(const Layout& l, const Eigen::VectorXd& x, EffectFitResult& s) {
+  int i = 0;
+  for (int k : l.k) s.k_um[k] = x[i++];
+  for (auto [e, p] : l.effect) {
+    auto& par = s.effects[e].params[p];
+    par.value = std::clamp(x[i++], par.lower, par.upper);
+  }
+  for (auto [t, c] : l.ball) s.fixed_balls_mm[t][c] = x[i++];
+}
+
+// Residuals of the model `s`; with `jac`, also the Jacobian (columns of the layout) and the
+// row sensitivities.
+struct Evaluation {
+  Eigen::VectorXd r;
+  Eigen::MatrixXd jac;
+  std::vector<RowSensitivity> sens;
+  bool ok = true;
+};
+
+Evaluation Evaluate(const EffectFitData& d, const EffectFitResult& s, const Layout* layout) {
+  const int n = d.rows();
+  Evaluation ev;
+  ev.r.resize(n);
+  if (layout) {
+    ev.jac = Eigen::MatrixXd::Zero(n, layout->size());
+    ev.sens.resize(static_cast<std::size_t>(n));
+  }
+  const HexapodGeometry g = ApplyParameters(d.problem.nominal, s.k_um);
+  Perturbation pert;
+  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+    const auto& test = d.problem.tests[t];
+    const auto& path = d.prepared.paths[t];
+    ApplyEffects(s.effects, path, d.prepared.setup, pert);
+    const Eigen::Vector3d& F = s.fixed_balls_mm[t];
+    for (std::size_t i = 0; i < test.samples.size(); ++i) {
+      const int row = d.row_begin[t] + static_cast<int>(i);
+      const auto& sample = test.samples[i];
+      const double l = test.tool_length_mm + pert.dl_mm[i];
+      ForwardResult fk;
+      try {
+        fk = ForwardKinematics(g, sample.strut_command_mm + pert.ds_mm[i], l, sample.commanded);
+      } catch (const DidNotConverge&) {
+        ev.ok = false;
+        return ev;
+      }
+      const Eigen::Vector3d v = fk.pose.tip_mm - F;
+      const double bar = v.norm();
+      ev.r[row] = 1000.0 * (bar - sample.measured_bar_mm);
+      if (!layout) continue;
+      const Eigen::Vector3d e = v / bar;
+      Vector6d rhs = Vector6d::Zero();
+      rhs.head<3>() = e;
+      const Vector6d w = fk.jacobian.transpose().partialPivLu().solve(rhs);
+      RowSensitivity sv;
+      sv.head<6>() = 1000.0 * w;
+      sv[6] = -1000.0 * e.dot(RotationABC(fk.pose.abc_rad).col(2));
+      ev.sens[static_cast<std::size_t>(row)] = sv;
+      int c = 0;
+      for (int k : layout->k) {
+        ev.jac(row, c++) = k < 6 ? w[k] : w[(k - 6) / 3] * fk.jacobian((k - 6) / 3, (k - 6) % 3);
+      }
+      c += static_cast<int>(layout->effect.size());  // filled below
+      for (auto [bt, bc] : layout->ball) {
+        if (bt == static_cast<int>(t)) ev.jac(row, c) = -1000.0 * e[bc];
+        ++c;
+      }
+    }
+  }
+  if (!layout) return ev;
+  // Effect parameter columns: central differences of the effect models, mapped through the
+  // row sensitivities.
+  const int c0 = static_cast<int>(layout->k.size());
+  for (std::size_t q = 0; q < layout->effect.size(); ++q) {
+    const auto [e, p] = layout->effect[q];
+    const auto& par = s.effects[e].params[p];
+    const double h = 1e-3 * std::max(std::abs(par.value), par.scale);
+    EffectFitResult plus = s, minus = s;
+    plus.effects[e].params[p].value += h;
+    minus.effects[e].params[p].value -= h;
+    Perturbation pp, pm;
+    for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+      ApplyEffects(plus.effects, d.prepared.paths[t], d.prepared.setup, pp);
+      ApplyEffects(minus.effects, d.prepared.paths[t], d.prepared.setup, pm);
+      for (std::size_t i = 0; i < pp.ds_mm.size(); ++i) {
+        const int row = d.row_begin[t] + static_cast<int>(i);
+        RowSensitivity delta;
+        delta.head<6>() = pp.ds_mm[i] - pm.ds_mm[i];
+        delta[6] = pp.dl_mm[i] - pm.dl_mm[i];
+        ev.jac(row, c0 + static_cast<int>(q)) =
+            ev.sens[static_cast<std::size_t>(row)].dot(delta) / (2.0 * h);
+      }
+    }
+  }
+  return ev;
+}
+
+std::vector<std::string> ColumnNames(const Layout& l, const EffectFitResult& s,
+                                     const EffectFitData& d, std::vector<int>* test_of) {
+  std::vector<std::string> names;
+  for (int k : l.k) {
+    names.push_back(ParameterName(k));
+    test_of->push_back(-1);
+  }
+  for (auto [e, p] : l.effect) {
+    names.push_back(std::string(s.effects[e].effect->Name()) + "." + s.effects[e].params[p].name);
+    test_of->push_back(-1);
+  }
+  for (auto [t, c] : l.ball) {
+    names.push_back(d.problem.tests[t].test_id + ".fixed_ball_mm[" + std::to_string(c) + "]");
+    test_of->push_back(t);
+  }
+  return names;
+}
+
+// Covariance, uncertainties and statistics at the solution.
+void FillStatistics(const Layout& l, const Evaluation& ev, EffectFitResult& s) {
+  const int n = static_cast<int>(ev.r.size()), p = l.size();
+  s.residual_um = ev.r;
+  s.rss_um2 = ev.r.squaredNorm();
+  s.dof = std::max(1, n - p);
+  s.residual_rms_um = n > 0 ? std::sqrt(s.rss_um2 / n) : 0.0;
+  s.jacobian = ev.jac;
+  s.sensitivity = ev.sens;
+  s.k_sigma_um.setZero();
+  s.effect_sigma.assign(s.effects.size(), {});
+  for (std::size_t e = 0; e < s.effects.size(); ++e)
+    s.effect_sigma[e].assign(s.effects[e].params.size(), 0.0);
+  if (p == 0) return;
+  // Column scaling keeps the condition number meaningful across units.
+  Eigen::VectorXd scale = ev.jac.colwise().norm().transpose();
+  for (int i = 0; i < p; ++i) scale[i] = scale[i] > 0.0 ? scale[i] : 1.0;
+  const Eigen::MatrixXd js = ev.jac * scale.cwiseInverse().asDiagonal();
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(js);
+  const auto& sv = svd.singularValues();
+  s.condition_number = sv[sv.size() - 1] > 0.0 ? sv[0] / sv[sv.size() - 1] : 1e300;
+  const double sigma2 = s.rss_um2 / s.dof;
+  const Eigen::MatrixXd cov =
+      sigma2 * (js.transpose() * js).ldlt().solve(Eigen::MatrixXd::Identity(p, p));
+  int i = 0;
+  for (int k : l.k) {
+    s.k_sigma_um[k] = std::sqrt(std::max(0.0, cov(i, i))) / scale[i];
+    ++i;
+  }
+  for (auto [e, q] : l.effect) {
+    s.effect_sigma[e][q] = std::sqrt(std::max(0.0, cov(i, i))) / scale[i];
+    ++i;
+  }
+}
+
+}  // namespace
+
+EffectFitData PrepareEffectFit(const HexapodGeometry& nominal, const MachinePhysics* physics,
+                               const std::vector<dbb::DbbTest>& tests,
+                               const std::vector<std::optional<double>>& start_time_s,
+                               CalibrationMethod method, int max_samples_per_test) {
+  std::vector<dbb::DbbTest> thin = tests;
+  if (max_samples_per_test > 0) {
+    for (auto& t : thin) {
+      const std::size_t n = t.angle_deg.size(), m = static_cast<std::size_t>(max_samples_per_test);
+      if (n <= m) continue;
+      const std::size_t stride = (n + m - 1) / m;
+      std::vector<double> a, r;
+      for (std::size_t i = 0; i < n; i += stride) {
+        a.push_back(t.angle_deg[i]);
+        r.push_back(t.dr_um[i]);
+      }
+      t.angle_deg = std::move(a);
+      t.dr_um = std::move(r);
+    }
+  }
+  EffectFitData d;
+  CalibrationOptions options;
+  options.method = method;
+  d.problem = BuildCalibrationProblem(nominal, thin, options);
+  AnalyzeObservability(d.problem);
+  d.prepared = PrepareTests(nominal, physics, thin, start_time_s);
+  d.row_begin.push_back(0);
+  for (const auto& t : d.problem.tests)
+    d.row_begin.push_back(d.row_begin.back() + static_cast<int>(t.samples.size()));
+  return d;
+}
+
+EffectFitResult StartingPoint(const EffectFitData& data,
+                              const std::vector<const HexapodEffect*>& effects) {
+  EffectFitResult s;
+  for (const auto* e : effects) {
+    ActiveEffect a{e, e->Parameters(data.prepared.setup)};
+    if (a.params.empty()) {
+      throw NotObservable(std::string(e->Name()) +
+                          " cannot be modelled for these tests (the machine file or the test "
+                          "files lack what it needs)");
+    }
+    s.effects.push_back(std::move(a));
+  }
+  for (const auto& t : data.problem.tests) s.fixed_balls_mm.push_back(t.fixed_ball_mm);
+  return s;
+}
+
+EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult& start,
+                               const EffectFitOptions& options) {
+  EffectFitResult s = start;
+  s.converged = false;
+  if (s.fixed_balls_mm.size() != data.problem.tests.size()) {
+    s.fixed_balls_mm.clear();
+    for (const auto& t : data.problem.tests) s.fixed_balls_mm.push_back(t.fixed_ball_mm);
+  }
+  const Layout layout = LayoutOf(data, s);
+  Evaluation ev = Evaluate(data, s, &layout);
+  if (!ev.ok) throw DidNotConverge("forward kinematics failed at the starting point of the fit");
+  double cost = ev.r.squaredNorm();
+  double mu = 1e-6;
+  for (s.iterations = 0; s.iterations < options.max_iterations; ++s.iterations) {
+    const Eigen::MatrixXd jtj = ev.jac.transpose() * ev.jac;
+    const Eigen::VectorXd g = ev.jac.transpose() * ev.r;
+    bool improved = false;
+    for (int tries = 0; tries < 12 && !improved; ++tries) {
+      Eigen::MatrixXd a = jtj;
+      a.diagonal() += mu * jtj.diagonal().cwiseMax(1e-12);
+      const Eigen::VectorXd step = a.ldlt().solve(-g);
+      EffectFitResult trial = s;
+      Unpack(layout, Pack(layout, s) + step, trial);
+      const Evaluation te = Evaluate(data, trial, nullptr);
+      const double tc = te.ok ? te.r.squaredNorm() : HUGE_VAL;
+      if (tc < cost) {
+        const double rel = (cost - tc) / std::max(cost, 1e-300);
+        s = std::move(trial);
+        ev = Evaluate(data, s, &layout);
+        cost = tc;
+        mu = std::max(mu / 10.0, 1e-12);
+        improved = true;
+        if (rel < options.relative_tolerance) {
+          s.converged = true;
+        }
+      } else {
+        mu *= 10.0;
+      }
+    }
+    if (!improved || s.converged) {
+      s.converged = true;  // no descent left: a (local) minimum within the tolerance
+      break;
+    }
+  }
+  FillStatistics(layout, ev, s);
+  s.column_test.clear();
+  s.column_name = ColumnNames(layout, s, data, &s.column_test);
+  return s;
+}
+
+Eigen::VectorXd EffectContribution(const EffectFitData& data, const EffectFitResult& fit,
+                                   const ActiveEffect& effect) {
+  Eigen::VectorXd c(data.rows());
+  Perturbation pert;
+  std::vector<ActiveEffect> model = {effect};
+  // The effect sees the model's compliance when it depends on it (joint friction).
+  for (const auto& a : fit.effects)
+    if (a.effect != effect.effect) model.insert(model.begin(), a);
+  Perturbation base;
+  for (std::size_t t = 0; t < data.problem.tests.size(); ++t) {
+    ApplyEffects(model, data.prepared.paths[t], data.prepared.setup, pert);
+    ApplyEffects(fit.effects, data.prepared.paths[t], data.prepared.setup, base);
+    for (std::size_t i = 0; i < pert.ds_mm.size(); ++i) {
+      const int row = data.row_begin[t] + static_cast<int>(i);
+      RowSensitivity delta;
+      delta.head<6>() = pert.ds_mm[i] - base.ds_mm[i];
+      delta[6] = pert.dl_mm[i] - base.dl_mm[i];
+      c[row] = fit.sensitivity[static_cast<std::size_t>(row)].dot(delta);
+    }
+  }
+  return c;
+}
+
+}  // namespace km::hexapod

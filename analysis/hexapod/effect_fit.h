@@ -1,0 +1,84 @@
+// Calibration with effects ([PM-600 report] ch. 5 eq. 5.3, [Joint patent] formulas 15–20): the
+// 24 kinematic parameters (calibration.h) and the free parameters of a set of error effects
+// (effects/effect.h) fitted together to DBB tests by damped Gauss–Newton, with uncertainties.
+// A calibration that ignores a present effect absorbs it into wrong kinematic parameters; this
+// one models it:
+//
+//   r = 1000·(|tip(FK_{nominal+K}(s + Δs(p)), l + Δl(p)) − F| − L_measured)     [µm]
+//   ∂r/∂Δo_j = w_j,  ∂r/∂ΔQ_j = w_j u_jᵀ,  ∂r/∂Δs_j[mm] = 1000 w_j,
+//   ∂r/∂l[mm] = −1000 eᵀ R e_z (the tip moves along the spindle axis at a fixed platform),
+//   ∂r/∂F = −1000 eᵀ,  w = J⁻ᵀ[e; 0]
+//
+// with the effect derivatives ∂Δs/∂p, ∂Δl/∂p by central differences of the effect models.
+// Unobservable kinematic combinations are fixed as in the plain calibration
+// (AnalyzeObservability). Effect parameters stay inside their bounds.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "analysis/hexapod/calibration.h"
+#include "analysis/hexapod/effects/registry.h"
+#include "analysis/hexapod/effects/test_path.h"
+
+namespace km::hexapod {
+
+// The data of a fit: the calibration problem (samples, fixed balls, observability) and the
+// same samples prepared for the effects.
+struct EffectFitData {
+  CalibrationProblem problem;
+  PreparedTests prepared;
+  std::vector<int> row_begin;  // first residual row of each test (+ total at the end)
+  int rows() const { return row_begin.empty() ? 0 : row_begin.back(); }
+};
+
+// Builds the problem; tests are thinned to max_samples_per_test (0: all) before anything.
+EffectFitData PrepareEffectFit(const HexapodGeometry& nominal, const MachinePhysics* physics,
+                               const std::vector<dbb::DbbTest>& tests,
+                               const std::vector<std::optional<double>>& start_time_s,
+                               CalibrationMethod method, int max_samples_per_test);
+
+// Sensitivity of one residual row to the realised strut lengths and the tool length (µm/mm).
+using RowSensitivity = Eigen::Matrix<double, 7, 1>;
+
+struct EffectFitResult {
+  ParameterVector k_um = ParameterVector::Zero();
+  ParameterVector k_sigma_um = ParameterVector::Zero();
+  std::vector<ActiveEffect> effects;  // fitted values
+  std::vector<std::vector<double>> effect_sigma;
+  std::vector<Eigen::Vector3d> fixed_balls_mm;
+  Eigen::VectorXd residual_um;           // all rows, tests in order
+  Eigen::MatrixXd jacobian;              // n × free parameters, at the solution
+  std::vector<int> column_test;          // −1: global column, t: nuisance of test t
+  std::vector<std::string> column_name;  // e.g. "strut_offset_um[2]", "joint_friction.torque_Nm"
+  std::vector<RowSensitivity> sensitivity;
+  double rss_um2 = 0.0;
+  int dof = 0;
+  double residual_rms_um = 0.0;
+  double condition_number = 0.0;
+  int iterations = 0;
+  bool converged = false;
+};
+
+struct EffectFitOptions {
+  int max_iterations = 40;
+  double relative_tolerance = 1e-10;  // on the cost
+};
+
+// Fits from `start` (k and effect values; balls from the data). The effects in `start` with
+// their parameters' `free` flags define the model.
+EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult& start,
+                               const EffectFitOptions& options = {});
+
+// A starting point: kinematic parameters 0 and the effects at their defaults for this set.
+EffectFitResult StartingPoint(const EffectFitData& data,
+                              const std::vector<const HexapodEffect*>& effects);
+
+// First-order change of every residual row caused by adding `effect` with parameter values
+// `values` to the fitted model (effect models evaluated alone, rows in order).
+Eigen::VectorXd EffectContribution(const EffectFitData& data, const EffectFitResult& fit,
+                                   const ActiveEffect& effect);
+
+}  // namespace km::hexapod

@@ -1,0 +1,279 @@
+#include "server/discovery_json.h"
+
+#include <cmath>
+
+#include "analysis/hexapod/dbb_geometry.h"
+
+namespace km::server {
+namespace {
+
+using nlohmann::json;
+
+json Values(const std::vector<double>& v) {
+  if (v.size() == 1) return v[0];
+  return json(v);
+}
+
+json KinematicJson(const hexapod::ParameterVector& k) {
+  json strut = json::array(), base = json::array();
+  for (int j = 0; j < 6; ++j) {
+    strut.push_back(k[j]);
+    base.push_back({k[6 + 3 * j], k[7 + 3 * j], k[8 + 3 * j]});
+  }
+  return {{"strut_offset_um", strut}, {"base_joint_offset_um", base}};
+}
+
+json EffectEntry(const hexapod::ActiveEffect& a, const std::vector<double>& sigma) {
+  json p = json::object(), u = json::object(), fixed = json::array();
+  for (std::size_t i = 0; i < a.params.size(); ++i) {
+    p[a.params[i].name] = a.params[i].value;
+    u[a.params[i].name] = i < sigma.size() ? sigma[i] : 0.0;
+    if (!a.params[i].free) fixed.push_back(a.params[i].name);
+  }
+  json e = {{"effect", a.effect->Name()}, {"parameters", p}, {"uncertainty", u}};
+  if (!fixed.empty()) e["fixed_parameters"] = fixed;
+  // The headline value: the first parameter, with its unit.
+  e["value"] = a.params.front().value;
+  e["sigma"] = sigma.empty() ? 0.0 : sigma.front();
+  e["unit"] = a.params.front().unit;
+  return e;
+}
+
+double Rms(const Eigen::VectorXd& v, int r0, int r1) {
+  return r1 > r0 ? std::sqrt(v.segment(r0, r1 - r0).squaredNorm() / (r1 - r0)) : 0.0;
+}
+
+json TestGaps(const hexapod::EffectFitData& d, const Eigen::VectorXd& before,
+              const Eigen::VectorXd* after, const std::vector<std::string>& names) {
+  json list = json::array();
+  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+    const auto& test = d.problem.tests[t];
+    json row = {{"test_id", test.test_id},
+                {"direction", dbb::ToString(test.direction)},
+                {"gap_rms_before_um", Rms(before, d.row_begin[t], d.row_begin[t + 1])}};
+    if (t < names.size()) row["file"] = names[t];
+    if (after) row["gap_rms_after_um"] = Rms(*after, d.row_begin[t], d.row_begin[t + 1]);
+    list.push_back(row);
+  }
+  return list;
+}
+
+const hexapod::ActiveEffect* FindEffect(const hexapod::EffectFitResult& f, const std::string& n,
+                                        std::vector<double>* sigma) {
+  for (std::size_t e = 0; e < f.effects.size(); ++e) {
+    if (f.effects[e].effect->Name() != n) continue;
+    if (sigma) *sigma = f.effect_sigma[e];
+    return &f.effects[e];
+  }
+  return nullptr;
+}
+
+// Compensation preview ([PM-600 report] eq. 4.5, table 4.5): with the command corrected by the
+// modelled gravity (and friction) deflection, the trace loses their contribution; circularity
+// per test of the measured trace and of the trace predicted with compensation.
+json CompensationPreview(const hexapod::EffectFitData& d, const hexapod::EffectFitResult& fit) {
+  std::vector<hexapod::ActiveEffect> comp;
+  for (const auto& a : fit.effects) {
+    const std::string n = a.effect->Name();
+    if (n == "gravity_deflection" || n == "joint_friction") comp.push_back(a);
+  }
+  if (comp.empty()) return nullptr;
+  json tests = json::array();
+  hexapod::Perturbation pert;
+  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+    const auto& test = d.problem.tests[t];
+    hexapod::ApplyEffects(comp, d.prepared.paths[t], d.prepared.setup, pert);
+    std::vector<double> angle, dr, dr_comp;
+    const auto& path = d.prepared.paths[t];
+    const Eigen::Vector3d& f = fit.fixed_balls_mm[t];
+    for (std::size_t i = 0; i < test.samples.size(); ++i) {
+      const int row = d.row_begin[t] + static_cast<int>(i);
+      const Eigen::Vector3d v = path.pose[i].tip_mm - f;
+      angle.push_back(std::atan2(v.y(), v.x()) * 180.0 / 3.14159265358979323846);
+      const double measured_um = 1000.0 * (test.samples[i].measured_bar_mm);
+      hexapod::RowSensitivity delta;
+      delta.head<6>() = pert.ds_mm[i];
+      delta[6] = pert.dl_mm[i];
+      const double effect_um = fit.sensitivity[static_cast<std::size_t>(row)].dot(delta);
+      dr.push_back(measured_um);
+      dr_comp.push_back(measured_um - effect_um);
+    }
+    // Unwrap the angles so that one turn is recognised.
+    for (std::size_t i = 1; i < angle.size(); ++i) {
+      while (angle[i] - angle[i - 1] > 180.0) angle[i] -= 360.0;
+      while (angle[i] - angle[i - 1] < -180.0) angle[i] += 360.0;
+    }
+    const double radius = test.samples.empty() ? 1.0 : test.samples.front().measured_bar_mm;
+    for (double& x : dr) x -= 1000.0 * radius;
+    for (double& x : dr_comp) x -= 1000.0 * radius;
+    try {
+      const auto before = hexapod::TraceCircleFigures(angle, dr, radius);
+      const auto after = hexapod::TraceCircleFigures(angle, dr_comp, radius);
+      tests.push_back({{"test_id", test.test_id},
+                       {"direction", dbb::ToString(test.direction)},
+                       {"circularity_without_compensation_um", before.circularity_um},
+                       {"predicted_circularity_with_compensation_um", after.circularity_um}});
+    } catch (const std::exception&) {
+      continue;
+    }
+  }
+  json effects = json::array();
+  for (const auto& a : comp) effects.push_back(a.effect->Name());
+  return {{"compensated_effects", effects}, {"tests", tests}};
+}
+
+}  // namespace
+
+json SerialDiscoveryJson(const dbb::DiscoveryResult& r, dbb::Plane plane) {
+  json steps = json::array();
+  for (const auto& s : r.steps) {
+    const auto& e = s.evidence;
+    json params = json::object();
+    for (const auto& [k, v] : e.parameters) params[k] = v;
+    json ev = {{"rss_before_um2", e.rss_before_um2},
+               {"rss_after_um2", e.rss_after_um2},
+               {"f_statistic", e.f_statistic},
+               {"df_numerator", e.df_numerator},
+               {"df_denominator", e.df_denominator},
+               {"p_value", e.p_value},
+               {"log10_p_value", e.log10_p_value},
+               {"value", Values(e.value)},
+               {"unit", e.unit},
+               {"sigma", Values(e.sigma)},
+               {"z_score", e.z_score},
+               {"parameters", params},
+               {"indistinguishable_from", e.indistinguishable_from}};
+    ev["runner_up"] = e.runner_up.empty() ? json(nullptr) : json(e.runner_up);
+    ev["runner_up_rss_drop_um2"] = e.runner_up.empty() ? 0.0 : e.runner_up_rss_drop_um2;
+    steps.push_back({{"added_effect", s.added_effect},
+                     {"evidence", ev},
+                     {"gap_rms_before_um", s.gap_rms_before_um},
+                     {"gap_rms_after_um", s.gap_rms_after_um}});
+  }
+  json model = json::array();
+  for (const auto& m : r.final_model) {
+    json x = {{"effect", m.effect},
+              {"value", Values(m.value)},
+              {"unit", m.unit},
+              {"sigma", Values(m.sigma)}};
+    if (!m.shape.empty()) {
+      json sh = json::object();
+      for (const auto& [k, v] : m.shape) sh[k] = v;
+      x["shape"] = sh;
+    }
+    model.push_back(x);
+  }
+  const bool misfit = r.unexplained_rms_um > 1.3 * r.noise_floor_um &&
+                      r.stop_reason != "the gap is at the noise floor";
+  return {{"kind", "serial"},
+          {"plane", dbb::ToString(plane)},
+          {"steps", steps},
+          {"final_model", model},
+          {"unexplained_rms_um", r.unexplained_rms_um},
+          {"noise_floor_um", r.noise_floor_um},
+          {"verdict", misfit ? "model misfit" : "complete"},
+          {"stop_reason", r.stop_reason},
+          {"rejected", r.rejected},
+          {"not_identifiable", r.not_identifiable}};
+}
+
+json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
+                          const hexapod::EffectFitData& data,
+                          const std::vector<hexapod::EffectFitResult>& history,
+                          const discovery::EngineResult& r, const std::vector<std::string>& names) {
+  json steps = json::array();
+  for (std::size_t i = 0; i < r.steps.size(); ++i) {
+    const auto& s = r.steps[i];
+    const auto& after = history[i + 1];
+    std::vector<double> sigma;
+    const auto* eff = FindEffect(after, s.added_effect, &sigma);
+    json ev = {{"sentence", s.evidence.sentence},
+               {"f_statistic", s.f_statistic},
+               {"df_numerator", s.df_numerator},
+               {"df_denominator", s.df_denominator},
+               {"log10_p_value", s.log10_p_value},
+               {"p_value", std::pow(10.0, s.log10_p_value)},
+               {"rss_before_um2", s.rss_before_um2},
+               {"rss_after_um2", s.rss_after_um2},
+               {"cv_press_before_um2", s.press_before_um2},
+               {"cv_press_after_um2", s.press_after_um2},
+               {"variant", s.variant}};
+    for (const auto& [k, v] : s.evidence.figures) ev[k] = v;
+    if (eff) {
+      const json entry = EffectEntry(*eff, sigma);
+      ev["parameters"] = entry["parameters"];
+      ev["uncertainty"] = entry["uncertainty"];
+    }
+    json cands = json::array();
+    for (const auto& c : s.candidates) {
+      cands.push_back({{"effect", c.effect},
+                       {"variant", c.variant},
+                       {"rss_after_um2", c.rss_after_um2},
+                       {"cv_press_um2", c.press_um2},
+                       {"log10_p_value", c.log10_p_value},
+                       {"qualified", c.rejected_because.empty()},
+                       {"rejected_because", c.rejected_because}});
+    }
+    ev["candidates"] = cands;
+    steps.push_back({{"added_effect", s.added_effect},
+                     {"evidence", ev},
+                     {"gap_rms_before_um", s.gap_rms_before_um},
+                     {"gap_rms_after_um", s.gap_rms_after_um},
+                     {"tests", TestGaps(data, s.before.residual, &s.after.residual, names)}});
+  }
+  const auto& fin = history.back();
+  json model = json::array();
+  json kin = {
+      {"effect", "kinematic_parameters"},
+      {"parameters", KinematicJson(fin.k_um)},
+      {"uncertainty", KinematicJson(fin.k_sigma_um)},
+      {"fixed_parameters", data.problem.options.method == hexapod::CalibrationMethod::kAbsolute
+                               ? json::array()
+                               : json::array()}};
+  for (int i = 0; i < hexapod::kNumKinematicParameters; ++i)
+    if (data.problem.fixed[static_cast<std::size_t>(i)])
+      kin["fixed_parameters"].push_back(hexapod::ParameterName(i));
+  model.push_back(kin);
+  for (std::size_t e = 0; e < fin.effects.size(); ++e)
+    model.push_back(EffectEntry(fin.effects[e], fin.effect_sigma[e]));
+  json last = json::array();
+  for (const auto& c : r.last_candidates) {
+    last.push_back({{"effect", c.effect},
+                    {"variant", c.variant},
+                    {"rejected_because", c.rejected_because},
+                    {"log10_p_value", c.log10_p_value}});
+  }
+  return {{"kind", "hexapod"},
+          {"machine_id", machine.machine_id},
+          {"method", hexapod::ToString(data.problem.options.method)},
+          {"base",
+           {{"model", "kinematic_parameters"},
+            {"gap_rms_um", history.front().residual_rms_um},
+            {"tests", TestGaps(data, history.front().residual_um, nullptr, names)}}},
+          {"steps", steps},
+          {"final_model", model},
+          {"unexplained_rms_um", r.unexplained_rms_um},
+          {"noise_floor_um", r.noise_floor_um},
+          {"verdict", r.verdict},
+          {"stop_reason", r.stop_reason},
+          {"candidates_at_stop", last},
+          {"final_tests", TestGaps(data, fin.residual_um, nullptr, names)},
+          {"condition_number", fin.condition_number},
+          {"compensation", CompensationPreview(data, fin)}};
+}
+
+ingest::MachineDefinition UpdatedMachine(const ingest::MachineDefinition& machine,
+                                         const hexapod::EffectFitResult& fit) {
+  ingest::MachineDefinition m = machine;
+  m.geometry = hexapod::ApplyParameters(machine.geometry, fit.k_um);
+  m.effects.clear();
+  for (const auto& a : fit.effects) {
+    ingest::MachineEffect me;
+    me.effect = a.effect->Name();
+    for (const auto& p : a.params) me.parameters.emplace_back(p.name, p.value);
+    m.effects.push_back(std::move(me));
+  }
+  return m;
+}
+
+}  // namespace km::server

@@ -1,0 +1,30 @@
+// JSON of `kinemetric discover` (docs/formats.md §3) for the serial and the hexapod families,
+// and the machine model a hexapod discovery produces. Used by server/discovery_report.cpp.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "analysis/dbb/discovery.h"
+#include "analysis/discovery/engine.h"
+#include "analysis/hexapod/effect_fit.h"
+#include "ingest/machine_json.h"
+
+namespace km::server {
+
+nlohmann::json SerialDiscoveryJson(const dbb::DiscoveryResult& r, dbb::Plane plane);
+
+nlohmann::json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
+                                    const hexapod::EffectFitData& data,
+                                    const std::vector<hexapod::EffectFitResult>& history,
+                                    const discovery::EngineResult& r,
+                                    const std::vector<std::string>& names);
+
+// The machine with the calibrated geometry (nominal + fitted kinematic parameters) and the
+// fitted effects as its "effects" block.
+ingest::MachineDefinition UpdatedMachine(const ingest::MachineDefinition& machine,
+                                         const hexapod::EffectFitResult& fit);
+
+}  // namespace km::server
