@@ -1,5 +1,6 @@
 // `kinemetric hexapod calibrate --machine M.json FILE… [--method absolute|centre-corrected]
-//  [--write-machine OUT.json] [--max-samples-per-test N] [--reduction-study MIN_TESTS] [--json]`
+//  [--write-machine OUT.json] [--max-samples-per-test N] [--reduction-study MIN_TESTS]
+//  [--effects gravity_deflection,joint_friction,…] [--json]`
 //  (contract §3): 24-parameter kinematic calibration of a
 // hexapod from DBB files ([PM-600 report] §2.2–2.3), with the post-calibration prediction of every
 // trace ([PM-600 report] eq. 5.2). Parsing in ingest/, numerics in analysis/hexapod, JSON mapping
@@ -9,6 +10,7 @@
 #include <cstdio>
 #include <fstream>
 #include <ostream>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -48,6 +50,12 @@ int RunHexapodCalibrate(const Args& args, std::ostream& out) {
       throw InvalidInput("", 0, "--reduction-study", "must be a positive integer (minimum tests)");
     }
     study.reduction_min_tests = static_cast<int>(min_groups);
+  }
+  if (const auto e = args.Get("--effects")) {  // [PM-600 report] eq. 5.3, [Joint patent] 15–20
+    std::stringstream ss(*e);
+    std::string name;
+    while (std::getline(ss, name, ','))
+      if (!name.empty()) study.effects.push_back(name);
   }
   const auto outcome = server::RunCalibrationStudy(study);
   const auto& report = outcome.report;
@@ -96,9 +104,9 @@ int RunHexapodCalibrate(const Args& args, std::ostream& out) {
 KM_CLI_COMMAND("hexapod calibrate",
                "--machine M.json FILE... [--method absolute|centre-corrected] "
                "[--write-machine OUT.json] [--max-samples-per-test N] "
-               "[--reduction-study MIN_TESTS] [--json]",
+               "[--reduction-study MIN_TESTS] [--effects NAME,NAME] [--json]",
                {"--machine", "--method", "--write-machine", "--max-samples-per-test",
-                "--reduction-study"},
+                "--reduction-study", "--effects"},
                RunHexapodCalibrate);
 
 }  // namespace

@@ -14,6 +14,8 @@ json Values(const std::vector<double>& v) {
   return json(v);
 }
 
+}  // namespace
+
 json KinematicJson(const hexapod::ParameterVector& k) {
   json strut = json::array(), base = json::array();
   for (int j = 0; j < 6; ++j) {
@@ -23,7 +25,7 @@ json KinematicJson(const hexapod::ParameterVector& k) {
   return {{"strut_offset_um", strut}, {"base_joint_offset_um", base}};
 }
 
-json EffectEntry(const hexapod::ActiveEffect& a, const std::vector<double>& sigma) {
+json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& sigma) {
   json p = json::object(), u = json::object(), fixed = json::array();
   for (std::size_t i = 0; i < a.params.size(); ++i) {
     p[a.params[i].name] = a.params[i].value;
@@ -38,6 +40,8 @@ json EffectEntry(const hexapod::ActiveEffect& a, const std::vector<double>& sigm
   e["unit"] = a.params.front().unit;
   return e;
 }
+
+namespace {
 
 double Rms(const Eigen::VectorXd& v, int r0, int r1) {
   return r1 > r0 ? std::sqrt(v.segment(r0, r1 - r0).squaredNorm() / (r1 - r0)) : 0.0;
@@ -200,7 +204,7 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                {"variant", s.variant}};
     for (const auto& [k, v] : s.evidence.figures) ev[k] = v;
     if (eff) {
-      const json entry = EffectEntry(*eff, sigma);
+      const json entry = EffectModelJson(*eff, sigma);
       ev["parameters"] = entry["parameters"];
       ev["uncertainty"] = entry["uncertainty"];
     }
@@ -235,7 +239,7 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
       kin["fixed_parameters"].push_back(hexapod::ParameterName(i));
   model.push_back(kin);
   for (std::size_t e = 0; e < fin.effects.size(); ++e)
-    model.push_back(EffectEntry(fin.effects[e], fin.effect_sigma[e]));
+    model.push_back(EffectModelJson(fin.effects[e], fin.effect_sigma[e]));
   json last = json::array();
   for (const auto& c : r.last_candidates) {
     last.push_back({{"effect", c.effect},

@@ -22,6 +22,13 @@ nlohmann::json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                                     const discovery::EngineResult& r,
                                     const std::vector<std::string>& names);
 
+// {"strut_offset_um": [6], "base_joint_offset_um": [6][3]} of a kinematic parameter vector.
+nlohmann::json KinematicJson(const hexapod::ParameterVector& k);
+
+// One fitted effect: {effect, parameters {name: value}, uncertainty {name: σ}, value, sigma,
+// unit (of the first parameter), fixed_parameters}.
+nlohmann::json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& sigma);
+
 // The machine with the calibrated geometry (nominal + fitted kinematic parameters) and the
 // fitted effects as its "effects" block.
 ingest::MachineDefinition UpdatedMachine(const ingest::MachineDefinition& machine,

@@ -10,6 +10,7 @@
 #include "analysis/hexapod/dbb_geometry.h"
 #include "ingest/iso8601.h"
 #include "server/discovery_json.h"
+#include "server/effect_calibration.h"
 
 namespace km::server {
 namespace {
@@ -45,24 +46,6 @@ std::vector<hexapod::ActiveEffect> KnownEffects(const ingest::MachineDefinition&
   return out;
 }
 
-std::vector<std::optional<double>> StartTimes(const std::vector<dbb::DbbTest>& tests,
-                                              const std::vector<std::string>& names) {
-  std::vector<std::optional<double>> out;
-  for (std::size_t k = 0; k < tests.size(); ++k) {
-    if (!tests[k].timestamp) {
-      out.emplace_back();
-      continue;
-    }
-    const auto s = ingest::Iso8601EpochSeconds(*tests[k].timestamp);
-    if (!s) {
-      throw InvalidInput(k < names.size() ? names[k] : tests[k].test_id, 0, "timestamp",
-                         "not an ISO 8601 time: '" + *tests[k].timestamp + "'");
-    }
-    out.push_back(*s);
-  }
-  return out;
-}
-
 DiscoveryOutcome HexapodDiscovery(const DiscoveryStudy& study,
                                   const DiscoveryProgressFn& progress) {
   const ingest::MachineDefinition& machine = *study.machine;
@@ -74,7 +57,7 @@ DiscoveryOutcome HexapodDiscovery(const DiscoveryStudy& study,
   hexapod::EffectFitData data;
   try {
     data = hexapod::PrepareEffectFit(machine.geometry, physics, study.tests,
-                                     StartTimes(study.tests, study.names), method,
+                                     TestStartTimes(study.tests, study.names), method,
                                      study.max_samples_per_test);
   } catch (const InvalidInput& e) {
     // Name the file rather than the test id.

@@ -4,18 +4,11 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/dbb/circular_test.h"
+#include "server/discovery_json.h"
+#include "server/effect_calibration.h"
 
 namespace km::server {
 namespace {
-
-nlohmann::json ParameterJson(const hexapod::ParameterVector& k) {
-  nlohmann::json strut = nlohmann::json::array(), base = nlohmann::json::array();
-  for (int j = 0; j < 6; ++j) {
-    strut.push_back(k[j]);
-    base.push_back({k[6 + 3 * j], k[7 + 3 * j], k[8 + 3 * j]});
-  }
-  return {{"strut_offset_um", strut}, {"base_joint_offset_um", base}};
-}
 
 // [PM-600 report] table 2.2 figures of one trace: centre deviation |(X0, Y0)| (absolute mode: the
 // machine's centre positioning error against the jig ball), average radial error, circularity.
@@ -31,8 +24,8 @@ nlohmann::json CalibrationJson(const hexapod::CalibrationResult& r,
                                const std::vector<dbb::DbbTest>& tests) {
   nlohmann::json j;
   j["method"] = hexapod::ToString(r.method);
-  j["parameters"] = ParameterJson(r.parameters_um);
-  j["parameter_uncertainty_um"] = ParameterJson(r.uncertainty_um);
+  j["parameters"] = KinematicJson(r.parameters_um);
+  j["parameter_uncertainty_um"] = KinematicJson(r.uncertainty_um);
   j["fixed_parameters"] = r.fixed_parameters;
   j["tests"] = nlohmann::json::array();
   for (std::size_t i = 0; i < pred.size(); ++i) {
@@ -95,6 +88,12 @@ CalibrationOutcome RunCalibrationStudy(const CalibrationStudy& study, const Prog
       throw InvalidInput(name, 0, "fixed_ball_mm",
                          "absolute calibration needs the measured fixed-ball position");
     }
+  }
+  if (!study.effects.empty()) {
+    if (study.reduction_min_tests > 0)
+      throw InvalidInput("", 0, "reduction_min_tests",
+                         "the reduction study is available for the plain calibration only");
+    return RunEffectCalibration(study, progress);
   }
   report(0.05, "calibrating");
   const auto result = hexapod::Calibrate(study.machine.geometry, study.tests, options);

@@ -25,6 +25,9 @@ struct CalibrationStudy {
   std::optional<hexapod::CalibrationMethod> method;
   int max_samples_per_test = 0;  // 0: all samples
   int reduction_min_tests = 0;   // > 0: run the reduction study down to this many tests
+  // Effects fitted together with the kinematics (docs/hexapod-effects.md), e.g.
+  // {"gravity_deflection", "joint_friction"}; empty: the plain 24-parameter calibration.
+  std::vector<std::string> effects;
 };
 
 struct CalibrationOutcome {

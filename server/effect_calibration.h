@@ -1,0 +1,32 @@
+// Hexapod calibration with effects ([PM-600 report] ch. 5 eq. 5.3, [Joint patent] formulas
+// 15–20): the 24 kinematic parameters and the free parameters of the named effects fitted
+// together (analysis/hexapod/effect_fit.h), reported with the keys of `kinemetric hexapod
+// calibrate` plus `effects[]`. Used by RunCalibrationStudy when effects are asked for.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/dbb/dbb_types.h"
+#include "analysis/hexapod/effects/registry.h"
+#include "server/hexapod_report.h"
+
+namespace km::server {
+
+// Start time of every test (Unix seconds) from its timestamp; nullopt for a test without one.
+// Throws km::InvalidInput naming the file when a timestamp is not ISO 8601.
+std::vector<std::optional<double>> TestStartTimes(const std::vector<dbb::DbbTest>& tests,
+                                                  const std::vector<std::string>& names);
+
+// The effects named (comma-separated list or vector), with their defaults for these tests and
+// the machine's stored values where its model has them. Throws km::InvalidInput (field
+// `field`) for an unknown name or an effect the data cannot support.
+std::vector<hexapod::ActiveEffect> ResolveEffects(const std::vector<std::string>& names,
+                                                  const ingest::MachineDefinition& machine,
+                                                  const hexapod::EffectSetup& setup,
+                                                  const std::string& field);
+
+CalibrationOutcome RunEffectCalibration(const CalibrationStudy& study, const ProgressFn& progress);
+
+}  // namespace km::server
