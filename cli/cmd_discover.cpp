@@ -1,8 +1,11 @@
 // kinemetric discover [--machine M.json] FILE… [--json] [--samples N] [--write-machine OUT.json]
+//   [--plot DIR]
 // Model-gap discovery (server/discovery_report.h): serial machines (no --machine, or a machine
 // of kind "serial") with the serial effect family, hexapods with the hexapod family whose base
 // model is the 24-parameter kinematic calibration.
+#include <array>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <ostream>
 #include <string>
@@ -11,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/errors.h"
+#include "analysis/dbb/polar_plot.h"
 #include "cli/command.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
@@ -56,6 +60,43 @@ void PrintText(const nlohmann::json& r, std::ostream& out) {
   out << line;
 }
 
+// `--plot DIR`: per step, the measured vs model trace of the test with the largest gap before
+// the step, before and after (polar, like the DBB plot).
+void WritePlots(const nlohmann::json& r, const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw InvalidInput(dir, 0, "--plot", "cannot create the directory");
+  int i = 0;
+  for (const auto& s : r["steps"]) {
+    ++i;
+    if (!s.contains("worst_test")) continue;
+    const auto& w = s["worst_test"];
+    std::vector<dbb::PolarPlotTrace> traces(3);
+    const char* keys[] = {"measured_um", "model_before_um", "model_after_um"};
+    const char* labels[] = {"measured", "model before", "model after"};
+    const std::array<unsigned char, 3> colours[] = {{200, 60, 20}, {150, 150, 150}, {30, 30, 220}};
+    for (int k = 0; k < 3; ++k) {
+      traces[k].label = labels[k];
+      traces[k].bgr = colours[k];
+      for (std::size_t n = 0; n < w["angle_deg"].size(); ++n) {
+        traces[k].angle_rad.push_back(w["angle_deg"][n].get<double>() * 3.14159265358979323846 /
+                                      180.0);
+        traces[k].dev_um.push_back(w[keys[k]][n].get<double>());
+      }
+    }
+    dbb::PolarPlotOptions opt;
+    opt.title = "step " + std::to_string(i) + ": " + s["added_effect"].get<std::string>() +
+                " - test " + w["test_id"].get<std::string>() + " " +
+                w["direction"].get<std::string>();
+    const auto png = dbb::RenderPolarPlot(traces, std::nullopt, opt);
+    const auto path = std::filesystem::path(dir) / ("step" + std::to_string(i) + "_" +
+                                                    s["added_effect"].get<std::string>() + ".png");
+    std::ofstream f(path, std::ios::binary);
+    f.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+    if (!f) throw Error("cannot write " + path.string());
+  }
+}
+
 int RunDiscover(const Args& args, std::ostream& out) {
   server::DiscoveryStudy study;
   if (const auto machine = args.Get("--machine")) {
@@ -78,6 +119,7 @@ int RunDiscover(const Args& args, std::ostream& out) {
     f << ingest::WriteMachineJson(*outcome.updated_machine);
     if (!f) throw Error("cannot write " + *w);
   }
+  if (const auto dir = args.Get("--plot")) WritePlots(outcome.report, *dir);
   if (args.json) {
     out << outcome.report.dump(2) << "\n";
     return 0;
@@ -87,8 +129,9 @@ int RunDiscover(const Args& args, std::ostream& out) {
 }
 
 KM_CLI_COMMAND("discover",
-               "[--machine M.json] FILE... [--samples N] [--write-machine OUT.json] [--json]",
-               {"--machine", "--samples", "--write-machine"}, RunDiscover);
+               "[--machine M.json] FILE... [--samples N] [--write-machine OUT.json] [--plot DIR] "
+               "[--json]",
+               {"--machine", "--samples", "--write-machine", "--plot"}, RunDiscover);
 
 }  // namespace
 }  // namespace km::cli

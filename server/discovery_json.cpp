@@ -1,6 +1,9 @@
 #include "server/discovery_json.h"
 
+#include <algorithm>
 #include <cmath>
+
+#include <Eigen/Cholesky>
 
 #include "analysis/hexapod/dbb_geometry.h"
 
@@ -70,6 +73,60 @@ const hexapod::ActiveEffect* FindEffect(const hexapod::EffectFitResult& f, const
     return &f.effects[e];
   }
   return nullptr;
+}
+
+// Measured vs model trace of the test with the largest gap before a step (≤ 360 points): the
+// bar deviation measured, and as the model before and after the step predicts it
+// (measured + residual, the residual being model − measured).
+json WorstTestTraces(const hexapod::EffectFitData& d, const Eigen::VectorXd& before,
+                     const Eigen::VectorXd& after) {
+  std::size_t worst = 0;
+  double worst_rms = -1.0;
+  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+    const double r = Rms(before, d.row_begin[t], d.row_begin[t + 1]);
+    if (r > worst_rms) {
+      worst_rms = r;
+      worst = t;
+    }
+  }
+  const auto& test = d.problem.tests[worst];
+  const auto& path = d.prepared.paths[worst];
+  const Eigen::Vector3d& centre = test.fixed_ball_mm;
+  const std::size_t n = test.samples.size();
+  const std::size_t stride = std::max<std::size_t>(1, (n + 359) / 360);
+  // About the least-squares circle of the measured trace (its mean and first harmonic removed
+  // from all three), so that form differences of a µm show beside a large centre offset.
+  std::vector<double> th, m, mb, ma;
+  const double bar0 = (path.pose.front().tip_mm - centre).norm();
+  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d aty = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < n; i += stride) {
+    const int row = d.row_begin[worst] + static_cast<int>(i);
+    const Eigen::Vector3d v = path.pose[i].tip_mm - centre;
+    th.push_back(std::atan2(v.y(), v.x()));
+    m.push_back(1000.0 * (test.samples[i].measured_bar_mm - bar0));
+    mb.push_back(m.back() + before[row]);
+    ma.push_back(m.back() + after[row]);
+    const Eigen::Vector3d a(1.0, std::cos(th.back()), std::sin(th.back()));
+    ata += a * a.transpose();
+    aty += a * m.back();
+  }
+  const Eigen::Vector3d c = ata.ldlt().solve(aty);
+  json angle = json::array(), measured = json::array(), model_before = json::array(),
+       model_after = json::array();
+  for (std::size_t k = 0; k < th.size(); ++k) {
+    const double ref = c[0] + c[1] * std::cos(th[k]) + c[2] * std::sin(th[k]);
+    angle.push_back(th[k] * 180.0 / 3.14159265358979323846);
+    measured.push_back(m[k] - ref);
+    model_before.push_back(mb[k] - ref);
+    model_after.push_back(ma[k] - ref);
+  }
+  return {{"test_id", test.test_id},
+          {"direction", dbb::ToString(test.direction)},
+          {"angle_deg", angle},
+          {"measured_um", measured},
+          {"model_before_um", model_before},
+          {"model_after_um", model_after}};
 }
 
 // Compensation preview ([PM-600 report] eq. 4.5, table 4.5): with the command corrected by the
@@ -223,7 +280,8 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                      {"evidence", ev},
                      {"gap_rms_before_um", s.gap_rms_before_um},
                      {"gap_rms_after_um", s.gap_rms_after_um},
-                     {"tests", TestGaps(data, s.before.residual, &s.after.residual, names)}});
+                     {"tests", TestGaps(data, s.before.residual, &s.after.residual, names)},
+                     {"worst_test", WorstTestTraces(data, s.before.residual, s.after.residual)}});
   }
   const auto& fin = history.back();
   json model = json::array();
