@@ -76,7 +76,7 @@ struct EngineOptions {
   double max_p_value = 1e-6;
   int folds = 5;
   double min_cv_gain = 0.02;
-  double min_practical_fraction = 0.1;
+  double min_practical_fraction = 0.3;
   double noise_stop_ratio = 1.05;
   double misfit_ratio = 1.3;
   double confound_ratio = 0.1;  // part of a candidate's column left after projecting the model

@@ -48,7 +48,10 @@ Vector6d GravityAxialForces(const MachinePhysics& m, const StrutFrame& f, const 
     moment += f.lever_mm[j].cross(n);
   }
   Vector6d x = TensionsForWrench(f, force, moment);
-  for (int j = 0; j < 6; ++j) x[j] += m.strut_equivalent_mass_kg * g.dot(f.unit[j]);  // eq. 3.8
+  // Axial share of the strut's equivalent mass, g_s,j = m_T g·l_j (eq. 3.8), combined with the
+  // platform's share as eq. 3.5 does: Γ(ĝ − g_s) = −[N_g; M_g] written tension-positive with
+  // l_j from the base to the platform joint is F_j = x_j − m_T g·l_j.
+  for (int j = 0; j < 6; ++j) x[j] -= m.strut_equivalent_mass_kg * g.dot(f.unit[j]);
   return x;
 }
 

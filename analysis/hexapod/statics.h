@@ -52,7 +52,8 @@ StrutFrame StrutFrameAt(const HexapodGeometry& g, const Pose& pose, double tool_
 Vector6d TensionsForWrench(const StrutFrame& f, const Eigen::Vector3d& force_N,
                            const Eigen::Vector3d& moment_Nmm);
 
-// Axial strut forces under gravity, tension positive (eqs. 3.5–3.8).
+// Axial strut forces under gravity, tension positive (eqs. 3.5–3.8): F_j = x_j − m_T g·l_j with
+// x the tensions holding the platform's weight and the struts' perpendicular loads.
 Vector6d GravityAxialForces(const MachinePhysics& m, const StrutFrame& f, const Pose& pose,
                             double tool_length_mm);
 

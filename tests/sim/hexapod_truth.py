@@ -240,7 +240,7 @@ def compliance(s, gm):
 @dataclasses.dataclass
 class GravityForces:
     tension: np.ndarray  # x_j (N, 6)
-    axial: np.ndarray    # F_j = x_j + m_T g·l_j (N, 6)
+    axial: np.ndarray    # F_j = x_j − m_T g·l_j (N, 6)
     carried: np.ndarray  # N_j (N, 6, 3)
 
 
@@ -256,7 +256,7 @@ def gravity_forces(s, gm, tool):
     force = weight + carried.sum(axis=1)
     moment = np.cross(b_p, weight) + np.cross(s.B, carried).sum(axis=1)
     x = solve_tensions(s, force, moment)
-    axial = x + gm.m_strut * (s.u @ gm.g)  # eq. 3.8
+    axial = x - gm.m_strut * (s.u @ gm.g)  # eqs. 3.5, 3.8: Γ(ĝ − g_s) = −[N_g; M_g]
     return GravityForces(x, axial, carried)
 
 

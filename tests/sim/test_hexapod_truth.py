@@ -98,7 +98,8 @@ class Gravity(unittest.TestCase):
             gm = ht.gravity_model(MACHINE)
             f = ht.gravity_forces(s, gm, TOOL)
             self.assertTrue(np.all(f.tension > 0.0), f.tension)
-            self.assertTrue(np.all(f.axial > f.tension))
+            self.assertTrue(np.all(f.axial < f.tension))  # the equivalent mass's share, eq. 3.5
+            self.assertTrue(np.all(f.axial > 0.0))
             # Vertical components: Σ x_j l_jz = m_P g_z + Σ N_jz ([PM-600 report] eq. 3.4).
             lifted = -np.sum(f.tension * s.u[..., 2])
             platform = gm.m_platform * -gm.g[2]

@@ -51,7 +51,7 @@ TEST(Statics, TensionsHoldThePlatformInEquilibrium) {
     const double w = (12.0 * (len - 150.0 - 500.0) + 6.0 * len - 18.0 * 100.0) / len;
     const Eigen::Vector3d wg = w * phys.g_m_s2;
     const Eigen::Vector3d perp = wg - wg.dot(u) * u;
-    const double tension = axial[j] - 27.0 * phys.g_m_s2.dot(u);
+    const double tension = axial[j] + 27.0 * phys.g_m_s2.dot(u);
     const Eigen::Vector3d pull = -tension * u;
     force += perp + pull;
     moment += (joints[j] - pose.tip_mm).cross(perp + pull);
