@@ -75,10 +75,12 @@ void AssignToolsAndTimes(const Args& args, std::vector<sim::HexapodDbbSpec>& pla
 }
 
 // `--effects "gravity_deflection:K_stiff2_mm_per_N=1.52e-5;joint_friction:torque_Nm=8.88"`:
-// the real machine's effects; parameters not given keep their defaults.
+// the real machine's effects; parameters not given keep their defaults. `lenient` (the machine
+// file's stored effects) skips parameters this plan has no use for.
 std::vector<hexapod::ActiveEffect> ParseEffects(const std::string& text,
                                                 const std::vector<sim::HexapodDbbSpec>& plan,
-                                                const hexapod::MachinePhysics* physics) {
+                                                const hexapod::MachinePhysics* physics,
+                                                bool lenient) {
   std::vector<hexapod::ActiveEffect> out;
   if (text.empty()) return out;
   hexapod::EffectSetup setup;
@@ -110,6 +112,7 @@ std::vector<hexapod::ActiveEffect> ParseEffects(const std::string& text,
       const double v = eq == std::string::npos ? 0.0 : std::strtod(kv.c_str() + eq + 1, &end);
       auto it = std::find_if(a.params.begin(), a.params.end(),
                              [&](const auto& p) { return p.name == key; });
+      if (lenient && it == a.params.end()) continue;  // e.g. a tool this plan does not use
       if (eq == std::string::npos || end == kv.c_str() + eq + 1 || *end != '\0' ||
           it == a.params.end() || !(v >= it->lower && v <= it->upper))
         throw InvalidInput("", 0, "--effects", "bad parameter '" + kv + "' of " + name);
@@ -118,6 +121,22 @@ std::vector<hexapod::ActiveEffect> ParseEffects(const std::string& text,
     out.push_back(std::move(a));
   }
   return out;
+}
+
+// The effects of the machine file's model ("effects" block) in the --effects syntax: a machine
+// saved by a discovery is simulated with what was discovered.
+std::string StoredEffects(const ingest::MachineDefinition& m) {
+  std::string text;
+  for (const auto& e : m.effects) {
+    text += (text.empty() ? "" : ";") + e.effect;
+    for (std::size_t i = 0; i < e.parameters.size(); ++i) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "%s%s=%.17g", i == 0 ? ":" : ",",
+                    e.parameters[i].first.c_str(), e.parameters[i].second);
+      text += buf;
+    }
+  }
+  return text;
 }
 
 int RunSimulateDbb(const Args& args, std::ostream& out) {
@@ -160,7 +179,9 @@ int RunSimulateDbb(const Args& args, std::ostream& out) {
   AssignToolsAndTimes(args, plan);
   sim::HexapodDbbSimOptions opt;
   opt.physics = machine.physics ? &*machine.physics : nullptr;
-  opt.effects = ParseEffects(args.Get("--effects").value_or(""), plan, opt.physics);
+  const auto given = args.Get("--effects");
+  opt.effects = ParseEffects(given.value_or(StoredEffects(machine)), plan, opt.physics,
+                             /*lenient=*/!given);
   opt.absolute = args.Has("--absolute");
   opt.noise_um = noise;
   opt.fixed_ball_error_um = seat;

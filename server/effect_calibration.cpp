@@ -76,6 +76,15 @@ CalibrationOutcome RunEffectCalibration(const CalibrationStudy& study, const Pro
                                               study.max_samples_per_test);
   auto start = hexapod::StartingPoint(data, {});
   start.effects = ResolveEffects(study.effects, machine, data.prepared.setup, "--effects");
+  // The machine model's own effects that were not named: known, kept at their stored values
+  // ([PM-600 report] eq. 5.3: the modelled gravity is taken out before the kinematics are fitted).
+  for (const auto& me : machine.effects) {
+    if (std::find(study.effects.begin(), study.effects.end(), me.effect) != study.effects.end())
+      continue;
+    auto known = ResolveEffects({me.effect}, machine, data.prepared.setup, "effects");
+    for (auto& p : known.front().params) p.free = false;
+    start.effects.push_back(std::move(known.front()));
+  }
   report(0.1, "calibrating kinematics and effects");
   const auto fit = hexapod::FitWithEffects(data, start);
   report(0.8, "predicting the traces after calibration");

@@ -27,6 +27,8 @@ std::vector<hexapod::ActiveEffect> ResolveEffects(const std::vector<std::string>
                                                   const hexapod::EffectSetup& setup,
                                                   const std::string& field);
 
+// The machine's stored effects (its "effects" block) that are not named take part with their
+// stored values held fixed.
 CalibrationOutcome RunEffectCalibration(const CalibrationStudy& study, const ProgressFn& progress);
 
 }  // namespace km::server

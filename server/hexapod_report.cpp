@@ -89,7 +89,7 @@ CalibrationOutcome RunCalibrationStudy(const CalibrationStudy& study, const Prog
                          "absolute calibration needs the measured fixed-ball position");
     }
   }
-  if (!study.effects.empty()) {
+  if (!study.effects.empty() || !study.machine.effects.empty()) {
     if (study.reduction_min_tests > 0)
       throw InvalidInput("", 0, "reduction_min_tests",
                          "the reduction study is available for the plain calibration only");
