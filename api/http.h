@@ -64,6 +64,9 @@ struct Route {
   // Set for routes whose body is streamed (unbounded): opened after access was granted; the
   // handler then serves only callers that pass the whole body in Request::body.
   BodySinkFactory open_body = nullptr;
+  // Largest body of this route (0: the server's max_payload_bytes); a larger one is answered
+  // 413 without being read. Never above the server's limit.
+  std::size_t max_body_bytes = 0;
 };
 
 // Called before every route's handler (access control sits here); throws to refuse.

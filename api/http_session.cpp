@@ -119,16 +119,14 @@ class Session : public std::enable_shared_from_this<Session> {
       return Post([self = shared_from_this()] { self->StartStreamBody(); });
     }
     const auto length = header_->content_length();
-    if (length && *length > ctx_.options.max_payload_bytes) {
-      return PostRespond(TooLargeProblem(), true);
-    }
+    if (length && *length > BodyLimit()) return PostRespond(TooLargeProblem(), true);
     Post([self = shared_from_this()] { self->StartBody(); });
   }
 
   // ---- whole bodies -------------------------------------------------------------------------
   void StartBody() {
     body_.emplace(std::move(*header_));
-    body_->body_limit(ctx_.options.max_payload_bytes);
+    body_->body_limit(BodyLimit());
     SendContinueThen([self = shared_from_this()] { self->ReadBody(); });
   }
 
@@ -212,10 +210,16 @@ class Session : public std::enable_shared_from_this<Session> {
                      });
   }
 
+  // The largest whole body of the request's route: its own limit, within the server's.
+  std::uint64_t BodyLimit() const {
+    const std::size_t server = ctx_.options.max_payload_bytes;
+    const std::size_t route = route_ ? route_->max_body_bytes : 0;
+    return route > 0 && route < server ? route : server;
+  }
+
   Response TooLargeProblem() const {
-    return Problem(
-        413, "Payload Too Large",
-        "the request body exceeds " + std::to_string(ctx_.options.max_payload_bytes) + " bytes");
+    return Problem(413, "Payload Too Large",
+                   "the request body exceeds " + std::to_string(BodyLimit()) + " bytes");
   }
 
   // A new request goes to the workers, or is refused at once when their queue is full.

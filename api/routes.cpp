@@ -1,6 +1,7 @@
 #include "api/routes.h"
 
 #include <chrono>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <unordered_map>
@@ -8,6 +9,7 @@
 #include "analysis/core/errors.h"
 #include "api/http_target.h"
 #include "api/route_util.h"
+#include "server/request_json.h"
 #include "server/sha256.h"
 #include "server/time_util.h"
 
@@ -182,8 +184,8 @@ void AddRoutes(Router& router, server::Service& service) {
   router.Add(Route{
       "POST",
       "/api/v1/calibrations",
-      "Hexapod calibration study (machine definition + DBB measurement ids + mode) as a "
-      "background job",
+      "Hexapod calibration study (machine definition or stored model + DBB measurement ids + "
+      "mode) as a background job",
       true,
       [svc](const Request& req) {
         nlohmann::json body;
@@ -204,9 +206,11 @@ void AddRoutes(Router& router, server::Service& service) {
           {{"application/json",
             {{"schema",
               {{"type", "object"},
-               {"required", json::array({"machine", "measurement_ids"})},
+               {"required", json::array({"measurement_ids"})},
                {"properties",
                 {{"machine", {{"type", "object"}}},
+                 {"machine_id", {{"type", "string"}}},
+                 {"machine_version", {{"type", "integer"}}},
                  {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
                  {"method",
                   {{"type", "string"}, {"enum", json::array({"absolute", "centre-corrected"})}}},
@@ -232,23 +236,153 @@ void AddRoutes(Router& router, server::Service& service) {
                    },
                    {{"responses", {{"200", JsonResponse("{items[]}")}}}}});
 
-  router.Add(Route{"GET",
-                   "/api/v1/machines",
-                   "Machines with stored measurements",
-                   true,
-                   [svc](const Request&) {
-                     json items = json::array();
-                     for (const auto& m : svc->storage().ListMachines()) {
-                       items.push_back(
-                           {{"machine_id", m.machine_id},
-                            {"measurement_count", m.measurement_count},
-                            {"last_timestamp", m.last_time ? json(*m.last_time) : json(nullptr)}});
-                     }
-                     return Response::Json({{"machines", items}});
-                   },
-                   {{"responses", {{"200", JsonResponse("{machines[]}")}}}}});
+  router.Add(Route{
+      "GET",
+      "/api/v1/machines",
+      "Machines with stored measurements or a stored machine definition",
+      true,
+      [svc](const Request&) {
+        json items = json::array();
+        for (const auto& m : svc->storage().ListMachines()) {
+          items.push_back({{"machine_id", m.machine_id},
+                           {"measurement_count", m.measurement_count},
+                           {"last_timestamp", m.last_time ? json(*m.last_time) : json(nullptr)},
+                           {"model_versions", m.model_versions}});
+        }
+        return Response::Json({{"machines", items}});
+      },
+      {{"responses",
+        {{"200", JsonResponse("{machines[{machine_id, measurement_count, last_timestamp, "
+                              "model_versions}]}")}}}}});
 
+  AddMachineModelRoutes(router, service);
   AddStreamRoutes(router, service);
+}
+
+void AddMachineModelRoutes(Router& router, server::Service& service) {
+  server::Service* svc = &service;
+  const auto stored_json = [](const server::MachineModelStored& m) {
+    return json{{"machine_id", m.machine_id},
+                {"version", m.version},
+                {"created_at", m.created_at},
+                {"created", m.created}};
+  };
+
+  Route upload{"POST",
+               "/api/v1/machines",
+               "Store a machine definition (kinemetric-machine/1) as the next version of its model",
+               true,
+               [svc, stored_json](const Request& req) {
+                 const std::string file =
+                     req.Header("x-filename") ? UploadFilename(req) : "machine";
+                 const auto out = svc->StoreMachineModel(req.body, "upload",
+                                                         req.Query("note").value_or(""), file);
+                 return Response::Json(stored_json(out), out.created ? 201 : 200);
+               },
+               {{"requestBody",
+                 {{"required", true},
+                  {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}}},
+                {"parameters", json::array({Param("note", "string", "stored with the version")})},
+                {"responses",
+                 {{"201", JsonResponse("stored: {machine_id, version, created_at, created: true}")},
+                  {"200", JsonResponse("the same bytes as the newest version: that version")}}}}};
+  upload.max_body_bytes = server::kMaxMachineModelBytes;
+  router.Add(std::move(upload));
+
+  router.Add(
+      Route{"GET",
+            "/api/v1/machines/{machine_id}/definition",
+            "A stored machine definition (the newest version, or ?version=N)",
+            true,
+            [svc](const Request& req) {
+              std::optional<std::int64_t> version;
+              if (req.Query("version")) {
+                version = QueryInt(req, "version", 1, 1, std::numeric_limits<std::int64_t>::max());
+              }
+              const auto rec = svc->GetMachineModel(req.path_params.at("machine_id"), version);
+              Response r;
+              r.body = rec.document;
+              r.headers["X-Machine-Version"] = std::to_string(rec.version);
+              r.headers["ETag"] = "\"" + rec.sha256 + "\"";
+              return r;
+            },
+            {{"parameters",
+              json::array({Param("version", "integer", "a stored version (default: the newest)")})},
+             {"responses", {{"200", JsonResponse("the document exactly as stored")}}}}});
+
+  router.Add(Route{
+      "GET",
+      "/api/v1/machines/{machine_id}/definitions",
+      "Every stored version of a machine definition",
+      true,
+      [svc](const Request& req) {
+        return Response::Json(svc->ListMachineModels(req.path_params.at("machine_id")));
+      },
+      {{"responses",
+        {{"200",
+          JsonResponse("{machine_id, versions[{version, created_at, source, note, sha256}]}")}}}}});
+
+  router.Add(
+      Route{"POST",
+            "/api/v1/discoveries",
+            "Model-gap discovery study (stored model or serial + DBB measurement ids) as a "
+            "background job",
+            true,
+            [svc](const Request& req) {
+              const auto id = svc->SubmitDiscovery(JsonBody(req));
+              Response r = Response::Json(
+                  {{"job_id", id}, {"status_url", "/api/v1/jobs/" + std::to_string(id)}}, 202);
+              r.headers["Location"] = "/api/v1/jobs/" + std::to_string(id);
+              return r;
+            },
+            {{"requestBody",
+              {{"required", true},
+               {"content",
+                {{"application/json",
+                  {{"schema",
+                    {{"type", "object"},
+                     {"required", json::array({"measurement_ids"})},
+                     {"properties",
+                      {{"machine_id", {{"type", "string"}}},
+                       {"machine_version", {{"type", "integer"}}},
+                       {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
+                       {"max_samples_per_test", {{"type", "integer"}}}}}}}}}}}}},
+             {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}});
+
+  Route save{
+      "POST",
+      "/api/v1/jobs/{id}/save-machine",
+      "Store the machine a finished calibration or discovery job produced as the next version "
+      "of its model",
+      true,
+      [svc, stored_json](const Request& req) {
+        std::string note;
+        if (!req.body.empty()) {
+          const json body = JsonBody(req);
+          if (!body.is_object()) {
+            throw InvalidInput("request", 0, "", "the body must be a JSON object (or empty)");
+          }
+          note = server::request::OptionalString(body, "note", "");
+        }
+        try {
+          const auto out = svc->SaveJobMachine(req.PathId("id"), note);
+          return Response::Json(stored_json(out), out.created ? 201 : 200);
+        } catch (const server::Conflict& e) {
+          return Problem(409, "Conflict", e.what());
+        }
+      },
+      {{"requestBody",
+        {{"required", false},
+         {"content",
+          {{"application/json",
+            {{"schema",
+              {{"type", "object"}, {"properties", {{"note", {{"type", "string"}}}}}}}}}}}}},
+       {"responses",
+        {{"201", JsonResponse("stored: {machine_id, version, created_at, created: true}")},
+         {"200", JsonResponse("the same bytes as the newest version: that version")},
+         {"409", {{"description", "the job is not done, or produced no machine"}}}}}}};
+  save.max_body_bytes = 64u << 10;
+  router.Add(std::move(save));
 }
 
 namespace {

@@ -11,6 +11,10 @@ inline constexpr const char* kApiVersion = "0.1.0";
 // Adds the routes of the service to the router.
 void AddRoutes(Router& router, server::Service& service);
 
+// Machine definitions (versioned), discovery studies and saving a job's machine
+// (api/routes.cpp).
+void AddMachineModelRoutes(Router& router, server::Service& service);
+
 // The capacitance-sensor stream and acquisition-device routes (api/stream_routes.cpp).
 void AddStreamRoutes(Router& router, server::Service& service);
 

@@ -35,7 +35,8 @@ std::string TestName(std::int64_t id) {
 }
 
 // The measurement ids of the request: whole numbers ≥ 1, each listed once, at most `max_tests`.
-std::vector<std::int64_t> MeasurementIds(const nlohmann::json& request, std::size_t max_tests) {
+std::vector<std::int64_t> MeasurementIds(const nlohmann::json& request, std::size_t max_tests,
+                                         const std::string& study) {
   if (!request.contains("measurement_ids") || !request["measurement_ids"].is_array() ||
       request["measurement_ids"].empty()) {
     throw InvalidInput("request", 0, "measurement_ids", "a non-empty list of DBB measurement ids");
@@ -43,7 +44,7 @@ std::vector<std::int64_t> MeasurementIds(const nlohmann::json& request, std::siz
   const auto& list = request["measurement_ids"];
   if (list.size() > max_tests) {
     throw InvalidInput("request", 0, "measurement_ids",
-                       std::to_string(list.size()) + " ids; a calibration study takes at most " +
+                       std::to_string(list.size()) + " ids; a " + study + " takes at most " +
                            std::to_string(max_tests) + " DBB tests");
   }
   std::vector<std::int64_t> ids;
@@ -75,15 +76,72 @@ std::vector<std::int64_t> MeasurementIds(const nlohmann::json& request, std::siz
 
 }  // namespace
 
+std::vector<std::int64_t> Service::CheckedDbbIds(const nlohmann::json& request,
+                                                 const std::string& study, bool need_tool_length,
+                                                 bool need_fixed_ball,
+                                                 std::vector<std::string>* machines) {
+  const std::vector<std::int64_t> ids =
+      MeasurementIds(request, options_.max_calibration_tests, study);
+  // Every test from its stored record (no file is read now): it exists, is a DBB test, and has
+  // what the study needs without a solve (tool length; the fixed ball when the method is
+  // absolute). The samples of all tests together are bounded: the job holds them all.
+  std::size_t samples = 0;
+  for (const std::int64_t id : ids) {
+    const auto rec = storage_->GetMeasurement(id);
+    if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+    if (rec->kind != "dbb") {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "measurement " + std::to_string(id) + " is not a DBB test");
+    }
+    const auto meta = nlohmann::json::parse(rec->metadata_json, nullptr, false);
+    const auto has = [&](const char* key) { return meta.is_object() && meta.contains(key); };
+    if (need_tool_length && !has("tool_length_mm")) {
+      throw InvalidInput(TestName(id), 0, "tool_length_mm",
+                         "hexapod calibration needs the tool length");
+    }
+    if (need_fixed_ball && !has("fixed_ball_mm")) {
+      throw InvalidInput(TestName(id), 0, "fixed_ball_mm",
+                         "absolute calibration needs the measured fixed-ball position");
+    }
+    samples += static_cast<std::size_t>(std::max<std::int64_t>(rec->sample_count, 0));
+    if (machines) machines->push_back(rec->machine_id);
+  }
+  if (samples > options_.max_calibration_samples) {
+    throw InvalidInput("request", 0, "measurement_ids",
+                       "the " + std::to_string(ids.size()) + " DBB tests hold " +
+                           std::to_string(samples) + " samples in all; a " + study +
+                           " takes at most " + std::to_string(options_.max_calibration_samples));
+  }
+  return ids;
+}
+
 std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
   if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
-  if (!request.contains("machine") || !request["machine"].is_object()) {
-    throw InvalidInput("request", 0, "machine",
-                       "the hexapod machine definition (contract §2) is required as an object");
-  }
   auto plan = std::make_shared<CalibrationPlan>();
-  plan->machine = ingest::ParseHexapodMachineJson(request["machine"].dump(), "request.machine");
-  plan->ids = MeasurementIds(request, options_.max_calibration_tests);
+  std::int64_t stored_version = 0;
+  if (request.contains("machine")) {
+    if (!request["machine"].is_object()) {
+      throw InvalidInput("request", 0, "machine",
+                         "the hexapod machine definition (contract §2) must be an object");
+    }
+    if (request.contains("machine_id") || request.contains("machine_version")) {
+      throw InvalidInput("request", 0, "machine_id",
+                         "give either the machine definition (machine) or a stored model "
+                         "(machine_id, machine_version), not both");
+    }
+    plan->machine = ingest::ParseHexapodMachineJson(request["machine"].dump(), "request.machine");
+  } else if (request.contains("machine_id")) {
+    plan->machine = RequestedMachine(request, stored_version);
+    if (plan->machine.kind != "hexapod") {
+      throw InvalidInput("request", 0, "machine_id",
+                         "stored model '" + plan->machine.machine_id + "' version " +
+                             std::to_string(stored_version) + " is not a hexapod");
+    }
+  } else {
+    throw InvalidInput("request", 0, "machine",
+                       "the hexapod machine definition (contract §2) is required as an object, "
+                       "or machine_id naming a stored model");
+  }
   if (request.contains("method")) {
     if (!request["method"].is_string()) {
       throw InvalidInput("request", 0, "method", "absolute or centre-corrected");
@@ -94,41 +152,13 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
       static_cast<int>(req::WholeNumber(request, "reduction_study_min_tests", 1, 1000, 0));
   plan->max_samples_per_test =
       static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
-
-  // Every test from its stored record (no file is read now): it exists, is a DBB test, and has
-  // what the calibration needs without a solve (tool length; the fixed ball when the method is
-  // absolute). The samples of all tests together are bounded: the job holds them all.
-  std::size_t samples = 0;
-  for (const std::int64_t id : plan->ids) {
-    const auto rec = storage_->GetMeasurement(id);
-    if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
-    if (rec->kind != "dbb") {
-      throw InvalidInput("request", 0, "measurement_ids",
-                         "measurement " + std::to_string(id) + " is not a DBB test");
-    }
-    const auto meta = nlohmann::json::parse(rec->metadata_json, nullptr, false);
-    const auto has = [&](const char* key) { return meta.is_object() && meta.contains(key); };
-    if (!has("tool_length_mm")) {
-      throw InvalidInput(TestName(id), 0, "tool_length_mm",
-                         "hexapod calibration needs the tool length");
-    }
-    if (plan->method == hexapod::CalibrationMethod::kAbsolute && !has("fixed_ball_mm")) {
-      throw InvalidInput(TestName(id), 0, "fixed_ball_mm",
-                         "absolute calibration needs the measured fixed-ball position");
-    }
-    samples += static_cast<std::size_t>(std::max<std::int64_t>(rec->sample_count, 0));
-  }
-  if (samples > options_.max_calibration_samples) {
-    throw InvalidInput("request", 0, "measurement_ids",
-                       "the " + std::to_string(plan->ids.size()) + " DBB tests hold " +
-                           std::to_string(samples) +
-                           " samples in all; a calibration study takes at most " +
-                           std::to_string(options_.max_calibration_samples));
-  }
+  plan->ids = CheckedDbbIds(request, "calibration study", true,
+                            plan->method == hexapod::CalibrationMethod::kAbsolute);
 
   nlohmann::json stored = request;
   stored.erase("machine");
   stored["machine_id"] = plan->machine.machine_id;
+  if (stored_version > 0) stored["machine_version"] = stored_version;
   // The job reads the tests when it runs (the Service outlives its job queue).
   return jobs_->Submit(
       "hexapod_calibration", stored,
@@ -146,6 +176,7 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
           study.names.push_back(TestName(id));
         }
         auto outcome = RunCalibrationStudy(study, p);
+        // The calibrated machine document, as `POST /api/v1/jobs/{id}/save-machine` stores it.
         outcome.report["calibrated_machine"] =
             nlohmann::json::parse(ingest::WriteMachineJson(outcome.calibrated));
         return outcome.report;

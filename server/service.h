@@ -11,7 +11,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/core/errors.h"
 #include "analysis/dbb/dbb_types.h"
+#include "ingest/machine_json.h"
 #include "ingest/text_format.h"
 #include "server/acquisition.h"
 #include "server/jobs.h"
@@ -54,6 +56,25 @@ struct ServiceOptions {
   // this many samples in all of them (the running job holds every test in memory).
   std::size_t max_calibration_tests = 500;
   std::size_t max_calibration_samples = 2'000'000;
+};
+
+// The largest machine definition the service stores (a hexapod document with gravity,
+// friction and discovered effects is a few KiB).
+inline constexpr std::size_t kMaxMachineModelBytes = 1u << 20;
+
+// One stored version of a machine definition.
+struct MachineModelStored {
+  std::string machine_id;
+  std::int64_t version = 0;
+  std::string created_at;
+  bool created = false;  // false: the bytes were those of the newest version already
+};
+
+// What the request asks cannot be done in the present state of the record it names (HTTP
+// 409), e.g. saving the machine of a job that is not finished or produced none.
+class Conflict : public Error {
+ public:
+  using Error::Error;
 };
 
 struct UploadOutcome {
@@ -114,9 +135,39 @@ class Service {
   // max_calibration_samples samples in all. Returns the job id; the job reads each test once
   // when it runs. The job's result is the `hexapod calibrate` object plus the calibrated
   // machine.
+  // Instead of "machine", the request may name a stored model: "machine_id" (and optionally
+  // "machine_version", else the newest); the job's request then records the version used.
   std::int64_t SubmitCalibration(const nlohmann::json& request);
+  // Model-gap discovery study (server/discovery_report.h) as a background job. Request:
+  // {"machine_id"?, "machine_version"?, "measurement_ids": [DBB ids], "max_samples_per_test"?}.
+  // Checked like a calibration request (at most max_calibration_tests ids, each once, each a
+  // DBB test, samples bounded), and the tests must be of one machine. Without machine_id: the
+  // serial study of the DBB tests' machine; with it: the stored model (a hexapod's tests need
+  // the tool length). The job's result is the `kinemetric discover` object, plus
+  // "updated_machine" when the study produced one.
+  std::int64_t SubmitDiscovery(const nlohmann::json& request);
   nlohmann::json Job(std::int64_t id);
   nlohmann::json Jobs(std::int64_t limit);
+
+  // Machine definitions ("kinemetric-machine/1", contract §2), versioned (machine_models.cpp).
+  // StoreMachineModel validates the document (ingest::ParseMachineJson: InvalidInput naming
+  // `file` and the field; TooLarge beyond kMaxMachineModelBytes) and appends it as the next
+  // version of its machine_id, with its source ("upload", "calibration job N", "discovery job
+  // N") and note. The bytes of the newest version again → that version, created = false.
+  MachineModelStored StoreMachineModel(std::string_view bytes, const std::string& source,
+                                       const std::string& note,
+                                       const std::string& file = "machine");
+  // A version with its document (the newest without one); NotFound names machine and version.
+  MachineModelRecord GetMachineModel(const std::string& machine_id,
+                                     std::optional<std::int64_t> version = std::nullopt);
+  // {"machine_id", "versions": [{"version", "created_at", "source", "note", "sha256"}]},
+  // oldest first; NotFound when the machine has no stored model.
+  nlohmann::json ListMachineModels(const std::string& machine_id);
+  // Stores the machine a finished job produced (a calibration's calibrated machine, a
+  // discovery's updated machine) as the next version of its model, source "calibration job N"
+  // or "discovery job N". NotFound: no such job; Conflict: the job is not done, or produced no
+  // machine.
+  MachineModelStored SaveJobMachine(std::int64_t job_id, const std::string& note);
 
   // Capacitance-sensor streams (docs/streams.md). CreateStream: {"machine_id", "name"?,
   // "channels"?: [{"channel", "name"?, "unit"?, "rate_hz"?}], …} → the stream id.
@@ -146,6 +197,16 @@ class Service {
  private:
   friend class FrameIngestion;
   dbb::DbbTest LoadDbb(std::int64_t id, MeasurementRecord* record = nullptr);
+  // The stored model named by a request's "machine_id" / "machine_version" (newest without a
+  // version), parsed; `version` is set to the version used (machine_models.cpp).
+  ingest::MachineDefinition RequestedMachine(const nlohmann::json& request, std::int64_t& version);
+  // The "measurement_ids" of a study request, checked from the stored records alone (no file is
+  // read): at most max_calibration_tests, each once, each a DBB test (with a tool length and,
+  // when asked, a fixed ball), at most max_calibration_samples samples in all. `machines` gets
+  // the machine_id of every test, in order (calibration_jobs.cpp).
+  std::vector<std::int64_t> CheckedDbbIds(const nlohmann::json& request, const std::string& study,
+                                          bool need_tool_length, bool need_fixed_ball,
+                                          std::vector<std::string>* machines = nullptr);
   std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
 
   std::unique_ptr<Storage> storage_;

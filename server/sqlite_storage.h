@@ -32,6 +32,10 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::vector<ResultRecord> GetResults(std::int64_t id) override;
   void PutResult(std::int64_t id, const NewResult& r) override;
   std::vector<MachineSummary> ListMachines() override;
+  MachineModelPut PutMachineModel(const NewMachineModel& m) override;  // sqlite_machine_models.cpp
+  std::optional<MachineModelRecord> GetMachineModel(const std::string& machine_id,
+                                                    std::optional<std::int64_t> version) override;
+  std::vector<MachineModelRecord> ListMachineModels(const std::string& machine_id) override;
   std::int64_t CreateJob(const std::string& kind, const std::string& request_json) override;
   void UpdateJob(const JobRecord& job) override;
   std::optional<JobRecord> GetJob(std::int64_t id) override;

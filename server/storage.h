@@ -4,7 +4,8 @@
 // Invariants every backend keeps:
 //  * a measurement is stored once, immutable, keyed by the SHA-256 of its bytes;
 //  * a measurement and the results computed at upload are written in one transaction;
-//  * results carry the analysis name and version and the input's content hash.
+//  * results carry the analysis name and version and the input's content hash;
+//  * a machine definition is versioned: a new version is appended, none is overwritten.
 #pragma once
 
 #include <cstdint>
@@ -77,7 +78,30 @@ struct MeasurementPage {
 struct MachineSummary {
   std::string machine_id;
   std::int64_t measurement_count = 0;
-  std::optional<std::string> last_time;
+  std::optional<std::string> last_time;  // newest measurement
+  std::int64_t model_versions = 0;       // stored versions of its machine definition
+};
+
+// One version of a machine definition (a "kinemetric-machine/1" document). Versions of a
+// machine are numbered 1, 2, … in the order they were stored; none is ever changed or removed.
+struct NewMachineModel {
+  std::string machine_id;
+  std::string source;    // "upload", "calibration job N", "discovery job N"
+  std::string note;      // free text from whoever stored it
+  std::string document;  // the document's bytes, exactly as stored
+  std::string sha256;    // of document
+};
+
+struct MachineModelRecord {
+  std::string machine_id;
+  std::int64_t version = 0;
+  std::string created_at, source, note, sha256;
+  std::string document;  // empty in lists
+};
+
+struct MachineModelPut {
+  MachineModelRecord record;  // without the document
+  bool created = false;
 };
 
 struct PutOutcome {
@@ -158,7 +182,18 @@ class Storage {
   virtual std::vector<ResultRecord> GetResults(std::int64_t id) = 0;
   // Adds a result computed later (e.g. by a newer analysis version); keeps older ones.
   virtual void PutResult(std::int64_t id, const NewResult& r) = 0;
+  // Machines with stored measurements or a stored model.
   virtual std::vector<MachineSummary> ListMachines() = 0;
+
+  // Machine definitions, versioned. PutMachineModel appends the next version of the machine
+  // atomically; when the newest version holds the same bytes (same sha256), that version is
+  // answered with created = false and nothing is written. GetMachineModel: the given version, or
+  // the newest without one; nullopt when there is none. ListMachineModels: every version, oldest
+  // first, without the documents (empty when the machine has none).
+  virtual MachineModelPut PutMachineModel(const NewMachineModel& m) = 0;
+  virtual std::optional<MachineModelRecord> GetMachineModel(
+      const std::string& machine_id, std::optional<std::int64_t> version) = 0;
+  virtual std::vector<MachineModelRecord> ListMachineModels(const std::string& machine_id) = 0;
 
   // Background jobs.
   virtual std::int64_t CreateJob(const std::string& kind, const std::string& request_json) = 0;

@@ -74,6 +74,12 @@ class HttpServerTest : public ::testing::Test {
                         ++uploads_;
                         return Response::Json({{"bytes", r.body.size()}});
                       }});
+    Route small{"POST", "/small", "", true, [this](const Request& r) {
+                  ++uploads_;
+                  return Response::Json({{"bytes", r.body.size()}});
+                }};
+    small.max_body_bytes = 100;
+    router_.Add(std::move(small));
     Route stream{"POST", "/stream", "", true, [](const Request& r) {
                    return Response::Json({{"bytes", r.body.size()}});
                  }};
@@ -170,6 +176,53 @@ TEST_F(HttpServerTest, OversizedBodyIsRefusedWithoutReadingIt) {
   ASSERT_TRUE(r2);
   EXPECT_EQ(StatusOf(*r2), 413);
   EXPECT_EQ(uploads_.load(), 0);
+}
+
+TEST_F(HttpServerTest, ARouteMayHaveASmallerBodyLimitThanTheServer) {
+  Start({});
+  RawConnection c(port_);
+  c.Send(
+      "POST /small HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer good\r\n"
+      "Content-Length: 500\r\n\r\n");
+  const auto r = c.ReadResponse(3s);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(StatusOf(*r), 413);
+  EXPECT_NE(r->find("exceeds 100 bytes"), std::string::npos) << *r;
+  RawConnection d(port_);
+  d.Send(
+      "POST /small HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer good\r\n"
+      "Transfer-Encoding: chunked\r\n\r\nc8\r\n" +
+      std::string(200, 'a') + "\r\n");
+  const auto r2 = d.ReadResponse(3s);
+  ASSERT_TRUE(r2);
+  EXPECT_EQ(StatusOf(*r2), 413);
+  EXPECT_EQ(uploads_.load(), 0);
+  // Within the limit; and other routes keep the server's limit.
+  RawConnection e(port_);
+  e.Send(
+      "POST /small HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer good\r\nConnection: close\r\n"
+      "Content-Length: 100\r\n\r\n" +
+      std::string(100, 'b'));
+  const auto r3 = e.ReadResponse(3s);
+  ASSERT_TRUE(r3);
+  EXPECT_EQ(StatusOf(*r3), 200);
+  RawConnection f(port_);
+  f.Send(
+      "POST /upload HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer good\r\nConnection: close\r\n"
+      "Content-Length: 500\r\n\r\n" +
+      std::string(500, 'c'));
+  const auto r4 = f.ReadResponse(3s);
+  ASSERT_TRUE(r4);
+  EXPECT_EQ(StatusOf(*r4), 200);
+  EXPECT_EQ(uploads_.load(), 2);
+  // Callers that pass the whole body to the router meet the same limit.
+  Request big;
+  big.method = "POST";
+  big.path = "/small";
+  big.headers["authorization"] = "Bearer good";
+  big.body = std::string(101, 'd');
+  EXPECT_EQ(router_.Dispatch(big).status, 413);
+  EXPECT_EQ(uploads_.load(), 2);
 }
 
 TEST_F(HttpServerTest, FullQueueAnswers503WithRetryAfter) {
