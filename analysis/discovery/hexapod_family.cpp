@@ -1,6 +1,7 @@
 #include "analysis/discovery/hexapod_family.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -160,6 +161,41 @@ std::vector<int> HexapodFamily::FoldKeys() const {
   return keys;
 }
 
+// The gap per tool (RMS) and its strongest harmonic order over the circle (1–8, power summed
+// over the tests): how the gap depends on the tool and on the angle.
+void HexapodFamily::AddToolAndHarmonicFigures(const Eigen::VectorXd& gap,
+                                              std::map<std::string, double>& figures) const {
+  const auto& tests = data_.problem.tests;
+  std::map<double, std::pair<double, int>> per_tool;
+  std::array<double, 9> power{};
+  for (std::size_t t = 0; t < tests.size(); ++t) {
+    const int r0 = data_.row_begin[t], r1 = data_.row_begin[t + 1];
+    auto& pt = per_tool[tests[t].tool_length_mm];
+    pt.first += gap.segment(r0, r1 - r0).squaredNorm();
+    pt.second += r1 - r0;
+    const auto& path = data_.prepared.paths[t];
+    for (int k = 1; k <= 8; ++k) {
+      double a = 0.0, b = 0.0;
+      for (int r = r0; r < r1; ++r) {
+        const Eigen::Vector3d v =
+            path.pose[static_cast<std::size_t>(r - r0)].tip_mm - tests[t].fixed_ball_mm;
+        const double th = std::atan2(v.y(), v.x());
+        a += gap[r] * std::cos(k * th);
+        b += gap[r] * std::sin(k * th);
+      }
+      const double n = std::max(1, r1 - r0);
+      power[static_cast<std::size_t>(k)] += (a * a + b * b) * 4.0 / (n * n);
+    }
+  }
+  for (const auto& [tool, acc] : per_tool) {
+    char key[64];
+    std::snprintf(key, sizeof key, "gap_rms_tool_%g_um", tool);
+    figures[key] = acc.second > 0 ? std::sqrt(acc.first / acc.second) : 0.0;
+  }
+  const auto strongest = std::max_element(power.begin() + 1, power.end()) - power.begin();
+  figures["strongest_harmonic_order"] = static_cast<double>(strongest);
+}
+
 Evidence HexapodFamily::Describe(const FitState& before, const Candidate& c,
                                  const Eigen::VectorXd& contribution) {
   Evidence ev;
@@ -221,6 +257,7 @@ Evidence HexapodFamily::Describe(const FitState& before, const Candidate& c,
   ev.figures = {{"odd_part_pct", odd_pct},         {"even_part_pct", even_pct},
                 {"correlation_with_tilt", r_tilt}, {"correlation_with_time", r_time},
                 {"explained_pct", explained},      {"per_test_pattern_match", r_fit}};
+  AddToolAndHarmonicFigures(gap, ev.figures);
   const auto* effect = hexapod::FindHexapodEffect(c.effect);
   char buf[600];
   std::string why;
@@ -241,8 +278,8 @@ Evidence HexapodFamily::Describe(const FitState& before, const Candidate& c,
                   r_time, even_pct);
   } else if (c.effect == "tool_length_error") {
     std::snprintf(buf, sizeof buf,
-                  "the gap differs between tools and is even (%.0f %%); per test it follows the "
-                  "tool-axis shift the model predicts (r = %.2f)",
+                  "the gap is even (%.0f %%) and per test it follows the tool-axis shift the "
+                  "model predicts for the tool used (r = %.2f)",
                   even_pct, r_fit);
   } else {
     std::snprintf(buf, sizeof buf, "even part %.0f %%, odd part %.0f %%; per-test match r = %.2f",

@@ -4,6 +4,7 @@
 // (analysis/hexapod/effect_fit.h).
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,8 @@ class HexapodFamily final : public ModelFamily {
   };
   const Pending* Find(const Candidate& c) const;
   FitState StateOf(const hexapod::EffectFitResult& r) const;
+  void AddToolAndHarmonicFigures(const Eigen::VectorXd& gap,
+                                 std::map<std::string, double>& figures) const;
 
   const hexapod::EffectFitData& data_;
   std::vector<hexapod::ActiveEffect> known_;
