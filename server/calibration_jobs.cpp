@@ -3,12 +3,14 @@
 // read): the number of tests and of their samples is bounded, every id is listed once and names
 // a stored DBB test with a tool length. The queued job keeps the ids, not the tests: it reads
 // each test once, when it runs.
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <map>
 #include <memory>
 
 #include "analysis/core/errors.h"
+#include "analysis/hexapod/effects/registry.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
 #include "server/hexapod_report.h"
@@ -28,7 +30,27 @@ struct CalibrationPlan {
   std::optional<hexapod::CalibrationMethod> method;
   int max_samples_per_test = 0;
   int reduction_min_tests = 0;
+  std::vector<std::string> effects;  // fitted with the kinematics (docs/hexapod-effects.md)
 };
+
+// `effects`: a list of hexapod effect names, each once.
+std::vector<std::string> EffectNames(const nlohmann::json& request) {
+  std::vector<std::string> names;
+  if (!request.contains("effects")) return names;
+  const auto& list = request["effects"];
+  if (!list.is_array() || list.size() > 16)
+    throw InvalidInput("request", 0, "effects", "a list of hexapod effect names");
+  for (const auto& v : list) {
+    if (!v.is_string() || !hexapod::FindHexapodEffect(v.get<std::string>())) {
+      throw InvalidInput("request", 0, "effects",
+                         "each entry must be one of " + hexapod::HexapodEffectNames());
+    }
+    if (std::find(names.begin(), names.end(), v.get<std::string>()) != names.end())
+      throw InvalidInput("request", 0, "effects", v.get<std::string>() + " is listed twice");
+    names.push_back(v.get<std::string>());
+  }
+  return names;
+}
 
 std::string TestName(std::int64_t id) {
   return "measurement " + std::to_string(id);
@@ -150,6 +172,7 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
   }
   plan->reduction_min_tests =
       static_cast<int>(req::WholeNumber(request, "reduction_study_min_tests", 1, 1000, 0));
+  plan->effects = EffectNames(request);
   plan->max_samples_per_test =
       static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
   plan->ids = CheckedDbbIds(request, "calibration study", true,
@@ -168,6 +191,7 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
         study.method = plan->method;
         study.max_samples_per_test = plan->max_samples_per_test;
         study.reduction_min_tests = plan->reduction_min_tests;
+        study.effects = plan->effects;
         if (p) p(0.0, "reading the DBB tests");
         study.tests.reserve(plan->ids.size());
         study.names.reserve(plan->ids.size());
