@@ -53,7 +53,7 @@ if [ "${KINEMETRIC_SKIP_FUZZ:-0}" != 1 ]; then
   CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
     -DKINEMETRIC_FUZZ=ON -DKINEMETRIC_TESTS=OFF -DKINEMETRIC_BENCHMARKS=OFF >/dev/null
   cmake --build build-fuzz -j"$jobs" --target fuzz_targets
-  fuzz_seconds=20
+  fuzz_seconds=10
   if [ "${KINEMETRIC_LONG:-0}" = 1 ]; then fuzz_seconds=300; fi
   KINEMETRIC_FUZZ_BUILD=build-fuzz KINEMETRIC_FUZZ_SECONDS=$fuzz_seconds tests/fuzz/run.sh
 fi
