@@ -8,13 +8,13 @@
 #
 #   tests/fuzz/run.sh [TARGET...]        default: every target
 #   KINEMETRIC_FUZZ_BUILD=DIR            build directory (default build-fuzz), already built
-#   KINEMETRIC_FUZZ_SECONDS=N            fuzzing time per target (default 20)
+#   KINEMETRIC_FUZZ_SECONDS=N            fuzzing time per target (default 10)
 #   KINEMETRIC_FUZZ_FLAGS="..."          extra libFuzzer flags (e.g. -jobs=2, -seed=1)
 set -uo pipefail
 cd "$(dirname "$0")/../.." || exit 1
 
 build=${KINEMETRIC_FUZZ_BUILD:-build-fuzz}
-seconds=${KINEMETRIC_FUZZ_SECONDS:-20}
+seconds=${KINEMETRIC_FUZZ_SECONDS:-10}
 all_targets=(dbb tracker straightness flatness parallelism upload machine_json modbus_config
   stream_frames request time api)
 targets=("$@")
