@@ -130,6 +130,37 @@ export const api = {
       headers: { 'Content-Type': 'application/json' },
     }),
   job: (id) => apiFetch(`/api/v1/jobs/${encodeURIComponent(id)}`),
+  // Recent background jobs, newest first, without their results.
+  jobs: (limit = 200) => apiFetch(`/api/v1/jobs?limit=${encodeURIComponent(String(limit))}`),
+  // Stored machine models (kinemetric-machine/1 documents), versioned.
+  // 404 when the machine has no stored model: resolves to null then.
+  machineDefinitions: (machineId) =>
+    apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/definitions`).catch((err) => {
+      if (err instanceof ApiError && err.status === 404) return null;
+      throw err;
+    }),
+  // Body = the machine JSON text → {machine_id, version, created_at, created}.
+  storeMachine: (text, filename) =>
+    apiFetch('/api/v1/machines', {
+      method: 'POST',
+      body: text,
+      headers: { 'Content-Type': 'application/json', 'X-Filename': sanitizeFilename(filename || 'machine.json') },
+    }),
+  // Model-gap discovery study → 202 {job_id}; polled with job(id).
+  discover: (body) =>
+    apiFetch('/api/v1/discoveries', {
+      method: 'POST',
+      body: JSON.stringify(body),
+      headers: { 'Content-Type': 'application/json' },
+    }),
+  // The machine a finished calibration / discovery job produced, stored as the next version of
+  // its model → {machine_id, version, created_at, created}.
+  saveJobMachine: (jobId) =>
+    apiFetch(`/api/v1/jobs/${encodeURIComponent(jobId)}/save-machine`, {
+      method: 'POST',
+      body: '{}',
+      headers: { 'Content-Type': 'application/json' },
+    }),
   upload: (file, bytes) =>
     apiFetch('/api/v1/measurements', {
       method: 'POST',

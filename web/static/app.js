@@ -1,5 +1,6 @@
 // kinemetric dashboard: machines → measurements → DBB polar plot, figures and diagnosis;
-// straightness / parallelism profiles and flatness maps with their figures; plus upload.
+// straightness / parallelism profiles and flatness maps with their figures; plus upload. The
+// model-gap discovery page (#/discoveries…) is discovery.js.
 // Plain ES module, no build step, nothing loaded from outside the server.
 
 import { api, ApiError, getToken, setToken, takeTokenFromFragment } from './api.js';
@@ -16,9 +17,18 @@ import {
   unitOf,
 } from './format.js';
 import { renderPolarPlot } from './polar.js';
+import { errorBox, h, problemContent, setMessage } from './dom.js';
 import { renderTrackerVectorPlot } from './tracker.js';
 import { renderComponentCharts } from './components.js';
 import { initStreams, refreshStreams } from './streams.js';
+import {
+  applyRoute,
+  discoveryMachineChanged,
+  discoveryMachinesChanged,
+  initDiscovery,
+  leaveDiscovery,
+  parseRoute,
+} from './discovery.js';
 
 const $ = (sel) => document.querySelector(sel);
 
@@ -38,44 +48,6 @@ const JOB_POLL_MS = 500;
 const FORM_KINDS = ['straightness', 'parallelism', 'flatness'];
 // Kinds drawn wide (plot above the figures); they need the stored samples as well.
 const WIDE_KINDS = [...FORM_KINDS, 'tracker'];
-
-// ---------------------------------------------------------------- small DOM helpers
-
-function h(tag, attrs = {}, ...children) {
-  const node = document.createElement(tag);
-  for (const [k, v] of Object.entries(attrs)) {
-    if (v === undefined || v === null || v === false) continue;
-    if (k === 'class') node.className = v;
-    else if (k === 'dataset') Object.assign(node.dataset, v);
-    else if (k.startsWith('on')) node.addEventListener(k.slice(2), v);
-    else node.setAttribute(k, v === true ? '' : String(v));
-  }
-  for (const c of children.flat()) {
-    if (c === undefined || c === null || c === false) continue;
-    node.append(c instanceof Node ? c : document.createTextNode(String(c)));
-  }
-  return node;
-}
-
-function setMessage(node, kind, ...content) {
-  node.replaceChildren(...content);
-  node.classList.remove('error', 'success', 'info');
-  node.hidden = content.length === 0;
-  if (kind) node.classList.add(kind);
-  // Errors are announced immediately; other messages politely.
-  node.setAttribute('role', kind === 'error' ? 'alert' : 'status');
-}
-
-function problemContent(err) {
-  const parts = [h('strong', { class: 'problem-title' }, err.title || 'Error')];
-  if (err.detail) parts.push(h('span', { class: 'problem-detail' }, err.detail));
-  const where = [];
-  if (err.file) where.push(`file ${err.file}`);
-  if (err.line !== undefined && err.line !== null) where.push(`line ${err.line}`);
-  if (err.field) where.push(`field “${err.field}”`);
-  if (where.length) parts.push(h('span', { class: 'problem-where' }, where.join(', ')));
-  return parts;
-}
 
 // ---------------------------------------------------------------- token / auth
 
@@ -114,12 +86,6 @@ function handleAuth(err) {
   return false;
 }
 
-function errorBox(err) {
-  const box = h('div', { class: 'message error', role: 'alert' });
-  box.append(...problemContent(err instanceof ApiError ? err : { title: 'Error', detail: String(err.message || err) }));
-  return box;
-}
-
 // ---------------------------------------------------------------- machines
 
 async function loadMachines({ select, selectMeasurement } = {}) {
@@ -130,6 +96,7 @@ async function loadMachines({ select, selectMeasurement } = {}) {
     clearAuthProblem();
     state.machines = data.machines || [];
     renderMachines();
+    discoveryMachinesChanged();
     const target = select ?? state.machineId;
     if (target && state.machines.some((m) => m.machine_id === target)) {
       await selectMachine(target, { selectMeasurement });
@@ -163,7 +130,7 @@ function renderMachines() {
             'data-testid': 'machine-item',
             'data-machine-id': m.machine_id,
             'aria-current': m.machine_id === state.machineId ? 'true' : 'false',
-            onclick: () => selectMachine(m.machine_id),
+            onclick: () => onMachineClick(m.machine_id),
           },
           h('span', { class: 'item-title' }, m.machine_id),
           h(
@@ -176,6 +143,17 @@ function renderMachines() {
       ),
     ),
   );
+}
+
+// A click on a machine: the measurement view of that machine, or the discovery form for it
+// when that form is shown.
+function onMachineClick(machineId) {
+  const route = parseRoute();
+  if (route.view === 'discovery') leaveDiscovery();
+  else if (route.view === 'discovery-new') {
+    window.history.replaceState(null, '', `#/discoveries?machine=${encodeURIComponent(machineId)}`);
+  }
+  selectMachine(machineId);
 }
 
 // ---------------------------------------------------------------- measurements
@@ -201,6 +179,7 @@ async function selectMachine(machineId, { selectMeasurement } = {}) {
       total > state.measurements.length ? `showing ${state.measurements.length} of ${total}` : `${total}`;
     renderMeasurements();
     renderCalibrationChoices();
+    discoveryMachineChanged();
     const target = selectMeasurement ?? state.measurementId;
     // Keep the selection; otherwise show the newest DBB test (else the newest measurement).
     const item =
@@ -237,7 +216,10 @@ function renderMeasurements() {
             'data-test-id': m.test_id ?? '',
             'data-direction': m.direction ?? '',
             'aria-current': m.id === state.measurementId ? 'true' : 'false',
-            onclick: () => selectMeasurementItem(m),
+            onclick: () => {
+              leaveDiscovery();
+              selectMeasurementItem(m);
+            },
           },
           h(
             'span',
@@ -1305,6 +1287,7 @@ function onTokenSubmit(event) {
   updateTokenStatus();
   clearAuthProblem();
   loadMachines();
+  applyRoute();
 }
 
 function onTokenForget() {
@@ -1342,14 +1325,26 @@ function start() {
       updateTokenStatus();
       loadMachines();
     }
+    applyRoute();
   });
   initStreams();
+  initDiscovery({
+    getMachineId: () => state.machineId,
+    getMachines: () => state.machines,
+    getMeasurements: () => state.measurements,
+    handleAuth,
+    // A machine the list does not know yet (uploaded meanwhile): the list is reloaded first.
+    selectMachine: (id) =>
+      state.machines.some((m) => m.machine_id === id) ? selectMachine(id) : loadMachines({ select: id }),
+    reloadMachines: () => loadMachines(),
+  });
   resetDetail();
   if (!getToken()) {
     showAuthProblem(null);
     $('#machines').replaceChildren(h('li', { class: 'empty' }, 'Waiting for an access token…'));
   } else {
-    loadMachines();
+    applyRoute();
+    loadMachines({ select: parseRoute().machine || undefined });
     refreshStreams();
   }
   document.body.dataset.ready = 'true';
