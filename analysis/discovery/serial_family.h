@@ -11,11 +11,14 @@
 // periodogram peak of the current gap) and are refined (golden section on the joint residual)
 // when an effect is accepted and after every later step.
 //
-// Held-out tests: fold key = test_id (a cw/ccw pair is held out together). With a single
-// test_id nothing can be held out by test; each trace is then split into `sample_folds`
-// interleaved sub-traces (sample i → sub-trace i mod k, each its own set-up columns and
-// group) and the fold key is the sub-trace index — a prediction of unseen samples of the same
-// turns, which still rejects shapes that only fit noise.
+// Held-out tests: fold key = test_id (a cw/ccw pair is held out together; when no test_id
+// holds both directions although both are present, cw and ccw of equal radius and feed are
+// paired instead). With a single key nothing can be held out by test; each trace is then split
+// into `sample_folds` interleaved sub-traces (blocks of 2° dealt in turn: block b → sub-trace
+// b mod k, each with its own set-up columns and group) and the fold key is the sub-trace index
+// — a prediction of unseen stretches of the same turns, which still rejects shapes that only
+// fit noise. (Single samples are not interleaved: the noise floor is estimated from successive
+// differences within a group, which must stay neighbours.)
 //
 // Physical bounds (Physical(), and every refit is a bounded least-squares fit): the signs the
 // physics of an effect fixes, with the value conventions of analysis/effects/models:
@@ -48,7 +51,7 @@ struct SerialFamilyOptions {
   double cyclic_min_period_mm = 1.0;
   double cyclic_max_period_fraction = 1.0 / 3.0;  // of the smallest radius
   bool search_cyclic = true;
-  bool refine_shapes = true;         // golden-section refinement of widths and periods
+  bool refine_shapes = true;          // golden-section refinement of widths and periods
   bool backlash_compensated = false;  // allow backlash < 0 (over-compensating control)
   int sample_folds = 5;               // interleaved sub-traces when there is one test_id
   double resolution_um = 1e-6;        // data resolution (files: 6 decimals)
@@ -58,15 +61,15 @@ struct SerialFamilyOptions {
 // One effect of a fitted model.
 struct SerialEffectFit {
   effects::EffectId id = effects::EffectId::kSquareness;
-  std::string name;                     // contract name with the plane's axis letters
-  std::vector<double> shape;            // fixed shape parameters (registry order)
-  std::vector<double> linear;           // fitted linear parameters
-  std::vector<double> linear_sigma;     // their standard uncertainties
-  std::vector<double> value;            // contract §4 value(s)
-  std::vector<double> sigma;            // standard uncertainty of each value
+  std::string name;                  // contract name with the plane's axis letters
+  std::vector<double> shape;         // fixed shape parameters (registry order)
+  std::vector<double> linear;        // fitted linear parameters
+  std::vector<double> linear_sigma;  // their standard uncertainties
+  std::vector<double> value;         // contract §4 value(s)
+  std::vector<double> sigma;         // standard uncertainty of each value
   std::string unit;
-  double z_score = 0.0;                 // |value| / σ (norm over the RMS σ for two values)
-  bool at_bound = false;                // held at its physical bound by the fit
+  double z_score = 0.0;                      // |value| / σ (norm over the RMS σ for two values)
+  bool at_bound = false;                     // held at its physical bound by the fit
   std::map<std::string, double> parameters;  // every parameter by name (linear and shape)
   std::map<std::string, double> shape_map;   // shape parameters by name
 };
@@ -109,8 +112,8 @@ class SerialFamily final : public ModelFamily {
   // One note per accepted step (same order as the engine's steps).
   const std::vector<SerialStepNote>& Notes() const { return notes_; }
   // The floor below which a gap is not an effect: the data resolution and the second-order
-  // term of the bar length max|g₀|²/(2R) (the signatures are first order in e/R). Use it as
-  // EngineOptions::resolution_um.
+  // term of the bar length (max|g₀| + max|centre offset|)²/(2R) (the signatures are first
+  // order in e/R). Use it as EngineOptions::resolution_um.
   double ResolutionUm() const { return resolution_um_; }
   // True when the traces were split into interleaved sub-traces (one test_id only).
   bool SplitIntoSubTraces() const { return split_; }
@@ -140,18 +143,19 @@ class SerialFamily final : public ModelFamily {
   dbb::Plane plane_;
   SerialFamilyOptions opt_;
   dbb::StackedTraces p_;
-  std::vector<int> fold_key_;             // per group
-  std::vector<int> trace_of_group_;       // original trace of each group
+  std::vector<int> fold_key_;        // per group
+  std::vector<int> trace_of_group_;  // original trace of each group
   std::vector<dbb::DiagnosisTrace> traces_;
   std::vector<std::string> test_ids_;
   bool split_ = false;
-  Eigen::VectorXd e0_;                       // y with each group's set-up part removed
-  std::vector<Eigen::Vector3d> setup_y_;     // set-up coefficients of y per group
+  Eigen::VectorXd e0_;                    // y with each group's set-up part removed
+  std::vector<Eigen::Vector3d> setup_y_;  // set-up coefficients of y per group
   double resolution_um_ = 1e-6;
   double rmin_mm_ = 0.0;
   double max_step_rad_ = 0.0;
   std::vector<Term> model_;
-  std::vector<Term> pending_;  // this step's candidates
+  std::vector<Term> pending_;                                 // this step's candidates
+  std::map<std::string, std::vector<std::string>> confused_;  // offered → left out for it
   std::vector<SerialModel> history_;
   std::vector<SerialStepNote> notes_;
 };
