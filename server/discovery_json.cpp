@@ -129,9 +129,26 @@ json WorstTestTraces(const hexapod::EffectFitData& d, const Eigen::VectorXd& bef
           {"model_after_um", model_after}};
 }
 
-// Compensation preview ([PM-600 report] eq. 4.5, table 4.5): with the command corrected by the
-// modelled gravity (and friction) deflection, the trace loses their contribution; circularity
-// per test of the measured trace and of the trace predicted with compensation.
+// Change of every sample of test t (µm on the bar) caused by `effects`, to first order.
+std::vector<double> EffectsOnBar(const hexapod::EffectFitData& d,
+                                 const hexapod::EffectFitResult& fit,
+                                 const std::vector<hexapod::ActiveEffect>& effects, std::size_t t) {
+  hexapod::Perturbation pert;
+  hexapod::ApplyEffects(effects, d.prepared.paths[t], d.prepared.setup, pert);
+  std::vector<double> out;
+  for (std::size_t i = 0; i < pert.ds_mm.size(); ++i) {
+    hexapod::RowSensitivity delta;
+    delta.head<6>() = pert.ds_mm[i];
+    delta[6] = pert.dl_mm[i];
+    out.push_back(fit.sensitivity[static_cast<std::size_t>(d.row_begin[t]) + i].dot(delta));
+  }
+  return out;
+}
+
+// Compensation preview ([PM-600 report] eq. 4.5, table 4.5) for the calibrated machine: per
+// test, the trace predicted once the kinematic errors are calibrated out (residual + every
+// modelled effect), without and with the command corrected by the modelled gravity (and
+// friction) deflection; circularity of each (eq. 4.8) and of the measured trace.
 json CompensationPreview(const hexapod::EffectFitData& d, const hexapod::EffectFitResult& fit) {
   std::vector<hexapod::ActiveEffect> comp;
   for (const auto& a : fit.effects) {
@@ -140,47 +157,44 @@ json CompensationPreview(const hexapod::EffectFitData& d, const hexapod::EffectF
   }
   if (comp.empty()) return nullptr;
   json tests = json::array();
-  hexapod::Perturbation pert;
   for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
     const auto& test = d.problem.tests[t];
-    hexapod::ApplyEffects(comp, d.prepared.paths[t], d.prepared.setup, pert);
-    std::vector<double> angle, dr, dr_comp;
+    const auto all = EffectsOnBar(d, fit, fit.effects, t);
+    const auto compensated = EffectsOnBar(d, fit, comp, t);
+    std::vector<double> angle, measured, without, with;
     const auto& path = d.prepared.paths[t];
-    const Eigen::Vector3d& f = fit.fixed_balls_mm[t];
+    const double bar0 = test.samples.front().measured_bar_mm;
     for (std::size_t i = 0; i < test.samples.size(); ++i) {
       const int row = d.row_begin[t] + static_cast<int>(i);
-      const Eigen::Vector3d v = path.pose[i].tip_mm - f;
+      const Eigen::Vector3d v = path.pose[i].tip_mm - fit.fixed_balls_mm[t];
       angle.push_back(std::atan2(v.y(), v.x()) * 180.0 / 3.14159265358979323846);
-      const double measured_um = 1000.0 * (test.samples[i].measured_bar_mm);
-      hexapod::RowSensitivity delta;
-      delta.head<6>() = pert.ds_mm[i];
-      delta[6] = pert.dl_mm[i];
-      const double effect_um = fit.sensitivity[static_cast<std::size_t>(row)].dot(delta);
-      dr.push_back(measured_um);
-      dr_comp.push_back(measured_um - effect_um);
+      measured.push_back(1000.0 * (test.samples[i].measured_bar_mm - bar0));
+      const double residual = -fit.residual_um[row];  // measured − model
+      without.push_back(residual + all[i]);
+      with.push_back(residual + all[i] - compensated[i]);
     }
-    // Unwrap the angles so that one turn is recognised.
-    for (std::size_t i = 1; i < angle.size(); ++i) {
+    for (std::size_t i = 1; i < angle.size(); ++i) {  // one turn, unwrapped
       while (angle[i] - angle[i - 1] > 180.0) angle[i] -= 360.0;
       while (angle[i] - angle[i - 1] < -180.0) angle[i] += 360.0;
     }
-    const double radius = test.samples.empty() ? 1.0 : test.samples.front().measured_bar_mm;
-    for (double& x : dr) x -= 1000.0 * radius;
-    for (double& x : dr_comp) x -= 1000.0 * radius;
     try {
-      const auto before = hexapod::TraceCircleFigures(angle, dr, radius);
-      const auto after = hexapod::TraceCircleFigures(angle, dr_comp, radius);
       tests.push_back({{"test_id", test.test_id},
                        {"direction", dbb::ToString(test.direction)},
-                       {"circularity_without_compensation_um", before.circularity_um},
-                       {"predicted_circularity_with_compensation_um", after.circularity_um}});
+                       {"circularity_measured_um",
+                        hexapod::TraceCircleFigures(angle, measured, bar0).circularity_um},
+                       {"circularity_without_compensation_um",
+                        hexapod::TraceCircleFigures(angle, without, bar0).circularity_um},
+                       {"predicted_circularity_with_compensation_um",
+                        hexapod::TraceCircleFigures(angle, with, bar0).circularity_um}});
     } catch (const std::exception&) {
-      continue;
+      continue;  // fewer than 3 distinct samples: no figure for this test
     }
   }
   json effects = json::array();
   for (const auto& a : comp) effects.push_back(a.effect->Name());
-  return {{"compensated_effects", effects}, {"tests", tests}};
+  return {{"compensated_effects", effects},
+          {"basis", "calibrated machine: kinematic errors corrected, every modelled effect kept"},
+          {"tests", tests}};
 }
 
 }  // namespace
