@@ -2,7 +2,6 @@
 // SQLite file with WAL and synchronous=FULL) in this process, a real HTTP client on loopback;
 // each iteration uploads a new 3600-sample file (distinct bytes) and waits for the stored id.
 #include <benchmark/benchmark.h>
-#include <httplib.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -11,6 +10,9 @@
 #include "ingest/dbb_writer.h"
 #include "tests/bench/bench_server.h"
 #include "tests/unit/dbb_core/dbb_synth.h"
+
+// After the project headers: they bring in Eigen, which must come before httplib.h.
+#include <httplib.h>
 
 namespace {
 

@@ -4,7 +4,6 @@
 //  * BM_HttpStreamIngest: the same through a real HTTP server on loopback (one request a
 //    second of 4 channels × 20 kHz … ×5, answered after the samples are stored).
 #include <benchmark/benchmark.h>
-#include <httplib.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -16,6 +15,9 @@
 #include "server/sqlite_storage.h"
 #include "server/streams.h"
 #include "tests/bench/bench_server.h"
+
+// After the project headers: they bring in Eigen, which must come before httplib.h.
+#include <httplib.h>
 
 namespace {
 
