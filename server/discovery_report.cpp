@@ -193,8 +193,12 @@ json SerialDiscoveryJson(const discovery::SerialFamily& family, const discovery:
     rejected.push_back(c.effect + (c.variant.empty() ? "" : " (" + c.variant + ")") + ": " +
                        c.rejected_because);
   }
+  const auto& base = history.front().residual;
+  const double base_rms =
+      base.size() ? std::sqrt(base.squaredNorm() / static_cast<double>(base.size())) : 0.0;
   return {{"kind", "serial"},
           {"plane", dbb::ToString(family.Plane())},
+          {"base", {{"model", "setup_terms"}, {"gap_rms_um", base_rms}}},
           {"held_out", family.SplitIntoSubTraces() ? "interleaved samples" : "tests"},
           {"steps", steps},
           {"final_model", model},
@@ -228,15 +232,18 @@ DiscoveryOutcome SerialDiscovery(const DiscoveryStudy& study, const DiscoveryPro
                              ")");
     }
   }
-  discovery::SerialFamily family(traces, test_ids, study.tests.front().plane);
   discovery::EngineOptions options;
-  options.resolution_um = family.ResolutionUm();
   options.max_steps = kSerialMaxSteps;
-  const auto r = discovery::RunDiscovery(family, options, [&](int step, const std::string& what) {
-    if (progress) progress(std::min(0.95, step / static_cast<double>(kSerialMaxSteps + 1)), what);
-  });
+  const auto run = discovery::DiscoverSerial(
+      traces, test_ids, study.tests.front().plane, {}, options,
+      [&](int step, const std::string& what) {
+        if (progress)
+          progress(std::min(0.95, step / static_cast<double>(kSerialMaxSteps + 1)), what);
+      });
   DiscoveryOutcome out;
-  out.report = SerialDiscoveryJson(family, r);
+  out.report = SerialDiscoveryJson(*run.family, run.result);
+  out.report["alternatives_tried"] = run.alternatives_tried;
+  out.report["alternative"] = run.alternative.empty() ? json(nullptr) : json(run.alternative);
   return out;
 }
 

@@ -190,7 +190,7 @@ double SerialFamily::LowerBound(EffectId id, int j) const {
   switch (id) {
     case EffectId::kBacklashU:
     case EffectId::kBacklashV:
-      return opt_.backlash_compensated ? -std::numeric_limits<double>::infinity() : 0.0;
+      return opt_.uncompensated_backlash ? 0.0 : -std::numeric_limits<double>::infinity();
     case EffectId::kReversalSpikeU:
     case EffectId::kReversalSpikeV:
     case EffectId::kLateralPlayU:
@@ -436,10 +436,15 @@ std::vector<Candidate> SerialFamily::Candidates(const FitState& fit) {
   const double pmin =
       std::max(opt_.cyclic_min_period_mm, 4.0 * rmin_mm_ * std::max(max_step_rad_, 1e-9));
   const double pmax = opt_.cyclic_max_period_fraction * rmin_mm_;
+  const int step = static_cast<int>(model_.size()) + 1;
+  auto withheld = [&](EffectId id) {
+    return std::any_of(opt_.withheld.begin(), opt_.withheld.end(),
+                       [&](const auto& w) { return w.first == step && w.second == Name(id); });
+  };
   int order = 0;
   for (const auto& info : effects::AllEffects()) {
     ++order;
-    if (!info.in_form || !info.linear_fit || in_model(info.id)) continue;
+    if (!info.in_form || !info.linear_fit || in_model(info.id) || withheld(info.id)) continue;
     if (IsSpike(info.id)) {
       for (double w : opt_.spike_widths_deg)
         pending_.push_back(Term{dbb::SetupFreeSignature(p_, info.id, {w}), order});

@@ -22,18 +22,24 @@
 //
 // Physical bounds (Physical(), and every refit is a bounded least-squares fit): the signs the
 // physics of an effect fixes, with the value conventions of analysis/effects/models:
-//   backlash_<a>        step b ≥ 0 (lost motion: the axis trails its command; b < 0 only
-//                       with an over-compensating control: options.backlash_compensated)
 //   reversal_spike_<a>  height h ≥ 0 (the axis sticks, then follows: an outward spike)
 //   lateral_play_<a>    play p ≥ 0 (a clearance: the peak size of the sideways shift)
 //   stick_slip          amplitude ≥ 0 (not a linear candidate; listed for completeness)
+//   backlash_<a>        free by default: the step a DBB sees is the lost motion net of the
+//                       control's backlash compensation, and backlash.h documents b < 0 as
+//                       over-compensation (an inward step). With options.uncompensated_backlash
+//                       (no compensation in the control) b ≥ 0. Bounding b on machines with
+//                       over-compensated axes names the other axis's backlash instead (its
+//                       45° content stands in) — a false discovery the sign cannot justify.
 // Squareness, scale and servo mismatch, straightness and the cyclic error (c, d) may take
 // either sign. A candidate whose joint fit would put any bounded value of the model (its own
 // or an earlier effect's) beyond its bound is not physical.
 #pragma once
 
 #include <map>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -51,11 +57,14 @@ struct SerialFamilyOptions {
   double cyclic_min_period_mm = 1.0;
   double cyclic_max_period_fraction = 1.0 / 3.0;  // of the smallest radius
   bool search_cyclic = true;
-  bool refine_shapes = true;          // golden-section refinement of widths and periods
-  bool backlash_compensated = false;  // allow backlash < 0 (over-compensating control)
-  int sample_folds = 5;               // interleaved sub-traces when there is one test_id
-  double resolution_um = 1e-6;        // data resolution (files: 6 decimals)
-  void Check() const;                 // throws km::InvalidInput on nonsense
+  bool refine_shapes = true;            // golden-section refinement of widths and periods
+  bool uncompensated_backlash = false;  // backlash ≥ 0 (the control does not compensate it)
+  int sample_folds = 5;                 // interleaved sub-traces when there is one test_id
+  double resolution_um = 1e-6;          // data resolution (files: 6 decimals)
+  // Effects not offered at a step: (step number from 1, effect name) — DiscoverSerial's
+  // alternatives to a ladder that ended in "model misfit".
+  std::vector<std::pair<int, std::string>> withheld;
+  void Check() const;  // throws km::InvalidInput on nonsense
 };
 
 // One effect of a fitted model.
@@ -159,5 +168,24 @@ class SerialFamily final : public ModelFamily {
   std::vector<SerialModel> history_;
   std::vector<SerialStepNote> notes_;
 };
+
+// The serial discovery: the engine's ladder (RunDiscovery) with the serial family. A greedy
+// ladder can take a wrong first turn — e.g. backlash of the other axis, whose 45° content
+// stands in for a servo mismatch plus the true backlash, after which the true effects explain
+// too little of the remaining gap and the ladder ends in "model misfit". Then the ladder is
+// run again with the effect of one step withheld at that step (each step in turn); a run that
+// ends "complete" replaces it (the fewest effects, then the smallest unexplained gap). A run
+// that ends in misfit is never replaced by another misfit. `engine.resolution_um` is raised to
+// the family's floor (ResolutionUm()).
+struct SerialRun {
+  std::unique_ptr<SerialFamily> family;
+  EngineResult result;
+  int alternatives_tried = 0;
+  std::string alternative;  // "" or which choice was withheld, e.g. "backlash_y at step 1"
+};
+SerialRun DiscoverSerial(const std::vector<dbb::DiagnosisTrace>& traces,
+                         const std::vector<std::string>& test_ids, dbb::Plane plane,
+                         const SerialFamilyOptions& options = {}, EngineOptions engine = {},
+                         const EngineProgress& progress = {});
 
 }  // namespace km::discovery

@@ -1,6 +1,6 @@
 // The per-step parts of the serial family (serial_family.h): refinement of the shape
-// parameters (spike width, cyclic period) when an effect is accepted, and the evidence of a
-// step for people.
+// parameters (spike width, cyclic period) when an effect is accepted, the evidence of a step
+// for people, and the search around the greedy ladder (DiscoverSerial).
 #include "analysis/discovery/serial_family.h"
 
 #include <algorithm>
@@ -196,6 +196,41 @@ Evidence SerialFamily::Describe(const FitState& before, const Candidate& c,
   std::sort(note.indistinguishable_from.begin(), note.indistinguishable_from.end());
   notes_.push_back(std::move(note));
   return ev;
+}
+
+SerialRun DiscoverSerial(const std::vector<dbb::DiagnosisTrace>& traces,
+                         const std::vector<std::string>& test_ids, dbb::Plane plane,
+                         const SerialFamilyOptions& options, EngineOptions engine,
+                         const EngineProgress& progress) {
+  auto run = [&](const SerialFamilyOptions& o) {
+    SerialRun r;
+    r.family = std::make_unique<SerialFamily>(traces, test_ids, plane, o);
+    EngineOptions e = engine;
+    e.resolution_um = std::max(e.resolution_um, r.family->ResolutionUm());
+    r.result = RunDiscovery(*r.family, e, progress);
+    return r;
+  };
+  SerialRun best = run(options);
+  if (best.result.verdict != "model misfit") return best;
+  std::vector<std::string> taken;
+  for (const auto& s : best.result.steps) taken.push_back(s.added_effect);
+  int tried = 0;
+  for (std::size_t i = 0; i < taken.size(); ++i) {
+    SerialFamilyOptions o = options;
+    o.withheld.emplace_back(static_cast<int>(i) + 1, taken[i]);
+    SerialRun alt = run(o);
+    ++tried;
+    if (alt.result.verdict != "complete") continue;
+    const bool better = best.result.verdict != "complete" ||
+                        alt.result.steps.size() < best.result.steps.size() ||
+                        (alt.result.steps.size() == best.result.steps.size() &&
+                         alt.result.unexplained_rms_um < best.result.unexplained_rms_um);
+    if (!better) continue;
+    best = std::move(alt);
+    best.alternative = taken[i] + " at step " + std::to_string(i + 1);
+  }
+  best.alternatives_tried = tried;
+  return best;
 }
 
 }  // namespace km::discovery

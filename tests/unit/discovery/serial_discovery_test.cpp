@@ -1,8 +1,9 @@
 // Serial discovery (analysis/discovery/serial_family.h on the shared engine, through
 // server::RunDiscoveryStudy as `kinemetric discover` runs it) on DBB files of the independent
 // truth simulator (serial_truth.h): the three false discoveries verification found with the
-// former ladder (analysis/dbb/discovery.h), the JSON keys of the contract, noise-free data,
-// a single trace, per-file test ids, and the physical sign of backlash.
+// former ladder (analysis/dbb/discovery.h), a wrong first turn of the greedy ladder undone, the
+// JSON keys of the contract, noise-free data, a single trace, per-file test ids, and the sign
+// of backlash.
 //
 // What the former ladder did on the regression machines (same files): spike-only machine
 // (reversal_spike_y 6 µm, decay 1.4°) → reversal_spike_y + cyclic_error_y 0.04 µm; spike
@@ -174,6 +175,34 @@ TEST(SerialDiscoveryRegression, NoNegativeSpikeToAbsorbAMisfit) {
   }
 }
 
+TEST(SerialDiscoveryRegression, WrongFirstTurnIsUndone) {
+  // Backlash of x with a servo mismatch whose 45° ellipse opposes the backlash's own 45°
+  // content, one cw/ccw pair: the greedy first step takes backlash of the OTHER axis (it stands
+  // in for both), after which the true effects explain too little and the ladder ends in
+  // misfit. The ladder is run again without that first choice and ends complete.
+  for (const auto& [b, tau, feed, axis] :
+       {std::tuple<double, double, double, int>{5.0, -0.25, 1650.0, 0}, {5.0, 0.5, 800.0, 1}}) {
+    Machine m = Pairs(0.3, {{Kind::kBacklash, axis, {b}}, {Kind::kServoMismatch, 0, {tau}}});
+    for (auto& t : m.tests) {
+      t.feed_mm_min = feed;
+      t.start_deg = 30.0;
+      t.seed = static_cast<std::uint32_t>(7 + t.direction);
+    }
+    m.fixed_ball_offset_um = {0.0, 0.0};
+    const auto j = Discover(m);
+    SCOPED_TRACE(Summary(j));
+    const std::string backlash = axis == 0 ? "backlash_x" : "backlash_y";
+    const std::string other = axis == 0 ? "backlash_y" : "backlash_x";
+    EXPECT_EQ(AddedSet(j), (std::set<std::string>{backlash, "servo_mismatch"}));
+    EXPECT_EQ(j["alternative"], other + " at step 1");
+    EXPECT_GE(j["alternatives_tried"].get<int>(), 1);
+    EXPECT_EQ(j["verdict"], "complete");
+    EXPECT_NEAR((*ModelEntry(j, backlash))["value"].get<double>(), b, 0.03 * b);
+    EXPECT_NEAR((*ModelEntry(j, "servo_mismatch"))["value"].get<double>(), tau,
+                0.03 * std::abs(tau));
+  }
+}
+
 // ------------------------------------------------------------ contract and special inputs
 
 TEST(SerialDiscovery, JsonKeepsTheContractKeys) {
@@ -187,6 +216,8 @@ TEST(SerialDiscovery, JsonKeepsTheContractKeys) {
                         "noise_floor_um", "verdict", "stop_reason", "rejected", "not_identifiable"})
     EXPECT_TRUE(j.contains(k)) << k;
   EXPECT_EQ(j["kind"], "serial");
+  EXPECT_NEAR(j["base"]["gap_rms_um"].get<double>(),
+              j["steps"][0]["gap_rms_before_um"].get<double>(), 1e-9);
   EXPECT_EQ(j["held_out"], "tests");
   ASSERT_EQ(j["steps"].size(), 3u);
   for (const auto& s : j["steps"]) {
@@ -286,35 +317,30 @@ std::vector<dbb::DiagnosisTrace> Traces(const Machine& m, std::vector<std::strin
   return v;
 }
 
-TEST(SerialFamily, OverCompensatedBacklashNeedsTheCompensatedOption) {
-  // b < 0 (an inward step: the control over-compensates lost motion) is no lost motion; only a
-  // family told that the control compensates backlash may fit it.
+TEST(SerialFamily, OverCompensatedBacklashIsANegativeBacklash) {
+  // b < 0: an inward step, the control over-compensates the lost motion (backlash.h). By
+  // default it is named with its sign; a family told that the control does not compensate
+  // backlash (b ≥ 0) names no backlash with a negative value and says the model does not fit.
   const Machine m = Pairs(0.2, {{Kind::kBacklash, 0, {-2.5}}}, 2, 5);
+  {
+    const auto j = Discover(m);
+    SCOPED_TRACE(Summary(j));
+    EXPECT_EQ(Added(j), std::vector<std::string>{"backlash_x"});
+    EXPECT_NEAR((*ModelEntry(j, "backlash_x"))["value"].get<double>(), -2.5, 0.03 * 2.5);
+    EXPECT_EQ(j["verdict"], "complete");
+  }
   std::vector<std::string> ids;
   const auto traces = Traces(m, &ids);
-  {
-    discovery::SerialFamily family(traces, ids, dbb::Plane::kXY);
-    discovery::EngineOptions o;
-    o.resolution_um = family.ResolutionUm();
-    const auto r = discovery::RunDiscovery(family, o);
-    for (const auto& e : family.History().back().effects)
-      if (e.name.rfind("backlash", 0) == 0) {
-        EXPECT_GE(e.value[0], 0.0) << e.name;
-      }
-    EXPECT_EQ(r.verdict, "model misfit");
+  discovery::SerialFamilyOptions fo;
+  fo.uncompensated_backlash = true;
+  const auto run = discovery::DiscoverSerial(traces, ids, dbb::Plane::kXY, fo);
+  for (const auto& e : run.family->History().back().effects) {
+    if (e.name.rfind("backlash", 0) == 0) {
+      EXPECT_GE(e.value[0], 0.0) << e.name;
+    }
   }
-  {
-    discovery::SerialFamilyOptions fo;
-    fo.backlash_compensated = true;
-    discovery::SerialFamily family(traces, ids, dbb::Plane::kXY, fo);
-    discovery::EngineOptions o;
-    o.resolution_um = family.ResolutionUm();
-    const auto r = discovery::RunDiscovery(family, o);
-    ASSERT_EQ(r.steps.size(), 1u);
-    EXPECT_EQ(r.steps[0].added_effect, "backlash_x");
-    EXPECT_NEAR(family.History().back().effects.at(0).value[0], -2.5, 0.03 * 2.5);
-    EXPECT_EQ(r.verdict, "complete");
-  }
+  EXPECT_EQ(run.result.verdict, "model misfit");
+  EXPECT_GE(run.alternatives_tried, 0);
 }
 
 TEST(SerialFamily, RejectsBadInput) {

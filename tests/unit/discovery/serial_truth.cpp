@@ -268,8 +268,8 @@ Machine RandomMachine(std::mt19937& rng, int n_effects, const std::string& machi
     e.kind = kinds[static_cast<std::size_t>(i)];
     e.axis = std::uniform_int_distribution<int>(0, 1)(rng);
     switch (e.kind) {
-      case Kind::kBacklash:
-        e.p = {Uniform(rng, 0.8, 6.0)};
+      case Kind::kBacklash:  // one in four over-compensated by the control (b < 0)
+        e.p = {Uniform(rng, 0.8, 6.0) * (Uniform(rng, 0.0, 1.0) < 0.25 ? -1.0 : 1.0)};
         break;
       case Kind::kReversalSpike:
         e.p = {Uniform(rng, 2.0, 8.0), Uniform(rng, 0.4, 3.5)};

@@ -94,7 +94,8 @@ double BarDeviationUm(const Machine& m, const std::vector<Effect>& effects, cons
 double Detectability(const Machine& m, std::size_t k);
 
 // A random machine: `n_effects` distinct kinds among the eight product effects with
-// physically signed random sizes, noise 0.2–0.5 µm, one or two test ids (feeds) of a cw + ccw
+// physically signed random sizes (spike height and lateral play > 0, backlash > 0 or, one in
+// four, < 0: over-compensated), noise 0.2–0.5 µm, one or two test ids (feeds) of a cw + ccw
 // pair each, random plane, radius, start angle and fixed-ball set-up error.
 Machine RandomMachine(std::mt19937& rng, int n_effects, const std::string& machine_id);
 
