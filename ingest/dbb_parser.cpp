@@ -1,10 +1,12 @@
 #include "ingest/dbb_parser.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
 
 #include "analysis/core/errors.h"
+#include "analysis/dbb/coverage.h"
 #include "ingest/iso8601.h"
 #include "ingest/text_format.h"
 
@@ -126,6 +128,16 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
     d.timestamp = ts->value;
   }
   d.temperature_c = t.OptionalNumber("temperature_c");
+  // Partial arcs (analysis/dbb/coverage.h): the arc the test runs, 180 … 360 degrees.
+  if (const auto arc = t.OptionalNumber("arc_deg")) {
+    if (!(*arc >= dbb::kMinArcDeg && *arc <= 360.0)) {
+      throw InvalidInput(file, t.Find("arc_deg")->line, "arc_deg",
+                         Number(*arc) + " is outside " + Number(dbb::kMinArcDeg) +
+                             " … 360 degrees (a partial arc of at least " +
+                             Number(dbb::kMinArcDeg) + " degrees, or 360 for a full turn)");
+    }
+    d.arc_deg = *arc;
+  }
 
   const int dr_col = t.ColumnIndex("dr_um");
   const int angle_col = t.ColumnIndex("angle_deg");
@@ -173,22 +185,16 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
   if (d.angle_deg.empty()) {
     throw InvalidInput(file, t.columns_line, "dr_um", "the file has no data rows");
   }
-  // One full turn is required for every figure (contract §1.1).
-  const double span = std::abs(d.angle_deg.back() - d.angle_deg.front());
-  const double step =
-      d.angle_deg.size() > 1 ? span / static_cast<double>(d.angle_deg.size() - 1) : 0.0;
-  if (d.angle_deg.size() < 16 || span + step < 360.0 - 1e-6) {
-    throw InvalidInput(file, t.row_lines.back(), angle_field,
-                       "too few samples for a full turn: " + std::to_string(d.angle_deg.size()) +
-                           " samples covering " + std::to_string(span) +
-                           " degrees (a full turn of 360 degrees with at least 16 samples is "
-                           "needed)");
-  }
-  for (std::size_t i = 1; i < d.angle_deg.size(); ++i) {
-    if (std::abs(d.angle_deg[i] - d.angle_deg[i - 1]) > 10.0) {
-      throw InvalidInput(file, t.row_lines[i], angle_field,
-                         "gap of more than 10 degrees between consecutive samples");
-    }
+  // Coverage: one rule for every test (analysis/dbb/coverage.h) — the largest gap between
+  // neighbouring samples, the closing gap of a full turn included, is at most 10 degrees; a
+  // partial arc (declared arc_deg, or samples that do not come back to their start) is at least
+  // 180 degrees long.
+  const dbb::Coverage cov = dbb::CheckCoverage(d.angle_deg, d.direction, d.arc_deg);
+  if (!cov.ok) {
+    const std::size_t line = cov.field == "arc_deg"
+                                 ? t.Find("arc_deg")->line
+                                 : t.row_lines[std::min(cov.reason_sample, t.row_lines.size() - 1)];
+    throw InvalidInput(file, line, cov.field == "arc_deg" ? "arc_deg" : angle_field, cov.reason);
   }
   return d;
 }

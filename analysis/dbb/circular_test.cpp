@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include "analysis/core/errors.h"
+#include "analysis/dbb/coverage.h"
 #include "analysis/geometry/circle_fit.h"
 
 namespace km::dbb {
@@ -60,52 +61,48 @@ Turn SelectOneTurn(const DbbTest& test) {
   if (n != test.dr_um.size()) {
     throw InvalidInput("", 0, "dr_um", "angle and deviation columns differ in length");
   }
-  if (n < 16) {
-    throw InvalidInput(
-        "", 0, "angle_deg",
-        "too few samples for a full turn: " + std::to_string(n) + " (at least 16 are needed)");
-  }
+  const Coverage cov = CheckCoverage(a, test.direction, test.arc_deg);
+  if (!cov.ok) throw InvalidInput("", 0, cov.field, cov.reason);
   const double sign = test.direction == Direction::kCcw ? 1.0 : -1.0;
-  // Progress along the direction of motion, in degrees, must increase strictly.
+  // Progress along the direction of motion, in degrees (strictly increasing: checked above).
   std::vector<double> prog(n);
   for (std::size_t i = 0; i < n; ++i) prog[i] = sign * (a[i] - a[0]);
-  double max_step = 0.0;
-  for (std::size_t i = 1; i < n; ++i) {
-    const double step = prog[i] - prog[i - 1];
-    if (!(step > 0.0)) {
-      throw InvalidInput(
-          "", 0, "angle_deg",
-          std::string("angles must ") + (sign > 0 ? "increase (ccw)" : "decrease (cw)") +
-              " strictly from sample to sample; sample " + std::to_string(i + 1) + " breaks this");
-    }
-    max_step = std::max(max_step, step);
-  }
   const double span = prog.back();
   const double mean_step = span / static_cast<double>(n - 1);
-  // A turn sampled at step h with n samples covers n·h degrees (the last sample stands for the
-  // interval up to 360°). Allow a tiny rounding slack.
-  if (span + mean_step < 360.0 - 1e-6) {
-    throw InvalidInput("", 0, "angle_deg",
-                       "the samples cover " + std::to_string(span) +
-                           " degrees; a full turn (360 degrees) is needed");
-  }
-  if (max_step > 10.0) {
-    throw InvalidInput("", 0, "angle_deg",
-                       "gap of " + std::to_string(max_step) +
-                           " degrees between samples; at most 10 degrees is accepted");
-  }
-  // 360° window [w0, w0 + 360) centred in the covered span (half-open, so a turn from 0 to 360
-  // inclusive uses 0 … 360 − h and does not count the start twice).
-  // Each sample stands for one step of arc, so the rows cover span + step degrees; the window
-  // start is snapped down to a whole number of steps from the first sample.
-  double w0 = 0.0;
-  const double covered = span + mean_step;
-  if (covered > 360.0) w0 = std::floor((covered - 360.0) / 2.0 / mean_step + 1e-6) * mean_step;
   const double eps = 1e-9;
+  double w0 = 0.0;
+  double w1 = 0.0;
+  bool closed_end = false;
+  if (cov.full_turn) {
+    // 360° window [w0, w0 + 360) centred in the covered span (half-open, so a turn from 0 to
+    // 360 inclusive uses 0 … 360 − h and does not count the start twice). Each sample stands for
+    // one step of arc, so the rows cover span + step degrees; the window start is snapped down
+    // to a whole number of steps from the first sample.
+    const double covered = span + mean_step;
+    if (covered > 360.0) w0 = std::floor((covered - 360.0) / 2.0 / mean_step + 1e-6) * mean_step;
+    w1 = w0 + 360.0;
+  } else {
+    // Partial arc [w0, w0 + arc], both ends included, centred in the span when the samples run
+    // past the arc (lead-in / lead-out).
+    if (span > cov.arc_deg) {
+      const double want = (span - cov.arc_deg) / 2.0;
+      // Start at the sample nearest to the centred start.
+      std::size_t k = 0;
+      while (k + 1 < n && prog[k + 1] <= want + eps) ++k;
+      if (k + 1 < n && prog[k + 1] - want < want - prog[k]) ++k;
+      w0 = prog[k];
+      if (w0 + cov.arc_deg > span + eps) w0 = span - cov.arc_deg;
+    }
+    w1 = w0 + cov.arc_deg;
+    closed_end = true;
+  }
   Turn t;
+  t.full_turn = cov.full_turn;
+  t.arc_deg = cov.arc_deg;
   bool first = true;
   for (std::size_t i = 0; i < n; ++i) {
-    if (prog[i] < w0 - eps || prog[i] >= w0 + 360.0 - eps) continue;
+    if (prog[i] < w0 - eps) continue;
+    if (closed_end ? prog[i] > w1 + eps : prog[i] >= w1 - eps) continue;
     if (first) {
       t.first_index = i;
       first = false;
@@ -114,10 +111,7 @@ Turn SelectOneTurn(const DbbTest& test) {
     t.dr_um.push_back(test.dr_um[i]);
   }
   t.start_deg = a[0] + sign * w0;
-  t.end_deg = a[0] + sign * (w0 + 360.0);
-  if (t.angle_rad.size() < 16) {
-    throw InvalidInput("", 0, "angle_deg", "too few samples in the evaluated turn");
-  }
+  t.end_deg = a[0] + sign * w1;
   return t;
 }
 
@@ -135,6 +129,8 @@ CircularTestResult AnalyzeCircularTest(const DbbTest& test) {
   r.sample_count = n;
   r.turn_start_deg = turn.start_deg;
   r.turn_end_deg = turn.end_deg;
+  r.full_turn = turn.full_turn;
+  r.arc_deg = turn.arc_deg;
 
   std::vector<double> dev = turn.dr_um;  // bar deviation attributed to the machine
   if (r.mode == Mode::kAbsolute) {

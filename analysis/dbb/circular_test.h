@@ -24,7 +24,12 @@
 //    `radial_error_range_um` (radial error range about the fixed ball).
 //
 // Exactly one turn is evaluated: when the rows cover more than 360° (lead-in / lead-out arcs),
-// the 360° window centred in the covered span is used and reported.
+// the 360° window centred in the covered span is used and reported. Partial arcs (coverage.h:
+// declared arc_deg < 360, or samples that do not come back to their start) are evaluated over
+// the arc: the least-squares circle, the circularity and every figure derived from this result
+// are then figures OVER THE ARC (full_turn = false, arc_deg = its length), which is stated in
+// every result. Which samples are enough is one rule for all tests: the largest gap, the
+// closing gap included, is at most 10° (coverage.h).
 #pragma once
 
 #include <array>
@@ -39,17 +44,19 @@ namespace km::dbb {
 enum class Mode { kCentreCorrected, kAbsolute };
 const char* ToString(Mode m);
 
-// Samples of one evaluated turn, in time order.
+// Samples of one evaluated turn (or partial arc), in time order.
 struct Turn {
   std::vector<double> angle_rad;  // commanded angle, unwrapped as in the file
   std::vector<double> dr_um;      // bar deviation (absolute mode: minus the nominal set-up term)
   std::size_t first_index = 0;    // index of the first used row in the test's samples
   double start_deg = 0.0;         // window [start, end) in the file's angle units
-  double end_deg = 0.0;
+  double end_deg = 0.0;           // (a partial arc: [start, end], both ends included)
+  bool full_turn = true;
+  double arc_deg = 360.0;  // evaluated arc length
 };
 
-// Selects exactly one turn (see above). Throws km::InvalidInput when the samples do not cover
-// a full turn or are not monotonic in the test's direction.
+// Selects exactly one turn, or the partial arc (see above). Throws km::InvalidInput when the
+// samples break the coverage rule (coverage.h) or are not monotonic in the test's direction.
 Turn SelectOneTurn(const DbbTest& test);
 
 struct CircularTestResult {
@@ -64,6 +71,8 @@ struct CircularTestResult {
   std::size_t sample_count = 0;              // samples in the evaluated turn
   double turn_start_deg = 0.0;
   double turn_end_deg = 0.0;
+  bool full_turn = true;   // false: a partial arc, every figure is over the arc
+  double arc_deg = 360.0;  // length of the evaluated arc
   // Absolute mode only:
   std::optional<double> radial_error_range_um;  // max − min deviation about the fixed ball
   std::optional<double> mean_radial_error_about_fixed_ball_um;

@@ -32,6 +32,9 @@ struct DbbTest {
   std::optional<std::array<double, 3>> fixed_ball_mm;  // present => absolute evaluation
   std::optional<std::string> timestamp;
   std::optional<double> temperature_c;
+  // Length of the arc the test runs (degrees): 360 for a full turn, less for a partial arc
+  // (coverage.h). Absent: inferred from the samples.
+  std::optional<double> arc_deg;
   std::map<std::string, std::string> metadata;  // every header key, known or not
 
   // Samples in time order. angle_deg is the commanded angle of the moving ball about the

@@ -8,35 +8,54 @@
 //          + Σ_k Σ_j x_kj · s_kj(θ; s_t, V_t, R_t, shape_k)  + noise
 //
 // s_kj = radial signature of the registry effect k (analysis/effects, e(θ) projected on the
-// radial direction) for the trace's direction s_t, feed V_t and radius R_t, with the effect's
-// shape parameters fixed: the reversal-spike width is the one of a small set that most
-// reduces the residual sum of squares of the stage-1 model; a cyclic period is the peak of a
-// periodogram of the residual over the axis position (binned, zero-padded DFT, parabolic peak
-// interpolation), accepted when its projection energy exceeds χ² = 40 noise variances, then
-// refined by one backfitting step (golden section on the partial residual). Every form
-// signature is made orthogonal, per trace, to that trace's set-up columns {cos θ, sin θ, 1}, so the
-// set-up terms equal the (linearised) least-squares circle of each trace and the form effects
-// explain only what the circularity sees; the reported centre offset and radius change are the
-// set-up terms net of the mean and first-harmonic content of the named effects' own signatures. How
-// an effect looks in the two directions is what tells them apart (servo_mismatch flips sign between
-// cw and ccw, squareness does not; backlash is a step, reversal spikes decay, lateral play bulges
-// the quadrants; …). Effects whose signature is (almost) a combination of earlier ones in the list
-// order — e.g. servo_mismatch vs squareness on a single trace — are reported as not identifiable
-// rather than guessed.
+// radial direction) for the trace's direction s_t, feed V_t and radius R_t. Shape parameters
+// that are not linear are FITTED:
+//  * reversal spikes: the width w (decay constant of an exponential decay exp(−φ/w), standard
+//    width of a Gaussian-like decay exp(−φ²/2w²); reversal_spike.h) is a free parameter: the
+//    residual sum of squares is profiled over w (variable projection: every linear parameter
+//    refitted at each w; a log-spaced scan over [spike_min_width_deg, spike_max_width_deg],
+//    the lower end raised to half the median sample step, then golden section), for both decay
+//    shapes; the shape with the smaller residual is reported (spike_shape). Widths are
+//    refitted jointly with everything else once the model is complete;
+//  * a cyclic period is the peak of a periodogram of the residual over the axis position
+//    (binned, zero-padded DFT, parabolic peak interpolation), accepted when its projection
+//    energy exceeds χ² = 40 noise variances, then refined by one backfitting step (golden
+//    section on the partial residual);
+//  * stick_slip (stick_slip.h: a sawtooth of amplitude A and period P in the low-speed zones
+//    near the axis reversals) is a fitted signature like the others: its period is the peak of
+//    a periodogram of the residual over the angle since the reversal (zone samples only), refined
+//    by golden section on the exact registry signature, and the sawtooth is tried as a candidate
+//    when its projection exceeds stick_slip_detection_chi2 noise variances; it is then fitted
+//    jointly and named by the same test as every effect (and only with a positive amplitude:
+//    reversed, the sawtooth is not stick-slip). It is not assessed when the median sample step
+//    exceeds stick_slip_max_step_deg (teeth shorter than three samples alias into longer,
+//    reversed ones); it is then listed as not identifiable.
+// The standard uncertainty of every value and fitted shape parameter comes from the jacobian of
+// the full model with respect to the linear parameters AND the fitted widths and periods
+// (∂s/∂w by automatic differentiation of the registry model), so a value's uncertainty
+// includes what the freedom of its shape costs.
+// Every form signature is made orthogonal, per trace, to that trace's set-up columns
+// {cos θ, sin θ, 1}, so the set-up terms equal the (linearised) least-squares circle of each
+// trace and the form effects explain only what the circularity sees; the reported centre offset
+// and radius change are the set-up terms net of the mean and first-harmonic content of the named
+// effects' own signatures. How an effect looks in the two directions is what tells them apart
+// (servo_mismatch flips sign between cw and ccw, squareness does not; backlash is a step,
+// reversal spikes decay, lateral play bulges the quadrants; …). Effects whose signature is
+// (almost) a combination of earlier ones in the list order — e.g. servo_mismatch vs squareness
+// on a single trace — are reported as not identifiable rather than guessed; so are effects
+// whose signature over the evaluated samples is (almost) all centre offset and radius (e.g. the
+// lateral play of an axis that reverses at the two ends of a 180° partial arc).
 //
-// Values: contract §4 units and signs (registry Value()); standard uncertainty from the
-// least-squares covariance σ²(AᵀA)⁻¹ with σ² = RSS / (N − p), propagated through the value
+// Values: contract §4 units and signs (registry Value()); standard uncertainty σ from the
+// least-squares covariance σ²(JᵀJ)⁻¹ with σ² = RSS / (N − p), propagated through the value
 // jacobian. Contribution of effect k to the circularity of trace t: its own peak-to-valley
 // P_k,t = range(ŝ_k,t) as a share of Σ_j P_j,t + range(unexplained residual on t), in % — always
 // ≥ 0 even when effects partly cancel, and the shares plus the unexplained part make 100 %
 // (set-up terms contribute 0). An effect is NAMED when |value| > z·σ (z = 3 for one-value
-// effects, z + 1 for two-value effects) and its contribution reaches the threshold in at least
+// effects with a fixed shape, z + 1 for two-value effects and for effects whose shape was
+// searched: reversal spikes, stick_slip) and its contribution reaches the threshold in at least
 // one trace; the named effects are refitted alone and ranked by contribution.
-// stick_slip has a random phase and is not fitted: it is the excess high-frequency power of the
-// residual in the low-speed zones near axis reversals over the rest (F-like test), converted
-// to a sawtooth amplitude A = √(3 · excess variance) (peak-to-valley 2A). When that excess is
-// significant, the fit is weighted (zone samples by the variance ratio) so the stick-slip
-// scatter is not mistaken for spikes or backlash.
+// Partial arcs (circular_test.h) are diagnosed over the arc with the same rules.
 #pragma once
 
 #include <map>
@@ -66,14 +85,18 @@ DiagnosisTrace MakeDiagnosisTrace(const DbbTest& test, const CircularTestResult&
                                   const std::vector<double>& dev_about_nominal_um);
 
 struct DiagnosisOptions {
-  double significance = 3.0;  // z for one-value effects (z + 1 for two-value effects)
+  double significance = 3.0;  // z for one-value effects (z + 1: two values, searched shape)
   double min_contribution_pct = 2.0;
-  double confound_ratio = 0.1;  // part of a signature left after projecting out earlier ones
-  std::vector<double> spike_widths_deg = {0.5, 1.0, 2.0, 4.0};
+  double confound_ratio = 0.1;       // part of a signature left after projecting out earlier ones
+  double spike_min_width_deg = 0.1;  // raised to half the median sample step
+  double spike_max_width_deg = 8.0;
   double cyclic_min_period_mm = 1.0;
   double cyclic_max_period_fraction = 1.0 / 3.0;  // of the radius
   double cyclic_detection_chi2 = 40.0;            // projection energy / σ² needed to try a period
-  double stick_slip_window_deg = 1.0;             // half width of the moving average (high-pass)
+  double stick_slip_min_period_deg = 0.2;         // raised to 3 median sample steps
+  double stick_slip_max_period_deg = 2.0;
+  double stick_slip_max_step_deg = 0.2;     // coarser sampling: stick_slip not assessed
+  double stick_slip_detection_chi2 = 30.0;  // projection energy / σ² needed to try a sawtooth
   bool search_cyclic = true;
   void Check() const;  // throws km::InvalidInput on nonsense
 };
@@ -87,8 +110,10 @@ struct DiagnosisEntry {
   std::vector<double> contribution_pct;   // per trace, input order
   std::vector<double> peak_to_valley_um;  // per trace: range of the effect's own signature
   double significance = 0.0;              // |value| / uncertainty (norm for two values)
-  std::map<std::string, double> shape;    // fixed shape parameters, e.g. period_mm, width_deg
-  std::vector<double> params;             // all model parameters
+  std::map<std::string, double> shape;    // shape parameters, e.g. period_mm, width_deg
+  std::map<std::string, double> shape_uncertainty;  // of the fitted shape parameters
+  std::string shape_kind;                           // reversal spikes: "exponential" or "gaussian"
+  std::vector<double> params;                       // all model parameters
   bool named = false;
   double MaxContribution() const;
 };

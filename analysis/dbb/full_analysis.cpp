@@ -165,8 +165,12 @@ DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOpti
     pr.test_id = id;
     pr.cw = cw;
     pr.ccw = ccw;
-    pr.iso230_4 =
-        ComputeIso230Pair(rep.tests[cw].circular, rep.tests[ccw].circular, devs[cw], devs[ccw]);
+    try {
+      pr.iso230_4 =
+          ComputeIso230Pair(rep.tests[cw].circular, rep.tests[ccw].circular, devs[cw], devs[ccw]);
+    } catch (const InvalidInput&) {
+      continue;  // partial arcs that do not overlap: two separate tests, not a pair
+    }
     rep.tests[cw].pair = rep.pairs.size();
     rep.tests[ccw].pair = rep.pairs.size();
     rep.pairs.push_back(pr);

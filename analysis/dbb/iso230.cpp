@@ -66,6 +66,47 @@ double MaxDifference(const PeriodicTrace& q, const PeriodicTrace& src) {
   return h;
 }
 
+// Samples of a trace over a partial arc, sorted by angle (radians) unwrapped about `mid`:
+// t ↦ mid + wrap(t − mid) in [mid − π, mid + π).
+PeriodicTrace MakeLinear(const std::vector<double>& angle_rad, const std::vector<double>& val,
+                         double mid) {
+  std::vector<std::pair<double, double>> s(angle_rad.size());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    double d = std::fmod(angle_rad[i] - mid + std::numbers::pi, 2.0 * std::numbers::pi);
+    if (d < 0.0) d += 2.0 * std::numbers::pi;
+    s[i] = {mid - std::numbers::pi + d, val[i]};
+  }
+  std::sort(s.begin(), s.end());
+  PeriodicTrace p;
+  for (const auto& [t, v] : s) {
+    if (!p.a.empty() && t <= p.a.back()) continue;
+    p.a.push_back(t);
+    p.v.push_back(v);
+  }
+  return p;
+}
+
+// max |q.v − src(q.a)| over the samples of q inside src's range (linear interpolation, no wrap).
+double MaxDifferenceOverlap(const PeriodicTrace& q, const PeriodicTrace& src) {
+  double h = 0.0;
+  if (src.a.size() < 2) return h;
+  std::size_t hi = 0;
+  for (std::size_t i = 0; i < q.a.size(); ++i) {
+    const double t = q.a[i];
+    if (t < src.a.front() || t > src.a.back()) continue;
+    while (hi < src.a.size() && src.a[hi] < t) ++hi;
+    if (hi == 0) {
+      h = std::max(h, std::abs(q.v[i] - src.v[0]));
+      continue;
+    }
+    const std::size_t i1 = std::min(hi, src.a.size() - 1), i0 = i1 - 1;
+    const double span = src.a[i1] - src.a[i0];
+    const double w = span > 0.0 ? (t - src.a[i0]) / span : 0.0;
+    h = std::max(h, std::abs(q.v[i] - (src.v[i0] * (1.0 - w) + src.v[i1] * w)));
+  }
+  return h;
+}
+
 }  // namespace
 
 double NominalRadiusUm(const CircularTestResult& r) {
@@ -91,6 +132,8 @@ std::vector<double> DeviationAboutNominalCentre(const CircularTestResult& r) {
 Iso230Figures ComputeIso230(const CircularTestResult& r) {
   if (r.radial_error_um.empty()) throw InvalidInput("", 0, "dr_um", "empty trace");
   Iso230Figures f;
+  f.full_turn = r.full_turn;
+  f.evaluated_arc_deg = r.arc_deg;
   const auto [mn, mx] = std::minmax_element(r.radial_error_um.begin(), r.radial_error_um.end());
   f.circular_deviation_um = *mx - *mn;
   if (r.mode == Mode::kAbsolute) {
@@ -169,10 +212,25 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
   for (std::size_t i = 0; i < accw.size(); ++i) accw[i] = ccw.angle_deg[i] * kDeg;
   const std::vector<double> rcw(res.begin(), res.begin() + static_cast<long>(ncw));
   const std::vector<double> rccw(res.begin() + static_cast<long>(ncw), res.end());
-  const PeriodicTrace pcw = MakePeriodic(acw, rcw);
-  const PeriodicTrace pccw = MakePeriodic(accw, rccw);
-  const double h = std::max(MaxDifference(pccw, pcw), MaxDifference(pcw, pccw));
-  f.circular_hysteresis_um = h;
+  if (cw.full_turn && ccw.full_turn) {
+    const PeriodicTrace pcw = MakePeriodic(acw, rcw);
+    const PeriodicTrace pccw = MakePeriodic(accw, rccw);
+    f.circular_hysteresis_um = std::max(MaxDifference(pccw, pcw), MaxDifference(pcw, pccw));
+    return f;
+  }
+  // A partial arc: compare where both traces have samples.
+  const double mid = 0.5 * (ccw.turn_start_deg + ccw.turn_end_deg) * kDeg;
+  const PeriodicTrace pcw = MakeLinear(acw, rcw, mid);
+  const PeriodicTrace pccw = MakeLinear(accw, rccw, mid);
+  f.full_turn = false;
+  f.evaluated_arc_deg = std::max(
+      0.0,
+      (std::min(pcw.a.back(), pccw.a.back()) - std::max(pcw.a.front(), pccw.a.front())) / kDeg);
+  if (f.evaluated_arc_deg <= 0.0) {
+    throw InvalidInput("", 0, "angle_deg", "the cw and ccw arcs of the pair do not overlap");
+  }
+  f.circular_hysteresis_um =
+      std::max(MaxDifferenceOverlap(pccw, pcw), MaxDifferenceOverlap(pcw, pccw));
   return f;
 }
 

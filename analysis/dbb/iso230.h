@@ -14,6 +14,12 @@
 //  * bidirectional circular deviation G(b): range of both traces together about their common
 //    least-squares centre.
 // All values in µm, in bar-length units (as circularity_um).
+//
+// Partial arcs (circular_test.h, coverage.h): every figure is evaluated over the arc (the
+// least-squares circle of the arc, the range over the arc), which the figures state
+// (full_turn = false, evaluated_arc_deg). For a pair, H compares the traces only where both
+// arcs have samples (no interpolation across the part of the circle that was not run) and the
+// pair states the length of that common arc.
 #pragma once
 
 #include <string>
@@ -28,12 +34,16 @@ struct Iso230Figures {
   double radial_deviation_max_um = 0.0;
   double radial_deviation_min_um = 0.0;
   std::string radial_reference;  // "least_squares_centre" or "nominal_centre"
+  bool full_turn = true;         // false: evaluated over a partial arc
+  double evaluated_arc_deg = 360.0;
 };
 
 struct Iso230PairFigures {
   double circular_hysteresis_um = 0.0;
   double bidirectional_circular_deviation_um = 0.0;
   std::array<double, 2> common_centre_um{};  // common least-squares centre (plane axes)
+  bool full_turn = true;                     // false: at least one trace is a partial arc
+  double evaluated_arc_deg = 360.0;          // arc both traces cover (H is compared there)
 };
 
 // Commanded radius R in µm recovered from a result (R0 − average radial error).

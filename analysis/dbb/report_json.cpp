@@ -4,6 +4,10 @@ namespace km::dbb {
 
 namespace {
 
+const char* Over(bool full_turn) {
+  return full_turn ? "full_turn" : "partial_arc";
+}
+
 nlohmann::json Values(const std::vector<double>& v) {
   if (v.size() == 1) return v[0];
   return nlohmann::json(v);
@@ -25,7 +29,12 @@ nlohmann::json DbbTestToJson(const DbbTestReport& t) {
   j["iso230_4"] = {{"circular_deviation_um", t.iso230_4.circular_deviation_um},
                    {"radial_deviation_max_um", t.iso230_4.radial_deviation_max_um},
                    {"radial_deviation_min_um", t.iso230_4.radial_deviation_min_um},
-                   {"radial_reference", t.iso230_4.radial_reference}};
+                   {"radial_reference", t.iso230_4.radial_reference},
+                   {"evaluated_over", Over(t.iso230_4.full_turn)},
+                   {"evaluated_arc_deg", t.iso230_4.evaluated_arc_deg}};
+  // Every figure of this test is over the evaluated turn or partial arc (circular_test.h).
+  j["evaluated_over"] = Over(c.full_turn);
+  j["evaluated_arc_deg"] = c.arc_deg;
   nlohmann::json h = nlohmann::json::array();
   for (const auto& k : t.harmonics.harmonics) {
     h.push_back({{"order", k.order}, {"amplitude_um", k.amplitude_um}, {"phase_deg", k.phase_deg}});
@@ -41,6 +50,8 @@ nlohmann::json DbbTestToJson(const DbbTestReport& t) {
         {"uncertainty", Values(e.uncertainty)},
         {"significance", e.significance}};
     for (const auto& [k, v] : e.shape) x[k] = v;
+    for (const auto& [k, v] : e.shape_uncertainty) x[k + "_uncertainty"] = v;
+    if (!e.shape_kind.empty()) x["spike_shape"] = e.shape_kind;
     d.push_back(x);
   }
   j["diagnosis"] = d;
@@ -61,7 +72,9 @@ nlohmann::json DbbTestToJson(const DbbTestReport& t) {
 nlohmann::json DbbPairToJson(const DbbPairReport& p) {
   return {{"test_id", p.test_id},
           {"circular_hysteresis_um", p.iso230_4.circular_hysteresis_um},
-          {"bidirectional_circular_deviation_um", p.iso230_4.bidirectional_circular_deviation_um}};
+          {"bidirectional_circular_deviation_um", p.iso230_4.bidirectional_circular_deviation_um},
+          {"evaluated_over", Over(p.iso230_4.full_turn)},
+          {"evaluated_arc_deg", p.iso230_4.evaluated_arc_deg}};
 }
 
 nlohmann::json DbbReportToJson(const DbbReport& r) {

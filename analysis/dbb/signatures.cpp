@@ -74,7 +74,12 @@ EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
   const auto& info = effects::Info(id);
   EffectColumns c;
   c.id = id;
-  if (shape.empty()) shape = info.default_shape;
+  // Shape parameters not given take the registry defaults (e.g. a spike width alone: the
+  // exponential decay).
+  if (shape.size() < info.default_shape.size()) {
+    shape.insert(shape.end(), info.default_shape.begin() + static_cast<long>(shape.size()),
+                 info.default_shape.end());
+  }
   c.shape = shape;
   const int nl = info.num_linear;
   std::vector<VectorXd> cols(static_cast<std::size_t>(nl), VectorXd(p.n));

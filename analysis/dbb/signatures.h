@@ -57,8 +57,9 @@ struct StackedTraces {
 // circle); throws km::InvalidInput otherwise.
 StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces);
 
-// Set-up-free radial signature columns of one effect with fixed shape parameters (empty:
-// the registry default) and the set-up part removed from each column (per trace).
+// Set-up-free radial signature columns of one effect with fixed shape parameters (missing
+// trailing ones: the registry defaults, also in the returned shape) and the set-up part removed
+// from each column (per trace).
 struct EffectColumns {
   effects::EffectId id = effects::EffectId::kSquareness;
   std::vector<double> shape;

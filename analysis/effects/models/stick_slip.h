@@ -2,9 +2,14 @@
 // axis alternately stick and slip: a sawtooth of amplitude A (µm, peak) and angular period P
 // (degrees of the circle, shape parameter) along that axis, against its direction of motion:
 //   e_a = −A·sign(v_a)·(2·frac(φ / P) − 1)  while |v_a| < 0.2 V,   φ = angle since reversal.
-// The phase of real stick-slip is random, so the diagnosis does not fit this shape by least
-// squares (kLinearFit = false); it measures the excess high-frequency power near the
-// reversals instead. The model is used by the simulation.
+// At a jump between teeth (φ / P within 1e-9 of a whole number ≥ 1; the first tooth starts at
+// the reversal itself, φ = 0) the value is the midpoint 0:
+// which side a sample exactly on a jump falls is decided by rounding, not by the machine, so
+// the model takes neither (a simulation and a fit that round differently then still agree).
+// The diagnosis fits this signature like the others (period found by a periodogram over φ,
+// amplitude by least squares, analysis/dbb/diagnosis.h); kLinearFit = false keeps it out of
+// the fixed-shape candidate lists (its period must be searched first). The model is also used
+// by the simulation.
 #pragma once
 
 #include "analysis/effects/effect_model.h"
@@ -32,7 +37,9 @@ struct StickSlip {
       const T phi =
           internal::AngleSinceReversal(a.theta, internal::AxisReversalAngle(ax), c.direction) *
           (180.0 / std::numbers::pi);
-      const double cyc = std::floor(internal::ScalarPart(phi / p[1]));
+      const double x = internal::ScalarPart(phi / p[1]);
+      const double cyc = std::floor(x);
+      if ((cyc >= 1.0 && x - cyc < 1e-9) || cyc + 1.0 - x < 1e-9) continue;  // midpoint 0
       const T frac = phi / p[1] - cyc;
       // Use the sign of the velocity after the reversal; φ may be close to π just before it.
       e[ax] = -internal::SignOf(va) * p[0] * (2.0 * frac - 1.0);

@@ -105,9 +105,18 @@ TEST(CircularTest, EvaluatesExactlyOneTurnOfALongerTrace) {
 }
 
 TEST(CircularTest, RefusesLessThanAFullTurn) {
+  // Changed deliberately (issue 12 §3, partial arcs): a trace that does not come back to its
+  // start is now a partial arc unless the file declares a full turn, so the 300° trace is
+  // refused when it declares arc_deg 360, and a trace too short for a partial arc (150°) is
+  // refused either way.
   SynthOptions o;
   o.span_deg = 300.0;
   o.samples = 300;
+  auto t = MakeTrace(o);
+  t.arc_deg = 360.0;
+  EXPECT_THROW(AnalyzeCircularTest(t), InvalidInput);
+  o.span_deg = 150.0;
+  o.samples = 150;
   EXPECT_THROW(AnalyzeCircularTest(MakeTrace(o)), InvalidInput);
 }
 
