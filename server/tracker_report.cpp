@@ -113,6 +113,17 @@ json TrackerResultToJson(const tracker::TrackerReadings& readings, const tracker
                    {"reason", x.reason}});
   }
   out["rejected_readings"] = rej;
+  // Warnings only: these points are kept with all their readings (tracker_selfcal.h).
+  json spatial = json::array();
+  for (const auto& x : r.spatial_outliers) {
+    spatial.push_back({{"point", x.point_id},
+                       {"index", x.row},
+                       {"departure_um", Vec(x.departure_um)},
+                       {"departure_sigmas", Num(x.departure_sigmas)},
+                       {"largest_standardised_um", Num(x.largest_standardised_um)},
+                       {"reason", x.reason}});
+  }
+  out["spatial_outliers"] = spatial;
   out["warnings"] = r.warnings;
   const auto& T = r.gauge_to_commanded;
   json R = json::array();

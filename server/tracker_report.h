@@ -16,8 +16,12 @@ namespace km::server {
 
 // Contract keys: trackers_mm, points_mm, volumetric_error_um, residual_rms_um,
 // position_uncertainty_um, condition_number; extras: machine_id, mode, point_ids,
-// tracker_uncertainty_um, dead_paths, rejected_readings, transform, sigma_um, readings_used,
-// unknowns, iterations, decomposition (null when not given). Dropped points give null rows.
+// tracker_uncertainty_um, dead_paths, rejected_readings (reason "residual": readings are
+// rejected only on their own evidence), spatial_outliers (points whose volumetric error stands
+// out from their neighbours': point id, 0-based index, departure_um, departure_sigmas,
+// largest_standardised_um, reason; a warning only, the points are kept), warnings, transform,
+// sigma_um, readings_used, unknowns, iterations, decomposition (null when not given). Dropped
+// points give null rows.
 nlohmann::json TrackerResultToJson(const tracker::TrackerReadings& readings,
                                    const tracker::SelfCalResult& result,
                                    const tracker::GeometricDecomposition* decomposition);

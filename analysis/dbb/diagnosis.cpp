@@ -870,7 +870,9 @@ DiagnosisResult DiagnoseSerialDbb(const std::vector<DiagnosisTrace>& traces, Pla
                                   const DiagnosisOptions& opt) {
   opt.Check();
   if (traces.empty()) throw InvalidInput("", 0, "tests", "no trace to diagnose");
-  const auto [first, second] = AxisLetters(plane);
+  const auto axes = AxisLetters(plane);
+  const char first = axes.first;
+  const char second = axes.second;
   Problem p;
   static_cast<StackedTraces&>(p) = StackTraces(traces);
   // Set-up fit (centre, radius per trace) and the residual about it.

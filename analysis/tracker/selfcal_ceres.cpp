@@ -1,16 +1,89 @@
 #include "analysis/tracker/selfcal_ceres.h"
 
+#include <array>
 #include <memory>
 #include <stdexcept>
+#include <utility>
 
 #include <ceres/ceres.h>
+
+#include <Eigen/Geometry>
 
 #include "analysis/tracker/selfcal_cost.h"
 
 namespace km::tracker {
 
+namespace {
+
+// The internal gauge: three points in use spanning a large triangle (a: farthest from the
+// centroid, b: farthest from a, c: farthest from the line ab). Returns false when the points
+// are (nearly) collinear.
+bool PickGaugePoints(const SelfCalProblem& problem, const SelfCalState& state,
+                     std::array<int, 3>& abc) {
+  const auto use = problem.PointsInUse();
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double count = 0;
+  for (std::size_t i = 0; i < use.size(); ++i) {
+    if (!use[i]) continue;
+    centroid += state.points_mm[i];
+    count += 1;
+  }
+  if (count < 3) return false;
+  centroid /= count;
+  auto farthest = [&](auto&& dist) {
+    int best = -1;
+    double best_d = -1;
+    for (std::size_t i = 0; i < use.size(); ++i) {
+      if (!use[i]) continue;
+      const double d = dist(state.points_mm[i]);
+      if (d > best_d) {
+        best_d = d;
+        best = static_cast<int>(i);
+      }
+    }
+    return std::make_pair(best, best_d);
+  };
+  const int a = farthest([&](const Eigen::Vector3d& p) { return (p - centroid).norm(); }).first;
+  const Eigen::Vector3d pa = state.points_mm[static_cast<std::size_t>(a)];
+  const auto [b, ab] = farthest([&](const Eigen::Vector3d& p) { return (p - pa).norm(); });
+  if (!(ab > 0)) return false;
+  const Eigen::Vector3d ex = (state.points_mm[static_cast<std::size_t>(b)] - pa) / ab;
+  const auto [c, off_line] = farthest([&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d v = p - pa;
+    return (v - v.dot(ex) * ex).norm();
+  });
+  if (!(off_line > 1e-6 * ab)) return false;
+  abc = {a, b, c};
+  return true;
+}
+
+// Proper rigid motion taking a to the origin, b onto +x and c into the xy-plane (y > 0).
+RigidTransform PointFrame(const SelfCalState& state, const std::array<int, 3>& abc) {
+  const Eigen::Vector3d pa = state.points_mm[static_cast<std::size_t>(abc[0])];
+  const Eigen::Vector3d ex = (state.points_mm[static_cast<std::size_t>(abc[1])] - pa).normalized();
+  Eigen::Vector3d ey = state.points_mm[static_cast<std::size_t>(abc[2])] - pa;
+  ey = (ey - ey.dot(ex) * ex).normalized();
+  RigidTransform T;
+  T.rotation.row(0) = ex.transpose();
+  T.rotation.row(1) = ey.transpose();
+  T.rotation.row(2) = ex.cross(ey).transpose();
+  T.translation_mm = -T.rotation * pa;
+  return T;
+}
+
+void Apply(const RigidTransform& T, SelfCalState& state) {
+  for (auto& p : state.points_mm) p = T.Apply(p);
+  for (auto& u : state.trackers_mm) u = T.Apply(u);
+}
+
+}  // namespace
+
 CeresSolveReport SolveSelfCalCeres(const SelfCalProblem& problem, const CeresSolveOptions& options,
                                    SelfCalState& state) {
+  // Gauge of the solve: three points (see selfcal_ceres.h), when they span a plane.
+  std::array<int, 3> abc{};
+  const bool point_gauge = PickGaugePoints(problem, state, abc);
+  if (point_gauge) Apply(PointFrame(state, abc), state);
   ceres::Problem::Options popt;
   // One loss shared by every residual block, owned here (not by the problem).
   std::unique_ptr<ceres::LossFunction> loss_owner;
@@ -38,13 +111,23 @@ CeresSolveReport SolveSelfCalCeres(const SelfCalProblem& problem, const CeresSol
     }
     order->AddElementToGroup(L, 1);
   }
-  // Gauge (contract §3): tracker 1 at the origin, 2 on +x, 3 in the xy-plane.
-  if (seen_tracker[0]) problem_ceres.SetParameterBlockConstant(state.trackers_mm[0].data());
-  if (seen_tracker.size() > 1 && seen_tracker[1]) {
-    problem_ceres.SetManifold(state.trackers_mm[1].data(), new ceres::SubsetManifold(3, {1, 2}));
-  }
-  if (seen_tracker.size() > 2 && seen_tracker[2]) {
-    problem_ceres.SetManifold(state.trackers_mm[2].data(), new ceres::SubsetManifold(3, {2}));
+  if (point_gauge) {
+    // a fixed, b on the x-axis, c in the xy-plane.
+    problem_ceres.SetParameterBlockConstant(
+        state.points_mm[static_cast<std::size_t>(abc[0])].data());
+    problem_ceres.SetManifold(state.points_mm[static_cast<std::size_t>(abc[1])].data(),
+                              new ceres::SubsetManifold(3, {1, 2}));
+    problem_ceres.SetManifold(state.points_mm[static_cast<std::size_t>(abc[2])].data(),
+                              new ceres::SubsetManifold(3, {2}));
+  } else {
+    // Collinear points (not observable; the covariance says so): the gauge of contract §3.
+    if (seen_tracker[0]) problem_ceres.SetParameterBlockConstant(state.trackers_mm[0].data());
+    if (seen_tracker.size() > 1 && seen_tracker[1]) {
+      problem_ceres.SetManifold(state.trackers_mm[1].data(), new ceres::SubsetManifold(3, {1, 2}));
+    }
+    if (seen_tracker.size() > 2 && seen_tracker[2]) {
+      problem_ceres.SetManifold(state.trackers_mm[2].data(), new ceres::SubsetManifold(3, {2}));
+    }
   }
   ceres::Solver::Options so;
   so.linear_solver_type = options.sparse_schur ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
@@ -67,6 +150,14 @@ CeresSolveReport SolveSelfCalCeres(const SelfCalProblem& problem, const CeresSol
   rep.converged = summary.termination_type == ceres::CONVERGENCE;
   rep.final_cost = summary.final_cost;
   rep.message = summary.message;
+  // Back to the gauge of contract §3: tracker 1 at the origin, 2 on +x, 3 in the xy-plane,
+  // z of 4 > 0.
+  if (point_gauge) {
+    Apply(GaugeTransform(state.trackers_mm), state);
+    state.trackers_mm[0].setZero();
+    state.trackers_mm[1].tail<2>().setZero();
+    state.trackers_mm[2].z() = 0.0;
+  }
   return rep;
 }
 

@@ -12,11 +12,19 @@
 // path. The solve: per-tracker initialisation (selfcal_problem.h), a least-squares pass, a
 // short robust (Cauchy) pass that exposes gross errors (only readings beyond 3× the threshold
 // are taken out from it), then rounds of rejection (|z| > k·σ_robust on residuals standardised
-// by their leverage, σ_robust = 1.4826·median|z|) with least-squares re-solves, and a spatial
-// consistency test of the volumetric error (SelfCalOptions::spatial_check). A point seen by
-// only 4 trackers has one redundant reading, so a gross error cannot be pinned on one tracker:
-// all its readings are rejected (the point is dropped); with ≥ 5 readings only the worst
-// reading is rejected per round.
+// by their leverage, σ_robust = 1.4826·median|z|) with least-squares re-solves until the last
+// one has converged: on clean data the result is the least-squares optimum of all readings. A
+// point seen by only 4 trackers has one redundant reading, so a gross error cannot be pinned on
+// one tracker: all its readings are rejected (the point is dropped); with ≥ 5 readings only the
+// worst reading is rejected per round.
+//
+// Readings are rejected only on the evidence of the readings themselves (their residuals and
+// leverage: the other trackers' view of the same point), never because the machine's error
+// field is not smooth — periodic errors of ball screws and guides are what a survey is for. The
+// spatial check (SelfCalOptions::spatial_check) only WARNS: it names the points whose volumetric
+// error stands far out from their neighbours' (SelfCalResult::spatial_outliers, one line in
+// warnings) and keeps them. Two gross errors on a 4-tracker point can cancel in its single
+// redundant reading; the readings cannot show them, this warning can.
 //
 // The volumetric error of point i is R·u_i + t − c_i after the best-fit rigid transform
 // (R, t) of the estimated points to the commanded frame; R may be a mirror when the gauge frame
@@ -46,9 +54,9 @@ struct SelfCalOptions {
   double prior_sigma_um = 0.2;        // reading σ used when there is no redundancy
   int num_threads = 1;
   bool sparse_schur = false;
-  // Second test for 4-tracker set-ups, where two gross errors on one point can cancel in its
-  // single redundant reading: a point whose volumetric error departs from a smooth (cubic)
-  // field by more than outlier_k robust σ (scaled by its own precision) is dropped.
+  // Warning (never a rejection) for points whose volumetric error, after a quadratic trend,
+  // departs from the median of its 6 nearest neighbours by more than outlier_k times the map's
+  // robust local scatter and the point's own precision (SelfCalResult::spatial_outliers).
   bool spatial_check = true;
 
   // Throws km::InvalidInput naming the bad option.
@@ -61,7 +69,18 @@ struct RejectedReading {
   int tracker = 0;               // 0-based
   double residual_um = 0.0;      // residual of eq. (1) when rejected
   double standardised_um = 0.0;  // residual / √(1 − leverage): comparable between readings
-  std::string reason;            // "residual" or "spatial"
+  std::string reason;            // "residual" (the only reason a reading is rejected)
+};
+
+// A point named by the spatial check (a warning: the point is kept with all its readings).
+struct SpatialOutlier {
+  int row = 0;       // 0-based row (point index in the file)
+  int point_id = 0;  // as in the file
+  // Volumetric error (quadratic trend removed) minus the median of its nearest neighbours'.
+  Eigen::Vector3d departure_um = Eigen::Vector3d::Zero();
+  double departure_sigmas = 0.0;         // largest component in sqrt(scatter² + own σ²)
+  double largest_standardised_um = 0.0;  // of its readings: what the readings say
+  std::string reason;
 };
 
 struct SelfCalResult {
@@ -85,6 +104,7 @@ struct SelfCalResult {
   double sigma_um = 0.0;  // a-posteriori reading σ
   double condition_number = 0.0;
   std::vector<RejectedReading> rejected;
+  std::vector<SpatialOutlier> spatial_outliers;  // warnings only: these points are kept
   std::size_t readings_used = 0;
   std::size_t unknowns = 0;
   int rounds = 0;

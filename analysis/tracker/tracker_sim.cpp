@@ -25,6 +25,13 @@ Eigen::Vector3d MachineErrorModel::ErrorUm(const Eigen::Vector3d& c) const {
       for (int k = 2; k < 4; ++k) e(dir) += poly_um[a][dir][k] * LegendreP(k, t);
     }
   }
+  constexpr double kTwoPi = 6.28318530717958647692;
+  for (const auto& w : periodic) {
+    if (w.axis < 0 || w.axis > 2 || w.direction < 0 || w.direction > 2 || !(w.period_mm > 0)) {
+      throw InvalidInput("", 0, "periodic", "axis and direction 0–2, period > 0 needed");
+    }
+    e(w.direction) += w.amplitude_um * std::sin(kTwoPi * c(w.axis) / w.period_mm + w.phase_rad);
+  }
   return e;
 }
 

@@ -2,7 +2,8 @@
 // on the spindle of a 3-axis machine, trackers around the work volume).
 //
 // The machine places the target at u_i = c_i + e(c_i) with the geometric error model of
-// volumetric_decomposition.h eq. (1) (scales, squareness, polynomial positioning/straightness).
+// volumetric_decomposition.h eq. (1) (scales, squareness, polynomial positioning/straightness)
+// plus periodic terms (ball-screw or guide waviness), which no low-order polynomial describes.
 // Tracker j reads d_ij = (|u_i − U_j| + n_ij) − (|u_r − U_j| + n_rj), r the first row of the
 // reading's segment (row 0, or the row of the last beam break), n ~ N(0, σ²): the zeroing noise
 // is common to the segment, as with a real interferometer.
@@ -18,6 +19,17 @@
 
 namespace km::tracker {
 
+// A periodic error of one axis: component `direction` gains A·sin(2π·c_axis/period + phase),
+// c_axis the commanded coordinate of `axis` (machine frame). axis = direction: positioning
+// (e.g. a ball-screw pitch error), otherwise straightness (guide waviness).
+struct PeriodicError {
+  int axis = 0;       // 0, 1, 2 = x, y, z
+  int direction = 1;  // component of the error it enters
+  double amplitude_um = 0.0;
+  double period_mm = 100.0;
+  double phase_rad = 0.0;
+};
+
 struct MachineErrorModel {
   Eigen::Vector3d centre_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d half_range_mm = Eigen::Vector3d::Ones();  // normalises the polynomials
@@ -28,6 +40,7 @@ struct MachineErrorModel {
   // poly_um[a][dir][k]: coefficient (µm) of the Legendre polynomial P_k(t_a), k = 2, 3, in
   // component dir (as in volumetric_decomposition.h eq. 1).
   std::array<std::array<std::array<double, 4>, 3>, 3> poly_um{};
+  std::vector<PeriodicError> periodic;
 
   Eigen::Vector3d ErrorUm(const Eigen::Vector3d& commanded_mm) const;
 };

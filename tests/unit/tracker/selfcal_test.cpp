@@ -129,30 +129,42 @@ TEST(TrackerSelfCal, GrossOutliersFourTrackersDropTheirPoints) {
     ASSERT_GT(sim.outliers.size(), 10u);
     const auto r = SelfCalibrate(sim.readings);
     const auto rej = Rejected(r);
-    std::set<int> bad_rows;
+    // Two gross errors on one point can cancel in its single redundant reading (seed 12, row
+    // 126: its readings fit to 0.19 µm): no reading shows them, so nothing may be rejected
+    // there. The spatial check names such a point (a warning; the point is kept) and it is left
+    // out of the accuracy below.
+    std::set<int> named;
+    for (const auto& x : r.spatial_outliers) named.insert(x.row);
+    std::set<int> bad_rows, outlier_rows;
+    for (const auto& [row, t] : sim.outliers) outlier_rows.insert(row);
     for (const auto& [row, t] : sim.outliers) {
+      if (named.count(row)) {
+        EXPECT_TRUE(r.point_valid[static_cast<std::size_t>(row)]);
+        continue;
+      }
       EXPECT_TRUE(rej.count({row, t})) << "row " << row << " tracker " << t;
       EXPECT_FALSE(r.point_valid[static_cast<std::size_t>(row)]);
       bad_rows.insert(row);
     }
+    for (int row : named) EXPECT_TRUE(outlier_rows.count(row)) << "named clean row " << row;
+    EXPECT_LE(named.size(), 1u);
     int dropped = 0;
     for (char v : r.point_valid) dropped += v == 0;
     EXPECT_LE(dropped, static_cast<int>(bad_rows.size()) + 2);  // ≤ 2 false alarms
-    const Accuracy a = Evaluate(o, sim, r);
+    SelfCalResult checked = r;
+    for (int row : named) checked.point_valid[static_cast<std::size_t>(row)] = 0;
+    const Accuracy a = Evaluate(o, sim, checked);
     EXPECT_LT(a.volumetric_rms_um, 0.5);
     EXPECT_LT(a.tracker_max_sigmas, 4.5);
     // A point caught by its residuals stands far out (all its readings are rejected, the
-    // largest standardised one well above noise); a point where two gross errors cancel in the
-    // single redundant reading is caught by the spatial test instead.
+    // largest standardised one well above noise).
     std::map<int, double> worst;
     for (const auto& x : r.rejected) {
       if (x.reason == "residual")
         worst[x.row] = std::max(worst[x.row], std::abs(x.standardised_um));
     }
     for (const auto& [row, z] : worst) EXPECT_GT(z, 1.0) << "row " << row;
-    for (const auto& x : r.rejected) {
-      EXPECT_TRUE(x.reason == "residual" || x.reason == "spatial");
-    }
+    for (const auto& x : r.rejected) EXPECT_EQ(x.reason, "residual");
   }
 }
 
@@ -165,11 +177,43 @@ TEST(TrackerSelfCal, GrossOutliersSixTrackersRejectTheReading) {
     const auto r = SelfCalibrate(sim.readings);
     const auto rej = Rejected(r);
     for (const auto& ot : sim.outliers) EXPECT_TRUE(rej.count(ot));
-    // Two gross errors on one point may be misattributed; the spatial test then drops it.
+    // Two gross errors on one point may be misattributed (all but 3 of its readings rejected).
     int dropped = 0;
     for (char v : r.point_valid) dropped += v == 0;
     EXPECT_LE(dropped, 2);
     EXPECT_LE(rej.size(), sim.outliers.size() + 3 + 6 * dropped);
+    const Accuracy a = Evaluate(o, sim, r);
+    EXPECT_LT(a.volumetric_rms_um, 0.5);
+  }
+}
+
+TEST(TrackerSelfCal, SixTrackersTwoGrossErrorsOnOnePoint) {
+  // Surveys where one point carries two of the gross errors. With 6 readings (3 redundant) the
+  // other trackers' view of the point pins them (leave-one-out, then leave-two-out re-estimates
+  // of the point); should two different pairs explain the readings equally well, the point is
+  // dropped. A gross error is never left in a point that is kept, and single gross errors are
+  // never attributed to a good reading (a robust pass may settle a point in the wrong place).
+  for (unsigned seed : {13u, 15u, 24u, 25u, 28u, 40u}) {
+    SCOPED_TRACE(seed);
+    auto o = MakeSetup(400.0, 6, 6, seed);
+    o.outlier_fraction = 0.02;
+    const auto sim = SimulateTrackerSurvey(o);
+    std::map<int, int> per_row;
+    for (const auto& [row, t] : sim.outliers) ++per_row[row];
+    const auto r = SelfCalibrate(sim.readings);
+    const auto rej = Rejected(r);
+    for (const auto& ot : sim.outliers) {
+      EXPECT_TRUE(rej.count(ot) || !r.point_valid[static_cast<std::size_t>(ot.first)])
+          << "row " << ot.first << " tracker " << ot.second;
+    }
+    std::size_t wrong = 0;
+    for (const auto& x : rej) {
+      if (per_row[x.first] == 1 && !std::count(sim.outliers.begin(), sim.outliers.end(), x)) {
+        ++wrong;
+      }
+    }
+    EXPECT_EQ(wrong, 0u);
+    EXPECT_TRUE(r.spatial_outliers.empty());
     const Accuracy a = Evaluate(o, sim, r);
     EXPECT_LT(a.volumetric_rms_um, 0.5);
   }

@@ -6,6 +6,9 @@
 #include <set>
 #include <vector>
 
+#include <Eigen/Cholesky>
+#include <Eigen/SVD>
+
 #include "analysis/tracker/tracker_selfcal.h"
 #include "analysis/tracker/tracker_sim.h"
 
@@ -32,6 +35,32 @@ inline TrackerSimOptions MakeSetup(double size_mm, int per_axis, int trackers, u
   o.machine = FewMicronMachine(centre, size_mm);
   o.noise_um = 0.2;
   return o;
+}
+
+// Two gross errors on point `row` of a 4-tracker survey that cancel in its single redundant
+// reading: +size_um on one tracker and the amount on another that leaves the redundant
+// combination aᵀd (a ⟂ the four lines of sight) unchanged. The readings then fit a point
+// displaced by tens of µm; no residual can show it. Returns the displacement (µm).
+inline Eigen::Vector3d AddCancellingGrossErrors(TrackerSimResult& sim,
+                                                const std::vector<Eigen::Vector3d>& trackers_mm,
+                                                int row, double size_um) {
+  const auto i = static_cast<std::size_t>(row);
+  Eigen::Matrix<double, 4, 3> D;
+  for (int j = 0; j < 4; ++j) {
+    D.row(j) =
+        (sim.true_points_mm[i] - trackers_mm[static_cast<std::size_t>(j)]).normalized().transpose();
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix<double, 4, 3>> svd(D, Eigen::ComputeFullU);
+  const Eigen::Vector4d a = svd.matrixU().col(3);
+  int k = 1;
+  for (int j = 2; j < 4; ++j) {
+    if (std::abs(a(j)) > std::abs(a(k))) k = j;
+  }
+  Eigen::Vector4d delta = Eigen::Vector4d::Zero();
+  delta(0) = size_um;
+  delta(k) = -size_um * a(0) / a(k);
+  for (int j = 0; j < 4; ++j) sim.readings.displacement_um(row, j) += delta(j);
+  return (D.transpose() * D).ldlt().solve(D.transpose() * delta);
 }
 
 struct Accuracy {
