@@ -8,40 +8,43 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
+start=$SECONDS
+# Prints each stage with the minutes spent so far, so a slow stage shows in the CI log.
+stage() { echo "== [$(( (SECONDS - start) / 60 )) min] $*"; }
 
 deploy/install-deps.sh
 
-echo "== format check (clang-format)"
+stage "format check (clang-format)"
 files=$(git ls-files '*.cpp' '*.h' 2>/dev/null || true)
 if [ -n "$files" ]; then
   # shellcheck disable=SC2086
   clang-format --dry-run --Werror $files
 fi
 
-echo "== Release build"
+stage "Release build"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=ON >/dev/null
 cmake --build build -j"$jobs"
 
 label_args=()
 if [ "${KINEMETRIC_LONG:-0}" != 1 ]; then label_args=(-LE long); fi
 
-echo "== tests (Release)"
+stage "tests (Release)"
 (cd build && ctest --output-on-failure -j"$jobs" "${label_args[@]}")
 
-echo "== benchmarks (short smoke run; full figures: build/bench/<name>)"
+stage "benchmarks (short smoke run; full figures: build/bench/<name>)"
 for b in build/bench/*; do
   [ -x "$b" ] || continue
   "$b" --benchmark_min_time=0.01 >/dev/null
 done
-echo "== HTTP load benchmark (short form; full figures: tests/bench/http/load_bench.py)"
+stage "HTTP load benchmark (short form; full figures: tests/bench/http/load_bench.py)"
 /usr/bin/python3 tests/bench/http/load_bench.py build/bin/kinemetricd --seconds 2 --idle 200 --slow 20
 
 if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
-  echo "== AddressSanitizer + UBSan build"
+  stage "AddressSanitizer + UBSan build"
   cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
     -DKINEMETRIC_SANITIZE=ON -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=OFF >/dev/null
   cmake --build build-asan -j"$jobs"
-  echo "== tests (ASan + UBSan)"
+  stage "tests (ASan + UBSan)"
   (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --output-on-failure -j"$jobs" "${label_args[@]}")
@@ -49,7 +52,7 @@ fi
 if [ "${KINEMETRIC_SKIP_FUZZ:-0}" != 1 ]; then
   # Every parser under libFuzzer + ASan + UBSan: known crash inputs (tests/fuzz/crashes/) are
   # replayed, then each target fuzzes from its seed corpus for a bounded time.
-  echo "== fuzz build (clang, libFuzzer + ASan + UBSan)"
+  stage "fuzz build (clang, libFuzzer + ASan + UBSan)"
   CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
     -DKINEMETRIC_FUZZ=ON -DKINEMETRIC_TESTS=OFF -DKINEMETRIC_BENCHMARKS=OFF >/dev/null
   cmake --build build-fuzz -j"$jobs" --target fuzz_targets
@@ -57,4 +60,4 @@ if [ "${KINEMETRIC_SKIP_FUZZ:-0}" != 1 ]; then
   if [ "${KINEMETRIC_LONG:-0}" = 1 ]; then fuzz_seconds=300; fi
   KINEMETRIC_FUZZ_BUILD=build-fuzz KINEMETRIC_FUZZ_SECONDS=$fuzz_seconds tests/fuzz/run.sh
 fi
-echo "== all tests passed"
+stage "all tests passed"
