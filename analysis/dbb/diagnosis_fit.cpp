@@ -1,0 +1,330 @@
+#include "analysis/dbb/diagnosis_fit.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <ceres/jet.h>
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+#include "analysis/core/errors.h"
+
+namespace km::dbb::diag {
+
+using effects::EffectId;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+bool IsSpike(EffectId id) {
+  return id == EffectId::kReversalSpikeU || id == EffectId::kReversalSpikeV;
+}
+
+bool HasFittedShape(EffectId id) {
+  return IsSpike(id) || id == EffectId::kStickSlip;
+}
+
+Candidate MakeCandidate(const Problem& p, EffectId id, std::vector<double> shape) {
+  EffectColumns e = SetupFreeSignature(p, id, std::move(shape));
+  Candidate c;
+  c.id = id;
+  c.shape = std::move(e.shape);
+  c.cols = std::move(e.cols);
+  c.setup_part = std::move(e.setup_part);
+  for (std::size_t m = 0; m < c.cols.size(); ++m) {
+    c.ids.push_back(p.next_column_id++);
+    // raw = free + S c per trace, free ⟂ S: |raw|² = |free|² + Σ_t cᵀ (SᵀS) c.
+    double raw = c.cols[m].squaredNorm();
+    for (int t = 0; t < p.traces; ++t) {
+      const Eigen::Vector3d& k = c.setup_part[m][static_cast<std::size_t>(t)];
+      raw += k.dot(p.setup_inv[static_cast<std::size_t>(t)].inverse() * k);
+    }
+    c.raw_norm2.push_back(raw);
+  }
+  return c;
+}
+
+VectorXd FitResult::Combine(int off, int count, Eigen::Index n) const {
+  VectorXd v = VectorXd::Zero(n);
+  for (int m = off; m < off + count; ++m) v += x[m] * *a[static_cast<std::size_t>(m)];
+  return v;
+}
+
+namespace {
+
+// All candidate columns, their Gram matrix and right-hand side (one pass over the data).
+struct Gram {
+  std::vector<int> cand_first;  // first column of each candidate
+  std::vector<const VectorXd*> all;
+  std::vector<double> raw;  // squared norm of each column before the set-up removal
+  MatrixXd g;
+  VectorXd rhs;
+};
+
+Gram GramOf(const FitContext& ctx, const std::vector<const Candidate*>& cands) {
+  Gram gr;
+  std::vector<int> ids;
+  for (const Candidate* c : cands) {
+    gr.cand_first.push_back(static_cast<int>(gr.all.size()));
+    for (const auto& col : c->cols) gr.all.push_back(&col);
+    ids.insert(ids.end(), c->ids.begin(), c->ids.end());
+    gr.raw.insert(gr.raw.end(), c->raw_norm2.begin(), c->raw_norm2.end());
+  }
+  const int total = static_cast<int>(gr.all.size());
+  gr.g.resize(total, total);
+  gr.rhs.resize(total);
+  GramCache& cache = *ctx.cache;
+  for (int a = 0; a < total; ++a) {
+    const VectorXd& ca = *gr.all[static_cast<std::size_t>(a)];
+    const int ia = ids[static_cast<std::size_t>(a)];
+    auto r = cache.rhs.find(ia);
+    if (r == cache.rhs.end()) r = cache.rhs.emplace(ia, ca.dot(*ctx.e0)).first;
+    gr.rhs[a] = r->second;
+    for (int b = 0; b <= a; ++b) {
+      const auto key = std::make_pair(ia, ids[static_cast<std::size_t>(b)]);
+      auto g = cache.gram.find(key);
+      if (g == cache.gram.end()) {
+        g = cache.gram.emplace(key, ca.dot(*gr.all[static_cast<std::size_t>(b)])).first;
+      }
+      gr.g(a, b) = gr.g(b, a) = g->second;
+    }
+  }
+  return gr;
+}
+
+// Part of column j not explained by the columns `kept`: the Schur complement
+// g_jj − g_Kjᵀ G_KK⁻¹ g_Kj.
+double Unexplained(const MatrixXd& g, const std::vector<int>& kept, int j) {
+  if (kept.empty()) return g(j, j);
+  const auto nk = static_cast<Eigen::Index>(kept.size());
+  MatrixXd gkk(nk, nk);
+  VectorXd gkj(nk);
+  for (Eigen::Index a = 0; a < nk; ++a) {
+    gkj[a] = g(kept[static_cast<std::size_t>(a)], j);
+    for (Eigen::Index b = 0; b < nk; ++b)
+      gkk(a, b) = g(kept[static_cast<std::size_t>(a)], kept[static_cast<std::size_t>(b)]);
+  }
+  return g(j, j) - gkj.dot(gkk.ldlt().solve(gkj));
+}
+
+// The kept column most correlated with column j.
+int MostCorrelated(const MatrixXd& g, const std::vector<int>& kept, int j) {
+  double best = 0.0;
+  int culprit = -1;
+  for (int i : kept) {
+    const double corr = std::abs(g(i, j)) / std::sqrt(g(i, i) * g(j, j) + 1e-300);
+    if (corr > best) {
+      best = corr;
+      culprit = i;
+    }
+  }
+  return culprit;
+}
+
+// Why candidate k cannot join the columns `kcols` ("" when it can); on success its columns are
+// appended to `trial`.
+std::string Refusal(const FitContext& ctx, const std::vector<const Candidate*>& cands,
+                    const Gram& gr, const std::vector<int>& kcols, std::size_t k,
+                    std::vector<int>& trial) {
+  const double r2 = ctx.confound_ratio * ctx.confound_ratio;
+  trial = kcols;
+  for (std::size_t m = 0; m < cands[k]->cols.size(); ++m) {
+    const int j = gr.cand_first[k] + static_cast<int>(m);
+    const double gjj = gr.g(j, j);
+    // What the evaluated samples see of the effect is (almost) all centre and radius (e.g.
+    // a partial arc that does not reach the axis reversal): not separable from the set-up.
+    if (!(gjj > r2 * gr.raw[static_cast<std::size_t>(j)]) || !(gjj > 0.0)) {
+      return " (indistinguishable from the centre offset and radius over the evaluated samples)";
+    }
+    if (Unexplained(gr.g, trial, j) < r2 * gjj) {
+      const int culprit = MostCorrelated(gr.g, kcols, j);
+      if (culprit < 0) return " ";
+      std::size_t owner = 0;
+      while (owner + 1 < cands.size() && gr.cand_first[owner + 1] <= culprit) ++owner;
+      return " (confounded with " + effects::EffectName(cands[owner]->id, ctx.first, ctx.second) +
+             ")";
+    }
+    trial.push_back(j);
+  }
+  return "";
+}
+
+// Rank-revealing selection in list order; fills f.kept, f.first_col and f.dropped and returns
+// the kept columns.
+std::vector<int> SelectColumns(const FitContext& ctx, const std::vector<const Candidate*>& cands,
+                               const Gram& gr, FitResult& f) {
+  const Problem& p = *ctx.p;
+  std::vector<int> kcols;
+  // Keep at least max(5, N/10) degrees of freedom for the noise estimate.
+  const int max_cols = p.n - 3 * p.traces - std::max(5, p.n / 10);
+  for (std::size_t k = 0; k < cands.size(); ++k) {
+    std::string name = effects::EffectName(cands[k]->id, ctx.first, ctx.second);
+    if (static_cast<int>(kcols.size() + cands[k]->cols.size()) > max_cols) {
+      f.dropped.push_back(name + " (too few samples)");
+      continue;
+    }
+    std::vector<int> trial;
+    const std::string why = Refusal(ctx, cands, gr, kcols, k, trial);
+    if (!why.empty()) {
+      f.dropped.push_back(why == " " ? name : name + why);
+      continue;
+    }
+    f.first_col.push_back(static_cast<int>(kcols.size()));
+    kcols = trial;
+    f.kept.push_back(static_cast<int>(k));
+  }
+  return kcols;
+}
+
+// Solves the normal equations of the kept columns.
+void Solve(const FitContext& ctx, const Gram& gr, const std::vector<int>& kcols, FitResult& f) {
+  const Problem& p = *ctx.p;
+  const int ncol = static_cast<int>(kcols.size());
+  const int dof = p.n - 3 * p.traces - ncol;
+  if (dof <= 0) throw NotObservable("diagnosis: more parameters than samples");
+  f.dof = dof;
+  f.a.resize(static_cast<std::size_t>(ncol));
+  MatrixXd m(ncol, ncol);
+  VectorXd b(ncol);
+  for (int a = 0; a < ncol; ++a) {
+    const int ka = kcols[static_cast<std::size_t>(a)];
+    f.a[static_cast<std::size_t>(a)] = gr.all[static_cast<std::size_t>(ka)];
+    b[a] = gr.rhs[ka];
+    for (int c = 0; c < ncol; ++c) m(a, c) = gr.g(ka, kcols[static_cast<std::size_t>(c)]);
+  }
+  if (ncol == 0) {
+    f.x.resize(0);
+    f.residual = *ctx.e0;
+    f.sigma2 = f.residual.squaredNorm() / dof;
+    return;
+  }
+  Eigen::LDLT<MatrixXd> ldlt(m);
+  f.x = ldlt.solve(b);
+  f.residual = *ctx.e0 - f.Combine(0, ncol, p.n);
+  f.sigma2 = f.residual.squaredNorm() / dof;
+  f.normal_inv = ldlt.solve(MatrixXd::Identity(ncol, ncol));
+  f.cov = f.sigma2 * f.normal_inv;
+}
+
+// d s / d (first shape parameter) of a one-linear-parameter effect at unit value, set-up free,
+// by automatic differentiation of the registry model.
+VectorXd ShapeDerivative(const Problem& p, const Candidate& c) {
+  using J = ceres::Jet<double, 1>;
+  VectorXd d(p.n);
+  J params[8];
+  params[0] = J(1.0);
+  for (std::size_t k = 0; k < c.shape.size() && k + 1 < 8; ++k) params[k + 1] = J(c.shape[k]);
+  params[1].v[0] = 1.0;
+  for (int i = 0; i < p.n; ++i) {
+    const auto& s = p.samples[static_cast<std::size_t>(i)];
+    const effects::Angle<J> a{J(s.a.theta), J(s.a.c), J(s.a.s)};
+    J e[2];
+    effects::PositionErrorT<J>(c.id, p.ctx[static_cast<std::size_t>(s.trace)], a, params, e);
+    d[i] = e[0].v[0] * s.a.c + e[1].v[0] * s.a.s;
+  }
+  p.RemoveSetup(d);
+  return d;
+}
+
+// Symmetric matrix of inner products of the columns `cols`.
+MatrixXd InnerProducts(const std::vector<const VectorXd*>& cols) {
+  const auto n = static_cast<Eigen::Index>(cols.size());
+  MatrixXd m(n, n);
+  for (Eigen::Index a = 0; a < n; ++a)
+    for (Eigen::Index b = 0; b <= a; ++b)
+      m(a, b) = m(b, a) =
+          cols[static_cast<std::size_t>(a)]->dot(*cols[static_cast<std::size_t>(b)]);
+  return m;
+}
+
+}  // namespace
+
+FitResult Fit(const FitContext& ctx, const std::vector<const Candidate*>& cands) {
+  FitResult f;
+  const Gram gr = GramOf(ctx, cands);
+  const std::vector<int> kcols = SelectColumns(ctx, cands, gr, f);
+  Solve(ctx, gr, kcols, f);
+  return f;
+}
+
+// The jacobian gains one column x_j ∂s_j/∂shape_j per kept candidate with a fitted shape,
+// σ² = RSS / (N − 3T − p − q). Replaces f.cov and f.sigma2 and fills f.shape_sigma (left
+// unchanged when the augmented normal matrix is singular, e.g. a shape the data do not
+// determine).
+void AugmentShapes(const Problem& p, const std::vector<Candidate>& cands, FitResult& f) {
+  const int ncol = static_cast<int>(f.a.size());
+  std::vector<VectorXd> d;
+  std::vector<int> which;
+  for (std::size_t j = 0; j < f.kept.size(); ++j) {
+    const Candidate& c = cands[static_cast<std::size_t>(f.kept[j])];
+    if (!HasFittedShape(c.id) || c.cols.size() != 1) continue;
+    VectorXd col = ShapeDerivative(p, c) * f.x[f.first_col[j]];
+    if (!(col.squaredNorm() > 0.0)) continue;
+    d.push_back(std::move(col));
+    which.push_back(static_cast<int>(j));
+  }
+  const int nd = static_cast<int>(d.size());
+  const int dof = f.dof - nd;
+  if (d.empty() || dof <= 0) return;
+  std::vector<const VectorXd*> cols = f.a;
+  for (const auto& c : d) cols.push_back(&c);
+  Eigen::LDLT<MatrixXd> ldlt(InnerProducts(cols));
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return;
+  const MatrixXd inv = ldlt.solve(MatrixXd::Identity(ncol + nd, ncol + nd));
+  for (int a = 0; a < ncol + nd; ++a)
+    if (!(inv(a, a) > 0.0) || !std::isfinite(inv(a, a))) return;
+  const double sigma2 = f.residual.squaredNorm() / dof;
+  f.sigma2 = sigma2;
+  f.cov = sigma2 * inv.topLeftCorner(ncol, ncol);
+  for (int q = 0; q < nd; ++q)
+    f.shape_sigma[which[static_cast<std::size_t>(q)]] = std::sqrt(sigma2 * inv(ncol + q, ncol + q));
+}
+
+Base MakeBase(const FitResult& f) {
+  Base b;
+  b.a = f.a;
+  b.m = static_cast<int>(f.a.size());
+  b.ninv = f.normal_inv;
+  b.r = f.residual;
+  return b;
+}
+
+// (sᵀr)² / (sᵀs − gᵀ(AᵀA)⁻¹g), g = Aᵀs. The set-up removal is done implicitly: the base
+// columns and the residual are set-up free, so only sᵀs needs the correction Σ_t kᵀ(SᵀS)⁻¹k,
+// k = S_tᵀ s.
+double Gain(const Problem& p, const Base& b, const Sparse& s) {
+  std::vector<Eigen::Vector3d> sts(static_cast<std::size_t>(p.traces), Eigen::Vector3d::Zero());
+  double ss = 0.0, rs = 0.0;
+  VectorXd g = VectorXd::Zero(b.m);
+  for (std::size_t k = 0; k < s.idx.size(); ++k) {
+    const int i = s.idx[k];
+    const double v = s.val[k];
+    const auto& smp = p.samples[static_cast<std::size_t>(i)];
+    sts[static_cast<std::size_t>(smp.trace)] += v * Eigen::Vector3d(smp.a.c, smp.a.s, 1.0);
+    ss += v * v;
+    rs += b.r[i] * v;
+  }
+  for (int j = 0; j < b.m; ++j) {
+    const double* col = b.a[static_cast<std::size_t>(j)]->data();
+    double acc = 0.0;
+    for (std::size_t k = 0; k < s.idx.size(); ++k) acc += s.val[k] * col[s.idx[k]];
+    g[j] = acc;
+  }
+  const double raw = ss;
+  for (int t = 0; t < p.traces; ++t) {
+    ss -= sts[static_cast<std::size_t>(t)].dot(p.setup_inv[static_cast<std::size_t>(t)] *
+                                               sts[static_cast<std::size_t>(t)]);
+  }
+  double den = ss;
+  if (b.m > 0) den -= g.dot(b.ninv * g);
+  if (!(den > 1e-9 * raw)) return 0.0;
+  return rs * rs / den;
+}
+
+std::vector<const Candidate*> Pointers(const std::vector<Candidate>& cands, std::size_t skip) {
+  std::vector<const Candidate*> v;
+  for (std::size_t i = 0; i < cands.size(); ++i)
+    if (i != skip) v.push_back(&cands[i]);
+  return v;
+}
+
+}  // namespace km::dbb::diag

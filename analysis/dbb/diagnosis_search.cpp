@@ -1,0 +1,342 @@
+#include "analysis/dbb/diagnosis_search.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+#include <numbers>
+
+#include <opencv2/core.hpp>
+
+namespace km::dbb::diag {
+
+using effects::EffectId;
+using Eigen::VectorXd;
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+}  // namespace
+
+int ReversalOrder::Bucket(double phi) {
+  return std::clamp(static_cast<int>(phi / std::numbers::pi * kBuckets), 0, kBuckets - 1);
+}
+
+ReversalOrder MakeReversalOrder(const Problem& p, EffectId id) {
+  const int axis = id == EffectId::kReversalSpikeU ? 0 : 1;
+  const double theta0 = effects::internal::AxisReversalAngle(axis);
+  constexpr double kWideDeg = 1e4;
+  const double params[3] = {1.0, kWideDeg, 1.0};
+  std::vector<int> count(ReversalOrder::kBuckets + 1, 0);
+  std::vector<ReversalOrder::Entry> e(static_cast<std::size_t>(p.n));
+  for (int i = 0; i < p.n; ++i) {
+    const auto& s = p.samples[static_cast<std::size_t>(i)];
+    const auto& ctx = p.ctx[static_cast<std::size_t>(s.trace)];
+    const double phi = effects::internal::AngleSinceReversal(s.a.theta, theta0, ctx.direction);
+    const double decay = effects::ReversalSpike<0>::Decay(phi, kWideDeg * kDeg, 1.0);
+    e[static_cast<std::size_t>(i)] = {phi, i,
+                                      effects::RadialSignature(id, ctx, s.a, params) / decay};
+    ++count[static_cast<std::size_t>(ReversalOrder::Bucket(phi)) + 1];
+  }
+  for (int k = 0; k < ReversalOrder::kBuckets; ++k)
+    count[static_cast<std::size_t>(k) + 1] += count[static_cast<std::size_t>(k)];
+  ReversalOrder o;
+  o.by_phi.resize(e.size());
+  for (const auto& x : e) {
+    o.by_phi[static_cast<std::size_t>(
+        count[static_cast<std::size_t>(ReversalOrder::Bucket(x.phi))]++)] = x;
+  }
+  return o;
+}
+
+namespace {
+
+// Spike signature at unit height where its decay is above e^−7 (the search only; the fit uses
+// the registry signature in full).
+void SpikeColumn(const ReversalOrder& o, double width_deg, double exponent, Sparse& out) {
+  const double xmax = std::pow(7.0 * exponent, 1.0 / exponent);
+  const double w = width_deg * kDeg;
+  const double phimax = xmax * w;
+  const int last = ReversalOrder::Bucket(phimax);
+  out.Clear();
+  for (const auto& e : o.by_phi) {
+    if (e.phi > phimax) {
+      if (ReversalOrder::Bucket(e.phi) > last) break;
+      continue;
+    }
+    const double v = e.factor * effects::ReversalSpike<0>::Decay(e.phi, w, exponent);
+    if (v != 0.0) {
+      out.idx.push_back(e.sample);
+      out.val.push_back(v);
+    }
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// Golden-section maximisation of f on [lo, hi]; returns the best abscissa and value seen.
+template <typename F>
+std::pair<double, double> GoldenMax(F&& f, double lo, double hi, int iterations) {
+  const double gr = (std::sqrt(5.0) - 1.0) / 2.0;
+  double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
+  double f1 = f(x1), f2 = f(x2);
+  for (int it = 0; it < iterations; ++it) {
+    if (f1 > f2) {
+      hi = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = hi - gr * (hi - lo);
+      f1 = f(x1);
+    } else {
+      lo = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = lo + gr * (hi - lo);
+      f2 = f(x2);
+    }
+  }
+  return f1 > f2 ? std::make_pair(x1, f1) : std::make_pair(x2, f2);
+}
+
+}  // namespace
+
+// Width (and decay shape) of the spike that most reduces the residual of the base:
+// log-spaced scan of `grid` widths over [lo, hi] for each decay shape, then golden section
+// between the neighbours of the best.
+SpikeShape SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo,
+                       double hi, int grid, Sparse& buf) {
+  SpikeShape best;
+  const int kGrid = std::max(grid, 3);
+  const double llo = std::log(lo), lhi = std::log(hi);
+  for (double k : {1.0, 2.0}) {
+    auto gain = [&](double lw) {
+      SpikeColumn(o, std::exp(lw), k, buf);
+      return Gain(p, b, buf);
+    };
+    std::vector<double> lw(kGrid), g(kGrid);
+    int jb = 0;
+    for (int j = 0; j < kGrid; ++j) {
+      lw[static_cast<std::size_t>(j)] = llo + (lhi - llo) * j / (kGrid - 1);
+      g[static_cast<std::size_t>(j)] = gain(lw[static_cast<std::size_t>(j)]);
+      if (g[static_cast<std::size_t>(j)] > g[static_cast<std::size_t>(jb)]) jb = j;
+    }
+    double xb = lw[static_cast<std::size_t>(jb)], gb = g[static_cast<std::size_t>(jb)];
+    const auto [x, v] = GoldenMax(gain, lw[static_cast<std::size_t>(std::max(jb - 1, 0))],
+                                  lw[static_cast<std::size_t>(std::min(jb + 1, kGrid - 1))], 10);
+    if (v > gb) {
+      xb = x;
+      gb = v;
+    }
+    if (gb > best.gain) best = {std::exp(xb), k, gb};
+  }
+  return best;
+}
+
+StickZones MakeStickZones(const Problem& p) {
+  StickZones z;
+  for (int i = 0; i < p.n; ++i) {
+    const auto& s = p.samples[static_cast<std::size_t>(i)];
+    const int dir = p.ctx[static_cast<std::size_t>(s.trace)].direction;
+    for (int ax = 0; ax < 2; ++ax) {
+      const double va = effects::internal::AxisUnitVelocity(ax, dir, s.a);
+      if (std::abs(va) >= effects::StickSlip::kZone) continue;
+      z.idx.push_back(i);
+      z.phi_deg.push_back(effects::internal::AngleSinceReversal(
+                              s.a.theta, effects::internal::AxisReversalAngle(ax), dir) /
+                          kDeg);
+      z.weight.push_back(-effects::internal::SignOf(va) * (ax == 0 ? s.a.c : s.a.s));
+    }
+  }
+  return z;
+}
+
+namespace {
+
+// Stick-slip signature at unit amplitude (registry model) on the zone samples.
+void StickColumn(const Problem& p, const StickZones& z, double period_deg, Sparse& out) {
+  const double params[2] = {1.0, period_deg};
+  out.Clear();
+  int last = -1;
+  for (int i : z.idx) {
+    if (i == last) continue;
+    last = i;
+    const auto& s = p.samples[static_cast<std::size_t>(i)];
+    const double v = effects::RadialSignature(
+        EffectId::kStickSlip, p.ctx[static_cast<std::size_t>(s.trace)], s.a, params);
+    if (v != 0.0) {
+      out.idx.push_back(i);
+      out.val.push_back(v);
+    }
+  }
+}
+
+}  // namespace
+
+// Period (degrees) of the strongest sawtooth fundamental in the residual over the angle since
+// the reversal: binned (δ = pmin/4), zero-padded DFT, parabolic peak interpolation; 0 if none.
+// `chi2` receives the peak's projection energy over s2 Σ w² (≈ χ² with 2 degrees of freedom
+// per frequency for white noise of variance s2).
+double StickPeriodPeak(const StickZones& z, const VectorXd& r, double pmin, double pmax, double s2,
+                       double* chi2) {
+  const double delta = pmin / 4.0;
+  const int nb = static_cast<int>(std::ceil(180.0 / delta)) + 1;
+  const int len = cv::getOptimalDFTSize(4 * nb);
+  cv::Mat buf = cv::Mat::zeros(1, len, CV_64F);
+  auto* b = buf.ptr<double>();
+  double ww = 0.0;
+  for (std::size_t k = 0; k < z.idx.size(); ++k) {
+    const int bin = std::clamp(static_cast<int>(std::lround(z.phi_deg[k] / delta)), 0, nb - 1);
+    b[bin] += z.weight[k] * r[z.idx[k]];
+    ww += z.weight[k] * z.weight[k];
+  }
+  *chi2 = 0.0;
+  cv::Mat spec;
+  cv::dft(buf, spec, cv::DFT_COMPLEX_OUTPUT);
+  const auto* c = spec.ptr<cv::Vec2d>();
+  const double df = 1.0 / (len * delta);  // cycles per degree per bin
+  const int kmin = std::max(1, static_cast<int>(std::ceil(1.0 / pmax / df)));
+  const int kmax = std::min(len / 2 - 2, static_cast<int>(std::floor(1.0 / pmin / df)));
+  if (kmin + 1 >= kmax || !(ww > 0.0) || !(s2 > 0.0)) return 0.0;
+  auto power = [&](int k) { return c[k][0] * c[k][0] + c[k][1] * c[k][1]; };
+  int best = kmin;
+  for (int k = kmin; k <= kmax; ++k)
+    if (power(k) > power(best)) best = k;
+  double kk = best;
+  if (best > kmin && best < kmax) {
+    const double y0 = power(best - 1), y1 = power(best), y2 = power(best + 1);
+    const double den = y0 - 2.0 * y1 + y2;
+    if (den < 0.0) kk += 0.5 * (y0 - y2) / den;
+  }
+  *chi2 = power(best) / (s2 * ww);
+  return 1.0 / (kk * df);
+}
+
+namespace {
+
+// Projection energy of the residual on the sawtooth of period P at the zone samples, against
+// the residual alone (no set-up, no other effect): (Σ s r)² / Σ s², s = w (2 frac(φ/P) − 1),
+// the shape of stick_slip.h. Cheap enough to scan the period finely.
+double SawtoothScore(const StickZones& z, const VectorXd& r, double period) {
+  double sr = 0.0, ss = 0.0;
+  const double inv = 1.0 / period;
+  for (std::size_t k = 0; k < z.idx.size(); ++k) {
+    const double x = z.phi_deg[k] * inv;
+    const double v = z.weight[k] * (2.0 * (x - std::floor(x)) - 1.0);
+    sr += v * r[z.idx[k]];
+    ss += v * v;
+  }
+  return ss > 0.0 ? sr * sr / ss : 0.0;
+}
+
+}  // namespace
+
+// The teeth of a sawtooth locked to the reversal line up over the whole half turn only at the
+// right period: the projection peaks are P·step/180 wide and lie P²/180 apart (the zones just
+// after a reversal and just before the next one), and neighbouring peaks differ by a few per
+// cent only. From the transform's estimate, scan ±4 such fringes in 1/16 steps of one and
+// return the best few local maxima (for an exact comparison on the registry signature).
+std::vector<double> FineStickPeriods(const StickZones& z, const VectorXd& r, double period) {
+  const double fringe = period * period / 180.0;
+  constexpr int kHalf = 64;
+  std::vector<double> q(2 * kHalf + 1), sc(2 * kHalf + 1);
+  for (int k = -kHalf; k <= kHalf; ++k) {
+    q[static_cast<std::size_t>(k + kHalf)] = period + fringe * k / 16.0;
+    sc[static_cast<std::size_t>(k + kHalf)] =
+        SawtoothScore(z, r, q[static_cast<std::size_t>(k + kHalf)]);
+  }
+  std::vector<std::pair<double, double>> peaks;
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    const bool left = i == 0 || sc[i] >= sc[i - 1];
+    const bool right = i + 1 == q.size() || sc[i] > sc[i + 1];
+    if (left && right) peaks.emplace_back(sc[i], q[i]);
+  }
+  std::sort(peaks.begin(), peaks.end(), [](const auto& a, const auto& b) { return a > b; });
+  std::vector<double> out;
+  for (std::size_t i = 0; i < peaks.size() && i < 3; ++i) out.push_back(peaks[i].second);
+  return out;
+}
+
+// Periods commensurate with the sample step, P = step·n/m (m ≤ 4), within [lo, hi].
+std::vector<double> CommensuratePeriods(double lo, double hi, double step) {
+  std::vector<double> out;
+  if (!(step > 0.0)) return out;
+  for (int m = 1; m <= 4; ++m) {
+    for (double n = std::ceil(lo * m / step); n <= std::floor(hi * m / step); n += 1.0) {
+      const double q = step * n / m;
+      if (n > 0.0 && std::find(out.begin(), out.end(), q) == out.end()) out.push_back(q);
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// Gain of the stick-slip signature of period `per` against the base.
+double StickGain(const Problem& p, const StickZones& z, const Base& b, double per, Sparse& buf) {
+  StickColumn(p, z, per, buf);
+  return Gain(p, b, buf);
+}
+
+}  // namespace
+
+namespace {
+
+// When the teeth fall on samples (a period q commensurate with the sample step), every period
+// within half a sample step of phase over the half turn gives the same sampled sawtooth except
+// AT those samples, where the side of the jump is decided by rounding, not by the machine. The
+// model there is the jump's midpoint (exactly q, stick_slip.h), so those samples do not bias
+// the amplitude whichever way the data were rounded. Returns q when `per` is that close to it.
+double SnapStickPeriod(double per, double step) {
+  const double tol = per * step / (2.0 * 180.0);
+  const auto comm = CommensuratePeriods(per - tol, per + tol, step);
+  return comm.empty() ? per : comm.front();
+}
+
+}  // namespace
+
+// Exact refinement of a stick-slip period: golden section of the gain within ±half (degrees),
+// then SnapStickPeriod.
+std::pair<double, double> RefineStickPeriod(const Problem& p, const StickZones& z, const Base& b,
+                                            double period, double half, double step, Sparse& buf) {
+  auto gain = [&](double per) { return StickGain(p, z, b, per, buf); };
+  auto best = GoldenMax(gain, period - half, period + half, 14);
+  const double g0 = gain(period);
+  if (g0 > best.second) best = {period, g0};
+  const double q = SnapStickPeriod(best.first, step);
+  return q == best.first ? best : std::make_pair(q, gain(q));
+}
+
+// A commensurate period q near the best one found: q's signature leaves out the samples on its
+// jumps (midpoint), so the comparison is made without those samples for both. Neighbouring
+// fringes of a sawtooth whose teeth fall on samples differ from q mostly there, and the data's
+// rounding at the jumps must not decide the period (it would bias the amplitude). q is kept
+// when it explains at least 90 % of what the best one explains on the same samples.
+std::pair<double, double> PreferCommensurate(const Problem& p, const StickZones& z, const Base& b,
+                                             std::pair<double, double> best, double window,
+                                             double step, Sparse& buf) {
+  Sparse qcol, side;
+  for (double q : CommensuratePeriods(best.first - window, best.first + window, step)) {
+    if (q == best.first) continue;
+    StickColumn(p, z, q, qcol);
+    StickColumn(p, z, q * (1.0 - 1e-7), side);
+    std::vector<int> jumps;
+    std::set_difference(side.idx.begin(), side.idx.end(), qcol.idx.begin(), qcol.idx.end(),
+                        std::back_inserter(jumps));
+    const double gq = Gain(p, b, qcol);
+    StickColumn(p, z, best.first, buf);
+    Sparse restricted;
+    for (std::size_t k = 0; k < buf.idx.size(); ++k) {
+      if (std::binary_search(jumps.begin(), jumps.end(), buf.idx[k])) continue;
+      restricted.idx.push_back(buf.idx[k]);
+      restricted.val.push_back(buf.val[k]);
+    }
+    // A few samples besides the jumps (those at the reversals themselves, where the angle since
+    // the reversal is 0 or 180° by rounding) move the restricted gains by a few per cent.
+    if (gq >= 0.9 * Gain(p, b, restricted)) best = {q, gq};
+  }
+  return best;
+}
+
+}  // namespace km::dbb::diag
