@@ -58,7 +58,7 @@ void AddRoutes(Router& router, server::Service& service) {
   router.Add(Route{
       "POST",
       "/api/v1/measurements",
-      "Upload a measurement file (any kind of contract §1)",
+      "Upload a measurement file (any kind of docs/formats.md §1)",
       true,
       [svc](const Request& req) {
         const std::string name = UploadFilename(req);

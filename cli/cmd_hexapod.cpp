@@ -1,7 +1,7 @@
 // `kinemetric hexapod calibrate --machine M.json FILE… [--method absolute|centre-corrected]
 //  [--write-machine OUT.json] [--max-samples-per-test N] [--reduction-study MIN_TESTS]
 //  [--effects gravity_deflection,joint_friction,…] [--json]`
-//  (contract §3): 24-parameter kinematic calibration of a
+//  (docs/formats.md §3): 24-parameter kinematic calibration of a
 // hexapod from DBB files ([PM-600 report] §2.2–2.3), with the post-calibration prediction of every
 // trace ([PM-600 report] eq. 5.2). Parsing in ingest/, numerics in analysis/hexapod, JSON mapping
 // here.

@@ -2,8 +2,8 @@
 //  [--effects "NAME[:P=V,...];..."] [--tools L1,L2] [--start ISO] [--interval-s S]
 //  [--noise-um S] [--seed N] [--perturb-base-mm B] [--perturb-strut-mm S] [--absolute]
 //  [--samples N] [--single-direction] [--seat-error-um S] [--write-truth TRUE.json] [--json]`:
-// synthetic DBB files (contract §1.1) of a "real" hexapod whose base joints and strut offsets
-// differ from the machine file by seeded uniform errors (analysis/sim/hexapod_dbb_sim.h).
+// synthetic DBB files (docs/formats.md §1.1) of a "real" hexapod whose base joints and strut
+// offsets differ from the machine file by seeded uniform errors (analysis/sim/hexapod_dbb_sim.h).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -1,8 +1,8 @@
 // Command registry of the `kinemetric` CLI. A command lives in one file cli/cmd_*.cpp and
 // registers itself with KM_CLI_COMMAND; main dispatches on the first two words.
 //
-// Exit status (contract §3): 0 success, 2 bad input (one-line reason on stderr naming file and
-// line), 1 any other failure. Commands signal bad input by throwing km::InvalidInput; main maps
+// Exit status (docs/formats.md §3): 0 success, 2 bad input (one-line reason on stderr naming file
+// and line), 1 any other failure. Commands signal bad input by throwing km::InvalidInput; main maps
 // exceptions to exit codes in one place.
 #pragma once
 

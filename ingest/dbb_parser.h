@@ -1,5 +1,5 @@
-// Parser of `kinemetric-dbb/1` DBB circular-test files (contract §1.1). Strict: every error is
-// a km::InvalidInput naming the file, the line and the field; nothing is guessed. Which samples
+// Parser of `kinemetric-dbb/1` DBB circular-test files (docs/formats.md §1.1). Strict: every error
+// is a km::InvalidInput naming the file, the line and the field; nothing is guessed. Which samples
 // are enough is the one coverage rule of analysis/dbb/coverage.h: every gap between neighbouring
 // samples, the closing gap of a full turn included, at most 10°. Optional header `arc_deg`
 // (180 … 360) declares a partial arc (or 360, a full turn); without it a trace that does not

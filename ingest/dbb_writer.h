@@ -1,7 +1,7 @@
-// Writer of `kinemetric-dbb/1` DBB circular-test files (contract §1.1) from a km::dbb::DbbTest.
-// Columns `angle_deg,dr_um`; angle with 9 decimals, dr_um with 6 decimals (lossless at 1e-6 µm),
-// header numbers with up to 17 significant digits. Metadata keys that are not standard header
-// keys are written back as extra header lines.
+// Writer of `kinemetric-dbb/1` DBB circular-test files (docs/formats.md §1.1) from a
+// km::dbb::DbbTest. Columns `angle_deg,dr_um`; angle with 9 decimals, dr_um with 6 decimals
+// (lossless at 1e-6 µm), header numbers with up to 17 significant digits. Metadata keys that are
+// not standard header keys are written back as extra header lines.
 #pragma once
 
 #include <string>

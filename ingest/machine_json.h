@@ -1,4 +1,4 @@
-// Machine definition files, `"format": "kinemetric-machine/1"` (contract §2), for hexapods:
+// Machine definition files, `"format": "kinemetric-machine/1"` (docs/formats.md §2), for hexapods:
 // base_joints_mm (6×3, machine frame), platform_joints_mm (6×3, platform frame), strut_offset_mm
 // (6; convention of analysis/hexapod/kinematics.h). Every error is a km::InvalidInput naming
 // the file and the field (e.g. "base_joints_mm[2][1]"). Writing keeps every other key of the

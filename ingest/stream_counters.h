@@ -1,5 +1,5 @@
-// Counter bookkeeping of one stream channel (contract §1.6): which samples of an arriving run
-// are new, and whether counters were skipped (a gap). Shared by the server's stream storage and
+// Counter bookkeeping of one stream channel (docs/formats.md §1.6): which samples of an arriving
+// run are new, and whether counters were skipped (a gap). Shared by the server's stream storage and
 // the offline `kinemetric stream` commands so both judge gaps and duplicates the same way.
 //
 //   run.first_counter == next → all new;

@@ -1,4 +1,4 @@
-// Wire formats of capacitance-sensor HTTP streams (contract §1.6; user
+// Wire formats of capacitance-sensor HTTP streams (docs/formats.md §1.6; user
 // documentation in docs/streams.md, "Frame formats") and their incremental
 // decoder / encoder.
 //

@@ -1,4 +1,4 @@
-// The capacitance-sensor stream record (contract §1.6). HTTP stream frames and Modbus TCP
+// The capacitance-sensor stream record (docs/formats.md §1.6). HTTP stream frames and Modbus TCP
 // acquisition both produce it, so storage, gap detection and analysis see one shape:
 //
 //   channel   — channel id, unique within a stream (a Modbus register map names its channels)

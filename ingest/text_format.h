@@ -1,4 +1,4 @@
-// The common shape of every kinemetric measurement file (contract §1): UTF-8 text, header
+// The common shape of every kinemetric measurement file (docs/formats.md §1): UTF-8 text, header
 // lines `# key: value` (the first names the format), one CSV column-header row, then numeric
 // data rows. This reader validates the shape strictly and remembers the line of everything,
 // so each format parser can report errors naming file, line and field.

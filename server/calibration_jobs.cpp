@@ -144,7 +144,7 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
   if (request.contains("machine")) {
     if (!request["machine"].is_object()) {
       throw InvalidInput("request", 0, "machine",
-                         "the hexapod machine definition (contract §2) must be an object");
+                         "the hexapod machine definition (docs/formats.md §2) must be an object");
     }
     if (request.contains("machine_id") || request.contains("machine_version")) {
       throw InvalidInput("request", 0, "machine_id",
@@ -160,9 +160,10 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
                              std::to_string(stored_version) + " is not a hexapod");
     }
   } else {
-    throw InvalidInput("request", 0, "machine",
-                       "the hexapod machine definition (contract §2) is required as an object, "
-                       "or machine_id naming a stored model");
+    throw InvalidInput(
+        "request", 0, "machine",
+        "the hexapod machine definition (docs/formats.md §2) is required as an object, "
+        "or machine_id naming a stored model");
   }
   if (request.contains("method")) {
     if (!request["method"].is_string()) {

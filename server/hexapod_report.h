@@ -1,6 +1,6 @@
 // Hexapod calibration study ([PM-600 report] ch. 2, §5.2): calibrate the 24 kinematic parameters
 // from a set of DBB tests, predict every trace after calibration (eq. 5.2), optionally run the
-// test-set reduction study (§5.2.3), and map it all to the JSON of contract §3
+// test-set reduction study (§5.2.3), and map it all to the JSON of docs/formats.md §3
 // `kinemetric hexapod calibrate`. Shared by the CLI and the server's background jobs.
 #pragma once
 
@@ -31,7 +31,7 @@ struct CalibrationStudy {
 };
 
 struct CalibrationOutcome {
-  nlohmann::json report;                 // contract §3 keys and more
+  nlohmann::json report;                 // docs/formats.md §3 keys and more
   ingest::MachineDefinition calibrated;  // machine with the calibrated geometry
 };
 

@@ -127,7 +127,7 @@ class Service {
   nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
 
   // Hexapod calibration study as a background job. Request (JSON): {"machine": {machine
-  // definition, contract §2}, "measurement_ids": [DBB ids], "method": "absolute" |
+  // definition, docs/formats.md §2}, "measurement_ids": [DBB ids], "method": "absolute" |
   // "centre-corrected" (optional), "reduction_study_min_tests": N (optional),
   // "max_samples_per_test": N (optional)}. Validated now from the stored records, without
   // reading any file (InvalidInput / NotFound): at most max_calibration_tests ids, each listed
@@ -149,11 +149,12 @@ class Service {
   nlohmann::json Job(std::int64_t id);
   nlohmann::json Jobs(std::int64_t limit);
 
-  // Machine definitions ("kinemetric-machine/1", contract §2), versioned (machine_models.cpp).
-  // StoreMachineModel validates the document (ingest::ParseMachineJson: InvalidInput naming
-  // `file` and the field; TooLarge beyond kMaxMachineModelBytes) and appends it as the next
-  // version of its machine_id, with its source ("upload", "calibration job N", "discovery job
-  // N") and note. The bytes of the newest version again → that version, created = false.
+  // Machine definitions ("kinemetric-machine/1", docs/formats.md §2), versioned
+  // (machine_models.cpp). StoreMachineModel validates the document (ingest::ParseMachineJson:
+  // InvalidInput naming `file` and the field; TooLarge beyond kMaxMachineModelBytes) and appends it
+  // as the next version of its machine_id, with its source ("upload", "calibration job N",
+  // "discovery job N") and note. The bytes of the newest version again → that version, created =
+  // false.
   MachineModelStored StoreMachineModel(std::string_view bytes, const std::string& source,
                                        const std::string& note,
                                        const std::string& file = "machine");

@@ -43,8 +43,8 @@ struct ProfileSpec {
   std::vector<std::pair<std::string, std::string>> provenance;  // extra header keys
 };
 
-// The kinemetric-straightness/1 file (contract §1.3) of the sensor samples, positioned by the
-// encoder run when given (its channel named in the header), else by feed × time. The header
+// The kinemetric-straightness/1 file (docs/formats.md §1.3) of the sensor samples, positioned by
+// the encoder run when given (its channel named in the header), else by feed × time. The header
 // records where the profile came from (source_channel, source_time_us, source_samples,
 // position_from and the spec's provenance keys). Throws InvalidInput (field names as in the
 // API request) when the data cannot make a profile.

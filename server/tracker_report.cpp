@@ -1,5 +1,5 @@
-// JSON mapping of the laser-tracker self-calibration (contract §3 `tracker selfcal`), shared by
-// the CLI and the server.
+// JSON mapping of the laser-tracker self-calibration (docs/formats.md §3 `tracker selfcal`), shared
+// by the CLI and the server.
 #include "server/tracker_report.h"
 
 #include <algorithm>

@@ -1,5 +1,6 @@
-// JSON mapping of the laser-tracker self-calibration (contract §3, `kinemetric tracker selfcal`).
-// Shared by the CLI and (through the lead's wiring) the API, so both print the same object.
+// JSON mapping of the laser-tracker self-calibration (docs/formats.md §3, `kinemetric tracker
+// selfcal`). Shared by the CLI and (through the lead's wiring) the API, so both print the same
+// object.
 #pragma once
 
 #include <string>

@@ -1,5 +1,5 @@
 // Domain record of a DBB (double ball bar) circular test, as ingest/ delivers it to the
-// analysis (contract §1.1). Positions in mm, bar deviations in µm, angles in degrees as
+// analysis (docs/formats.md §1.1). Positions in mm, bar deviations in µm, angles in degrees as
 // written in the file (converted to radians inside the analysis).
 #pragma once
 

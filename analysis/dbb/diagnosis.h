@@ -1,4 +1,4 @@
-// Named error diagnosis of a serial (3-axis) machine from DBB circular tests (contract §4).
+// Named error diagnosis of a serial (3-axis) machine from DBB circular tests (docs/formats.md §4).
 //
 // Data: one evaluated turn per direction (one trace, or a cw + ccw pair of one test_id),
 // y_t(θ) = in-plane radial deviation about the nominal centre (bar deviation × R_DBB / R).
@@ -46,7 +46,7 @@
 // whose signature over the evaluated samples is (almost) all centre offset and radius (e.g. the
 // lateral play of an axis that reverses at the two ends of a 180° partial arc).
 //
-// Values: contract §4 units and signs (registry Value()); standard uncertainty σ from the
+// Values: docs/formats.md §4 units and signs (registry Value()); standard uncertainty σ from the
 // least-squares covariance σ²(JᵀJ)⁻¹ with σ² = RSS / (N − p), propagated through the value
 // jacobian. Contribution of effect k to the circularity of trace t: its own peak-to-valley
 // P_k,t = range(ŝ_k,t) as a share of Σ_j P_j,t + range(unexplained residual on t), in % — always

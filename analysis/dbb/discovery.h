@@ -1,5 +1,5 @@
 // Discovery of the physical error effects of a serial (3-axis) machine from DBB circular tests:
-// forward stepwise model building, each step one named effect of the registry (contract §3
+// forward stepwise model building, each step one named effect of the registry (docs/formats.md §3
 // `kinemetric discover`, §4 names / units / signs).
 //
 // Data y = in-plane radial deviation about the nominal centre of every trace (cw and ccw, any
@@ -76,7 +76,7 @@ struct DiscoveryEvidence {
   double log10_p_value = 0.0;  // finite also when p_value underflows to 0
   int df_numerator = 0;
   int df_denominator = 0;
-  std::vector<double> value;  // contract §4 value(s) of the added effect in the joint refit
+  std::vector<double> value;  // docs/formats.md §4 value(s) of the added effect in the joint refit
   std::vector<double> sigma;  // standard uncertainty of each value
   std::string unit;
   double z_score = 0.0;                      // |value| / σ (norm for several values)

@@ -74,7 +74,7 @@ struct SerialEffectFit {
   std::vector<double> shape;         // fixed shape parameters (registry order)
   std::vector<double> linear;        // fitted linear parameters
   std::vector<double> linear_sigma;  // their standard uncertainties
-  std::vector<double> value;         // contract §4 value(s)
+  std::vector<double> value;         // docs/formats.md §4 value(s)
   std::vector<double> sigma;         // standard uncertainty of each value
   std::string unit;
   double z_score = 0.0;                      // |value| / σ (norm over the RMS σ for two values)

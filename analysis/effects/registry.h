@@ -1,4 +1,4 @@
-// Registry of the serial-machine error effects seen by a DBB circular test (contract §4).
+// Registry of the serial-machine error effects seen by a DBB circular test (docs/formats.md §4).
 // Generated from KM_SERIAL_EFFECT_LIST (effect_list.h), COLMAP sensor/models.h style: every
 // effect has an id, a name (axis letter filled in from the plane), parameter names, a unit for
 // its reported value and a templated forward model of the machine position error e(θ) whose
@@ -57,7 +57,7 @@ constexpr int kMaxLinearParams = 2;
 void RadialBasis(EffectId id, const EffectContext& ctx, const Angle<double>& a, const double* shape,
                  double* columns);
 
-// Reported value (contract §4 unit) and its jacobian with respect to the parameters.
+// Reported value (docs/formats.md §4 unit) and its jacobian with respect to the parameters.
 std::vector<double> Value(EffectId id, const EffectContext& ctx, const double* params);
 Eigen::MatrixXd ValueJacobian(EffectId id, const EffectContext& ctx, const double* params);
 

@@ -1,7 +1,7 @@
 // Measured form data shared by the form analyses and the ingest parsers.
 //   Profile: deviation_um(position_mm) along a travel (straightness, parallelism).
 //   Grid:    z_um(x_mm, y_mm) over a surface (flatness).
-// Positions in mm, deviations in um (contract §1.3-1.5).
+// Positions in mm, deviations in um (docs/formats.md §1.3-1.5).
 #pragma once
 
 #include <vector>

@@ -1,9 +1,9 @@
-// Geometry shared by the hexapod DBB simulation and calibration (contract §1.1, [PM-600 report]
-// §2.3):
+// Geometry shared by the hexapod DBB simulation and calibration (docs/formats.md §1.1, [PM-600
+// report] §2.3):
 //
 //   plane axes (e1, e2, n): XY → (x, y, z), YZ → (y, z, x), ZX → (z, x, y)
 //   commanded moving ball  M(θ) = c + z_offset·n + R·(cos θ·e1 + sin θ·e2)
-//   nominal fixed ball     F = c  (the commanded circle centre, contract §1.1 `centre_mm`)
+//   nominal fixed ball     F = c  (the commanded circle centre, docs/formats.md §1.1 `centre_mm`)
 //   commanded tool pose    T(θ) = (M(θ), A, B, C) with the test's tilt
 //
 // and the circularity of a trace ([PM-600 report] eqs. 4.6–4.8): X_n = (R + ΔR_n) cos θ_n,

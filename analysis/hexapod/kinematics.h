@@ -5,8 +5,8 @@
 //   platform joint in the machine frame  P_j = X + R·(p_j + (0,0,l))            (eq. 1.1)
 //   strut vector  L_j = P_j − Q_j,  joint-to-joint length d_j = |L_j|           (eqs. 1.2–1.3)
 //
-// Strut-offset convention (consistent with contract §3, `strut_offset_um` = true strut length −
-// length the nominal model commands): the controller commands the actuator value
+// Strut-offset convention (consistent with docs/formats.md §3, `strut_offset_um` = true strut
+// length − length the nominal model commands): the controller commands the actuator value
 //
 //   s_j = d_j − o_j ,
 //

@@ -120,7 +120,7 @@ CeresSolveReport SolveSelfCalCeres(const SelfCalProblem& problem, const CeresSol
     problem_ceres.SetManifold(state.points_mm[static_cast<std::size_t>(abc[2])].data(),
                               new ceres::SubsetManifold(3, {2}));
   } else {
-    // Collinear points (not observable; the covariance says so): the gauge of contract §3.
+    // Collinear points (not observable; the covariance says so): the gauge of docs/formats.md §3.
     if (seen_tracker[0]) problem_ceres.SetParameterBlockConstant(state.trackers_mm[0].data());
     if (seen_tracker.size() > 1 && seen_tracker[1]) {
       problem_ceres.SetManifold(state.trackers_mm[1].data(), new ceres::SubsetManifold(3, {1, 2}));
@@ -150,7 +150,7 @@ CeresSolveReport SolveSelfCalCeres(const SelfCalProblem& problem, const CeresSol
   rep.converged = summary.termination_type == ceres::CONVERGENCE;
   rep.final_cost = summary.final_cost;
   rep.message = summary.message;
-  // Back to the gauge of contract §3: tracker 1 at the origin, 2 on +x, 3 in the xy-plane,
+  // Back to the gauge of docs/formats.md §3: tracker 1 at the origin, 2 on +x, 3 in the xy-plane,
   // z of 4 > 0.
   if (point_gauge) {
     Apply(GaugeTransform(state.trackers_mm), state);

@@ -4,7 +4,7 @@
 //
 // Gauge of the solve: three points in use spanning a large triangle — a held (constant block),
 // b on the x-axis and c in the xy-plane of a frame they define (subset manifolds) — and the
-// result is then moved into the gauge of contract §3 (tracker 1 at the origin, 2 on +x, 3 in
+// result is then moved into the gauge of docs/formats.md §3 (tracker 1 at the origin, 2 on +x, 3 in
 // the xy-plane, z of 4 > 0) by a rigid motion, which changes no distance. Fixing the gauge on
 // trackers 1–3 instead turns the weakly determined motion of a far tracker along its line of
 // sight into a rotation of the whole point cloud about tracker 1, metres away: a curved valley

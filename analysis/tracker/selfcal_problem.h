@@ -9,7 +9,7 @@
 // which, with L_s = |u_1 − U_j| for the first segment, is [Tracker paper] eq. 1 written with an
 // explicit offset (the least-squares solution of eq. 2 with independent reading noise). The
 // seven-parameter gauge of distances (rigid motion and mirror image) is fixed as in [Tracker paper]
-// and contract §3: U_1 = 0, U_2 on +x (V_2 = W_2 = 0), U_3 in the xy-plane with V_3 > 0, and
+// and docs/formats.md §3: U_1 = 0, U_2 on +x (V_2 = W_2 = 0), U_3 in the xy-plane with V_3 > 0, and
 // W_4 > 0. Counting unknowns: with m points, n trackers and b beam breaks there are
 // 3m + (3n − 6) + (n + b) of them, so the m·n readings must satisfy
 //
@@ -93,7 +93,7 @@ struct RigidTransform {
   Eigen::Vector3d Apply(const Eigen::Vector3d& x) const { return rotation * x + translation_mm; }
 };
 
-// The gauge frame of contract §3 built from tracker positions 1, 2, 3, 4 (machine → gauge).
+// The gauge frame of docs/formats.md §3 built from tracker positions 1, 2, 3, 4 (machine → gauge).
 // Throws NotObservable when trackers 1–3 are (nearly) collinear or 4 lies in their plane.
 RigidTransform GaugeTransform(const std::vector<Eigen::Vector3d>& trackers_mm);
 

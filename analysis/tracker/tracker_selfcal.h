@@ -6,7 +6,7 @@
 //
 //   r_ij = |u_i − U_j| − L_s(i,j) − d_ij        ([Tracker paper] eqs. 1–4; see selfcal_problem.h)
 //
-// in the gauge of contract §3 (U_1 = 0, U_2 on +x, U_3 in the xy-plane with y > 0, z of
+// in the gauge of docs/formats.md §3 (U_1 = 0, U_2 on +x, U_3 in the xy-plane with y > 0, z of
 // U_4 > 0). `simultaneous` (n trackers at once) and `sequential` (one tracker at n stations,
 // the same points repeated per station) have the same unknowns; each station has its own dead
 // path. The solve: per-tracker initialisation (selfcal_problem.h), a least-squares pass, a

@@ -1,4 +1,4 @@
-// Records of a laser-tracker multilateration survey ([Tracker paper], contract §1.2).
+// Records of a laser-tracker multilateration survey ([Tracker paper], docs/formats.md §1.2).
 //
 // Tracker j (station j in sequential mode) sits at U_j; the target (a corner cube on the
 // spindle) is commanded to c_i and really stands at u_i. Each tracker's interferometer reads

@@ -8,8 +8,8 @@
 //
 // τ (3): translation; A (3×3) the linear part, split into scales A_aa (positioning error slope
 // of axis a, ppm), squareness S_ab = −(A_ab + A_ba) (angle between +a and +b minus 90°,
-// positive when larger; contract §4, µm/m) and the rotation ω (antisymmetric part); c_{a,k} (3
-// each): positioning (component a) and straightness (the two other components) of axis a, as
+// positive when larger; docs/formats.md §4, µm/m) and the rotation ω (antisymmetric part); c_{a,k}
+// (3 each): positioning (component a) and straightness (the two other components) of axis a, as
 // Legendre polynomials P_k of order 2..K (µm at t_a = 1). Legendre rather than monomials so
 // that the slopes (scale, squareness) are those of the best-fit line over the travel, nearly
 // uncorrelated with the higher orders.

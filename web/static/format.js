@@ -1,5 +1,5 @@
 // Number and label formatting for the dashboard. Units follow the key suffix convention of
-// the project (contract §3): _um → µm (3 decimals), _mm → mm, _deg → °, _pct → %.
+// the project (docs/formats.md §3): _um → µm (3 decimals), _mm → mm, _deg → °, _pct → %.
 
 const UNITS = [
   ['_um_per_m', 'µm/m', 3],
@@ -82,7 +82,7 @@ export function fullLabelOf(key) {
   return FULL_LABELS[key] || null;
 }
 
-// Effect names of contract §4 in words (the axis letter, if any, is appended).
+// Effect names of docs/formats.md §4 in words (the axis letter, if any, is appended).
 const EFFECT_WORDS = {
   centre_offset: 'Centre offset (set-up)',
   radius_error: 'Radius error',

@@ -135,7 +135,7 @@ TEST(EffectRegistry, ServoMismatchMatchesExactAxisDelays) {
   // Independent forward model: each axis reproduces its command τ_a later, u(t) = u_cmd(t − τ_u),
   // v(t) = v_cmd(t − τ_v), on a circle run at ω = V / R in direction s. The radial error of the
   // exact delayed point, minus the second-order radius loss, must equal the registry signature
-  // for Δτ = τ_u − τ_v (first axis minus second, contract §4) to first order in ωτ.
+  // for Δτ = τ_u − τ_v (first axis minus second, docs/formats.md §4) to first order in ωτ.
   EffectContext ctx;
   ctx.radius_mm = 100.0;
   ctx.feed_mm_min = 6000.0;               // V = 100 mm/s, ω = 1 rad/s

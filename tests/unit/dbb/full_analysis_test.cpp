@@ -1,5 +1,5 @@
-// Full DBB analysis of a set: JSON keys of contract §3, pairing, minimum zone ≤ least squares,
-// servo_lag separated from radius_error by two feeds, absolute mode, plot of a pair.
+// Full DBB analysis of a set: JSON keys of docs/formats.md §3, pairing, minimum zone ≤ least
+// squares, servo_lag separated from radius_error by two feeds, absolute mode, plot of a pair.
 #include "analysis/dbb/full_analysis.h"
 
 #include <cmath>

@@ -1,7 +1,7 @@
 // `kinemetric discover` run through the command registry (cli/cmd_discover.cpp and
 // cmd_simulate.cpp are compiled into this test) on DBB files written with the product's writer:
-// contract §3 keys, the hidden effects found, a hexapod set written by `simulate dbb` run through
-// the hexapod family, bad files rejected (exit 2).
+// docs/formats.md §3 keys, the hidden effects found, a hexapod set written by `simulate dbb` run
+// through the hexapod family, bad files rejected (exit 2).
 #include <gtest/gtest.h>
 
 #include <filesystem>

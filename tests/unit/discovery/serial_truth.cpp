@@ -20,7 +20,7 @@ double Sign(double x) {
   return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0);
 }
 
-// Unit vectors of the plane axes (first, second) and the normal, per contract §1.1.
+// Unit vectors of the plane axes (first, second) and the normal, per docs/formats.md §1.1.
 std::array<std::array<double, 3>, 3> Axes(const std::string& plane) {
   if (plane == "YZ") return {{{0, 1, 0}, {0, 0, 1}, {1, 0, 0}}};
   if (plane == "ZX") return {{{0, 0, 1}, {1, 0, 0}, {0, 1, 0}}};

@@ -2,7 +2,7 @@
 // product's models: it includes nothing of analysis/ (no effect registry, no signatures, no DBB
 // code) and writes contract files (kinemetric-dbb/1, ingest/dbb_parser.cpp) for the product to
 // read. Each effect is written again from its physical definition (the comments of the model
-// headers, contract §4 names, units and signs):
+// headers, docs/formats.md §4 names, units and signs):
 //
 //   commanded ball P(θ) = C + R (cos θ, sin θ) in the plane axes (u, v), direction s = +1 ccw,
 //   −1 cw; velocity v = s V (−sin θ, cos θ), V = feed/60 mm/s; an axis reverses where its
@@ -76,7 +76,7 @@ struct Machine {
 
 // Contract name of an effect in the machine's plane, e.g. "backlash_y" ("" for kSoftBacklash).
 std::string Name(const Effect& e, const std::string& plane);
-// Value the product reports for the effect (contract §4: the amplitude √(c² + d²) for the
+// Value the product reports for the effect (docs/formats.md §4: the amplitude √(c² + d²) for the
 // cyclic error, else the first parameter).
 double Value(const Effect& e);
 // Machine position error (µm, plane axes) of one effect at commanded angle θ (rad).

@@ -1,5 +1,5 @@
-// Machine-definition JSON (contract §2) and DBB writer (contract §1.1) round trips: a simulated
-// test written with WriteDbb and read back with the product's parser is the same test, to
+// Machine-definition JSON (docs/formats.md §2) and DBB writer (docs/formats.md §1.1) round trips: a
+// simulated test written with WriteDbb and read back with the product's parser is the same test, to
 // 1e-6 µm; a machine written back keeps its geometry and every other key; errors name the field.
 #include <cmath>
 #include <string>

@@ -1,4 +1,4 @@
-// The reference hexapod of /work/shared/data/machines/pm600-like.json, embedded so the tests do
+// The reference hexapod of data/machines/pm600-like.json, embedded so the tests do
 // not depend on files outside the repository (io_test checks the JSON round trip separately).
 #pragma once
 

@@ -2,9 +2,9 @@
 """Fails when a tracked file depends on something a fresh clone does not have.
 
 Every file `git ls-files` lists (text files; binary files are skipped) is searched for
-  * paths outside the repository: a sibling folder (`../shared`, `shared/docs/`, ...), the
-    absolute working paths of a developer's machine (`/work/`, `/home/NAME`, `/root/`,
-    `/Users/NAME`);
+  * paths outside the repository: the sibling folder of source material that a clone does not
+    have (its name is in OUTSIDE below), and absolute working paths of a developer's machine
+    (the work tree, home directories);
   * citations of documents that are not in the repository: numbered source files
     ("seed" followed by a number) and sections of the old interchange contract ("contract"
     followed by a section sign). Sources are cited by their keys in docs/references.md

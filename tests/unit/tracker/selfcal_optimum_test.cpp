@@ -400,9 +400,9 @@ TEST(TrackerSelfCalOptimum, WavyMachinesNothingRejectedLeastSquaresOptimum) {
 
 TEST(TrackerSelfCalOptimum, FarTrackersReachTheOptimum) {
   // A 100 mm cube seen from 2.5–6 m: condition numbers of 1e5–6e6. Solved in the gauge of
-  // contract §3 the solve crept along a curved valley (rotations about tracker 1) and stopped at
-  // its iteration limit up to 1.6 µm short of the optimum; half the readings of every point had
-  // no redundancy and shrank the robust σ until clean readings were rejected.
+  // docs/formats.md §3 the solve crept along a curved valley (rotations about tracker 1) and
+  // stopped at its iteration limit up to 1.6 µm short of the optimum; half the readings of every
+  // point had no redundancy and shrank the robust σ until clean readings were rejected.
   for (unsigned seed : {201u, 202u, 203u, 206u, 207u, 210u, 212u}) {
     Survey s{"",
              {100, 100, 100},

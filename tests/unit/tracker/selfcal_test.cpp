@@ -50,7 +50,7 @@ TEST(TrackerSelfCal, Cube100mmSimultaneous) {
                 0.2 * std::sqrt(1.0 * (r.readings_used - r.unknowns) / r.readings_used), 0.03);
     EXPECT_TRUE(r.rejected.empty());
     EXPECT_TRUE(r.warnings.empty());
-    // Gauge of contract §3.
+    // Gauge of docs/formats.md §3.
     EXPECT_EQ(r.trackers_mm[0].norm(), 0.0);
     EXPECT_EQ(r.trackers_mm[1].y(), 0.0);
     EXPECT_EQ(r.trackers_mm[1].z(), 0.0);
