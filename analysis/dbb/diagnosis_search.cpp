@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iterator>
 #include <numbers>
+#include <utility>
 
 #include <opencv2/core.hpp>
 
@@ -183,23 +184,20 @@ double StickPeriodPeak(const StickZones& z, const VectorXd& r, double pmin, doub
   const double delta = pmin / 4.0;
   const int nb = static_cast<int>(std::ceil(180.0 / delta)) + 1;
   const int len = cv::getOptimalDFTSize(4 * nb);
-  cv::Mat buf = cv::Mat::zeros(1, len, CV_64F);
-  auto* b = buf.ptr<double>();
+  std::vector<double> b(static_cast<std::size_t>(len), 0.0);
   double ww = 0.0;
   for (std::size_t k = 0; k < z.idx.size(); ++k) {
     const int bin = std::clamp(static_cast<int>(std::lround(z.phi_deg[k] / delta)), 0, nb - 1);
-    b[bin] += z.weight[k] * r[z.idx[k]];
+    b[static_cast<std::size_t>(bin)] += z.weight[k] * r[z.idx[k]];
     ww += z.weight[k] * z.weight[k];
   }
   *chi2 = 0.0;
-  cv::Mat spec;
-  cv::dft(buf, spec, cv::DFT_COMPLEX_OUTPUT);
-  const auto* c = spec.ptr<cv::Vec2d>();
   const double df = 1.0 / (len * delta);  // cycles per degree per bin
   const int kmin = std::max(1, static_cast<int>(std::ceil(1.0 / pmax / df)));
   const int kmax = std::min(len / 2 - 2, static_cast<int>(std::floor(1.0 / pmin / df)));
   if (kmin + 1 >= kmax || !(ww > 0.0) || !(s2 > 0.0)) return 0.0;
-  auto power = [&](int k) { return c[k][0] * c[k][0] + c[k][1] * c[k][1]; };
+  const std::vector<double> pw = RealPowerSpectrum(std::move(b));
+  auto power = [&](int k) { return pw[static_cast<std::size_t>(k)]; };
   int best = kmin;
   for (int k = kmin; k <= kmax; ++k)
     if (power(k) > power(best)) best = k;

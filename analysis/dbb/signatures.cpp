@@ -35,6 +35,9 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
   StackedTraces p;
   p.traces = static_cast<int>(traces.size());
   p.begin.push_back(0);
+  std::size_t total = 0;
+  for (const auto& tr : traces) total += tr.angle_rad.size();
+  p.samples.reserve(total);
   for (const auto& tr : traces) {
     if (tr.angle_rad.size() != tr.dev_um.size() || tr.angle_rad.size() < 16) {
       throw InvalidInput("", 0, "dr_um", "diagnosis needs at least 16 samples per trace");
@@ -82,7 +85,9 @@ EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
   }
   c.shape = shape;
   const int nl = info.num_linear;
-  std::vector<VectorXd> cols(static_cast<std::size_t>(nl), VectorXd(p.n));
+  std::vector<VectorXd> cols;
+  cols.reserve(static_cast<std::size_t>(nl));
+  for (int j = 0; j < nl; ++j) cols.emplace_back(p.n);
   if (nl == 1) {
     // One linear parameter: the signature at p_0 = 1 is the column (plain doubles).
     std::vector<double> params(static_cast<std::size_t>(info.num_params), 1.0);
@@ -110,6 +115,19 @@ EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
   return c;
 }
 
+std::vector<double> RealPowerSpectrum(std::vector<double> x) {
+  const int len = static_cast<int>(x.size());
+  std::vector<double> out(x.size());
+  const cv::Mat in(1, len, CV_64F, x.data());
+  cv::Mat packed(1, len, CV_64F, out.data());
+  cv::dft(in, packed);  // CCS: Re0, Re1, Im1, Re2, Im2, …
+  std::vector<double> pw(static_cast<std::size_t>((len - 1) / 2 + 1));
+  pw[0] = out[0] * out[0];
+  for (std::size_t k = 1; k < pw.size(); ++k)
+    pw[k] = out[2 * k - 1] * out[2 * k - 1] + out[2 * k] * out[2 * k];
+  return pw;
+}
+
 double DiffNoiseUm(const StackedTraces& p, const VectorXd& r) {
   double ss = 0.0;
   int cnt = 0;
@@ -133,8 +151,7 @@ double CyclicPeriodPeak(const StackedTraces& p, const VectorXd& r, int axis, dou
   const int m = kCyclicBins;
   const int l = kCyclicFft;
   const double dx = 2.0 * rmax / m;
-  cv::Mat buf = cv::Mat::zeros(1, l, CV_64F);
-  auto* b = buf.ptr<double>();
+  std::vector<double> b(static_cast<std::size_t>(l), 0.0);
   for (int i = 0; i < p.n; ++i) {
     const auto& s = p.samples[static_cast<std::size_t>(i)];
     const double rad = p.ctx[static_cast<std::size_t>(s.trace)].radius_mm;
@@ -142,16 +159,14 @@ double CyclicPeriodPeak(const StackedTraces& p, const VectorXd& r, int axis, dou
     const double w = axis == 0 ? s.a.c : s.a.s;
     int bin = static_cast<int>(std::floor((pos + rmax) / dx));
     bin = std::clamp(bin, 0, m - 1);
-    b[bin] += r[i] * w;
+    b[static_cast<std::size_t>(bin)] += r[i] * w;
   }
-  cv::Mat spec;
-  cv::dft(buf, spec, cv::DFT_COMPLEX_OUTPUT);
-  const auto* z = spec.ptr<cv::Vec2d>();
+  const std::vector<double> pw = RealPowerSpectrum(std::move(b));
   const double df = 1.0 / (l * dx);
   const int kmin = std::max(1, static_cast<int>(std::ceil(1.0 / pmax / df)));
   const int kmax = std::min(l / 2 - 2, static_cast<int>(std::floor(1.0 / pmin / df)));
   if (kmin + 1 >= kmax) return 0.0;
-  auto power = [&](int k) { return z[k][0] * z[k][0] + z[k][1] * z[k][1]; };
+  auto power = [&](int k) { return pw[static_cast<std::size_t>(k)]; };
   int best = -1;
   double bp = 0.0;
   for (int k = kmin; k <= kmax; ++k) {

@@ -77,6 +77,10 @@ double DiffNoiseUm(const StackedTraces& p, const Eigen::VectorXd& r);
 // in [pmin, pmax] mm (0 if none).
 double CyclicPeriodPeak(const StackedTraces& p, const Eigen::VectorXd& r, int axis, double pmin,
                         double pmax);
+// Power spectrum |X_k|², k = 0 … (len − 1)/2, of the real sequence x (len = x.size()), from
+// OpenCV's packed real transform (no complex output buffer is built).
+std::vector<double> RealPowerSpectrum(std::vector<double> x);
+
 // Energy of the residual's projection on a cyclic error of period `period` (axis `axis`),
 // using every `stride`-th sample.
 double CyclicEnergy(const StackedTraces& p, const Eigen::VectorXd& r, int axis, double period,
