@@ -20,7 +20,6 @@ namespace {
 
 using namespace diag;  // NOLINT(google-build-using-namespace): the diagnosis' own internals
 using effects::EffectId;
-using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
@@ -50,12 +49,13 @@ DiagnosisEntry MakeEntry(const Problem& p, const Candidate& c, const FitResult& 
   en.unit = info.unit;
   const int nl = info.num_linear;
   const int off = f.first_col[j];
-  en.params.assign(static_cast<std::size_t>(info.num_params), 0.0);
-  for (int m = 0; m < nl; ++m) en.params[static_cast<std::size_t>(m)] = f.x[off + m];
-  for (std::size_t k = 0; k < c.shape.size(); ++k) {
-    en.params[static_cast<std::size_t>(nl) + k] = c.shape[k];
+  EffectEstimate est = EstimateEffect(p, c.id, c.shape, f.x, f.cov, off);
+  en.params = std::move(est.params);
+  en.value = std::move(est.value);
+  en.uncertainty = std::move(est.sigma);
+  en.significance = est.z;
+  for (std::size_t k = 0; k < c.shape.size(); ++k)
     en.shape[info.param_names[static_cast<std::size_t>(nl) + k]] = c.shape[k];
-  }
   if (IsSpike(c.id)) {
     en.shape_kind = c.shape.size() > 1 && c.shape[1] == 2.0 ? "gaussian" : "exponential";
   }
@@ -63,22 +63,6 @@ DiagnosisEntry MakeEntry(const Problem& p, const Candidate& c, const FitResult& 
   if (sh != f.shape_sigma.end()) {
     en.shape_uncertainty[info.param_names[static_cast<std::size_t>(nl)]] = sh->second;
   }
-  const auto& ctx = p.ctx[0];
-  en.value = effects::Value(c.id, ctx, en.params.data());
-  const MatrixXd jac = effects::ValueJacobian(c.id, ctx, en.params.data()).leftCols(nl);
-  const MatrixXd cv = jac * f.cov.block(off, off, nl, nl) * jac.transpose();
-  double vnorm = 0.0, snorm = 0.0;
-  for (std::size_t m = 0; m < en.value.size(); ++m) {
-    const double s =
-        std::sqrt(std::max(0.0, cv(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(m))));
-    en.uncertainty.push_back(s);
-    vnorm += en.value[m] * en.value[m];
-    snorm += s * s;
-  }
-  // Noise-free data (σ = 0): any non-zero value is significant; keep the figure finite (JSON).
-  en.significance = snorm > 0.0 ? std::sqrt(vnorm / (snorm / static_cast<double>(en.value.size())))
-                                : (vnorm > 0.0 ? 1e9 : 0.0);
-  en.significance = std::min(en.significance, 1e9);
   const VectorXd sig = f.Combine(off, nl, p.n);
   for (int t = 0; t < p.traces; ++t)
     en.peak_to_valley_um.push_back(Range(sig, p.begin[t], p.begin[t + 1]));
@@ -406,11 +390,8 @@ VectorXd DiagnosisRun::NameEffects(const std::vector<Candidate>& chosen, const F
     const int nl = static_cast<int>(c.cols.size());
     model += f4.Combine(f4.first_col[j], nl, p_.n);
     // The set-up fit absorbed this effect's own mean and first harmonic: give them back.
-    for (int m = 0; m < nl; ++m) {
-      for (std::size_t t = 0; t < setup_.size(); ++t) {
-        setup_[t] -= f4.x[f4.first_col[j] + m] * c.setup_part[static_cast<std::size_t>(m)][t];
-      }
-    }
+    for (int m = 0; m < nl; ++m)
+      NetSetup(setup_, f4.x[f4.first_col[j] + m], c.setup_part[static_cast<std::size_t>(m)]);
     en.named = true;
     res.named.push_back(std::move(en));
   }
@@ -441,15 +422,9 @@ DiagnosisEntry DiagnosisRun::SetupEntry(EffectId id, std::vector<double> value,
 
 // Set-up terms: centre offset and radius change (mean over the traces).
 void DiagnosisRun::AddSetupEntries(const FitResult& f4, DiagnosisResult& res) const {
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  Eigen::Vector3d var = Eigen::Vector3d::Zero();
-  for (int t = 0; t < p_.traces; ++t) {
-    mean += setup_[static_cast<std::size_t>(t)];
-    var += f4.sigma2 * p_.setup_inv[static_cast<std::size_t>(t)].diagonal();
-  }
-  const double tt = p_.traces;
-  mean /= tt;
-  var /= tt * tt;
+  const SetupMean sm = MeanSetup(p_, setup_, f4.sigma2);
+  const Eigen::Vector3d& mean = sm.mean;
+  const Eigen::Vector3d& var = sm.var;
   DiagnosisEntry c = SetupEntry(EffectId::kCentreOffset, {mean[0], mean[1]},
                                 {std::sqrt(var[0]), std::sqrt(var[1])});
   c.significance = ZScore(std::hypot(mean[0], mean[1]), std::sqrt(0.5 * (var[0] + var[1])));

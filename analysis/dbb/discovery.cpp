@@ -151,39 +151,14 @@ Refit JointRefit(const StackedTraces& p, const std::vector<const EffectColumns*>
 }
 
 // Value, σ and z-score of the effect whose linear parameters start at column `off`.
-struct EffectValue {
-  std::vector<double> params;
-  std::vector<double> value;
-  std::vector<double> sigma;
-  double z = 0.0;
+struct EffectValue : EffectEstimate {
   bool two_value = false;
 };
 
 EffectValue ValueOf(const StackedTraces& p, const EffectColumns& e, const Refit& r, int off) {
-  const auto& info = effects::Info(e.id);
-  const int nl = info.num_linear;
   EffectValue v;
-  v.params.assign(static_cast<std::size_t>(info.num_params), 0.0);
-  for (int m = 0; m < nl; ++m) v.params[static_cast<std::size_t>(m)] = r.x[off + m];
-  for (std::size_t k = 0; k < e.shape.size(); ++k)
-    v.params[static_cast<std::size_t>(nl) + k] = e.shape[k];
-  const auto& ctx = p.ctx[0];
-  v.value = effects::Value(e.id, ctx, v.params.data());
-  const MatrixXd jac = effects::ValueJacobian(e.id, ctx, v.params.data()).leftCols(nl);
-  const MatrixXd cv = jac * r.cov.block(off, off, nl, nl) * jac.transpose();
-  double vnorm = 0.0, snorm = 0.0;
-  for (std::size_t m = 0; m < v.value.size(); ++m) {
-    const auto mi = static_cast<Eigen::Index>(m);
-    const double s = std::sqrt(std::max(0.0, cv(mi, mi)));
-    v.sigma.push_back(s);
-    vnorm += v.value[m] * v.value[m];
-    snorm += s * s;
-  }
-  // Same z as the diagnosis: norm of the values over the RMS of their σ; finite when σ = 0.
-  v.z = snorm > 0.0 ? std::sqrt(vnorm / (snorm / static_cast<double>(v.value.size())))
-                    : (vnorm > 0.0 ? 1e9 : 0.0);
-  v.z = std::min(v.z, 1e9);
-  v.two_value = v.value.size() > 1 || nl > 1;
+  static_cast<EffectEstimate&>(v) = EstimateEffect(p, e.id, e.shape, r.x, r.cov, off);
+  v.two_value = v.value.size() > 1 || effects::Info(e.id).num_linear > 1;
   return v;
 }
 
@@ -265,289 +240,347 @@ double RobustDiffNoiseUm(const std::vector<std::vector<double>>& residual_per_tr
   return MadSigma(std::move(d));
 }
 
+namespace {
+
+// The effect chosen at a step among those the data cannot tell apart, with its evidence.
+struct Choice {
+  const Trial* chosen = nullptr;
+  const Trial* runner = nullptr;  // best other effect (any shape) at this step
+  std::vector<std::string> indistinguishable;
+};
+
+// Each projected signature (orthonormal q) lies within the other's span up to the ratio.
+bool Within(const std::vector<VectorXd>& a, const std::vector<VectorXd>& b, double ratio) {
+  for (const auto& q : a) {
+    VectorXd v = q;
+    Reduce(b, v);
+    if (v.squaredNorm() >= ratio * ratio) return false;
+  }
+  return true;
+}
+
+// One discovery: model 0 (the set-up terms), then steps that each add the effect that most
+// reduces the gap, while it passes the F-test and its value is significant.
+class DiscoveryRun {
+ public:
+  DiscoveryRun(const std::vector<DiagnosisTrace>& traces, Plane plane, const DiscoveryOptions& opt);
+  DiscoveryRun(const DiscoveryRun&) = delete;
+  DiscoveryRun& operator=(const DiscoveryRun&) = delete;
+  DiscoveryResult Run();
+
+ private:
+  std::string Name(EffectId id) const { return effects::EffectName(id, first_, second_); }
+  bool InModel(EffectId id) const {
+    return std::any_of(model_.begin(), model_.end(), [&](const auto& m) { return m.id == id; });
+  }
+  void BuildFixedVariants();
+  std::vector<Variant> CyclicVariants() const;
+  Trial TryVariant(const Variant& v, std::size_t k) const;
+  Choice Choose(const std::vector<const Variant*>& variants, const std::vector<Trial>& trials,
+                const Trial& best) const;
+  bool Step(DiscoveryResult& res);
+  void FinalModel(DiscoveryResult& res);
+
+  const DiscoveryOptions& opt_;
+  char first_ = 'x';
+  char second_ = 'y';
+  StackedTraces p_;
+  VectorXd e0_;                         // the gap about the set-up terms (model 0)
+  std::vector<Eigen::Vector3d> setup_;  // set-up terms per trace
+  std::vector<Variant> fixed_;          // fixed-shape candidates, built once
+  std::vector<EffectId> cyclic_ids_;    // candidates whose period is searched at each step
+  double rmin_ = std::numeric_limits<double>::infinity();
+  double max_step_ = 0.0;
+  double pmin_ = 0.0;
+  double pmax_ = 0.0;
+  double linearisation_um_ = 0.0;
+  std::vector<EffectColumns> model_;  // accepted effects, in step order
+  std::vector<VectorXd> basis_;       // orthonormal basis of their columns
+  VectorXd gap_;
+  Refit current_;
+};
+
+DiscoveryRun::DiscoveryRun(const std::vector<DiagnosisTrace>& traces, Plane plane,
+                           const DiscoveryOptions& opt)
+    : opt_(opt) {
+  const auto axes = AxisLetters(plane);
+  first_ = axes.first;
+  second_ = axes.second;
+  p_ = StackTraces(traces);
+  e0_ = p_.y;
+  p_.RemoveSetup(e0_, &setup_);
+  BuildFixedVariants();
+  for (const auto& tr : traces) {
+    rmin_ = std::min(rmin_, tr.radius_mm);
+    for (std::size_t i = 1; i < tr.angle_rad.size(); ++i)
+      max_step_ = std::max(max_step_, std::abs(tr.angle_rad[i] - tr.angle_rad[i - 1]));
+  }
+  pmin_ = std::max(opt.cyclic_min_period_mm, 4.0 * rmin_ * max_step_);
+  pmax_ = opt.cyclic_max_period_fraction * rmin_;
+  // The signatures are first order in e/R: the bar length |P + e − F| − |P − F| = e·n +
+  // |e_t|²/(2R) + …; below that second-order term a "gap" is geometry, not an effect.
+  const double emax = e0_.cwiseAbs().maxCoeff();
+  linearisation_um_ = emax * emax / (2.0 * rmin_ * 1000.0);
+  gap_ = e0_;
+  current_ = JointRefit(p_, {}, e0_);
+}
+
+// Candidates: the registry's linear form effects (list order = priority), fixed shapes built
+// once; spikes in every width of the set; cyclic errors per step from the current gap.
+void DiscoveryRun::BuildFixedVariants() {
+  int order = 0;
+  for (const auto& info : effects::AllEffects()) {
+    ++order;
+    if (!info.in_form || !info.linear_fit) continue;
+    if (IsCyclic(info.id)) {
+      if (opt_.search_cyclic) cyclic_ids_.push_back(info.id);
+      continue;
+    }
+    if (IsSpike(info.id)) {
+      for (double w : opt_.spike_widths_deg)
+        fixed_.push_back(Variant{SetupFreeSignature(p_, info.id, {w}), order});
+    } else {
+      fixed_.push_back(Variant{SetupFreeSignature(p_, info.id, {}), order});
+    }
+  }
+}
+
+// Cyclic errors at the period of the strongest peak of the current gap (refined by golden
+// section).
+std::vector<Variant> DiscoveryRun::CyclicVariants() const {
+  std::vector<Variant> cyclic;
+  if (!(pmax_ > pmin_)) return cyclic;
+  for (EffectId id : cyclic_ids_) {
+    if (InModel(id)) continue;
+    const int axis = id == EffectId::kCyclicErrorU ? 0 : 1;
+    double period = CyclicPeriodPeak(p_, gap_, axis, pmin_, pmax_);
+    if (!(period > 0.0)) continue;
+    const double bin_rel = 2.0 * period * kCyclicBins / (2.0 * kCyclicFft * rmin_);
+    period = RefinePeriod(p_, gap_, axis, period, std::min(0.2, bin_rel), rmin_ * max_step_);
+    const int order = static_cast<int>(id) + 1;
+    cyclic.push_back(Variant{SetupFreeSignature(p_, id, {period}), order});
+  }
+  return cyclic;
+}
+
+// Identifiability of one variant against the model, and its RSS drop.
+Trial DiscoveryRun::TryVariant(const Variant& var, std::size_t k) const {
+  const EffectColumns& sig = var.sig;
+  Trial t;
+  t.variant = k;
+  for (const auto& col : sig.cols) {
+    VectorXd v = col;
+    Reduce(basis_, v);
+    Reduce(t.q, v);
+    const double left = v.squaredNorm(), full = col.squaredNorm();
+    if (!(full > 0.0) || left < opt_.confound_ratio * opt_.confound_ratio * full) {
+      t.identifiable = false;
+      // The model effect most correlated with this signature.
+      double best = -1.0;
+      for (const auto& m : model_) {
+        for (const auto& mc : m.cols) {
+          const double corr = std::abs(mc.dot(col)) / std::sqrt(mc.squaredNorm() * full + 1e-300);
+          if (corr > best) {
+            best = corr;
+            t.confounded_with = Name(m.id);
+          }
+        }
+      }
+      return t;
+    }
+    t.q.push_back(v / std::sqrt(left));
+  }
+  for (const auto& q : t.q) t.drop += std::pow(q.dot(gap_), 2);
+  return t;
+}
+
+// Candidates the data cannot tell from the best one given the model (their projected signature
+// lies within the confound ratio of the best one's): the earliest in the registry list is taken
+// (the diagnosis priority rule), the others are named in the evidence.
+Choice DiscoveryRun::Choose(const std::vector<const Variant*>& variants,
+                            const std::vector<Trial>& trials, const Trial& best) const {
+  std::vector<const Trial*> confused;
+  const EffectId best_id = variants[best.variant]->sig.id;
+  for (const auto& t : trials) {
+    if (!t.identifiable || &t == &best || variants[t.variant]->sig.id == best_id) continue;
+    if (Within(t.q, best.q, opt_.confound_ratio) && Within(best.q, t.q, opt_.confound_ratio)) {
+      confused.push_back(&t);
+    }
+  }
+  Choice c;
+  c.chosen = &best;
+  for (const Trial* t : confused)
+    if (variants[t->variant]->order < variants[c.chosen->variant]->order) c.chosen = t;
+  for (const Trial* t : confused)
+    if (t != c.chosen) c.indistinguishable.push_back(Name(variants[t->variant]->sig.id));
+  if (c.chosen != &best) c.indistinguishable.push_back(Name(best_id));
+  std::sort(c.indistinguishable.begin(), c.indistinguishable.end());
+  c.indistinguishable.erase(std::unique(c.indistinguishable.begin(), c.indistinguishable.end()),
+                            c.indistinguishable.end());
+  const EffectId chosen_id = variants[c.chosen->variant]->sig.id;
+  for (const auto& t : trials) {
+    if (!t.identifiable || variants[t.variant]->sig.id == chosen_id) continue;
+    if (!c.runner || t.drop > c.runner->drop) c.runner = &t;
+  }
+  return c;
+}
+
+// F-test evidence of adding q columns: RSS before/after, F, p.
+void FillFTest(const Refit& before, const Refit& after, int q, DiscoveryEvidence& ev,
+               double* log_p) {
+  ev.rss_before_um2 = before.rss;
+  ev.rss_after_um2 = after.rss;
+  ev.df_numerator = q;
+  ev.df_denominator = after.dof;
+  const double drop = std::max(0.0, before.rss - after.rss);
+  ev.f_statistic = after.rss > 0.0 ? (drop / q) / (after.rss / after.dof)
+                                   : (drop > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
+  *log_p = LogFUpperTail(ev.f_statistic, q, after.dof);
+  ev.p_value = std::exp(*log_p);
+  ev.log10_p_value = std::isinf(*log_p) ? -1e9 : *log_p / std::log(10.0);
+  ev.f_statistic = std::min(ev.f_statistic, 1e300);
+}
+
+// One step of the ladder; false when the discovery stops (res.stop_reason says why).
+bool DiscoveryRun::Step(DiscoveryResult& res) {
+  const std::vector<Variant> cyclic = CyclicVariants();
+  std::vector<const Variant*> variants;
+  for (const auto& v : fixed_)
+    if (!InModel(v.sig.id)) variants.push_back(&v);
+  for (const auto& v : cyclic) variants.push_back(&v);
+  std::vector<Trial> trials;
+  res.not_identifiable.clear();
+  for (std::size_t k = 0; k < variants.size(); ++k) {
+    trials.push_back(TryVariant(*variants[k], k));
+    const Trial& t = trials.back();
+    if (t.identifiable) continue;
+    const std::string s =
+        Name(variants[k]->sig.id) + (t.confounded_with.empty()
+                                         ? std::string()
+                                         : " (confounded with " + t.confounded_with + ")");
+    if (std::find(res.not_identifiable.begin(), res.not_identifiable.end(), s) ==
+        res.not_identifiable.end())
+      res.not_identifiable.push_back(s);
+  }
+  const double gap_rms = Rms(gap_);
+  const double floor = std::max({NoiseFloor(p_, gap_), opt_.resolution_um, linearisation_um_});
+  if (gap_rms <= (1.0 + opt_.noise_stop_fraction) * floor) {
+    res.stop_reason = "the gap is at the noise floor";
+    return false;
+  }
+  if (static_cast<int>(res.steps.size()) >= opt_.max_steps) {
+    res.stop_reason = "maximum number of steps";
+    return false;
+  }
+  const Trial* best = nullptr;
+  for (const auto& t : trials)
+    if (t.identifiable && (!best || t.drop > best->drop)) best = &t;
+  if (!best) {
+    res.stop_reason = "no identifiable candidate left";
+    return false;
+  }
+  const Choice choice = Choose(variants, trials, *best);
+  const EffectColumns& csig = variants[choice.chosen->variant]->sig;
+
+  // Joint refit with the candidate, F-test and value.
+  std::vector<const EffectColumns*> cols;
+  for (const auto& m : model_) cols.push_back(&m);
+  cols.push_back(&csig);
+  const Refit after = JointRefit(p_, cols, e0_);
+  const int q = static_cast<int>(csig.cols.size());
+  DiscoveryStep step;
+  step.id = csig.id;
+  step.added_effect = Name(csig.id);
+  auto& ev = step.evidence;
+  double log_p = 0.0;
+  FillFTest(current_, after, q, ev, &log_p);
+  const EffectValue val = ValueOf(p_, csig, after, static_cast<int>(after.x.size()) - q);
+  ev.value = val.value;
+  ev.sigma = val.sigma;
+  ev.unit = effects::Info(csig.id).unit;
+  ev.z_score = val.z;
+  ev.parameters = ParameterMap(csig, val);
+  if (choice.runner) {
+    ev.runner_up = Name(variants[choice.runner->variant]->sig.id);
+    ev.runner_up_rss_drop_um2 = choice.runner->drop;
+  }
+  ev.indistinguishable_from = choice.indistinguishable;
+  step.gap_rms_before_um = gap_rms;
+  step.gap_rms_after_um = Rms(after.residual);
+
+  const double z_needed = val.two_value ? opt_.significance + 1.0 : opt_.significance;
+  const bool significant_f = log_p < std::log(opt_.max_p_value);
+  const bool significant_z = val.z > z_needed;
+  if (!significant_f || !significant_z) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%s (p = %.3g, |value|/sigma = %.3g: %s)",
+                  step.added_effect.c_str(), ev.p_value, val.z,
+                  !significant_f ? "F-test not significant" : "value not significant");
+    res.rejected.push_back(buf);
+    res.stop_reason = "the best candidate is not significant";
+    return false;
+  }
+  // Accept: the candidate joins the model.
+  for (const auto& qv : choice.chosen->q) basis_.push_back(qv);
+  model_.push_back(csig);
+  current_ = after;
+  gap_ = after.residual;
+  res.steps.push_back(std::move(step));
+  return true;
+}
+
+// Final model: set-up terms net of the accepted effects' own set-up parts, then the effects.
+void DiscoveryRun::FinalModel(DiscoveryResult& res) {
+  std::vector<const EffectColumns*> cols;
+  for (const auto& m : model_) cols.push_back(&m);
+  const Refit fin = JointRefit(p_, cols, e0_);
+  int off = 0;
+  for (const auto& m : model_) {
+    for (std::size_t c = 0; c < m.cols.size(); ++c)
+      NetSetup(setup_, fin.x[off + static_cast<int>(c)], m.setup_part[c]);
+    off += static_cast<int>(m.cols.size());
+  }
+  const SetupMean sm = MeanSetup(p_, setup_, fin.sigma2);
+  auto entry = [&](EffectId id, std::vector<double> value, std::vector<double> sigma) {
+    DiscoveryModelEntry e;
+    e.id = id;
+    e.effect = Name(id);
+    e.unit = effects::Info(id).unit;
+    e.value = std::move(value);
+    e.sigma = std::move(sigma);
+    return e;
+  };
+  res.final_model.push_back(entry(EffectId::kCentreOffset, {sm.mean[0], sm.mean[1]},
+                                  {std::sqrt(sm.var[0]), std::sqrt(sm.var[1])}));
+  res.final_model.push_back(entry(EffectId::kRadiusError, {sm.mean[2]}, {std::sqrt(sm.var[2])}));
+  off = 0;
+  for (const auto& m : model_) {
+    const EffectValue v = ValueOf(p_, m, fin, off);
+    DiscoveryModelEntry e = entry(m.id, v.value, v.sigma);
+    e.shape = ShapeMap(m);
+    res.final_model.push_back(std::move(e));
+    off += static_cast<int>(m.cols.size());
+  }
+  res.unexplained_rms_um = Rms(fin.residual);
+  res.noise_floor_um = NoiseFloor(p_, fin.residual);
+}
+
+DiscoveryResult DiscoveryRun::Run() {
+  DiscoveryResult res;
+  while (Step(res)) {
+  }
+  FinalModel(res);
+  return res;
+}
+
+}  // namespace
+
 DiscoveryResult DiscoverSerialDbb(const std::vector<DiagnosisTrace>& traces, Plane plane,
                                   const DiscoveryOptions& opt) {
   opt.Check();
   if (traces.empty()) throw InvalidInput("", 0, "tests", "no trace to discover from");
-  const auto [first, second] = AxisLetters(plane);
-  const StackedTraces p = StackTraces(traces);
-  // The letters are copied into the lambda: capturing structured bindings needs clang 16.
-  auto name = [a = first, b = second](EffectId id) { return effects::EffectName(id, a, b); };
-
-  // Model 0: the set-up terms (least-squares circle of each trace); e0 = the gap about it.
-  VectorXd e0 = p.y;
-  std::vector<Eigen::Vector3d> setup;
-  p.RemoveSetup(e0, &setup);
-
-  // Candidates: the registry's linear form effects (list order = priority), fixed shapes built
-  // once; spikes in every width of the set; cyclic errors per step from the current gap.
-  std::vector<Variant> fixed;
-  std::vector<EffectId> cyclic_ids;
-  {
-    int order = 0;
-    for (const auto& info : effects::AllEffects()) {
-      ++order;
-      if (!info.in_form || !info.linear_fit) continue;
-      if (IsCyclic(info.id)) {
-        if (opt.search_cyclic) cyclic_ids.push_back(info.id);
-        continue;
-      }
-      if (IsSpike(info.id)) {
-        for (double w : opt.spike_widths_deg)
-          fixed.push_back(Variant{SetupFreeSignature(p, info.id, {w}), order});
-      } else {
-        fixed.push_back(Variant{SetupFreeSignature(p, info.id, {}), order});
-      }
-    }
-  }
-  double rmin = std::numeric_limits<double>::infinity(), max_step = 0.0;
-  for (const auto& tr : traces) {
-    rmin = std::min(rmin, tr.radius_mm);
-    for (std::size_t i = 1; i < tr.angle_rad.size(); ++i)
-      max_step = std::max(max_step, std::abs(tr.angle_rad[i] - tr.angle_rad[i - 1]));
-  }
-  const double pmin = std::max(opt.cyclic_min_period_mm, 4.0 * rmin * max_step);
-  const double pmax = opt.cyclic_max_period_fraction * rmin;
-
-  // The signatures are first order in e/R: the bar length |P + e − F| − |P − F| = e·n +
-  // |e_t|²/(2R) + …; below that second-order term a "gap" is geometry, not an effect.
-  const double linearisation_um =
-      e0.cwiseAbs().maxCoeff() * e0.cwiseAbs().maxCoeff() / (2.0 * rmin * 1000.0);
-  DiscoveryResult res;
-  std::vector<EffectColumns> model;  // accepted effects, in step order
-  std::vector<VectorXd> basis;       // orthonormal basis of their columns
-  VectorXd gap = e0;
-  Refit current = JointRefit(p, {}, e0);
-
-  while (true) {
-    auto in_model = [&](EffectId id) {
-      return std::any_of(model.begin(), model.end(), [&](const auto& m) { return m.id == id; });
-    };
-    // This step's variants: the fixed ones not in the model, plus cyclic errors at the period
-    // of the strongest peak of the current gap (refined by golden section).
-    std::vector<const Variant*> variants;
-    std::vector<Variant> cyclic;
-    cyclic.reserve(cyclic_ids.size());
-    for (const auto& v : fixed)
-      if (!in_model(v.sig.id)) variants.push_back(&v);
-    if (pmax > pmin) {
-      for (EffectId id : cyclic_ids) {
-        if (in_model(id)) continue;
-        const int axis = id == EffectId::kCyclicErrorU ? 0 : 1;
-        double period = CyclicPeriodPeak(p, gap, axis, pmin, pmax);
-        if (!(period > 0.0)) continue;
-        const double bin_rel = 2.0 * period * kCyclicBins / (2.0 * kCyclicFft * rmin);
-        period = RefinePeriod(p, gap, axis, period, std::min(0.2, bin_rel), rmin * max_step);
-        const int order = static_cast<int>(id) + 1;
-        cyclic.push_back(Variant{SetupFreeSignature(p, id, {period}), order});
-      }
-    }
-    for (const auto& v : cyclic) variants.push_back(&v);
-
-    // Try every variant: identifiability against the model, RSS drop.
-    std::vector<Trial> trials;
-    res.not_identifiable.clear();
-    for (std::size_t k = 0; k < variants.size(); ++k) {
-      const EffectColumns& sig = variants[k]->sig;
-      Trial t;
-      t.variant = k;
-      for (const auto& col : sig.cols) {
-        VectorXd v = col;
-        Reduce(basis, v);
-        Reduce(t.q, v);
-        const double left = v.squaredNorm(), full = col.squaredNorm();
-        if (!(full > 0.0) || left < opt.confound_ratio * opt.confound_ratio * full) {
-          t.identifiable = false;
-          // The model effect most correlated with this signature.
-          double best = -1.0;
-          for (const auto& m : model) {
-            for (const auto& mc : m.cols) {
-              const double corr =
-                  std::abs(mc.dot(col)) / std::sqrt(mc.squaredNorm() * full + 1e-300);
-              if (corr > best) {
-                best = corr;
-                t.confounded_with = name(m.id);
-              }
-            }
-          }
-          break;
-        }
-        t.q.push_back(v / std::sqrt(left));
-      }
-      if (t.identifiable) {
-        for (const auto& q : t.q) t.drop += std::pow(q.dot(gap), 2);
-      } else {
-        const std::string s = name(sig.id) + (t.confounded_with.empty()
-                                                  ? std::string()
-                                                  : " (confounded with " + t.confounded_with + ")");
-        if (std::find(res.not_identifiable.begin(), res.not_identifiable.end(), s) ==
-            res.not_identifiable.end())
-          res.not_identifiable.push_back(s);
-      }
-      trials.push_back(std::move(t));
-    }
-    const double gap_rms = Rms(gap);
-    const double floor = std::max({NoiseFloor(p, gap), opt.resolution_um, linearisation_um});
-    if (gap_rms <= (1.0 + opt.noise_stop_fraction) * floor) {
-      res.stop_reason = "the gap is at the noise floor";
-      break;
-    }
-    if (static_cast<int>(res.steps.size()) >= opt.max_steps) {
-      res.stop_reason = "maximum number of steps";
-      break;
-    }
-    const Trial* best = nullptr;
-    for (const auto& t : trials)
-      if (t.identifiable && (!best || t.drop > best->drop)) best = &t;
-    if (!best) {
-      res.stop_reason = "no identifiable candidate left";
-      break;
-    }
-    // Candidates the data cannot tell from the best one given the model (their projected
-    // signature lies within the confound ratio of the best one's): the earliest in the registry
-    // list is taken (the diagnosis priority rule), the others are named in the evidence.
-    std::vector<const Trial*> confused;
-    const EffectId best_id = variants[best->variant]->sig.id;
-    for (const auto& t : trials) {
-      if (!t.identifiable || &t == best || variants[t.variant]->sig.id == best_id) continue;
-      // Mutual: each projected signature lies within the other's span up to the ratio.
-      auto within = [&](const std::vector<VectorXd>& a, const std::vector<VectorXd>& b) {
-        for (const auto& q : a) {
-          VectorXd v = q;
-          Reduce(b, v);
-          if (v.squaredNorm() >= opt.confound_ratio * opt.confound_ratio) return false;
-        }
-        return true;
-      };
-      if (within(t.q, best->q) && within(best->q, t.q)) confused.push_back(&t);
-    }
-    const Trial* chosen = best;
-    for (const Trial* t : confused)
-      if (variants[t->variant]->order < variants[chosen->variant]->order) chosen = t;
-    const EffectColumns& csig = variants[chosen->variant]->sig;
-    std::vector<std::string> indistinguishable;
-    for (const Trial* t : confused) {
-      if (t == chosen) continue;
-      indistinguishable.push_back(name(variants[t->variant]->sig.id));
-    }
-    if (chosen != best) indistinguishable.push_back(name(best_id));
-    std::sort(indistinguishable.begin(), indistinguishable.end());
-    indistinguishable.erase(std::unique(indistinguishable.begin(), indistinguishable.end()),
-                            indistinguishable.end());
-    // Runner-up: the best other effect (any shape) at this step.
-    const Trial* runner = nullptr;
-    for (const auto& t : trials) {
-      if (!t.identifiable || variants[t.variant]->sig.id == csig.id) continue;
-      if (!runner || t.drop > runner->drop) runner = &t;
-    }
-
-    // Joint refit with the candidate, F-test and value.
-    std::vector<const EffectColumns*> cols;
-    for (const auto& m : model) cols.push_back(&m);
-    cols.push_back(&csig);
-    const Refit after = JointRefit(p, cols, e0);
-    const int q = static_cast<int>(csig.cols.size());
-    DiscoveryStep step;
-    step.id = csig.id;
-    step.added_effect = name(csig.id);
-    auto& ev = step.evidence;
-    ev.rss_before_um2 = current.rss;
-    ev.rss_after_um2 = after.rss;
-    ev.df_numerator = q;
-    ev.df_denominator = after.dof;
-    const double drop = std::max(0.0, current.rss - after.rss);
-    ev.f_statistic = after.rss > 0.0 ? (drop / q) / (after.rss / after.dof)
-                                     : (drop > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
-    const double log_p = LogFUpperTail(ev.f_statistic, q, after.dof);
-    ev.p_value = std::exp(log_p);
-    ev.log10_p_value = std::isinf(log_p) ? -1e9 : log_p / std::log(10.0);
-    ev.f_statistic = std::min(ev.f_statistic, 1e300);
-    const EffectValue val = ValueOf(p, csig, after, static_cast<int>(after.x.size()) - q);
-    ev.value = val.value;
-    ev.sigma = val.sigma;
-    ev.unit = effects::Info(csig.id).unit;
-    ev.z_score = val.z;
-    ev.parameters = ParameterMap(csig, val);
-    if (runner) {
-      ev.runner_up = name(variants[runner->variant]->sig.id);
-      ev.runner_up_rss_drop_um2 = runner->drop;
-    }
-    ev.indistinguishable_from = indistinguishable;
-    step.gap_rms_before_um = gap_rms;
-    step.gap_rms_after_um = Rms(after.residual);
-
-    const double z_needed = val.two_value ? opt.significance + 1.0 : opt.significance;
-    const bool significant_f = log_p < std::log(opt.max_p_value);
-    const bool significant_z = val.z > z_needed;
-    if (!significant_f || !significant_z) {
-      char buf[256];
-      std::snprintf(buf, sizeof buf, "%s (p = %.3g, |value|/sigma = %.3g: %s)",
-                    step.added_effect.c_str(), ev.p_value, val.z,
-                    !significant_f ? "F-test not significant" : "value not significant");
-      res.rejected.push_back(buf);
-      res.stop_reason = "the best candidate is not significant";
-      break;
-    }
-    // Accept: the candidate joins the model.
-    for (const auto& qv : chosen->q) basis.push_back(qv);
-    model.push_back(csig);
-    current = after;
-    gap = after.residual;
-    res.steps.push_back(std::move(step));
-  }
-
-  // Final model: set-up terms net of the accepted effects' own set-up parts, then the effects.
-  std::vector<const EffectColumns*> cols;
-  for (const auto& m : model) cols.push_back(&m);
-  const Refit fin = JointRefit(p, cols, e0);
-  {
-    int off = 0;
-    for (const auto& m : model) {
-      for (std::size_t c = 0; c < m.cols.size(); ++c) {
-        for (std::size_t t = 0; t < setup.size(); ++t)
-          setup[t] -= fin.x[off + static_cast<int>(c)] * m.setup_part[c][t];
-      }
-      off += static_cast<int>(m.cols.size());
-    }
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero(), var = Eigen::Vector3d::Zero();
-    for (int t = 0; t < p.traces; ++t) {
-      mean += setup[static_cast<std::size_t>(t)];
-      var += fin.sigma2 * p.setup_inv[static_cast<std::size_t>(t)].diagonal();
-    }
-    const double tt = p.traces;
-    mean /= tt;
-    var /= tt * tt;
-    DiscoveryModelEntry c;
-    c.id = EffectId::kCentreOffset;
-    c.effect = name(c.id);
-    c.unit = effects::Info(c.id).unit;
-    c.value = {mean[0], mean[1]};
-    c.sigma = {std::sqrt(var[0]), std::sqrt(var[1])};
-    res.final_model.push_back(c);
-    DiscoveryModelEntry r;
-    r.id = EffectId::kRadiusError;
-    r.effect = name(r.id);
-    r.unit = effects::Info(r.id).unit;
-    r.value = {mean[2]};
-    r.sigma = {std::sqrt(var[2])};
-    res.final_model.push_back(r);
-    off = 0;
-    for (const auto& m : model) {
-      const EffectValue v = ValueOf(p, m, fin, off);
-      DiscoveryModelEntry e;
-      e.id = m.id;
-      e.effect = name(m.id);
-      e.unit = effects::Info(m.id).unit;
-      e.value = v.value;
-      e.sigma = v.sigma;
-      e.shape = ShapeMap(m);
-      res.final_model.push_back(std::move(e));
-      off += static_cast<int>(m.cols.size());
-    }
-  }
-  res.unexplained_rms_um = Rms(fin.residual);
-  res.noise_floor_um = NoiseFloor(p, fin.residual);
-  return res;
+  DiscoveryRun run(traces, plane, opt);
+  return run.Run();
 }
 
 }  // namespace km::dbb

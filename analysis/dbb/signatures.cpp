@@ -232,4 +232,51 @@ double RefinePeriod(const StackedTraces& p, const VectorXd& r, int axis, double 
   return 0.5 * (lo + hi);
 }
 
+EffectEstimate EstimateEffect(const StackedTraces& p, effects::EffectId id,
+                              const std::vector<double>& shape, const VectorXd& x,
+                              const Eigen::MatrixXd& cov, int off) {
+  const auto& info = effects::Info(id);
+  const int nl = info.num_linear;
+  EffectEstimate v;
+  v.params.assign(static_cast<std::size_t>(info.num_params), 0.0);
+  for (int m = 0; m < nl; ++m) v.params[static_cast<std::size_t>(m)] = x[off + m];
+  for (std::size_t k = 0; k < shape.size(); ++k)
+    v.params[static_cast<std::size_t>(nl) + k] = shape[k];
+  const auto& ctx = p.ctx[0];
+  v.value = effects::Value(id, ctx, v.params.data());
+  const Eigen::MatrixXd jac = effects::ValueJacobian(id, ctx, v.params.data()).leftCols(nl);
+  const Eigen::MatrixXd cv = jac * cov.block(off, off, nl, nl) * jac.transpose();
+  double vnorm = 0.0, snorm = 0.0;
+  for (std::size_t m = 0; m < v.value.size(); ++m) {
+    const auto mi = static_cast<Eigen::Index>(m);
+    const double s = std::sqrt(std::max(0.0, cv(mi, mi)));
+    v.sigma.push_back(s);
+    vnorm += v.value[m] * v.value[m];
+    snorm += s * s;
+  }
+  // Noise-free data (σ = 0): any non-zero value is significant; keep the figure finite (JSON).
+  v.z = snorm > 0.0 ? std::sqrt(vnorm / (snorm / static_cast<double>(v.value.size())))
+                    : (vnorm > 0.0 ? 1e9 : 0.0);
+  v.z = std::min(v.z, 1e9);
+  return v;
+}
+
+SetupMean MeanSetup(const StackedTraces& p, const std::vector<Eigen::Vector3d>& setup,
+                    double sigma2) {
+  SetupMean s;
+  for (int t = 0; t < p.traces; ++t) {
+    s.mean += setup[static_cast<std::size_t>(t)];
+    s.var += sigma2 * p.setup_inv[static_cast<std::size_t>(t)].diagonal();
+  }
+  const double tt = p.traces;
+  s.mean /= tt;
+  s.var /= tt * tt;
+  return s;
+}
+
+void NetSetup(std::vector<Eigen::Vector3d>& setup, double coefficient,
+              const std::vector<Eigen::Vector3d>& part) {
+  for (std::size_t t = 0; t < setup.size(); ++t) setup[t] -= coefficient * part[t];
+}
+
 }  // namespace km::dbb

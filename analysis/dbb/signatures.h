@@ -89,4 +89,32 @@ double CyclicEnergy(const StackedTraces& p, const Eigen::VectorXd& r, int axis, 
 double RefinePeriod(const StackedTraces& p, const Eigen::VectorXd& r, int axis, double period,
                     double rel, double spacing_mm);
 
+// Value of a fitted effect in its reported unit (registry Value()) with its standard
+// uncertainty, propagated from the covariance of its linear parameters through the value
+// jacobian, and z = |value| / RMS(σ) (finite for noise-free data). The linear parameters are
+// x[off, off + num_linear) with covariance cov.block(off, off, …); `shape` completes them.
+struct EffectEstimate {
+  std::vector<double> params;  // all model parameters (linear, then shape)
+  std::vector<double> value;
+  std::vector<double> sigma;
+  double z = 0.0;
+};
+EffectEstimate EstimateEffect(const StackedTraces& p, effects::EffectId id,
+                              const std::vector<double>& shape, const Eigen::VectorXd& x,
+                              const Eigen::MatrixXd& cov, int off);
+
+// Set-up terms over the traces: the mean centre offset (u, v) and radius change, and their
+// variances for a residual variance sigma2 (each trace's least-squares circle, averaged).
+struct SetupMean {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Vector3d var = Eigen::Vector3d::Zero();
+};
+SetupMean MeanSetup(const StackedTraces& p, const std::vector<Eigen::Vector3d>& setup,
+                    double sigma2);
+
+// Gives back to the set-up terms what the set-up fit absorbed of a fitted effect's column
+// (its mean and first harmonic): setup[t] −= coefficient · part[t].
+void NetSetup(std::vector<Eigen::Vector3d>& setup, double coefficient,
+              const std::vector<Eigen::Vector3d>& part);
+
 }  // namespace km::dbb
