@@ -1,5 +1,5 @@
 // `kinemetric form straightness FILE…`, `form flatness FILE`, `form parallelism FILE`
-// (contract §3). Parsing in ingest/form_parsers, numerics in analysis/form, JSON mapping in
+// (docs/formats.md §3). Parsing in ingest/form_parsers, numerics in analysis/form, JSON mapping in
 // server/form_report.
 #include <cmath>
 #include <map>
@@ -32,7 +32,8 @@ void PrintStraightness(std::ostream& out, const nlohmann::json& j) {
     const auto& r = j["reversal"];
     out << "  reversal pair " << r["pair_id"].get<std::string>() << ": machine "
         << r["machine_straightness_lsq_um"].get<double>() << " um, artefact "
-        << r["artefact_straightness_lsq_um"].get<double>() << " um (least squares)\n";
+        << r["artefact_straightness_lsq_um"].get<double>() << " um (least squares, set-up "
+        << r["reversal_setup"].get<std::string>() << ")\n";
   }
 }
 

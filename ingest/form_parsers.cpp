@@ -139,9 +139,18 @@ StraightnessFile ParseStraightnessFile(std::string_view bytes, const std::string
                          "a reversal profile needs a pair_id");
     }
     f.pair_id = t.RequireString("pair_id");
-  } else if (t.Has("pair_id")) {
-    throw InvalidInput(file, LineOf(t, "pair_id"), "reversal",
-                       "pair_id given without reversal (a or b)");
+    f.reversal_setup = "artefact";
+    if (t.Has("reversal_setup")) {
+      f.reversal_setup = RequireOneOf(t, "reversal_setup", {"artefact", "artefact_and_sensor"});
+      f.reversal_setup_line = LineOf(t, "reversal_setup");
+    }
+  } else {
+    for (const char* key : {"pair_id", "reversal_setup"}) {
+      if (t.Has(key)) {
+        throw InvalidInput(file, LineOf(t, key), "reversal",
+                           std::string(key) + " given without reversal (a or b)");
+      }
+    }
   }
   f.metadata = t.Metadata();
   f.profile = ReadProfile(t, kMinStraightnessPoints);

@@ -1,4 +1,4 @@
-// Parsers of the form-measurement files (contract §1.3-1.5), built on the generic reader of
+// Parsers of the form-measurement files (docs/formats.md §1.3-1.5), built on the generic reader of
 // ingest/text_format.h:
 //   `# format: kinemetric-straightness/1`  columns position_mm,deviation_um
 //   `# format: kinemetric-flatness/1`      columns x_mm,y_mm,z_um
@@ -28,13 +28,19 @@ inline constexpr std::string_view kParallelismFormat = "kinemetric-parallelism/1
 struct StraightnessFile {
   std::string file;  // name used in messages
   std::string machine_id;
-  std::string axis;                             // travel axis, upper case (X, Y, Z, U, V, W)
-  std::string error_direction;                  // upper case, differs from axis
-  std::string sensor;                           // capacitance | laser | indicator
-  std::string reference;                        // artefact, e.g. optical_flat, straightedge
-  std::string reversal;                         // "a", "b" or "" (not part of a reversal pair)
-  std::string pair_id;                          // non-empty exactly when reversal is
-  std::size_t reversal_line = 0;                // line of the `reversal` header key (0 when absent)
+  std::string axis;               // travel axis, upper case (X, Y, Z, U, V, W)
+  std::string error_direction;    // upper case, differs from axis
+  std::string sensor;             // capacitance | laser | indicator
+  std::string reference;          // artefact, e.g. optical_flat, straightedge
+  std::string reversal;           // "a", "b" or "" (not part of a reversal pair)
+  std::string pair_id;            // non-empty exactly when reversal is
+  std::size_t reversal_line = 0;  // line of the `reversal` header key (0 when absent)
+  // How set-up b of the pair was made (analysis/form/straightness.h): "artefact" (artefact
+  // turned over, sensor stays; the default when the key is absent) or "artefact_and_sensor"
+  // (the sensor moved to the other side as well); "" when not part of a reversal pair. Both
+  // files of a pair must agree (checked where the pair is formed, server/form_report).
+  std::string reversal_setup;
+  std::size_t reversal_setup_line = 0;          // line of the `reversal_setup` key (0 when absent)
   std::map<std::string, std::string> metadata;  // every header key
   form::Profile profile;
   RowLines row_lines;  // file line of each point

@@ -1,4 +1,4 @@
-// JSON mapping of straightness, flatness and parallelism results (contract §3).
+// JSON mapping of straightness, flatness and parallelism results (docs/formats.md §3).
 #include "server/form_report.h"
 
 #include <cmath>
@@ -36,8 +36,30 @@ nlohmann::json Measurement(const ingest::StraightnessFile& f) {
   if (!f.reversal.empty()) {
     m["reversal"] = f.reversal;
     m["pair_id"] = f.pair_id;
+    m["reversal_setup"] = f.reversal_setup;
   }
   return m;
+}
+
+// Where a file's set-up is stated: the reversal_setup line, else (default) the reversal line.
+std::string SetupSource(const ingest::StraightnessFile& f) {
+  if (f.reversal_setup_line > 0) return "line " + std::to_string(f.reversal_setup_line);
+  return "reversal_setup absent, default";
+}
+
+// Both profiles of a pair must come from one set-up; the later file (input order) is named.
+form::ReversalSetup PairSetup(const ingest::StraightnessFile& first,
+                              const ingest::StraightnessFile& second) {
+  if (first.reversal_setup != second.reversal_setup) {
+    const std::size_t line =
+        second.reversal_setup_line > 0 ? second.reversal_setup_line : second.reversal_line;
+    throw InvalidInput(second.file, line, "reversal_setup",
+                       "pair '" + second.pair_id + "' has set-up '" + second.reversal_setup +
+                           "' here (" + SetupSource(second) + ") but '" + first.reversal_setup +
+                           "' in " + first.file + " (" + SetupSource(first) +
+                           "); both profiles of a pair must state the same set-up");
+  }
+  return InFile(second.file, [&] { return form::ParseReversalSetup(second.reversal_setup); });
 }
 
 }  // namespace
@@ -80,6 +102,7 @@ nlohmann::json FormResultToJson(const form::ReversalResult& r, const std::string
           {"machine_slope_um_per_m", r.machine_slope_um_per_m},
           {"artefact_slope_um_per_m", r.artefact_slope_um_per_m},
           {"reference", "least_squares_line"},
+          {"reversal_setup", form::ReversalSetupName(r.setup)},
           {"convention", r.convention}};
 }
 
@@ -145,8 +168,9 @@ nlohmann::json StraightnessFilesToJson(const std::vector<ingest::StraightnessFil
     if (ia < 0 || ib < 0) continue;  // incomplete pair: the profile is reported on its own
     const auto& fa = files[static_cast<std::size_t>(ia)];
     const auto& fb = files[static_cast<std::size_t>(ib)];
+    const form::ReversalSetup setup = ia < ib ? PairSetup(fa, fb) : PairSetup(fb, fa);
     const nlohmann::json rj = InFile(fb.file, [&] {
-      return FormResultToJson(form::SeparateReversal(fa.profile, fb.profile), id);
+      return FormResultToJson(form::SeparateReversal(fa.profile, fb.profile, setup), id);
     });
     profiles[static_cast<std::size_t>(ia)]["reversal"] = rj;
     profiles[static_cast<std::size_t>(ib)]["reversal"] = rj;

@@ -1,4 +1,4 @@
-// JSON mapping of the form analyses (contract §3: `form straightness`, `form flatness`,
+// JSON mapping of the form analyses (docs/formats.md §3: `form straightness`, `form flatness`,
 // `form parallelism`), shared by the CLI and the server, so that
 // GET /api/v1/measurements/{id}/results returns the same object as the CLI.
 //
@@ -23,7 +23,8 @@ namespace km::server {
 //  slope_with_periodic_um_per_m, points, length_mm}
 nlohmann::json FormResultToJson(const form::StraightnessResult& r);
 // {pair_id, positions_mm[], machine_um[], artefact_um[], machine_straightness_lsq_um,
-//  artefact_straightness_lsq_um, machine_slope_um_per_m, artefact_slope_um_per_m, convention}
+//  artefact_straightness_lsq_um, machine_slope_um_per_m, artefact_slope_um_per_m,
+//  reversal_setup ("artefact" | "artefact_and_sensor"), convention}
 nlohmann::json FormResultToJson(const form::ReversalResult& r, const std::string& pair_id);
 // {flatness_lsq_um, flatness_min_zone_um, range_um, plane{slope_x_um_per_m, slope_y_um_per_m,
 //  offset_um}, min_zone_plane{...}, reference, references{}, points}
@@ -36,7 +37,8 @@ nlohmann::json FormResultToJson(const form::ParallelismResult& r);
 // One straightness file: the keys at the top level. Several: {profiles[] (each with `file`),
 // reversals[]}, a profile of a complete reversal pair carrying `reversal`, and a top-level
 // `reversal` as well when there is exactly one pair. Throws InvalidInput naming file / line /
-// field (e.g. two `reversal: a` files with the same pair_id).
+// field (e.g. two `reversal: a` files with the same pair_id, or the two files of a pair
+// stating different `reversal_setup`s).
 nlohmann::json StraightnessFilesToJson(const std::vector<ingest::StraightnessFile>& files,
                                        const form::StraightnessOptions& options = {});
 nlohmann::json FlatnessFileToJson(const ingest::FlatnessFile& file);

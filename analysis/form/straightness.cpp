@@ -78,14 +78,31 @@ StraightnessResult AnalyzeStraightness(const Profile& profile, const Straightnes
   return r;
 }
 
-ReversalResult SeparateReversal(const Profile& a, const Profile& b) {
+std::string ReversalSetupName(ReversalSetup setup) {
+  return setup == ReversalSetup::kArtefactAndSensor ? "artefact_and_sensor" : "artefact";
+}
+
+ReversalSetup ParseReversalSetup(const std::string& name) {
+  if (name == "artefact") return ReversalSetup::kArtefact;
+  if (name == "artefact_and_sensor") return ReversalSetup::kArtefactAndSensor;
+  throw InvalidInput("", 0, "reversal_setup",
+                     "'" + name + "' is not one of artefact, artefact_and_sensor");
+}
+
+ReversalResult SeparateReversal(const Profile& a, const Profile& b, ReversalSetup setup) {
   CheckProfile(a, 3);
   CheckProfile(b, 3);
+  // b = M - S (artefact turned over) or -M + S (artefact and sensor): the sign of M in b.
+  const double machine_sign_in_b = setup == ReversalSetup::kArtefactAndSensor ? -1.0 : 1.0;
   const double lo = std::max(a.position_mm.front(), b.position_mm.front());
   const double hi = std::min(a.position_mm.back(), b.position_mm.back());
   // Positions of a closer than this to the ends of b count as inside (rounding in files).
   const double tol = 1e-9 * std::max(1.0, std::abs(hi) + std::abs(lo));
   ReversalResult out;
+  out.setup = setup;
+  if (setup == ReversalSetup::kArtefactAndSensor) {
+    out.convention = "a = machine + artefact, b = -machine + artefact";
+  }
   std::size_t j = 0;  // b segment [j, j + 1] containing the current position
   for (std::size_t i = 0; i < a.position_mm.size(); ++i) {
     const double x = a.position_mm[i];
@@ -96,8 +113,8 @@ ReversalResult SeparateReversal(const Profile& a, const Profile& b) {
     const double bv = (1.0 - t) * b.deviation_um[j] + t * b.deviation_um[j + 1];
     const double av = a.deviation_um[i];
     out.positions_mm.push_back(x);
-    out.machine_um.push_back(0.5 * (av + bv));
-    out.artefact_um.push_back(0.5 * (av - bv));
+    out.machine_um.push_back(0.5 * (av + machine_sign_in_b * bv));
+    out.artefact_um.push_back(0.5 * (av - machine_sign_in_b * bv));
   }
   if (out.positions_mm.size() < 3) {
     throw InvalidInput("", 0, "position_mm",

@@ -13,10 +13,15 @@
 //
 // Reversal (straightedge / optical-flat reversal). Sign convention: in set-up a the sensor
 // reads a(x) = M(x) + S(x), M the machine (carriage) straightness error, S the artefact form
-// error. In set-up b the artefact is turned over about the travel axis (same positions) and
-// the sensor stays, so the artefact error changes sign relative to the sensor:
-// b(x) = M(x) - S(x). Hence
-//   machine(x)  = (a(x) + b(x)) / 2,     artefact(x) = (a(x) - b(x)) / 2.
+// error. Set-up b is one of two reversals (header key reversal_setup of the file format):
+//   artefact             the artefact is turned over about the travel axis (same positions) and
+//                        the sensor stays, so the artefact error changes sign relative to the
+//                        sensor: b(x) = M(x) - S(x), hence
+//                          machine(x) = (a(x) + b(x)) / 2,  artefact(x) = (a(x) - b(x)) / 2;
+//   artefact_and_sensor  the sensor is moved to the other side of the artefact as well, so it
+//                        sees the artefact as before and the carriage from the other side:
+//                        b(x) = -M(x) + S(x), hence
+//                          machine(x) = (a(x) - b(x)) / 2,  artefact(x) = (a(x) + b(x)) / 2.
 // b is interpolated linearly onto the positions of a inside the common range.
 #pragma once
 
@@ -58,19 +63,29 @@ struct StraightnessResult {
 StraightnessResult AnalyzeStraightness(const Profile& profile,
                                        const StraightnessOptions& options = {});
 
+// How set-up b of a reversal pair was made (see above).
+enum class ReversalSetup { kArtefact, kArtefactAndSensor };
+
+// "artefact" | "artefact_and_sensor"; ParseReversalSetup throws InvalidInput (field
+// reversal_setup) for any other name.
+std::string ReversalSetupName(ReversalSetup setup);
+ReversalSetup ParseReversalSetup(const std::string& name);
+
 struct ReversalResult {
   std::vector<double> positions_mm;
-  std::vector<double> machine_um;   // (a + b) / 2
-  std::vector<double> artefact_um;  // (a - b) / 2
+  std::vector<double> machine_um;   // (a + b) / 2, or (a - b) / 2 with the sensor reversed too
+  std::vector<double> artefact_um;  // (a - b) / 2, or (a + b) / 2 with the sensor reversed too
   double machine_straightness_lsq_um = 0.0;
   double artefact_straightness_lsq_um = 0.0;
   double machine_slope_um_per_m = 0.0;   // least-squares slope of machine_um
   double artefact_slope_um_per_m = 0.0;  // least-squares slope of artefact_um
+  ReversalSetup setup = ReversalSetup::kArtefact;
   std::string convention = "a = machine + artefact, b = machine - artefact";
 };
 
 // Throws InvalidInput when a profile is malformed or the two overlap in fewer than 3 positions.
-ReversalResult SeparateReversal(const Profile& a, const Profile& b);
+ReversalResult SeparateReversal(const Profile& a, const Profile& b,
+                                ReversalSetup setup = ReversalSetup::kArtefact);
 
 // Checks a profile: equal sizes, finite values, strictly increasing positions, >= min_points.
 // Throws InvalidInput (field position_mm / deviation_um) or NotObservable.

@@ -1,8 +1,10 @@
 // `kinemetric form straightness|flatness|parallelism` run through the command registry (the
-// command file is compiled into this test): contract §3 keys, reversal pairing, bad input.
+// command file is compiled into this test): docs/formats.md §3 keys, reversal pairing, bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -10,6 +12,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "analysis/core/errors.h"
@@ -28,8 +31,11 @@ class FormCli : public test::CliTest {
   }
 };
 
-// A straightness file with a 55 mm waviness; `sign` = +1 for set-up a, -1 for b.
-std::string StraightnessText(const std::string& extra_header, double artefact_sign, unsigned seed) {
+// A straightness file reading machine_sign * machine + artefact_sign * artefact + noise, the
+// machine error a 55 mm waviness, the artefact error a bow: signs (+1, +1) for set-up a, (+1, -1)
+// for b with the artefact turned over, (-1, +1) for b with the sensor moved across as well.
+std::string StraightnessText(const std::string& extra_header, double artefact_sign, unsigned seed,
+                             double machine_sign = 1.0) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, 0.01);
   std::ostringstream s;
@@ -40,7 +46,7 @@ std::string StraightnessText(const std::string& extra_header, double artefact_si
     const double x = i;
     const double machine = 0.2 * std::cos(2.0 * std::numbers::pi * x / 55.0);
     const double artefact = 1e-5 * (x - 150.0) * (x - 150.0);
-    s << x << "," << machine + artefact_sign * artefact + noise(rng) << "\n";
+    s << x << "," << machine_sign * machine + artefact_sign * artefact + noise(rng) << "\n";
   }
   return s.str();
 }
@@ -76,6 +82,7 @@ TEST_F(FormCli, StraightnessReversalPairAmongSeveralFiles) {
   EXPECT_EQ(r, j["profiles"][2]["reversal"]);
   EXPECT_EQ(r, j["reversal"]);
   EXPECT_EQ(r["pair_id"], "r1");
+  EXPECT_EQ(r["reversal_setup"], "artefact");  // the default: the key is absent
   for (const char* k : {"positions_mm", "machine_um", "artefact_um", "machine_straightness_lsq_um",
                         "artefact_straightness_lsq_um"}) {
     EXPECT_TRUE(r.contains(k)) << k;
@@ -102,6 +109,68 @@ TEST_F(FormCli, StraightnessReversalPairAmongSeveralFiles) {
     EXPECT_EQ(e.file(), a2);
     EXPECT_EQ(e.field(), "reversal");
     EXPECT_EQ(e.line(), 7u);
+  }
+}
+
+const char kSensorReversedPair[] = "# pair_id: e1\n# reversal_setup: artefact_and_sensor\n";
+
+// Set-up b with the sensor moved to the other side as well: b = -machine + artefact.
+TEST_F(FormCli, StraightnessReversalWithTheSensorReversedToo) {
+  const std::string head = kSensorReversedPair;
+  const std::string a = Write("ea.txt", StraightnessText("# reversal: a\n" + head, 1.0, 6));
+  const std::string b = Write("eb.txt", StraightnessText("# reversal: b\n" + head, 1.0, 7, -1.0));
+  const nlohmann::json j = Run("form straightness", {a, b});
+  const nlohmann::json& r = j["reversal"];
+  EXPECT_EQ(r["reversal_setup"], "artefact_and_sensor");
+  EXPECT_EQ(r["convention"], "a = machine + artefact, b = -machine + artefact");
+  EXPECT_EQ(j["profiles"][1]["measurement"]["reversal_setup"], "artefact_and_sensor");
+  double worst_m = 0.0, worst_a = 0.0;
+  for (std::size_t i = 0; i < r["positions_mm"].size(); ++i) {
+    const double x = r["positions_mm"][i].get<double>();
+    worst_m = std::max(worst_m, std::abs(r["machine_um"][i].get<double>() -
+                                         0.2 * std::cos(2.0 * std::numbers::pi * x / 55.0)));
+    worst_a = std::max(
+        worst_a, std::abs(r["artefact_um"][i].get<double>() - 1e-5 * (x - 150.0) * (x - 150.0)));
+  }
+  std::printf(
+      "[ measured ] CLI artefact_and_sensor pair, noise 0.01 um: machine %.4f um, "
+      "artefact %.4f um; P-V machine %.4f um, artefact %.4f um\n",
+      worst_m, worst_a, r["machine_straightness_lsq_um"].get<double>(),
+      r["artefact_straightness_lsq_um"].get<double>());
+  // Noise 0.01 um a reading: 0.007 um a separated value, worst of 301 below 0.04 um.
+  EXPECT_LT(worst_m, 0.04);
+  EXPECT_LT(worst_a, 0.04);
+  // Machine = the 55 mm waviness (P-V 0.4 um), artefact = the bow (P-V 0.225 um).
+  EXPECT_NEAR(r["machine_straightness_lsq_um"].get<double>(), 0.4, 0.05);
+  EXPECT_NEAR(r["artefact_straightness_lsq_um"].get<double>(), 0.225, 0.05);
+}
+
+// The two files of a pair must state the same set-up; the later file (input order) is named.
+TEST_F(FormCli, StraightnessReversalPairMustStateOneSetUp) {
+  const std::string head = kSensorReversedPair;
+  const std::string a = Write("ea.txt", StraightnessText("# reversal: a\n" + head, 1.0, 6));
+  const std::string b_default =
+      Write("eb0.txt", StraightnessText("# reversal: b\n# pair_id: e1\n", -1.0, 8));
+  const std::string b_other = Write(
+      "eb1.txt",
+      StraightnessText("# reversal: b\n# pair_id: e1\n# reversal_setup: artefact\n", -1.0, 9));
+  const std::vector<std::tuple<std::vector<std::string>, std::string, std::size_t>> cases{
+      {{a, b_default}, b_default, 7u},  // key absent (default artefact): the reversal line
+      {{a, b_other}, b_other, 9u},
+      {{b_other, a}, a, 9u}};
+  for (const auto& [files, file, line] : cases) {
+    Args args;
+    args.positional = files;
+    std::ostringstream out;
+    try {
+      Registry().at("form straightness").run(args, out);
+      ADD_FAILURE() << "no InvalidInput";
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.file(), file);
+      EXPECT_EQ(e.line(), line);
+      EXPECT_EQ(e.field(), "reversal_setup");
+      EXPECT_NE(e.reason().find("same set-up"), std::string::npos) << e.reason();
+    }
   }
 }
 

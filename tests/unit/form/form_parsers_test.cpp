@@ -95,6 +95,42 @@ TEST(StraightnessParser, RejectsBadInputNamingLineAndField) {
   ExpectBadStraightness(Edit(kStraight, "10.5,0.25", "10.5"), 13, "");
 }
 
+TEST(StraightnessParser, ReversalSetUp) {
+  // Absent: the artefact was turned over and the sensor stayed (the default).
+  const StraightnessFile d = ParseStraightnessFile(kStraight, "s.txt");
+  EXPECT_EQ(d.reversal_setup, "artefact");
+  EXPECT_EQ(d.reversal_setup_line, 0u);
+  for (const char* value : {"artefact", "artefact_and_sensor", "Artefact_And_Sensor"}) {
+    const StraightnessFile f =
+        ParseStraightnessFile(Edit(kStraight, "# pair_id: p1\n",
+                                   "# pair_id: p1\n# reversal_setup: " + std::string(value) + "\n"),
+                              "s.txt");
+    EXPECT_EQ(f.reversal_setup,
+              std::string(value) == "artefact" ? "artefact" : "artefact_and_sensor");
+    EXPECT_EQ(f.reversal_setup_line, 9u);
+  }
+  // Not part of a pair: no set-up.
+  const StraightnessFile single =
+      ParseStraightnessFile(Edit(kStraight, "# reversal: a\n# pair_id: p1\n", ""), "s.txt");
+  EXPECT_EQ(single.reversal_setup, "");
+  // Bad values and a set-up without a pair.
+  ExpectBadStraightness(
+      Edit(kStraight, "# pair_id: p1\n", "# pair_id: p1\n# reversal_setup: sensor\n"), 9,
+      "reversal_setup");
+  ExpectBadStraightness(Edit(kStraight, "# pair_id: p1\n", "# pair_id: p1\n# reversal_setup:\n"), 9,
+                        "reversal_setup");
+  ExpectBadStraightness(
+      Edit(kStraight, "# reversal: a\n# pair_id: p1\n", "# reversal_setup: artefact\n"), 7,
+      "reversal");
+  try {
+    ParseStraightnessFile(
+        Edit(kStraight, "# pair_id: p1\n", "# pair_id: p1\n# reversal_setup: artifact\n"), "s.txt");
+    ADD_FAILURE() << "no InvalidInput";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("artefact_and_sensor"), std::string::npos) << e.what();
+  }
+}
+
 const std::string kFlat =
     "# format: kinemetric-flatness/1\n"
     "# machine_id: pm600\n"
