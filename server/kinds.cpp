@@ -1,4 +1,4 @@
-// The measurement kinds the server accepts, one handler per format (contract §1), and the
+// The measurement kinds the server accepts, one handler per format (docs/formats.md §1), and the
 // DBB-specific queries (trace, pair analysis, plot).
 #include <cmath>
 #include <cstdio>
@@ -255,7 +255,7 @@ std::optional<std::int64_t> Service::DbbPartner(const MeasurementRecord& rec) {
 
 nlohmann::json Service::DbbTrace(std::int64_t id) {
   const dbb::DbbTest test = LoadDbb(id);
-  return DbbTraceJson(test, dbb::AnalyzeCircularTest(test));
+  return DbbTraceJson(test, dbb::AnalyzeCircularTest(test, dbb::DeviationUnits::kToolPath));
 }
 
 nlohmann::json Service::DbbPairJson(std::int64_t id) {

@@ -5,7 +5,7 @@
 namespace km::server {
 namespace {
 
-// Keys beyond contract §3 that make a stored result self-describing and reproducible.
+// Keys beyond docs/formats.md §3.1 that make a stored result self-describing and reproducible.
 void AddContext(nlohmann::json& j, const dbb::DbbTest& test, const dbb::CircularTestResult& r) {
   j["machine_id"] = test.machine_id;
   j["radius_mm"] = test.radius_mm;
@@ -41,6 +41,7 @@ nlohmann::json DbbTraceJson(const dbb::DbbTest& test, const dbb::CircularTestRes
   j["test_id"] = test.test_id;
   j["direction"] = dbb::ToString(test.direction);
   j["mode"] = dbb::ToString(r.mode);
+  j["deviation_units"] = dbb::ToString(r.units);
   j["radius_mm"] = test.radius_mm;
   j["angle_deg"] = r.angle_deg;
   j["radial_error_um"] = r.radial_error_um;

@@ -32,6 +32,14 @@ const char* ToString(Mode m) {
   return m == Mode::kAbsolute ? "absolute" : "centre_corrected";
 }
 
+const char* ToString(DeviationUnits u) {
+  return u == DeviationUnits::kToolPath ? "tool path (in-plane)" : "bar";
+}
+
+double ToolPathFactor(const DbbTest& test) {
+  return test.bar_length_mm / test.radius_mm;  // Δr = Δl · L / R (circular_test.h)
+}
+
 std::array<std::array<double, 3>, 3> PlaneAxes(Plane plane) {
   switch (plane) {
     case Plane::kYZ:
@@ -115,7 +123,29 @@ Turn SelectOneTurn(const DbbTest& test) {
   return t;
 }
 
-CircularTestResult AnalyzeCircularTest(const DbbTest& test) {
+namespace {
+
+// Bar deviation attributed to the machine, times `factor` (bar → reported units,
+// circular_test.h). Absolute mode first subtracts the bar-length change a perfect machine would
+// show with the measured fixed ball.
+std::vector<double> MachineDeviation(const DbbTest& test, const Turn& turn, double factor) {
+  std::vector<double> dev = turn.dr_um;
+  if (test.fixed_ball_mm) {
+    const auto& f = *test.fixed_ball_mm;
+    for (std::size_t i = 0; i < dev.size(); ++i) {
+      const auto p = CommandedBallPosition(test, turn.angle_rad[i]);
+      const double d = std::sqrt((p[0] - f[0]) * (p[0] - f[0]) + (p[1] - f[1]) * (p[1] - f[1]) +
+                                 (p[2] - f[2]) * (p[2] - f[2]));
+      dev[i] -= (d - test.bar_length_mm) * 1000.0;
+    }
+  }
+  for (double& d : dev) d *= factor;
+  return dev;
+}
+
+}  // namespace
+
+CircularTestResult AnalyzeCircularTest(const DbbTest& test, DeviationUnits units) {
   if (!(test.bar_length_mm > 0.0)) {
     throw InvalidInput("", 0, "bar_length_mm", "must be positive");
   }
@@ -126,22 +156,16 @@ CircularTestResult AnalyzeCircularTest(const DbbTest& test) {
   r.test_id = test.test_id;
   r.direction = test.direction;
   r.mode = test.fixed_ball_mm ? Mode::kAbsolute : Mode::kCentreCorrected;
+  r.units = units;
+  r.deviation_factor = units == DeviationUnits::kToolPath ? ToolPathFactor(test) : 1.0;
   r.sample_count = n;
   r.turn_start_deg = turn.start_deg;
   r.turn_end_deg = turn.end_deg;
   r.full_turn = turn.full_turn;
   r.arc_deg = turn.arc_deg;
 
-  std::vector<double> dev = turn.dr_um;  // bar deviation attributed to the machine
+  const std::vector<double> dev = MachineDeviation(test, turn, r.deviation_factor);
   if (r.mode == Mode::kAbsolute) {
-    // Subtract the bar-length change a perfect machine would show with this fixed ball.
-    const auto& f = *test.fixed_ball_mm;
-    for (std::size_t i = 0; i < n; ++i) {
-      const auto p = CommandedBallPosition(test, turn.angle_rad[i]);
-      const double d = std::sqrt((p[0] - f[0]) * (p[0] - f[0]) + (p[1] - f[1]) * (p[1] - f[1]) +
-                                 (p[2] - f[2]) * (p[2] - f[2]));
-      dev[i] -= (d - test.bar_length_mm) * 1000.0;
-    }
     const auto [mn, mx] = std::minmax_element(dev.begin(), dev.end());
     r.radial_error_range_um = *mx - *mn;
     double mean = 0.0;
@@ -169,8 +193,9 @@ CircularTestResult AnalyzeCircularTest(const DbbTest& test) {
   for (std::size_t i = 0; i < n; ++i) r.angle_deg[i] = turn.angle_rad[i] * 180.0 / std::numbers::pi;
   if (r.mode == Mode::kAbsolute) {
     // A centre shift δ in the plane changes the bar length by (R / R_DBB)·δ·cos(θ − φ) on a
-    // cone; scale back to the in-plane positioning error of the circle centre.
-    const double k = test.bar_length_mm / test.radius_mm;
+    // cone; scale back to the in-plane positioning error of the circle centre (in tool-path
+    // units the centre offset already is that error).
+    const double k = ToolPathFactor(test) / r.deviation_factor;
     r.machine_centre_error_um =
         std::array<double, 2>{r.centre_offset_um[0] * k, r.centre_offset_um[1] * k};
   }

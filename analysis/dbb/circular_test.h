@@ -30,6 +30,20 @@
 // are then figures OVER THE ARC (full_turn = false, arc_deg = its length), which is stated in
 // every result. Which samples are enough is one rule for all tests: the largest gap, the
 // closing gap included, is at most 10° (coverage.h).
+//
+// Units of the deviations (cone tests). The bar reads the change of the distance between its
+// balls; ISO 230-4 defines the figures (G, F, H, G(b)) as deviations of the tool path, radial
+// in the plane of the circle. With the fixed ball at the apex of a cone (the moving-ball plane
+// z_offset from it, bar length L = R_DBB, in-plane radius R = √(L² − z²)), an in-plane radial
+// deviation Δr of the tool changes the bar length by ∂L/∂r · Δr = (R / L)·Δr, and a shift δ of
+// the circle centre in the plane by (R / L)·δ·cos(θ − φ), to first order (the next term is
+// z²·Δl² / (2 R³), 3·10⁻⁵ µm for Δl = 10 µm on the 150 / 144 / 42 mm cone). So
+// Δr = Δl · L / R: DeviationUnits::kToolPath multiplies every bar deviation by
+// ToolPathFactor(test) = L / R before the planar representation, and every figure of the
+// result (centre offset, average radial error, circularity, the trace, the absolute-mode
+// ranges) is then in tool-path units; kBar keeps the bar's own units (what the diagnosis,
+// diagnosis.h MakeDiagnosisTrace, takes: it applies the same factor itself). For a flat test
+// L = R and the factor is 1: both units agree exactly.
 #pragma once
 
 #include <array>
@@ -43,6 +57,12 @@ namespace km::dbb {
 
 enum class Mode { kCentreCorrected, kAbsolute };
 const char* ToString(Mode m);
+
+enum class DeviationUnits { kBar, kToolPath };
+const char* ToString(DeviationUnits u);  // "bar" or "tool path (in-plane)"
+
+// Bar deviation → in-plane radial deviation of the tool path: R_DBB / R (1 for a flat test).
+double ToolPathFactor(const DbbTest& test);
 
 // Samples of one evaluated turn (or partial arc), in time order.
 struct Turn {
@@ -63,6 +83,8 @@ struct CircularTestResult {
   std::string test_id;
   Direction direction = Direction::kCcw;
   Mode mode = Mode::kCentreCorrected;
+  DeviationUnits units = DeviationUnits::kBar;  // of every deviation below (see above)
+  double deviation_factor = 1.0;             // applied to the bar deviations: 1 (kBar) or R_DBB / R
   std::array<double, 2> centre_offset_um{};  // (X0, Y0) eq. 4.6, plane axes
   double average_radial_error_um = 0.0;      // R0 − R
   double circularity_um = 0.0;               // eq. 4.8
@@ -76,15 +98,17 @@ struct CircularTestResult {
   // Absolute mode only:
   std::optional<double> radial_error_range_um;  // max − min deviation about the fixed ball
   std::optional<double> mean_radial_error_about_fixed_ball_um;
-  std::optional<std::array<double, 2>> machine_centre_error_um;  // in-plane, cone-scaled
+  std::optional<std::array<double, 2>> machine_centre_error_um;  // in-plane (tool path)
   // Per-sample trace of the evaluated turn: angle and deviation about the fitted circle
   // (|(X_n, Y_n) − (X0, Y0)| − R0), µm.
   std::vector<double> angle_deg;
   std::vector<double> radial_error_um;
 };
 
-// Full figures of one test. Throws km::InvalidInput on unusable data.
-CircularTestResult AnalyzeCircularTest(const DbbTest& test);
+// Full figures of one test, in bar units (the default) or tool-path units. Throws
+// km::InvalidInput on unusable data.
+CircularTestResult AnalyzeCircularTest(const DbbTest& test,
+                                       DeviationUnits units = DeviationUnits::kBar);
 
 // Commanded position of the moving ball at angle θ (mm, machine frame), and the plane's unit
 // axes (first, second, normal) — shared with the simulation so both agree on geometry.

@@ -112,6 +112,13 @@ void SeparateServoLag(const std::vector<DbbTest>& tests, std::vector<Unit>& unit
   }
 }
 
+// The diagnosis takes bar deviations and converts them to the tool path itself (diagnosis.h):
+// the report's tool-path deviations divided back by the factor (exact for a flat test, 1).
+std::vector<double> BarDeviation(const DbbTestReport& t, std::vector<double> dev) {
+  for (double& d : dev) d /= t.circular.deviation_factor;
+  return dev;
+}
+
 std::string Where(const DbbTest& t, std::size_t i) {
   return t.test_id.empty() ? "test #" + std::to_string(i + 1) : "test " + t.test_id;
 }
@@ -128,7 +135,7 @@ DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOpti
     const DbbTest& t = tests[i];
     DbbTestReport& tr = rep.tests[i];
     try {
-      tr.circular = AnalyzeCircularTest(t);
+      tr.circular = AnalyzeCircularTest(t, DeviationUnits::kToolPath);
       tr.plane = t.plane;
       tr.iso230_4 = ComputeIso230(tr.circular);
       // Minimum zone on the planar representation about the nominal centre (µm).
@@ -187,7 +194,8 @@ DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOpti
   for (auto& u : units) {
     std::vector<DiagnosisTrace> tr;
     for (std::size_t i : u.tests) {
-      tr.push_back(MakeDiagnosisTrace(tests[i], rep.tests[i].circular, devs[i]));
+      tr.push_back(
+          MakeDiagnosisTrace(tests[i], rep.tests[i].circular, BarDeviation(rep.tests[i], devs[i])));
     }
     try {
       u.result = DiagnoseSerialDbb(tr, tests[u.tests.front()].plane, opt.diagnosis);

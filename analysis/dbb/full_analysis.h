@@ -7,6 +7,11 @@
 //             bidirectional circular deviation; the pair is diagnosed jointly (how an effect
 //             looks in both directions is what separates e.g. servo mismatch from squareness).
 //
+// Every deviation of the report (circular figures, minimum zone, ISO 230-4 figures of tests and
+// pairs, harmonics, polar plot) is in tool-path units: the bar deviation × R_DBB / R, radial in
+// the plane of the circle (circular_test.h DeviationUnits::kToolPath; factor 1 for a flat test),
+// as the diagnosis reports its effects.
+//
 // Harmonics use the deviation the test evaluates: about the least-squares circle
 // (centre_corrected) or about the nominal centre (absolute, where the first order is the
 // machine's centre positioning error). Minimum zone is computed on the planar representation
@@ -34,7 +39,7 @@
 namespace km::dbb {
 
 struct DbbTestReport {
-  CircularTestResult circular;  // lead's figures (first six JSON keys)
+  CircularTestResult circular;  // lead's figures (first six JSON keys), tool-path units
   double min_zone_circularity_um = 0.0;
   geometry::MinZoneCircleResult min_zone;  // µm, about the nominal centre
   Iso230Figures iso230_4;

@@ -107,6 +107,66 @@ double MaxDifferenceOverlap(const PeriodicTrace& q, const PeriodicTrace& src) {
   return h;
 }
 
+std::vector<double> AnglesRad(const CircularTestResult& r) {
+  std::vector<double> a(r.angle_deg.size());
+  for (std::size_t i = 0; i < a.size(); ++i) a[i] = r.angle_deg[i] * kDeg;
+  return a;
+}
+
+// H of two traces given as radial deviations vcw, vccw at their angles: full turns compared
+// periodically, otherwise only where both arcs have samples (the common arc in *arc_deg).
+double Hysteresis(const CircularTestResult& cw, const CircularTestResult& ccw,
+                  const std::vector<double>& vcw, const std::vector<double>& vccw,
+                  double* arc_deg) {
+  const std::vector<double> acw = AnglesRad(cw), accw = AnglesRad(ccw);
+  if (cw.full_turn && ccw.full_turn) {
+    const PeriodicTrace pcw = MakePeriodic(acw, vcw);
+    const PeriodicTrace pccw = MakePeriodic(accw, vccw);
+    *arc_deg = 360.0;
+    return std::max(MaxDifference(pccw, pcw), MaxDifference(pcw, pccw));
+  }
+  const double mid = 0.5 * (ccw.turn_start_deg + ccw.turn_end_deg) * kDeg;
+  const PeriodicTrace pcw = MakeLinear(acw, vcw, mid);
+  const PeriodicTrace pccw = MakeLinear(accw, vccw, mid);
+  *arc_deg = std::max(
+      0.0,
+      (std::min(pcw.a.back(), pccw.a.back()) - std::max(pcw.a.front(), pccw.a.front())) / kDeg);
+  if (*arc_deg <= 0.0) {
+    throw InvalidInput("", 0, "angle_deg", "the cw and ccw arcs of the pair do not overlap");
+  }
+  return std::max(MaxDifferenceOverlap(pccw, pcw), MaxDifferenceOverlap(pcw, pccw));
+}
+
+// Common least-squares circle (centre x, y, radius): Gauss–Newton on the orthogonal distances
+// started from the nominal circle (the traces are µm from it, so two or three steps reach
+// machine precision).
+Eigen::Vector3d CommonCircle(const std::vector<Eigen::Vector2d>& pts, double rn) {
+  Eigen::Vector3d x(0.0, 0.0, rn);
+  for (int it = 0; it < 8; ++it) {
+    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
+    for (const auto& p : pts) {
+      const Eigen::Vector2d d = p - x.head<2>();
+      const double n = d.norm();
+      const Eigen::Vector3d j(-d.x() / n, -d.y() / n, -1.0);
+      jtj += j * j.transpose();
+      jtr += j * (n - x[2]);
+    }
+    const Eigen::Vector3d step = -jtj.ldlt().solve(jtr);
+    x += step;
+    if (step.norm() < 1e-12 * x[2]) break;
+  }
+  return x;
+}
+
+// Radial deviation of a trace about its own least-squares centre, relative to the nominal
+// radius: |P − c_own| − R = (R0 − R) + residual about the own circle.
+std::vector<double> AboutOwnCentre(const CircularTestResult& r) {
+  std::vector<double> v = r.radial_error_um;
+  for (double& x : v) x += r.average_radial_error_um;
+  return v;
+}
+
 }  // namespace
 
 double NominalRadiusUm(const CircularTestResult& r) {
@@ -132,6 +192,7 @@ std::vector<double> DeviationAboutNominalCentre(const CircularTestResult& r) {
 Iso230Figures ComputeIso230(const CircularTestResult& r) {
   if (r.radial_error_um.empty()) throw InvalidInput("", 0, "dr_um", "empty trace");
   Iso230Figures f;
+  f.units = r.units;
   f.full_turn = r.full_turn;
   f.evaluated_arc_deg = r.arc_deg;
   const auto [mn, mx] = std::minmax_element(r.radial_error_um.begin(), r.radial_error_um.end());
@@ -167,6 +228,9 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
   if (cw.test_id != ccw.test_id) {
     throw InvalidInput("", 0, "test_id", "a pair needs the same test_id");
   }
+  if (cw.units != ccw.units) {
+    throw InvalidInput("", 0, "units", "the cw and ccw results are in different units");
+  }
   const double rn_ccw = NominalRadiusUm(ccw);
   std::vector<Eigen::Vector2d> pts;
   pts.reserve(dcw.size() + dccw.size());
@@ -181,56 +245,24 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
   };
   add(cw, dcw);
   add(ccw, dccw);
-  // Common least-squares circle: Gauss–Newton on the orthogonal distances started from the
-  // nominal circle (the traces are µm from it, so two or three steps reach machine precision).
-  Eigen::Vector3d x(0.0, 0.0, rn_ccw);  // centre x, y, radius
+  const Eigen::Vector3d x = CommonCircle(pts, rn_ccw);  // centre x, y, radius
   std::vector<double> res(pts.size());
-  for (int it = 0; it < 8; ++it) {
-    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
-    for (std::size_t i = 0; i < pts.size(); ++i) {
-      const Eigen::Vector2d d = pts[i] - x.head<2>();
-      const double n = d.norm();
-      res[i] = n - x[2];
-      const Eigen::Vector3d j(-d.x() / n, -d.y() / n, -1.0);
-      jtj += j * j.transpose();
-      jtr += j * res[i];
-    }
-    const Eigen::Vector3d step = -jtj.ldlt().solve(jtr);
-    x += step;
-    if (step.norm() < 1e-12 * x[2]) break;
-  }
   for (std::size_t i = 0; i < pts.size(); ++i) res[i] = (pts[i] - x.head<2>()).norm() - x[2];
 
   Iso230PairFigures f;
+  f.units = ccw.units;
   f.common_centre_um = {x[0], x[1]};
   const auto [mn, mx] = std::minmax_element(res.begin(), res.end());
   f.bidirectional_circular_deviation_um = *mx - *mn;
-  const std::size_t ncw = dcw.size();
-  std::vector<double> acw(ncw), accw(dccw.size());
-  for (std::size_t i = 0; i < ncw; ++i) acw[i] = cw.angle_deg[i] * kDeg;
-  for (std::size_t i = 0; i < accw.size(); ++i) accw[i] = ccw.angle_deg[i] * kDeg;
-  const std::vector<double> rcw(res.begin(), res.begin() + static_cast<long>(ncw));
-  const std::vector<double> rccw(res.begin() + static_cast<long>(ncw), res.end());
-  if (cw.full_turn && ccw.full_turn) {
-    const PeriodicTrace pcw = MakePeriodic(acw, rcw);
-    const PeriodicTrace pccw = MakePeriodic(accw, rccw);
-    f.circular_hysteresis_um = std::max(MaxDifference(pccw, pcw), MaxDifference(pcw, pccw));
-    return f;
-  }
-  // A partial arc: compare where both traces have samples.
-  const double mid = 0.5 * (ccw.turn_start_deg + ccw.turn_end_deg) * kDeg;
-  const PeriodicTrace pcw = MakeLinear(acw, rcw, mid);
-  const PeriodicTrace pccw = MakeLinear(accw, rccw, mid);
-  f.full_turn = false;
-  f.evaluated_arc_deg = std::max(
-      0.0,
-      (std::min(pcw.a.back(), pccw.a.back()) - std::max(pcw.a.front(), pccw.a.front())) / kDeg);
-  if (f.evaluated_arc_deg <= 0.0) {
-    throw InvalidInput("", 0, "angle_deg", "the cw and ccw arcs of the pair do not overlap");
-  }
-  f.circular_hysteresis_um =
-      std::max(MaxDifferenceOverlap(pccw, pcw), MaxDifferenceOverlap(pcw, pccw));
+  const auto ncw = static_cast<long>(dcw.size());
+  const std::vector<double> rcw(res.begin(), res.begin() + ncw);
+  const std::vector<double> rccw(res.begin() + ncw, res.end());
+  // H about the common centre (the ISO 230-4 figure, iso230.h), and about each own centre.
+  f.circular_hysteresis_um = Hysteresis(cw, ccw, rcw, rccw, &f.evaluated_arc_deg);
+  double arc = 0.0;
+  f.circular_hysteresis_own_centres_um =
+      Hysteresis(cw, ccw, AboutOwnCentre(cw), AboutOwnCentre(ccw), &arc);
+  f.full_turn = cw.full_turn && ccw.full_turn;
   return f;
 }
 

@@ -10,10 +10,22 @@
 // Per cw/ccw pair (same test_id):
 //  * circular hysteresis H: max |r_ccw(θ) − r_cw(θ)| with both traces taken about their
 //    COMMON least-squares centre and each interpolated (linearly, periodically) onto the
-//    other's angles;
+//    other's angles (circular_hysteresis_um);
+//  * the same with each trace about its OWN least-squares centre
+//    (circular_hysteresis_own_centres_um), a second figure only;
 //  * bidirectional circular deviation G(b): range of both traces together about their common
 //    least-squares centre.
-// All values in µm, in bar-length units (as circularity_um).
+// Which centre H is taken about. ISO 230-4 defines H as the maximum radial difference between
+// the two actual paths, one traced cw, the other ccw: a difference between two paths, so both
+// are measured from ONE reference, as G(b) (two concentric circles enveloping both paths) is.
+// The set-up of a ball bar (fixed-ball placement) is the same in both directions, and the
+// common least-squares centre removes it once; it does not remove a shift of one path against
+// the other, which is part of the difference H measures. Each trace about its own centre
+// removes that shift too (a directional error not symmetric about the centre, e.g. a reversal
+// error at one quadrant only, or drift between the runs, moves each trace's own centre), which
+// gives a different number, not the ISO 230-4 figure; it is reported beside it, named.
+// All values in µm, in the units of the results (circular_test.h: bar, or tool path — the
+// units AnalyzeDbbSet reports); both results of a pair must have the same units.
 //
 // Partial arcs (circular_test.h, coverage.h): every figure is evaluated over the arc (the
 // least-squares circle of the arc, the range over the arc), which the figures state
@@ -30,6 +42,7 @@
 namespace km::dbb {
 
 struct Iso230Figures {
+  DeviationUnits units = DeviationUnits::kBar;  // of the result the figures come from
   double circular_deviation_um = 0.0;
   double radial_deviation_max_um = 0.0;
   double radial_deviation_min_um = 0.0;
@@ -39,7 +52,9 @@ struct Iso230Figures {
 };
 
 struct Iso230PairFigures {
-  double circular_hysteresis_um = 0.0;
+  DeviationUnits units = DeviationUnits::kBar;
+  double circular_hysteresis_um = 0.0;              // about the common least-squares centre
+  double circular_hysteresis_own_centres_um = 0.0;  // each trace about its own LS centre
   double bidirectional_circular_deviation_um = 0.0;
   std::array<double, 2> common_centre_um{};  // common least-squares centre (plane axes)
   bool full_turn = true;                     // false: at least one trace is a partial arc

@@ -22,6 +22,9 @@ nlohmann::json DbbTestToJson(const DbbTestReport& t) {
   j["direction"] = ToString(c.direction);
   j["mode"] = ToString(c.mode);
   j["plane"] = ToString(t.plane);
+  // Units of every deviation of this test (circular_test.h): the bar deviation × the factor.
+  j["deviation_units"] = ToString(c.units);
+  j["bar_to_tool_path_factor"] = c.deviation_factor;
   j["centre_offset_um"] = {c.centre_offset_um[0], c.centre_offset_um[1]};
   j["average_radial_error_um"] = c.average_radial_error_um;
   j["circularity_um"] = c.circularity_um;
@@ -30,6 +33,7 @@ nlohmann::json DbbTestToJson(const DbbTestReport& t) {
                    {"radial_deviation_max_um", t.iso230_4.radial_deviation_max_um},
                    {"radial_deviation_min_um", t.iso230_4.radial_deviation_min_um},
                    {"radial_reference", t.iso230_4.radial_reference},
+                   {"deviation_units", ToString(t.iso230_4.units)},
                    {"evaluated_over", Over(t.iso230_4.full_turn)},
                    {"evaluated_arc_deg", t.iso230_4.evaluated_arc_deg}};
   // Every figure of this test is over the evaluated turn or partial arc (circular_test.h).
@@ -70,9 +74,16 @@ nlohmann::json DbbTestToJson(const DbbTestReport& t) {
 }
 
 nlohmann::json DbbPairToJson(const DbbPairReport& p) {
+  // H about the common least-squares centre is the ISO 230-4 figure; about each trace's own
+  // centre a second one (iso230.h).
   return {{"test_id", p.test_id},
+          {"deviation_units", ToString(p.iso230_4.units)},
           {"circular_hysteresis_um", p.iso230_4.circular_hysteresis_um},
+          {"circular_hysteresis_centre", "common least-squares centre"},
+          {"circular_hysteresis_own_centres_um", p.iso230_4.circular_hysteresis_own_centres_um},
+          {"circular_hysteresis_own_centres_centre", "own least-squares centre of each trace"},
           {"bidirectional_circular_deviation_um", p.iso230_4.bidirectional_circular_deviation_um},
+          {"bidirectional_centre", "common least-squares centre"},
           {"evaluated_over", Over(p.iso230_4.full_turn)},
           {"evaluated_arc_deg", p.iso230_4.evaluated_arc_deg}};
 }

@@ -18,6 +18,7 @@
 //   cyclic_error_a    e_a = c cos(2π a/P) + d sin(2π a/P)
 //   stick_slip        e_a = −A sign(v_a) (2 frac(φ_a / P) − 1) while |v_a| < 0.2 V
 //   centre            machine circle centre offset (µm, plane axes)
+//   radius            e = ρ (cos θ, sin θ): the tool circle ρ µm larger than commanded
 //
 // The bar length is computed exactly in 3-D, |P + e − F| with F = C + fixed-ball set-up error,
 // and Gaussian noise is added to dr (std::mt19937, seeded). Angles are given explicitly so
@@ -48,6 +49,7 @@ enum class Kind {
   kCyclic,         // p = {c, d, P mm}
   kStickSlip,      // p = {A, P deg}
   kCentre,         // p = {u, v} µm
+  kRadius,         // p = {ρ} µm
 };
 
 struct Effect {
@@ -135,6 +137,10 @@ inline std::array<double, 2> ErrorUm(const Effect& e, const Setup& st, double th
     case Kind::kCentre:
       r[0] = e.p[0];
       r[1] = e.p[1];
+      break;
+    case Kind::kRadius:
+      r[0] = e.p[0] * std::cos(th);
+      r[1] = e.p[0] * std::sin(th);
       break;
   }
   return r;
