@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "analysis/core/errors.h"
+#include "server/storage.h"
 
 namespace km::api {
 namespace {
@@ -127,9 +128,27 @@ Response Router::Dispatch(Request& req) const {
   return route ? Run(*route, req) : refusal;
 }
 
+namespace {
+void LogFailure(const Request& req, const std::string& what) {
+  std::cerr << "kinemetricd: request " << (req.id.empty() ? "(none)" : req.id) << " " << req.method
+            << " " << req.path << " failed: " << what << std::endl;
+}
+}  // namespace
+
 Response ErrorResponse(std::exception_ptr error, const Request& req) {
   try {
     std::rethrow_exception(error);
+  } catch (const server::StorageError& e) {
+    // The database's own words (paths, SQL) stay in the log; the client gets the request id.
+    LogFailure(req, e.what());
+    if (e.busy()) {
+      Response r = Problem(503, "Service Unavailable",
+                           "the database is busy; retry shortly (request id " +
+                               (req.id.empty() ? std::string("(none)") : req.id) + ")",
+                           {{"request_id", req.id}});
+      r.headers["Retry-After"] = "1";
+      return r;
+    }
   } catch (const TooLarge& e) {
     return Problem(413, "Payload Too Large", e.what());
   } catch (const InvalidInput& e) {
@@ -156,11 +175,9 @@ Response ErrorResponse(std::exception_ptr error, const Request& req) {
   } catch (const DidNotConverge& e) {
     return Problem(422, "Did not converge", e.what());
   } catch (const std::exception& e) {
-    std::cerr << "kinemetricd: request " << req.id << " " << req.method << " " << req.path
-              << " failed: " << e.what() << std::endl;
+    LogFailure(req, e.what());
   } catch (...) {
-    std::cerr << "kinemetricd: request " << req.id << " " << req.method << " " << req.path
-              << " failed with an unknown error" << std::endl;
+    LogFailure(req, "an unknown error");
   }
   return Problem(500, "Internal Server Error",
                  "the request failed on the server; the server log names it by request id " +

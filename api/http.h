@@ -96,8 +96,9 @@ Response Problem(int status, const std::string& title, const std::string& detail
                  const nlohmann::json& extra = nlohmann::json::object());
 
 // The answer to an exception escaping a handler: 400 / 404 / 413 / 422 / 401 with the
-// exception's message; anything unexpected is logged on stderr with the request id and answered
-// 500 naming only that id.
+// exception's message; 503 with Retry-After for a full queue (Unavailable) or a busy database
+// (server::StorageError with busy(), logged with the request id); anything unexpected is logged
+// on stderr with the request id and answered 500 naming only that id, never its message.
 Response ErrorResponse(std::exception_ptr error, const Request& req);
 
 // OpenAPI 3 document made from the route table.

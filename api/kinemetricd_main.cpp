@@ -54,7 +54,9 @@ int main(int argc, char** argv) {
   try {
     km::server::PrepareDataDir(cfg.data_dir);
     const std::string db_path = (fs::path(cfg.data_dir) / "kinemetric.db").string();
-    auto storage = std::make_unique<km::server::SqliteStorage>(db_path);
+    km::server::SqliteOptions db_options;
+    db_options.busy_timeout_ms = cfg.db_busy_timeout_ms;
+    auto storage = std::make_unique<km::server::SqliteStorage>(db_path, db_options);
     km::server::ServiceOptions so;
     so.max_upload_bytes = cfg.max_upload_bytes;
     km::server::ApplyUploadLimits(cfg, so.upload_limits);
@@ -64,18 +66,16 @@ int main(int argc, char** argv) {
     km::server::RegisterBuiltinKinds(service);
 
     const char* bootstrap = std::getenv("KINEMETRIC_BOOTSTRAP_TOKEN");
-    const std::string generated =
-        km::api::EnsureAdminToken(service.storage(), bootstrap ? bootstrap : "");
+    const std::string generated = service.EnsureAdminToken(bootstrap ? bootstrap : "");
     if (!generated.empty()) {
       std::cout << "kinemetricd: first start; admin token (shown once): " << generated << std::endl;
     }
-    if (bootstrap && *bootstrap &&
-        !service.storage().FindTokenRole(km::server::Sha256Hex(bootstrap))) {
+    if (bootstrap && *bootstrap && !service.TokenKnown(km::server::Sha256Hex(bootstrap))) {
       std::cout << "kinemetricd: KINEMETRIC_BOOTSTRAP_TOKEN is ignored: the database already has "
                    "tokens and this is not one of them (it is used only on the first start)"
                 << std::endl;
     }
-    if (cfg.demo_data && service.storage().ListMachines().empty()) {
+    if (cfg.demo_data && service.Machines().empty()) {
       int n = 0;
       for (const auto& f : km::server::DemoDbbFiles()) {
         service.Upload(f.bytes, f.name);
@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
 
     km::api::Router router;
     km::api::AddRoutes(router, service);
-    router.SetHook(km::api::TokenHook(service.storage()));
+    router.SetHook(km::api::TokenHook(service));
 
     km::api::HttpOptions ho;
     ho.host = cfg.host;

@@ -32,28 +32,17 @@ std::string UploadFilename(const Request& req) {
   return *name;
 }
 
-}  // namespace
+// The answer to storing a machine definition.
+json StoredJson(const server::MachineModelStored& m) {
+  return json{{"machine_id", m.machine_id},
+              {"version", m.version},
+              {"created_at", m.created_at},
+              {"created", m.created}};
+}
 
-void AddRoutes(Router& router, server::Service& service) {
+// Uploads and the stored measurements: list, one with its samples, results.
+void AddMeasurementRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
-  const Router* rt = &router;
-
-  router.Add(Route{"GET",
-                   "/healthz",
-                   "Liveness and readiness",
-                   false,
-                   [](const Request&) {
-                     return Response::Json({{"status", "ok"}});
-                   },
-                   {{"responses", {{"200", JsonResponse("the server is ready")}}}}});
-
-  router.Add(
-      Route{"GET",
-            "/api/v1/openapi.json",
-            "This OpenAPI document",
-            false,
-            [rt](const Request&) { return Response::Json(OpenApiDocument(*rt, kApiVersion)); },
-            {{"responses", {{"200", JsonResponse("OpenAPI 3 document")}}}}});
 
   router.Add(Route{
       "POST",
@@ -94,11 +83,10 @@ void AddRoutes(Router& router, server::Service& service) {
         f.to = QueryTime(req, "to");
         f.limit = QueryInt(req, "limit", 50, 1, 1000);
         f.offset = QueryInt(req, "offset", 0, 0, std::int64_t{1} << 40);
-        const auto page = svc->storage().ListMeasurements(f);
-        json items = json::array();
-        for (const auto& r : page.items) items.push_back(svc->MeasurementJson(r));
-        return Response::Json(
-            {{"items", items}, {"total", page.total}, {"limit", f.limit}, {"offset", f.offset}});
+        json page = svc->ListMeasurements(f);
+        page["limit"] = f.limit;
+        page["offset"] = f.offset;
+        return Response::Json(page);
       },
       {{"parameters",
         json::array({Param("machine_id", "string", "only this machine"),
@@ -116,18 +104,7 @@ void AddRoutes(Router& router, server::Service& service) {
       "One measurement: metadata and samples",
       true,
       [svc](const Request& req) {
-        const auto id = req.PathId("id");
-        const auto rec = svc->storage().GetMeasurement(id);
-        if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
-        json j = svc->MeasurementJson(*rec);
-        j["metadata"] = json::parse(rec->metadata_json);
-        const auto block = svc->storage().GetSamples(id);
-        json samples = json::object();
-        for (std::size_t c = 0; c < block.columns.size(); ++c) {
-          samples[block.columns[c]] = block.Column(c);
-        }
-        j["samples"] = samples;
-        return Response::Json(j);
+        return Response::Json(svc->MeasurementWithSamples(req.PathId("id")));
       },
       {{"responses", {{"200", JsonResponse("metadata and samples (one array per column)")}}}}});
 
@@ -138,6 +115,11 @@ void AddRoutes(Router& router, server::Service& service) {
             true,
             [svc](const Request& req) { return Response::Json(svc->Results(req.PathId("id"))); },
             {{"responses", {{"200", JsonResponse("results of the newest analysis version")}}}}});
+}
+
+// DBB queries recomputed from a stored test: trace, CW/CCW pair, polar plot.
+void AddDbbRoutes(Router& router, server::Service& service) {
+  server::Service* svc = &service;
 
   router.Add(Route{
       "GET",
@@ -180,6 +162,11 @@ void AddRoutes(Router& router, server::Service& service) {
                 {{"description", "PNG image"},
                  {"content",
                   {{"image/png", {{"schema", {{"type", "string"}, {"format", "binary"}}}}}}}}}}}}});
+}
+
+// Calibration studies as background jobs, the jobs, and the machines known.
+void AddJobRoutes(Router& router, server::Service& service) {
+  server::Service* svc = &service;
 
   router.Add(Route{
       "POST",
@@ -243,7 +230,7 @@ void AddRoutes(Router& router, server::Service& service) {
       true,
       [svc](const Request&) {
         json items = json::array();
-        for (const auto& m : svc->storage().ListMachines()) {
+        for (const auto& m : svc->Machines()) {
           items.push_back({{"machine_id", m.machine_id},
                            {"measurement_count", m.measurement_count},
                            {"last_timestamp", m.last_time ? json(*m.last_time) : json(nullptr)},
@@ -254,30 +241,117 @@ void AddRoutes(Router& router, server::Service& service) {
       {{"responses",
         {{"200", JsonResponse("{machines[{machine_id, measurement_count, last_timestamp, "
                               "model_versions}]}")}}}}});
+}
 
+// Discovery studies, and saving the machine a finished job produced.
+void AddStudyRoutes(Router& router, server::Service& service) {
+  server::Service* svc = &service;
+
+  router.Add(
+      Route{"POST",
+            "/api/v1/discoveries",
+            "Model-gap discovery study (stored model or serial + DBB measurement ids) as a "
+            "background job",
+            true,
+            [svc](const Request& req) {
+              const auto id = svc->SubmitDiscovery(JsonBody(req));
+              Response r = Response::Json(
+                  {{"job_id", id}, {"status_url", "/api/v1/jobs/" + std::to_string(id)}}, 202);
+              r.headers["Location"] = "/api/v1/jobs/" + std::to_string(id);
+              return r;
+            },
+            {{"requestBody",
+              {{"required", true},
+               {"content",
+                {{"application/json",
+                  {{"schema",
+                    {{"type", "object"},
+                     {"required", json::array({"measurement_ids"})},
+                     {"properties",
+                      {{"machine_id", {{"type", "string"}}},
+                       {"machine_version", {{"type", "integer"}}},
+                       {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
+                       {"max_samples_per_test", {{"type", "integer"}}}}}}}}}}}}},
+             {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}});
+
+  Route save{
+      "POST",
+      "/api/v1/jobs/{id}/save-machine",
+      "Store the machine a finished calibration or discovery job produced as the next version "
+      "of its model",
+      true,
+      [svc](const Request& req) {
+        std::string note;
+        if (!req.body.empty()) {
+          const json body = JsonBody(req);
+          if (!body.is_object()) {
+            throw InvalidInput("request", 0, "", "the body must be a JSON object (or empty)");
+          }
+          note = server::request::OptionalString(body, "note", "");
+        }
+        try {
+          const auto out = svc->SaveJobMachine(req.PathId("id"), note);
+          return Response::Json(StoredJson(out), out.created ? 201 : 200);
+        } catch (const server::Conflict& e) {
+          return Problem(409, "Conflict", e.what());
+        }
+      },
+      {{"requestBody",
+        {{"required", false},
+         {"content",
+          {{"application/json",
+            {{"schema",
+              {{"type", "object"}, {"properties", {{"note", {{"type", "string"}}}}}}}}}}}}},
+       {"responses",
+        {{"201", JsonResponse("stored: {machine_id, version, created_at, created: true}")},
+         {"200", JsonResponse("the same bytes as the newest version: that version")},
+         {"409", {{"description", "the job is not done, or produced no machine"}}}}}}};
+  save.max_body_bytes = 64u << 10;
+  router.Add(std::move(save));
+}
+
+}  // namespace
+
+void AddRoutes(Router& router, server::Service& service) {
+  const Router* rt = &router;
+
+  router.Add(Route{"GET",
+                   "/healthz",
+                   "Liveness and readiness",
+                   false,
+                   [](const Request&) {
+                     return Response::Json({{"status", "ok"}});
+                   },
+                   {{"responses", {{"200", JsonResponse("the server is ready")}}}}});
+
+  router.Add(
+      Route{"GET",
+            "/api/v1/openapi.json",
+            "This OpenAPI document",
+            false,
+            [rt](const Request&) { return Response::Json(OpenApiDocument(*rt, kApiVersion)); },
+            {{"responses", {{"200", JsonResponse("OpenAPI 3 document")}}}}});
+
+  AddMeasurementRoutes(router, service);
+  AddDbbRoutes(router, service);
+  AddJobRoutes(router, service);
   AddMachineModelRoutes(router, service);
   AddStreamRoutes(router, service);
 }
 
 void AddMachineModelRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
-  const auto stored_json = [](const server::MachineModelStored& m) {
-    return json{{"machine_id", m.machine_id},
-                {"version", m.version},
-                {"created_at", m.created_at},
-                {"created", m.created}};
-  };
 
   Route upload{"POST",
                "/api/v1/machines",
                "Store a machine definition (kinemetric-machine/1) as the next version of its model",
                true,
-               [svc, stored_json](const Request& req) {
+               [svc](const Request& req) {
                  const std::string file =
                      req.Header("x-filename") ? UploadFilename(req) : "machine";
                  const auto out = svc->StoreMachineModel(req.body, "upload",
                                                          req.Query("note").value_or(""), file);
-                 return Response::Json(stored_json(out), out.created ? 201 : 200);
+                 return Response::Json(StoredJson(out), out.created ? 201 : 200);
                },
                {{"requestBody",
                  {{"required", true},
@@ -322,67 +396,7 @@ void AddMachineModelRoutes(Router& router, server::Service& service) {
         {{"200",
           JsonResponse("{machine_id, versions[{version, created_at, source, note, sha256}]}")}}}}});
 
-  router.Add(
-      Route{"POST",
-            "/api/v1/discoveries",
-            "Model-gap discovery study (stored model or serial + DBB measurement ids) as a "
-            "background job",
-            true,
-            [svc](const Request& req) {
-              const auto id = svc->SubmitDiscovery(JsonBody(req));
-              Response r = Response::Json(
-                  {{"job_id", id}, {"status_url", "/api/v1/jobs/" + std::to_string(id)}}, 202);
-              r.headers["Location"] = "/api/v1/jobs/" + std::to_string(id);
-              return r;
-            },
-            {{"requestBody",
-              {{"required", true},
-               {"content",
-                {{"application/json",
-                  {{"schema",
-                    {{"type", "object"},
-                     {"required", json::array({"measurement_ids"})},
-                     {"properties",
-                      {{"machine_id", {{"type", "string"}}},
-                       {"machine_version", {{"type", "integer"}}},
-                       {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
-                       {"max_samples_per_test", {{"type", "integer"}}}}}}}}}}}}},
-             {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}});
-
-  Route save{
-      "POST",
-      "/api/v1/jobs/{id}/save-machine",
-      "Store the machine a finished calibration or discovery job produced as the next version "
-      "of its model",
-      true,
-      [svc, stored_json](const Request& req) {
-        std::string note;
-        if (!req.body.empty()) {
-          const json body = JsonBody(req);
-          if (!body.is_object()) {
-            throw InvalidInput("request", 0, "", "the body must be a JSON object (or empty)");
-          }
-          note = server::request::OptionalString(body, "note", "");
-        }
-        try {
-          const auto out = svc->SaveJobMachine(req.PathId("id"), note);
-          return Response::Json(stored_json(out), out.created ? 201 : 200);
-        } catch (const server::Conflict& e) {
-          return Problem(409, "Conflict", e.what());
-        }
-      },
-      {{"requestBody",
-        {{"required", false},
-         {"content",
-          {{"application/json",
-            {{"schema",
-              {{"type", "object"}, {"properties", {{"note", {{"type", "string"}}}}}}}}}}}}},
-       {"responses",
-        {{"201", JsonResponse("stored: {machine_id, version, created_at, created: true}")},
-         {"200", JsonResponse("the same bytes as the newest version: that version")},
-         {"409", {{"description", "the job is not done, or produced no machine"}}}}}}};
-  save.max_body_bytes = 64u << 10;
-  router.Add(std::move(save));
+  AddStudyRoutes(router, service);
 }
 
 namespace {
@@ -409,12 +423,10 @@ class TokenCache {
   std::unordered_map<std::string, std::chrono::steady_clock::time_point> known_;
 };
 
-}  // namespace
-
-RequestHook TokenHook(server::Storage& storage) {
-  server::Storage* st = &storage;
+// The hook over a lookup of token hashes.
+RequestHook TokenHookOver(std::function<bool(const std::string&)> known) {
   auto cache = std::make_shared<TokenCache>();
-  return [st, cache](const Request& req, const Route& route) {
+  return [known = std::move(known), cache](const Request& req, const Route& route) {
     if (!route.needs_token) return;
     const auto auth = req.Header("authorization");
     if (!auth || auth->rfind("Bearer ", 0) != 0 || auth->size() <= 7) {
@@ -422,20 +434,25 @@ RequestHook TokenHook(server::Storage& storage) {
     }
     const std::string sha = server::Sha256Hex(auth->substr(7));
     if (cache->Knows(sha)) return;
-    if (!st->FindTokenRole(sha)) throw Unauthorized("the token is not valid");
+    if (!known(sha)) throw Unauthorized("the token is not valid");
     cache->Remember(sha);
   };
 }
 
+}  // namespace
+
+RequestHook TokenHook(server::Service& service) {
+  server::Service* svc = &service;
+  return TokenHookOver([svc](const std::string& sha) { return svc->TokenKnown(sha); });
+}
+
+RequestHook TokenHook(server::Storage& storage) {
+  server::Storage* st = &storage;
+  return TokenHookOver([st](const std::string& sha) { return st->FindTokenRole(sha).has_value(); });
+}
+
 std::string EnsureAdminToken(server::Storage& storage, const std::string& bootstrap) {
-  if (storage.CountTokens() > 0) return {};
-  if (!bootstrap.empty()) {
-    storage.PutToken(server::Sha256Hex(bootstrap), "admin", "bootstrap");
-    return {};
-  }
-  const std::string token = server::NewRandomToken();
-  storage.PutToken(server::Sha256Hex(token), "admin", "generated at first start");
-  return token;
+  return server::EnsureAdminToken(storage, bootstrap);
 }
 
 }  // namespace km::api

@@ -19,12 +19,14 @@ void AddMachineModelRoutes(Router& router, server::Service& service);
 void AddStreamRoutes(Router& router, server::Service& service);
 
 // Access control: every route that needs a token checks `Authorization: Bearer TOKEN` against
-// the stored token hashes.
+// the stored token hashes (through the service; the Storage overload serves tests and tools).
+RequestHook TokenHook(server::Service& service);
 RequestHook TokenHook(server::Storage& storage);
 
 // First start: make sure an admin token exists. Uses `bootstrap` when given (the value of
 // KINEMETRIC_BOOTSTRAP_TOKEN), else generates one; returns the new token text when one was
-// created by generation (to be printed once), empty otherwise.
+// created by generation (to be printed once), empty otherwise. The server calls
+// Service::EnsureAdminToken; this form serves tests and tools holding a storage.
 std::string EnsureAdminToken(server::Storage& storage, const std::string& bootstrap);
 
 }  // namespace km::api

@@ -32,61 +32,10 @@ class FrameSink : public BodySink {
  private:
   FrameIngestion ingestion_;
 };
-}  // namespace
 
-void AddStreamRoutes(Router& router, server::Service& service) {
+// Reading a stream: list, one, samples for plots, gaps; a stretch turned into a profile.
+void AddStreamReadRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
-
-  router.Add(
-      Route{"POST",
-            "/api/v1/streams",
-            "Open a capacitance-sensor stream (machine, channels)",
-            true,
-            [svc](const Request& req) {
-              const auto id = svc->CreateStream(JsonBody(req));
-              Response r = Response::Json(svc->StreamJson(id), 201);
-              r.headers["Location"] = "/api/v1/streams/" + std::to_string(id);
-              return r;
-            },
-            {{"requestBody",
-              {{"required", true},
-               {"content",
-                {{"application/json",
-                  {{"schema",
-                    {{"type", "object"},
-                     {"required", json::array({"machine_id"})},
-                     {"properties",
-                      {{"machine_id", {{"type", "string"}}},
-                       {"name", {{"type", "string"}}},
-                       {"channels", {{"type", "array"}, {"items", {{"type", "object"}}}}}}}}}}}}}}},
-             {"responses", {{"201", JsonResponse("the stream {id, channels[], …}")}}}}});
-
-  Route frames{
-      "POST",
-      "/api/v1/streams/{id}/frames",
-      "Send stream frames (binary application/vnd.kinemetric.stream-frame or "
-      "application/x-ndjson); the body may be long and chunked: frames are stored as they "
-      "arrive, the answer comes when the body ends",
-      true,
-      [svc](const Request& req) {
-        // Callers that hold the whole body (tests, tools); the HTTP server uses open_body.
-        FrameIngestion ingestion(*svc, req.PathId("id"), req.Header("content-type").value_or(""));
-        ingestion.Feed(req.body);
-        return Response::Json(ingestion.Finish(true));
-      },
-      {{"parameters", json::array({PathParam("stream id")})},
-       {"requestBody",
-        {{"required", true},
-         {"content",
-          {{"application/vnd.kinemetric.stream-frame",
-            {{"schema", {{"type", "string"}, {"format", "binary"}}}}},
-           {"application/x-ndjson", {{"schema", {{"type", "string"}}}}}}}}},
-       {"responses", {{"200", JsonResponse("{frames, samples, stored, duplicates, gaps[]}")}}}}};
-  frames.open_body = [svc](const Request& req) -> std::unique_ptr<BodySink> {
-    return std::make_unique<FrameSink>(*svc, req.PathId("id"),
-                                       req.Header("content-type").value_or(""));
-  };
-  router.Add(std::move(frames));
 
   router.Add(Route{"GET",
                    "/api/v1/streams",
@@ -175,6 +124,11 @@ void AddStreamRoutes(Router& router, server::Service& service) {
                        {"position", {{"type", "object"}}}}}}}}}}}}},
              {"responses",
               {{"201", JsonResponse("{id, results} of the new straightness measurement")}}}}});
+}
+
+// The Modbus TCP acquisition devices (server/acquisition.h).
+void AddDeviceRoutes(Router& router, server::Service& service) {
+  server::Service* svc = &service;
 
   router.Add(Route{"GET",
                    "/api/v1/devices",
@@ -209,6 +163,65 @@ void AddStreamRoutes(Router& router, server::Service& service) {
                      return Response::Json({{"stopped", name}});
                    },
                    {{"responses", {{"200", JsonResponse("{stopped}")}}}}});
+}
+}  // namespace
+
+void AddStreamRoutes(Router& router, server::Service& service) {
+  server::Service* svc = &service;
+
+  router.Add(
+      Route{"POST",
+            "/api/v1/streams",
+            "Open a capacitance-sensor stream (machine, channels)",
+            true,
+            [svc](const Request& req) {
+              const auto id = svc->CreateStream(JsonBody(req));
+              Response r = Response::Json(svc->StreamJson(id), 201);
+              r.headers["Location"] = "/api/v1/streams/" + std::to_string(id);
+              return r;
+            },
+            {{"requestBody",
+              {{"required", true},
+               {"content",
+                {{"application/json",
+                  {{"schema",
+                    {{"type", "object"},
+                     {"required", json::array({"machine_id"})},
+                     {"properties",
+                      {{"machine_id", {{"type", "string"}}},
+                       {"name", {{"type", "string"}}},
+                       {"channels", {{"type", "array"}, {"items", {{"type", "object"}}}}}}}}}}}}}}},
+             {"responses", {{"201", JsonResponse("the stream {id, channels[], …}")}}}}});
+
+  Route frames{
+      "POST",
+      "/api/v1/streams/{id}/frames",
+      "Send stream frames (binary application/vnd.kinemetric.stream-frame or "
+      "application/x-ndjson); the body may be long and chunked: frames are stored as they "
+      "arrive, the answer comes when the body ends",
+      true,
+      [svc](const Request& req) {
+        // Callers that hold the whole body (tests, tools); the HTTP server uses open_body.
+        FrameIngestion ingestion(*svc, req.PathId("id"), req.Header("content-type").value_or(""));
+        ingestion.Feed(req.body);
+        return Response::Json(ingestion.Finish(true));
+      },
+      {{"parameters", json::array({PathParam("stream id")})},
+       {"requestBody",
+        {{"required", true},
+         {"content",
+          {{"application/vnd.kinemetric.stream-frame",
+            {{"schema", {{"type", "string"}, {"format", "binary"}}}}},
+           {"application/x-ndjson", {{"schema", {{"type", "string"}}}}}}}}},
+       {"responses", {{"200", JsonResponse("{frames, samples, stored, duplicates, gaps[]}")}}}}};
+  frames.open_body = [svc](const Request& req) -> std::unique_ptr<BodySink> {
+    return std::make_unique<FrameSink>(*svc, req.PathId("id"),
+                                       req.Header("content-type").value_or(""));
+  };
+  router.Add(std::move(frames));
+
+  AddStreamReadRoutes(router, service);
+  AddDeviceRoutes(router, service);
 }
 
 }  // namespace km::api

@@ -28,6 +28,7 @@ constexpr Range kConnections{1, 1'000'000, ""};
 constexpr Range kBacklog{1, 65535, ""};
 constexpr Range kHeaderBytes{1024, 1 << 20, " bytes"};
 constexpr Range kCount{1, std::int64_t{1} << 40, ""};
+constexpr Range kBusyTimeout{0, 600'000, " ms"};
 
 // Every whole-number setting: its config-file key (the command-line option is "--" + key with
 // '-' for '_'), its range and where it goes.
@@ -67,6 +68,8 @@ const NumberOption kNumberOptions[] = {
      }},
     {"keep_alive_timeout_s", kTimeout,
      [](ServerConfig& c, std::int64_t v) { c.keep_alive_timeout_s = static_cast<int>(v); }},
+    {"db_busy_timeout_ms", kBusyTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.db_busy_timeout_ms = static_cast<int>(v); }},
 };
 
 const NumberOption* FindNumberOption(const std::string& key) {

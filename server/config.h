@@ -37,17 +37,21 @@ struct ServerConfig {
   std::size_t max_calibration_tests = 500;
   std::size_t max_calibration_samples = 2'000'000;
   std::string modbus_config;  // Modbus TCP devices to acquire from (docs/modbus.md); empty: none
+  // How long a database call waits for a lock held by another connection before the request
+  // is answered 503 with Retry-After.
+  int db_busy_timeout_ms = 5000;
 };
 
 // Applies a JSON config file: keys listen ("HOST:PORT"), data_dir, web_root, demo_data,
 // modbus_config, and the whole numbers max_upload_bytes, threads, io_threads, queue_limit,
 // max_connections, backlog, max_header_bytes, header_timeout_s, read_timeout_s, write_timeout_s,
-// keep_alive_max_count, keep_alive_timeout_s (each also a command-line option, e.g.
+// keep_alive_max_count, keep_alive_timeout_s, db_busy_timeout_ms (each also a command-line option,
+// e.g.
 // --header-timeout-s). Unknown keys are an error (typos are not ignored). Numbers must be whole
 // and within range: threads 1–256, io_threads 1–64, queue_limit, keep_alive_max_count and
 // max_connections 1–1 000 000, backlog 1–65535, max_header_bytes 1 KiB–1 MiB, timeouts
-// 1–3600 s, max_upload_bytes 1 B–4 GiB, port 0–65535 (0: any free port); data_dir must not be
-// empty. Anything else is km::InvalidInput naming the option or key.
+// 1–3600 s, db_busy_timeout_ms 0–600 000 ms, max_upload_bytes 1 B–4 GiB, port 0–65535 (0: any free
+// port); data_dir must not be empty. Anything else is km::InvalidInput naming the option or key.
 void ApplyConfigFile(ServerConfig& cfg, const std::string& path);
 // Applies "HOST:PORT".
 void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where);

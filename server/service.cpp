@@ -129,4 +129,48 @@ nlohmann::json Service::MeasurementJson(const MeasurementRecord& r) const {
   return j;
 }
 
+nlohmann::json Service::ListMeasurements(const MeasurementFilter& filter) {
+  const auto page = storage_->ListMeasurements(filter);
+  nlohmann::json items = nlohmann::json::array();
+  for (const auto& r : page.items) items.push_back(MeasurementJson(r));
+  return {{"items", items}, {"total", page.total}};
+}
+
+nlohmann::json Service::MeasurementWithSamples(std::int64_t id) {
+  const auto rec = storage_->GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  nlohmann::json j = MeasurementJson(*rec);
+  j["metadata"] = nlohmann::json::parse(rec->metadata_json);
+  const auto block = storage_->GetSamples(id);
+  nlohmann::json samples = nlohmann::json::object();
+  for (std::size_t c = 0; c < block.columns.size(); ++c) {
+    samples[block.columns[c]] = block.Column(c);
+  }
+  j["samples"] = samples;
+  return j;
+}
+
+std::vector<MachineSummary> Service::Machines() {
+  return storage_->ListMachines();
+}
+
+bool Service::TokenKnown(const std::string& token_sha256) {
+  return storage_->FindTokenRole(token_sha256).has_value();
+}
+
+std::string Service::EnsureAdminToken(const std::string& bootstrap) {
+  return server::EnsureAdminToken(*storage_, bootstrap);
+}
+
+std::string EnsureAdminToken(Storage& storage, const std::string& bootstrap) {
+  if (storage.CountTokens() > 0) return {};
+  if (!bootstrap.empty()) {
+    storage.PutToken(Sha256Hex(bootstrap), "admin", "bootstrap");
+    return {};
+  }
+  const std::string token = NewRandomToken();
+  storage.PutToken(Sha256Hex(token), "admin", "generated at first start");
+  return token;
+}
+
 }  // namespace km::server

@@ -125,6 +125,19 @@ class Service {
   nlohmann::json DbbPairJson(std::int64_t id);
   std::string DbbPlotPng(std::int64_t id);
   nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
+  // Measurement metadata matching the filter: {"items": [MeasurementJson…], "total"}.
+  nlohmann::json ListMeasurements(const MeasurementFilter& filter);
+  // One measurement: MeasurementJson plus "metadata" and "samples" (one array per column);
+  // NotFound when there is none.
+  nlohmann::json MeasurementWithSamples(std::int64_t id);
+  // Machines with stored measurements or a stored model.
+  std::vector<MachineSummary> Machines();
+
+  // Access tokens, stored as SHA-256 hashes only. TokenKnown: is this hash a stored token?
+  // EnsureAdminToken: on a database without tokens, stores the bootstrap token (when given) or
+  // a new random one, which is returned (to be shown once); otherwise returns "".
+  bool TokenKnown(const std::string& token_sha256);
+  std::string EnsureAdminToken(const std::string& bootstrap);
 
   // Hexapod calibration study as a background job. Request (JSON): {"machine": {machine
   // definition, docs/formats.md §2}, "measurement_ids": [DBB ids], "method": "absolute" |
@@ -193,6 +206,7 @@ class Service {
   // Modbus TCP devices (server/acquisition.h).
   Acquisition& acquisition() { return *acquisition_; }
 
+  // The storage itself, for tests and tools; the API's routes use the calls above.
   Storage& storage() { return *storage_; }
 
  private:
@@ -217,6 +231,9 @@ class Service {
   std::unique_ptr<Acquisition> acquisition_;  // after streams_: stopped before it
   std::unique_ptr<JobQueue> jobs_;            // last: stopped first
 };
+
+// The admin token of a database without tokens (Service::EnsureAdminToken).
+std::string EnsureAdminToken(Storage& storage, const std::string& bootstrap);
 
 // The handlers of every measurement kind the product knows; call once at start-up.
 void RegisterBuiltinKinds(Service& service);

@@ -1,117 +1,103 @@
-// Internal to the SQLite backend (server/sqlite_storage.cpp, server/sqlite_machine_models.cpp):
-// errors, prepared statements with RAII finalisation, and transactions that roll back unless
-// committed. Not part of the storage interface.
+// Internal to the SQLite backend (server/sqlite_*.cpp): the thin layer over the SQLite C API
+// that the data-access files are written in. Not part of the storage interface.
+//
+//  * every failure is a StorageError carrying SQLite's primary result code (SQLITE_BUSY and
+//    SQLITE_LOCKED mark it busy: the API answers 503 with Retry-After);
+//  * Statement: a prepared statement, finalised by its destructor, with typed Bind and column
+//    getters (text read back is made valid UTF-8);
+//  * StatementCache: each distinct SQL text is prepared once per connection and reused; a
+//    CachedStatement lease resets it (and clears its bindings) when the lease ends, so no
+//    statement keeps a read transaction open;
+//  * Transaction: BEGIN IMMEDIATE, rolled back by the destructor unless Commit() was called.
 #pragma once
 
 #include <sqlite3.h>
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
-#include <string_view>
+#include <unordered_map>
 
-#include "analysis/core/errors.h"
-#include "server/utf8.h"
+#include "server/storage.h"
 
 namespace km::server::sqlite {
 
-class StorageError : public Error {
+// The StorageError of a failed call: "storage: <what>: <SQLite's message>" and the code of rc.
+[[noreturn]] void Fail(sqlite3* db, int rc, const std::string& what);
+
+// Runs SQL without results (schema, pragmas, transaction control).
+void Exec(sqlite3* db, const char* sql);
+
+class Statement {
  public:
-  using Error::Error;
-};
+  Statement(sqlite3* db, const std::string& sql);
+  ~Statement();
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
 
-[[noreturn]] inline void Fail(sqlite3* db, const std::string& what) {
-  throw StorageError("storage: " + what + ": " + (db ? sqlite3_errmsg(db) : "no database"));
-}
-
-inline void Exec(sqlite3* db, const char* sql) {
-  char* err = nullptr;
-  if (sqlite3_exec(db, sql, nullptr, nullptr, &err) != SQLITE_OK) {
-    std::string msg = err ? err : "unknown error";
-    sqlite3_free(err);
-    throw StorageError(std::string("storage: ") + msg);
-  }
-}
-
-// Prepared statement with RAII finalisation.
-class Stmt {
- public:
-  Stmt(sqlite3* db, const char* sql) : db_(db) {
-    if (sqlite3_prepare_v2(db, sql, -1, &s_, nullptr) != SQLITE_OK) Fail(db, "prepare");
-  }
-  ~Stmt() { sqlite3_finalize(s_); }
-  Stmt(const Stmt&) = delete;
-  Stmt& operator=(const Stmt&) = delete;
-
-  Stmt& Bind(int i, std::int64_t v) {
-    Check(sqlite3_bind_int64(s_, i, v));
-    return *this;
-  }
-  Stmt& Bind(int i, const std::string& v) {
-    Check(sqlite3_bind_text(s_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
-    return *this;
-  }
-  Stmt& Bind(int i, const std::optional<std::string>& v) {
-    if (v) return Bind(i, *v);
-    Check(sqlite3_bind_null(s_, i));
-    return *this;
-  }
-  Stmt& BindReal(int i, double v) {
-    Check(sqlite3_bind_double(s_, i, v));
-    return *this;
-  }
-  Stmt& BindBlob(int i, const std::string& v) {
-    Check(sqlite3_bind_blob64(s_, i, v.data(), v.size(), SQLITE_TRANSIENT));
-    return *this;
-  }
-  // Makes the statement ready for new bindings (reuse of a prepared statement).
-  void Reset() {
-    sqlite3_reset(s_);
-    sqlite3_clear_bindings(s_);
-  }
+  Statement& Bind(int i, std::int64_t v);
+  Statement& Bind(int i, const std::string& v);
+  Statement& Bind(int i, const std::optional<std::string>& v);  // NULL when empty
+  Statement& BindReal(int i, double v);
+  Statement& BindBlob(int i, const std::string& v);
+  // Ready for new bindings (reuse of a prepared statement).
+  void Reset();
   // Steps an INSERT; false when a UNIQUE constraint refused the row.
-  bool TryStep() {
-    const int rc = sqlite3_step(s_);
-    if (rc == SQLITE_DONE || rc == SQLITE_ROW) return true;
-    if ((sqlite3_extended_errcode(db_) & 0xff) == SQLITE_CONSTRAINT) return false;
-    Fail(db_, "step");
-  }
+  bool TryStep();
   // true while a row is available.
-  bool Step() {
-    const int rc = sqlite3_step(s_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    Fail(db_, "step");
-  }
+  bool Step();
+
   std::int64_t Int(int c) const { return sqlite3_column_int64(s_, c); }
   double Real(int c) const { return sqlite3_column_double(s_, c); }
   bool IsNull(int c) const { return sqlite3_column_type(s_, c) == SQLITE_NULL; }
-  // Text as stored, made valid UTF-8 (rows written before uploads were checked may hold
-  // other bytes; everything read here may end up in JSON).
-  std::string Text(int c) const {
-    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(s_, c));
-    return p ? SanitizeUtf8(
-                   std::string_view(p, static_cast<std::size_t>(sqlite3_column_bytes(s_, c))))
-             : "";
-  }
-  std::optional<std::string> OptText(int c) const {
-    if (IsNull(c)) return std::nullopt;
-    return Text(c);
-  }
-  std::string Blob(int c) const {
-    const auto* p = static_cast<const char*>(sqlite3_column_blob(s_, c));
-    return p ? std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(s_, c))) : "";
-  }
+  // Text as stored, made valid UTF-8 (rows written before uploads were checked may hold other
+  // bytes; everything read here may end up in JSON).
+  std::string Text(int c) const;
+  std::optional<std::string> OptText(int c) const;
+  std::string Blob(int c) const;
 
  private:
-  void Check(int rc) {
-    if (rc != SQLITE_OK) Fail(db_, "bind");
-  }
+  void Check(int rc, const char* what);
   sqlite3* db_;
   sqlite3_stmt* s_ = nullptr;
 };
 
-// Rolls back unless Commit() was called (SQLiteCpp Transaction style).
+class CachedStatement;
+
+// The prepared statements of one connection, by SQL text. Used under the connection's lock.
+class StatementCache {
+ public:
+  explicit StatementCache(sqlite3* db) : db_(db) {}
+  // Finalises every statement (before the connection closes).
+  void Clear() { cache_.clear(); }
+
+ private:
+  friend class CachedStatement;
+  struct Entry {
+    std::unique_ptr<Statement> statement;
+    bool leased = false;
+  };
+  sqlite3* db_;
+  std::unordered_map<std::string, Entry> cache_;
+};
+
+// A statement of the cache, leased for one use: prepared on first use, reset when the lease
+// ends. The same SQL may not be leased twice at once (a programming error: std::logic_error).
+class CachedStatement {
+ public:
+  CachedStatement(StatementCache& cache, const std::string& sql);
+  ~CachedStatement();
+  CachedStatement(const CachedStatement&) = delete;
+  CachedStatement& operator=(const CachedStatement&) = delete;
+  Statement* operator->() { return entry_->statement.get(); }
+  Statement& operator*() { return *entry_->statement; }
+
+ private:
+  StatementCache::Entry* entry_;
+};
+
+// Rolls back unless Commit() was called.
 class Transaction {
  public:
   explicit Transaction(sqlite3* db) : db_(db) { Exec(db_, "BEGIN IMMEDIATE"); }

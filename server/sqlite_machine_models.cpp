@@ -9,12 +9,12 @@
 namespace km::server {
 namespace {
 
-using sqlite::Stmt;
+using sqlite::Statement;
 using sqlite::Transaction;
 
 constexpr const char* kModelColumns = "machine_id, version, created_at, source, note, sha256";
 
-MachineModelRecord ReadModel(const Stmt& s) {
+MachineModelRecord ReadModel(const Statement& s) {
   MachineModelRecord r;
   r.machine_id = s.Text(0);
   r.version = s.Int(1);
@@ -32,12 +32,11 @@ MachineModelPut SqliteStorage::PutMachineModel(const NewMachineModel& m) {
   Transaction tx(db_);  // BEGIN IMMEDIATE: no other writer between reading and appending
   std::int64_t newest = 0;
   {
-    Stmt s(db_, (std::string("SELECT ") + kModelColumns +
-                 " FROM machine_models WHERE machine_id = ? ORDER BY version DESC LIMIT 1")
-                    .c_str());
-    s.Bind(1, m.machine_id);
-    if (s.Step()) {
-      MachineModelRecord r = ReadModel(s);
+    auto s = Prepared((std::string("SELECT ") + kModelColumns +
+                       " FROM machine_models WHERE machine_id = ? ORDER BY version DESC LIMIT 1"));
+    s->Bind(1, m.machine_id);
+    if (s->Step()) {
+      MachineModelRecord r = ReadModel(*s);
       if (r.sha256 == m.sha256) return MachineModelPut{std::move(r), false};
       newest = r.version;
     }
@@ -49,12 +48,12 @@ MachineModelPut SqliteStorage::PutMachineModel(const NewMachineModel& m) {
   r.source = m.source;
   r.note = m.note;
   r.sha256 = m.sha256;
-  Stmt s(db_,
-         "INSERT INTO machine_models (machine_id, version, created_at, source, note, document, "
-         "sha256) VALUES (?, ?, ?, ?, ?, ?, ?)");
-  s.Bind(1, r.machine_id).Bind(2, r.version).Bind(3, r.created_at).Bind(4, r.source);
-  s.Bind(5, r.note).BindBlob(6, m.document).Bind(7, r.sha256);
-  s.Step();
+  auto s = Prepared(
+      "INSERT INTO machine_models (machine_id, version, created_at, source, note, document, "
+      "sha256) VALUES (?, ?, ?, ?, ?, ?, ?)");
+  s->Bind(1, r.machine_id).Bind(2, r.version).Bind(3, r.created_at).Bind(4, r.source);
+  s->Bind(5, r.note).BindBlob(6, m.document).Bind(7, r.sha256);
+  s->Step();
   tx.Commit();
   return MachineModelPut{std::move(r), true};
 }
@@ -62,26 +61,24 @@ MachineModelPut SqliteStorage::PutMachineModel(const NewMachineModel& m) {
 std::optional<MachineModelRecord> SqliteStorage::GetMachineModel(
     const std::string& machine_id, std::optional<std::int64_t> version) {
   std::lock_guard lock(mu_);
-  Stmt s(db_, (std::string("SELECT ") + kModelColumns +
-               ", document FROM machine_models WHERE machine_id = ?1 AND (?2 IS NULL OR "
-               "version = ?2) ORDER BY version DESC LIMIT 1")
-                  .c_str());
-  s.Bind(1, machine_id);
-  if (version) s.Bind(2, *version);
-  if (!s.Step()) return std::nullopt;
-  MachineModelRecord r = ReadModel(s);
-  r.document = s.Blob(6);
+  auto s = Prepared((std::string("SELECT ") + kModelColumns +
+                     ", document FROM machine_models WHERE machine_id = ?1 AND (?2 IS NULL OR "
+                     "version = ?2) ORDER BY version DESC LIMIT 1"));
+  s->Bind(1, machine_id);
+  if (version) s->Bind(2, *version);
+  if (!s->Step()) return std::nullopt;
+  MachineModelRecord r = ReadModel(*s);
+  r.document = s->Blob(6);
   return r;
 }
 
 std::vector<MachineModelRecord> SqliteStorage::ListMachineModels(const std::string& machine_id) {
   std::lock_guard lock(mu_);
-  Stmt s(db_, (std::string("SELECT ") + kModelColumns +
-               " FROM machine_models WHERE machine_id = ? ORDER BY version")
-                  .c_str());
-  s.Bind(1, machine_id);
+  auto s = Prepared((std::string("SELECT ") + kModelColumns +
+                     " FROM machine_models WHERE machine_id = ? ORDER BY version"));
+  s->Bind(1, machine_id);
   std::vector<MachineModelRecord> out;
-  while (s.Step()) out.push_back(ReadModel(s));
+  while (s->Step()) out.push_back(ReadModel(*s));
   return out;
 }
 

@@ -1,6 +1,11 @@
 // Embedded SQLite backend of the storage interface: WAL journal, synchronous=FULL,
 // foreign_keys=ON, numbered migrations (PRAGMA user_version), RAII transactions that roll back
 // unless committed, raw measurements protected against UPDATE/DELETE by triggers.
+//
+// Where it lives: server/sqlite_db.* (statements, the statement cache, transactions, errors),
+// server/sqlite_migrations.* (the schema), and the data access by table: sqlite_storage.cpp
+// (opening; measurements, results, machines, jobs, tokens), sqlite_streams.cpp (streams),
+// sqlite_machine_models.cpp (machine definitions).
 #pragma once
 
 #include <memory>
@@ -13,10 +18,21 @@ struct sqlite3;
 
 namespace km::server {
 
+namespace sqlite {
+class StatementCache;
+class CachedStatement;
+}  // namespace sqlite
+
+struct SqliteOptions {
+  // How long a call waits for a lock another connection holds before it fails with a busy
+  // StorageError (HTTP 503 with Retry-After).
+  int busy_timeout_ms = 5000;
+};
+
 class SqliteStorage : public Storage {  // tests wrap single calls of it
  public:
   // Opens (creating if needed) the database file and brings its schema up to date.
-  explicit SqliteStorage(const std::string& path);
+  explicit SqliteStorage(const std::string& path, SqliteOptions options = {});
   ~SqliteStorage() override;
   SqliteStorage(const SqliteStorage&) = delete;
   SqliteStorage& operator=(const SqliteStorage&) = delete;
@@ -60,9 +76,12 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::optional<std::string> FindTokenRole(const std::string& token_sha256) override;
 
  private:
-  void Migrate();
+  // The connection's prepared statement of this SQL, leased until the result goes out of scope.
+  sqlite::CachedStatement Prepared(const std::string& sql);
   void InsertResult(std::int64_t id, const std::string& sha, const NewResult& r);
+  void Close();
   sqlite3* db_ = nullptr;
+  std::unique_ptr<sqlite::StatementCache> statements_;  // prepared once, reused
   std::mutex mu_;  // one connection, used by one thread at a time
 };
 

@@ -13,7 +13,25 @@
 #include <string>
 #include <vector>
 
+#include "analysis/core/errors.h"
+
 namespace km::server {
+
+// A failure of the storage backend. code() is the backend's result code (SQLite: the primary
+// result code, e.g. SQLITE_BUSY = 5); busy() is true when another connection held the database
+// locked for longer than the busy timeout, so the same request may succeed a little later (the
+// API answers 503 with Retry-After). The message is for the server log, not for clients.
+class StorageError : public Error {
+ public:
+  StorageError(const std::string& message, int code, bool busy)
+      : Error(message), code_(code), busy_(busy) {}
+  int code() const { return code_; }
+  bool busy() const { return busy_; }
+
+ private:
+  int code_;
+  bool busy_;
+};
 
 // Raw samples, stored compactly as one blob per measurement.
 struct SampleBlock {
@@ -122,7 +140,7 @@ struct JobRecord {
   std::string created_at, updated_at;
 };
 
-// Capacitance-sensor streams (contract §1.6). A stream belongs to a machine and has a source
+// Capacitance-sensor streams (docs/streams.md). A stream belongs to a machine and has a source
 // (an HTTP client, or a Modbus device); its samples are kept per channel in immutable chunks of
 // consecutive counters, never a row per sample. Gaps (counter jumps) are recorded as found.
 struct NewStream {

@@ -1,0 +1,160 @@
+#include "server/sqlite_migrations.h"
+
+#include <string>
+
+#include "server/sqlite_db.h"
+
+namespace km::server::sqlite {
+namespace {
+
+// Numbered migrations: migration i brings the schema from user_version i to i + 1.
+const char* const kMigrations[] = {
+    // 1: measurements, results, tokens.
+    R"sql(
+CREATE TABLE measurements (
+  id            INTEGER PRIMARY KEY,
+  sha256        TEXT NOT NULL UNIQUE,
+  kind          TEXT NOT NULL,
+  format        TEXT NOT NULL,
+  machine_id    TEXT NOT NULL,
+  test_id       TEXT NOT NULL DEFAULT '',
+  direction     TEXT NOT NULL DEFAULT '',
+  measured_at   TEXT,
+  uploaded_at   TEXT NOT NULL,
+  filename      TEXT NOT NULL DEFAULT '',
+  sample_count  INTEGER NOT NULL,
+  metadata_json TEXT NOT NULL,
+  raw           BLOB NOT NULL,
+  samples       BLOB NOT NULL
+);
+CREATE INDEX measurements_by_machine ON measurements(machine_id, kind);
+CREATE INDEX measurements_by_time ON measurements(COALESCE(measured_at, uploaded_at));
+CREATE TRIGGER measurements_immutable BEFORE UPDATE ON measurements
+  BEGIN SELECT RAISE(ABORT, 'measurements are immutable'); END;
+CREATE TRIGGER measurements_kept BEFORE DELETE ON measurements
+  BEGIN SELECT RAISE(ABORT, 'measurements are never deleted'); END;
+CREATE TABLE results (
+  id               INTEGER PRIMARY KEY,
+  measurement_id   INTEGER NOT NULL REFERENCES measurements(id),
+  analysis         TEXT NOT NULL,
+  analysis_version TEXT NOT NULL,
+  input_sha256     TEXT NOT NULL,
+  created_at       TEXT NOT NULL,
+  result_json      TEXT NOT NULL,
+  UNIQUE (measurement_id, analysis, analysis_version)
+);
+CREATE TABLE tokens (
+  id           INTEGER PRIMARY KEY,
+  token_sha256 TEXT NOT NULL UNIQUE,
+  role         TEXT NOT NULL,
+  label        TEXT NOT NULL DEFAULT '',
+  created_at   TEXT NOT NULL
+);
+)sql",
+    // 2: background jobs (calibration studies) and their stored results.
+    R"sql(
+CREATE TABLE jobs (
+  id           INTEGER PRIMARY KEY,
+  kind         TEXT NOT NULL,
+  status       TEXT NOT NULL,
+  progress     REAL NOT NULL DEFAULT 0,
+  stage        TEXT NOT NULL DEFAULT '',
+  request_json TEXT NOT NULL,
+  result_json  TEXT NOT NULL DEFAULT '',
+  error        TEXT NOT NULL DEFAULT '',
+  created_at   TEXT NOT NULL,
+  updated_at   TEXT NOT NULL
+);
+)sql",
+    // 3: capacitance-sensor streams: chunks of consecutive samples, recorded gaps.
+    R"sql(
+CREATE TABLE streams (
+  id            INTEGER PRIMARY KEY,
+  machine_id    TEXT NOT NULL,
+  name          TEXT NOT NULL DEFAULT '',
+  source        TEXT NOT NULL,
+  metadata_json TEXT NOT NULL,
+  created_at    TEXT NOT NULL
+);
+CREATE INDEX streams_by_machine ON streams(machine_id);
+CREATE TABLE stream_chunks (
+  id            INTEGER PRIMARY KEY,
+  stream_id     INTEGER NOT NULL REFERENCES streams(id),
+  channel       INTEGER NOT NULL,
+  first_counter INTEGER NOT NULL,
+  n             INTEGER NOT NULL,
+  t_first_us    INTEGER NOT NULL,
+  t_last_us     INTEGER NOT NULL,
+  value_min     REAL NOT NULL,
+  value_max     REAL NOT NULL,
+  value_sum     REAL NOT NULL,
+  flagged       INTEGER NOT NULL,
+  data          BLOB NOT NULL,
+  UNIQUE (stream_id, channel, first_counter)
+);
+CREATE INDEX stream_chunks_by_time ON stream_chunks(stream_id, channel, t_first_us);
+CREATE TRIGGER stream_chunks_immutable BEFORE UPDATE ON stream_chunks
+  BEGIN SELECT RAISE(ABORT, 'stream samples are immutable'); END;
+CREATE TRIGGER stream_chunks_kept BEFORE DELETE ON stream_chunks
+  BEGIN SELECT RAISE(ABORT, 'stream samples are never deleted'); END;
+CREATE TABLE stream_gaps (
+  id            INTEGER PRIMARY KEY,
+  stream_id     INTEGER NOT NULL REFERENCES streams(id),
+  channel       INTEGER NOT NULL,
+  first_missing INTEGER NOT NULL,
+  missing       INTEGER NOT NULL,
+  t_before_us   INTEGER NOT NULL,
+  t_after_us    INTEGER NOT NULL,
+  detected_at   TEXT NOT NULL
+);
+CREATE INDEX stream_gaps_by_stream ON stream_gaps(stream_id, channel);
+)sql",
+    // 4: machine definitions, versioned: a new version is appended, none is ever changed.
+    R"sql(
+CREATE TABLE machine_models (
+  id         INTEGER PRIMARY KEY,
+  machine_id TEXT NOT NULL,
+  version    INTEGER NOT NULL CHECK (version >= 1),
+  created_at TEXT NOT NULL,
+  source     TEXT NOT NULL,
+  note       TEXT NOT NULL DEFAULT '',
+  document   BLOB NOT NULL,
+  sha256     TEXT NOT NULL,
+  UNIQUE (machine_id, version)
+);
+CREATE TRIGGER machine_models_immutable BEFORE UPDATE ON machine_models
+  BEGIN SELECT RAISE(ABORT, 'machine model versions are immutable'); END;
+CREATE TRIGGER machine_models_kept BEFORE DELETE ON machine_models
+  BEGIN SELECT RAISE(ABORT, 'machine model versions are never deleted'); END;
+)sql",
+};
+
+constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));
+
+}  // namespace
+
+int SchemaVersion() {
+  return kSchemaVersion;
+}
+
+void Migrate(sqlite3* db) {
+  int version = 0;
+  {
+    Statement s(db, "PRAGMA user_version");
+    if (s.Step()) version = static_cast<int>(s.Int(0));
+  }
+  if (version > kSchemaVersion) {
+    throw StorageError("storage: the database schema version " + std::to_string(version) +
+                           " is newer than this program knows (" + std::to_string(kSchemaVersion) +
+                           "); refusing to touch it",
+                       SQLITE_ERROR, false);
+  }
+  for (int v = version; v < kSchemaVersion; ++v) {
+    Transaction tx(db);
+    Exec(db, kMigrations[v]);
+    Exec(db, ("PRAGMA user_version=" + std::to_string(v + 1)).c_str());
+    tx.Commit();
+  }
+}
+
+}  // namespace km::server::sqlite

@@ -1,0 +1,241 @@
+// Databases of every earlier schema version (tests/fixtures/schema/vN.sql, frozen as an older
+// release left them) are migrated by opening them, with nothing lost: every row reads back
+// through the storage interface, and the migrated schema is the one a new database gets.
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "server/sqlite_storage.h"
+#include "tests/unit/server/temp_dir.h"
+
+namespace km::server {
+namespace {
+
+std::string FixturePath(int version) {
+  return std::string(KINEMETRIC_SOURCE_DIR) + "/tests/fixtures/schema/v" + std::to_string(version) +
+         ".sql";
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Runs SQL on a database file with the plain SQLite API (no storage code involved).
+void RunSql(const std::string& db_path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(db_path.c_str(), &db), SQLITE_OK);
+  char* err = nullptr;
+  const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err);
+  const std::string msg = err ? err : "";
+  sqlite3_free(err);
+  sqlite3_close(db);
+  ASSERT_EQ(rc, SQLITE_OK) << msg;
+}
+
+// Rows of a query, each row's columns joined by '|'.
+std::vector<std::string> Rows(const std::string& db_path, const std::string& query) {
+  sqlite3* db = nullptr;
+  std::vector<std::string> out;
+  if (sqlite3_open(db_path.c_str(), &db) != SQLITE_OK) return out;
+  sqlite3_stmt* s = nullptr;
+  if (sqlite3_prepare_v2(db, query.c_str(), -1, &s, nullptr) == SQLITE_OK) {
+    while (sqlite3_step(s) == SQLITE_ROW) {
+      std::string row;
+      for (int c = 0; c < sqlite3_column_count(s); ++c) {
+        const auto* t = sqlite3_column_text(s, c);
+        row += (c ? "|" : "") + std::string(t ? reinterpret_cast<const char*>(t) : "NULL");
+      }
+      out.push_back(row);
+    }
+  }
+  sqlite3_finalize(s);
+  sqlite3_close(db);
+  return out;
+}
+
+constexpr const char* kSchemaQuery =
+    "SELECT type, name, tbl_name, sql FROM sqlite_master ORDER BY type, name";
+
+class StorageMigration : public testing::TempDirTest {
+ protected:
+  // A database file holding fixture vN, before any storage code has touched it.
+  std::string OldDatabase(int version) {
+    const std::string path = Path("v" + std::to_string(version) + ".db");
+    const std::string sql = ReadFile(FixturePath(version));
+    EXPECT_FALSE(sql.empty()) << FixturePath(version);
+    RunSql(path, sql);
+    return path;
+  }
+};
+
+TEST_F(StorageMigration, EveryEarlierSchemaVersionHasAFixture) {
+  ASSERT_GE(SqliteStorage::SchemaVersion(), 2);
+  for (int v = 1; v < SqliteStorage::SchemaVersion(); ++v) {
+    EXPECT_FALSE(ReadFile(FixturePath(v)).empty()) << "no fixture " << FixturePath(v);
+    const std::string path = OldDatabase(v);
+    EXPECT_EQ(Rows(path, "PRAGMA user_version"), std::vector<std::string>{std::to_string(v)});
+  }
+}
+
+TEST_F(StorageMigration, MigratedSchemaIsTheSchemaOfANewDatabase) {
+  const std::string fresh = Path("fresh.db");
+  { SqliteStorage s(fresh); }
+  const auto want = Rows(fresh, kSchemaQuery);
+  ASSERT_FALSE(want.empty());
+  for (int v = 1; v < SqliteStorage::SchemaVersion(); ++v) {
+    const std::string path = OldDatabase(v);
+    { SqliteStorage s(path); }
+    EXPECT_EQ(Rows(path, kSchemaQuery), want) << "from version " << v;
+    EXPECT_EQ(Rows(path, "PRAGMA user_version"),
+              std::vector<std::string>{std::to_string(SqliteStorage::SchemaVersion())});
+  }
+}
+
+// Version 1: measurements (raw bytes, samples, metadata), results, tokens.
+void ExpectVersion1Rows(SqliteStorage& s) {
+  const auto m1 = s.GetMeasurement(1);
+  ASSERT_TRUE(m1);
+  EXPECT_EQ(m1->sha256, "a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1");
+  EXPECT_EQ(m1->kind, "dbb");
+  EXPECT_EQ(m1->format, "kinemetric-dbb/1");
+  EXPECT_EQ(m1->machine_id, "old-vmc");
+  EXPECT_EQ(m1->test_id, "t1");
+  EXPECT_EQ(m1->direction, "ccw");
+  EXPECT_EQ(m1->measured_at, std::optional<std::string>("2025-03-01T08:00:00Z"));
+  EXPECT_EQ(m1->uploaded_at, "2025-03-02T09:30:00Z");
+  EXPECT_EQ(m1->filename, "old.dbb");
+  EXPECT_EQ(m1->sample_count, 3);
+  EXPECT_EQ(m1->metadata_json, R"({"bar_length_mm":"150"})");
+  EXPECT_EQ(s.GetRaw(1),
+            "# format: kinemetric-dbb/1\n# machine_id: old-vmc\n# test_id: t1\n# direction: "
+            "ccw\nangle_deg,dr_um\n0,1.5\n90,-0.25\n180,2\n");
+  const auto samples = s.GetSamples(1);
+  EXPECT_EQ(samples.columns, (std::vector<std::string>{"angle_deg", "dr_um"}));
+  EXPECT_EQ(samples.values, (std::vector<double>{0, 1.5, 90, -0.25, 180, 2}));
+  EXPECT_EQ(s.FindBySha256("b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2"),
+            std::optional<std::int64_t>(2));
+  const auto m2 = s.GetMeasurement(2);
+  ASSERT_TRUE(m2);
+  EXPECT_FALSE(m2->measured_at);
+  EXPECT_EQ(s.GetSamples(2).values, (std::vector<double>{0, 0, 10, 1.25}));
+
+  const auto r1 = s.GetResults(1);
+  ASSERT_EQ(r1.size(), 1u);
+  EXPECT_EQ(r1[0].analysis, "dbb");
+  EXPECT_EQ(r1[0].analysis_version, "dbb/1.0");
+  EXPECT_EQ(r1[0].created_at, "2025-03-02T09:30:00Z");
+  EXPECT_EQ(r1[0].result_json, R"({"circularity_um":2.25})");
+  ASSERT_EQ(s.GetResults(2).size(), 1u);
+
+  const auto page = s.ListMeasurements({});
+  EXPECT_EQ(page.total, 2);
+  MeasurementFilter vmc;
+  vmc.machine_id = "old-vmc";
+  EXPECT_EQ(s.ListMeasurements(vmc).total, 1);
+  EXPECT_EQ(s.CountTokens(), 1);
+  EXPECT_EQ(s.FindTokenRole("c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3"),
+            std::optional<std::string>("admin"));
+}
+
+// Version 2: jobs.
+void ExpectVersion2Rows(SqliteStorage& s) {
+  const auto jobs = s.ListJobs(10);
+  ASSERT_EQ(jobs.size(), 2u);
+  const auto done = s.GetJob(1);
+  ASSERT_TRUE(done);
+  EXPECT_EQ(done->status, "done");
+  EXPECT_EQ(done->progress, 1.0);
+  EXPECT_EQ(done->stage, "finished");
+  EXPECT_EQ(done->request_json, R"({"measurement_ids":[1]})");
+  EXPECT_EQ(done->result_json, R"({"rms_um":0.5})");
+  EXPECT_EQ(done->created_at, "2025-04-01T10:00:00Z");
+  const auto failed = s.GetJob(2);
+  ASSERT_TRUE(failed);
+  EXPECT_EQ(failed->status, "failed");
+  EXPECT_EQ(failed->progress, 0.25);
+  EXPECT_EQ(failed->error, "not observable");
+}
+
+// Version 3: streams, chunks, gaps.
+void ExpectVersion3Rows(SqliteStorage& s) {
+  const auto st = s.GetStream(1);
+  ASSERT_TRUE(st);
+  EXPECT_EQ(st->machine_id, "old-vmc");
+  EXPECT_EQ(st->name, "spindle");
+  EXPECT_EQ(st->source, "http");
+  EXPECT_EQ(st->created_at, "2025-05-01T12:00:00Z");
+  const auto channels = s.StreamChannels(1);
+  ASSERT_EQ(channels.size(), 1u);
+  EXPECT_EQ(channels[0].samples, 6);
+  EXPECT_EQ(channels[0].chunks, 2);
+  EXPECT_EQ(channels[0].flagged, 1);
+  EXPECT_EQ(channels[0].first_t_us, 1000);
+  EXPECT_EQ(channels[0].last_t_us, 12000);
+  EXPECT_EQ(channels[0].next_counter, 12);
+  EXPECT_EQ(channels[0].gaps, 1);
+  EXPECT_EQ(channels[0].missing, 6);
+  const auto chunks = s.ReadStreamChunks(1, 0, 0, 1'000'000, true);
+  ASSERT_EQ(chunks.size(), 2u);
+  EXPECT_EQ(chunks[0].value_min, -1.5);
+  EXPECT_EQ(chunks[0].value_max, 2.5);
+  EXPECT_EQ(chunks[0].value_sum, 3.0);
+  EXPECT_EQ(chunks[0].data, std::string("\x00\x01\x02\x03", 4));
+  EXPECT_EQ(s.ReadStreamChunkData(1, 0, 10), "\x04\x05");
+  const auto gaps = s.StreamGaps(1, 10);
+  ASSERT_EQ(gaps.size(), 1u);
+  EXPECT_EQ(gaps[0].first_missing, 4);
+  EXPECT_EQ(gaps[0].missing, 6);
+  EXPECT_EQ(gaps[0].t_before_us, 4000);
+  EXPECT_EQ(gaps[0].t_after_us, 11000);
+  EXPECT_EQ(gaps[0].detected_at, "2025-05-01T12:00:01Z");
+}
+
+TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
+  for (int v = 1; v < SqliteStorage::SchemaVersion(); ++v) {
+    SCOPED_TRACE("from schema version " + std::to_string(v));
+    const std::string path = OldDatabase(v);
+    {
+      SqliteStorage s(path);
+      ExpectVersion1Rows(s);
+      if (v >= 2) ExpectVersion2Rows(s);
+      if (v >= 3) ExpectVersion3Rows(s);
+      // Tables a migration added are usable at once.
+      NewMachineModel m{"old-vmc", "upload", "after migration", "{}", std::string(64, 'd')};
+      EXPECT_EQ(s.PutMachineModel(m).record.version, 1);
+      EXPECT_EQ(s.ListMachines().size(), 2u);
+      if (v < 2) {
+        EXPECT_TRUE(s.ListJobs(10).empty());
+      }
+      if (v < 3) {
+        EXPECT_FALSE(s.GetStream(1));
+      }
+    }
+    // Opening the migrated database again changes nothing.
+    SqliteStorage again(path);
+    ExpectVersion1Rows(again);
+    EXPECT_EQ(again.ListMachineModels("old-vmc").size(), 1u);
+  }
+}
+
+TEST_F(StorageMigration, MeasurementsStayImmutableAfterMigration) {
+  const std::string path = OldDatabase(1);
+  { SqliteStorage s(path); }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  EXPECT_NE(sqlite3_exec(db, "UPDATE measurements SET kind = 'x'", nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  EXPECT_NE(sqlite3_exec(db, "DELETE FROM measurements", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  SqliteStorage s(path);
+  EXPECT_EQ(s.ListMeasurements({}).total, 2);
+}
+
+}  // namespace
+}  // namespace km::server
