@@ -392,6 +392,56 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
   S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
   return S;
 }
+// Covariances of the points: in the gauge (point_gauge_um2) and with the rigid motions of the
+// point set projected out (point_free_um2), from the Schur blocks A⁻¹, B = A⁻¹E and S⁻¹.
+void PointCovariances(const SelfCalState& state, const std::vector<char>& use,
+                      const std::vector<Eigen::Matrix3d>& Ainv,
+                      const std::vector<Eigen::MatrixXd>& B, const Eigen::MatrixXd& Sinv, double s2,
+                      SelfCalCovariance& out) {
+  const std::size_t m = use.size();
+  const long c = Sinv.rows();
+  // Rigid motions of the point set (about its centroid): δu_i = t + ω × v_i = G_i [t; ω].
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double cnt = 0;
+  for (std::size_t i = 0; i < m; ++i) {
+    if (use[i]) {
+      centroid += state.points_mm[i];
+      cnt += 1;
+    }
+  }
+  centroid /= std::max(cnt, 1.0);
+  auto G = [&](std::size_t i) {
+    Eigen::Matrix<double, 3, 6> g;
+    g.leftCols<3>().setIdentity();
+    g.rightCols<3>() = -Skew(state.points_mm[i] - centroid);
+    return g;
+  };
+  Eigen::Matrix<double, 6, 6> GtG = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::MatrixXd GB = Eigen::MatrixXd::Zero(6, c);
+  Eigen::Matrix<double, 6, 6> GCG = Eigen::Matrix<double, 6, 6>::Zero();
+  for (std::size_t i = 0; i < m; ++i) {
+    if (!use[i]) continue;
+    const auto g = G(i);
+    GtG += g.transpose() * g;
+    GB += g.transpose() * B[i];
+    GCG += g.transpose() * Ainv[i] * g;
+  }
+  GCG += GB * Sinv * GB.transpose();
+  const Eigen::Matrix<double, 6, 6> M = GtG.ldlt().solve(Eigen::Matrix<double, 6, 6>::Identity());
+  out.point_gauge_um2.assign(m,
+                             Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  out.point_free_um2 = out.point_gauge_um2;
+  for (std::size_t i = 0; i < m; ++i) {
+    if (!use[i]) continue;
+    const Eigen::Matrix3d Cii = Ainv[i] + B[i] * Sinv * B[i].transpose();
+    const auto g = G(i);
+    const Eigen::Matrix<double, 6, 3> GtCi = g.transpose() * Ainv[i] + GB * Sinv * B[i].transpose();
+    const Eigen::Matrix3d P1 = g * M * GtCi;
+    const Eigen::Matrix3d free = Cii - P1 - P1.transpose() + g * M * GCG * M * g.transpose();
+    out.point_gauge_um2[i] = s2 * Cii;
+    out.point_free_um2[i] = s2 * free;
+  }
+}
 }  // namespace
 
 SelfCalCovariance ComputeCovariance(const SelfCalProblem& problem, const SelfCalState& state,
@@ -470,47 +520,7 @@ SelfCalCovariance ComputeCovariance(const SelfCalProblem& problem, const SelfCal
   const Eigen::MatrixXd Sinv =
       eig.eigenvectors() * ev.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
 
-  // Rigid motions of the point set (about its centroid): δu_i = t + ω × v_i = G_i [t; ω].
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  double cnt = 0;
-  for (std::size_t i = 0; i < m; ++i) {
-    if (use[i]) {
-      centroid += state.points_mm[i];
-      cnt += 1;
-    }
-  }
-  centroid /= std::max(cnt, 1.0);
-  auto G = [&](std::size_t i) {
-    Eigen::Matrix<double, 3, 6> g;
-    g.leftCols<3>().setIdentity();
-    g.rightCols<3>() = -Skew(state.points_mm[i] - centroid);
-    return g;
-  };
-  Eigen::Matrix<double, 6, 6> GtG = Eigen::Matrix<double, 6, 6>::Zero();
-  Eigen::MatrixXd GB = Eigen::MatrixXd::Zero(6, c);
-  Eigen::Matrix<double, 6, 6> GCG = Eigen::Matrix<double, 6, 6>::Zero();
-  for (std::size_t i = 0; i < m; ++i) {
-    if (!use[i]) continue;
-    const auto g = G(i);
-    GtG += g.transpose() * g;
-    GB += g.transpose() * B[i];
-    GCG += g.transpose() * Ainv[i] * g;
-  }
-  GCG += GB * Sinv * GB.transpose();
-  const Eigen::Matrix<double, 6, 6> M = GtG.ldlt().solve(Eigen::Matrix<double, 6, 6>::Identity());
-  out.point_gauge_um2.assign(m,
-                             Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN()));
-  out.point_free_um2 = out.point_gauge_um2;
-  for (std::size_t i = 0; i < m; ++i) {
-    if (!use[i]) continue;
-    const Eigen::Matrix3d Cii = Ainv[i] + B[i] * Sinv * B[i].transpose();
-    const auto g = G(i);
-    const Eigen::Matrix<double, 6, 3> GtCi = g.transpose() * Ainv[i] + GB * Sinv * B[i].transpose();
-    const Eigen::Matrix3d P1 = g * M * GtCi;
-    const Eigen::Matrix3d free = Cii - P1 - P1.transpose() + g * M * GCG * M * g.transpose();
-    out.point_gauge_um2[i] = s2 * Cii;
-    out.point_free_um2[i] = s2 * free;
-  }
+  PointCovariances(state, use, Ainv, B, Sinv, s2, out);
   out.point_block_um2.assign(m, Eigen::Matrix3d::Zero());
   out.coupling.assign(m, Eigen::MatrixXd::Zero(3, c));
   for (std::size_t i = 0; i < m; ++i) {

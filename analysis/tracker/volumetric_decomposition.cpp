@@ -20,22 +20,21 @@ void DecompositionOptions::Check() const {
 
 namespace {
 const char kAxis[3] = {'x', 'y', 'z'};
-}
 
-GeometricDecomposition DecomposeVolumetricError(const std::vector<Eigen::Vector3d>& commanded_mm,
-                                                const std::vector<Eigen::Vector3d>& error_um,
-                                                const DecompositionOptions& options,
-                                                const VolumetricCovariance* covariance) {
-  options.Check();
-  if (commanded_mm.size() != error_um.size()) {
-    throw InvalidInput("", 0, "error_um", "one error vector per commanded point needed");
-  }
-  std::vector<std::size_t> idx;
-  for (std::size_t i = 0; i < error_um.size(); ++i) {
-    if (error_um[i].allFinite() && commanded_mm[i].allFinite()) idx.push_back(i);
-  }
-  GeometricDecomposition out;
-  if (idx.size() < 4) throw NotObservable("volumetric decomposition needs at least 4 points");
+// Columns of the design matrix: τ (3), scales (3), squareness xy/yz/zx (3), ω (3), polynomial
+// terms.
+struct Col {
+  int kind;  // 0 τ, 1 scale, 2 squareness, 3 rotation, 4 poly
+  int a, b, k;
+};
+
+// Which axes the points span and the polynomial order identifiable along each: a polynomial of
+// order k needs k + 1 distinct positions. Sets the centre and half range of `out` and lists
+// what cannot be identified in out.fixed.
+void IdentifiableOrders(const std::vector<Eigen::Vector3d>& commanded_mm,
+                        const std::vector<std::size_t>& idx, const DecompositionOptions& options,
+                        std::array<int, 3>& order, std::array<bool, 3>& spans,
+                        GeometricDecomposition& out) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   std::array<std::set<long long>, 3> distinct;
   for (std::size_t i : idx) {
@@ -45,9 +44,6 @@ GeometricDecomposition DecomposeVolumetricError(const std::vector<Eigen::Vector3
   }
   out.centre_mm = 0.5 * (lo + hi);
   out.half_range_mm = 0.5 * (hi - lo);
-  // Orders identifiable along each axis: a polynomial of order k needs k + 1 distinct positions.
-  std::array<int, 3> order{};
-  std::array<bool, 3> spans{};
   for (int a = 0; a < 3; ++a) {
     spans[a] = out.half_range_mm(a) > 1e-6 && distinct[a].size() >= 2;
     order[a] =
@@ -67,11 +63,11 @@ GeometricDecomposition DecomposeVolumetricError(const std::vector<Eigen::Vector3
   out.fixed.push_back(
       "linear straightness terms: only their symmetric part (squareness) is "
       "separable from the best-fit rotation");
-  // Columns: τ (3), scales (3), squareness xy/yz/zx (3), ω (3), polynomial terms.
-  struct Col {
-    int kind;  // 0 τ, 1 scale, 2 squareness, 3 rotation, 4 poly
-    int a, b, k;
-  };
+}
+
+// The columns the points can determine (the others are listed in out.fixed).
+std::vector<Col> DesignColumns(const std::array<int, 3>& order, const std::array<bool, 3>& spans,
+                               GeometricDecomposition& out) {
   std::vector<Col> cols;
   for (int a = 0; a < 3; ++a) cols.push_back({0, a, 0, 0});
   for (int a = 0; a < 3; ++a) {
@@ -92,10 +88,18 @@ GeometricDecomposition DecomposeVolumetricError(const std::vector<Eigen::Vector3
       for (int dir = 0; dir < 3; ++dir) cols.push_back({4, a, dir, k});
     }
   }
+  return cols;
+}
+
+// The design matrix (3 rows a point: x, y, z of its error) and the errors it is fitted to.
+void DesignMatrix(const std::vector<Eigen::Vector3d>& commanded_mm,
+                  const std::vector<Eigen::Vector3d>& error_um, const std::vector<std::size_t>& idx,
+                  const std::vector<Col>& cols, const GeometricDecomposition& out,
+                  Eigen::MatrixXd& Aw, Eigen::VectorXd& y) {
   const long rows = 3 * static_cast<long>(idx.size());
   const long nc = static_cast<long>(cols.size());
-  Eigen::MatrixXd Aw = Eigen::MatrixXd::Zero(rows, nc);
-  Eigen::VectorXd y(rows);
+  Aw = Eigen::MatrixXd::Zero(rows, nc);
+  y.resize(rows);
   for (std::size_t r = 0; r < idx.size(); ++r) {
     const Eigen::Vector3d p = commanded_mm[idx[r]] - out.centre_mm;  // mm
     const long base = 3 * static_cast<long>(r);
@@ -127,27 +131,21 @@ GeometricDecomposition DecomposeVolumetricError(const std::vector<Eigen::Vector3
       }
     }
   }
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Aw);
-  qr.setThreshold(1e-10);
-  if (qr.rank() < nc) {
-    throw NotObservable(
-        "volumetric decomposition: the commanded points do not determine the "
-        "geometric error components (rank " +
-        std::to_string(qr.rank()) + " of " + std::to_string(nc) + ")");
-  }
-  const Eigen::VectorXd x = qr.solve(y);
-  const Eigen::VectorXd res = y - Aw * x;
-  out.dof = static_cast<int>(rows - nc);
-  out.residual_rms_um = std::sqrt(res.squaredNorm() / static_cast<double>(rows));
-  out.sigma_um = out.dof > 0 ? std::sqrt(res.squaredNorm() / out.dof) : 0.0;
+}
+
+// Covariance of the coefficients: misfit σ² N⁻¹, plus (when given) the propagated covariance
+// of the errors N⁻¹ (Σ A_iᵀ D_i A_i + G S Gᵀ) N⁻¹ with G = Σ A_iᵀ B_i.
+Eigen::MatrixXd CoefficientCovariance(const Eigen::MatrixXd& Aw, const Eigen::VectorXd& res,
+                                      const std::vector<std::size_t>& idx, std::size_t num_points,
+                                      const VolumetricCovariance* covariance,
+                                      GeometricDecomposition& out) {
+  const long rows = Aw.rows();
+  const long nc = Aw.cols();
   const Eigen::MatrixXd N = Aw.transpose() * Aw;
   const Eigen::MatrixXd Ninv = N.ldlt().solve(Eigen::MatrixXd::Identity(nc, nc));
-  // Covariance of the coefficients: misfit σ² N⁻¹, plus (when given) the propagated covariance
-  // of the errors N⁻¹ (Σ A_iᵀ D_i A_i + G S Gᵀ) N⁻¹ with G = Σ A_iᵀ B_i.
   Eigen::MatrixXd cov_x = out.sigma_um * out.sigma_um * Ninv;
   if (covariance && !covariance->Empty()) {
-    if (covariance->point_um2.size() != commanded_mm.size() ||
-        covariance->coupling.size() != commanded_mm.size()) {
+    if (covariance->point_um2.size() != num_points || covariance->coupling.size() != num_points) {
       throw InvalidInput("", 0, "covariance", "one covariance block per point needed");
     }
     const long c = covariance->shared.rows();
@@ -168,6 +166,13 @@ GeometricDecomposition DecomposeVolumetricError(const std::vector<Eigen::Vector3
     cov_x = prop + misfit2 * Ninv;
     out.propagated = true;
   }
+  return cov_x;
+}
+
+// The fitted coefficients and their σ into the named components of `out`.
+void StoreCoefficients(const std::vector<Col>& cols, const Eigen::VectorXd& x,
+                       const Eigen::MatrixXd& cov_x, GeometricDecomposition& out) {
+  const long nc = static_cast<long>(cols.size());
   for (long c = 0; c < nc; ++c) {
     const Col& col = cols[static_cast<std::size_t>(c)];
     const double v = x(c);
@@ -191,6 +196,49 @@ GeometricDecomposition DecomposeVolumetricError(const std::vector<Eigen::Vector3
         out.terms.push_back({kAxis[col.a], kAxis[col.b], col.k, v, s});
     }
   }
+}
+
+}  // namespace
+
+GeometricDecomposition DecomposeVolumetricError(const std::vector<Eigen::Vector3d>& commanded_mm,
+                                                const std::vector<Eigen::Vector3d>& error_um,
+                                                const DecompositionOptions& options,
+                                                const VolumetricCovariance* covariance) {
+  options.Check();
+  if (commanded_mm.size() != error_um.size()) {
+    throw InvalidInput("", 0, "error_um", "one error vector per commanded point needed");
+  }
+  std::vector<std::size_t> idx;
+  for (std::size_t i = 0; i < error_um.size(); ++i) {
+    if (error_um[i].allFinite() && commanded_mm[i].allFinite()) idx.push_back(i);
+  }
+  GeometricDecomposition out;
+  if (idx.size() < 4) throw NotObservable("volumetric decomposition needs at least 4 points");
+  std::array<int, 3> order{};
+  std::array<bool, 3> spans{};
+  IdentifiableOrders(commanded_mm, idx, options, order, spans, out);
+  const std::vector<Col> cols = DesignColumns(order, spans, out);
+  const long rows = 3 * static_cast<long>(idx.size());
+  const long nc = static_cast<long>(cols.size());
+  Eigen::MatrixXd Aw;
+  Eigen::VectorXd y;
+  DesignMatrix(commanded_mm, error_um, idx, cols, out, Aw, y);
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Aw);
+  qr.setThreshold(1e-10);
+  if (qr.rank() < nc) {
+    throw NotObservable(
+        "volumetric decomposition: the commanded points do not determine the "
+        "geometric error components (rank " +
+        std::to_string(qr.rank()) + " of " + std::to_string(nc) + ")");
+  }
+  const Eigen::VectorXd x = qr.solve(y);
+  const Eigen::VectorXd res = y - Aw * x;
+  out.dof = static_cast<int>(rows - nc);
+  out.residual_rms_um = std::sqrt(res.squaredNorm() / static_cast<double>(rows));
+  out.sigma_um = out.dof > 0 ? std::sqrt(res.squaredNorm() / out.dof) : 0.0;
+  const Eigen::MatrixXd cov_x =
+      CoefficientCovariance(Aw, res, idx, commanded_mm.size(), covariance, out);
+  StoreCoefficients(cols, x, cov_x, out);
   return out;
 }
 

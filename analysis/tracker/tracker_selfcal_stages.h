@@ -1,0 +1,77 @@
+// The named stages of SelfCalibrate (tracker_selfcal.cpp), in the order it runs them, and the
+// spatial check (tracker_spatial_check.cpp). Internal to the tracker library.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "analysis/tracker/selfcal_ceres.h"
+#include "analysis/tracker/selfcal_problem.h"
+#include "analysis/tracker/tracker_selfcal.h"
+
+namespace km::tracker::selfcal_stages {
+
+// One point id a commanded point; tracker guesses of existing trackers within 100 m of the
+// machine origin (InvalidInput otherwise).
+void CheckReadings(const TrackerReadings& readings);
+
+// 1. Each tracker and its dead paths initialised in the machine frame, one tracker at a time
+// (initial_rms_um), then 2. everything moved into the gauge frame.
+SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& readings,
+                        SelfCalResult& res);
+
+// The solve carried from pass to pass: the Ceres options, the last report, and whether the last
+// solve was plain least squares.
+struct SolveProgress {
+  CeresSolveOptions options;
+  CeresSolveReport report;
+  bool last_was_plain = true;
+};
+
+// 3a. Plain least squares from the initial values (fast, close even with gross errors).
+SolveProgress LeastSquaresPass(const SelfCalProblem& problem, const SelfCalOptions& options,
+                               SelfCalState& state, SelfCalResult& res);
+// 3b. A short robust (Cauchy) pass, only to expose the gross errors (when rejecting).
+void RobustPass(const SelfCalProblem& problem, const SelfCalOptions& options, SelfCalState& state,
+                SolveProgress& solve, SelfCalResult& res);
+// 3c. Rejection rounds with least-squares re-solves until the last solve was plain and nothing
+// changed; then the least-squares optimum is reached (DidNotConverge, or a warning when the
+// solve stops short of its tolerance).
+void RejectionRounds(SelfCalProblem& problem, const TrackerReadings& readings,
+                     const SelfCalOptions& options, SelfCalState& state, SolveProgress& solve,
+                     SelfCalResult& res);
+// 4. Gauge sign: z of tracker 4 > 0 (mirror image otherwise).
+void FixGaugeSign(SelfCalState& state);
+// 5. Residuals, σ, covariance and observability of the solution (NotObservable), with warnings
+// for weak or ambiguous geometry that still solves.
+SelfCalCovariance Precision(const SelfCalProblem& problem, const SelfCalState& state,
+                            const SelfCalOptions& options, SelfCalResult& res);
+// 6. Results in the gauge frame and, after the best fit, in the commanded frame.
+void AssembleResult(const SelfCalProblem& problem, const TrackerReadings& readings,
+                    const SelfCalState& state, const SelfCalCovariance& cov, SelfCalResult& res);
+// 7. Spatial consistency of the map: a warning naming the points; nothing is discarded.
+void SpatialWarning(const SelfCalProblem& problem, const TrackerReadings& readings,
+                    const SelfCalState& state, const SelfCalOptions& options, SelfCalResult& res);
+
+// Spatial consistency of the volumetric error map, a WARNING only: nothing is discarded, because
+// a machine's error field need not be smooth (ball-screw and guide waviness, steps, local wear)
+// and the readings are the only evidence against a reading. A point is named when its error,
+// after a quadratic trend is removed, departs from the median of its nearest neighbours by more
+// than k times sqrt(s² + σ²), s the map's local scatter of that component (90th percentile of
+// the differences between neighbouring points) and σ the point's own precision. With 4 trackers a
+// point has a single redundant reading, in which two gross errors on it can cancel: the readings
+// fit a displaced point, and only the map shows it.
+struct SpatialDeparture {
+  std::size_t row = 0;
+  Eigen::Vector3d departure_um = Eigen::Vector3d::Zero();
+  double sigmas = 0.0;
+  int neighbours = 0;
+};
+std::vector<SpatialDeparture> SpatialDepartures(const std::vector<Eigen::Vector3d>& commanded,
+                                                const std::vector<Eigen::Vector3d>& error_um,
+                                                const std::vector<Eigen::Vector3d>& sigma_um,
+                                                const std::vector<char>& use, double k);
+
+}  // namespace km::tracker::selfcal_stages
