@@ -40,6 +40,113 @@ struct Repeat {
   std::size_t first = 0;
 };
 
+// The `tracker_guess_mm: j, x, y, z` header lines: each tracker at most once, within 100 m.
+std::vector<tracker::TrackerGuess> TrackerGuesses(const TextTable& t, const std::string& file,
+                                                  long long n) {
+  std::vector<tracker::TrackerGuess> guesses;
+  std::set<long long> guessed;
+  for (const HeaderValue* g : t.FindAll("tracker_guess_mm")) {
+    const auto v = ParseNumberList(g->value);
+    if (!v || v->size() != 4) {
+      throw InvalidInput(file, g->line, "tracker_guess_mm",
+                         "expected 'j, x, y, z' (tracker number and its position in mm)");
+    }
+    long long j = 0;
+    if (!AsInt((*v)[0], j) || j < 1 || j > n) {
+      throw InvalidInput(file, g->line, "tracker_guess_mm",
+                         "tracker number must be an integer within 1.." + std::to_string(n));
+    }
+    if (!guessed.insert(j).second) {
+      throw InvalidInput(file, g->line, "tracker_guess_mm",
+                         "tracker " + std::to_string(j) + " is given twice");
+    }
+    tracker::TrackerGuess guess;
+    guess.tracker = static_cast<int>(j - 1);
+    guess.position_mm = {(*v)[1], (*v)[2], (*v)[3]};
+    if (!guess.position_mm.allFinite() ||
+        guess.position_mm.cwiseAbs().maxCoeff() > tracker::kMaxTrackerGuessMm) {
+      throw InvalidInput(file, g->line, "tracker_guess_mm",
+                         "tracker " + std::to_string(j) +
+                             ": a guessed position farther than 100 m (1e5 mm) from the machine "
+                             "origin is not a rough position of a tracker");
+    }
+    guesses.push_back(guess);
+  }
+  return guesses;
+}
+
+// Where the columns are: point, x_mm, y_mm, z_mm and d1_um … dn_um (no reading column of a
+// tracker beyond n).
+struct ReadingColumns {
+  int point = -1, x = -1, y = -1, z = -1;
+  std::vector<int> d;
+};
+ReadingColumns FindReadingColumns(const TextTable& t, const std::string& file, long long n) {
+  auto need = [&](const std::string& name) {
+    const int c = t.ColumnIndex(name);
+    if (c < 0) {
+      throw InvalidInput(file, t.columns_line, name,
+                         "required column is missing (expected point,x_mm,y_mm,z_mm,d1_um,…,d" +
+                             std::to_string(n) + "_um)");
+    }
+    return c;
+  };
+  ReadingColumns col;
+  col.point = need("point");
+  col.x = need("x_mm");
+  col.y = need("y_mm");
+  col.z = need("z_mm");
+  for (long long j = 1; j <= n; ++j) col.d.push_back(need("d" + std::to_string(j) + "_um"));
+  for (const auto& name : t.columns) {
+    if (name.size() > 4 && name[0] == 'd' && name.substr(name.size() - 3) == "_um") {
+      const auto k = ParseNumber(std::string_view(name).substr(1, name.size() - 4));
+      long long kk = 0;
+      if (k && AsInt(*k, kk) && (kk < 1 || kk > n)) {
+        throw InvalidInput(
+            file, t.columns_line, name,
+            "column for tracker " + std::to_string(kk) + " but 'trackers' is " + std::to_string(n));
+      }
+    }
+  }
+  return col;
+}
+
+// The `# beam_break: tracker, point` lines among the data; `by_id` holds (id, row) sorted.
+std::vector<tracker::BeamBreak> BeamBreaks(
+    const TextTable& t, const std::string& file, long long n,
+    const std::vector<std::pair<double, std::size_t>>& by_id) {
+  std::vector<tracker::BeamBreak> out;
+  for (const auto& m : t.markers) {
+    if (m.key != "beam_break") {
+      throw InvalidInput(file, m.line, m.key,
+                         "unexpected '# " + m.key +
+                             "' line among the data rows (only "
+                             "'# beam_break: tracker, point' is allowed there)");
+    }
+    const auto v = ParseNumberList(m.value);
+    long long j = 0, id = 0;
+    if (!v || v->size() != 2 || !AsInt((*v)[0], j) || !AsInt((*v)[1], id)) {
+      throw InvalidInput(file, m.line, "beam_break", "expected 'tracker, point' (two integers)");
+    }
+    if (j < 1 || j > n) {
+      throw InvalidInput(file, m.line, "beam_break",
+                         "tracker must be within 1.." + std::to_string(n));
+    }
+    const auto it = std::lower_bound(by_id.begin(), by_id.end(),
+                                     std::make_pair(static_cast<double>(id), std::size_t{0}));
+    if (it == by_id.end() || it->first != static_cast<double>(id)) {
+      throw InvalidInput(file, m.line, "beam_break",
+                         "point " + std::to_string(id) + " is not in the data");
+    }
+    if (it->second == 0) {
+      throw InvalidInput(file, m.line, "beam_break",
+                         "a beam break at the first point is meaningless (readings start there)");
+    }
+    out.push_back({static_cast<int>(j - 1), it->second});
+  }
+  return out;
+}
+
 }  // namespace
 
 TextLimits DefaultTrackerLimits() {
@@ -85,59 +192,10 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file,
     throw InvalidInput(file, t.Find("mode")->line, "mode",
                        Quote(mode) + " is neither 'simultaneous' nor 'sequential'");
   }
-  std::set<long long> guessed;
-  for (const HeaderValue* g : t.FindAll("tracker_guess_mm")) {
-    const auto v = ParseNumberList(g->value);
-    if (!v || v->size() != 4) {
-      throw InvalidInput(file, g->line, "tracker_guess_mm",
-                         "expected 'j, x, y, z' (tracker number and its position in mm)");
-    }
-    long long j = 0;
-    if (!AsInt((*v)[0], j) || j < 1 || j > n) {
-      throw InvalidInput(file, g->line, "tracker_guess_mm",
-                         "tracker number must be an integer within 1.." + std::to_string(n));
-    }
-    if (!guessed.insert(j).second) {
-      throw InvalidInput(file, g->line, "tracker_guess_mm",
-                         "tracker " + std::to_string(j) + " is given twice");
-    }
-    tracker::TrackerGuess guess;
-    guess.tracker = static_cast<int>(j - 1);
-    guess.position_mm = {(*v)[1], (*v)[2], (*v)[3]};
-    if (!guess.position_mm.allFinite() ||
-        guess.position_mm.cwiseAbs().maxCoeff() > tracker::kMaxTrackerGuessMm) {
-      throw InvalidInput(file, g->line, "tracker_guess_mm",
-                         "tracker " + std::to_string(j) +
-                             ": a guessed position farther than 100 m (1e5 mm) from the machine "
-                             "origin is not a rough position of a tracker");
-    }
-    r.guesses.push_back(guess);
-  }
-
-  // Columns.
-  auto need = [&](const std::string& name) {
-    const int c = t.ColumnIndex(name);
-    if (c < 0) {
-      throw InvalidInput(file, t.columns_line, name,
-                         "required column is missing (expected point,x_mm,y_mm,z_mm,d1_um,…,d" +
-                             std::to_string(n) + "_um)");
-    }
-    return c;
-  };
-  const int cp = need("point"), cx = need("x_mm"), cy = need("y_mm"), cz = need("z_mm");
-  std::vector<int> cd;
-  for (long long j = 1; j <= n; ++j) cd.push_back(need("d" + std::to_string(j) + "_um"));
-  for (const auto& name : t.columns) {
-    if (name.size() > 4 && name[0] == 'd' && name.substr(name.size() - 3) == "_um") {
-      const auto k = ParseNumber(std::string_view(name).substr(1, name.size() - 4));
-      long long kk = 0;
-      if (k && AsInt(*k, kk) && (kk < 1 || kk > n)) {
-        throw InvalidInput(
-            file, t.columns_line, name,
-            "column for tracker " + std::to_string(kk) + " but 'trackers' is " + std::to_string(n));
-      }
-    }
-  }
+  r.guesses = TrackerGuesses(t, file, n);
+  const ReadingColumns col = FindReadingColumns(t, file, n);
+  const int cp = col.point, cx = col.x, cy = col.y, cz = col.z;
+  const std::vector<int>& cd = col.d;
   if (t.NumRows() == 0) throw InvalidInput(file, t.columns_line, "", "no data rows");
 
   // (id, row) sorted by id, rows in file order within an id: repeated ids and the rows of the
@@ -185,34 +243,7 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file,
           row[static_cast<std::size_t>(cd[static_cast<std::size_t>(j)])];
     }
   }
-  for (const auto& m : t.markers) {
-    if (m.key != "beam_break") {
-      throw InvalidInput(file, m.line, m.key,
-                         "unexpected '# " + m.key +
-                             "' line among the data rows (only "
-                             "'# beam_break: tracker, point' is allowed there)");
-    }
-    const auto v = ParseNumberList(m.value);
-    long long j = 0, id = 0;
-    if (!v || v->size() != 2 || !AsInt((*v)[0], j) || !AsInt((*v)[1], id)) {
-      throw InvalidInput(file, m.line, "beam_break", "expected 'tracker, point' (two integers)");
-    }
-    if (j < 1 || j > n) {
-      throw InvalidInput(file, m.line, "beam_break",
-                         "tracker must be within 1.." + std::to_string(n));
-    }
-    const auto it = std::lower_bound(by_id.begin(), by_id.end(),
-                                     std::make_pair(static_cast<double>(id), std::size_t{0}));
-    if (it == by_id.end() || it->first != static_cast<double>(id)) {
-      throw InvalidInput(file, m.line, "beam_break",
-                         "point " + std::to_string(id) + " is not in the data");
-    }
-    if (it->second == 0) {
-      throw InvalidInput(file, m.line, "beam_break",
-                         "a beam break at the first point is meaningless (readings start there)");
-    }
-    r.beam_breaks.push_back({static_cast<int>(j - 1), it->second});
-  }
+  r.beam_breaks = BeamBreaks(t, file, n, by_id);
   return out;
 }
 

@@ -69,6 +69,38 @@ Plane3 Denormalise(const Normalised& n, double a, double b, double c) {
   return p;
 }
 
+// Three points k, p, q spanning a large triangle in (x, y): k the lowest-left, p the farthest
+// from it, q the farthest from the line k–p (NotObservable when the points are collinear).
+std::array<std::size_t, 3> StartingTriangle(const Normalised& n) {
+  const std::size_t count = n.x.size();
+  std::size_t k = 0;
+  for (std::size_t i = 1; i < count; ++i) {
+    if (n.x[i] < n.x[k] || (n.x[i] == n.x[k] && n.y[i] < n.y[k])) k = i;
+  }
+  std::size_t p = k;
+  double best = -1.0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const double d = std::hypot(n.x[i] - n.x[k], n.y[i] - n.y[k]);
+    if (d > best) {
+      best = d;
+      p = i;
+    }
+  }
+  std::size_t q = k;
+  best = -1.0;
+  const double ux = n.x[p] - n.x[k], uy = n.y[p] - n.y[k];
+  for (std::size_t i = 0; i < count; ++i) {
+    const double area = std::abs(ux * (n.y[i] - n.y[k]) - uy * (n.x[i] - n.x[k]));
+    if (area > best) {
+      best = area;
+      q = i;
+    }
+  }
+  // Area relative to the (normalised, O(1)) extent of the points.
+  if (!(best > 1e-9)) throw NotObservable("plane fit: the (x, y) positions are collinear");
+  return {k, p, q};
+}
+
 }  // namespace
 
 Plane3 FitPlaneLeastSquares(std::span<const double> x, std::span<const double> y,
@@ -106,32 +138,7 @@ MinimumZonePlane FitPlaneMinimumZone(std::span<const double> x, std::span<const 
 
   // Starting basis {lambda_k, mu_k, lambda_p, lambda_q} with k, p, q spanning a large
   // triangle: lambda_k = mu_k = 1 is feasible, the other two are at zero (degenerate).
-  std::size_t k = 0;
-  for (std::size_t i = 1; i < count; ++i) {
-    if (n.x[i] < n.x[k] || (n.x[i] == n.x[k] && n.y[i] < n.y[k])) k = i;
-  }
-  std::size_t p = k;
-  double best = -1.0;
-  for (std::size_t i = 0; i < count; ++i) {
-    const double d = std::hypot(n.x[i] - n.x[k], n.y[i] - n.y[k]);
-    if (d > best) {
-      best = d;
-      p = i;
-    }
-  }
-  std::size_t q = k;
-  best = -1.0;
-  const double ux = n.x[p] - n.x[k], uy = n.y[p] - n.y[k];
-  for (std::size_t i = 0; i < count; ++i) {
-    const double area = std::abs(ux * (n.y[i] - n.y[k]) - uy * (n.x[i] - n.x[k]));
-    if (area > best) {
-      best = area;
-      q = i;
-    }
-  }
-  // Area relative to the (normalised, O(1)) extent of the points.
-  if (!(best > 1e-9)) throw NotObservable("plane fit: the (x, y) positions are collinear");
-
+  const auto [k, p, q] = StartingTriangle(n);
   std::array<std::size_t, 4> basis{k, count + k, p, q};
   const Eigen::Vector4d rhs(1.0, 1.0, 0.0, 0.0);
   Eigen::Matrix4d binv;
