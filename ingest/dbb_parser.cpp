@@ -56,21 +56,8 @@ void RequireHeaderAtMost(const TextTable& t, const std::string& key, double limi
   }
 }
 
-}  // namespace
-
-dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
-                      const DbbParseOptions& options) {
-  ReadOptions ro;
-  ro.max_bytes = options.max_bytes;
-  ro.max_rows = options.max_samples;
-  ro.keep_column = [](std::string_view c) {
-    return c == "angle_deg" || c == "t_s" || c == "dr_um";
-  };
-  const TextTable t = ReadTextTable(bytes, file, ro);
-  if (t.format != kDbbFormat) {
-    throw InvalidInput(file, t.format_line, "format",
-                       "unknown format '" + t.format + "'; expected '" + kDbbFormat + "'");
-  }
+// The header lines of a DBB file: identification, geometry, feed, time and arc, each checked.
+dbb::DbbTest ReadHeader(const TextTable& t, const std::string& file) {
   dbb::DbbTest d;
   d.metadata = t.Metadata();
   d.machine_id = t.RequireString("machine_id");
@@ -138,7 +125,11 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
     }
     d.arc_deg = *arc;
   }
+  return d;
+}
 
+// The samples (angle_deg or t_s, and dr_um) in the order the test ran, and their coverage.
+void ReadSamples(const TextTable& t, const std::string& file, dbb::DbbTest& d) {
   const int dr_col = t.ColumnIndex("dr_um");
   const int angle_col = t.ColumnIndex("angle_deg");
   const int time_col = t.ColumnIndex("t_s");
@@ -196,6 +187,25 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
                                  : t.row_lines[std::min(cov.reason_sample, t.row_lines.size() - 1)];
     throw InvalidInput(file, line, cov.field == "arc_deg" ? "arc_deg" : angle_field, cov.reason);
   }
+}
+
+}  // namespace
+
+dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
+                      const DbbParseOptions& options) {
+  ReadOptions ro;
+  ro.max_bytes = options.max_bytes;
+  ro.max_rows = options.max_samples;
+  ro.keep_column = [](std::string_view c) {
+    return c == "angle_deg" || c == "t_s" || c == "dr_um";
+  };
+  const TextTable t = ReadTextTable(bytes, file, ro);
+  if (t.format != kDbbFormat) {
+    throw InvalidInput(file, t.format_line, "format",
+                       "unknown format '" + t.format + "'; expected '" + kDbbFormat + "'");
+  }
+  dbb::DbbTest d = ReadHeader(t, file);
+  ReadSamples(t, file, d);
   return d;
 }
 
