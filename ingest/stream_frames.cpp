@@ -13,6 +13,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/crc32.h"
+#include "ingest/stream_frames_bytes.h"
 
 namespace km::ingest {
 namespace {
@@ -24,42 +25,9 @@ constexpr std::size_t kMaxSamplesLimit = std::size_t{1} << 24;
 constexpr std::size_t kLineBaseBytes = 4096;
 constexpr std::size_t kLineBytesPerSample = 80;
 
-// Byte order reversal (std::byteswap is C++23).
-template <typename T>
-T ByteSwap(T v) {
-  char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  std::reverse(b, b + sizeof(T));
-  std::memcpy(&v, b, sizeof(T));
-  return v;
-}
-
-template <typename T>
-T LoadLe(const char* p) {
-  T v;
-  std::memcpy(&v, p, sizeof(T));
-  if constexpr (std::endian::native == std::endian::big) v = ByteSwap(v);
-  return v;
-}
-
-template <typename T>
-void AppendLe(std::string& out, T v) {
-  if constexpr (std::endian::native == std::endian::big) v = ByteSwap(v);
-  char buf[sizeof(T)];
-  std::memcpy(buf, &v, sizeof(T));
-  out.append(buf, sizeof(T));
-}
-
-double LoadLeDouble(const char* p) {
-  return std::bit_cast<double>(LoadLe<std::uint64_t>(p));
-}
-
-// t_k = t0 + (k·dt_ns + 500) / 1000; false on overflow of int64.
-bool UniformTime(std::int64_t t0_us, std::uint64_t k, std::uint32_t dt_ns, std::int64_t* t) {
-  // k < 2^24, dt_ns < 2^32: the product stays below 2^56.
-  const auto offset = static_cast<std::int64_t>((k * dt_ns + 500) / 1000);
-  return !__builtin_add_overflow(t0_us, offset, t);
-}
+using frame_bytes::LoadLe;
+using frame_bytes::LoadLeDouble;
+using frame_bytes::UniformTime;
 
 std::string Lower(std::string_view s) {
   std::string out(s);
@@ -526,104 +494,6 @@ void StreamFrameDecoder::ProcessLine(std::string_view line, const RunCallback& o
   ++frames_;
   samples_ += run.size();
   on_run(std::move(run));
-}
-
-// ---------------------------------------------------------------------------------------------
-// Encoders
-
-namespace {
-
-void CheckRun(const SampleRun& run, std::size_t max_n) {
-  const std::size_t n = run.value_um.size();
-  if (n == 0 || n > max_n) {
-    throw std::invalid_argument("stream frame: run of " + std::to_string(n) +
-                                " samples (must be 1 … " + std::to_string(max_n) + ")");
-  }
-  if (run.channel > 65535) throw std::invalid_argument("stream frame: channel > 65535");
-  if (run.t_us.size() != n)
-    throw std::invalid_argument("stream frame: t_us and value_um differ in length");
-  if (!run.status.empty() && run.status.size() != n) {
-    throw std::invalid_argument("stream frame: status and value_um differ in length");
-  }
-  if (run.first_counter > std::numeric_limits<std::uint64_t>::max() - (n - 1)) {
-    throw std::invalid_argument("stream frame: counter overflows 2^64");
-  }
-  for (const double v : run.value_um) {
-    if (!std::isfinite(v)) throw std::invalid_argument("stream frame: value_um not finite");
-  }
-}
-
-bool AnyStatus(const SampleRun& run) {
-  return std::any_of(run.status.begin(), run.status.end(), [](std::uint8_t s) { return s != 0; });
-}
-
-}  // namespace
-
-std::string EncodeBinaryFrame(const SampleRun& run, bool with_timestamps, bool with_status,
-                              std::uint32_t dt_ns) {
-  CheckRun(run, kFrameMaxSamples);
-  const std::size_t n = run.size();
-  if (!with_status && AnyStatus(run)) {
-    throw std::invalid_argument("stream frame: non-zero status needs with_status");
-  }
-  if (!with_timestamps) {
-    if (dt_ns == 0) throw std::invalid_argument("stream frame: dt_ns must be > 0");
-    for (std::size_t k = 0; k < n; ++k) {
-      std::int64_t t = 0;
-      if (!UniformTime(run.t_us[0], k, dt_ns, &t) || t != run.t_us[k]) {
-        throw std::invalid_argument("stream frame: t_us[" + std::to_string(k) +
-                                    "] does not equal t0_us + (k·dt_ns + 500)/1000");
-      }
-    }
-  }
-  std::string out;
-  out.reserve(kFrameHeaderBytes + n * (8 + (with_timestamps ? 8 : 0) + (with_status ? 1 : 0)) + 4);
-  out.append("KMSF", 4);
-  out.push_back(static_cast<char>(kFrameVersion));
-  out.push_back(static_cast<char>((with_status ? kFrameFlagStatus : 0) |
-                                  (with_timestamps ? kFrameFlagTimestamps : 0)));
-  AppendLe<std::uint16_t>(out, static_cast<std::uint16_t>(run.channel));
-  AppendLe<std::uint32_t>(out, static_cast<std::uint32_t>(n));
-  AppendLe<std::uint64_t>(out, run.first_counter);
-  AppendLe<std::int64_t>(out, run.t_us[0]);
-  AppendLe<std::uint32_t>(out, dt_ns);
-  for (const double v : run.value_um) AppendLe<std::uint64_t>(out, std::bit_cast<std::uint64_t>(v));
-  if (with_timestamps) {
-    for (const std::int64_t t : run.t_us) AppendLe<std::int64_t>(out, t);
-  }
-  if (with_status) {
-    if (run.status.empty()) {
-      out.append(n, '\0');
-    } else {
-      out.append(reinterpret_cast<const char*>(run.status.data()), n);
-    }
-  }
-  AppendLe<std::uint32_t>(out, Crc32Update(0, out.data(), out.size()));
-  return out;
-}
-
-std::string EncodeNdjsonRun(const SampleRun& run) {
-  CheckRun(run, std::numeric_limits<std::size_t>::max());
-  nlohmann::ordered_json j;
-  j["channel"] = run.channel;
-  j["first_counter"] = run.first_counter;
-  j["t_us"] = run.t_us;
-  j["values_um"] = run.value_um;
-  if (AnyStatus(run)) j["status"] = run.status;
-  return j.dump() + "\n";
-}
-
-std::string EncodeNdjsonSample(const StreamSample& sample) {
-  if (sample.channel > 65535) throw std::invalid_argument("stream sample: channel > 65535");
-  if (!std::isfinite(sample.value_um))
-    throw std::invalid_argument("stream sample: value_um not finite");
-  nlohmann::ordered_json j;
-  j["channel"] = sample.channel;
-  j["counter"] = sample.counter;
-  j["t_us"] = sample.t_us;
-  j["value_um"] = sample.value_um;
-  j["status"] = sample.status;
-  return j.dump() + "\n";
 }
 
 }  // namespace km::ingest
