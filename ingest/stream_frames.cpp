@@ -337,6 +337,42 @@ std::string Element(std::size_t k) {
   return "element " + std::to_string(k) + ": ";
 }
 
+// The timestamps of a run line of n samples: a t_us array, or t0_us and dt_us (µs), each
+// checked against int64 overflow.
+void RunTimes(const LineContext& ctx, const Json& obj, std::size_t n,
+              std::vector<std::int64_t>& t_us) {
+  const bool has_t = obj.contains("t_us");
+  const bool has_t0 = obj.contains("t0_us");
+  const bool has_dt = obj.contains("dt_us");
+  t_us.resize(n);
+  if (has_t) {
+    if (has_t0 || has_dt) {
+      ctx.Fail(has_t0 ? "t0_us" : "dt_us", "give either a t_us array or t0_us and dt_us, not both");
+    }
+    const Json& times = ctx.Array(obj, "t_us");
+    if (times.size() != n) {
+      ctx.Fail("t_us", "has " + std::to_string(times.size()) + " elements, values_um has " +
+                           std::to_string(n));
+    }
+    for (std::size_t k = 0; k < n; ++k) t_us[k] = ctx.Signed(times[k], "t_us", Element(k));
+  } else {
+    if (!has_t0) ctx.Fail("t0_us", "missing (give t0_us and dt_us, or a t_us array)");
+    if (!has_dt) ctx.Fail("dt_us", "missing (give t0_us and dt_us, or a t_us array)");
+    const std::int64_t t0 = ctx.Signed(obj.at("t0_us"), "t0_us");
+    const double dt = ctx.Finite(obj.at("dt_us"), "dt_us");
+    if (!(dt > 0)) ctx.Fail("dt_us", "sample period must be > 0");
+    // Largest offset first: if it fits, all do.
+    const double last = static_cast<double>(n - 1) * dt;
+    if (last >= 9.0e18) ctx.Fail("dt_us", "timestamps overflow int64 within the run");
+    for (std::size_t k = 0; k < n; ++k) {
+      const long long off = std::llround(static_cast<double>(k) * dt);
+      if (__builtin_add_overflow(t0, static_cast<std::int64_t>(off), &t_us[k])) {
+        ctx.Fail("t0_us", "timestamps overflow int64 within the run");
+      }
+    }
+  }
+}
+
 }  // namespace
 
 void StreamFrameDecoder::FeedNdjson(std::string_view bytes, const RunCallback& on_run) {
@@ -446,37 +482,7 @@ void StreamFrameDecoder::ProcessLine(std::string_view line, const RunCallback& o
     for (std::size_t k = 0; k < n; ++k)
       run.value_um[k] = ctx.Finite(values[k], "values_um", Element(k));
 
-    const bool has_t = obj.contains("t_us");
-    const bool has_t0 = obj.contains("t0_us");
-    const bool has_dt = obj.contains("dt_us");
-    run.t_us.resize(n);
-    if (has_t) {
-      if (has_t0 || has_dt) {
-        ctx.Fail(has_t0 ? "t0_us" : "dt_us",
-                 "give either a t_us array or t0_us and dt_us, not both");
-      }
-      const Json& times = ctx.Array(obj, "t_us");
-      if (times.size() != n) {
-        ctx.Fail("t_us", "has " + std::to_string(times.size()) + " elements, values_um has " +
-                             std::to_string(n));
-      }
-      for (std::size_t k = 0; k < n; ++k) run.t_us[k] = ctx.Signed(times[k], "t_us", Element(k));
-    } else {
-      if (!has_t0) ctx.Fail("t0_us", "missing (give t0_us and dt_us, or a t_us array)");
-      if (!has_dt) ctx.Fail("dt_us", "missing (give t0_us and dt_us, or a t_us array)");
-      const std::int64_t t0 = ctx.Signed(obj.at("t0_us"), "t0_us");
-      const double dt = ctx.Finite(obj.at("dt_us"), "dt_us");
-      if (!(dt > 0)) ctx.Fail("dt_us", "sample period must be > 0");
-      // Largest offset first: if it fits, all do.
-      const double last = static_cast<double>(n - 1) * dt;
-      if (last >= 9.0e18) ctx.Fail("dt_us", "timestamps overflow int64 within the run");
-      for (std::size_t k = 0; k < n; ++k) {
-        const long long off = std::llround(static_cast<double>(k) * dt);
-        if (__builtin_add_overflow(t0, static_cast<std::int64_t>(off), &run.t_us[k])) {
-          ctx.Fail("t0_us", "timestamps overflow int64 within the run");
-        }
-      }
-    }
+    RunTimes(ctx, obj, n, run.t_us);
     run.status.assign(n, kStatusGood);
     const auto st = obj.find("status");
     if (st != obj.end()) {
