@@ -10,6 +10,86 @@
 
 namespace km::dbb {
 
+namespace {
+
+using Eigen::ArrayXd;
+
+// Sums over the samples of cos qθ and sin qθ (q = 0 … 2N) and the right-hand side Σ r·{1,
+// cos kθ, sin kθ} (k ≤ N). The angle-addition recurrence runs over whole sample arrays, so
+// each order costs a few vector operations and no trigonometric call.
+struct HarmonicSums {
+  std::vector<double> c, s;  // Σ cos qθ, Σ sin qθ
+  Eigen::VectorXd atb;
+};
+
+HarmonicSums SumHarmonics(const ArrayXd& c1, const ArrayXd& s1, const ArrayXd& r, int max_order) {
+  HarmonicSums h;
+  const auto top = static_cast<std::size_t>(2 * max_order);
+  h.c.assign(top + 1, 0.0);
+  h.s.assign(top + 1, 0.0);
+  h.atb.resize(2 * max_order + 1);
+  h.c[0] = static_cast<double>(c1.size());
+  h.atb[0] = r.sum();
+  ArrayXd ck = c1, sk = s1, next;
+  for (std::size_t q = 1; q <= top; ++q) {
+    if (q > 1) {
+      next = ck * c1 - sk * s1;
+      sk = sk * c1 + ck * s1;
+      ck.swap(next);
+    }
+    h.c[q] = ck.sum();
+    h.s[q] = sk.sum();
+    if (q <= static_cast<std::size_t>(max_order)) {
+      h.atb[static_cast<Eigen::Index>(2 * q - 1)] = (r * ck).sum();
+      h.atb[static_cast<Eigen::Index>(2 * q)] = (r * sk).sum();
+    }
+  }
+  return h;
+}
+
+// Normal matrix of the basis {1, cos kθ, sin kθ} from the sums, by the product-to-sum
+// identities: cos jθ cos kθ = ½[cos (j−k)θ + cos (j+k)θ], sin jθ sin kθ = ½[cos (j−k)θ −
+// cos (j+k)θ], cos jθ sin kθ = ½[sin (j+k)θ − sin (j−k)θ].
+Eigen::MatrixXd NormalMatrix(const HarmonicSums& h, int max_order) {
+  const int m = 2 * max_order + 1;
+  auto C = [&](int q) { return h.c[static_cast<std::size_t>(std::abs(q))]; };
+  auto S = [&](int q) {
+    return q < 0 ? -h.s[static_cast<std::size_t>(-q)] : h.s[static_cast<std::size_t>(q)];
+  };
+  Eigen::MatrixXd g(m, m);
+  g(0, 0) = C(0);
+  for (int k = 1; k <= max_order; ++k) {
+    g(0, 2 * k - 1) = g(2 * k - 1, 0) = C(k);
+    g(0, 2 * k) = g(2 * k, 0) = S(k);
+    for (int j = 1; j <= max_order; ++j) {
+      g(2 * j - 1, 2 * k - 1) = 0.5 * (C(j - k) + C(j + k));
+      g(2 * j, 2 * k) = 0.5 * (C(j - k) - C(j + k));
+      g(2 * j - 1, 2 * k) = 0.5 * (S(j + k) - S(j - k));
+    }
+  }
+  for (int j = 1; j <= max_order; ++j)
+    for (int k = 1; k <= max_order; ++k) g(2 * k, 2 * j - 1) = g(2 * j - 1, 2 * k);
+  return g;
+}
+
+// r − model over the samples, by the same recurrence.
+double ResidualRms(const ArrayXd& c1, const ArrayXd& s1, const ArrayXd& r,
+                   const Eigen::VectorXd& coef, int max_order) {
+  ArrayXd res = r - coef[0];
+  ArrayXd ck = c1, sk = s1, next;
+  for (int k = 1; k <= max_order; ++k) {
+    if (k > 1) {
+      next = ck * c1 - sk * s1;
+      sk = sk * c1 + ck * s1;
+      ck.swap(next);
+    }
+    res -= coef[2 * k - 1] * ck + coef[2 * k] * sk;
+  }
+  return std::sqrt(res.square().sum() / static_cast<double>(r.size()));
+}
+
+}  // namespace
+
 HarmonicsResult FitHarmonics(const std::vector<double>& angle_rad, const std::vector<double>& r_um,
                              int max_order) {
   const std::size_t n = angle_rad.size();
@@ -19,35 +99,20 @@ HarmonicsResult FitHarmonics(const std::vector<double>& angle_rad, const std::ve
   if (n < static_cast<std::size_t>(m)) {
     throw InvalidInput("", 0, "angle_deg", "too few samples for the requested harmonic orders");
   }
-  Eigen::VectorXd row(m);
-  // cos kθ, sin kθ by the angle-addition recurrence (one sincos per sample).
-  auto fill_row = [&](double theta) {
-    const double c1 = std::cos(theta), s1 = std::sin(theta);
-    double ck = 1.0, sk = 0.0;
-    row[0] = 1.0;
-    for (int k = 1; k <= max_order; ++k) {
-      const double cn = ck * c1 - sk * s1;
-      sk = sk * c1 + ck * s1;
-      ck = cn;
-      row[2 * k - 1] = ck;
-      row[2 * k] = sk;
-    }
-  };
-  Eigen::MatrixXd basis(m, static_cast<Eigen::Index>(n));  // one column per sample
-  const Eigen::Map<const Eigen::VectorXd> r(r_um.data(), static_cast<Eigen::Index>(n));
-  for (std::size_t i = 0; i < n; ++i) {
-    fill_row(angle_rad[i]);
-    basis.col(static_cast<Eigen::Index>(i)) = row;
+  const auto len = static_cast<Eigen::Index>(n);
+  const Eigen::Map<const ArrayXd> theta(angle_rad.data(), len);
+  const Eigen::Map<const ArrayXd> r(r_um.data(), len);
+  ArrayXd c1(len), s1(len);
+  for (Eigen::Index i = 0; i < len; ++i) {
+    c1[i] = std::cos(theta[i]);
+    s1[i] = std::sin(theta[i]);
   }
-  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(m, m);
-  ata.selfadjointView<Eigen::Lower>().rankUpdate(basis);
-  ata.triangularView<Eigen::StrictlyUpper>() = ata.transpose();
-  const Eigen::VectorXd atb = basis * r;
-  Eigen::LDLT<Eigen::MatrixXd> ldlt(ata);
+  const HarmonicSums sums = SumHarmonics(c1, s1, r, max_order);
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(NormalMatrix(sums, max_order));
   if (ldlt.info() != Eigen::Success || ldlt.rcond() < 1e-12) {
     throw InvalidInput("", 0, "angle_deg", "angles do not resolve the requested harmonic orders");
   }
-  const Eigen::VectorXd coef = ldlt.solve(atb);
+  const Eigen::VectorXd coef = ldlt.solve(sums.atb);
   HarmonicsResult res;
   res.mean_um = coef[0];
   for (int k = 1; k <= max_order; ++k) {
@@ -61,8 +126,7 @@ HarmonicsResult FitHarmonics(const std::vector<double>& angle_rad, const std::ve
     h.phase_deg = ph;
     res.harmonics.push_back(h);
   }
-  res.residual_rms_um =
-      std::sqrt((r - basis.transpose() * coef).squaredNorm() / static_cast<double>(n));
+  res.residual_rms_um = ResidualRms(c1, s1, r, coef, max_order);
   return res;
 }
 

@@ -28,12 +28,18 @@ PeriodicTrace MakePeriodic(const std::vector<double>& angle_rad, const std::vect
     if (t < 0.0) t += 2.0 * std::numbers::pi;
     s[i] = {t, val[i]};
   }
-  // One turn in time order is a rotation of the sorted order (reversed for cw): rotate when
-  // that is the case, sort otherwise.
-  if (s.size() > 1 && s[1].first < s[0].first) std::reverse(s.begin(), s.end());
+  // One turn in time order is a rotation of the sorted order (reversed for cw, where most steps
+  // go down): rotate when that gives strictly increasing angles (then it is what sorting gives),
+  // sort otherwise.
+  std::size_t down = 0;
+  for (std::size_t i = 1; i < s.size(); ++i) down += s[i].first < s[i - 1].first ? 1 : 0;
+  if (2 * down > s.size()) std::reverse(s.begin(), s.end());
   const auto first = std::min_element(s.begin(), s.end());
   std::rotate(s.begin(), first, s.end());
-  if (!std::is_sorted(s.begin(), s.end())) std::sort(s.begin(), s.end());
+  const auto not_increasing = [](const auto& x, const auto& y) { return y.first <= x.first; };
+  if (std::adjacent_find(s.begin(), s.end(), not_increasing) != s.end()) {
+    std::sort(s.begin(), s.end());
+  }
   PeriodicTrace p;
   p.a.reserve(s.size());
   p.v.reserve(s.size());

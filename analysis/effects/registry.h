@@ -52,7 +52,9 @@ double RadialSignature(EffectId id, const EffectContext& ctx, const Angle<double
 
 // Radial signatures of the linear parameters at once (the columns of a linear fit): for the
 // shape parameters `shape` (num_params − num_linear values), columns[j] = ∂Δr/∂p_j, j <
-// num_linear. Evaluated in one pass with ceres::Jet dual parts on the linear parameters.
+// num_linear. A model may give them in closed form (a static LinearBasis(ctx, angle, shape,
+// e[j][2]) with the position-error columns, e.g. cyclic_error.h); otherwise they are evaluated
+// in one pass with ceres::Jet dual parts on the linear parameters.
 constexpr int kMaxLinearParams = 2;
 void RadialBasis(EffectId id, const EffectContext& ctx, const Angle<double>& a, const double* shape,
                  double* columns);

@@ -30,6 +30,16 @@ struct CyclicError {
     e[Axis] = p[0] * cos(arg) + p[1] * sin(arg);
     e[1 - Axis] = T(0.0);
   }
+  // ∂e/∂c and ∂e/∂d at the period shape[0], in closed form (one sincos for both columns).
+  static void LinearBasis(const EffectContext& c, const Angle<double>& a, const double* shape,
+                          double (*e)[2]) {
+    const double pos = c.radius_mm * (Axis == 0 ? a.c : a.s);
+    const double arg = (2.0 * std::numbers::pi) * pos / shape[0];
+    e[0][Axis] = std::cos(arg);
+    e[1][Axis] = std::sin(arg);
+    e[0][1 - Axis] = 0.0;
+    e[1][1 - Axis] = 0.0;
+  }
   static std::vector<double> Value(const EffectContext&, const double* p) {
     return {std::hypot(p[0], p[1])};
   }
