@@ -237,7 +237,7 @@ void DiagnosisRun::AddSpikes(const FitResult& f1) {
   for (int axis = 0; axis < 2; ++axis) {
     const EffectId id = axis == 0 ? EffectId::kReversalSpikeU : EffectId::kReversalSpikeV;
     const SpikeShape s =
-        SearchSpike(p_, order_[static_cast<std::size_t>(axis)], b1, spike_lo_, spike_hi_, 10, buf_);
+        SearchSpike(p_, order_[static_cast<std::size_t>(axis)], b1, spike_lo_, spike_hi_, 10);
     if (s.gain > 0.0) cands_.push_back(MakeCandidate(p_, id, {s.width, s.exponent}));
   }
 }
@@ -341,7 +341,7 @@ void DiagnosisRun::RefineShapes(FitResult& f3) {
     const Base b = MakeBase(Fit(ctx_, Pointers(cands_, q)));
     if (IsSpike(id)) {
       const auto axis = static_cast<std::size_t>(id == EffectId::kReversalSpikeU ? 0 : 1);
-      const SpikeShape s = SearchSpike(p_, order_[axis], b, spike_lo_, spike_hi_, 8, buf_);
+      const SpikeShape s = SearchSpike(p_, order_[axis], b, spike_lo_, spike_hi_, 8);
       if (s.gain > 0.0) cands_[q] = MakeCandidate(p_, id, {s.width, s.exponent});
     } else {
       const double period = cands_[q].shape[0];

@@ -52,30 +52,78 @@ ReversalOrder MakeReversalOrder(const Problem& p, EffectId id) {
 
 namespace {
 
-// Spike signature at unit height where its decay is above e^−7 (the search only; the fit uses
-// the registry signature in full).
-void SpikeColumn(const ReversalOrder& o, double width_deg, double exponent, Sparse& out) {
-  const double xmax = std::pow(7.0 * exponent, 1.0 / exponent);
-  const double w = width_deg * kDeg;
-  const double phimax = xmax * w;
+// The base columns, the set-up columns {cos θ, sin θ, 1} of each trace and the residual at the
+// samples a spike of width up to the search's largest can reach, sorted by the angle since the
+// reversal: each width's gain is then one dense product over a prefix of the rows.
+struct SpikeFrame {
+  Eigen::MatrixXd a;  // [base columns | 3 set-up columns per trace | residual]
+  VectorXd factor, phi;
+};
+
+SpikeFrame MakeSpikeFrame(const Problem& p, const ReversalOrder& o, const Base& b, double phimax) {
+  std::vector<const ReversalOrder::Entry*> rows;
   const int last = ReversalOrder::Bucket(phimax);
-  out.Clear();
   for (const auto& e : o.by_phi) {
-    if (e.phi > phimax) {
-      if (ReversalOrder::Bucket(e.phi) > last) break;
-      continue;
-    }
-    const double v = e.factor * effects::ReversalSpike<0>::Decay(e.phi, w, exponent);
-    if (v != 0.0) {
-      out.idx.push_back(e.sample);
-      out.val.push_back(v);
-    }
+    if (ReversalOrder::Bucket(e.phi) > last) break;
+    if (e.phi <= phimax) rows.push_back(&e);
   }
+  std::stable_sort(rows.begin(), rows.end(),
+                   [](const auto* x, const auto* y) { return x->phi < y->phi; });
+  SpikeFrame f;
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  f.a = Eigen::MatrixXd::Zero(n, b.m + 3 * p.traces + 1);
+  f.factor.resize(n);
+  f.phi.resize(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const auto& e = *rows[static_cast<std::size_t>(k)];
+    const auto& smp = p.samples[static_cast<std::size_t>(e.sample)];
+    for (int j = 0; j < b.m; ++j) f.a(k, j) = (*b.a[static_cast<std::size_t>(j)])[e.sample];
+    const int t = b.m + 3 * smp.trace;
+    f.a(k, t) = smp.a.c;
+    f.a(k, t + 1) = smp.a.s;
+    f.a(k, t + 2) = 1.0;
+    f.a(k, b.m + 3 * p.traces) = b.r[e.sample];
+    f.factor[k] = e.factor;
+    f.phi[k] = e.phi;
+  }
+  return f;
 }
 
-}  // namespace
+// Largest angle since the reversal where a decay of width w (rad) and exponent k is above e^−7
+// (the search only; the fit uses the registry signature in full).
+double SpikeReach(double w, double exponent) {
+  return std::pow(7.0 * exponent, 1.0 / exponent) * w;
+}
 
-namespace {
+// Gain (diagnosis_fit.h Gain) of the unit-height spike of width w (rad) and exponent k.
+double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w, double exponent,
+                 VectorXd& v) {
+  const double phimax = SpikeReach(w, exponent);
+  const Eigen::Index len =
+      std::upper_bound(f.phi.data(), f.phi.data() + f.phi.size(), phimax) - f.phi.data();
+  // The decay of reversal_spike.h, vectorised for its two shapes (x = φ / w).
+  const auto x = f.phi.head(len).array() / w;
+  if (exponent == 1.0) {
+    v = f.factor.head(len).array() * (-x).exp();
+  } else if (exponent == 2.0) {
+    v = f.factor.head(len).array() * (-0.5 * x.square()).exp();
+  } else {
+    v.resize(len);
+    for (Eigen::Index k = 0; k < len; ++k)
+      v[k] = f.factor[k] * effects::ReversalSpike<0>::Decay(f.phi[k], w, exponent);
+  }
+  const VectorXd h = f.a.topRows(len).transpose() * v;  // Aᵀs, S_tᵀs, rᵀs
+  const double raw = v.squaredNorm();
+  const double rs = h[b.m + 3 * p.traces];
+  double den = raw;
+  for (int t = 0; t < p.traces; ++t) {
+    const Eigen::Vector3d sts = h.segment<3>(b.m + 3 * t);
+    den -= sts.dot(p.setup_inv[static_cast<std::size_t>(t)] * sts);
+  }
+  if (b.m > 0) den -= h.head(b.m).dot(b.ninv * h.head(b.m));
+  if (!(den > 1e-9 * raw)) return 0.0;
+  return rs * rs / den;
+}
 
 // Golden-section maximisation of f on [lo, hi]; returns the best abscissa and value seen.
 template <typename F>
@@ -107,15 +155,15 @@ std::pair<double, double> GoldenMax(F&& f, double lo, double hi, int iterations)
 // log-spaced scan of `grid` widths over [lo, hi] for each decay shape, then golden section
 // between the neighbours of the best.
 SpikeShape SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo,
-                       double hi, int grid, Sparse& buf) {
+                       double hi, int grid) {
   SpikeShape best;
   const int kGrid = std::max(grid, 3);
   const double llo = std::log(lo), lhi = std::log(hi);
+  const SpikeFrame frame =
+      MakeSpikeFrame(p, o, b, std::max(SpikeReach(hi * kDeg, 1.0), SpikeReach(hi * kDeg, 2.0)));
+  VectorXd v;
   for (double k : {1.0, 2.0}) {
-    auto gain = [&](double lw) {
-      SpikeColumn(o, std::exp(lw), k, buf);
-      return Gain(p, b, buf);
-    };
+    auto gain = [&](double lw) { return SpikeGain(p, b, frame, std::exp(lw) * kDeg, k, v); };
     std::vector<double> lw(kGrid), g(kGrid);
     int jb = 0;
     for (int j = 0; j < kGrid; ++j) {
@@ -124,11 +172,11 @@ SpikeShape SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, 
       if (g[static_cast<std::size_t>(j)] > g[static_cast<std::size_t>(jb)]) jb = j;
     }
     double xb = lw[static_cast<std::size_t>(jb)], gb = g[static_cast<std::size_t>(jb)];
-    const auto [x, v] = GoldenMax(gain, lw[static_cast<std::size_t>(std::max(jb - 1, 0))],
-                                  lw[static_cast<std::size_t>(std::min(jb + 1, kGrid - 1))], 10);
-    if (v > gb) {
+    const auto [x, val] = GoldenMax(gain, lw[static_cast<std::size_t>(std::max(jb - 1, 0))],
+                                    lw[static_cast<std::size_t>(std::min(jb + 1, kGrid - 1))], 10);
+    if (val > gb) {
       xb = x;
-      gb = v;
+      gb = val;
     }
     if (gb > best.gain) best = {std::exp(xb), k, gb};
   }

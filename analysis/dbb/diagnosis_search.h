@@ -39,7 +39,7 @@ struct SpikeShape {
 // log-spaced scan of `grid` widths over [lo, hi] for each decay shape, then golden section
 // between the neighbours of the best.
 SpikeShape SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo,
-                       double hi, int grid, Sparse& buf);
+                       double hi, int grid);
 
 // Samples in the low-speed zones of stick_slip.h with the angle since their axis reversed
 // (degrees) and the sign and radial factor of the sawtooth there, −sign(v_a)·n_a.
