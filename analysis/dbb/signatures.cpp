@@ -92,11 +92,17 @@ EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
     // One linear parameter: the signature at p_0 = 1 is the column (plain doubles).
     std::vector<double> params(static_cast<std::size_t>(info.num_params), 1.0);
     std::copy(shape.begin(), shape.end(), params.begin() + 1);
-    for (int i = 0; i < p.n; ++i) {
-      const auto& s = p.samples[static_cast<std::size_t>(i)];
-      cols[0][i] = effects::RadialSignature(id, p.ctx[static_cast<std::size_t>(s.trace)], s.a,
-                                            params.data());
-    }
+    // One dispatch for the column: the model's loop is compiled for its own type.
+    effects::VisitEffect(id, [&]<typename M>() {
+      VectorXd& col = cols[0];
+      for (int i = 0; i < p.n; ++i) {
+        const auto& s = p.samples[static_cast<std::size_t>(i)];
+        double e[2];
+        M::template PositionError<double>(p.ctx[static_cast<std::size_t>(s.trace)], s.a,
+                                          params.data(), e);
+        col[i] = e[0] * s.a.c + e[1] * s.a.s;
+      }
+    });
   } else {
     // Several linear parameters: all columns in one evaluation (Jet dual parts).
     double basis[effects::kMaxLinearParams];

@@ -45,6 +45,10 @@ std::vector<EffectInfo> BuildInfos() {
 
 }  // namespace
 
+void ThrowUnknownEffect() {
+  throw InvalidInput("unknown effect id");
+}
+
 const std::vector<EffectInfo>& AllEffects() {
   static const std::vector<EffectInfo> infos = BuildInfos();
   return infos;

@@ -63,6 +63,25 @@ void RadialBasis(EffectId id, const EffectContext& ctx, const Angle<double>& a, 
 std::vector<double> Value(EffectId id, const EffectContext& ctx, const double* params);
 Eigen::MatrixXd ValueJacobian(EffectId id, const EffectContext& ctx, const double* params);
 
+[[noreturn]] void ThrowUnknownEffect();
+
+// Calls f.template operator()<Model>() with the model type of `id` (effect_list.h): one
+// dispatch for a whole loop over samples, e.g. a signature column. Throws km::InvalidInput for
+// an unknown id.
+template <typename F>
+void VisitEffect(EffectId id, F&& f) {
+  switch (id) {
+#define KM_EFFECT_VISIT(eid, type)  \
+  case EffectId::eid:               \
+    f.template operator()<type>(); \
+    return;
+    KM_SERIAL_EFFECT_LIST(KM_EFFECT_VISIT)
+#undef KM_EFFECT_VISIT
+    default:
+      ThrowUnknownEffect();
+  }
+}
+
 // Templated position error for automatic differentiation (T = double or ceres::Jet).
 template <typename T>
 void PositionErrorT(EffectId id, const EffectContext& ctx, const Angle<T>& a, const T* params,
