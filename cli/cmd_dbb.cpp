@@ -8,7 +8,7 @@
 #include "analysis/dbb/full_analysis.h"
 #include "cli/command.h"
 #include "ingest/dbb_parser.h"
-#include "server/report.h"
+#include "report/dbb_report.h"
 
 namespace km::cli {
 namespace {

@@ -1,6 +1,6 @@
 // kinemetric discover [--machine M.json] FILE… [--json] [--samples N] [--write-machine OUT.json]
 //   [--plot DIR]
-// Model-gap discovery (server/discovery_report.h): serial machines (no --machine, or a machine
+// Model-gap discovery (report/discovery_report.h): serial machines (no --machine, or a machine
 // of kind "serial") with the serial effect family, hexapods with the hexapod family whose base
 // model is the 24-parameter kinematic calibration.
 #include <array>
@@ -18,7 +18,7 @@
 #include "cli/command.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
-#include "server/discovery_report.h"
+#include "report/discovery_report.h"
 
 namespace km::cli {
 namespace {

@@ -1,6 +1,6 @@
 // `kinemetric form straightness FILE…`, `form flatness FILE`, `form parallelism FILE`
 // (docs/formats.md §3). Parsing in ingest/form_parsers, numerics in analysis/form, JSON mapping in
-// server/form_report.
+// report/form_report.
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -8,7 +8,7 @@
 
 #include "analysis/core/errors.h"
 #include "cli/command.h"
-#include "server/form_report.h"
+#include "report/form_report.h"
 
 namespace km::cli {
 using server::FlatnessFileToJson;

@@ -19,7 +19,7 @@
 #include "cli/command.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
-#include "server/hexapod_report.h"
+#include "report/calibration_study.h"
 
 namespace km::cli {
 namespace {

@@ -22,7 +22,6 @@
 #include "ingest/dbb_writer.h"
 #include "ingest/iso8601.h"
 #include "ingest/machine_json.h"
-#include "server/time_util.h"
 
 namespace km::cli {
 namespace {
@@ -69,7 +68,7 @@ void AssignToolsAndTimes(const Args& args, std::vector<sim::HexapodDbbSpec>& pla
     throw InvalidInput("", 0, "--interval-s", "must lie in [0, 1e6] s");
   for (std::size_t i = 0; i < plan.size(); ++i) {
     plan[i].start_time_s = *t0 + interval * static_cast<double>(i);
-    plan[i].timestamp = server::UtcIso8601FromMicros(
+    plan[i].timestamp = ingest::UtcIso8601FromMicros(
         static_cast<std::int64_t>(std::llround(*plan[i].start_time_s * 1e6)));
   }
 }

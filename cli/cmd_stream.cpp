@@ -12,8 +12,8 @@
 #include "ingest/form_parsers.h"
 #include "ingest/stream_counters.h"
 #include "ingest/stream_frames.h"
-#include "server/form_report.h"
-#include "server/stream_profile.h"
+#include "report/form_report.h"
+#include "report/stream_profile.h"
 
 namespace km::cli {
 namespace {

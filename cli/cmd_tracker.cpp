@@ -10,7 +10,7 @@
 #include "analysis/tracker/volumetric_decomposition.h"
 #include "cli/command.h"
 #include "ingest/tracker_parser.h"
-#include "server/tracker_report.h"
+#include "report/tracker_report.h"
 
 namespace km::cli {
 using json = nlohmann::json;

@@ -1,12 +1,18 @@
-# One library per folder, linking only downward (same shape as COLMAP_ADD_LIBRARY).
-#   km_add_library(NAME km_geometry SRCS a.cpp b.cpp DEPS km_core Eigen3::Eigen)
+# One library per folder, linking only downward (same shape as COLMAP_ADD_LIBRARY). Sources are
+# listed explicitly (no file(GLOB)). DEPS are PUBLIC: what the folder's headers expose to their
+# users; PRIVATE_DEPS only what its .cpp files use (Ceres, OpenCV, SQLite, libmodbus, …).
+#   km_add_library(NAME km_geometry SRCS a.cpp b.cpp DEPS km_core Eigen3::Eigen
+#                  [PRIVATE_DEPS Ceres::ceres])
 #   km_add_test(NAME geometry_test SRCS x_test.cpp DEPS km_geometry [LABELS unit])
 #   km_add_benchmark(NAME dbb_bench SRCS dbb_bench.cpp DEPS km_dbb)
 function(km_add_library)
-  cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(${ARG_NAME} STATIC ${ARG_SRCS})
   target_include_directories(${ARG_NAME} PUBLIC ${PROJECT_SOURCE_DIR})
   target_link_libraries(${ARG_NAME} PUBLIC ${ARG_DEPS})
+  if(ARG_PRIVATE_DEPS)
+    target_link_libraries(${ARG_NAME} PRIVATE ${ARG_PRIVATE_DEPS})
+  endif()
 endfunction()
 
 function(km_add_test)

@@ -1,5 +1,7 @@
 #include "ingest/iso8601.h"
 
+#include <cstdio>
+#include <ctime>
 #include <string>
 
 namespace km::ingest {
@@ -100,6 +102,23 @@ std::optional<double> Iso8601EpochSeconds(std::string_view text) {
   if (t->zone == Iso8601Time::Zone::kOffset)
     s -= t->offset_sign * (t->offset_hours * 3600.0 + t->offset_minutes * 60.0);
   return s;
+}
+
+std::string UtcIso8601FromMicros(std::int64_t t_us) {
+  std::int64_t secs = t_us / 1000000;
+  std::int64_t frac = t_us % 1000000;
+  if (frac < 0) {
+    frac += 1000000;
+    --secs;
+  }
+  const auto t = static_cast<std::time_t>(secs);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[48];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
+  char out[64];
+  std::snprintf(out, sizeof out, "%s.%06lldZ", buf, static_cast<long long>(frac));
+  return out;
 }
 
 }  // namespace km::ingest

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -40,5 +41,8 @@ namespace km::ingest {
 // a date alone as its midnight); nullopt when the text is not ISO 8601 or a field is out of
 // range.
 std::optional<double> Iso8601EpochSeconds(std::string_view text);
+
+// Microseconds since the Unix epoch as "YYYY-MM-DDTHH:MM:SS.ffffffZ".
+std::string UtcIso8601FromMicros(std::int64_t t_us);
 
 }  // namespace km::ingest

@@ -13,7 +13,7 @@
 #include "analysis/hexapod/effects/registry.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
-#include "server/hexapod_report.h"
+#include "report/calibration_study.h"
 #include "server/request_json.h"
 #include "server/service.h"
 

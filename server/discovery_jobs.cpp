@@ -9,7 +9,7 @@
 #include "analysis/core/errors.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
-#include "server/discovery_report.h"
+#include "report/discovery_report.h"
 #include "server/request_json.h"
 #include "server/service.h"
 

@@ -11,11 +11,11 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/form_parsers.h"
 #include "ingest/tracker_parser.h"
+#include "report/dbb_report.h"
+#include "report/form_report.h"
+#include "report/tracker_report.h"
 #include "server/finite_result.h"
-#include "server/form_report.h"
-#include "server/report.h"
 #include "server/service.h"
-#include "server/tracker_report.h"
 
 namespace km::server {
 namespace {

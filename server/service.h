@@ -151,7 +151,7 @@ class Service {
   // Instead of "machine", the request may name a stored model: "machine_id" (and optionally
   // "machine_version", else the newest); the job's request then records the version used.
   std::int64_t SubmitCalibration(const nlohmann::json& request);
-  // Model-gap discovery study (server/discovery_report.h) as a background job. Request:
+  // Model-gap discovery study (report/discovery_report.h) as a background job. Request:
   // {"machine_id"?, "machine_version"?, "measurement_ids": [DBB ids], "max_samples_per_test"?}.
   // Checked like a calibration request (at most max_calibration_tests ids, each once, each a
   // DBB test, samples bounded), and the tests must be of one machine. Without machine_id: the

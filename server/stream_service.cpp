@@ -5,10 +5,10 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/stream_frames.h"
+#include "report/stream_profile.h"
 #include "server/request_json.h"
 #include "server/service.h"
 #include "server/stream_chunks.h"
-#include "server/stream_profile.h"
 #include "server/time_util.h"
 
 namespace km::server {

@@ -18,23 +18,6 @@ std::string NowUtcIso8601() {
   return buf;
 }
 
-std::string UtcIso8601FromMicros(std::int64_t t_us) {
-  std::int64_t secs = t_us / 1000000;
-  std::int64_t frac = t_us % 1000000;
-  if (frac < 0) {
-    frac += 1000000;
-    --secs;
-  }
-  const auto t = static_cast<std::time_t>(secs);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[48];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
-  char out[64];
-  std::snprintf(out, sizeof out, "%s.%06lldZ", buf, static_cast<long long>(frac));
-  return out;
-}
-
 std::optional<std::string> NormalizeIso8601(const std::string& text) {
   const auto p = ingest::ParseIso8601(text);  // nullopt beyond kMaxIso8601Length characters
   if (!p) return std::nullopt;

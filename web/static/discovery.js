@@ -7,7 +7,7 @@
 //
 // Addresses: #/discoveries?machine=ID (the start form) and #/discoveries/JOB_ID (one job), so a
 // reload keeps the page. The result is the JSON of `kinemetric discover --json`
-// (server/discovery_json.cpp); the job is served by GET /api/v1/jobs/{id}.
+// (report/discovery_json.cpp); the job is served by GET /api/v1/jobs/{id}.
 
 import { api, ApiError } from './api.js';
 import { axesGrid, el, r2, ticks } from './charts.js';

@@ -23,7 +23,7 @@
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/discovery/serial_family.h"
 #include "ingest/dbb_parser.h"
-#include "server/discovery_report.h"
+#include "report/discovery_report.h"
 #include "tests/unit/discovery/serial_truth.h"
 
 namespace km {

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "ingest/dbb_parser.h"
-#include "server/discovery_report.h"
+#include "report/discovery_report.h"
 #include "tests/unit/discovery/serial_truth.h"
 
 #ifndef KM_POPULATION_MACHINES

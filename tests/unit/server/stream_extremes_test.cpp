@@ -5,9 +5,9 @@
 #include <cstdint>
 #include <limits>
 
+#include "report/stream_profile.h"
 #include "server/sqlite_storage.h"
 #include "server/stream_chunks.h"
-#include "server/stream_profile.h"
 #include "server/streams.h"
 #include "tests/unit/server/temp_dir.h"
 

@@ -10,9 +10,9 @@
 #include <random>
 
 #include "analysis/core/errors.h"
+#include "report/stream_profile.h"
 #include "server/sqlite_storage.h"
 #include "server/stream_chunks.h"
-#include "server/stream_profile.h"
 #include "server/streams.h"
 
 namespace km::server {

@@ -1,4 +1,4 @@
-#include "server/discovery_json.h"
+#include "report/discovery_json.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,11 +1,11 @@
-#include "server/hexapod_report.h"
+#include "report/calibration_study.h"
 
 #include <cmath>
 
 #include "analysis/core/errors.h"
 #include "analysis/dbb/circular_test.h"
-#include "server/discovery_json.h"
-#include "server/effect_calibration.h"
+#include "report/discovery_json.h"
+#include "report/effect_calibration.h"
 
 namespace km::server {
 namespace {

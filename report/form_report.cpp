@@ -1,5 +1,5 @@
 // JSON mapping of straightness, flatness and parallelism results (docs/formats.md §3).
-#include "server/form_report.h"
+#include "report/form_report.h"
 
 #include <cmath>
 #include <map>

@@ -1,4 +1,4 @@
-#include "server/report.h"
+#include "report/dbb_report.h"
 
 #include "analysis/dbb/report_json.h"
 

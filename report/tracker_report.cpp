@@ -1,6 +1,6 @@
 // JSON mapping of the laser-tracker self-calibration (docs/formats.md §3 `tracker selfcal`), shared
 // by the CLI and the server.
-#include "server/tracker_report.h"
+#include "report/tracker_report.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "server/stream_profile.h"
+#include "report/stream_profile.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "analysis/core/errors.h"
-#include "server/time_util.h"
+#include "ingest/iso8601.h"
 
 namespace km::server {
 
@@ -129,7 +129,7 @@ std::string StraightnessFileFromStream(const ProfileSpec& spec, const ingest::Sa
   text += "# sensor: " + spec.sensor + "\n";
   text += "# reference: " + spec.reference + "\n";
   if (!spec.test_id.empty()) text += "# test_id: " + spec.test_id + "\n";
-  text += "# timestamp: " + UtcIso8601FromMicros(sensor.t_us.front()) + "\n";
+  text += "# timestamp: " + ingest::UtcIso8601FromMicros(sensor.t_us.front()) + "\n";
   for (const auto& [k, v] : spec.provenance) text += "# " + k + ": " + v + "\n";
   text += "# source_channel: " + std::to_string(sensor.channel) + "\n";
   text += "# source_time_us: " + std::to_string(sensor.t_us.front()) + ", " +

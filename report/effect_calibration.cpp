@@ -1,11 +1,11 @@
-#include "server/effect_calibration.h"
+#include "report/effect_calibration.h"
 
 #include <algorithm>
 
 #include "analysis/core/errors.h"
 #include "analysis/hexapod/effect_fit.h"
 #include "ingest/iso8601.h"
-#include "server/discovery_json.h"
+#include "report/discovery_json.h"
 
 namespace km::server {
 

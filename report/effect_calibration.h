@@ -10,7 +10,7 @@
 
 #include "analysis/dbb/dbb_types.h"
 #include "analysis/hexapod/effects/registry.h"
-#include "server/hexapod_report.h"
+#include "report/calibration_study.h"
 
 namespace km::server {
 

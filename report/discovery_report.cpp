@@ -1,4 +1,4 @@
-#include "server/discovery_report.h"
+#include "report/discovery_report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,8 +12,8 @@
 #include "analysis/effects/registry.h"
 #include "analysis/hexapod/dbb_geometry.h"
 #include "ingest/iso8601.h"
-#include "server/discovery_json.h"
-#include "server/effect_calibration.h"
+#include "report/discovery_json.h"
+#include "report/effect_calibration.h"
 
 namespace km::server {
 namespace {

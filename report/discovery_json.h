@@ -1,5 +1,5 @@
 // JSON of `kinemetric discover` (docs/formats.md §3) for the serial and the hexapod families,
-// and the machine model a hexapod discovery produces. Used by server/discovery_report.cpp.
+// and the machine model a hexapod discovery produces. Used by report/discovery_report.cpp.
 #pragma once
 
 #include <string>
