@@ -128,28 +128,45 @@ void ModbusDevice::Run() {
   status_.connected = false;
 }
 
+// What the poll loop carries from one tick to the next.
+struct ModbusDevice::PollState {
+  modbus_t* ctx = nullptr;
+  Clock::time_point start;
+  std::vector<std::uint16_t> regs = std::vector<std::uint16_t>(kMaxRegistersPerRead);
+  std::vector<StreamSample> samples;
+  std::uint64_t k = 0;  // next tick
+  bool connected = false;
+  bool ever_connected = false;
+  int backoff_ms = 0;
+  int bad_in_a_row = 0;
+  // A connection that was lost before the device answered anything (it accepts and then
+  // resets, or never answers) is re-opened only after the backoff delay, like a refused one.
+  bool answered_since_connect = false;
+  bool backoff_first = false;
+  bool fresh_connection = false;  // connected since the previous tick
+};
+
+void ModbusDevice::SetError(std::uint64_t DeviceStatus::*counter, std::string message) {
+  std::lock_guard<std::mutex> lock(status_mu_);
+  ++(status_.*counter);
+  status_.last_error = std::move(message);
+}
+
+void ModbusDevice::SetState(const char* state, bool connected) {
+  std::lock_guard<std::mutex> lock(status_mu_);
+  status_.state = state;
+  status_.connected = connected;
+}
+
 void ModbusDevice::RunLoop() {
-  const auto interval = std::chrono::milliseconds(config_.poll_interval_ms);
-  const auto start = Clock::now();
   const std::uint32_t to_s = static_cast<std::uint32_t>(config_.response_timeout_ms / 1000);
   const std::uint32_t to_us = static_cast<std::uint32_t>(config_.response_timeout_ms % 1000) * 1000;
-
-  auto set_error = [this](std::uint64_t DeviceStatus::*counter, std::string message) {
-    std::lock_guard<std::mutex> lock(status_mu_);
-    ++(status_.*counter);
-    status_.last_error = std::move(message);
-  };
-  auto set_state = [this](const char* state, bool connected) {
-    std::lock_guard<std::mutex> lock(status_mu_);
-    status_.state = state;
-    status_.connected = connected;
-  };
 
   // One libmodbus context for this device, created and freed in this thread.
   Context ctx(modbus_new_tcp_pi(config_.host.c_str(), std::to_string(config_.port).c_str()));
   if (!ctx) {
-    set_error(&DeviceStatus::connection_errors,
-              std::string("cannot create a Modbus context: ") + modbus_strerror(errno));
+    SetError(&DeviceStatus::connection_errors,
+             std::string("cannot create a Modbus context: ") + modbus_strerror(errno));
     return;
   }
   modbus_set_slave(ctx.get(), config_.unit_id);
@@ -157,149 +174,174 @@ void ModbusDevice::RunLoop() {
   modbus_set_byte_timeout(ctx.get(), to_s, to_us);
   modbus_set_error_recovery(ctx.get(), MODBUS_ERROR_RECOVERY_NONE);
 
-  std::vector<std::uint16_t> regs(kMaxRegistersPerRead);
-  std::vector<StreamSample> samples;
-  std::uint64_t k = 0;  // next tick
-  bool connected = false;
-  bool ever_connected = false;
-  int backoff_ms = config_.reconnect.initial_ms;
-  int bad_in_a_row = 0;
-  // A connection that was lost before the device answered anything (it accepts and then
-  // resets, or never answers) is re-opened only after the backoff delay, like a refused one.
-  bool answered_since_connect = false;
-  bool backoff_first = false;
-  bool fresh_connection = false;  // connected since the previous tick
-
+  PollState s;
+  s.ctx = ctx.get();
+  s.start = Clock::now();
+  s.backoff_ms = config_.reconnect.initial_ms;
   while (true) {
     {
       std::lock_guard<std::mutex> lock(wait_mu_);
       if (stop_) break;
     }
-    if (!connected) {
-      if (backoff_first) {
-        backoff_first = false;
-        set_state("backoff", false);
-        if (!WaitUntil(Clock::now() + std::chrono::milliseconds(backoff_ms))) break;
-        backoff_ms = std::min(backoff_ms * 2, config_.reconnect.max_ms);
-      }
-      set_state("connecting", false);
-      if (modbus_connect(ctx.get()) == -1) {
-        const int err = errno;
-        set_error(&DeviceStatus::connection_errors,
-                  std::string("connect: ") + modbus_strerror(err));
-        modbus_close(ctx.get());
-        set_state("backoff", false);
-        if (!WaitUntil(Clock::now() + std::chrono::milliseconds(backoff_ms))) break;
-        backoff_ms = std::min(backoff_ms * 2, config_.reconnect.max_ms);
-        continue;
-      }
-      connected = true;
-      fresh_connection = true;
-      bad_in_a_row = 0;
-      answered_since_connect = false;
-      {
-        std::lock_guard<std::mutex> lock(status_mu_);
-        if (ever_connected) ++status_.reconnects;
-        status_.state = "connected";
-        status_.connected = true;
-      }
-      ever_connected = true;
+    if (!s.connected) {
+      const ConnectOutcome c = Connect(s);
+      if (c == ConnectOutcome::kStopping) break;
+      if (c == ConnectOutcome::kRetry) continue;
     }
-
-    // Next tick: wait for it, or, if a whole interval late, jump to the latest due tick.
-    const auto now = Clock::now();
-    const auto due = start + static_cast<std::int64_t>(k) * interval;
     std::uint64_t jumped = 0;
-    if (now >= due + interval) {
-      const std::uint64_t latest = static_cast<std::uint64_t>((now - start) / interval);
-      jumped = latest - k;
-      k = latest;
-    } else if (now < due) {
-      if (!WaitUntil(due)) break;
-    }
-
-    bool all_ok = true;
-    for (const ReadBlock& b : blocks_) {
-      const std::int64_t t0 = SystemMicros();
-      const int n =
-          config_.table == RegisterTable::kHolding
-              ? modbus_read_registers(ctx.get(), static_cast<int>(b.start), b.count, regs.data())
-              : modbus_read_input_registers(ctx.get(), static_cast<int>(b.start), b.count,
-                                            regs.data());
-      const int err = errno;
-      const std::int64_t t1 = SystemMicros();
-      if (n == b.count) {
-        bad_in_a_row = 0;
-        answered_since_connect = true;
-        backoff_ms = config_.reconnect.initial_ms;
-        const std::int64_t t_us = t0 + (t1 - t0) / 2;
-        samples.clear();
-        for (std::size_t m = 0; m < b.members.size(); ++m) {
-          const ChannelConfig& c = config_.channels[b.members[m]];
-          const std::span<const std::uint16_t> words(
-              regs.data() + b.offsets[m], static_cast<std::size_t>(RegisterCount(c.type)));
-          const double raw = DecodeRaw(words, c.type, c.byte_order, c.word_order);
-          samples.push_back(
-              StreamSample{c.channel, k, t_us, ApplyScale(raw, c.scale, c.offset), kStatusGood});
-        }
-        try {
-          sink_.Deliver(samples);
-        } catch (const std::exception& e) {
-          std::lock_guard<std::mutex> lock(status_mu_);
-          status_.last_error = std::string("sink: ") + e.what();
-        }
-        std::lock_guard<std::mutex> lock(status_mu_);
-        status_.samples_delivered += samples.size();
-        status_.last_sample_t_us = t_us;
-        continue;
-      }
-      all_ok = false;
-      const std::string where = "block " + std::to_string(b.start) + "+" + std::to_string(b.count);
-      if (n != -1) {
-        ++bad_in_a_row;
-        set_error(&DeviceStatus::protocol_errors,
-                  where + ": short response (" + std::to_string(n) + " registers)");
-        modbus_flush(ctx.get());
-        continue;
-      }
-      const ErrorKind kind = Classify(err);
-      const std::string message = where + ": " + modbus_strerror(err);
-      if (kind == ErrorKind::kException) {
-        bad_in_a_row = 0;
-        answered_since_connect = true;
-        backoff_ms = config_.reconnect.initial_ms;
-        set_error(&DeviceStatus::exceptions, message);
-        continue;  // the device answered: other blocks may still be read
-      }
-      if (kind == ErrorKind::kConnection) {
-        set_error(&DeviceStatus::connection_errors, message);
-        modbus_close(ctx.get());
-        connected = false;
-        backoff_first = !answered_since_connect;
-        set_state("connecting", false);
-        break;
-      }
-      set_error(
-          kind == ErrorKind::kTimeout ? &DeviceStatus::timeouts : &DeviceStatus::protocol_errors,
-          message);
-      modbus_flush(ctx.get());
-      if (++bad_in_a_row >= kMaxConsecutiveBadResponses) {
-        modbus_close(ctx.get());
-        connected = false;
-        backoff_first = !answered_since_connect;
-        bad_in_a_row = 0;
-        set_state("connecting", false);
-      }
-      break;  // a silent device would stall every remaining block of this tick
-    }
-    ++k;
-    std::lock_guard<std::mutex> lock(status_mu_);
-    status_.skipped_ticks += jumped + (all_ok ? 0 : 1);
-    if (!fresh_connection) status_.late_ticks += jumped;
-    fresh_connection = false;
-    if (all_ok) ++status_.polls_ok;
-    status_.next_counter = k;
+    if (!WaitForTick(s, jumped)) break;
+    const bool all_ok = PollBlocks(s);
+    ++s.k;
+    EndTick(s, jumped, all_ok);
   }
+}
+
+ModbusDevice::ConnectOutcome ModbusDevice::Connect(PollState& s) {
+  if (s.backoff_first) {
+    s.backoff_first = false;
+    SetState("backoff", false);
+    if (!WaitUntil(Clock::now() + std::chrono::milliseconds(s.backoff_ms))) {
+      return ConnectOutcome::kStopping;
+    }
+    s.backoff_ms = std::min(s.backoff_ms * 2, config_.reconnect.max_ms);
+  }
+  SetState("connecting", false);
+  if (modbus_connect(s.ctx) == -1) {
+    const int err = errno;
+    SetError(&DeviceStatus::connection_errors, std::string("connect: ") + modbus_strerror(err));
+    modbus_close(s.ctx);
+    SetState("backoff", false);
+    if (!WaitUntil(Clock::now() + std::chrono::milliseconds(s.backoff_ms))) {
+      return ConnectOutcome::kStopping;
+    }
+    s.backoff_ms = std::min(s.backoff_ms * 2, config_.reconnect.max_ms);
+    return ConnectOutcome::kRetry;
+  }
+  s.connected = true;
+  s.fresh_connection = true;
+  s.bad_in_a_row = 0;
+  s.answered_since_connect = false;
+  {
+    std::lock_guard<std::mutex> lock(status_mu_);
+    if (s.ever_connected) ++status_.reconnects;
+    status_.state = "connected";
+    status_.connected = true;
+  }
+  s.ever_connected = true;
+  return ConnectOutcome::kConnected;
+}
+
+// Next tick: wait for it, or, if a whole interval late, jump to the latest due tick.
+bool ModbusDevice::WaitForTick(PollState& s, std::uint64_t& jumped) {
+  const auto interval = std::chrono::milliseconds(config_.poll_interval_ms);
+  const auto now = Clock::now();
+  const auto due = s.start + static_cast<std::int64_t>(s.k) * interval;
+  jumped = 0;
+  if (now >= due + interval) {
+    const std::uint64_t latest = static_cast<std::uint64_t>((now - s.start) / interval);
+    jumped = latest - s.k;
+    s.k = latest;
+  } else if (now < due) {
+    if (!WaitUntil(due)) return false;
+  }
+  return true;
+}
+
+bool ModbusDevice::PollBlocks(PollState& s) {
+  bool all_ok = true;
+  for (const ReadBlock& b : blocks_) {
+    const std::int64_t t0 = SystemMicros();
+    const int n =
+        config_.table == RegisterTable::kHolding
+            ? modbus_read_registers(s.ctx, static_cast<int>(b.start), b.count, s.regs.data())
+            : modbus_read_input_registers(s.ctx, static_cast<int>(b.start), b.count, s.regs.data());
+    const int err = errno;
+    const std::int64_t t1 = SystemMicros();
+    if (n == b.count) {
+      s.bad_in_a_row = 0;
+      s.answered_since_connect = true;
+      s.backoff_ms = config_.reconnect.initial_ms;
+      DeliverBlock(s, b, t0 + (t1 - t0) / 2);
+      continue;
+    }
+    all_ok = false;
+    if (ReadFailed(s, b, n, err)) break;
+  }
+  return all_ok;
+}
+
+// The block's channels decoded and scaled, stamped with the middle of the request.
+void ModbusDevice::DeliverBlock(PollState& s, const ReadBlock& b, std::int64_t t_us) {
+  s.samples.clear();
+  for (std::size_t m = 0; m < b.members.size(); ++m) {
+    const ChannelConfig& c = config_.channels[b.members[m]];
+    const std::span<const std::uint16_t> words(s.regs.data() + b.offsets[m],
+                                               static_cast<std::size_t>(RegisterCount(c.type)));
+    const double raw = DecodeRaw(words, c.type, c.byte_order, c.word_order);
+    s.samples.push_back(
+        StreamSample{c.channel, s.k, t_us, ApplyScale(raw, c.scale, c.offset), kStatusGood});
+  }
+  try {
+    sink_.Deliver(s.samples);
+  } catch (const std::exception& e) {
+    std::lock_guard<std::mutex> lock(status_mu_);
+    status_.last_error = std::string("sink: ") + e.what();
+  }
+  std::lock_guard<std::mutex> lock(status_mu_);
+  status_.samples_delivered += s.samples.size();
+  status_.last_sample_t_us = t_us;
+}
+
+// A block that was not read: counted by kind. A short response or an exception lets the other
+// blocks be read; a lost connection or a silent device ends the tick (true), since a silent
+// device would stall every remaining block of it.
+bool ModbusDevice::ReadFailed(PollState& s, const ReadBlock& b, int n, int err) {
+  const std::string where = "block " + std::to_string(b.start) + "+" + std::to_string(b.count);
+  if (n != -1) {
+    ++s.bad_in_a_row;
+    SetError(&DeviceStatus::protocol_errors,
+             where + ": short response (" + std::to_string(n) + " registers)");
+    modbus_flush(s.ctx);
+    return false;
+  }
+  const ErrorKind kind = Classify(err);
+  const std::string message = where + ": " + modbus_strerror(err);
+  if (kind == ErrorKind::kException) {
+    s.bad_in_a_row = 0;
+    s.answered_since_connect = true;
+    s.backoff_ms = config_.reconnect.initial_ms;
+    SetError(&DeviceStatus::exceptions, message);
+    return false;  // the device answered: other blocks may still be read
+  }
+  if (kind == ErrorKind::kConnection) {
+    SetError(&DeviceStatus::connection_errors, message);
+    Disconnect(s);
+    return true;
+  }
+  SetError(kind == ErrorKind::kTimeout ? &DeviceStatus::timeouts : &DeviceStatus::protocol_errors,
+           message);
+  modbus_flush(s.ctx);
+  if (++s.bad_in_a_row >= kMaxConsecutiveBadResponses) {
+    Disconnect(s);
+    s.bad_in_a_row = 0;
+  }
+  return true;
+}
+
+void ModbusDevice::Disconnect(PollState& s) {
+  modbus_close(s.ctx);
+  s.connected = false;
+  s.backoff_first = !s.answered_since_connect;
+  SetState("connecting", false);
+}
+
+void ModbusDevice::EndTick(PollState& s, std::uint64_t jumped, bool all_ok) {
+  std::lock_guard<std::mutex> lock(status_mu_);
+  status_.skipped_ticks += jumped + (all_ok ? 0 : 1);
+  if (!s.fresh_connection) status_.late_ticks += jumped;
+  s.fresh_connection = false;
+  if (all_ok) ++status_.polls_ok;
+  status_.next_counter = s.k;
 }
 
 }  // namespace km::ingest::modbus

@@ -71,8 +71,21 @@ class ModbusDevice {
   const DeviceConfig& config() const { return config_; }
 
  private:
+  // The poll loop (modbus_device.cpp) in named steps: connect (with backoff), wait for the
+  // next tick, read every block, count the tick.
+  struct PollState;
+  enum class ConnectOutcome { kConnected, kRetry, kStopping };
   void Run();
   void RunLoop();
+  ConnectOutcome Connect(PollState& s);
+  bool WaitForTick(PollState& s, std::uint64_t& jumped);  // false if stopping
+  bool PollBlocks(PollState& s);                          // true when every block was read
+  void DeliverBlock(PollState& s, const ReadBlock& b, std::int64_t t_us);
+  bool ReadFailed(PollState& s, const ReadBlock& b, int n, int err);  // true: end this tick
+  void Disconnect(PollState& s);
+  void EndTick(PollState& s, std::uint64_t jumped, bool all_ok);
+  void SetError(std::uint64_t DeviceStatus::*counter, std::string message);
+  void SetState(const char* state, bool connected);
   // Waits until `deadline` or Stop(); returns false if stopping.
   bool WaitUntil(std::chrono::steady_clock::time_point deadline);
 

@@ -117,6 +117,52 @@ std::vector<double> Periodogram(std::span<const double> x, std::span<const doubl
   return power;
 }
 
+// Index of the highest power on the grid f_k = f_lo + k df away from the frequencies already
+// found (more than two grid steps); power.size() when there is none.
+std::size_t StrongestPeak(const std::vector<double>& power, const std::vector<double>& found,
+                          double f_lo, double df) {
+  const std::size_t count = power.size();
+  std::size_t best = count;
+  for (std::size_t k = 0; k < count; ++k) {
+    const double f = f_lo + static_cast<double>(k) * df;
+    const bool excluded = std::any_of(found.begin(), found.end(),
+                                      [&](double g) { return std::abs(f - g) < 2.0 * df; });
+    if (excluded) continue;
+    if (best == count || power[k] > power[best]) best = k;
+  }
+  return best;
+}
+
+// Golden-section refinement of the peak at grid frequency f_best (power p_best) within one grid
+// step either side, inside [f_lo, f_hi]; f_best when the refinement finds no more power.
+double RefinePeak(std::span<const double> xc, std::span<const double> r, double f_best,
+                  double p_best, double f_lo, double f_hi, double df) {
+  double ybar = 0.0;
+  for (double v : r) ybar += v;
+  ybar /= static_cast<double>(r.size());
+  double a = std::max(f_lo, f_best - df), b = std::min(f_hi, f_best + df);
+  const double g = (std::sqrt(5.0) - 1.0) / 2.0;
+  double c1 = b - g * (b - a), c2 = a + g * (b - a);
+  double p1 = PowerAt(xc, r, ybar, c1), p2 = PowerAt(xc, r, ybar, c2);
+  for (int it = 0; it < 40; ++it) {
+    if (p1 > p2) {
+      b = c2;
+      c2 = c1;
+      p2 = p1;
+      c1 = b - g * (b - a);
+      p1 = PowerAt(xc, r, ybar, c1);
+    } else {
+      a = c1;
+      c1 = c2;
+      p1 = p2;
+      c2 = a + g * (b - a);
+      p2 = PowerAt(xc, r, ybar, c2);
+    }
+  }
+  const double f = 0.5 * (a + b);
+  return PowerAt(xc, r, ybar, f) < p_best ? f_best : f;
+}
+
 }  // namespace
 
 void PeriodicOptions::Check() const {
@@ -198,41 +244,10 @@ std::vector<PeriodicComponent> FindPeriodicComponents(std::span<const double> po
 
   for (int comp = 0; comp < options.max_components; ++comp) {
     const std::vector<double> power = Periodogram(xc, r, f_lo, df, count);
-    std::size_t best = count;
-    for (std::size_t k = 0; k < count; ++k) {
-      const double f = f_lo + static_cast<double>(k) * df;
-      const bool excluded = std::any_of(found.begin(), found.end(),
-                                        [&](double g) { return std::abs(f - g) < 2.0 * df; });
-      if (excluded) continue;
-      if (best == count || power[k] > power[best]) best = k;
-    }
+    const std::size_t best = StrongestPeak(power, found, f_lo, df);
     if (best == count || !(power[best] > 0.0)) break;
-    // Golden-section refinement of the peak within one grid step either side.
-    double ybar = 0.0;
-    for (double v : r) ybar += v;
-    ybar /= static_cast<double>(n);
-    const double f_best = f_lo + static_cast<double>(best) * df;
-    double a = std::max(f_lo, f_best - df), b = std::min(f_hi, f_best + df);
-    const double g = (std::sqrt(5.0) - 1.0) / 2.0;
-    double c1 = b - g * (b - a), c2 = a + g * (b - a);
-    double p1 = PowerAt(xc, r, ybar, c1), p2 = PowerAt(xc, r, ybar, c2);
-    for (int it = 0; it < 40; ++it) {
-      if (p1 > p2) {
-        b = c2;
-        c2 = c1;
-        p2 = p1;
-        c1 = b - g * (b - a);
-        p1 = PowerAt(xc, r, ybar, c1);
-      } else {
-        a = c1;
-        c1 = c2;
-        p1 = p2;
-        c2 = a + g * (b - a);
-        p2 = PowerAt(xc, r, ybar, c2);
-      }
-    }
-    double f = 0.5 * (a + b);
-    if (PowerAt(xc, r, ybar, f) < power[best]) f = f_best;
+    const double f =
+        RefinePeak(xc, r, f_lo + static_cast<double>(best) * df, power[best], f_lo, f_hi, df);
 
     const SineFit null_fit = FitSine(xc, r, degree, half, {});
     const double one[] = {f};
