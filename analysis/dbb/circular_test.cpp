@@ -145,6 +145,18 @@ std::vector<double> MachineDeviation(const DbbTest& test, const Turn& turn, doub
 
 }  // namespace
 
+double CosAngle(const CircularTestResult& r, std::size_t i) {
+  return r.cos_angle.size() == r.angle_deg.size()
+             ? r.cos_angle[i]
+             : std::cos(r.angle_deg[i] * std::numbers::pi / 180.0);
+}
+
+double SinAngle(const CircularTestResult& r, std::size_t i) {
+  return r.sin_angle.size() == r.angle_deg.size()
+             ? r.sin_angle[i]
+             : std::sin(r.angle_deg[i] * std::numbers::pi / 180.0);
+}
+
 CircularTestResult AnalyzeCircularTest(const DbbTest& test, DeviationUnits units) {
   if (!(test.bar_length_mm > 0.0)) {
     throw InvalidInput("", 0, "bar_length_mm", "must be positive");
@@ -176,9 +188,13 @@ CircularTestResult AnalyzeCircularTest(const DbbTest& test, DeviationUnits units
   // Planar representation in µm about the commanded centre ([PM-600 report] §4.2.4).
   const double r_um = test.radius_mm * 1000.0;
   std::vector<Eigen::Vector2d> pts(n);
+  r.cos_angle.resize(n);
+  r.sin_angle.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double rho = r_um + dev[i];
-    pts[i] = Eigen::Vector2d(rho * std::cos(turn.angle_rad[i]), rho * std::sin(turn.angle_rad[i]));
+    r.cos_angle[i] = std::cos(turn.angle_rad[i]);
+    r.sin_angle[i] = std::sin(turn.angle_rad[i]);
+    pts[i] = Eigen::Vector2d(rho * r.cos_angle[i], rho * r.sin_angle[i]);
   }
   const auto fit = geometry::FitCircleLeastSquares(pts);
   r.centre_offset_um = {fit.circle.centre.x(), fit.circle.centre.y()};

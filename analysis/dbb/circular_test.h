@@ -103,7 +103,15 @@ struct CircularTestResult {
   // (|(X_n, Y_n) − (X0, Y0)| − R0), µm.
   std::vector<double> angle_deg;
   std::vector<double> radial_error_um;
+  // cos θ and sin θ of every sample (filled by AnalyzeCircularTest, so that the later stages
+  // need no trigonometry of their own; read through CosAngle / SinAngle).
+  std::vector<double> cos_angle;
+  std::vector<double> sin_angle;
 };
+
+// cos θ_i, sin θ_i of sample i of a result: the cached values when present, computed otherwise.
+double CosAngle(const CircularTestResult& r, std::size_t i);
+double SinAngle(const CircularTestResult& r, std::size_t i);
 
 // Full figures of one test, in bar units (the default) or tool-path units. Throws
 // km::InvalidInput on unusable data.

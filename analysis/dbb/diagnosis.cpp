@@ -517,7 +517,13 @@ DiagnosisTrace MakeDiagnosisTrace(const DbbTest& test, const CircularTestResult&
   t.dev_um = dev;
   for (double& d : t.dev_um) d *= k;
   t.angle_rad.resize(result.angle_deg.size());
-  for (std::size_t i = 0; i < t.angle_rad.size(); ++i) t.angle_rad[i] = result.angle_deg[i] * kDeg;
+  t.cos_angle.resize(t.angle_rad.size());
+  t.sin_angle.resize(t.angle_rad.size());
+  for (std::size_t i = 0; i < t.angle_rad.size(); ++i) {
+    t.angle_rad[i] = result.angle_deg[i] * kDeg;
+    t.cos_angle[i] = CosAngle(result, i);
+    t.sin_angle[i] = SinAngle(result, i);
+  }
   return t;
 }
 

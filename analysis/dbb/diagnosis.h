@@ -74,6 +74,9 @@ struct DiagnosisTrace {
   double feed_mm_min = 1000.0;
   std::vector<double> angle_rad;
   std::vector<double> dev_um;  // in-plane radial deviation about the nominal centre
+  // Optional cos and sin of angle_rad (computed when absent).
+  std::vector<double> cos_angle;
+  std::vector<double> sin_angle;
 };
 
 // Trace of a test from its analysed figures (deviation about the nominal centre, scaled by

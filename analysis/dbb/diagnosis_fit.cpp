@@ -44,8 +44,9 @@ Candidate MakeCandidate(const Problem& p, EffectId id, std::vector<double> shape
 }
 
 VectorXd FitResult::Combine(int off, int count, Eigen::Index n) const {
-  VectorXd v = VectorXd::Zero(n);
-  for (int m = off; m < off + count; ++m) v += x[m] * *a[static_cast<std::size_t>(m)];
+  if (count <= 0) return VectorXd::Zero(n);
+  VectorXd v = x[off] * *a[static_cast<std::size_t>(off)];
+  for (int m = off + 1; m < off + count; ++m) v += x[m] * *a[static_cast<std::size_t>(m)];
   return v;
 }
 

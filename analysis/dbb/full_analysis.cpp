@@ -143,17 +143,21 @@ DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOpti
       devs[i] = DeviationAboutNominalCentre(tr.circular);
       const auto& dev = devs[i];
       std::vector<Eigen::Vector2d> pts(dev.size());
-      std::vector<double> ang(dev.size());
       for (std::size_t k = 0; k < dev.size(); ++k) {
-        ang[k] = tr.circular.angle_deg[k] * kDeg;
-        pts[k] = (rn + dev[k]) * Eigen::Vector2d(std::cos(ang[k]), std::sin(ang[k]));
+        pts[k] =
+            (rn + dev[k]) * Eigen::Vector2d(CosAngle(tr.circular, k), SinAngle(tr.circular, k));
       }
       tr.min_zone = geometry::FitMinZoneCircle(
           pts, Eigen::Vector2d(tr.circular.centre_offset_um[0], tr.circular.centre_offset_um[1]));
       tr.min_zone_circularity_um = tr.min_zone.width;
-      tr.harmonics =
-          FitHarmonics(ang, tr.circular.mode == Mode::kAbsolute ? dev : tr.circular.radial_error_um,
-                       std::min(opt.harmonic_orders, static_cast<int>((ang.size() - 1) / 2)));
+      std::vector<double> c(dev.size()), s(dev.size());
+      for (std::size_t k = 0; k < dev.size(); ++k) {
+        c[k] = CosAngle(tr.circular, k);
+        s[k] = SinAngle(tr.circular, k);
+      }
+      tr.harmonics = FitHarmonics(
+          c, s, tr.circular.mode == Mode::kAbsolute ? dev : tr.circular.radial_error_um,
+          std::min(opt.harmonic_orders, static_cast<int>((dev.size() - 1) / 2)));
     } catch (const InvalidInput& e) {
       throw InvalidInput(e.file(), e.line(), e.field(), Where(t, i) + ": " + e.reason());
     }

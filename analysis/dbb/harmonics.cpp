@@ -22,7 +22,8 @@ struct HarmonicSums {
   Eigen::VectorXd atb;
 };
 
-HarmonicSums SumHarmonics(const ArrayXd& c1, const ArrayXd& s1, const ArrayXd& r, int max_order) {
+HarmonicSums SumHarmonics(const Eigen::Ref<const ArrayXd>& c1, const Eigen::Ref<const ArrayXd>& s1,
+                          const Eigen::Ref<const ArrayXd>& r, int max_order) {
   HarmonicSums h;
   const auto top = static_cast<std::size_t>(2 * max_order);
   h.c.assign(top + 1, 0.0);
@@ -73,8 +74,8 @@ Eigen::MatrixXd NormalMatrix(const HarmonicSums& h, int max_order) {
 }
 
 // r − model over the samples, by the same recurrence.
-double ResidualRms(const ArrayXd& c1, const ArrayXd& s1, const ArrayXd& r,
-                   const Eigen::VectorXd& coef, int max_order) {
+double ResidualRms(const Eigen::Ref<const ArrayXd>& c1, const Eigen::Ref<const ArrayXd>& s1,
+                   const Eigen::Ref<const ArrayXd>& r, const Eigen::VectorXd& coef, int max_order) {
   ArrayXd res = r - coef[0];
   ArrayXd ck = c1, sk = s1, next;
   for (int k = 1; k <= max_order; ++k) {
@@ -92,21 +93,30 @@ double ResidualRms(const ArrayXd& c1, const ArrayXd& s1, const ArrayXd& r,
 
 HarmonicsResult FitHarmonics(const std::vector<double>& angle_rad, const std::vector<double>& r_um,
                              int max_order) {
-  const std::size_t n = angle_rad.size();
-  if (r_um.size() != n) throw InvalidInput("", 0, "dr_um", "angle and radius sizes differ");
+  std::vector<double> c(angle_rad.size()), s(angle_rad.size());
+  for (std::size_t i = 0; i < angle_rad.size(); ++i) {
+    c[i] = std::cos(angle_rad[i]);
+    s[i] = std::sin(angle_rad[i]);
+  }
+  return FitHarmonics(c, s, r_um, max_order);
+}
+
+HarmonicsResult FitHarmonics(const std::vector<double>& cos_angle,
+                             const std::vector<double>& sin_angle, const std::vector<double>& r_um,
+                             int max_order) {
+  const std::size_t n = cos_angle.size();
+  if (r_um.size() != n || sin_angle.size() != n) {
+    throw InvalidInput("", 0, "dr_um", "angle and radius sizes differ");
+  }
   if (max_order < 1) throw InvalidInput("", 0, "max_order", "must be at least 1");
   const int m = 2 * max_order + 1;
   if (n < static_cast<std::size_t>(m)) {
     throw InvalidInput("", 0, "angle_deg", "too few samples for the requested harmonic orders");
   }
   const auto len = static_cast<Eigen::Index>(n);
-  const Eigen::Map<const ArrayXd> theta(angle_rad.data(), len);
+  const Eigen::Map<const ArrayXd> c1(cos_angle.data(), len);
+  const Eigen::Map<const ArrayXd> s1(sin_angle.data(), len);
   const Eigen::Map<const ArrayXd> r(r_um.data(), len);
-  ArrayXd c1(len), s1(len);
-  for (Eigen::Index i = 0; i < len; ++i) {
-    c1[i] = std::cos(theta[i]);
-    s1[i] = std::sin(theta[i]);
-  }
   const HarmonicSums sums = SumHarmonics(c1, s1, r, max_order);
   Eigen::LDLT<Eigen::MatrixXd> ldlt(NormalMatrix(sums, max_order));
   if (ldlt.info() != Eigen::Success || ldlt.rcond() < 1e-12) {

@@ -30,5 +30,9 @@ struct HarmonicsResult {
 // Throws km::InvalidInput when there are fewer than 2N + 1 samples or the sizes differ.
 HarmonicsResult FitHarmonics(const std::vector<double>& angle_rad, const std::vector<double>& r_um,
                              int max_order);
+// Same, from cos θ and sin θ of the samples (no trigonometry of its own).
+HarmonicsResult FitHarmonics(const std::vector<double>& cos_angle,
+                             const std::vector<double>& sin_angle, const std::vector<double>& r_um,
+                             int max_order);
 
 }  // namespace km::dbb

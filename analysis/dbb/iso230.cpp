@@ -187,8 +187,7 @@ std::vector<double> DeviationAboutNominalCentre(const CircularTestResult& r) {
   const double c2 = cx * cx + cy * cy;
   std::vector<double> dev(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const double t = r.angle_deg[i] * kDeg;
-    const double nc = std::cos(t) * cx + std::sin(t) * cy;
+    const double nc = CosAngle(r, i) * cx + SinAngle(r, i) * cy;
     const double q = r0 + r.radial_error_um[i];
     dev[i] = nc + std::sqrt(std::max(0.0, nc * nc - c2 + q * q)) - rn;
   }
@@ -244,9 +243,8 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
   auto add = [&](const CircularTestResult& r, const std::vector<double>& d) {
     const double rt = NominalRadiusUm(r);
     for (std::size_t i = 0; i < d.size(); ++i) {
-      const double t = r.angle_deg[i] * kDeg;
       const double rho = rt + d[i];
-      pts.emplace_back(rho * std::cos(t), rho * std::sin(t));
+      pts.emplace_back(rho * CosAngle(r, i), rho * SinAngle(r, i));
     }
   };
   add(cw, dcw);

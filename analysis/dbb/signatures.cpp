@@ -50,8 +50,13 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
     const int t = static_cast<int>(p.ctx.size());
     p.ctx.push_back(c);
     Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
-    for (double th : tr.angle_rad) {
-      SignatureSample s{effects::MakeAngle(th), t};
+    const bool cached =
+        tr.cos_angle.size() == tr.angle_rad.size() && tr.sin_angle.size() == tr.angle_rad.size();
+    for (std::size_t i = 0; i < tr.angle_rad.size(); ++i) {
+      const double th = tr.angle_rad[i];
+      SignatureSample s{cached ? effects::Angle<double>{th, tr.cos_angle[i], tr.sin_angle[i]}
+                               : effects::MakeAngle(th),
+                        t};
       const Eigen::Vector3d v(s.a.c, s.a.s, 1.0);
       g += v * v.transpose();
       p.samples.push_back(s);
