@@ -23,22 +23,29 @@ int ReversalOrder::Bucket(double phi) {
   return std::clamp(static_cast<int>(phi / std::numbers::pi * kBuckets), 0, kBuckets - 1);
 }
 
-ReversalOrder MakeReversalOrder(const Problem& p, EffectId id) {
-  const int axis = id == EffectId::kReversalSpikeU ? 0 : 1;
-  const double theta0 = effects::internal::AxisReversalAngle(axis);
-  constexpr double kWideDeg = 1e4;
-  const double params[3] = {1.0, kWideDeg, 1.0};
-  std::vector<int> count(ReversalOrder::kBuckets + 1, 0);
+namespace {
+
+// Angle since the reversal and radial factor Side·n_a of every sample (reversal_spike.h).
+template <int Axis>
+std::vector<ReversalOrder::Entry> SpikeFactors(const Problem& p) {
+  using Spike = effects::ReversalSpike<Axis>;
   std::vector<ReversalOrder::Entry> e(static_cast<std::size_t>(p.n));
   for (int i = 0; i < p.n; ++i) {
     const auto& s = p.samples[static_cast<std::size_t>(i)];
     const auto& ctx = p.ctx[static_cast<std::size_t>(s.trace)];
-    const double phi = effects::internal::AngleSinceReversal(s.a.theta, theta0, ctx.direction);
-    const double decay = effects::ReversalSpike<0>::Decay(phi, kWideDeg * kDeg, 1.0);
-    e[static_cast<std::size_t>(i)] = {phi, i,
-                                      effects::RadialSignature(id, ctx, s.a, params) / decay};
-    ++count[static_cast<std::size_t>(ReversalOrder::Bucket(phi)) + 1];
+    e[static_cast<std::size_t>(i)] = {Spike::Phi(ctx, s.a), i,
+                                      Spike::Side(ctx, s.a) * (Axis == 0 ? s.a.c : s.a.s)};
   }
+  return e;
+}
+
+}  // namespace
+
+ReversalOrder MakeReversalOrder(const Problem& p, EffectId id) {
+  const std::vector<ReversalOrder::Entry> e =
+      id == EffectId::kReversalSpikeU ? SpikeFactors<0>(p) : SpikeFactors<1>(p);
+  std::vector<int> count(ReversalOrder::kBuckets + 1, 0);
+  for (const auto& x : e) ++count[static_cast<std::size_t>(ReversalOrder::Bucket(x.phi)) + 1];
   for (int k = 0; k < ReversalOrder::kBuckets; ++k)
     count[static_cast<std::size_t>(k) + 1] += count[static_cast<std::size_t>(k)];
   ReversalOrder o;
@@ -71,17 +78,19 @@ SpikeFrame MakeSpikeFrame(const Problem& p, const ReversalOrder& o, const Base& 
                    [](const auto* x, const auto* y) { return x->phi < y->phi; });
   SpikeFrame f;
   const auto n = static_cast<Eigen::Index>(rows.size());
-  f.a = Eigen::MatrixXd::Zero(n, b.m + 3 * p.traces + 1);
+  f.a.resize(n, b.m + 3 * p.traces + 1);
   f.factor.resize(n);
   f.phi.resize(n);
   for (Eigen::Index k = 0; k < n; ++k) {
     const auto& e = *rows[static_cast<std::size_t>(k)];
     const auto& smp = p.samples[static_cast<std::size_t>(e.sample)];
     for (int j = 0; j < b.m; ++j) f.a(k, j) = (*b.a[static_cast<std::size_t>(j)])[e.sample];
-    const int t = b.m + 3 * smp.trace;
-    f.a(k, t) = smp.a.c;
-    f.a(k, t + 1) = smp.a.s;
-    f.a(k, t + 2) = 1.0;
+    for (int t = 0; t < p.traces; ++t) {
+      const bool own = t == smp.trace;
+      f.a(k, b.m + 3 * t) = own ? smp.a.c : 0.0;
+      f.a(k, b.m + 3 * t + 1) = own ? smp.a.s : 0.0;
+      f.a(k, b.m + 3 * t + 2) = own ? 1.0 : 0.0;
+    }
     f.a(k, b.m + 3 * p.traces) = b.r[e.sample];
     f.factor[k] = e.factor;
     f.phi[k] = e.phi;

@@ -13,10 +13,9 @@
 namespace km::dbb::diag {
 
 // Samples ordered (in buckets of π/kBuckets) by the angle φ travelled since the last reversal
-// of one axis, with the spike signature's factor c = signature / decay (the sign of the axis
-// velocity and the radial projection), taken from the registry model at a very wide width, so
-// a spike of any width and decay is c·Decay(φ) (reversal_spike.h) over the samples where the
-// decay is not negligible.
+// of one axis, with the spike signature's factor c = signature / decay (the side −sign(v_a) and
+// the radial projection n_a, from the registry model reversal_spike.h), so a spike of any width
+// and decay is c·Decay(φ) over the samples where the decay is not negligible.
 struct ReversalOrder {
   static constexpr int kBuckets = 2048;
   struct Entry {

@@ -17,16 +17,14 @@ using Eigen::VectorXd;
 void StackedTraces::RemoveSetup(VectorXd& col, std::vector<Eigen::Vector3d>* coef) const {
   if (coef) coef->assign(static_cast<std::size_t>(traces), Eigen::Vector3d::Zero());
   for (int t = 0; t < traces; ++t) {
-    Eigen::Vector3d stc = Eigen::Vector3d::Zero();
-    for (std::size_t i = begin[t]; i < begin[t + 1]; ++i) {
-      const auto& a = samples[i].a;
-      stc += Eigen::Vector3d(a.c, a.s, 1.0) * col[static_cast<Eigen::Index>(i)];
-    }
-    const Eigen::Vector3d c = setup_inv[t] * stc;
-    for (std::size_t i = begin[t]; i < begin[t + 1]; ++i) {
-      const auto& a = samples[i].a;
-      col[static_cast<Eigen::Index>(i)] -= c[0] * a.c + c[1] * a.s + c[2];
-    }
+    const auto from = static_cast<Eigen::Index>(begin[static_cast<std::size_t>(t)]);
+    const auto len = static_cast<Eigen::Index>(begin[static_cast<std::size_t>(t) + 1]) - from;
+    auto seg = col.segment(from, len);
+    const auto c_t = cos_a.segment(from, len);
+    const auto s_t = sin_a.segment(from, len);
+    const Eigen::Vector3d c = setup_inv[static_cast<std::size_t>(t)] *
+                              Eigen::Vector3d(c_t.dot(seg), s_t.dot(seg), seg.sum());
+    seg.array() -= c[0] * c_t.array() + c[1] * s_t.array() + c[2];
     if (coef) (*coef)[static_cast<std::size_t>(t)] = c;
   }
 }
@@ -68,6 +66,12 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
     p.begin.push_back(p.samples.size());
   }
   p.n = static_cast<int>(p.samples.size());
+  p.cos_a.resize(p.n);
+  p.sin_a.resize(p.n);
+  for (int i = 0; i < p.n; ++i) {
+    p.cos_a[i] = p.samples[static_cast<std::size_t>(i)].a.c;
+    p.sin_a[i] = p.samples[static_cast<std::size_t>(i)].a.s;
+  }
   p.y.resize(p.n);
   {
     int i = 0;
