@@ -1,6 +1,6 @@
 #include "report/dbb_report.h"
 
-#include "analysis/dbb/report_json.h"
+#include "report/dbb_json.h"
 
 namespace km::server {
 namespace {

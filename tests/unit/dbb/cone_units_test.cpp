@@ -23,7 +23,7 @@
 
 #include "analysis/dbb/circular_test.h"
 #include "analysis/dbb/full_analysis.h"
-#include "analysis/dbb/report_json.h"
+#include "report/dbb_json.h"
 #include "tests/unit/dbb/dbb_truth.h"
 
 namespace km::dbb {

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/core/errors.h"
-#include "analysis/dbb/report_json.h"
+#include "report/dbb_json.h"
 #include "tests/unit/dbb/dbb_test_util.h"
 
 namespace km::dbb {

@@ -16,7 +16,7 @@
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/dbb/full_analysis.h"
 #include "analysis/dbb/iso230.h"
-#include "analysis/dbb/report_json.h"
+#include "report/dbb_json.h"
 #include "tests/unit/dbb/dbb_truth.h"
 
 namespace km::dbb {

@@ -1,4 +1,4 @@
-#include "analysis/dbb/report_json.h"
+#include "report/dbb_json.h"
 
 namespace km::dbb {
 
