@@ -1,0 +1,103 @@
+#include "analysis/servo/feed_drive.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
+#include "analysis/core/errors.h"
+#include "analysis/servo/feed_drive_detail.h"
+
+namespace km::servo {
+
+void FeedDriveOptions::Check() const {
+  if (!(min_speed_fraction > 0.0 && min_speed_fraction < 1.0)) {
+    throw InvalidInput("", 0, "min_speed_fraction", "must be in (0, 1)");
+  }
+  if (!(reversal_skip_mm >= 0.0 && reversal_skip_mm < 1e4)) {
+    throw InvalidInput("", 0, "reversal_skip_mm", "must be in [0, 10000) mm");
+  }
+  if (!(bin_mm > 0.0 && bin_mm < 1e3))
+    throw InvalidInput("", 0, "bin_mm", "must be in (0, 1000) mm");
+  if (!(max_ripple_components >= 0 && max_ripple_components <= 20)) {
+    throw InvalidInput("", 0, "max_ripple_components", "must be in 0 … 20");
+  }
+  if (!(min_period_mm >= 0.0 && max_period_mm >= 0.0 && min_period_mm < 1e6 &&
+        max_period_mm < 1e6)) {
+    throw InvalidInput("", 0, "min_period_mm", "periods must be non-negative");
+  }
+  if (!(lugre_window_mm > 0.0 && lugre_window_mm < 1e3)) {
+    throw InvalidInput("", 0, "lugre_window_mm", "must be in (0, 1000) mm");
+  }
+  const auto positive = [](const std::optional<double>& v, const char* name) {
+    if (v && !(*v > 0.0 && *v < 1e9)) throw InvalidInput("", 0, name, "must be positive");
+  };
+  positive(radius_mm, "radius_mm");
+  positive(feed_mm_min, "feed_mm_min");
+  positive(kp_per_s, "kp_per_s");
+}
+
+std::vector<double> LugreForce(const LugreParameters& p, const std::vector<double>& t_s,
+                               const std::vector<double>& x_mm) {
+  const std::size_t n = x_mm.size();
+  std::vector<double> f(n, 0.0);
+  double z = 0.0;  // µm
+  for (std::size_t i = 1; i < n; ++i) {
+    const double dt = t_s[i] - t_s[i - 1];
+    if (!(dt > 0.0)) {
+      f[i] = f[i - 1];
+      continue;
+    }
+    const double v = (x_mm[i] - x_mm[i - 1]) / dt;  // mm/s, constant over the interval
+    const double vu = 1e3 * v;                      // µm/s
+    const double g = p.Fc_N + (p.Fs_N - p.Fc_N) * std::exp(-(v / p.vs_mm_s) * (v / p.vs_mm_s));
+    const double a = p.sigma0_N_per_um * std::abs(vu) / g;  // 1/s
+    if (a > 0.0) {
+      const double z_ss = vu / a;
+      z = z_ss + (z - z_ss) * std::exp(-a * dt);
+    }
+    const double zdot = vu - a * z;  // µm/s at the end of the interval
+    f[i] = p.sigma0_N_per_um * z + p.sigma1_N_s_per_mm * 1e-3 * zdot + p.sigma2_N_s_per_mm * v;
+  }
+  if (n > 1) f[0] = f[1];
+  return f;
+}
+
+double StickMotionUm(const LugreParameters& p, double radius_mm, double feed_mm_min,
+                     double kp_per_s) {
+  const double d_um = 2.0 * p.Fc_N / p.sigma0_N_per_um;
+  const double v = feed_mm_min / 60.0;
+  const double t_d = std::sqrt(2.0 * d_um * 1e-3 * radius_mm) / v;
+  return d_um / (1.0 + kp_per_s * t_d);
+}
+
+FeedDriveResult AnalyzeFeedDrive(const std::vector<double>& t_s, const AxisTrace& axis,
+                                 const std::string& file, const FeedDriveOptions& options) {
+  ServoFile f;
+  f.file = file;
+  f.hexapod = false;
+  f.t_s = t_s;
+  f.axes.push_back(axis);
+  return AnalyzeFeedDrive({&f}, axis.axis, options);
+}
+
+FeedDriveResult AnalyzeFeedDrive(const std::vector<const ServoFile*>& files,
+                                 const std::string& axis, const FeedDriveOptions& options) {
+  options.Check();
+  detail::Strokes s = detail::CollectStrokes(files, axis, options);
+  FeedDriveResult r;
+  r.axis = axis;
+  r.samples = s.x.size();
+  r.reversals = s.reversals.size();
+  detail::FitSteady(s, options, r);
+  if (options.fit_lugre) detail::FitLugre(s, options, r);
+  if (r.lugre && options.radius_mm && options.feed_mm_min && options.kp_per_s) {
+    r.stick_motion_um =
+        StickMotionUm(*r.lugre, *options.radius_mm, *options.feed_mm_min, *options.kp_per_s);
+  }
+  return r;
+}
+
+}  // namespace km::servo

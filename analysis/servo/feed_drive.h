@@ -1,0 +1,83 @@
+// Friction of a serial feed drive from its motor force over strokes in both directions
+// ([Fujita thesis] ch. 4, eqs. 4.1–4.2, 4.8; docs/methods.md §14).
+//
+// 1. Steady motion (away from reversals): F = c0 + c1·x + f_rg(x) + F_c sign(v) + c_v v, with
+//    the position-dependent part f_rg(x) = (f₊ + f₋)/2 of eq. 4.8 (guide and screw waviness)
+//    written as sinusoids whose periods are found from the periodogram of the even part of the
+//    binned residual and refined by a line search, and the direction-dependent part
+//    (f₊ − f₋)/2 = F_c + c_v |v| (Coulomb + viscous). Linear least squares with uncertainties.
+// 2. Reversals: the LuGre model (eqs. 4.1–4.2), dz/dt = v − σ0 |v| z / g(v),
+//    g(v) = F_c + (F_s − F_c) exp(−(v/v_s)²), F = σ0 z + σ1 dz/dt + σ2 v, integrated exactly
+//    over each sample interval (constant v) along the measured motion and fitted to the force
+//    less its position-dependent part around every reversal (Levenberg–Marquardt on the
+//    logarithms of the six parameters, covariance from the Jacobian).
+// 3. Stick motion (quadrant glitch) on a circle of radius R at feed V with a position loop of
+//    gain K_p: the presliding lost motion d = 2 F_c/σ0 is taken up by the loop while the
+//    commanded axis moves d after its reversal, in t_d = √(2 d R)/V; the glitch is
+//    h ≈ d / (1 + K_p t_d) (a first-order estimate, docs/methods.md §14).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/servo/servo_types.h"
+
+namespace km::servo {
+
+struct FeedDriveOptions {
+  double min_speed_fraction = 0.05;  // steady samples: |v| >= this × the largest speed…
+  double reversal_skip_mm = 2.0;     // …and this far from the last reversal
+  double bin_mm = 0.5;               // bins of the position-dependent part
+  int max_ripple_components = 3;
+  double min_period_mm = 2.0;    // 0: four bins
+  double max_period_mm = 0.0;    // 0: a third of the stroke (three periods at least)
+  double lugre_window_mm = 1.0;  // travel either side of a reversal fitted by LuGre
+  bool fit_lugre = true;
+  // Stick-motion prediction, when all three are given.
+  std::optional<double> radius_mm, feed_mm_min, kp_per_s;
+  void Check() const;
+};
+
+struct Ripple {
+  double period_mm = 0.0, period_sigma_mm = 0.0;
+  double amplitude_N = 0.0, amplitude_sigma_N = 0.0;
+  double phase_deg = 0.0;
+};
+
+struct LugreParameters {
+  double Fc_N = 0.0, Fs_N = 0.0, vs_mm_s = 0.0;
+  double sigma0_N_per_um = 0.0, sigma1_N_s_per_mm = 0.0, sigma2_N_s_per_mm = 0.0;
+};
+
+struct FeedDriveResult {
+  std::string axis;
+  std::size_t samples = 0, steady_samples = 0, reversals = 0;
+  double coulomb_N = 0.0, coulomb_sigma_N = 0.0;
+  double viscous_N_s_per_mm = 0.0, viscous_sigma_N_s_per_mm = 0.0;
+  double offset_N = 0.0, slope_N_per_mm = 0.0;
+  double residual_rms_N = 0.0;
+  std::vector<Ripple> ripple;
+  std::optional<LugreParameters> lugre, lugre_sigma;
+  double lugre_residual_rms_N = 0.0;
+  std::string lugre_note;  // why LuGre was not fitted, when it was not
+  std::optional<double> stick_motion_um;
+};
+
+// One axis of a record (t_s from the file). Throws km::InvalidInput when the motion lacks
+// strokes in both directions.
+FeedDriveResult AnalyzeFeedDrive(const std::vector<double>& t_s, const AxisTrace& axis,
+                                 const std::string& file, const FeedDriveOptions& options = {});
+
+// Several records of the same axis analysed together (strokes at several feeds).
+FeedDriveResult AnalyzeFeedDrive(const std::vector<const ServoFile*>& files,
+                                 const std::string& axis, const FeedDriveOptions& options = {});
+
+// Force of the LuGre model along a motion (x in mm, t in s), starting from z = 0.
+std::vector<double> LugreForce(const LugreParameters& p, const std::vector<double>& t_s,
+                               const std::vector<double>& x_mm);
+
+double StickMotionUm(const LugreParameters& p, double radius_mm, double feed_mm_min,
+                     double kp_per_s);
+
+}  // namespace km::servo

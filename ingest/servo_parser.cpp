@@ -1,0 +1,218 @@
+#include "ingest/servo_parser.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <set>
+
+#include "analysis/core/errors.h"
+
+namespace km::ingest {
+namespace {
+
+// Forces beyond 10 MN and positions beyond 1 km are not servo loads of a machine tool.
+constexpr double kMaxForceN = 1e7;
+constexpr double kMaxPositionMm = 1e6;
+constexpr double kMaxAngleDeg = 360.0;
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string Upper(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::size_t LineOf(const TextTable& t, const std::string& key) {
+  const auto* v = t.Find(key);
+  return v ? v->line : 0;
+}
+
+std::string RequireOneOf(const TextTable& t, const std::string& key,
+                         const std::set<std::string>& allowed) {
+  const std::string v = Lower(t.RequireString(key));
+  if (!allowed.count(v)) {
+    std::string list;
+    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+    throw InvalidInput(t.file, LineOf(t, key), key, Quote(v) + " is not one of " + list);
+  }
+  return v;
+}
+
+std::size_t RequireColumn(const TextTable& t, const std::string& name) {
+  const int idx = t.ColumnIndex(name);
+  if (idx < 0) throw InvalidInput(t.file, t.columns_line, name, "required column is missing");
+  return static_cast<std::size_t>(idx);
+}
+
+void CheckRange(const TextTable& t, std::size_t column, double limit, const char* what) {
+  const auto& v = t.Column(column);
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (std::abs(v[i]) > limit) {
+      throw InvalidInput(t.file, t.row_lines[i], t.columns[column],
+                         "value is too large for " + std::string(what));
+    }
+  }
+}
+
+// Times strictly increasing; enough rows.
+void CheckTimes(const TextTable& t, std::size_t it) {
+  if (t.NumRows() < kMinServoRows) {
+    const std::size_t line = t.row_lines.empty() ? t.columns_line : t.row_lines.back();
+    throw InvalidInput(t.file, line, "t_s",
+                       "found " + std::to_string(t.NumRows()) + " data rows; at least " +
+                           std::to_string(kMinServoRows) + " are needed");
+  }
+  const auto& ts = t.Column(it);
+  for (std::size_t i = 1; i < ts.size(); ++i) {
+    if (!(ts[i] > ts[i - 1])) {
+      throw InvalidInput(t.file, t.row_lines[i], "t_s",
+                         "times must be strictly increasing (previous value on line " +
+                             std::to_string(t.row_lines[i - 1]) + ")");
+    }
+  }
+}
+
+// Force constants (N/A), one per force column, when the file gives currents; ones otherwise.
+std::vector<double> ForceScale(const TextTable& t, std::size_t count, const std::string& unit) {
+  if (unit == "n") {
+    if (t.Has("force_constant_N_per_A")) {
+      throw InvalidInput(t.file, LineOf(t, "force_constant_N_per_A"), "force_constant_N_per_A",
+                         "only with force_unit: current_A");
+    }
+    return std::vector<double>(count, 1.0);
+  }
+  if (!t.Has("force_constant_N_per_A")) {
+    throw InvalidInput(
+        t.file, LineOf(t, "force_unit"), "force_constant_N_per_A",
+        "force_unit current_A needs force_constant_N_per_A (" + std::to_string(count) + " values)");
+  }
+  auto k = t.RequireNumbers("force_constant_N_per_A", count);
+  for (double v : k) {
+    if (!(v > 0.0 && v < 1e6)) {
+      throw InvalidInput(t.file, LineOf(t, "force_constant_N_per_A"), "force_constant_N_per_A",
+                         "force constants must be positive and below 1e6 N/A");
+    }
+  }
+  return k;
+}
+
+void ReadHexapod(const TextTable& t, servo::ServoFile& f, const std::string& unit) {
+  f.tool_length_mm = t.RequireNumber("tool_length_mm");
+  if (!(f.tool_length_mm >= 0.0 && f.tool_length_mm < 1e4)) {
+    throw InvalidInput(t.file, LineOf(t, "tool_length_mm"), "tool_length_mm",
+                       "must be between 0 and 10000 mm");
+  }
+  static const char* kPose[] = {"x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"};
+  std::array<std::size_t, 6> pc{};
+  std::array<std::size_t, 6> fc{};
+  for (int k = 0; k < 6; ++k) {
+    pc[k] = RequireColumn(t, kPose[k]);
+    CheckRange(t, pc[k], k < 3 ? kMaxPositionMm : kMaxAngleDeg,
+               k < 3 ? "a position in mm" : "an angle in degrees (|angle| <= 360)");
+    fc[k] = RequireColumn(t, "f" + std::to_string(k + 1));
+  }
+  const auto scale = ForceScale(t, 6, unit);
+  for (int k = 0; k < 6; ++k) CheckRange(t, fc[k], kMaxForceN / scale[k], "a strut force");
+  f.samples.resize(t.NumRows());
+  for (std::size_t i = 0; i < t.NumRows(); ++i) {
+    auto& s = f.samples[i];
+    s.t_s = f.t_s[i];
+    for (int k = 0; k < 3; ++k) {
+      s.tip_mm[k] = t.Column(pc[k])[i];
+      s.abc_deg[k] = t.Column(pc[k + 3])[i];
+    }
+    for (int k = 0; k < 6; ++k) s.force_N[k] = scale[k] * t.Column(fc[k])[i];
+  }
+}
+
+void ReadSerial(const TextTable& t, servo::ServoFile& f, const std::string& unit) {
+  const std::string first = Upper(t.RequireString("axis"));
+  static const std::set<std::string> kAxes{"X", "Y", "Z", "U", "V", "W"};
+  if (!kAxes.count(first)) {
+    throw InvalidInput(t.file, LineOf(t, "axis"), "axis",
+                       Quote(first) + " is not an axis (X, Y, Z, U, V or W)");
+  }
+  std::vector<std::pair<std::size_t, std::size_t>> cols{
+      {RequireColumn(t, "pos_mm"), RequireColumn(t, "force")}};
+  std::vector<std::string> names{first};
+  for (const char* axis : {"X", "Y", "Z", "U", "V", "W"}) {
+    const std::string a = axis;
+    const std::string pos = "pos_" + Lower(a) + "_mm";
+    const std::string force = "force_" + Lower(a);
+    const bool has_pos = t.ColumnIndex(pos) >= 0, has_force = t.ColumnIndex(force) >= 0;
+    if (!has_pos && !has_force) continue;
+    if (a == first) {
+      throw InvalidInput(t.file, t.columns_line, pos,
+                         "axis " + a + " is the file's axis; its columns are pos_mm,force");
+    }
+    cols.emplace_back(RequireColumn(t, pos), RequireColumn(t, force));
+    names.push_back(a);
+  }
+  const auto scale = ForceScale(t, cols.size(), unit);
+  for (std::size_t a = 0; a < cols.size(); ++a) {
+    CheckRange(t, cols[a].first, kMaxPositionMm, "a position in mm");
+    CheckRange(t, cols[a].second, kMaxForceN / scale[a], "a drive force");
+    servo::AxisTrace tr;
+    tr.axis = names[a];
+    tr.pos_mm = t.Column(cols[a].first);
+    tr.force_N = t.Column(cols[a].second);
+    for (double& v : tr.force_N) v *= scale[a];
+    f.axes.push_back(std::move(tr));
+  }
+}
+
+}  // namespace
+
+TextLimits DefaultServoLimits() {
+  TextLimits l;
+  l.max_rows = 2'000'000;
+  l.max_columns = 64;
+  return l;
+}
+
+servo::ServoFile ParseServoFile(std::string_view bytes, const std::string& file,
+                                const TextLimits& limits) {
+  ReadOptions options;
+  static_cast<TextLimits&>(options) = limits;
+  TextTable t = ReadTextTable(bytes, file, options);
+  if (t.format != kServoFormat) {
+    throw InvalidInput(file, t.format_line, "format",
+                       std::string("expected '") + kServoFormat + "', found " + Quote(t.format));
+  }
+  if (!t.markers.empty()) {
+    throw InvalidInput(file, t.markers.front().line, t.markers.front().key,
+                       "header lines must come before the column-header row");
+  }
+  servo::ServoFile f;
+  f.file = file;
+  f.machine_id = t.RequireString("machine_id");
+  f.test_id = t.RequireString("test_id");
+  f.motion = RequireOneOf(t, "motion", {"circle", "path"});
+  if (f.motion == "circle" || t.Has("direction")) {
+    f.direction = RequireOneOf(t, "direction", {"cw", "ccw"});
+  }
+  f.force_unit = t.RequireString("force_unit");
+  const std::string unit = Lower(f.force_unit);
+  if (unit != "n" && unit != "current_a") {
+    throw InvalidInput(file, LineOf(t, "force_unit"), "force_unit",
+                       Quote(f.force_unit) + " is not one of N, current_A");
+  }
+  f.metadata = t.Metadata();
+  f.hexapod = !t.Has("axis");
+  const std::size_t it = RequireColumn(t, "t_s");
+  CheckTimes(t, it);
+  f.t_s = t.Column(it);
+  if (f.hexapod) {
+    ReadHexapod(t, f, unit);
+  } else {
+    ReadSerial(t, f, unit);
+  }
+  f.lines.reserve(t.NumRows());
+  for (std::size_t i = 0; i < t.NumRows(); ++i) f.lines.push_back(t.row_lines[i]);
+  return f;
+}
+
+}  // namespace km::ingest

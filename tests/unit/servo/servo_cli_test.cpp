@@ -1,0 +1,134 @@
+// `kinemetric servo identify | force | joints | feed-drive --json` run in-process on files of the
+// independent simulator: the documented keys (docs/formats.md §3.10–3.13), the values, the
+// machine written back, and bad input named.
+#include <cmath>
+#include <random>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "analysis/core/errors.h"
+#include "cli/command.h"
+#include "ingest/machine_json.h"
+#include "tests/unit/cli_test_fixture.h"
+#include "tests/unit/servo/servo_truth.h"
+
+namespace km::cli {
+namespace {
+
+const char* kMachine = "data/machines/pm600-like.json";
+
+class ServoCli : public test::CliTest {
+ protected:
+  static nlohmann::json Run(const std::string& command, std::vector<std::string> files,
+                            std::map<std::string, std::string> options = {}) {
+    Args args = JsonArgs(std::move(files));
+    args.options["--machine"] = kMachine;
+    for (const auto& [k, v] : options) args.options[k] = v;
+    std::ostringstream out;
+    EXPECT_EQ(Registry().at(command).run(args, out), 0);
+    return nlohmann::json::parse(out.str());
+  }
+
+  // The jig plan, both directions, 360 samples a circle.
+  std::vector<std::string> Plan(const servo::truth::Machine& m, unsigned seed,
+                                Eigen::Vector3d load = Eigen::Vector3d::Zero(), int tests = 15) {
+    std::mt19937 rng(seed);
+    std::vector<std::string> files;
+    int k = 0;
+    for (auto c : servo::truth::JigPlan(360)) {
+      if (k++ >= tests) break;
+      c.external_N = load;
+      for (bool ccw : {true, false}) {
+        c.ccw = ccw;
+        files.push_back(Write(c.test_id + (ccw ? "_ccw.txt" : "_cw.txt"),
+                              servo::truth::ServoText(c, servo::truth::Simulate(m, c, 2.0, rng))));
+      }
+    }
+    return files;
+  }
+};
+
+TEST_F(ServoCli, IdentifyPrintsTheMachineKeysAndWritesTheMachine) {
+  const auto m = servo::truth::Pm600Truth();
+  const std::string out = (dir_ / "identified.json").string();
+  const auto j = Run("servo identify", Plan(m, 1), {{"--write-machine", out}});
+  for (const char* k : {"identified", "uncertainty"}) {
+    for (const char* key :
+         {"platform_mass_kg", "platform_cog_mm", "strut_equivalent_mass_kg", "motor_mass_kg",
+          "screw_friction_N", "base_joint_torque_Nm", "base_joint_torque_per_N_m"}) {
+      EXPECT_TRUE(j[k].contains(key)) << k << "." << key;
+    }
+  }
+  EXPECT_EQ(j["residual_rms_N"].size(), 6u);
+  EXPECT_GT(j["condition_number"].get<double>(), 1.0);
+  EXPECT_TRUE(j["fixed"].is_array());
+  EXPECT_NEAR(j["identified"]["platform_mass_kg"].get<double>(), m.m_platform, 5.0);
+  EXPECT_NEAR(j["identified"]["screw_friction_N"][2].get<double>(), m.f0[2], 5.0);
+  const auto machine = ingest::ParseHexapodMachineJson(ReadFileBytes(out), out);
+  ASSERT_TRUE(machine.physics.has_value());
+  EXPECT_NEAR(machine.physics->platform_mass_kg, m.m_platform, 5.0);
+  EXPECT_NEAR(machine.physics->base_joint_torque_Nm, m.t0, 0.9);
+}
+
+TEST_F(ServoCli, ForceGivesAForcePerSampleWithItsUncertainty) {
+  const auto m = servo::truth::Pm600Truth();
+  const auto files = Plan(m, 2, Eigen::Vector3d(0.0, 250.0, 0.0), 1);
+  const auto j = Run("servo force", {files[0]});
+  ASSERT_EQ(j["t_s"].size(), 360u);
+  ASSERT_EQ(j["force_N"].size(), 360u);
+  ASSERT_EQ(j["sigma_N"].size(), 360u);
+  EXPECT_EQ(j["force_N"][0].size(), 3u);
+  EXPECT_NEAR(j["mean_force_N"][1].get<double>(), 250.0, 10.0);
+  EXPECT_NEAR(j["mean_force_N"][0].get<double>(), 0.0, 10.0);
+}
+
+TEST_F(ServoCli, JointsGradeTheStiffLegAndReadThePrevious) {
+  auto m = servo::truth::Pm600Truth();
+  m.leg_factor[4] = 3.0;
+  const auto files = Plan(m, 3);
+  const auto j = Run("servo joints", files);
+  ASSERT_EQ(j["legs"].size(), 6u);
+  EXPECT_EQ(j["level"], 3);
+  for (const auto& leg : j["legs"]) {
+    for (const char* key : {"leg", "resistance_Nm", "sigma_Nm", "level", "evidence"}) {
+      EXPECT_TRUE(leg.contains(key)) << key;
+    }
+    EXPECT_EQ(leg["level"], leg["leg"] == 5 ? 3 : 1) << leg["evidence"];
+  }
+  // The same data against itself as the previous estimate: no growth.
+  const std::string prev = Write("previous.json", j.dump());
+  const auto again = Run("servo joints", files, {{"--previous", prev}});
+  EXPECT_EQ(again["legs"][0]["previous_Nm"], j["legs"][0]["resistance_Nm"]);
+  EXPECT_EQ(again["legs"][0]["level"], 1);
+}
+
+TEST_F(ServoCli, BadInputIsNamed) {
+  const std::string bad = Write("bad.txt", "# format: kinemetric-servo/1\n# machine_id: x\n");
+  try {
+    Run("servo identify", {bad});
+    ADD_FAILURE() << "accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.file(), bad);
+  }
+  auto m = servo::truth::Pm600Truth();
+  const auto files = Plan(m, 4, Eigen::Vector3d::Zero(), 1);
+  const std::string prev = Write("previous.json", "{\"legs\": []}");
+  try {
+    Run("servo joints", files, {{"--previous", prev}});
+    ADD_FAILURE() << "accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.file(), prev);
+    EXPECT_EQ(e.field(), "legs");
+  }
+  try {
+    Run("servo feed-drive", files);
+    ADD_FAILURE() << "accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.file(), files[0]);
+  }
+}
+
+}  // namespace
+}  // namespace km::cli

@@ -1,0 +1,78 @@
+// Recover-the-truth tests of the joint resistance and health levels
+// (analysis/servo/joint_resistance.h) on the independent simulator (servo_truth.h): CW and CCW
+// circles of the jig plan, noise 2 N, joint friction ramping after every reversal.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "analysis/servo/joint_resistance.h"
+#include "tests/unit/servo/servo_fixture.h"
+
+namespace km::servo {
+namespace {
+
+// The simulated resistance of leg j averaged over the poses: t0 + t1·mean|ĝ_j| per the
+// reference of the estimate, so the ratio to it is the simulated factor.
+TEST(ServoJoints, NamesTheStiffLegAtLevel3) {
+  truth::Machine m = truth::Pm600Truth();
+  m.leg_factor[2] = 3.0;
+  const auto files = testing::SimulatePlan(m, 2.0, 720, 21);
+  const JointsResult r =
+      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(), files);
+  EXPECT_EQ(r.reference_source, "machine model");
+  EXPECT_EQ(r.pairs.size(), 15u);
+  EXPECT_EQ(r.level, 3);
+  for (int j = 0; j < 6; ++j) {
+    const auto& leg = r.legs[j];
+    EXPECT_NEAR(leg.ratio, m.leg_factor[j], 0.1 * m.leg_factor[j]) << leg.evidence;
+    EXPECT_EQ(leg.level, j == 2 ? 3 : 1) << leg.evidence;
+    EXPECT_NEAR(leg.screw_friction_N, m.f0[j], 5.0) << leg.evidence;
+    // No platform-joint resistance was simulated.
+    EXPECT_LT(std::abs(leg.joints[1].resistance_Nm), 0.1 * leg.resistance_Nm) << leg.evidence;
+  }
+  EXPECT_NE(r.legs[2].evidence.find("leg 3"), std::string::npos);
+  EXPECT_LT(r.residual_rms_N, 2.0 * std::sqrt(2.0) * 1.5);
+}
+
+TEST(ServoJoints, EqualLegsStayAtLevel1) {
+  const truth::Machine m = truth::Pm600Truth();
+  const auto files = testing::SimulatePlan(m, 2.0, 720, 22);
+  const JointsResult r =
+      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(), files);
+  EXPECT_EQ(r.level, 1);
+  for (const auto& leg : r.legs) {
+    EXPECT_EQ(leg.level, 1) << leg.evidence;
+    EXPECT_NEAR(leg.ratio, 1.0, 0.1) << leg.evidence;
+  }
+}
+
+TEST(ServoJoints, SeparatesAPlatformJointAndGradesTheGrowth) {
+  truth::Machine m = truth::Pm600Truth();
+  m.platform_factor[4] = 0.5;  // the platform joint of leg 5 at half the base joint's
+  const auto files = testing::SimulatePlan(m, 2.0, 720, 23);
+  JointOptions o;
+  // The previous estimate: every leg as simulated, without the platform joint's resistance.
+  const JointsResult before =
+      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(),
+                              testing::SimulatePlan(truth::Pm600Truth(), 2.0, 720, 24));
+  std::array<double, 6> prev{};
+  for (int j = 0; j < 6; ++j) prev[j] = before.legs[j].resistance_Nm;
+  o.previous_Nm = prev;
+  const JointsResult r =
+      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(), files, o);
+  const auto& leg5 = r.legs[4];
+  ASSERT_TRUE(leg5.joints[1].identified);
+  EXPECT_NEAR(leg5.joints[1].resistance_Nm, 0.5 * prev[4], 0.05 * prev[4]) << leg5.evidence;
+  EXPECT_NEAR(leg5.joints[0].resistance_Nm, before.legs[4].resistance_Nm, 0.1 * prev[4])
+      << leg5.evidence;
+  // About +50 %: above the 30 % warning, below the 100 % stop; the others did not grow.
+  EXPECT_EQ(leg5.level, 2) << leg5.evidence;
+  for (int j = 0; j < 6; ++j) {
+    if (j != 4) {
+      EXPECT_EQ(r.legs[j].level, 1) << r.legs[j].evidence;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace km::servo

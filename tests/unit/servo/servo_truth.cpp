@@ -1,0 +1,212 @@
+#include "tests/unit/servo/servo_truth.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+namespace km::servo::truth {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+Eigen::Matrix3d Rot(const Eigen::Vector3d& deg) {
+  const Eigen::Vector3d r = deg * kPi / 180.0;
+  return (Eigen::AngleAxisd(r[0], Eigen::Vector3d::UnitX()) *
+          Eigen::AngleAxisd(r[1], Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(r[2], Eigen::Vector3d::UnitZ()))
+      .toRotationMatrix();
+}
+
+struct State {
+  std::array<Eigen::Vector3d, 6> p, u, b;
+  std::array<double, 6> len{};
+  std::array<std::array<Eigen::Vector3d, 2>, 6> axes;
+  Eigen::Matrix<double, 6, 6> a;
+};
+
+State At(const Machine& m, const Eigen::Vector3d& tip, const Eigen::Matrix3d& r, double tool) {
+  State s;
+  for (int j = 0; j < 6; ++j) {
+    s.p[j] = tip + r * (m.platform[j] + Eigen::Vector3d(0, 0, tool));
+    const Eigen::Vector3d d = s.p[j] - m.base[j];
+    s.len[j] = d.norm();
+    s.u[j] = d / s.len[j];
+    s.b[j] = s.p[j] - tip;
+    Eigen::Vector3d a1 = Eigen::Vector3d(0, 0, 1).cross(s.u[j]);
+    if (a1.norm() < 1e-12) a1 = Eigen::Vector3d(1, 0, 0).cross(s.u[j]);
+    a1 /= a1.norm();
+    s.axes[j] = {a1, s.u[j].cross(a1)};
+    s.a.block<3, 1>(0, j) = s.u[j];
+    s.a.block<3, 1>(3, j) = s.b[j].cross(s.u[j]);
+  }
+  return s;
+}
+
+Eigen::Matrix<double, 6, 1> Hold(const State& s, const Eigen::Vector3d& f,
+                                 const Eigen::Vector3d& mo) {
+  Eigen::Matrix<double, 6, 1> rhs;
+  rhs << f, mo;
+  return s.a.fullPivLu().solve(rhs);
+}
+
+// Axial gravity forces (tension positive) and the strut tensions of the gravity load.
+Eigen::Matrix<double, 6, 1> GravityAxial(const Machine& m, const State& s, const Eigen::Matrix3d& r,
+                                         double tool, const Eigen::Vector3d& accel_m_s2,
+                                         Eigen::Matrix<double, 6, 1>* with_inertia) {
+  Eigen::Vector3d force = m.m_platform * m.g;
+  const Eigen::Vector3d bp = r * (m.cog + Eigen::Vector3d(0, 0, tool));
+  Eigen::Vector3d moment = bp.cross(force);
+  for (int j = 0; j < 6; ++j) {
+    const double l = s.len[j];
+    const double w = (m.m_screw * (l - m.l2 - m.l3 / 2) + m.m_joint * l - m.m_motor * m.l1) / l;
+    const Eigen::Vector3d wg = w * m.g;
+    const Eigen::Vector3d carried = wg - wg.dot(s.u[j]) * s.u[j];
+    force += carried;
+    moment += s.b[j].cross(carried);
+  }
+  Eigen::Matrix<double, 6, 1> x = Hold(s, force, moment);
+  for (int j = 0; j < 6; ++j) x[j] -= m.m_strut * m.g.dot(s.u[j]);
+  if (with_inertia) {
+    const Eigen::Vector3d fi = -m.m_platform * accel_m_s2;
+    *with_inertia = x + Hold(s, fi, bp.cross(fi));
+  }
+  return x;
+}
+
+double Clamp1(double v) {
+  return std::clamp(v, -1.0, 1.0);
+}
+
+}  // namespace
+
+Machine Pm600Truth() {
+  Machine m;
+  m.base = {Eigen::Vector3d(128.905, 606.452, 0.0),   Eigen::Vector3d(-128.905, 606.452, 0.0),
+            Eigen::Vector3d(-589.655, -191.591, 0.0), Eigen::Vector3d(-460.75, -414.861, 0.0),
+            Eigen::Vector3d(460.75, -414.861, 0.0),   Eigen::Vector3d(589.655, -191.591, 0.0)};
+  m.platform = {Eigen::Vector3d(133.826, 148.629, 250.0), Eigen::Vector3d(-133.826, 148.629, 250.0),
+                Eigen::Vector3d(-195.63, 41.582, 250.0),  Eigen::Vector3d(-61.803, -190.211, 250.0),
+                Eigen::Vector3d(61.803, -190.211, 250.0), Eigen::Vector3d(195.63, 41.582, 250.0)};
+  return m;
+}
+
+std::vector<Circle> JigPlan(int samples) {
+  struct Row {
+    const char* id;
+    int hole, level;
+    double a, b, c;
+  };
+  const Row plan[] = {{"a", 9, 1, 20, 0, 0},  {"b", 4, 1, 0, 0, 0},   {"c", 6, 1, -20, 0, 0},
+                      {"d", 8, 1, 0, 0, 0},   {"e", 2, 1, 0, 20, 0},  {"f", 9, 2, 0, 0, 0},
+                      {"g", 3, 2, 15, 0, 0},  {"h", 5, 2, 0, 15, 0},  {"i", 7, 2, -15, 0, 0},
+                      {"j", 1, 2, 0, -15, 0}, {"k", 9, 3, 10, 10, 0}, {"l", 4, 3, 0, 0, 0},
+                      {"m", 6, 3, -10, 0, 0}, {"n", 8, 3, 0, -10, 0}, {"o", 2, 3, 0, -20, 0}};
+  const double level_z[] = {0.0, -1150.0, -1050.0, -950.0};
+  std::vector<Circle> out;
+  for (const auto& row : plan) {
+    Circle c;
+    c.test_id = row.id;
+    if (row.hole != 9) {
+      const double phi = (row.hole - 1) * kPi / 4.0;
+      c.centre = Eigen::Vector3d(100.0 * std::cos(phi), 100.0 * std::sin(phi), 0.0);
+    } else {
+      c.centre = Eigen::Vector3d::Zero();
+    }
+    c.centre.z() = level_z[row.level];
+    const bool cone = row.level == 2;
+    c.radius_mm = cone ? 144.0 : 150.0;
+    c.z_offset_mm = cone ? 42.0 : 0.0;
+    c.tilt_deg = Eigen::Vector3d(row.a, row.b, row.c);
+    c.tool_mm = std::string(row.id) <= "h" ? 104.255 : 150.0;
+    c.samples = samples;
+    out.push_back(c);
+  }
+  return out;
+}
+
+Record Simulate(const Machine& m, const Circle& c, double noise_N, std::mt19937& rng) {
+  const int n = c.samples;
+  const double sign = c.ccw ? 1.0 : -1.0;
+  const double speed = c.feed_mm_min / 60.0;
+  const Eigen::Matrix3d r = Rot(c.tilt_deg);
+  std::vector<State> st;
+  std::vector<Eigen::Vector3d> tip(n), acc(n);
+  Record rec;
+  for (int i = 0; i < n; ++i) {
+    const double th = sign * 2.0 * kPi * i / n;
+    const Eigen::Vector3d ring(std::cos(th), std::sin(th), 0.0);
+    tip[i] = c.centre + Eigen::Vector3d(0, 0, c.z_offset_mm) + c.radius_mm * ring;
+    acc[i] = -(speed * speed / c.radius_mm) * ring * 1e-3;  // m/s²
+    st.push_back(At(m, tip[i], r, c.tool_mm));
+    rec.t_s.push_back(c.radius_mm * std::abs(th) / speed);
+  }
+  // Friction states, run through the closed path once before recording (steady state).
+  std::array<double, 6> screw{};
+  std::array<std::array<double, 2>, 6> joint{};
+  std::normal_distribution<double> noise(0.0, noise_N);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int i = 0; i < n; ++i) {
+      const State& s = st[i];
+      const State& prev = st[(i + n - 1) % n];
+      for (int j = 0; j < 6; ++j) {
+        screw[j] = Clamp1(screw[j] + 2.0 * (s.len[j] - prev.len[j]) / m.screw_ramp_mm);
+        const Eigen::Vector3d dp = s.p[j] - prev.p[j];
+        for (int k = 0; k < 2; ++k)
+          joint[j][k] = Clamp1(joint[j][k] + 2.0 * s.axes[j][k].dot(dp) / m.joint_ramp_mm);
+      }
+      if (pass == 0) continue;
+      Eigen::Matrix<double, 6, 1> x;
+      const auto axial = GravityAxial(m, s, r, c.tool_mm, acc[i], &x);
+      Eigen::Vector3d force = c.external_N, moment = Eigen::Vector3d::Zero();
+      for (int j = 0; j < 6; ++j) {
+        const double tau = m.leg_factor[j] * (m.t0 + m.t1 * std::abs(axial[j]));
+        Eigen::Vector3d dir = Eigen::Vector3d::Zero(), rot = Eigen::Vector3d::Zero();
+        for (int k = 0; k < 2; ++k) {
+          dir += joint[j][k] * s.axes[j][k];
+          rot += joint[j][k] * s.u[j].cross(s.axes[j][k]);
+        }
+        const double rho = m.platform_factor[j] * (m.t0 + m.t1 * std::abs(axial[j]));
+        const Eigen::Vector3d f = -((tau + rho) / (s.len[j] / 1000.0)) * dir;
+        force += f;
+        moment += s.b[j].cross(f) + 1000.0 * rho * rot;
+      }
+      x += Hold(s, force, moment);
+      std::array<double, 6> out{};
+      for (int j = 0; j < 6; ++j) out[j] = x[j] - m.f0[j] * screw[j] + noise(rng);
+      rec.force_N.push_back(out);
+      rec.tip_mm.push_back(tip[i]);
+    }
+  }
+  return rec;
+}
+
+std::string ServoText(const Circle& c, const Record& r, const std::string& machine_id) {
+  std::string s =
+      "# format: kinemetric-servo/1\n# machine_id: " + machine_id + "\n# test_id: " + c.test_id +
+      "\n# motion: circle\n# direction: " + (c.ccw ? "ccw" : "cw") + "\n# force_unit: N\n";
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "# radius_mm: %.6f\n# centre_mm: %.6f, %.6f, %.6f\n# tilt_deg: %.6f, %.6f, "
+                "%.6f\n# tool_length_mm: %.6f\n# feed_mm_min: %.3f\n",
+                c.radius_mm, c.centre.x(), c.centre.y(), c.centre.z(), c.tilt_deg.x(),
+                c.tilt_deg.y(), c.tilt_deg.z(), c.tool_mm, c.feed_mm_min);
+  s += buf;
+  s += "t_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,f1,f2,f3,f4,f5,f6\n";
+  for (std::size_t i = 0; i < r.t_s.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f", r.t_s[i], r.tip_mm[i].x(),
+                  r.tip_mm[i].y(), r.tip_mm[i].z(), c.tilt_deg.x(), c.tilt_deg.y(), c.tilt_deg.z());
+    s += buf;
+    for (double f : r.force_N[i]) {
+      std::snprintf(buf, sizeof buf, ",%.4f", f);
+      s += buf;
+    }
+    s += "\n";
+  }
+  return s;
+}
+
+}  // namespace km::servo::truth
