@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 #include "analysis/hexapod/calibration_cost.h"
 #include "analysis/hexapod/dbb_geometry.h"
 
@@ -45,19 +46,13 @@ ParameterVector ParameterDifference(const HexapodGeometry& nominal, const Hexapo
 }
 
 void CalibrationOptions::Check() const {
-  if (max_iterations < 1) throw InvalidInput("", 0, "max_iterations", "must be at least 1");
-  if (!(function_tolerance > 0.0)) {
-    throw InvalidInput("", 0, "function_tolerance", "must be positive");
-  }
-  if (!(parameter_tolerance > 0.0)) {
-    throw InvalidInput("", 0, "parameter_tolerance", "must be positive");
-  }
-  if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0)) {
-    throw InvalidInput("", 0, "rank_tolerance", "must lie in (0, 1)");
-  }
-  if (max_samples_per_test < 0) {
-    throw InvalidInput("", 0, "max_samples_per_test", "must not be negative");
-  }
+  KM_OPTION_GE(max_iterations, 1);
+  KM_OPTION_GT(function_tolerance, 0.0);
+  KM_OPTION_GT(parameter_tolerance, 0.0);
+  KM_OPTION_GT(gradient_tolerance, 0.0);
+  KM_OPTION_GT(initial_trust_region_radius, 0.0);
+  KM_OPTION_IN_OPEN(rank_tolerance, 0.0, 1.0);
+  KM_OPTION_GE(max_samples_per_test, 0);
 }
 
 CalibrationProblem BuildCalibrationProblem(const HexapodGeometry& nominal,

@@ -60,13 +60,18 @@ struct CalibrationOptions {
   // tighter values only make the solver chase round-off.
   double function_tolerance = 1e-9;
   double parameter_tolerance = 1e-8;
+  double gradient_tolerance = 1e-12;
+  // The model is nearly linear over the parameter range ([PM-600 report] iterates plain
+  // Gauss–Newton): a wide initial trust region makes the first steps full Gauss–Newton steps.
+  double initial_trust_region_radius = 1e10;
   // A singular value below rank_tolerance·σ_max of the (nuisance-projected) Jacobian counts as
   // an unobservable direction.
   double rank_tolerance = 1e-6;
   // Use at most this many samples per test (evenly thinned); 0 = all.
   int max_samples_per_test = 0;
 
-  // Throws km::InvalidInput naming the bad option.
+  // Throws km::InvalidInput naming the bad option (analysis/core/option_check.h). The Ceres
+  // solver options are made from these in calibration_ceres.cpp (CalibrationSolverOptions).
   void Check() const;
 };
 

@@ -1,5 +1,8 @@
 // Ceres solve of a CalibrationProblem (see calibration.h). Only this file knows Ceres types.
 #include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include <ceres/ceres.h>
 
@@ -8,9 +11,85 @@
 #include "analysis/hexapod/calibration_cost.h"
 
 namespace km::hexapod {
+namespace {
+
+class BarLengthCost : public ceres::SizedCostFunction<1, kNumKinematicParameters, 3> {
+ public:
+  BarLengthCost(const HexapodGeometry* nominal, const CalibrationSample* sample,
+                double tool_length_mm)
+      : nominal_(nominal), sample_(sample), tool_length_mm_(tool_length_mm) {}
+
+  static ceres::CostFunction* Create(const HexapodGeometry* nominal,
+                                     const CalibrationSample* sample, double tool_length_mm) {
+    return new BarLengthCost(nominal, sample, tool_length_mm);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    return EvaluateBarSample(*nominal_, *sample_, tool_length_mm_, parameters[0], parameters[1],
+                             residuals, jacobians ? jacobians[0] : nullptr,
+                             jacobians ? jacobians[1] : nullptr);
+  }
+
+ private:
+  const HexapodGeometry* nominal_;
+  const CalibrationSample* sample_;
+  double tool_length_mm_;
+};
+
+// The solver options of the calibration: Ceres' own, made once from the method's options
+// (iterations, tolerances, trust region), and the linear solver the problem's structure asks for
+// (SetLinearSolver). Check() validates both before a solve.
+struct CalibrationSolverOptions {
+  CalibrationOptions method;
+  ceres::Solver::Options solver_options;
+
+  explicit CalibrationSolverOptions(const CalibrationOptions& options) : method(options) {
+    // Dogleg: the Gauss–Newton model of this problem is accurate ([PM-600 report] eqs. 2.2–2.5
+    // iterate plain Gauss–Newton); Levenberg–Marquardt was seen to stall in centre-corrected
+    // mode.
+    solver_options.trust_region_strategy_type = ceres::DOGLEG;
+    solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
+    solver_options.max_num_iterations = options.max_iterations;
+    solver_options.function_tolerance = options.function_tolerance;
+    solver_options.parameter_tolerance = options.parameter_tolerance;
+    solver_options.gradient_tolerance = options.gradient_tolerance;
+    solver_options.num_threads = 1;
+    solver_options.logging_type = ceres::SILENT;
+    solver_options.minimizer_progress_to_stdout = false;
+  }
+
+  void Check() const {
+    method.Check();
+    std::string why;
+    if (!solver_options.IsValid(&why)) throw std::logic_error("ceres options: " + why);
+  }
+};
+
+// Centre-corrected: the per-test fixed balls are eliminated by the Schur complement (they share
+// no residual), leaving a 24×24 reduced system; absolute: 24 columns, dense QR.
+void SetLinearSolver(const CalibrationProblem& problem, std::vector<Eigen::Vector3d>& balls,
+                     ParameterVector& k, ceres::Solver::Options& so) {
+  bool any_free_ball = false;
+  for (const auto& t : problem.tests) any_free_ball = any_free_ball || !t.fixed_ball_known;
+  if (!any_free_ball) {
+    so.linear_solver_type = ceres::DENSE_QR;
+    return;
+  }
+  so.linear_solver_type = ceres::DENSE_SCHUR;
+  auto* ordering = new ceres::ParameterBlockOrdering;
+  for (std::size_t ti = 0; ti < problem.tests.size(); ++ti) {
+    if (!problem.tests[ti].fixed_ball_known) ordering->AddElementToGroup(balls[ti].data(), 0);
+  }
+  ordering->AddElementToGroup(k.data(), 1);
+  so.linear_solver_ordering.reset(ordering);
+}
+
+}  // namespace
 
 CalibrationResult SolveCalibration(const CalibrationProblem& problem) {
-  problem.options.Check();
+  CalibrationSolverOptions options(problem.options);
+  options.Check();
   ParameterVector k = ParameterVector::Zero();
   std::vector<Eigen::Vector3d> balls;
   balls.reserve(problem.tests.size());
@@ -41,37 +120,9 @@ CalibrationResult SolveCalibration(const CalibrationProblem& problem) {
     cp.SetManifold(k.data(), new ceres::SubsetManifold(kNumKinematicParameters, fixed));
   }
 
-  ceres::Solver::Options so;
-  // Centre-corrected: the per-test fixed balls are eliminated by the Schur complement (they
-  // share no residual), leaving a 24×24 reduced system; absolute: 24 columns, dense QR.
-  bool any_free_ball = false;
-  for (const auto& t : problem.tests) any_free_ball = any_free_ball || !t.fixed_ball_known;
-  if (any_free_ball) {
-    so.linear_solver_type = ceres::DENSE_SCHUR;
-    auto* ordering = new ceres::ParameterBlockOrdering;
-    for (std::size_t ti = 0; ti < problem.tests.size(); ++ti) {
-      if (!problem.tests[ti].fixed_ball_known) ordering->AddElementToGroup(balls[ti].data(), 0);
-    }
-    ordering->AddElementToGroup(k.data(), 1);
-    so.linear_solver_ordering.reset(ordering);
-  } else {
-    so.linear_solver_type = ceres::DENSE_QR;
-  }
-  // The model is nearly linear over the parameter range ([PM-600 report] iterates plain
-  // Gauss–Newton): start with a wide trust region so the first steps are full Gauss–Newton steps.
-  so.initial_trust_region_radius = 1e10;
-  // Dogleg: the Gauss–Newton model of this problem is accurate ([PM-600 report] eqs. 2.2–2.5
-  // iterate plain Gauss–Newton); Levenberg–Marquardt was seen to stall in centre-corrected mode.
-  so.trust_region_strategy_type = ceres::DOGLEG;
-  so.max_num_iterations = problem.options.max_iterations;
-  so.function_tolerance = problem.options.function_tolerance;
-  so.parameter_tolerance = problem.options.parameter_tolerance;
-  so.gradient_tolerance = 1e-12;
-  so.num_threads = 1;
-  so.logging_type = ceres::SILENT;
-  so.minimizer_progress_to_stdout = false;
+  SetLinearSolver(problem, balls, k, options.solver_options);
   ceres::Solver::Summary summary;
-  ceres::Solve(so, &cp, &summary);
+  ceres::Solve(options.solver_options, &cp, &summary);
   if (!summary.IsSolutionUsable()) {
     throw DidNotConverge("hexapod calibration failed: " + summary.message);
   }

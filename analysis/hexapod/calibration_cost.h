@@ -1,4 +1,5 @@
-// Ceres cost of one DBB sample for hexapod calibration (see calibration.h for the model):
+// Residual of one DBB sample for hexapod calibration (see calibration.h for the model); the
+// Ceres cost function around it is in calibration_ceres.cpp:
 //
 //   r = 1000·(|tip(FK_{nominal+K}(s)) − F| − L_measured)            [µm]
 //   ∂r/∂Δo_j = w_j,  ∂r/∂ΔQ_j = w_j·u_jᵀ  (K in µm),  ∂r/∂F = −1000·eᵀ (F in mm)
@@ -7,8 +8,6 @@
 // Analytic Jacobian (implicit function theorem on IK_K(T') = s); checked against numerical
 // differentiation in tests/unit/hexapod.
 #pragma once
-
-#include <ceres/sized_cost_function.h>
 
 #include <Eigen/Dense>
 
@@ -56,29 +55,5 @@ inline bool EvaluateBarSample(const HexapodGeometry& nominal, const CalibrationS
   }
   return true;
 }
-
-class BarLengthCost : public ceres::SizedCostFunction<1, kNumKinematicParameters, 3> {
- public:
-  BarLengthCost(const HexapodGeometry* nominal, const CalibrationSample* sample,
-                double tool_length_mm)
-      : nominal_(nominal), sample_(sample), tool_length_mm_(tool_length_mm) {}
-
-  static ceres::CostFunction* Create(const HexapodGeometry* nominal,
-                                     const CalibrationSample* sample, double tool_length_mm) {
-    return new BarLengthCost(nominal, sample, tool_length_mm);
-  }
-
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
-    return EvaluateBarSample(*nominal_, *sample_, tool_length_mm_, parameters[0], parameters[1],
-                             residuals, jacobians ? jacobians[0] : nullptr,
-                             jacobians ? jacobians[1] : nullptr);
-  }
-
- private:
-  const HexapodGeometry* nominal_;
-  const CalibrationSample* sample_;
-  double tool_length_mm_;
-};
 
 }  // namespace km::hexapod

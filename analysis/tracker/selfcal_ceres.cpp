@@ -3,13 +3,15 @@
 #include <array>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include <ceres/ceres.h>
 
 #include <Eigen/Geometry>
 
-#include "analysis/tracker/selfcal_cost.h"
+#include "analysis/core/option_check.h"
+#include "analysis/tracker/selfcal_cost_ceres.h"
 
 namespace km::tracker {
 
@@ -76,7 +78,44 @@ void Apply(const RigidTransform& T, SelfCalState& state) {
   for (auto& u : state.trackers_mm) u = T.Apply(u);
 }
 
+// The solver options of the self-calibration: Ceres' own, made once from the method's options,
+// with the Schur ordering of the problem (points in group 0) added by the solve. Check()
+// validates both before a solve.
+struct SelfCalSolverOptions {
+  CeresSolveOptions method;
+  ceres::Solver::Options solver_options;
+
+  explicit SelfCalSolverOptions(const CeresSolveOptions& options) : method(options) {
+    solver_options.linear_solver_type =
+        options.sparse_schur ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
+    solver_options.max_num_iterations = options.max_iterations;
+    solver_options.num_threads = options.num_threads;
+    solver_options.function_tolerance = options.function_tolerance;
+    solver_options.gradient_tolerance = options.gradient_tolerance;
+    solver_options.parameter_tolerance = options.parameter_tolerance;
+    solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
+    solver_options.logging_type = ceres::SILENT;
+    solver_options.minimizer_progress_to_stdout = false;
+  }
+
+  void Check() const {
+    method.Check();
+    std::string why;
+    if (!solver_options.IsValid(&why)) throw std::logic_error("ceres options: " + why);
+  }
+};
+
 }  // namespace
+
+void CeresSolveOptions::Check() const {
+  KM_OPTION_GE(cauchy_scale_um, 0.0);
+  KM_OPTION_GE(max_iterations, 1);
+  KM_OPTION_GE(num_threads, 1);
+  KM_OPTION_GT(initial_trust_region_radius, 0.0);
+  KM_OPTION_GT(function_tolerance, 0.0);
+  KM_OPTION_GT(gradient_tolerance, 0.0);
+  KM_OPTION_GT(parameter_tolerance, 0.0);
+}
 
 CeresSolveReport SolveSelfCalCeres(const SelfCalProblem& problem, const CeresSolveOptions& options,
                                    SelfCalState& state) {
@@ -129,22 +168,11 @@ CeresSolveReport SolveSelfCalCeres(const SelfCalProblem& problem, const CeresSol
       problem_ceres.SetManifold(state.trackers_mm[2].data(), new ceres::SubsetManifold(3, {2}));
     }
   }
-  ceres::Solver::Options so;
-  so.linear_solver_type = options.sparse_schur ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
-  so.linear_solver_ordering = order;
-  so.max_num_iterations = options.max_iterations;
-  so.num_threads = options.num_threads;
-  // Lengths are ~1e3 mm and readings good to ~1e-4 mm: 1e-10 relative is far below the noise.
-  so.function_tolerance = 1e-10;
-  so.gradient_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-10;
-  so.initial_trust_region_radius = options.initial_trust_region_radius;
-  so.logging_type = ceres::SILENT;
-  so.minimizer_progress_to_stdout = false;
-  std::string why;
-  if (!so.IsValid(&why)) throw std::logic_error("ceres options: " + why);
+  SelfCalSolverOptions solver(options);
+  solver.solver_options.linear_solver_ordering = order;
+  solver.Check();
   ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem_ceres, &summary);
+  ceres::Solve(solver.solver_options, &problem_ceres, &summary);
   CeresSolveReport rep;
   rep.iterations = static_cast<int>(summary.iterations.size());
   rep.converged = summary.termination_type == ceres::CONVERGENCE;

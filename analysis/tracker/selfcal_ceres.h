@@ -17,12 +17,21 @@
 
 namespace km::tracker {
 
+// The method's options of a solve; the Ceres solver options are made from them in
+// selfcal_ceres.cpp (SelfCalSolverOptions), so no Ceres type appears outside that file.
 struct CeresSolveOptions {
   double cauchy_scale_um = 0.0;  // > 0: Cauchy loss with this scale (µm); 0: plain least squares
   int max_iterations = 100;
   int num_threads = 1;
   double initial_trust_region_radius = 1e4;  // large for warm re-solves
   bool sparse_schur = false;  // DENSE_SCHUR (default: the reduced system is tiny) or SPARSE_SCHUR
+  // Lengths are ~1e3 mm and readings good to ~1e-4 mm: 1e-10 relative is far below the noise.
+  double function_tolerance = 1e-10;
+  double gradient_tolerance = 1e-12;
+  double parameter_tolerance = 1e-10;
+
+  // Throws km::InvalidInput naming the bad option (analysis/core/option_check.h).
+  void Check() const;
 };
 
 struct CeresSolveReport {

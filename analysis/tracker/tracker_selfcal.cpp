@@ -1,20 +1,20 @@
 #include "analysis/tracker/tracker_selfcal.h"
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 #include "analysis/tracker/tracker_selfcal_stages.h"
 
 namespace km::tracker {
 
 void SelfCalOptions::Check() const {
-  auto bad = [](const char* f, const char* why) { throw InvalidInput("", 0, f, why); };
-  if (!(outlier_k > 1.0)) bad("outlier_k", "must be > 1");
-  if (!(outlier_floor_um >= 0.0)) bad("outlier_floor_um", "must be ≥ 0");
-  if (max_rejection_rounds < 0) bad("max_rejection_rounds", "must be ≥ 0");
-  if (!(robust_scale_um >= 0.0)) bad("robust_scale_um", "must be ≥ 0");
-  if (max_iterations < 1) bad("max_iterations", "must be ≥ 1");
-  if (!(max_condition_number > 1.0)) bad("max_condition_number", "must be > 1");
-  if (!(prior_sigma_um > 0.0)) bad("prior_sigma_um", "must be > 0");
-  if (num_threads < 1) bad("num_threads", "must be ≥ 1");
+  KM_OPTION_GT(outlier_k, 1.0);
+  KM_OPTION_GE(outlier_floor_um, 0.0);
+  KM_OPTION_GE(max_rejection_rounds, 0);
+  KM_OPTION_GE(robust_scale_um, 0.0);
+  KM_OPTION_GE(max_iterations, 1);
+  KM_OPTION_GT(max_condition_number, 1.0);
+  KM_OPTION_GT(prior_sigma_um, 0.0);
+  KM_OPTION_GE(num_threads, 1);
 }
 
 // The pipeline of [Tracker paper] §4 as named stages (tracker_selfcal_stages.cpp).
