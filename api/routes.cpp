@@ -40,6 +40,16 @@ json StoredJson(const server::MachineModelStored& m) {
               {"created", m.created}};
 }
 
+// The order of a measurement list (?order=oldest|newest|uploaded).
+server::MeasurementFilter::Order MeasurementOrder(const Request& req) {
+  using Order = server::MeasurementFilter::Order;
+  const auto order = req.Query("order");
+  if (!order || *order == "oldest") return Order::kOldest;
+  if (*order == "newest") return Order::kNewest;
+  if (*order == "uploaded") return Order::kUploaded;
+  throw InvalidInput("", 0, "order", "'" + *order + "' is none of oldest, newest, uploaded");
+}
+
 // Uploads and the stored measurements: list, one with its samples, results.
 void AddMeasurementRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
@@ -81,6 +91,8 @@ void AddMeasurementRoutes(Router& router, server::Service& service) {
         f.test_id = req.Query("test_id");
         f.from = QueryTime(req, "from");
         f.to = QueryTime(req, "to");
+        f.text = req.Query("q");
+        f.order = MeasurementOrder(req);
         f.limit = QueryInt(req, "limit", 50, 1, 1000);
         f.offset = QueryInt(req, "offset", 0, 0, std::int64_t{1} << 40);
         json page = svc->ListMeasurements(f);
@@ -94,6 +106,12 @@ void AddMeasurementRoutes(Router& router, server::Service& service) {
                      Param("test_id", "string", "only this test"),
                      Param("from", "string", "ISO 8601, inclusive (measurement time)"),
                      Param("to", "string", "ISO 8601, exclusive"),
+                     Param("q", "string",
+                           "free text: part of the file name, test_id, direction or kind, "
+                           "or a measurement id (258 or #258)"),
+                     Param("order", "string",
+                           "oldest (default: measurement time, ascending), newest (measurement "
+                           "time, descending), uploaded (newest upload first)"),
                      Param("limit", "integer", "page size, 1 to 1000 (default 50)"),
                      Param("offset", "integer", "items to skip")})},
        {"responses", {{"200", JsonResponse("{items[], total, limit, offset}")}}}}});
@@ -214,14 +232,25 @@ void AddJobRoutes(Router& router, server::Service& service) {
             {{"responses",
               {{"200", JsonResponse("{id, kind, status, progress, stage, result?, error?}")}}}}});
 
-  router.Add(Route{"GET",
-                   "/api/v1/jobs",
-                   "Recent background jobs",
-                   true,
-                   [svc](const Request& req) {
-                     return Response::Json(svc->Jobs(QueryInt(req, "limit", 50, 1, 1000)));
-                   },
-                   {{"responses", {{"200", JsonResponse("{items[]}")}}}}});
+  router.Add(Route{
+      "GET",
+      "/api/v1/jobs",
+      "Recent background jobs",
+      true,
+      [svc](const Request& req) {
+        const auto limit = QueryInt(req, "limit", 50, 1, 1000);
+        if (const auto machine = req.Query("machine_id")) {
+          return Response::Json(svc->JobsOfMachine(*machine, limit));
+        }
+        return Response::Json(svc->Jobs(limit));
+      },
+      {{"parameters", json::array({Param("limit", "integer", "at most this many (default 50)"),
+                                   Param("machine_id", "string",
+                                         "only the jobs of this machine (named in the request, "
+                                         "or the machine of its DBB tests)")})},
+       {"responses",
+        {{"200", JsonResponse("{items[{id, kind, status, verdict, "
+                              "verdict_reasons, ...}]} newest first")}}}}});
 
   router.Add(Route{
       "GET",

@@ -1,5 +1,7 @@
 #include "server/jobs.h"
 
+#include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <optional>
 
@@ -136,7 +138,132 @@ nlohmann::json JobJson(const JobRecord& job) {
       job.request_json.empty() ? nlohmann::json(nullptr) : nlohmann::json::parse(job.request_json);
   if (!job.result_json.empty()) j["result"] = nlohmann::json::parse(job.result_json);
   if (!job.error.empty()) j["error"] = job.error;
+  const JobVerdict v =
+      JudgeJob(job.kind, job.status, j.value("result", nlohmann::json()), job.error);
+  j["verdict"] = v.verdict.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.verdict);
+  j["verdict_reasons"] = v.reasons;
   return j;
+}
+
+namespace {
+
+// A figure in a sentence: whole numbers from 100 up, else three significant digits.
+std::string Num(double v) {
+  char buf[64];
+  if (std::fabs(v) >= 100.0) {
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+  } else {
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+  }
+  return buf;
+}
+
+// The largest value of a nested array of numbers (parameter_uncertainty_um's groups);
+// NaN when a value is missing or not finite (null in the JSON).
+void LargestOf(const nlohmann::json& j, double& largest, bool& bad) {
+  if (j.is_number()) {
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) bad = true;
+    if (v > largest) largest = v;
+  } else if (j.is_array() || j.is_object()) {
+    for (const auto& x : j) LargestOf(x, largest, bad);
+  } else if (j.is_null()) {
+    bad = true;
+  }
+}
+
+struct Judgement {
+  bool failed = false;
+  std::vector<std::string> reasons;
+  void Warn(const std::string& why) { reasons.push_back(why); }
+  void Fail(const std::string& why) {
+    failed = true;
+    reasons.push_back(why);
+  }
+};
+
+// bound: the condition number above which the study is ill-conditioned (0: only a number that
+// is not finite counts).
+void JudgeConditioning(const nlohmann::json& r, double bound, Judgement& out) {
+  if (!r.contains("condition_number")) return;
+  const auto& c = r["condition_number"];
+  if (!c.is_number() || !std::isfinite(c.get<double>())) {
+    out.Fail(
+        "ill-conditioned: the condition number is not finite (the tests do not determine "
+        "every parameter)");
+    return;
+  }
+  const double cond = c.get<double>();
+  if (bound > 0 && cond > bound) {
+    out.Warn("ill-conditioned: condition number " + Num(cond) + " (above " + Num(bound) +
+             "): the tests do not tell the parameters apart");
+  }
+}
+
+void JudgeCalibration(const nlohmann::json& r, Judgement& out) {
+  if (r.contains("converged") && r["converged"].is_boolean() && !r["converged"].get<bool>()) {
+    const std::string it =
+        r.contains("iterations") && r["iterations"].is_number_integer()
+            ? " after " + std::to_string(r["iterations"].get<long long>()) + " iterations"
+            : "";
+    out.Warn("not converged: the solver stopped" + it + " before the parameters settled");
+  }
+  JudgeConditioning(r, kIllConditionedAbove, out);
+  if (r.contains("parameter_uncertainty_um")) {
+    double largest = 0.0;
+    bool bad = false;
+    LargestOf(r["parameter_uncertainty_um"], largest, bad);
+    if (bad) {
+      out.Fail("under-determined: a parameter uncertainty is not finite");
+    } else if (largest > kUndeterminedAboveUm) {
+      out.Warn("under-determined: parameter uncertainty up to ±" + Num(largest) + " µm (above ±" +
+               Num(kUndeterminedAboveUm) +
+               " µm): the tests do not determine the parameters; add tests in other poses");
+    }
+  }
+  // Parameters fixed beyond the method's gauge (none for absolute; the 6 rigid motions of the
+  // base for centre-corrected, [PM-600 report] §2.3) are ones these tests cannot identify.
+  const auto fixed = r.value("fixed_parameters", nlohmann::json::array());
+  const std::size_t gauge = r.value("method", std::string()) == "centre_corrected" ? 6 : 0;
+  if (fixed.is_array() && fixed.size() > gauge) {
+    out.Warn("under-determined: " + std::to_string(fixed.size()) +
+             " parameters cannot be identified from these tests and were fixed (the method "
+             "fixes " +
+             std::to_string(gauge) + ")");
+  }
+}
+
+void JudgeDiscovery(const nlohmann::json& r, Judgement& out) {
+  const std::string verdict = r.value("verdict", std::string());
+  const std::string stop = r.value("stop_reason", std::string());
+  if (verdict == "model misfit") {
+    out.Warn("model misfit: the tests show an error no candidate effect describes" +
+             (stop.empty() ? std::string() : " (stopped because " + stop + ")"));
+  } else if (verdict != "complete") {
+    out.Warn("no clear verdict from the study" +
+             (verdict.empty() ? std::string() : " ('" + verdict + "')"));
+  }
+  // The final fit's condition number mixes parameters of different units (kinematic µm, effect
+  // coefficients): no bound applies to it, but it must be a number.
+  JudgeConditioning(r, 0.0, out);
+}
+
+}  // namespace
+
+JobVerdict JudgeJob(const std::string& kind, const std::string& status,
+                    const nlohmann::json& result, const std::string& error) {
+  if (status == "failed") return {"failed", {error.empty() ? "the job failed" : error}};
+  if (status != "done") return {};
+  Judgement j;
+  if (!result.is_object()) {
+    j.Fail("the job stored no result");
+  } else if (kind == "hexapod_calibration") {
+    JudgeCalibration(result, j);
+  } else if (kind == "discovery") {
+    JudgeDiscovery(result, j);
+  }
+  if (j.reasons.empty()) return {"ok", {}};
+  return {j.failed ? "failed" : "warning", j.reasons};
 }
 
 }  // namespace km::server

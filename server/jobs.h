@@ -8,7 +8,9 @@
 #include <deque>
 #include <functional>
 #include <mutex>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -40,6 +42,28 @@ class JobQueue {
   std::thread worker_;
 };
 
+// The job as the API serves it: id, kind, status, progress, stage, times, request, result,
+// error, and the verdict on its outcome (JudgeJob) as "verdict" and "verdict_reasons".
 nlohmann::json JobJson(const JobRecord& job);
+
+// The verdict on a background job's outcome (docs/formats.md §5): can its figures be trusted?
+// A calibration or discovery that finished may still be ill-conditioned, not converged or
+// under-determined: its numbers are then not a result, and the verdict says why.
+// Above this condition number (of the Jacobian over the free parameters) the tests do not tell
+// the parameters apart: small changes of the readings move them a lot.
+inline constexpr double kIllConditionedAbove = 1e4;
+// Above this standard uncertainty of an identified parameter (µm) the tests do not determine it:
+// the errors a calibration corrects are tens of µm.
+inline constexpr double kUndeterminedAboveUm = 25.0;
+
+struct JobVerdict {
+  std::string verdict;  // "ok", "warning", "failed"; empty while the job is queued or running
+  std::vector<std::string> reasons;  // empty when "ok"
+};
+
+// kind: "hexapod_calibration" or "discovery" (other kinds: "ok" when done); status: queued,
+// running, done, failed; result: the stored result (null when none); error: when failed.
+JobVerdict JudgeJob(const std::string& kind, const std::string& status,
+                    const nlohmann::json& result, const std::string& error);
 
 }  // namespace km::server

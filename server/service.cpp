@@ -5,6 +5,7 @@
 #include "ingest/form_parsers.h"
 #include "ingest/text_format.h"
 #include "ingest/tracker_parser.h"
+#include "server/jobs.h"
 #include "server/sha256.h"
 #include "server/time_util.h"
 
@@ -129,10 +130,47 @@ nlohmann::json Service::MeasurementJson(const MeasurementRecord& r) const {
   return j;
 }
 
+namespace {
+
+// The figure a list shows for a measurement of each kind (docs/formats.md §5).
+struct KeyFigure {
+  const char* kind;
+  const char* analysis;
+  const char* key;
+  const char* label;
+};
+constexpr KeyFigure kKeyFigures[] = {
+    {"dbb", "dbb", "circularity_um", "circularity"},
+    {"straightness", "straightness", "straightness_min_zone_um", "straightness (minimum zone)"},
+    {"parallelism", "parallelism", "parallelism_um", "parallelism"},
+    {"flatness", "flatness", "flatness_min_zone_um", "flatness (minimum zone)"},
+    {"tracker", "tracker", "residual_rms_um", "residual RMS"},
+};
+
+// {"name", "label", "value", "unit"} from the newest stored result, or null.
+nlohmann::json KeyResultJson(const std::string& kind, const std::vector<ResultRecord>& results) {
+  for (const auto& k : kKeyFigures) {
+    if (kind != k.kind) continue;
+    for (auto r = results.rbegin(); r != results.rend(); ++r) {
+      if (r->analysis != k.analysis) continue;
+      const auto j = nlohmann::json::parse(r->result_json, nullptr, false);
+      if (!j.is_object() || !j.contains(k.key) || !j[k.key].is_number()) return nullptr;
+      return {{"name", k.key}, {"label", k.label}, {"value", j[k.key]}, {"unit", "µm"}};
+    }
+  }
+  return nullptr;
+}
+
+}  // namespace
+
 nlohmann::json Service::ListMeasurements(const MeasurementFilter& filter) {
   const auto page = storage_->ListMeasurements(filter);
   nlohmann::json items = nlohmann::json::array();
-  for (const auto& r : page.items) items.push_back(MeasurementJson(r));
+  for (const auto& r : page.items) {
+    nlohmann::json j = MeasurementJson(r);
+    j["key_result"] = KeyResultJson(r.kind, storage_->GetResults(r.id));
+    items.push_back(std::move(j));
+  }
   return {{"items", items}, {"total", page.total}};
 }
 
@@ -148,6 +186,34 @@ nlohmann::json Service::MeasurementWithSamples(std::int64_t id) {
   }
   j["samples"] = samples;
   return j;
+}
+
+nlohmann::json Service::JobsOfMachine(const std::string& machine_id, std::int64_t limit,
+                                      std::int64_t scan) {
+  std::map<std::int64_t, std::string> machine_of;  // measurement id → machine, looked up once
+  const auto test_machine = [&](std::int64_t id) -> const std::string& {
+    auto it = machine_of.find(id);
+    if (it == machine_of.end()) {
+      const auto rec = storage_->GetMeasurement(id);
+      it = machine_of.emplace(id, rec ? rec->machine_id : std::string()).first;
+    }
+    return it->second;
+  };
+  nlohmann::json items = nlohmann::json::array();
+  for (const auto& j : storage_->ListJobs(scan)) {
+    if (static_cast<std::int64_t>(items.size()) >= limit) break;
+    nlohmann::json x = JobJson(j);
+    x.erase("result");  // as Jobs: GET /api/v1/jobs/{id} has the result
+    const auto& req = x["request"];
+    bool mine = req.is_object() && req.value("machine_id", std::string()) == machine_id;
+    if (!mine && req.is_object() && req.contains("measurement_ids") &&
+        req["measurement_ids"].is_array() && !req["measurement_ids"].empty() &&
+        req["measurement_ids"][0].is_number_integer()) {
+      mine = test_machine(req["measurement_ids"][0].get<std::int64_t>()) == machine_id;
+    }
+    if (mine) items.push_back(std::move(x));
+  }
+  return {{"items", items}};
 }
 
 std::vector<MachineSummary> Service::Machines() {

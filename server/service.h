@@ -161,6 +161,10 @@ class Service {
   std::int64_t SubmitDiscovery(const nlohmann::json& request);
   nlohmann::json Job(std::int64_t id);
   nlohmann::json Jobs(std::int64_t limit);
+  // The jobs of one machine, newest first, as Jobs: those whose request names the machine
+  // (machine_id) or whose DBB tests are of it; among the newest `scan` jobs.
+  nlohmann::json JobsOfMachine(const std::string& machine_id, std::int64_t limit,
+                               std::int64_t scan = 5000);
 
   // Machine definitions ("kinemetric-machine/1", docs/formats.md §2), versioned
   // (machine_models.cpp). StoreMachineModel validates the document (ingest::ParseMachineJson:

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
@@ -179,21 +180,51 @@ SampleBlock SqliteStorage::GetSamples(std::int64_t id) {
 
 MeasurementPage SqliteStorage::ListMeasurements(const MeasurementFilter& f) {
   std::lock_guard lock(mu_);
+  // Free text: lower-case ASCII substring of name, test, direction or kind; or an id.
+  std::optional<std::string> text;
+  std::optional<std::int64_t> text_id;
+  if (f.text && !f.text->empty()) {
+    text = *f.text;
+    for (char& c : *text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    const std::string digits = (*text)[0] == '#' ? text->substr(1) : *text;
+    if (!digits.empty() && digits.size() <= 15 &&
+        digits.find_first_not_of("0123456789") == std::string::npos) {
+      text_id = std::stoll(digits);
+    }
+  }
   std::string where = " WHERE 1=1";
-  if (f.machine_id) where += " AND machine_id = :machine";
-  if (f.kind) where += " AND kind = :kind";
-  if (f.test_id) where += " AND test_id = :test";
-  if (f.from) where += " AND COALESCE(measured_at, uploaded_at) >= :from";
-  if (f.to) where += " AND COALESCE(measured_at, uploaded_at) < :to";
+  if (f.machine_id) where += " AND machine_id = ?";
+  if (f.kind) where += " AND kind = ?";
+  if (f.test_id) where += " AND test_id = ?";
+  if (f.direction) where += " AND direction = ?";
+  if (f.from) where += " AND COALESCE(measured_at, uploaded_at) >= ?";
+  if (f.to) where += " AND COALESCE(measured_at, uploaded_at) < ?";
+  if (text) {
+    where +=
+        " AND (instr(lower(filename), ?) > 0 OR instr(lower(test_id), ?) > 0"
+        " OR instr(lower(direction), ?) > 0 OR instr(kind, ?) > 0" +
+        std::string(text_id ? " OR id = ?)" : ")");
+  }
   auto bind = [&](Statement& s) {
     int i = 1;
     if (f.machine_id) s.Bind(i++, *f.machine_id);
     if (f.kind) s.Bind(i++, *f.kind);
     if (f.test_id) s.Bind(i++, *f.test_id);
+    if (f.direction) s.Bind(i++, *f.direction);
     if (f.from) s.Bind(i++, *f.from);
     if (f.to) s.Bind(i++, *f.to);
+    if (text) {
+      for (int k = 0; k < 4; ++k) s.Bind(i++, *text);
+      if (text_id) s.Bind(i++, *text_id);
+    }
     return i;
   };
+  const char* order = " ORDER BY COALESCE(measured_at, uploaded_at), id";
+  if (f.order == MeasurementFilter::Order::kNewest) {
+    order = " ORDER BY COALESCE(measured_at, uploaded_at) DESC, id DESC";
+  } else if (f.order == MeasurementFilter::Order::kUploaded) {
+    order = " ORDER BY id DESC";
+  }
   MeasurementPage page;
   {
     auto c = Prepared(("SELECT COUNT(*) FROM measurements" + where));
@@ -201,7 +232,7 @@ MeasurementPage SqliteStorage::ListMeasurements(const MeasurementFilter& f) {
     if (c->Step()) page.total = c->Int(0);
   }
   auto s = Prepared((std::string("SELECT ") + kRecordColumns + " FROM measurements" + where +
-                     " ORDER BY COALESCE(measured_at, uploaded_at), id LIMIT ? OFFSET ?"));
+                     order + " LIMIT ? OFFSET ?"));
   const int next = bind(*s);
   s->Bind(next, f.limit).Bind(next + 1, f.offset);
   while (s->Step()) page.items.push_back(ReadRecord(*s));

@@ -82,8 +82,16 @@ struct MeasurementFilter {
   std::optional<std::string> machine_id;
   std::optional<std::string> kind;
   std::optional<std::string> test_id;
-  std::optional<std::string> from;  // UTC ISO 8601, inclusive (measured_at, else uploaded_at)
-  std::optional<std::string> to;    // exclusive
+  std::optional<std::string> direction;  // DBB: cw or ccw
+  std::optional<std::string> from;       // UTC ISO 8601, inclusive (measured_at, else uploaded_at)
+  std::optional<std::string> to;         // exclusive
+  // Free text: a measurement matches when its file name, test_id, direction or kind contains
+  // it (case-insensitive), or when it is the measurement's id ("#258" or "258").
+  std::optional<std::string> text;
+  // Order of the items: kOldest (measurement time, else upload time, ascending; the default),
+  // kNewest (the same, descending), kUploaded (newest upload first, by id).
+  enum class Order { kOldest, kNewest, kUploaded };
+  Order order = Order::kOldest;
   std::int64_t limit = 50;
   std::int64_t offset = 0;
 };

@@ -108,8 +108,11 @@ export async function apiFetchBlob(path) {
 
 export const api = {
   machines: () => apiFetch('/api/v1/machines'),
-  measurements: (machineId, { limit = 200, offset = 0 } = {}) => {
+  // One page of a machine's measurements; filters: kind, test_id, from, to (ISO 8601), q (free
+  // text or an id), order (oldest | newest | uploaded). Empty filters are left out.
+  measurements: (machineId, { limit = 50, offset = 0, ...filters } = {}) => {
     const q = new URLSearchParams({ machine_id: machineId, limit: String(limit), offset: String(offset) });
+    for (const [k, v] of Object.entries(filters)) if (v !== undefined && v !== null && v !== '') q.set(k, String(v));
     return apiFetch(`/api/v1/measurements?${q}`);
   },
   measurement: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}`),
@@ -132,6 +135,9 @@ export const api = {
   job: (id) => apiFetch(`/api/v1/jobs/${encodeURIComponent(id)}`),
   // Recent background jobs, newest first, without their results.
   jobs: (limit = 200) => apiFetch(`/api/v1/jobs?limit=${encodeURIComponent(String(limit))}`),
+  // The jobs (calibrations, discoveries) of one machine, newest first, with their verdicts.
+  machineJobs: (machineId, limit = 50) =>
+    apiFetch(`/api/v1/jobs?${new URLSearchParams({ machine_id: machineId, limit: String(limit) })}`),
   // Stored machine models (kinemetric-machine/1 documents), versioned.
   // 404 when the machine has no stored model: resolves to null then.
   machineDefinitions: (machineId) =>
@@ -139,6 +145,8 @@ export const api = {
       if (err instanceof ApiError && err.status === 404) return null;
       throw err;
     }),
+  // The newest stored model of a machine (the document as stored).
+  machineDefinition: (machineId) => apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/definition`),
   // Body = the machine JSON text → {machine_id, version, created_at, created}.
   storeMachine: (text, filename) =>
     apiFetch('/api/v1/machines', {

@@ -16,7 +16,7 @@
 // is not reported, so a band from the per-term σ alone would be wrong. σ are in the term table.
 
 import { axesGrid, el, r2, ticks } from './charts.js';
-import { formatNumber } from './format.js';
+import { formatNumber, formatUncertainty } from './format.js';
 
 const AXES = ['x', 'y', 'z'];
 const COLOUR = { x: '#b3261e', y: '#1b7f3b', z: '#1f5fbf' };
@@ -210,7 +210,7 @@ function termTable(dec) {
         const t = own.find((x) => x.order === k);
         return [
           h('td', { class: 'num', 'data-order': k, 'data-key': 'value' }, t ? formatNumber(t.value_um, '_um') : '—'),
-          h('td', { class: 'num', 'data-order': k, 'data-key': 'sigma' }, t ? `± ${formatNumber(t.sigma_um, '_um')}` : ''),
+          h('td', { class: 'num', 'data-order': k, 'data-key': 'sigma' }, t ? `± ${formatUncertainty(t.sigma_um)}` : ''),
         ];
       });
       body.append(h('tr', { 'data-axis': a, 'data-direction': b }, name, ...cells));

@@ -581,6 +581,9 @@ async function showJob(jobId, seq) {
         return;
       }
       $('#discovery-sub').textContent = requestSummary(job);
+      // What the view shows, for tests and links: the job and the server's verdict on it.
+      $('#discovery').dataset.jobId = String(jobId);
+      $('#discovery').dataset.jobVerdict = job.verdict || '';
       if (!highlighted) {
         highlighted = true;
         highlightMachineOf(job);

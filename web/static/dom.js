@@ -51,3 +51,40 @@ export function errorBox(err) {
   box.append(...problemContent(asProblem(err)));
   return box;
 }
+
+export const $ = (sel, root = document) => root.querySelector(sel);
+export const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
+
+// Rebuilds the children of `container` with `build()` and keeps the keyboard focus: an element
+// that had it (found again by its data-focus-key, else its id) gets it back in the new content.
+export function keepFocus(container, build) {
+  const active = document.activeElement;
+  const inside = active && active !== document.body && container.contains(active);
+  const key = inside ? active.dataset.focusKey || (active.id ? `#${active.id}` : null) : null;
+  build();
+  if (!key) return;
+  const again = key.startsWith('#')
+    ? container.querySelector(key)
+    : container.querySelector(`[data-focus-key="${CSS.escape(key)}"]`);
+  if (again) again.focus();
+}
+
+// A file download of text made in the page (CSV, JSON): an <a download> with an object URL.
+export function downloadText(text, filename, type = 'text/plain') {
+  const url = URL.createObjectURL(new Blob([text], { type }));
+  const a = h('a', { href: url, download: filename, hidden: true });
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 10_000);
+}
+
+// CSV of rows (arrays of values): quoted where needed, "\r\n" line ends (RFC 4180).
+export function toCsv(rows) {
+  const cell = (v) => {
+    if (v === undefined || v === null) return '';
+    const s = String(v);
+    return /[",\r\n]/.test(s) ? `"${s.replace(/"/g, '""')}"` : s;
+  };
+  return `${rows.map((r) => r.map(cell).join(',')).join('\r\n')}\r\n`;
+}

@@ -149,6 +149,16 @@ export function formatNumber(value, key = '') {
   return fixed(value, 4);
 }
 
+// A standard uncertainty with two significant digits in plain notation ("0.00035", "0.12",
+// "1500"): small values keep their digits instead of rounding to "0.000".
+export function formatUncertainty(value) {
+  if (typeof value !== 'number' || !Number.isFinite(value)) return '—';
+  if (value === 0) return '0';
+  const rounded = Number(Math.abs(value).toPrecision(2));
+  const decimals = Math.max(0, 1 - Math.floor(Math.log10(rounded)));
+  return fixed(Math.sign(value) * rounded, Math.min(decimals, 12));
+}
+
 function fixed(value, decimals) {
   // Avoid "-0.000" and use a true minus sign for readability.
   let s = value.toFixed(decimals);

@@ -209,6 +209,16 @@ function fixed1(v) {
   return s.replace('-', '−');
 }
 
+// A standard uncertainty as the dashboard writes it: two significant digits, plain notation.
+function unc2(v) {
+  if (v === 0) return '0';
+  const r = Number(Math.abs(v).toPrecision(2));
+  const decimals = Math.min(12, Math.max(0, 1 - Math.floor(Math.log10(r))));
+  let s = (Math.sign(v) * r).toFixed(decimals);
+  if (/^-0\.?0*$/.test(s)) s = s.slice(1);
+  return s.replace('-', '−');
+}
+
 // Diagnosis value / uncertainty as the dashboard writes them: µm-style 3 decimals, [x, y] as "x, y".
 function valueText(v) {
   return Array.isArray(v) ? v.map(um3).join(', ') : um3(v);
@@ -292,13 +302,13 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
         assert.match(text, /Uploaded “dbb_xy-r150_/);
         // The dashboard shows the uploaded file's machine and selects the measurement.
         await page.waitForSelector(`#machines button[data-machine-id="${MACHINE}"][aria-current="true"]`);
-        await page.waitForSelector(`#measurements button[data-id="${ids[dir]}"][aria-current="true"]`);
+        await page.waitForSelector(`#measurements a[data-id="${ids[dir]}"][aria-current="true"]`);
         await page.waitForSelector(`#polar-plot svg path[data-direction="${dir}"]`);
       });
     }
 
     await step('measurement list holds both directions of the test', async () => {
-      const items = await page.$$eval('#measurements button[data-testid="measurement-item"]', (bs) =>
+      const items = await page.$$eval('#measurements a[data-testid="measurement-item"]', (bs) =>
         bs.map((b) => ({ id: Number(b.dataset.id), test: b.dataset.testId, dir: b.dataset.direction, kind: b.dataset.kind })),
       );
       assert.equal(items.length, 2, JSON.stringify(items));
@@ -312,8 +322,8 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
 
     await step('polar plot overlays CCW and CW with legend, scale and magnification', async () => {
       // Select the CCW one explicitly: the CW partner must be overlaid too.
-      await page.click(`#measurements button[data-id="${ids.ccw}"]`);
-      await page.waitForSelector(`#measurements button[data-id="${ids.ccw}"][aria-current="true"]`);
+      await page.click(`#measurements a[data-id="${ids.ccw}"]`);
+      await page.waitForSelector(`#measurements a[data-id="${ids.ccw}"][aria-current="true"]`);
       await page.waitForSelector('#polar-plot svg path[data-direction="ccw"]');
       await page.waitForSelector('#polar-plot svg path[data-direction="cw"]');
       const plot = await page.$eval('#polar-plot svg', (svg) => ({
@@ -454,7 +464,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
         assert.equal(r.name, d.effect);
         assert.ok(r.words.length > 0 && r.words !== d.effect, `effect in words: ${r.words}`);
         assert.equal(r.value, valueText(d.value), `${d.effect} value`);
-        assert.equal(r.uncertainty, `± ${valueText(d.uncertainty)}`, `${d.effect} uncertainty`);
+        assert.equal(r.uncertainty, `± ${Array.isArray(d.uncertainty) ? d.uncertainty.map(unc2).join(', ') : unc2(d.uncertainty)}`, `${d.effect} uncertainty`);
         assert.equal(r.pct, fixed1(d.contribution_pct), `${d.effect} contribution`);
       });
       const bars = await page.$$eval('#contribution-chart svg g.bar', (gs) =>
@@ -565,7 +575,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       const m = (await msg.textContent()).match(/#(\d+)/);
       assert.ok(m, 'success message names the id');
       formIds[kind] = Number(m[1]);
-      await page.waitForSelector(`#measurements button[data-id="${formIds[kind]}"][aria-current="true"]`);
+      await page.waitForSelector(`#measurements a[data-id="${formIds[kind]}"][aria-current="true"]`);
       await page.waitForSelector(`#figures table[data-kind="${kind}"]`);
       assert.equal(await page.isHidden('#analysis'), true, 'no DBB diagnosis for a form measurement');
       const [meas, res] = await Promise.all([
@@ -671,7 +681,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
         await p2.waitForSelector(`#machines button[data-machine-id="${MACHINE}"]`);
         assert.equal(await p2.isHidden('#auth-message'), true);
         // The only machine and its newest DBB test are shown straight away.
-        await p2.waitForSelector(`#measurements button[data-id="${ids.cw}"][aria-current="true"]`);
+        await p2.waitForSelector(`#measurements a[data-id="${ids.cw}"][aria-current="true"]`);
         await p2.waitForSelector('#polar-plot svg path[data-direction="ccw"]');
         await p2.screenshot({ path: join(outDir, 'dashboard-401-recovered.png') });
       } finally {
@@ -687,7 +697,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       assert.ok(m, 'success message names the id');
       const id = Number(m[1]);
       await page.waitForSelector(`#machines button[data-machine-id="${TRACKER_MACHINE}"][aria-current="true"]`);
-      await page.waitForSelector(`#measurements button[data-id="${id}"][aria-current="true"]`);
+      await page.waitForSelector(`#measurements a[data-id="${id}"][aria-current="true"]`);
       await page.waitForSelector('#polar-plot svg[data-testid="tracker-vector-plot"]');
       await page.waitForSelector('#figures table[data-kind="tracker"]');
       assert.equal(await page.isHidden('#analysis'), true, 'no DBB diagnosis for a tracker measurement');
@@ -760,7 +770,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       assert.deepEqual(rows.map((r) => r.key), expected.map((e) => e[0]));
       rows.forEach((r, i) => {
         assert.equal(r.value, um3(expected[i][1]), r.key);
-        assert.equal(r.sigma, `± ${um3(expected[i][2])}`, `${r.key} σ`);
+        assert.equal(r.sigma, `± ${unc2(expected[i][2])}`, `${r.key} σ`);
       });
       // The fixture's squareness (XY 8 µm/m, ZX −5 µm/m) and Z scale (6 ppm) are recovered.
       assert.ok(Math.abs(Math.abs(dec.squareness_um_per_m.xy) - 8) < 1, `xy ${dec.squareness_um_per_m.xy}`);
@@ -775,7 +785,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
 
     await step('tracker: geometric error components along X, Y, Z (curves = decomposition terms)', async () => {
       // The tracker measurement of the previous step is still selected.
-      const id = Number(await page.getAttribute('#measurements button[aria-current="true"]', 'data-id'));
+      const id = Number(await page.getAttribute('#measurements a[aria-current="true"]', 'data-id'));
       const res = await apiGet(server, `/api/v1/measurements/${id}/results`);
       const dec = res.decomposition;
       assert.ok(dec && Array.isArray(dec.terms), 'results carry a decomposition with terms');
@@ -855,7 +865,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       const cell = (t, key) => cells.find((c) => c.axis === t.axis && c.direction === t.direction && c.order === t.order && c.key === key)?.text;
       for (const t of dec.terms) {
         assert.equal(cell(t, 'value'), um3(t.value_um), `term ${t.axis}${t.direction} order ${t.order}`);
-        assert.equal(cell(t, 'sigma'), `± ${um3(t.sigma_um)}`, `σ of term ${t.axis}${t.direction} order ${t.order}`);
+        assert.equal(cell(t, 'sigma'), `± ${unc2(t.sigma_um)}`, `σ of term ${t.axis}${t.direction} order ${t.order}`);
       }
       assert.equal(cells.filter((c) => c.key === 'value' && c.text !== '—').length, dec.terms.length, 'one table cell per term');
       const fixedBox = await page.$eval('[data-testid="component-charts"]', (box) => ({
@@ -894,9 +904,10 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       await page.selectOption('#calib-method', 'absolute');
       const t0 = Date.now();
       await page.click('#calib-run');
-      await page.waitForSelector('#calib-status[data-status="done"]', { timeout: 60_000 });
+      // The job's page (#/jobs/{id}) follows it to the end; the server's verdict is ok.
+      await page.waitForSelector('#job-view:not([hidden])[data-job-verdict="ok"]', { timeout: 60_000 });
       t.diagnostic(`calibration job took ${Date.now() - t0} ms`);
-      const jobId = Number(await page.getAttribute('#calib-status', 'data-job-id'));
+      const jobId = Number(await page.getAttribute('#job-view', 'data-job-id'));
       const job = await apiGet(server, `/api/v1/jobs/${jobId}`);
       assert.equal(job.status, 'done');
       assert.deepEqual(job.request.measurement_ids, [...hexIds].sort((a, b) => a - b));
@@ -927,7 +938,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       const fixedSet = new Set(res.fixed_parameters);
       for (let j = 0; j < 6; ++j) {
         const check = (name, v, u) => {
-          const want = fixedSet.has(name) ? `${um3(v)} (fixed)` : `${um3(v)} ± ${um3(u)}`;
+          const want = fixedSet.has(name) ? `${um3(v)} (fixed)` : `${um3(v)} ± ${unc2(u)}`;
           assert.equal(params[name].text, want, name);
           assert.equal(params[name].fixed, fixedSet.has(name), `${name} fixed mark`);
         };
@@ -938,7 +949,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       }
       assert.equal(await page.textContent('[data-testid="calib-summary"] dd[data-key="residual_rms_um"]'), `${um3(res.residual_rms_um)} µm`);
       assert.equal(shown(await page.textContent('[data-testid="calib-summary"] dd[data-key="condition_number"]')).toFixed(3), res.condition_number.toFixed(3));
-      await page.locator('#calibration').scrollIntoViewIfNeeded();
+      await page.locator('#job-view').scrollIntoViewIfNeeded();
       await page.screenshot({ path: join(outDir, 'dashboard-hexapod.png') });
       const overflow = await page.evaluate(() => document.documentElement.scrollWidth);
       assert.ok(overflow <= 1280, `no horizontal scrolling (scrollWidth ${overflow})`);

@@ -116,5 +116,101 @@ TEST_F(JobStorageErrors, StoppingWithQueuedJobsAndAFailingStorageDoesNotTerminat
   EXPECT_GE(st.failed_updates(), 4);
 }
 
+// The verdict on a finished job: a calibration that is ill-conditioned, not converged or
+// under-determined is not "ok", and the reasons name what is wrong with the figures.
+nlohmann::json GoodCalibration() {
+  return {{"method", "absolute"},
+          {"condition_number", 1623.1},
+          {"converged", true},
+          {"iterations", 6},
+          {"fixed_parameters", nlohmann::json::array()},
+          {"parameter_uncertainty_um",
+           {{"strut_offset_um", {0.5, 0.6, 0.4, 0.7, 0.5, 0.6}},
+            {"base_joint_offset_um", {{1.0, 4.8, 2.0}, {1, 1, 1}}}}},
+          {"tests", nlohmann::json::array({{{"test_id", "a"}}, {{"test_id", "b"}}})}};
+}
+
+TEST(JobVerdict, AWellDeterminedCalibrationIsOk) {
+  const auto v = JudgeJob("hexapod_calibration", "done", GoodCalibration(), "");
+  EXPECT_EQ(v.verdict, "ok");
+  EXPECT_TRUE(v.reasons.empty());
+  // Centre-corrected fixes the 6 rigid motions of the base: that alone is no warning.
+  auto cc = GoodCalibration();
+  cc["method"] = "centre_corrected";
+  cc["fixed_parameters"] = {"a", "b", "c", "d", "e", "f"};
+  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", cc, "").verdict, "ok");
+}
+
+TEST(JobVerdict, OneTestCalibrationIsAWarningWithEveryReason) {
+  // What one DBB test gives (measured with the reference hexapod): not converged, condition
+  // number 178 483, uncertainties of thousands of µm, 15 parameters fixed.
+  auto r = GoodCalibration();
+  r["condition_number"] = 178482.9;
+  r["converged"] = false;
+  r["iterations"] = 50;
+  r["parameter_uncertainty_um"]["strut_offset_um"] = {1576.3, 853.3,  2677.5,
+                                                      1698.6, 1073.2, 1766.4};
+  r["fixed_parameters"] = nlohmann::json(std::vector<std::string>(15, "p"));
+  const auto v = JudgeJob("hexapod_calibration", "done", r, "");
+  EXPECT_EQ(v.verdict, "warning");
+  ASSERT_EQ(v.reasons.size(), 4u);
+  EXPECT_NE(v.reasons[0].find("not converged"), std::string::npos) << v.reasons[0];
+  EXPECT_NE(v.reasons[0].find("50 iterations"), std::string::npos) << v.reasons[0];
+  EXPECT_NE(v.reasons[1].find("condition number 178483"), std::string::npos) << v.reasons[1];
+  EXPECT_NE(v.reasons[2].find("±2678"), std::string::npos) << v.reasons[2];
+  EXPECT_NE(v.reasons[3].find("15 parameters"), std::string::npos) << v.reasons[3];
+}
+
+TEST(JobVerdict, EachConditionAloneIsEnough) {
+  auto r = GoodCalibration();
+  r["condition_number"] = 2 * kIllConditionedAbove;
+  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "warning");
+  r = GoodCalibration();
+  r["converged"] = false;
+  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "warning");
+  r = GoodCalibration();
+  r["parameter_uncertainty_um"]["strut_offset_um"][3] = 1.5 * kUndeterminedAboveUm;
+  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "warning");
+  r = GoodCalibration();
+  r["fixed_parameters"] = {"base_joint_offset_um[0][0]"};
+  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "warning");
+  // Numbers that are not numbers fail it (NaN is stored as null).
+  r = GoodCalibration();
+  r["condition_number"] = nullptr;
+  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "failed");
+  r = GoodCalibration();
+  r["parameter_uncertainty_um"]["strut_offset_um"][0] = nullptr;
+  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "failed");
+}
+
+TEST(JobVerdict, DiscoveriesFailedAndRunningJobs) {
+  EXPECT_EQ(JudgeJob("discovery", "done", {{"verdict", "complete"}, {"condition_number", 3e7}}, "")
+                .verdict,
+            "ok");
+  const auto misfit = JudgeJob("discovery", "done",
+                               {{"verdict", "model misfit"}, {"stop_reason", "no candidate"}}, "");
+  EXPECT_EQ(misfit.verdict, "warning");
+  ASSERT_EQ(misfit.reasons.size(), 1u);
+  EXPECT_NE(misfit.reasons[0].find("no candidate"), std::string::npos);
+  const auto failed = JudgeJob("hexapod_calibration", "failed", nullptr, "did not converge");
+  EXPECT_EQ(failed.verdict, "failed");
+  EXPECT_EQ(failed.reasons, std::vector<std::string>{"did not converge"});
+  EXPECT_EQ(JudgeJob("discovery", "running", nullptr, "").verdict, "");
+  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", nullptr, "").verdict, "failed");
+  // The job JSON carries the verdict and its reasons.
+  JobRecord job;
+  job.id = 3;
+  job.kind = "hexapod_calibration";
+  job.status = "done";
+  job.request_json = "{}";
+  job.result_json = GoodCalibration().dump();
+  const auto j = JobJson(job);
+  EXPECT_EQ(j["verdict"], "ok");
+  EXPECT_TRUE(j["verdict_reasons"].empty());
+  job.status = "running";
+  job.result_json.clear();
+  EXPECT_TRUE(JobJson(job)["verdict"].is_null());
+}
+
 }  // namespace
 }  // namespace km::server

@@ -197,6 +197,17 @@ void ExpectVersion3Rows(SqliteStorage& s) {
   EXPECT_EQ(gaps[0].detected_at, "2025-05-01T12:00:01Z");
 }
 
+// Version 4: machine definitions, versioned.
+void ExpectVersion4Rows(SqliteStorage& s) {
+  const auto m = s.GetMachineModel("old-lathe", std::nullopt);
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->version, 1);
+  EXPECT_EQ(m->created_at, "2025-06-01T08:00:00Z");
+  EXPECT_EQ(m->source, "upload");
+  EXPECT_EQ(m->note, "first");
+  EXPECT_EQ(m->document, R"({"format":"kinemetric-machine/1"})");
+}
+
 TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
   for (int v = 1; v < SqliteStorage::SchemaVersion(); ++v) {
     SCOPED_TRACE("from schema version " + std::to_string(v));
@@ -206,6 +217,7 @@ TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
       ExpectVersion1Rows(s);
       if (v >= 2) ExpectVersion2Rows(s);
       if (v >= 3) ExpectVersion3Rows(s);
+      if (v >= 4) ExpectVersion4Rows(s);
       // Tables a migration added are usable at once.
       NewMachineModel m{"old-vmc", "upload", "after migration", "{}", std::string(64, 'd')};
       EXPECT_EQ(s.PutMachineModel(m).record.version, 1);

@@ -4,6 +4,7 @@
 #include <sqlite3.h>
 
 #include <filesystem>
+#include <map>
 
 #include "analysis/core/errors.h"
 #include "server/time_util.h"
@@ -115,6 +116,90 @@ TEST(TimeUtil, NormalisesIso8601ToUtc) {
   EXPECT_EQ(NormalizeIso8601("2026-11-20 23:30-02:30"), "2026-11-21T02:00:00Z");
   EXPECT_FALSE(NormalizeIso8601("2026-13-01").has_value());
   EXPECT_FALSE(NormalizeIso8601("soon").has_value());
+}
+
+TEST_F(StorageTest, ListsPageNewestFirstAndFindByFreeTextAndId) {
+  SqliteStorage s(path_.string());
+  // 12 tests of one machine measured one per day, uploaded in a shuffled order; one of another.
+  const int day_of[] = {7, 2, 11, 5, 1, 9, 3, 12, 8, 4, 10, 6};
+  std::map<int, std::int64_t> id_of_day;
+  for (const int day : day_of) {
+    NewMeasurement m = Sample("s" + std::to_string(day), "m1");
+    m.measured_at =
+        "2026-03-" + std::string(day < 10 ? "0" : "") + std::to_string(day) + "T08:00:00Z";
+    m.filename = "Run_" + std::to_string(day) + (day % 2 ? "_CW.txt" : "_ccw.txt");
+    m.direction = day % 2 ? "cw" : "ccw";
+    m.kind = day == 12 ? "straightness" : "dbb";
+    id_of_day[day] = s.PutMeasurement(m, {}).id;
+  }
+  s.PutMeasurement(Sample("other", "m2"), {});
+  MeasurementFilter f;
+  f.machine_id = "m1";
+  f.order = MeasurementFilter::Order::kNewest;
+  f.limit = 5;
+  auto page = s.ListMeasurements(f);
+  EXPECT_EQ(page.total, 12);
+  ASSERT_EQ(page.items.size(), 5u);
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(page.items[k].id, id_of_day[12 - k]) << k;
+  f.offset = 10;
+  page = s.ListMeasurements(f);
+  ASSERT_EQ(page.items.size(), 2u);  // the last page: days 2 and 1
+  EXPECT_EQ(page.items[0].id, id_of_day[2]);
+  EXPECT_EQ(page.items[1].id, id_of_day[1]);
+  // Oldest first (the default) and newest upload first.
+  f.offset = 0;
+  f.order = MeasurementFilter::Order::kOldest;
+  EXPECT_EQ(s.ListMeasurements(f).items[0].id, id_of_day[1]);
+  f.order = MeasurementFilter::Order::kUploaded;
+  EXPECT_EQ(s.ListMeasurements(f).items[0].id, id_of_day[6]);  // the last one stored
+  // Free text, case-insensitive, over name, test, direction and kind; an id as "#N" or "N".
+  f.limit = 50;
+  f.text = "_cw";
+  page = s.ListMeasurements(f);
+  EXPECT_EQ(page.total, 6);
+  for (const auto& r : page.items) EXPECT_EQ(r.direction, "cw") << r.filename;
+  f.text = "STRAIGHT";
+  page = s.ListMeasurements(f);
+  ASSERT_EQ(page.total, 1);
+  EXPECT_EQ(page.items[0].id, id_of_day[12]);
+  f.text = "#" + std::to_string(id_of_day[9]);
+  page = s.ListMeasurements(f);
+  ASSERT_EQ(page.total, 1);
+  EXPECT_EQ(page.items[0].id, id_of_day[9]);
+  f.text = "no such thing";
+  EXPECT_EQ(s.ListMeasurements(f).total, 0);
+  // Filters combine: kind and a date range (from inclusive, to exclusive).
+  f.text.reset();
+  f.order = MeasurementFilter::Order::kOldest;
+  f.kind = "dbb";
+  f.from = "2026-03-03T08:00:00Z";
+  f.to = "2026-03-06T08:00:00Z";
+  page = s.ListMeasurements(f);
+  ASSERT_EQ(page.total, 3);
+  EXPECT_EQ(page.items[0].id, id_of_day[3]);
+  EXPECT_EQ(page.items[2].id, id_of_day[5]);
+}
+
+TEST_F(StorageTest, AMachineListIsAnsweredFromAnIndex) {
+  SqliteStorage s(path_.string());
+  s.PutMeasurement(Sample("i1", "m1"), {});
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path_.string().c_str(), &db), SQLITE_OK);
+  std::string plan;
+  const char* sql =
+      "EXPLAIN QUERY PLAN SELECT id FROM measurements WHERE machine_id = 'm1' "
+      "ORDER BY COALESCE(measured_at, uploaded_at) DESC, id DESC LIMIT 50";
+  sqlite3_exec(
+      db, sql,
+      [](void* out, int n, char** values, char**) {
+        for (int i = 0; i < n; ++i) *static_cast<std::string*>(out) += values[i] ? values[i] : "";
+        *static_cast<std::string*>(out) += "\n";
+        return 0;
+      },
+      &plan, nullptr);
+  sqlite3_close(db);
+  EXPECT_NE(plan.find("measurements_by_machine_time"), std::string::npos) << plan;
+  EXPECT_EQ(plan.find("TEMP B-TREE"), std::string::npos) << "no sort of every row: " << plan;
 }
 
 }  // namespace

@@ -1,0 +1,291 @@
+// The view of one measurement (#/measurements/{id}): for a DBB test the polar plot, figures and
+// diagnosis of exactly the pair the server's /pair analyses (data-measurement-id and
+// data-partner-id on the view, and a note naming the partner's file); form and tracker plots;
+// test conditions; the server's PNG plot; print and CSV export.
+
+import { api } from './api.js';
+import { handleAuth } from './auth.js';
+import { $, downloadText, errorBox, h, toCsv } from './dom.js';
+import { renderAnalysis, resetAnalysis } from './diagnosis.js';
+import { renderFigures } from './figures.js';
+import { formatDirection, formatTimestamp } from './format.js';
+import { renderFormPlot, renderTrackerPlot } from './formplots.js';
+import { selectMachine } from './machines.js';
+import { markCurrent } from './measurements.js';
+import { renderPolarPlot } from './polar.js';
+import { FORM_KINDS, WIDE_KINDS, state } from './state.js';
+
+export function resetDetail() {
+  const view = $('#detail');
+  view.dataset.view = 'none';
+  delete view.dataset.measurementId;
+  delete view.dataset.partnerId;
+  $('#detail-heading').textContent = 'Polar plot and figures';
+  $('#plot-note').textContent = '';
+  $('#pair-note').hidden = true;
+  $('#pair-note').replaceChildren();
+  $('#conditions').replaceChildren();
+  $('#detail-actions').hidden = true;
+  $('#polar-plot').replaceChildren(h('p', { class: 'placeholder' }, 'Select a measurement to see its plot.'));
+  $('#figures').replaceChildren(h('p', { class: 'placeholder' }, 'Figures appear here.'));
+  $('#figures-extra').replaceChildren();
+  resetAnalysis();
+  setDetailLayout(null);
+}
+
+// DBB: polar plot beside the figures; form measurements: the wide plot above the figures.
+function setDetailLayout(kind) {
+  const wide = WIDE_KINDS.includes(kind);
+  $('#detail-body').classList.toggle('wide', wide);
+  $('#polar-plot').classList.toggle('polar-figure', !wide);
+}
+
+function itemOf(m) {
+  const { samples, metadata, ...item } = m;
+  return item;
+}
+
+function detailHeading(item) {
+  const machine = item.machine_id || state.machineId;
+  if (item.kind === 'dbb') return `${item.test_id || item.filename || `Measurement #${item.id}`} — ${machine}`;
+  const kind = String(item.kind || 'measurement');
+  const what = `${kind.charAt(0).toUpperCase()}${kind.slice(1)}`;
+  return `${what} ${item.test_id ? `${item.test_id} ` : ''}· ${item.filename || `#${item.id}`} — ${machine}`;
+}
+
+// Everything one DBB file of the pair needs: metadata, results, trace.
+async function fetchDbbFile(id, measurement) {
+  const [m, results, trace] = await Promise.all([
+    measurement ? Promise.resolve(measurement) : api.measurement(id),
+    api.results(id),
+    api.trace(id),
+  ]);
+  return { item: itemOf(m), metadata: m.metadata || {}, results, trace };
+}
+
+// Shows measurement `id`: selects its machine in the sidebar first (a deep link, a reload).
+export async function showMeasurement(id) {
+  const seq = ++state.selectSeq;
+  state.measurementId = id;
+  markCurrent();
+  const view = $('#detail');
+  $('#polar-plot').setAttribute('aria-busy', 'true');
+  $('#figures').setAttribute('aria-busy', 'true');
+  try {
+    const measurement = await api.measurement(id);
+    if (seq !== state.selectSeq) return;
+    if (measurement.machine_id !== state.machineId) {
+      await selectMachine(measurement.machine_id);
+      if (seq !== state.selectSeq) return;
+      state.measurementId = id;
+      markCurrent();
+    }
+    const item = itemOf(measurement);
+    $('#detail-heading').textContent = detailHeading(item);
+    if (item.kind === 'dbb') await showDbb(seq, item, measurement);
+    else await showOther(seq, item, measurement);
+    if (seq !== state.selectSeq) return;
+    view.dataset.measurementId = String(id);
+    $('#detail-actions').hidden = false;
+    if (state.scrollToDetail) {
+      state.scrollToDetail = false;
+      view.scrollIntoView({ block: 'start' });
+    }
+  } catch (err) {
+    if (seq !== state.selectSeq) return;
+    if (!handleAuth(err)) {
+      view.dataset.view = 'error';
+      $('#polar-plot').replaceChildren(errorBox(err));
+      $('#figures').replaceChildren();
+      $('#figures-extra').replaceChildren();
+      $('#conditions').replaceChildren();
+      resetAnalysis();
+    }
+  } finally {
+    if (seq === state.selectSeq) {
+      $('#polar-plot').removeAttribute('aria-busy');
+      $('#figures').removeAttribute('aria-busy');
+    }
+  }
+}
+
+async function showOther(seq, item, measurement) {
+  const results = await api.results(item.id);
+  if (seq !== state.selectSeq) return;
+  const fetched = [{ item, results, trace: null, measurement }];
+  const view = $('#detail');
+  view.dataset.view = item.kind;
+  delete view.dataset.partnerId;
+  $('#pair-note').hidden = true;
+  setDetailLayout(item.kind);
+  resetAnalysis();
+  if (FORM_KINDS.includes(item.kind)) renderFormPlot(item, fetched[0]);
+  else if (item.kind === 'tracker') renderTrackerPlot(item, fetched[0]);
+  else {
+    $('#polar-plot').replaceChildren(h('p', { class: 'placeholder' }, `No plot for ${String(item.kind).toUpperCase()} measurements yet.`));
+    $('#plot-note').textContent = '';
+  }
+  renderFigures(fetched, { kind: item.kind });
+  renderConditions([{ item, metadata: measurement.metadata || {} }]);
+}
+
+// The test and, when the server pairs it, exactly the partner /pair names.
+async function showDbb(seq, item, measurement) {
+  const [own, pair] = await Promise.all([fetchDbbFile(item.id, measurement), api.pair(item.id).catch((err) => ({ error: err }))]);
+  if (seq !== state.selectSeq) return;
+  const pairError = pair && pair.error ? pair.error : null;
+  if (pairError && handleAuth(pairError)) return;
+  const pairData = pairError ? null : pair;
+  let partner = null;
+  let partnerError = null;
+  if (pairData && pairData.partner_id) {
+    try {
+      partner = await fetchDbbFile(pairData.partner_id);
+    } catch (err) {
+      if (handleAuth(err)) return;
+      partnerError = err;
+    }
+    if (seq !== state.selectSeq) return;
+  }
+  // Fixed order: CCW first, then CW, so colours and columns do not swap between clicks.
+  const fetched = [own, partner].filter(Boolean);
+  fetched.sort((a, b) => (a.item.direction === 'ccw' ? 0 : 1) - (b.item.direction === 'ccw' ? 0 : 1));
+  const view = $('#detail');
+  view.dataset.view = 'dbb';
+  if (pairData && pairData.partner_id) view.dataset.partnerId = String(pairData.partner_id);
+  else delete view.dataset.partnerId;
+  setDetailLayout('dbb');
+  renderDbbPlot(item, fetched);
+  renderPairNote(item, pairData, partner, partnerError);
+  renderFigures(fetched, { kind: 'dbb', pair: partner ? pairData : null });
+  renderAnalysis(item, fetched, partner ? pairData : null, pairError);
+  renderConditions(fetched);
+}
+
+function describeFile(f) {
+  const when = f.item.timestamp ? `measured ${formatTimestamp(f.item.timestamp)}` : `uploaded ${formatTimestamp(f.item.uploaded_at)}`;
+  return `${formatDirection(f.item.direction)} #${f.item.id}${f.item.filename ? ` (${f.item.filename})` : ''}, ${when}`;
+}
+
+function renderPairNote(item, pair, partner, partnerError) {
+  const note = $('#pair-note');
+  note.hidden = false;
+  if (!pair || !pair.partner_id) {
+    note.dataset.partnerId = '';
+    note.replaceChildren(`No ${item.direction === 'cw' ? 'CCW' : 'CW'} test of this machine and test is paired with #${item.id}.`);
+    return;
+  }
+  note.dataset.partnerId = String(pair.partner_id);
+  if (partnerError) {
+    note.replaceChildren(
+      `Paired with #${pair.partner_id}, which could not be evaluated: ${partnerError.detail || partnerError.message}`,
+    );
+    return;
+  }
+  note.replaceChildren(
+    h('strong', {}, 'Pair: '),
+    `this test ${describeFile({ item })} with `,
+    h('a', { href: `#/measurements/${pair.partner_id}`, 'data-testid': 'partner-link' }, describeFile(partner)),
+    ' — the pair the server analyses (the same as the API’s …/pair).',
+  );
+}
+
+function renderDbbPlot(item, fetched) {
+  const traces = fetched
+    .filter((f) => f.trace)
+    .map((f) => ({ ...f.trace, direction: f.trace.direction || f.item.direction, test_id: f.item.test_id, id: f.item.id }));
+  const { svg } = renderPolarPlot(traces, { title: `DBB ${item.test_id || ''}`.trim() });
+  $('#polar-plot').replaceChildren(svg);
+  const dirs = traces.map((t) => t.direction);
+  const note = $('#plot-note');
+  if (dirs.length === 1) {
+    const other = dirs[0] === 'ccw' ? 'CW' : 'CCW';
+    note.textContent = `Only ${formatDirection(dirs[0])} is shown for this test; upload the ${other} file with the same test_id to overlay both directions.`;
+  } else {
+    note.textContent = 'Radial error about the least-squares circle, magnified around the nominal circle (thick grey).';
+  }
+  $('#plot-png-button').hidden = false;
+}
+
+// Test conditions of each file: from its header (feed, radius, arc, sample rate, temperature,
+// bar length, …) and the measurement and upload times.
+const CONDITION_KEYS = [
+  ['feed_mm_min', 'Feed', 'mm/min'],
+  ['radius_mm', 'Radius', 'mm'],
+  ['bar_length_mm', 'Bar length', 'mm'],
+  ['arc_deg', 'Arc', '°'],
+  ['sample_rate_hz', 'Sample rate', 'Hz'],
+  ['temperature_c', 'Temperature', '°C'],
+  ['plane', 'Plane', ''],
+  ['centre_mm', 'Centre', 'mm'],
+  ['tool_length_mm', 'Tool length', 'mm'],
+  ['operator', 'Operator', ''],
+];
+
+function renderConditions(files) {
+  const box = $('#conditions');
+  const rows = [];
+  for (const [key, label, unit] of CONDITION_KEYS) {
+    if (!files.some((f) => f.metadata && f.metadata[key] !== undefined)) continue;
+    rows.push([label, unit, ...files.map((f) => (f.metadata && f.metadata[key] !== undefined ? String(f.metadata[key]) : '—')), key]);
+  }
+  rows.push(['Measured at', '', ...files.map((f) => (f.item.timestamp ? formatTimestamp(f.item.timestamp) : 'not in the file')), 'measured_at']);
+  rows.push(['Uploaded at', '', ...files.map((f) => formatTimestamp(f.item.uploaded_at)), 'uploaded_at']);
+  box.replaceChildren(
+    h(
+      'table',
+      { class: 'figures small conditions', 'data-testid': 'conditions-table' },
+      h('caption', {}, 'Test conditions'),
+      h('thead', {}, h('tr', {}, h('th', { scope: 'col' }, 'Condition'), h('th', { scope: 'col', class: 'unit' }, 'Unit'), ...files.map((f) => h('th', { scope: 'col', class: 'num' }, `${f.item.direction ? formatDirection(f.item.direction) : 'Value'} #${f.item.id}`)))),
+      h('tbody', {}, ...rows.map((r) => h('tr', { 'data-key': r[r.length - 1] }, h('th', { scope: 'row' }, r[0]), h('td', { class: 'unit' }, r[1]), ...r.slice(2, -1).map((v) => h('td', { class: 'text' }, v))))),
+    ),
+  );
+}
+
+// ---------------------------------------------------------------- PNG plot, print, trace CSV
+
+async function openPlotPng() {
+  const id = state.measurementId;
+  const button = $('#plot-png-button');
+  if (!id) return;
+  button.disabled = true;
+  try {
+    const blob = await api.plotPng(id);
+    if (state.pngUrl) URL.revokeObjectURL(state.pngUrl);
+    state.pngUrl = URL.createObjectURL(blob);
+    const img = $('#png-image');
+    img.src = state.pngUrl;
+    img.dataset.measurementId = id;
+    $('#png-download').href = state.pngUrl;
+    $('#png-download').download = `kinemetric-${id}-polar.png`;
+    $('#png-dialog').showModal();
+    $('#png-close').focus();
+  } catch (err) {
+    if (!handleAuth(err)) $('#plot-note').replaceChildren(errorBox(err));
+  } finally {
+    button.disabled = false;
+  }
+}
+
+async function exportTrace() {
+  const id = state.measurementId;
+  if (!id) return;
+  const m = await api.measurement(id);
+  const cols = Object.keys(m.samples || {});
+  const n = cols.length ? m.samples[cols[0]].length : 0;
+  const rows = [cols];
+  for (let i = 0; i < n; ++i) rows.push(cols.map((c) => m.samples[c][i]));
+  downloadText(toCsv(rows), `kinemetric-${id}-samples.csv`, 'text/csv');
+}
+
+export function initDetail() {
+  $('#plot-png-button').addEventListener('click', openPlotPng);
+  // Focus returns to the button that opened the dialog when it closes.
+  $('#png-dialog').addEventListener('close', () => $('#plot-png-button').focus());
+  $('#png-close').addEventListener('click', () => $('#png-dialog').close());
+  $('#png-dialog').addEventListener('click', (e) => {
+    if (e.target === e.currentTarget) $('#png-dialog').close(); // click on the backdrop
+  });
+  $('#print-report').addEventListener('click', () => window.print());
+  $('#trace-csv').addEventListener('click', () => exportTrace().catch((err) => handleAuth(err)));
+}

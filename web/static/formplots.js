@@ -1,0 +1,130 @@
+// Plots of form measurements (straightness and parallelism profiles, flatness colour map) and
+// of a laser-tracker survey (volumetric error vectors, error components).
+
+import { renderColourMap, renderProfilePlot } from './charts.js';
+import { renderComponentCharts } from './components.js';
+import { $, h } from './dom.js';
+import { formatNumber } from './format.js';
+import { renderTrackerVectorPlot } from './tracker.js';
+
+function sampleColumns(f) {
+  const s = f?.measurement?.samples || {};
+  return s;
+}
+
+export function renderFormPlot(item, f) {
+  const container = $('#polar-plot');
+  const note = $('#plot-note');
+  const r = f?.results || {};
+  const s = sampleColumns(f);
+  const meta = f?.measurement?.metadata || {};
+  const n = (s.x_mm || s.position_mm || []).length;
+  if (n < 2 || !Object.keys(r).length) {
+    container.replaceChildren(h('p', { class: 'placeholder' }, 'No samples to plot for this measurement.'));
+    note.textContent = '';
+    return;
+  }
+  if (item.kind === 'flatness') {
+    const x = s.x_mm || [];
+    const y = s.y_mm || [];
+    const z = s.z_um || [];
+    const p = r.plane || {};
+    const pts = x.map((xi, i) => ({
+      x: xi,
+      y: y[i],
+      v: z[i] - (p.offset_um + (p.slope_x_um_per_m / 1000) * xi + (p.slope_y_um_per_m / 1000) * y[i]),
+    }));
+    container.replaceChildren(
+      renderColourMap(pts, { title: `Flatness of ${item.machine_id || ''}`.trim(), xLabel: 'X position (mm)', yLabel: 'Y position (mm)' }),
+    );
+    note.textContent =
+      `Height at each point above (red) or below (blue) the least-squares plane, in µm` +
+      `${meta.datum ? `; readings taken from the ${String(meta.datum).replace(/_/g, ' ')}` : ''}.`;
+    return;
+  }
+  const x = s.position_mm || [];
+  const d = s.deviation_um || [];
+  const axis = meta.axis ? String(meta.axis).toUpperCase() : '';
+  const xLabel = `Position along ${axis || 'the axis'} (mm)`;
+  if (item.kind === 'parallelism') {
+    // The datum is the reference of parallelism_um: the readings are drawn as they are, with
+    // the least-squares line (its slope is slope_um_per_m) and the band of the readings.
+    const mx = x.reduce((a, b) => a + b, 0) / n;
+    const md = d.reduce((a, b) => a + b, 0) / n;
+    const slope = r.slope_um_per_m / 1000;
+    const lo = Math.min(...d);
+    const hi = Math.max(...d);
+    container.replaceChildren(
+      renderProfilePlot({
+        x,
+        y: d,
+        lines: [{ label: 'Least-squares line', cls: 'ls', y0: md - slope * mx, slope, testid: 'ls-line' }],
+        bands: [{ label: `Parallelism ${formatNumber(hi - lo, '_um')} µm`, cls: 'zone', lo0: lo, hi0: hi, slope: 0, testid: 'parallelism-band' }],
+        xLabel,
+        yLabel: `Distance from the datum (µm)`,
+        title: `Parallelism of ${axis || 'the axis'} to the ${meta.datum || 'datum'}`,
+      }),
+    );
+    note.textContent = `Distance from the ${String(meta.datum || 'datum').replace(/_/g, ' ')} while ${axis || 'the axis'} travels; the shaded band is the parallelism (full range of the readings).`;
+    return;
+  }
+  // Straightness: deviation about the least-squares line (intercept_um at 0 mm, slope_um_per_m).
+  const lsSlope = r.slope_um_per_m / 1000;
+  const res = x.map((xi, i) => d[i] - (r.intercept_um + lsSlope * xi));
+  const lines = [{ label: 'Least-squares line', cls: 'ls', y0: 0, slope: 0, testid: 'ls-line' }];
+  const bands = [];
+  // Minimum-zone lines: slope min_zone_slope_um_per_m; in the residual their slope is the
+  // difference of the slopes, and they touch the extreme points.
+  let zone = null;
+  if (typeof r.min_zone_slope_um_per_m === 'number' && res.length) {
+    const k = (r.min_zone_slope_um_per_m - r.slope_um_per_m) / 1000;
+    const u = res.map((v, i) => v - k * x[i]);
+    const lo = Math.min(...u);
+    const hi = Math.max(...u);
+    // Use it only if it reproduces the reported minimum-zone straightness.
+    if (Math.abs(hi - lo - r.straightness_min_zone_um) <= 1e-3 + 1e-6 * Math.abs(r.straightness_min_zone_um)) {
+      zone = { label: `Minimum zone ${formatNumber(r.straightness_min_zone_um, '_um')} µm`, cls: 'zone', lo0: lo, hi0: hi, slope: k, testid: 'min-zone-band' };
+    }
+  }
+  if (zone) bands.push(zone);
+  else {
+    bands.push({ label: `Least-squares band ${formatNumber(Math.max(...res) - Math.min(...res), '_um')} µm`, cls: 'zone', lo0: Math.min(...res), hi0: Math.max(...res), slope: 0, testid: 'ls-band' });
+  }
+  const errDir = meta.error_direction ? String(meta.error_direction).toUpperCase() : '';
+  container.replaceChildren(
+    renderProfilePlot({
+      x,
+      y: res,
+      lines,
+      bands,
+      xLabel,
+      yLabel: `Deviation${errDir ? ` in ${errDir}` : ''} (µm)`,
+      title: `Straightness of ${axis || 'the axis'}${errDir ? ` in ${errDir}` : ''}`,
+    }),
+  );
+  note.textContent =
+    `Deviation after removing the least-squares line (slope ${formatNumber(r.slope_um_per_m, '_um_per_m')} µm/m); ` +
+    (zone ? 'the shaded band is the minimum zone (two parallel lines enclosing all points).' : 'the shaded band is the least-squares band.');
+}
+
+export function renderTrackerPlot(item, f) {
+  const container = $('#polar-plot');
+  const note = $('#plot-note');
+  const r = f?.results || {};
+  const s = f?.measurement?.samples || {};
+  const xs = s.x_mm || [];
+  const errors = Array.isArray(r.volumetric_error_um) ? r.volumetric_error_um : [];
+  if (!xs.length || xs.length !== errors.length) {
+    container.replaceChildren(h('p', { class: 'placeholder' }, 'No volumetric error map for this measurement.'));
+    note.textContent = '';
+    return;
+  }
+  const points = xs.map((x, i) => [x, s.y_mm[i], s.z_mm[i]]);
+  const { svg } = renderTrackerVectorPlot(points, errors, { title: `Volumetric error of ${item.machine_id || ''}`.trim() });
+  container.replaceChildren(svg);
+  if (r.decomposition && typeof r.decomposition === 'object') container.append(renderComponentCharts(r.decomposition));
+  const dropped = errors.filter((e) => !e).length;
+  note.textContent =
+    'Volumetric error at each commanded point (arrow, magnified) after the best-fit placement of the machine frame' +
+    (dropped ? `; ${dropped} point${dropped === 1 ? '' : 's'} dropped (hollow).` : '.');
+}

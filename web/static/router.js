@@ -1,0 +1,28 @@
+// Addresses of the views, so that a reload keeps the view and a link can be sent to a colleague:
+//   #/machines/{machine_id}     a machine and its measurement list
+//   #/measurements/{id}         one measurement (its machine's list beside it)
+//   #/jobs/{id}                 a calibration job (discovery jobs live at #/discoveries/{id})
+//   #/discoveries…              the model-gap discovery page (discovery.js)
+
+export function parseAppRoute(hash = window.location.hash) {
+  const s = String(hash || '').replace(/^#/, '');
+  let m = s.match(/^\/machines\/([^/?]+)\/?$/);
+  if (m) return { view: 'machine', machineId: decodeURIComponent(m[1]) };
+  m = s.match(/^\/measurements\/(\d+)\/?$/);
+  if (m) return { view: 'measurement', id: Number(m[1]) };
+  m = s.match(/^\/jobs\/(\d+)\/?$/);
+  if (m) return { view: 'job', jobId: Number(m[1]) };
+  if (/^\/discoveries/.test(s)) return { view: 'discovery' };
+  return { view: 'home' };
+}
+
+export const machineHash = (id) => `#/machines/${encodeURIComponent(id)}`;
+export const measurementHash = (id) => `#/measurements/${id}`;
+export const jobHash = (id) => `#/jobs/${id}`;
+
+// Goes to an address (a hashchange follows, which shows the view); the same address again
+// shows it again.
+export function navigate(hash) {
+  if (window.location.hash === hash) window.dispatchEvent(new HashChangeEvent('hashchange'));
+  else window.location.hash = hash;
+}
