@@ -16,6 +16,7 @@
 #include "report/tracker_report.h"
 #include "server/finite_result.h"
 #include "server/service.h"
+#include "server/servo_kinds.h"
 
 namespace km::server {
 namespace {
@@ -224,6 +225,7 @@ void RegisterBuiltinKinds(Service& service) {
   service.RegisterKind(std::string(ingest::kStraightnessFormat), IngestStraightness);
   service.RegisterKind(std::string(ingest::kFlatnessFormat), IngestFlatness);
   service.RegisterKind(std::string(ingest::kParallelismFormat), IngestParallelism);
+  RegisterServoKind(service);
 }
 
 dbb::DbbTest Service::LoadDbb(std::int64_t id, MeasurementRecord* record) {

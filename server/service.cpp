@@ -3,6 +3,7 @@
 #include "analysis/core/errors.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/form_parsers.h"
+#include "ingest/servo_parser.h"
 #include "ingest/text_format.h"
 #include "ingest/tracker_parser.h"
 #include "server/jobs.h"
@@ -31,6 +32,9 @@ std::map<std::string, ingest::TextLimits> DefaultUploadLimits() {
   ingest::TextLimits tracker = limits(10'000, 24);
   tracker.max_cells = 80'000;
   out[ingest::kTrackerFormat] = tracker;
+  // Servo loads: t_s, pose and six forces (or positions and forces of a few axes); the upload
+  // only summarises them.
+  out[ingest::kServoFormat] = limits(1'000'000, 32);
   return out;
 }
 

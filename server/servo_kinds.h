@@ -1,0 +1,18 @@
+// The `kinemetric-servo/1` measurement kind of the service (docs/formats.md §1.7): an upload is
+// parsed, summarised (report/servo_report.h ServoSummaryJson) and stored as kind "servo" with
+// its samples; the analyses that need the machine model or several files run from the CLI and
+// the servo routes.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "server/service.h"
+
+namespace km::server {
+
+Ingested IngestServo(std::string_view bytes, const std::string& file);
+
+void RegisterServoKind(Service& service);
+
+}  // namespace km::server
