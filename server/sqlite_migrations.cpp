@@ -127,7 +127,8 @@ CREATE TRIGGER machine_models_immutable BEFORE UPDATE ON machine_models
 CREATE TRIGGER machine_models_kept BEFORE DELETE ON machine_models
   BEGIN SELECT RAISE(ABORT, 'machine model versions are never deleted'); END;
 )sql",
-    // 5: measurement lists of a machine paged in time or upload order, and a test's files,
+    // 5: measurement lists of a machine paged in time or upload order, a test's files, and the
+    // free-text search of a machine's list (on the small entries of an index, not on the rows),
     // answered from indexes however many measurements a machine has.
     R"sql(
 CREATE INDEX measurements_by_machine_time
@@ -136,6 +137,8 @@ CREATE INDEX measurements_by_machine_kind_time
   ON measurements(machine_id, kind, COALESCE(measured_at, uploaded_at), id);
 CREATE INDEX measurements_by_machine_upload ON measurements(machine_id, id);
 CREATE INDEX measurements_by_test ON measurements(machine_id, test_id, kind);
+CREATE INDEX measurements_by_machine_text
+  ON measurements(machine_id, filename, test_id, direction, kind);
 )sql",
 };
 

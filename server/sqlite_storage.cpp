@@ -5,7 +5,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
@@ -180,13 +179,18 @@ SampleBlock SqliteStorage::GetSamples(std::int64_t id) {
 
 MeasurementPage SqliteStorage::ListMeasurements(const MeasurementFilter& f) {
   std::lock_guard lock(mu_);
-  // Free text: lower-case ASCII substring of name, test, direction or kind; or an id.
-  std::optional<std::string> text;
+  // Free text: a substring of name, test, direction or kind (LIKE: ASCII letters in either
+  // case); or an id.
+  std::optional<std::string> text;  // a LIKE pattern: %text% with % _ \ escaped
   std::optional<std::int64_t> text_id;
   if (f.text && !f.text->empty()) {
-    text = *f.text;
-    for (char& c : *text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    const std::string digits = (*text)[0] == '#' ? text->substr(1) : *text;
+    text = "%";
+    for (const char c : *f.text) {
+      if (c == '%' || c == '_' || c == '\\') *text += '\\';
+      *text += c;
+    }
+    *text += '%';
+    const std::string digits = (*f.text)[0] == '#' ? f.text->substr(1) : *f.text;
     if (!digits.empty() && digits.size() <= 15 &&
         digits.find_first_not_of("0123456789") == std::string::npos) {
       text_id = std::stoll(digits);
@@ -201,8 +205,8 @@ MeasurementPage SqliteStorage::ListMeasurements(const MeasurementFilter& f) {
   if (f.to) where += " AND COALESCE(measured_at, uploaded_at) < ?";
   if (text) {
     where +=
-        " AND (instr(lower(filename), ?) > 0 OR instr(lower(test_id), ?) > 0"
-        " OR instr(lower(direction), ?) > 0 OR instr(kind, ?) > 0" +
+        " AND (filename LIKE ? ESCAPE '\\' OR test_id LIKE ? ESCAPE '\\'"
+        " OR direction LIKE ? ESCAPE '\\' OR kind LIKE ? ESCAPE '\\'" +
         std::string(text_id ? " OR id = ?)" : ")");
   }
   auto bind = [&](Statement& s) {

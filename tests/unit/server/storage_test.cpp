@@ -168,6 +168,10 @@ TEST_F(StorageTest, ListsPageNewestFirstAndFindByFreeTextAndId) {
   EXPECT_EQ(page.items[0].id, id_of_day[9]);
   f.text = "no such thing";
   EXPECT_EQ(s.ListMeasurements(f).total, 0);
+  f.text = "%";  // taken as the character, not as a wildcard
+  EXPECT_EQ(s.ListMeasurements(f).total, 0);
+  f.text = "n_1";  // "_" is a character too: "Run_1…" does not match "n_1" with any letter
+  EXPECT_EQ(s.ListMeasurements(f).total, 4);  // Run_1_CW, Run_10, Run_11_CW, Run_12
   // Filters combine: kind and a date range (from inclusive, to exclusive).
   f.text.reset();
   f.order = MeasurementFilter::Order::kOldest;
