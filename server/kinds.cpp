@@ -9,6 +9,7 @@
 #include "analysis/dbb/full_analysis.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/form_parsers.h"
+#include "ingest/iso8601.h"
 #include "ingest/tracker_parser.h"
 #include "report/dbb_json.h"
 #include "report/dbb_report.h"
@@ -239,18 +240,38 @@ dbb::DbbTest Service::LoadDbb(std::int64_t id, MeasurementRecord* record) {
 }
 
 std::optional<std::int64_t> Service::DbbPartner(const MeasurementRecord& rec) {
+  // The opposite-direction test of the same machine and test_id measured nearest in time to
+  // this one (measurement time, else upload time): a CW/CCW pair is run minutes apart, a repeat
+  // of the test days or months later. On equal distance the one stored nearest, then the later.
+  const std::string when = rec.measured_at.value_or(rec.uploaded_at);
+  const auto t = ingest::Iso8601EpochSeconds(when);
   MeasurementFilter f;
   f.machine_id = rec.machine_id;
   f.kind = "dbb";
   f.test_id = rec.test_id;
-  f.limit = 1000;
+  f.direction = rec.direction == "ccw" ? "cw" : "ccw";
+  f.limit = 2;
+  std::vector<MeasurementRecord> candidates;
+  f.from = when;  // the nearest at or after it
+  f.order = MeasurementFilter::Order::kOldest;
+  for (auto& m : storage_->ListMeasurements(f).items) candidates.push_back(std::move(m));
+  f.from.reset();
+  f.to = when;  // the nearest before it
+  f.order = MeasurementFilter::Order::kNewest;
+  for (auto& m : storage_->ListMeasurements(f).items) candidates.push_back(std::move(m));
   std::optional<std::int64_t> best;
-  const std::string other = rec.direction == "ccw" ? "cw" : "ccw";
-  // The opposite-direction test stored nearest to this one (a CW/CCW pair is uploaded
-  // together); on a tie the later one.
-  for (const auto& m : storage_->ListMeasurements(f).items) {
-    if (m.direction != other) continue;
-    if (!best || std::abs(m.id - rec.id) <= std::abs(*best - rec.id)) best = m.id;
+  double best_dt = 0.0;
+  for (const auto& m : candidates) {
+    const auto tm = ingest::Iso8601EpochSeconds(m.measured_at.value_or(m.uploaded_at));
+    const double dt = t && tm ? std::fabs(*tm - *t) : 0.0;
+    const bool nearer =
+        !best || dt < best_dt ||
+        (dt == best_dt && (std::abs(m.id - rec.id) < std::abs(*best - rec.id) ||
+                           (std::abs(m.id - rec.id) == std::abs(*best - rec.id) && m.id > *best)));
+    if (nearer) {
+      best = m.id;
+      best_dt = dt;
+    }
   }
   return best;
 }

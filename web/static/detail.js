@@ -186,7 +186,7 @@ function renderPairNote(item, pair, partner, partnerError) {
     h('strong', {}, 'Pair: '),
     `this test ${describeFile({ item })} with `,
     h('a', { href: `#/measurements/${pair.partner_id}`, 'data-testid': 'partner-link' }, describeFile(partner)),
-    ' — the pair the server analyses (the same as the API’s …/pair).',
+    ' — the pair the server analyses: the opposite-direction file of this test measured nearest in time.',
   );
 }
 

@@ -39,8 +39,10 @@ test('an older CCW test shows its own partner; reload keeps the view', { timeout
     assert.deepEqual(listed, [ids.newCw, ids.newCcw, ids.oldCw, ids.oldCcw]);
     assert.equal(await page.getAttribute(`#measurements [data-id="${ids.oldCcw}"]`, 'aria-current'), 'true');
 
-    // The partner link goes to the partner's own view, with the partner the server gives it.
+    // The partner link goes to the partner's own view; its partner is the June CCW again
+    // (measured nearest in time, though the November CCW was stored as near to it).
     const back = (await api.get(`/api/v1/measurements/${ids.oldCw}/pair`)).partner_id;
+    assert.equal(back, ids.oldCcw);
     await page.click('[data-testid="partner-link"]');
     await page.waitForSelector(`#detail[data-measurement-id="${ids.oldCw}"][data-partner-id="${back}"]`);
     assert.match(page.url(), new RegExp(`#/measurements/${ids.oldCw}$`));

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "analysis/core/errors.h"
@@ -97,6 +98,56 @@ TEST(Service, DemoDataGoesThroughTheNormalPathAndRoutesAnswer) {
     EXPECT_NEAR(pr["periodic"][0]["amplitude_um"].get<double>(), 0.2, 0.01);
     EXPECT_NEAR(pr["periodic"][1]["period_mm"].get<double>(), 10.0, 10.0 * 0.02);
     EXPECT_NEAR(pr["periodic"][1]["amplitude_um"].get<double>(), 0.05, 0.005);
+  }
+  for (const char* ext : {"", "-wal", "-shm"}) fs::remove(db.string() + ext);
+}
+
+// A DBB file of one turn (1° steps): centre offset, an ellipse of `ellipse` µm, a small ripple.
+std::string DbbText(const std::string& direction, const std::string& timestamp, double ellipse) {
+  std::string t =
+      "# format: kinemetric-dbb/1\n# machine_id: pair-vmc\n# test_id: xy\n# direction: " +
+      direction +
+      "\n# bar_length_mm: 150\n# centre_mm: 0, 0, 0\n# feed_mm_min: 1000\n# timestamp: " +
+      timestamp + "\nangle_deg,dr_um\n";
+  const double sign = direction == "ccw" ? 1.0 : -1.0;
+  for (int i = 0; i < 360; ++i) {
+    const double a = sign * i * M_PI / 180.0;
+    const double dr = 2.0 * std::cos(a) + ellipse * std::cos(2.0 * a) + 0.2 * std::sin(7.0 * a);
+    t += std::to_string(sign * i) + "," + std::to_string(dr) + "\n";
+  }
+  return t;
+}
+
+TEST(Service, APairIsTheOppositeDirectionMeasuredNearestInTime) {
+  const fs::path db =
+      fs::temp_directory_path() / ("km-service-pair-" + std::to_string(::getpid()) + ".db");
+  fs::remove(db);
+  {
+    Service svc(std::make_unique<SqliteStorage>(db.string()), {});
+    RegisterBuiltinKinds(svc);
+    // June CCW + CW, November CCW + CW, then a June CW repeat uploaded last.
+    const auto june_ccw = svc.Upload(DbbText("ccw", "2026-06-01T08:00:00Z", 2.0), "a").id;
+    const auto june_cw = svc.Upload(DbbText("cw", "2026-06-01T08:05:00Z", 2.1), "b").id;
+    const auto nov_ccw = svc.Upload(DbbText("ccw", "2026-11-01T08:00:00Z", 2.2), "c").id;
+    const auto nov_cw = svc.Upload(DbbText("cw", "2026-11-01T08:05:00Z", 2.3), "d").id;
+    EXPECT_EQ(svc.DbbPairJson(june_ccw)["partner_id"], june_cw);
+    // Stored as near to the November CCW as the June CW is: the time decides, not the id.
+    EXPECT_EQ(svc.DbbPairJson(june_cw)["partner_id"], june_ccw);
+    EXPECT_EQ(svc.DbbPairJson(nov_ccw)["partner_id"], nov_cw);
+    EXPECT_EQ(svc.DbbPairJson(nov_cw)["partner_id"], nov_ccw);
+    // A later upload of a June CW at 07:58: nearer in time to the June CCW than 08:05 is.
+    const auto june_cw2 = svc.Upload(DbbText("cw", "2026-06-01T07:58:00Z", 2.4), "e").id;
+    EXPECT_EQ(svc.DbbPairJson(june_ccw)["partner_id"], june_cw2);
+    EXPECT_EQ(svc.DbbPairJson(nov_ccw)["partner_id"], nov_cw);
+    // Each list item carries the key result of its kind.
+    MeasurementFilter f;
+    f.machine_id = "pair-vmc";
+    f.order = MeasurementFilter::Order::kNewest;
+    const auto list = svc.ListMeasurements(f);
+    ASSERT_EQ(list["items"].size(), 5u);
+    EXPECT_EQ(list["items"][0]["id"], nov_cw);
+    EXPECT_EQ(list["items"][0]["key_result"]["name"], "circularity_um");
+    EXPECT_EQ(list["items"][0]["key_result"]["value"], svc.Results(nov_cw)["circularity_um"]);
   }
   for (const char* ext : {"", "-wal", "-shm"}) fs::remove(db.string() + ext);
 }
