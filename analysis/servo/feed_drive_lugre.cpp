@@ -160,6 +160,16 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   ps.sigma1_N_s_per_mm = sd(4, p.sigma1_N_s_per_mm);
   ps.sigma2_N_s_per_mm = sd(5, p.sigma2_N_s_per_mm);
   r.lugre_sigma = ps;
+  // The fit stands only when it agrees with the steady-motion Coulomb friction and the
+  // presliding stiffness is determined (the reversals sampled finely enough).
+  if (!(p.Fc_N > 0.5 * r.coulomb_N && p.Fc_N < 1.5 * r.coulomb_N) ||
+      !(ps.sigma0_N_per_um < 0.5 * p.sigma0_N_per_um)) {
+    r.lugre.reset();
+    r.lugre_sigma.reset();
+    r.lugre_note =
+        "the reversals do not determine the LuGre parameters (too few samples within the "
+        "presliding travel, or no steady friction either side)";
+  }
 }
 
 }  // namespace km::servo::detail
