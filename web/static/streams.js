@@ -120,7 +120,17 @@ function renderStreamList() {
   );
 }
 
-function renderChart(data, gaps, channel, streamId) {
+// A channel as it was declared when the stream was opened ({channel, name?, unit?} in the
+// stream's metadata): its name (else "channel N") and unit (else µm, the stream's default).
+function channelInfo(stream, channel) {
+  const declared = Array.isArray(stream?.metadata?.channels) ? stream.metadata.channels : [];
+  const d = declared.find((c) => Number(c.channel) === Number(channel)) || {};
+  const name = typeof d.name === 'string' && d.name ? d.name : `channel ${channel}`;
+  const unit = typeof d.unit === 'string' && d.unit ? d.unit : 'µm';
+  return { name, unit, label: d.name ? `${d.name} (channel ${channel})` : `channel ${channel}` };
+}
+
+function renderChart(data, gaps, channel, streamId, info = channelInfo(null, channel)) {
   const W = 900;
   const H = 300;
   const L = 70;
@@ -130,7 +140,7 @@ function renderChart(data, gaps, channel, streamId) {
   const t = data.t_us;
   const fig = $('#stream-chart');
   if (!t.length) {
-    fig.replaceChildren(h('p', { class: 'note' }, `Channel ${channel} has no samples yet.`));
+    fig.replaceChildren(h('p', { class: 'note' }, `${info.label} has no samples yet.`));
     return;
   }
   const t0 = t[0];
@@ -159,7 +169,7 @@ function renderChart(data, gaps, channel, streamId) {
     'data-points': t.length,
     'data-downsampled': String(data.downsampled),
     'data-samples': data.samples_in_range,
-    'aria-label': `Channel ${channel}: value in µm against time, ${data.samples_in_range} samples${data.downsampled ? ` in ${t.length} buckets` : ''}.`,
+    'aria-label': `${info.label}: value in ${info.unit} against time, ${data.samples_in_range} samples${data.downsampled ? ` in ${t.length} buckets` : ''}.`,
   });
   svg.append(axesGrid({ W, H, L, R, T, B, px, py, xt: ticks(xmin, xmax, 8), yt: ticks(ylo, yhi, 6) }));
   // Recorded gaps of this channel, shaded where they fall in the plotted span.
@@ -200,7 +210,7 @@ function renderChart(data, gaps, channel, streamId) {
   svg.setAttribute('data-segments', segments.length);
   svg.append(el('text', { x: r2(L + (W - L - R) / 2), y: H - 10, 'text-anchor': 'middle', class: 'axis-title' }, `time since ${fmtTime(t0)} (s)`));
   const my = r2((T + H - B) / 2);
-  svg.append(el('text', { x: 16, y: my, 'text-anchor': 'middle', class: 'axis-title', transform: `rotate(-90 16 ${my})` }, `channel ${channel} (µm)`));
+  svg.append(el('text', { x: 16, y: my, 'text-anchor': 'middle', class: 'axis-title', transform: `rotate(-90 16 ${my})`, 'data-testid': 'stream-axis-title' }, `${info.name} (${info.unit})`));
   const caption = data.downsampled
     ? `${fmtInt(data.samples_in_range)} samples shown as ${t.length} time buckets: band = min … max of each bucket, line = mean.`
     : `${fmtInt(data.samples_in_range)} samples, every one drawn.`;
@@ -238,13 +248,14 @@ async function refreshSelected() {
   const sel = $('#stream-channel');
   const chans = s.channels.map((c) => c.channel);
   if (state.channel === null || !chans.includes(state.channel)) state.channel = chans.length ? chans[0] : null;
-  const current = [...sel.options].map((o) => Number(o.value));
-  if (current.join(',') !== chans.join(',')) {
-    sel.replaceChildren(...chans.map((c) => h('option', { value: c }, `channel ${c}`)));
+  const labels = chans.map((c) => channelInfo(s, c).label);
+  const current = [...sel.options].map((o) => o.textContent);
+  if (current.join('\n') !== labels.join('\n')) {
+    sel.replaceChildren(...chans.map((c, i) => h('option', { value: c }, labels[i])));
   }
   if (state.channel !== null) sel.value = String(state.channel);
   $('#stream-title').textContent = `Stream #${s.id} — ${s.machine_id}${s.name ? `, ${s.name}` : ''} (${s.source})`;
-  const summary = s.channels.map((c) => `channel ${c.channel}: ${fmtInt(c.samples)} samples, ${c.gaps} gaps`).join(' · ');
+  const summary = s.channels.map((c) => `${channelInfo(s, c.channel).label}: ${fmtInt(c.samples)} samples, ${c.gaps} gaps`).join(' · ');
   $('#stream-summary').textContent = summary || 'no samples yet';
   const gaps = (await apiFetch(`/api/v1/streams/${id}/gaps?limit=1000`)).items;
   if (state.selected !== id) return;
@@ -259,7 +270,7 @@ async function refreshSelected() {
     }
     const data = await apiFetch(`/api/v1/streams/${id}/samples?${q}`);
     if (state.selected !== id) return;
-    renderChart(data, gaps, state.channel, id);
+    renderChart(data, gaps, state.channel, id, channelInfo(s, state.channel));
   }
   renderGaps(gaps);
 }

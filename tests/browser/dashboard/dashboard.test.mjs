@@ -979,7 +979,7 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       };
       const stream = await post(
         '/api/v1/streams',
-        JSON.stringify({ machine_id: MACHINE, name: 'browser stream', channels: [{ channel: 1 }, { channel: 2 }] }),
+        JSON.stringify({ machine_id: MACHINE, name: 'browser stream', channels: [{ channel: 1 }, { channel: 2, name: 'probe Z', unit: 'µm' }] }),
         'application/json',
       );
       const t0 = 1763700000000000;
@@ -1016,6 +1016,10 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
         () => document.querySelector('[data-testid="stream-svg"]')?.getAttribute('data-samples') === '4000',
       );
       assert.equal(await page.locator('[data-testid="stream-svg"]').getAttribute('data-segments'), '1');
+      // The channel as declared when the stream was opened: its name and unit.
+      assert.equal(await page.textContent('[data-testid="stream-channel"] option[value="2"]'), 'probe Z (channel 2)');
+      assert.equal(await page.textContent('[data-testid="stream-svg"] [data-testid="stream-axis-title"]'), 'probe Z (µm)');
+      assert.equal(await page.textContent('[data-testid="stream-channel"] option[value="1"]'), 'channel 1');
       assert.equal(await page.locator('[data-testid="stream-svg"] rect.gap').count(), 0);
       await page.locator('#streams-section').scrollIntoViewIfNeeded();
       await page.locator('#streams-section').screenshot({ path: join(outDir, 'dashboard-streams.png') });
