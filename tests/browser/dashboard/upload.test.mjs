@@ -1,7 +1,8 @@
 // Browser scenario (issue 14 items 5, 6, 7): several files uploaded at once, each with its own
 // outcome (a bad file names its line and field; the good ones are stored and linked); files
 // dropped on the upload panel; the printable DBB report (print stylesheet: no controls, the test
-// conditions); CSV of the list; token messages that never contradict each other.
+// conditions); CSV of the list; keyboard focus kept and returned; token messages that never
+// contradict each other.
 //   node tests/browser/dashboard/upload.test.mjs PATH/TO/kinemetricd [OUTPUT_DIR]
 
 import { test } from 'node:test';
@@ -70,6 +71,20 @@ test('multi-file and dropped uploads with per-file outcomes; report; token messa
     assert.match(csv[0], /^id,kind,test_id,direction,measured_at,uploaded_at,filename,key_result,value,unit$/);
     const [figCsv] = await Promise.all([page.waitForEvent('download'), page.click('[data-testid="figures-csv"]')]);
     assert.match(readFileSync(await figCsv.path(), 'utf8'), /circularity_um/);
+
+    // Keyboard focus: back on the button that opened the PNG dialog when it closes; kept on the
+    // machine when the machine list is rebuilt (Enter on it reloads its view).
+    await page.focus('#plot-png-button');
+    await page.keyboard.press('Enter');
+    await page.waitForSelector('#png-dialog[open]');
+    await page.keyboard.press('Escape');
+    await page.waitForSelector('#png-dialog:not([open])', { state: 'attached' });
+    assert.equal(await page.evaluate(() => document.activeElement?.id), 'plot-png-button');
+    await page.focus(`#machines [data-machine-id="${MACHINE}"]`);
+    await page.keyboard.press('Enter');
+    await page.waitForSelector(`#detail[data-view="dbb"]`);
+    await page.waitForFunction(() => document.querySelector('#machines [aria-current="true"]') !== null);
+    assert.equal(await page.evaluate(() => document.activeElement?.dataset?.machineId), MACHINE, 'focus kept on the machine');
 
     // Token messages: a wrong token shows one consistent state, and the right one clears it.
     await page.fill('#token-input', 'not-the-token');
