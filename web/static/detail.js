@@ -8,7 +8,7 @@ import { handleAuth } from './auth.js';
 import { $, downloadText, errorBox, h, toCsv } from './dom.js';
 import { renderAnalysis, resetAnalysis } from './diagnosis.js';
 import { renderFigures } from './figures.js';
-import { formatDirection, formatTimestamp } from './format.js';
+import { formatDirection, formatNumber, formatTimestamp } from './format.js';
 import { renderFormPlot, renderTrackerPlot } from './formplots.js';
 import { selectMachine } from './machines.js';
 import { markCurrent } from './measurements.js';
@@ -24,6 +24,9 @@ export function resetDetail() {
   $('#plot-note').textContent = '';
   $('#pair-note').hidden = true;
   $('#pair-note').replaceChildren();
+  shownDbb = null;
+  overlay = null;
+  renderCompareNote();
   $('#conditions').replaceChildren();
   $('#detail-actions').hidden = true;
   $('#polar-plot').replaceChildren(h('p', { class: 'placeholder' }, 'Select a measurement to see its plot.'));
@@ -117,6 +120,8 @@ async function showOther(seq, item, measurement) {
   view.dataset.view = item.kind;
   delete view.dataset.partnerId;
   $('#pair-note').hidden = true;
+  shownDbb = null;
+  renderCompareNote();
   setDetailLayout(item.kind);
   resetAnalysis();
   if (FORM_KINDS.includes(item.kind)) renderFormPlot(item, fetched[0]);
@@ -190,10 +195,27 @@ function renderPairNote(item, pair, partner, partnerError) {
   );
 }
 
+// The DBB test shown (for redrawing with an overlay) and the overlaid test, if any.
+let shownDbb = null;
+let overlay = null;
+const OVERLAY_STYLE = { colour: '#6b7785', dash: '2 3' };
+
 function renderDbbPlot(item, fetched) {
+  shownDbb = { item, fetched };
   const traces = fetched
     .filter((f) => f.trace)
     .map((f) => ({ ...f.trace, direction: f.trace.direction || f.item.direction, test_id: f.item.test_id, id: f.item.id }));
+  if (overlay && !fetched.some((f) => f.item.id === overlay.item.id)) {
+    const o = overlay;
+    traces.push({
+      ...o.trace,
+      direction: o.item.direction,
+      id: o.item.id,
+      role: 'compare',
+      style: { ...OVERLAY_STYLE, label: `#${o.item.id} ${formatDirection(o.item.direction)} (overlay)` },
+    });
+  }
+  renderCompareNote();
   const { svg } = renderPolarPlot(traces, { title: `DBB ${item.test_id || ''}`.trim() });
   $('#polar-plot').replaceChildren(svg);
   const dirs = traces.map((t) => t.direction);
@@ -205,6 +227,44 @@ function renderDbbPlot(item, fetched) {
     note.textContent = 'Radial error about the least-squares circle, magnified around the nominal circle (thick grey).';
   }
   $('#plot-png-button').hidden = false;
+}
+
+function renderCompareNote() {
+  const note = $('#compare-note');
+  $('#compare-form').hidden = !shownDbb;
+  $('#compare-clear').hidden = !overlay;
+  if (!overlay) {
+    note.hidden = true;
+    note.replaceChildren();
+    return;
+  }
+  const o = overlay;
+  const key = typeof o.results?.circularity_um === 'number' ? `, circularity ${formatNumber(o.results.circularity_um, 'circularity_um')} µm` : '';
+  note.hidden = false;
+  note.dataset.measurementId = String(o.item.id);
+  note.replaceChildren(`Overlaid at the same scale (dotted grey): ${describeFile(o)}, test ${o.item.test_id || '—'} of ${o.item.machine_id}${key}.`);
+}
+
+async function onCompare(event) {
+  event.preventDefault();
+  const text = $('#compare-id').value.trim().replace(/^#/, '');
+  const id = Number(text);
+  const note = $('#compare-note');
+  if (!/^\d+$/.test(text) || !id) {
+    note.hidden = false;
+    note.replaceChildren(errorBox({ title: 'Not a measurement id', detail: `“${$('#compare-id').value}”: give the number of a stored DBB test, e.g. 48.` }));
+    return;
+  }
+  try {
+    const f = await fetchDbbFile(id);
+    if (f.item.kind !== 'dbb') throw new Error(`measurement #${id} is a ${f.item.kind} measurement, not a DBB test`);
+    overlay = f;
+    if (shownDbb) renderDbbPlot(shownDbb.item, shownDbb.fetched);
+  } catch (err) {
+    if (handleAuth(err)) return;
+    note.hidden = false;
+    note.replaceChildren(errorBox(err));
+  }
 }
 
 // Test conditions of each file: from its header (feed, radius, arc, sample rate, temperature,
@@ -288,4 +348,10 @@ export function initDetail() {
   });
   $('#print-report').addEventListener('click', () => window.print());
   $('#trace-csv').addEventListener('click', () => exportTrace().catch((err) => handleAuth(err)));
+  $('#compare-form').addEventListener('submit', onCompare);
+  $('#compare-clear').addEventListener('click', () => {
+    overlay = null;
+    $('#compare-id').value = '';
+    if (shownDbb) renderDbbPlot(shownDbb.item, shownDbb.fetched);
+  });
 }

@@ -21,7 +21,7 @@ export const DIRECTION_STYLE = {
 
 function el(name, attrs = {}, text) {
   const node = document.createElementNS(SVG_NS, name);
-  for (const [k, v] of Object.entries(attrs)) node.setAttribute(k, String(v));
+  for (const [k, v] of Object.entries(attrs)) if (v !== null && v !== undefined) node.setAttribute(k, String(v));
   if (text !== undefined) node.textContent = text;
   return node;
 }
@@ -130,7 +130,8 @@ export function renderPolarPlot(traces, { title = 'DBB polar plot' } = {}) {
 
   // Traces.
   for (const t of traces) {
-    const style = DIRECTION_STYLE[t.direction] || { colour: '#333', dash: '', label: t.direction };
+    // A trace may bring its own style (an overlaid test for comparison).
+    const style = t.style || DIRECTION_STYLE[t.direction] || { colour: '#333', dash: '', label: t.direction };
     const n = Math.min(t.angle_deg?.length || 0, t.radial_error_um?.length || 0);
     const parts = [];
     for (let i = 0; i < n; ++i) {
@@ -149,7 +150,9 @@ export function renderPolarPlot(traces, { title = 'DBB polar plot' } = {}) {
         'stroke-dasharray': style.dash || 'none',
         'data-direction': t.direction,
         'data-points': n,
-        'data-testid': `trace-${t.direction}`,
+        'data-testid': t.role ? `trace-${t.role}` : `trace-${t.direction}`,
+        'data-role': t.role || null,
+        'data-measurement-id': t.id ?? null,
       }),
     );
   }
@@ -157,7 +160,7 @@ export function renderPolarPlot(traces, { title = 'DBB polar plot' } = {}) {
   // Legend (top left) and scale (bottom left), inside the picture so it stands on its own.
   const legend = el('g', { class: 'legend', 'data-testid': 'plot-legend', transform: `translate(${-HALF + 6},${-HALF + 16})` });
   traces.forEach((t, i) => {
-    const style = DIRECTION_STYLE[t.direction] || { colour: '#333', dash: '', label: t.direction };
+    const style = t.style || DIRECTION_STYLE[t.direction] || { colour: '#333', dash: '', label: t.direction };
     const y = i * 26;
     legend.append(
       el('line', { x1: 0, y1: y, x2: 30, y2: y, stroke: style.colour, 'stroke-dasharray': style.dash || 'none', class: 'legend-swatch' }),

@@ -1,7 +1,8 @@
 // Browser scenario (issue 14 items 1, 4): an older CCW test is drawn and tabled with its own
 // partner — the one the server's /pair uses — not with the newest CW file of the same test_id;
 // the DBB view says which files it shows (data-measurement-id, data-partner-id, a note naming
-// the partner's file); a reload on the deep link #/measurements/{id} returns to the same view.
+// the partner's file); another test overlaid at the same scale (before / after); a reload on the
+// deep link #/measurements/{id} returns to the same view.
 //   node tests/browser/dashboard/pair.test.mjs PATH/TO/kinemetricd [OUTPUT_DIR]
 
 import { test } from 'node:test';
@@ -33,6 +34,19 @@ test('an older CCW test shows its own partner; reload keeps the view', { timeout
     assert.match(await page.textContent('[data-testid="diagnosis-source"]'), new RegExp(`#${ids.oldCw}`));
     const hysteresis = await page.textContent('[data-testid="pair-circular_hysteresis_um"]');
     assert.equal(Number(hysteresis.replace('−', '-')).toFixed(3), pair.pair.circular_hysteresis_um.toFixed(3));
+
+    // Before / after: the November CCW overlaid on the June pair, at one scale for all three.
+    await page.fill('[data-testid="compare-id"]', `#${ids.newCcw}`);
+    await page.click('[data-testid="compare-add"]');
+    await page.waitForSelector(`#polar-plot svg path[data-role="compare"][data-measurement-id="${ids.newCcw}"]`);
+    assert.equal(await page.locator('#polar-plot svg path.trace').count(), 3);
+    const traces = await Promise.all([ids.oldCcw, ids.oldCw, ids.newCcw].map((id) => api.get(`/api/v1/measurements/${id}/trace`)));
+    const maxAbs = Math.max(...traces.flatMap((tr) => tr.radial_error_um.map(Math.abs)));
+    const umPerDiv = Number(await page.getAttribute('#polar-plot svg', 'data-um-per-div'));
+    assert.ok(maxAbs <= 3 * umPerDiv, `one scale holds all three traces (${maxAbs} µm, ${umPerDiv} µm/div)`);
+    assert.match(await page.textContent('[data-testid="compare-note"]'), new RegExp(`#${ids.newCcw} \\(november_ccw\\.txt\\)`));
+    await page.click('[data-testid="compare-clear"]');
+    await page.waitForSelector('#polar-plot svg path[data-role="compare"]', { state: 'detached' });
 
     // The list is newest first: the November files on top.
     const listed = await page.$$eval('#measurements [data-testid="measurement-item"]', (as) => as.map((a) => Number(a.dataset.id)));
