@@ -5,7 +5,10 @@
 #   KINEMETRIC_SKIP_SANITIZERS=1  skip the sanitizer pass (local quick runs only)
 #   KINEMETRIC_LONG=1             also run the long soak / load tests, and fuzz 300 s a target
 #   KINEMETRIC_SKIP_FUZZ=1        skip the fuzz stage (libFuzzer targets, docs/fuzzing.md)
+# KINEMETRIC_CI=1 is exported: every dependency is installed here, so a test that would skip
+# for a missing one (a Python peer, a library) fails instead.
 set -euo pipefail
+export KINEMETRIC_CI=1
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
 start=$SECONDS

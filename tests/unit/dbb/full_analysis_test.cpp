@@ -2,10 +2,14 @@
 // squares, servo_lag separated from radius_error by two feeds, absolute mode, plot of a pair.
 #include "analysis/dbb/full_analysis.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <map>
 #include <numbers>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "analysis/core/errors.h"
 #include "report/dbb_json.h"
@@ -62,7 +66,34 @@ TEST(FullAnalysis, JsonCarriesContractKeys) {
   EXPECT_EQ(j["tests"][1]["direction"], "cw");
   const auto& pj = j["pairs"][0];
   EXPECT_EQ(pj["test_id"], "T1");
-  EXPECT_GT(pj["circular_hysteresis_um"].get<double>(), 0.0);
+  // H about the common least-squares centre, computed here from the raw samples: at equal
+  // angles the centre's correction is the same for both traces (to first order, c²/R ~ 1e-7 µm
+  // here), so H = max |dr_ccw(θ) − dr_cw(θ)| over the angles both evaluated turns sample (a flat
+  // test: tool-path units = bar units). Both runs sample the same angle grid.
+  {
+    auto key = [](double deg) { return ((std::llround(deg * 1000.0) % 360000) + 360000) % 360000; };
+    auto in_turn = [](const DbbTestReport& r, double deg) {
+      const double lo = std::min(r.circular.turn_start_deg, r.circular.turn_end_deg);
+      const double hi = std::max(r.circular.turn_start_deg, r.circular.turn_end_deg);
+      return deg >= lo - 1e-9 && deg <= hi + 1e-9;
+    };
+    ASSERT_EQ(rep.tests[0].circular.deviation_factor, 1.0);
+    std::map<long long, double> cw;
+    for (std::size_t k = 0; k < tests[1].angle_deg.size(); ++k)
+      if (in_turn(rep.tests[1], tests[1].angle_deg[k]))
+        cw[key(tests[1].angle_deg[k])] = tests[1].dr_um[k];
+    double h = 0.0;
+    std::size_t matched = 0;
+    for (std::size_t k = 0; k < tests[0].angle_deg.size(); ++k) {
+      if (!in_turn(rep.tests[0], tests[0].angle_deg[k])) continue;
+      const auto it = cw.find(key(tests[0].angle_deg[k]));
+      if (it == cw.end()) continue;
+      h = std::max(h, std::abs(tests[0].dr_um[k] - it->second));
+      ++matched;
+    }
+    ASSERT_GT(matched, 100u);
+    EXPECT_NEAR(pj["circular_hysteresis_um"].get<double>(), h, 0.01);
+  }
   EXPECT_GT(pj["bidirectional_circular_deviation_um"].get<double>(), 0.0);
   // The pair is diagnosed jointly: servo mismatch is identified (impossible from one trace).
   const auto* sm = Find(rep.tests[0], "servo_mismatch");
@@ -79,8 +110,26 @@ TEST(FullAnalysis, JsonCarriesContractKeys) {
   EXPECT_NEAR(rep.tests[0].harmonics.harmonics[1].sin_um,
               1000.0 / 60.0 * 0.3 / 2.0 - 4.0 * 2.0 / (3.0 * std::numbers::pi), 0.03);
   EXPECT_NEAR(rep.tests[0].harmonics.harmonics[1].cos_um, 0.0, 0.03);
+  // The plot of the pair: a PNG of the default 800 px whose two traces are drawn in their
+  // colours (ccw BGR 200,60,20; cw 30,30,210) along the reference circle of radius 0.27·800 px:
+  // each colour covers at least half its circumference (the other trace and the zone lines
+  // overlap it in places).
   const auto png = PolarPlotPng(rep, 0);
-  EXPECT_GT(png.size(), 1000u);
+  const cv::Mat img = cv::imdecode(png, cv::IMREAD_COLOR);
+  ASSERT_EQ(img.rows, 800);
+  ASSERT_EQ(img.cols, 800);
+  auto count = [&](int b, int g, int r) {
+    int n = 0;
+    for (int y = 0; y < img.rows; ++y)
+      for (int x = 0; x < img.cols; ++x) {
+        const auto p = img.at<cv::Vec3b>(y, x);
+        n += std::abs(p[0] - b) < 30 && std::abs(p[1] - g) < 30 && std::abs(p[2] - r) < 30;
+      }
+    return n;
+  };
+  const double half_circumference = std::numbers::pi * 0.27 * 800.0;
+  EXPECT_GT(count(200, 60, 20), half_circumference);
+  EXPECT_GT(count(30, 30, 210), half_circumference);
 }
 
 TEST(FullAnalysis, ServoLagSeparatedByTwoFeeds) {

@@ -199,7 +199,9 @@ TEST_F(FormCli, FlatnessAndParallelismKeys) {
   const nlohmann::json p = Run("form parallelism", {Write("p.txt", par)});
   EXPECT_DOUBLE_EQ(p["parallelism_um"].get<double>(), 19.0);
   EXPECT_DOUBLE_EQ(p["length_mm"].get<double>(), 380.0);
-  EXPECT_TRUE(p.contains("slope_um_per_m"));
+  // Least-squares slope of the five points (mean position 0): sum(x d) / sum(x^2)
+  // = (-95*4 + 95*14 + 190*19) / (2 * (190^2 + 95^2)) = 4560 / 90250 um/mm.
+  EXPECT_NEAR(p["slope_um_per_m"].get<double>(), 1000.0 * 4560.0 / 90250.0, 1e-9);
   EXPECT_EQ(p["reference"], "datum");
 }
 
