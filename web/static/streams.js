@@ -5,25 +5,9 @@
 
 import { apiFetch } from './api.js';
 import { axesGrid, el, r2, ticks } from './charts.js';
+import { $, asProblem, h, problemContent, setMessage } from './dom.js';
 
-const $ = (sel) => document.querySelector(sel);
-
-const state = { streams: [], selected: null, channel: null, timer: null, busy: false };
-
-function h(tag, attrs = {}, ...children) {
-  const node = document.createElement(tag);
-  for (const [k, v] of Object.entries(attrs)) {
-    if (v === undefined || v === null || v === false) continue;
-    if (k === 'class') node.className = v;
-    else if (k.startsWith('on')) node.addEventListener(k.slice(2), v);
-    else node.setAttribute(k, v === true ? '' : v);
-  }
-  for (const c of children.flat()) {
-    if (c === undefined || c === null) continue;
-    node.append(c instanceof Node ? c : document.createTextNode(String(c)));
-  }
-  return node;
-}
+const state = { streams: [], selected: null, stream: null, channel: null, timer: null, busy: false };
 
 function fmtInt(n) {
   return Number(n).toLocaleString('en-GB');
@@ -245,6 +229,8 @@ async function refreshSelected() {
   if (id === null) return;
   const s = await apiFetch(`/api/v1/streams/${id}`);
   if (state.selected !== id) return; // another stream was chosen meanwhile
+  state.stream = s;
+  renderProfileChoices(s);
   const sel = $('#stream-channel');
   const chans = s.channels.map((c) => c.channel);
   if (state.channel === null || !chans.includes(state.channel)) state.channel = chans.length ? chans[0] : null;
@@ -309,7 +295,68 @@ function setLive(on) {
   state.timer = on ? setInterval(refreshStreams, 1000) : null;
 }
 
+// ---------------------------------------------------------------- stream → straightness profile
+
+// The position choices: feed × time, or another channel of the stream as the encoder.
+function renderProfileChoices(s) {
+  const sel = $('#profile-position');
+  const others = s.channels.map((c) => c.channel).filter((c) => c !== state.channel);
+  const want = ['feed', ...others.map(String)];
+  if ([...sel.options].map((o) => o.value).join(',') !== want.join(',')) {
+    sel.replaceChildren(
+      h('option', { value: 'feed' }, 'feed × time'),
+      ...others.map((c) => h('option', { value: String(c) }, `encoder: ${channelInfo(s, c).label}`)),
+    );
+  }
+  const feed = sel.value === 'feed';
+  $('#profile-feed').disabled = !feed;
+  $('#profile-start').disabled = !feed;
+}
+
+// Cuts the chosen span of the shown channel into a straightness profile on the server
+// (POST /api/v1/streams/{id}/profile, docs/streams.md), stored and analysed like an upload.
+async function onMakeProfile(event) {
+  event.preventDefault();
+  const msg = $('#profile-message');
+  const s = state.stream;
+  if (!s || state.channel === null) return;
+  const ch = s.channels.find((c) => c.channel === state.channel);
+  const from = Number($('#profile-from').value);
+  const to = Number($('#profile-to').value);
+  if (!ch || !Number.isFinite(from) || !Number.isFinite(to) || !(to > from)) {
+    setMessage(msg, 'error', h('strong', { class: 'problem-title' }, 'No span'), h('span', { class: 'problem-detail' }, 'Give “from” and “to” in seconds after the first sample, “to” after “from”.'));
+    return;
+  }
+  const body = {
+    channel: state.channel,
+    from_us: Math.round(ch.first_t_us + from * 1e6),
+    to_us: Math.round(ch.first_t_us + to * 1e6),
+    axis: $('#profile-axis').value,
+    error_direction: $('#profile-direction').value,
+  };
+  const pos = $('#profile-position').value;
+  body.position = pos === 'feed' ? { feed_mm_min: Number($('#profile-feed').value), start_mm: Number($('#profile-start').value) || 0 } : { encoder_channel: Number(pos) };
+  setMessage(msg, 'info', 'Making the profile…');
+  try {
+    const out = await apiFetch(`/api/v1/streams/${s.id}/profile`, { method: 'POST', body: JSON.stringify(body), headers: { 'Content-Type': 'application/json' } });
+    const r = out.results || {};
+    msg.dataset.measurementId = out.id;
+    setMessage(
+      msg,
+      'success',
+      'Stored as ',
+      h('a', { href: `#/measurements/${out.id}`, 'data-testid': 'profile-link' }, `measurement #${out.id}`),
+      typeof r.straightness_min_zone_um === 'number' ? ` — straightness ${r.straightness_min_zone_um.toFixed(3)} µm (minimum zone).` : '.',
+    );
+  } catch (err) {
+    delete msg.dataset.measurementId;
+    setMessage(msg, 'error', ...problemContent(asProblem(err, 'No profile')));
+  }
+}
+
 export function initStreams() {
+  $('#profile-form').addEventListener('submit', onMakeProfile);
+  $('#profile-position').addEventListener('change', () => state.stream && renderProfileChoices(state.stream));
   $('#streams-refresh').addEventListener('click', refreshStreams);
   $('#streams-live').addEventListener('change', (e) => setLive(e.target.checked));
   $('#stream-channel').addEventListener('change', (e) => {

@@ -1020,6 +1020,19 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       assert.equal(await page.textContent('[data-testid="stream-channel"] option[value="2"]'), 'probe Z (channel 2)');
       assert.equal(await page.textContent('[data-testid="stream-svg"] [data-testid="stream-axis-title"]'), 'probe Z (µm)');
       assert.equal(await page.textContent('[data-testid="stream-channel"] option[value="1"]'), 'channel 1');
+      // A straightness profile cut from the shown channel in the page (feed × time).
+      await page.fill('[data-testid="profile-from"]', '0');
+      await page.fill('[data-testid="profile-to"]', '0.39');
+      await page.fill('[data-testid="profile-feed"]', '600');
+      await page.click('[data-testid="profile-make"]');
+      const made = await page.waitForSelector('[data-testid="profile-message"].success');
+      const profileId = Number(await made.getAttribute('data-measurement-id'));
+      const profile = await apiGet(server, `/api/v1/measurements/${profileId}`);
+      assert.equal(profile.kind, 'straightness');
+      assert.equal(String(profile.metadata.source_stream), String(stream.id));
+      assert.equal(String(profile.metadata.source_channel), '2');
+      const profileRes = await apiGet(server, `/api/v1/measurements/${profileId}/results`);
+      assert.match(await made.textContent(), new RegExp(`#${profileId} — straightness ${profileRes.straightness_min_zone_um.toFixed(3)} µm`));
       assert.equal(await page.locator('[data-testid="stream-svg"] rect.gap').count(), 0);
       await page.locator('#streams-section').scrollIntoViewIfNeeded();
       await page.locator('#streams-section').screenshot({ path: join(outDir, 'dashboard-streams.png') });
