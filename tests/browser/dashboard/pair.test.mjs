@@ -68,3 +68,24 @@ test('an older CCW test shows its own partner; reload keeps the view', { timeout
     await page.screenshot({ path: join(outDir, 'views-pair.png') });
   });
 });
+
+test('demo data: every DBB test is drawn with the partner /pair gives it', { timeout: 60_000 }, async () => {
+  await withDashboard(
+    'pair-demo',
+    async ({ api, page, open }) => {
+      const list = await api.get('/api/v1/measurements?machine_id=demo-vmc&kind=dbb&limit=100');
+      assert.ok(list.items.length >= 6, `demo DBB tests: ${list.items.length}`);
+      await open();
+      for (const m of list.items.slice(0, 6)) {
+        const pair = await api.get(`/api/v1/measurements/${m.id}/pair`).catch(() => null);
+        await page.evaluate((id) => {
+          window.location.hash = `#/measurements/${id}`;
+        }, m.id);
+        await page.waitForSelector(`#detail[data-view="dbb"][data-measurement-id="${m.id}"]`);
+        assert.equal(await page.getAttribute('#detail', 'data-partner-id'), pair ? String(pair.partner_id) : null, `#${m.id}`);
+        if (pair) assert.match(await page.textContent('[data-testid="diagnosis-source"]'), new RegExp(`#${pair.partner_id}\\b`));
+      }
+    },
+    { serverArgs: ['--demo-data'] },
+  );
+});
