@@ -366,6 +366,7 @@ void AddRoutes(Router& router, server::Service& service) {
   AddJobRoutes(router, service);
   AddMachineModelRoutes(router, service);
   AddStreamRoutes(router, service);
+  AddServoRoutes(router, service);
 }
 
 void AddMachineModelRoutes(Router& router, server::Service& service) {

@@ -18,6 +18,9 @@ void AddMachineModelRoutes(Router& router, server::Service& service);
 // The capacitance-sensor stream and acquisition-device routes (api/stream_routes.cpp).
 void AddStreamRoutes(Router& router, server::Service& service);
 
+// The servo-load analyses of stored measurements (api/servo_routes.cpp).
+void AddServoRoutes(Router& router, server::Service& service);
+
 // Access control: every route that needs a token checks `Authorization: Bearer TOKEN` against
 // the stored token hashes (through the service; the Storage overload serves tests and tools).
 RequestHook TokenHook(server::Service& service);

@@ -1,0 +1,84 @@
+// Routes of the servo-load analyses (docs/formats.md §5): identification of a hexapod's masses
+// and friction from stored servo measurements (optionally saved as the next version of its
+// model), joint resistance and health, and the external force of one stored record. The work
+// is done by the service (server/servo_service.h).
+#include <limits>
+
+#include "api/route_util.h"
+#include "api/routes.h"
+#include "server/servo_service.h"
+
+namespace km::api {
+namespace {
+
+json ServoRequestBody(bool identify) {
+  json props = {{"machine_id", {{"type", "string"}}},
+                {"machine_version", {{"type", "integer"}}},
+                {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}}};
+  if (identify) {
+    props["save"] = {{"type", "boolean"}};
+    props["note"] = {{"type", "string"}};
+  } else {
+    for (const char* k : {"level2_ratio", "level3_ratio", "increase_warn", "increase_stop"}) {
+      props[k] = {{"type", "number"}};
+    }
+    props["previous"] = {{"type", "object"}};
+  }
+  return {{"required", true},
+          {"content",
+           {{"application/json",
+             {{"schema",
+               {{"type", "object"},
+                {"required", json::array({"machine_id", "measurement_ids"})},
+                {"properties", props}}}}}}}};
+}
+
+}  // namespace
+
+void AddServoRoutes(Router& router, server::Service& service) {
+  server::Service* svc = &service;
+  router.Add(
+      Route{"POST",
+            "/api/v1/servo/identify",
+            "Hexapod masses and friction from stored servo measurements (docs/formats.md §3.10); "
+            "\"save\": true stores them as the next version of the machine's model",
+            true,
+            [svc](const Request& req) {
+              return Response::Json(server::ServoIdentify(*svc, JsonBody(req)));
+            },
+            {{"requestBody", ServoRequestBody(true)},
+             {"responses",
+              {{"200", JsonResponse("{identified{}, uncertainty{}, residual_rms_N[], "
+                                    "condition_number, fixed[], saved?}")}}}}});
+  router.Add(Route{"POST",
+                   "/api/v1/servo/joints",
+                   "Joint resistance per leg and health levels 1/2/3 from stored CW and CCW servo "
+                   "measurements (docs/formats.md §3.12)",
+                   true,
+                   [svc](const Request& req) {
+                     return Response::Json(server::ServoJoints(*svc, JsonBody(req)));
+                   },
+                   {{"requestBody", ServoRequestBody(false)},
+                    {"responses",
+                     {{"200", JsonResponse("{legs[{leg, resistance_Nm, sigma_Nm, level, "
+                                           "evidence}], level}")}}}}});
+  router.Add(Route{
+      "GET",
+      "/api/v1/measurements/{id}/servo/force",
+      "External tool-tip force of a stored hexapod servo record with its machine's model "
+      "(docs/formats.md §3.11)",
+      true,
+      [svc](const Request& req) {
+        std::optional<std::int64_t> version;
+        if (req.Query("machine_version")) {
+          version =
+              QueryInt(req, "machine_version", 1, 1, std::numeric_limits<std::int64_t>::max());
+        }
+        return Response::Json(server::ServoForce(*svc, req.PathId("id"), version));
+      },
+      {{"parameters", json::array({Param("machine_version", "integer",
+                                         "a stored version of the model (default: the newest)")})},
+       {"responses", {{"200", JsonResponse("{t_s[], force_N[][3], sigma_N[][3], ...}")}}}}});
+}
+
+}  // namespace km::api

@@ -1,0 +1,35 @@
+// The servo analyses of stored `kinemetric-servo/1` measurements (docs/formats.md §5), run by
+// the service for the routes of api/servo_routes: the identification of a machine's masses and
+// friction (optionally stored as the next version of its model), the joint resistance and
+// health of its legs, and the external force of one record. The JSON is that of the CLI
+// (report/servo_report.h).
+//
+// Requests: {"machine_id", "machine_version"?, "measurement_ids": [ids of servo measurements of
+// that machine]} and for identify "save"?: bool, "note"?; for joints "previous"?: an earlier
+// joints result (its legs[].resistance_Nm), "level2_ratio"?, "level3_ratio"?,
+// "increase_warn"?, "increase_stop"?. Bad requests are km::InvalidInput with file "request" and
+// the field; unknown ids NotFound.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include <nlohmann/json.hpp>
+
+#include "server/service.h"
+
+namespace km::server {
+
+// At most this many measurements, and samples in all of them, a request.
+inline constexpr std::size_t kMaxServoMeasurements = 200;
+inline constexpr std::size_t kMaxServoSamples = 2'000'000;
+
+// The identify JSON; with "save": true also "saved" {machine_id, version, created}.
+nlohmann::json ServoIdentify(Service& service, const nlohmann::json& request);
+nlohmann::json ServoJoints(Service& service, const nlohmann::json& request);
+// The force JSON of one stored servo measurement with its machine's model (newest version, or
+// the one given).
+nlohmann::json ServoForce(Service& service, std::int64_t measurement_id,
+                          std::optional<std::int64_t> machine_version);
+
+}  // namespace km::server

@@ -1,0 +1,109 @@
+// The servo routes (api/servo_routes.cpp → server/servo_service.h) on a service holding the
+// pm600-like model and the servo records of the jig plan: identify (and save as the next model
+// version), joints with health levels, the force of one record; bad requests named.
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "api/routes.h"
+#include "server/service.h"
+#include "server/sqlite_storage.h"
+#include "tests/unit/servo/servo_truth.h"
+
+namespace km::api {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+class ServoRoutes : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    db_ = fs::temp_directory_path() / ("km-servo-routes-" + std::to_string(::getpid()) + ".db");
+    fs::remove(db_);
+    svc_ = std::make_unique<server::Service>(std::make_unique<server::SqliteStorage>(db_.string()),
+                                             server::ServiceOptions{});
+    server::RegisterBuiltinKinds(*svc_);
+    AddRoutes(router_, *svc_);
+    std::ifstream in("data/machines/pm600-like.json");
+    std::stringstream machine;
+    machine << in.rdbuf();
+    svc_->StoreMachineModel(machine.str(), "upload", "");
+  }
+  void TearDown() override {
+    svc_.reset();
+    fs::remove(db_);
+  }
+  std::vector<std::int64_t> Upload(const servo::truth::Machine& m, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::vector<std::int64_t> ids;
+    for (auto c : servo::truth::JigPlan(240)) {
+      for (bool ccw : {true, false}) {
+        c.ccw = ccw;
+        const auto text = servo::truth::ServoText(c, servo::truth::Simulate(m, c, 2.0, rng));
+        ids.push_back(svc_->Upload(text, c.test_id + (ccw ? "_ccw" : "_cw")).id);
+      }
+    }
+    return ids;
+  }
+  Response Call(const std::string& method, const std::string& path, const std::string& body) {
+    Request r;
+    r.method = method;
+    r.path = path;
+    r.body = body;
+    return router_.Dispatch(r);
+  }
+  fs::path db_;
+  std::unique_ptr<server::Service> svc_;
+  Router router_;
+};
+
+TEST_F(ServoRoutes, IdentifySaveJointsAndForce) {
+  auto m = servo::truth::Pm600Truth();
+  m.leg_factor[1] = 3.0;
+  const auto ids = Upload(m, 7);
+  json body = {{"machine_id", "pm600-like"}, {"measurement_ids", ids}, {"save", true}};
+  auto r = Call("POST", "/api/v1/servo/identify", body.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  auto j = json::parse(r.body);
+  EXPECT_NEAR(j["identified"]["platform_mass_kg"].get<double>(), m.m_platform, 5.0);
+  EXPECT_EQ(j["saved"]["version"], 2);
+  EXPECT_EQ(svc_->GetMachineModel("pm600-like").version, 2);
+
+  body = {{"machine_id", "pm600-like"}, {"machine_version", 1}, {"measurement_ids", ids}};
+  r = Call("POST", "/api/v1/servo/joints", body.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  j = json::parse(r.body);
+  EXPECT_EQ(j["level"], 3);
+  EXPECT_EQ(j["legs"][1]["level"], 3) << j["legs"][1]["evidence"];
+  EXPECT_EQ(j["legs"][0]["level"], 1) << j["legs"][0]["evidence"];
+
+  r = Call("GET", "/api/v1/measurements/" + std::to_string(ids[0]) + "/servo/force", "");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(json::parse(r.body)["force_N"].size(), 240u);
+}
+
+TEST_F(ServoRoutes, BadRequestsAreNamed) {
+  const auto ids = Upload(servo::truth::Pm600Truth(), 8);
+  auto r = Call("POST", "/api/v1/servo/joints", json{{"machine_id", "pm600-like"}}.dump());
+  EXPECT_EQ(r.status, 400);
+  EXPECT_NE(r.body.find("measurement_ids"), std::string::npos) << r.body;
+  r = Call("POST", "/api/v1/servo/identify",
+           json{{"machine_id", "other"}, {"measurement_ids", ids}}.dump());
+  EXPECT_EQ(r.status, 404) << r.body;
+  r = Call("POST", "/api/v1/servo/joints",
+           json{{"machine_id", "pm600-like"}, {"measurement_ids", {ids[0], ids[0]}}}.dump());
+  EXPECT_EQ(r.status, 400) << r.body;
+  r = Call("POST", "/api/v1/servo/joints",
+           json{{"machine_id", "pm600-like"}, {"measurement_ids", {ids[0]}}}.dump());
+  EXPECT_EQ(r.status, 400) << r.body;  // no CW/CCW pair
+  r = Call("GET", "/api/v1/measurements/999999/servo/force", "");
+  EXPECT_EQ(r.status, 404) << r.body;
+}
+
+}  // namespace
+}  // namespace km::api
