@@ -120,8 +120,32 @@ export function renderTrackerPlot(item, f) {
     return;
   }
   const points = xs.map((x, i) => [x, s.y_mm[i], s.z_mm[i]]);
-  const { svg } = renderTrackerVectorPlot(points, errors, { title: `Volumetric error of ${item.machine_id || ''}`.trim() });
-  container.replaceChildren(svg);
+  const title = `Volumetric error of ${item.machine_id || ''}`.trim();
+  // One Z layer at a time (or all): points of other layers hide one another in the XY view.
+  const layers = [...new Set(points.map((p) => p[2]))].sort((a, b) => a - b);
+  const plotBox = h('div', { class: 'tracker-plot', 'data-testid': 'tracker-plot' });
+  const draw = (layer) => {
+    const keep = points.map((p) => layer === 'all' || p[2] === Number(layer));
+    const { svg } = renderTrackerVectorPlot(
+      points.filter((_, i) => keep[i]),
+      errors.filter((_, i) => keep[i]),
+      { title: layer === 'all' ? title : `${title}, layer Z = ${formatNumber(Number(layer), '_mm')} mm` },
+    );
+    svg.dataset.layer = String(layer);
+    plotBox.replaceChildren(svg);
+  };
+  const parts = [];
+  if (layers.length > 1) {
+    const select = h(
+      'select',
+      { id: 'tracker-layer', 'data-testid': 'tracker-layer', onchange: (e) => draw(e.target.value) },
+      h('option', { value: 'all' }, `all ${layers.length} layers`),
+      ...layers.map((z) => h('option', { value: String(z) }, `Z = ${formatNumber(z, '_mm')} mm`)),
+    );
+    parts.push(h('p', { class: 'tracker-layers no-print' }, h('label', { for: 'tracker-layer' }, 'Layer '), select));
+  }
+  draw('all');
+  container.replaceChildren(...parts, plotBox);
   if (r.decomposition && typeof r.decomposition === 'object') container.append(renderComponentCharts(r.decomposition));
   const dropped = errors.filter((e) => !e).length;
   note.textContent =

@@ -34,6 +34,17 @@ function niceFloor(x) {
 }
 
 // points: [[x, y, z] mm], errors: [[ex, ey, ez] µm or null].
+const f3 = (v) => (Number.isFinite(v) ? v.toFixed(3).replace('-', '−') : '—');
+
+// "Point 12 at X 100.000, Y 200.000, Z 50.000 mm: error X 1.234, Y −0.500, Z 0.250 µm
+// (1.354 µm)"; a dropped point says so.
+export function pointText(i, p, e) {
+  const at = `Point ${i + 1} at X ${f3(p[0])}, Y ${f3(p[1])}, Z ${f3(p[2])} mm`;
+  if (!e) return `${at}: dropped (no error estimate)`;
+  const len = Math.hypot(e[0], e[1], e[2]);
+  return `${at}: error X ${f3(e[0])}, Y ${f3(e[1])}, Z ${f3(e[2])} µm (${f3(len)} µm)`;
+}
+
 export function renderTrackerVectorPlot(points, errors, { title = 'Volumetric error' } = {}) {
   const n = points.length;
   const lo = [0, 1, 2].map((a) => Math.min(...points.map((p) => p[a])));
@@ -106,6 +117,10 @@ export function renderTrackerVectorPlot(points, errors, { title = 'Volumetric er
       const x1 = r2(X(p[a]));
       const y1 = r2(Y(p[b]));
       dots.append(el('circle', { cx: x1, cy: y1, r: 2.2, class: e ? 'pt' : 'pt dropped', 'data-point': i }));
+      // Hover (and screen readers): the point's position and its error, in numbers.
+      const hit = el('circle', { cx: x1, cy: y1, r: 7, class: 'hit', 'data-hit-point': i, 'data-testid': 'tracker-point' });
+      hit.append(el('title', {}, pointText(i, p, e)));
+      dots.append(hit);
       if (!e) return;
       const x2 = r2(x1 + e[a] * pxPerUm);
       const y2 = r2(y1 - e[b] * pxPerUm);

@@ -740,6 +740,23 @@ test('dashboard: upload CCW+CW DBB, polar plot, figures, bad file, 401', { timeo
       }));
       assert.deepEqual(plot.views, ['xy', 'xz']);
       assert.equal(plot.dots, 2 * xs.length, 'every commanded point in both views');
+      // Hovering a point gives its position and error in numbers.
+      const k = errors.findIndex((e) => Array.isArray(e));
+      const hover = await page.textContent(`#polar-plot svg g.view[data-view="xy"] circle[data-hit-point="${k}"] title`);
+      const e0 = errors[k];
+      const f3 = (v) => v.toFixed(3).replace('-', '−');
+      assert.equal(
+        hover,
+        `Point ${k + 1} at X ${f3(xs[k])}, Y ${f3(ys[k])}, Z ${f3(zs[k])} mm: error X ${f3(e0[0])}, Y ${f3(e0[1])}, Z ${f3(e0[2])} µm (${f3(Math.hypot(...e0))} µm)`,
+      );
+      // One Z layer at a time, and back to all.
+      const layerZ = Math.max(...zs);
+      await page.selectOption('[data-testid="tracker-layer"]', String(layerZ));
+      await page.waitForSelector(`#polar-plot svg[data-testid="tracker-vector-plot"][data-layer="${layerZ}"]`);
+      const inLayer = zs.filter((z) => z === layerZ).length;
+      assert.equal(await page.locator('#polar-plot svg[data-testid="tracker-vector-plot"] g.view circle[data-point]').count(), 2 * inLayer);
+      await page.selectOption('[data-testid="tracker-layer"]', 'all');
+      await page.waitForSelector('#polar-plot svg[data-testid="tracker-vector-plot"][data-layer="all"]');
       assert.ok(plot.magnification >= 1000, `magnification ${plot.magnification}`);
       assert.equal(plot.pxPerUm, plot.magnification * 1e-3 * plot.pxPerMm);
       assert.match(plot.mag, new RegExp(`×${plot.magnification}\\b`));
