@@ -33,7 +33,7 @@ inline std::int64_t QueryInt(const Request& req, const std::string& key, std::in
 inline std::optional<std::string> QueryTime(const Request& req, const std::string& key) {
   const auto v = req.Query(key);
   if (!v) return std::nullopt;
-  auto t = server::NormalizeIso8601(*v);
+  auto t = server::NormaliseIso8601(*v);
   if (!t) throw InvalidInput("", 0, key, "'" + *v + "' is not an ISO 8601 date or time");
   return t;
 }

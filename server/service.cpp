@@ -92,7 +92,7 @@ UploadOutcome Service::Upload(std::string_view bytes, const std::string& filenam
   m.test_id = in.test_id;
   m.direction = in.direction;
   if (in.measured_at) {
-    m.measured_at = NormalizeIso8601(*in.measured_at);
+    m.measured_at = NormaliseIso8601(*in.measured_at);
     if (!m.measured_at) {
       throw InvalidInput(file, 0, "timestamp", "'" + *in.measured_at + "' is not ISO 8601");
     }

@@ -18,7 +18,7 @@ std::string NowUtcIso8601() {
   return buf;
 }
 
-std::optional<std::string> NormalizeIso8601(const std::string& text) {
+std::optional<std::string> NormaliseIso8601(const std::string& text) {
   const auto p = ingest::ParseIso8601(text);  // nullopt beyond kMaxIso8601Length characters
   if (!p) return std::nullopt;
   std::tm tm{};

@@ -14,6 +14,6 @@ std::string NowUtcIso8601();
 using ingest::UtcIso8601FromMicros;
 // Normalises an ISO 8601 date or date-time (with Z, ±hh:mm or no zone = UTC) to UTC
 // "YYYY-MM-DDTHH:MM:SS[.fff]Z". nullopt when the text is not such a time.
-std::optional<std::string> NormalizeIso8601(const std::string& text);
+std::optional<std::string> NormaliseIso8601(const std::string& text);
 
 }  // namespace km::server

@@ -8,8 +8,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   km::fuzz::Guarded([&] {
     const std::string text(km::fuzz::AsText(data, size));
-    if (const auto t = km::server::NormalizeIso8601(text)) {
-      const auto again = km::server::NormalizeIso8601(*t);
+    if (const auto t = km::server::NormaliseIso8601(text)) {
+      const auto again = km::server::NormaliseIso8601(*t);
       if (!again || *again != *t) {
         km::fuzz::Fail("'" + text + "' normalises to '" + *t + "', which normalises to '" +
                        (again ? *again : std::string("nothing")) + "'");

@@ -111,11 +111,11 @@ TEST_F(StorageTest, SampleBlobRoundTripAndCorruption) {
 }
 
 TEST(TimeUtil, NormalisesIso8601ToUtc) {
-  EXPECT_EQ(NormalizeIso8601("2026-11-20T10:00:00+01:00"), "2026-11-20T09:00:00Z");
-  EXPECT_EQ(NormalizeIso8601("2026-11-20"), "2026-11-20T00:00:00Z");
-  EXPECT_EQ(NormalizeIso8601("2026-11-20 23:30-02:30"), "2026-11-21T02:00:00Z");
-  EXPECT_FALSE(NormalizeIso8601("2026-13-01").has_value());
-  EXPECT_FALSE(NormalizeIso8601("soon").has_value());
+  EXPECT_EQ(NormaliseIso8601("2026-11-20T10:00:00+01:00"), "2026-11-20T09:00:00Z");
+  EXPECT_EQ(NormaliseIso8601("2026-11-20"), "2026-11-20T00:00:00Z");
+  EXPECT_EQ(NormaliseIso8601("2026-11-20 23:30-02:30"), "2026-11-21T02:00:00Z");
+  EXPECT_FALSE(NormaliseIso8601("2026-13-01").has_value());
+  EXPECT_FALSE(NormaliseIso8601("soon").has_value());
 }
 
 TEST_F(StorageTest, ListsPageNewestFirstAndFindByFreeTextAndId) {

@@ -1,4 +1,4 @@
-// NormalizeIso8601 (server/time_util.h): the same answers as the regular expression that used
+// NormaliseIso8601 (server/time_util.h): the same answers as the regular expression that used
 // to define it, and very long texts (100 KB query values) refused without deep recursion.
 #include "server/time_util.h"
 
@@ -45,14 +45,14 @@ std::optional<std::string> Reference(const std::string& text) {
 }
 
 TEST(TimeUtil, NormalisesLikeBefore) {
-  EXPECT_EQ(NormalizeIso8601("2026-11-20T10:00:00+01:00"), "2026-11-20T09:00:00Z");
-  EXPECT_EQ(NormalizeIso8601("2026-11-20"), "2026-11-20T00:00:00Z");
-  EXPECT_EQ(NormalizeIso8601("2026-11-20 23:30-02:30"), "2026-11-21T02:00:00Z");
-  EXPECT_EQ(NormalizeIso8601("2026-11-20T23:30:59.123456789Z"), "2026-11-20T23:30:59.123456Z");
-  EXPECT_EQ(NormalizeIso8601("2026-12-31T23:59:60Z"), "2027-01-01T00:00:00Z");
-  EXPECT_FALSE(NormalizeIso8601("2026-13-01"));
-  EXPECT_FALSE(NormalizeIso8601("2026-11-20T24:00"));
-  EXPECT_FALSE(NormalizeIso8601("soon"));
+  EXPECT_EQ(NormaliseIso8601("2026-11-20T10:00:00+01:00"), "2026-11-20T09:00:00Z");
+  EXPECT_EQ(NormaliseIso8601("2026-11-20"), "2026-11-20T00:00:00Z");
+  EXPECT_EQ(NormaliseIso8601("2026-11-20 23:30-02:30"), "2026-11-21T02:00:00Z");
+  EXPECT_EQ(NormaliseIso8601("2026-11-20T23:30:59.123456789Z"), "2026-11-20T23:30:59.123456Z");
+  EXPECT_EQ(NormaliseIso8601("2026-12-31T23:59:60Z"), "2027-01-01T00:00:00Z");
+  EXPECT_FALSE(NormaliseIso8601("2026-13-01"));
+  EXPECT_FALSE(NormaliseIso8601("2026-11-20T24:00"));
+  EXPECT_FALSE(NormaliseIso8601("soon"));
   std::mt19937 rng(7);
   const std::string alphabet = "0123456789-T :.Z+";
   const std::vector<std::string> seeds = {"2026-11-20",
@@ -77,7 +77,7 @@ TEST(TimeUtil, NormalisesLikeBefore) {
     // Years before 1000 were written with fewer than four digits (a text that did not read
     // back); they are written with four now.
     if (ref && ref->find('-') != 4) continue;
-    ASSERT_EQ(NormalizeIso8601(s), ref) << "'" << s << "'";
+    ASSERT_EQ(NormaliseIso8601(s), ref) << "'" << s << "'";
   }
   EXPECT_GT(valid, 1000);
 }
@@ -85,11 +85,11 @@ TEST(TimeUtil, NormalisesLikeBefore) {
 // A normalised time is itself a time that normalises to the same text: times whose UTC year
 // leaves 0000–9999 (a zone offset at either end of the calendar) are not times.
 TEST(TimeUtil, NormalisedTimesStayFourDigitYears) {
-  EXPECT_FALSE(NormalizeIso8601("9999-12-31T23:09-0800"));
-  EXPECT_FALSE(NormalizeIso8601("0000-01-01T00:30+01:00"));
-  EXPECT_EQ(NormalizeIso8601("9999-12-31T23:09+0800"), "9999-12-31T15:09:00Z");
-  EXPECT_EQ(NormalizeIso8601("0000-01-01T10:00+01:00"), "0000-01-01T09:00:00Z");
-  EXPECT_EQ(NormalizeIso8601("0999-03-04 05:06:07.5"), "0999-03-04T05:06:07.5Z");
+  EXPECT_FALSE(NormaliseIso8601("9999-12-31T23:09-0800"));
+  EXPECT_FALSE(NormaliseIso8601("0000-01-01T00:30+01:00"));
+  EXPECT_EQ(NormaliseIso8601("9999-12-31T23:09+0800"), "9999-12-31T15:09:00Z");
+  EXPECT_EQ(NormaliseIso8601("0000-01-01T10:00+01:00"), "0000-01-01T09:00:00Z");
+  EXPECT_EQ(NormaliseIso8601("0999-03-04 05:06:07.5"), "0999-03-04T05:06:07.5Z");
   std::mt19937 rng(11);
   const auto pick = [&](unsigned n) { return static_cast<unsigned>(rng() % n); };
   for (int n = 0; n < 20000; ++n) {
@@ -98,17 +98,17 @@ TEST(TimeUtil, NormalisedTimesStayFourDigitYears) {
     std::snprintf(text, sizeof text, "%04u-%02u-%02uT%02u:%02u:%02u%c%02u:%02u", year, 1 + pick(12),
                   1 + pick(31), pick(24), pick(60), pick(61), pick(2) ? '+' : '-', pick(100),
                   pick(100));
-    const auto t = NormalizeIso8601(text);
+    const auto t = NormaliseIso8601(text);
     if (!t) continue;
-    ASSERT_EQ(NormalizeIso8601(*t), t) << text;
+    ASSERT_EQ(NormaliseIso8601(*t), t) << text;
   }
 }
 
 TEST(TimeUtil, HugeTextsAreNotTimes) {
-  EXPECT_FALSE(NormalizeIso8601(std::string(110'000, '1')));
-  EXPECT_FALSE(NormalizeIso8601("2026-11-20T10:00:00." + std::string(110'000, '7')));
-  EXPECT_FALSE(NormalizeIso8601("2026-11-20T10:00:00." + std::string(45, '7')));  // 65 chars
-  EXPECT_TRUE(NormalizeIso8601("2026-11-20T10:00:00." + std::string(44, '7')));   // 64 chars
+  EXPECT_FALSE(NormaliseIso8601(std::string(110'000, '1')));
+  EXPECT_FALSE(NormaliseIso8601("2026-11-20T10:00:00." + std::string(110'000, '7')));
+  EXPECT_FALSE(NormaliseIso8601("2026-11-20T10:00:00." + std::string(45, '7')));  // 65 chars
+  EXPECT_TRUE(NormaliseIso8601("2026-11-20T10:00:00." + std::string(44, '7')));   // 64 chars
 }
 
 }  // namespace
