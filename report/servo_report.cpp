@@ -55,6 +55,21 @@ json IdentifiedBlock(const servo::IdentifyResult& r, bool sigma) {
   return j;
 }
 
+// The `joint_friction` effect with the identified parameters (docs/hexapod-effects.md).
+json JointFrictionJson(const servo::IdentifyResult& r) {
+  json j{{"torque_Nm", Number(r.identified.base_joint_torque_Nm)},
+         {"torque_per_N_m", Number(r.identified.base_joint_torque_per_N_m)},
+         {"ramp_mm", nullptr},
+         {"ramp_sigma_mm", nullptr}};
+  if (r.joint_ramp) {
+    j["ramp_mm"] = Number(r.joint_ramp->ramp_mm);
+    j["ramp_sigma_mm"] = Number(r.joint_ramp->sigma_mm);
+    j["residual_rms_N"] = Number(r.joint_ramp->residual_rms_N);
+    j["step_residual_rms_N"] = Number(r.joint_ramp->step_residual_rms_N);
+  }
+  return j;
+}
+
 }  // namespace
 
 json ServoIdentifyJson(const std::string& machine_id, const std::vector<servo::ServoFile>& files,
@@ -81,6 +96,7 @@ json ServoIdentifyJson(const std::string& machine_id, const std::vector<servo::S
       {{"parameter", "ball_screw_mass_kg"}, {"value", r.identified.ball_screw_mass_kg}},
       {{"parameter", "joint_mass_kg"}, {"value", r.identified.joint_mass_kg}}};
   j["iterations"] = r.iterations;
+  j["joint_friction"] = JointFrictionJson(r);
   j["analysis_version"] = kServoAnalysisVersion;
   return j;
 }
@@ -101,6 +117,26 @@ std::string MachineWithIdentified(const ingest::MachineDefinition& machine,
   if (!f.is_object()) f = json::object();
   for (const char* k : {"screw_friction_N", "base_joint_torque_Nm", "base_joint_torque_per_N_m"}) {
     f[k] = id[k];
+  }
+  // The joint friction as a known effect of the model, so a DBB calibration cancels it
+  // instead of fitting it ([Joint patent] formulas 15–20).
+  if (r.joint_ramp) {
+    const json jf = JointFrictionJson(r);
+    json effect = {{"effect", "joint_friction"},
+                   {"parameters",
+                    {{"torque_Nm", jf["torque_Nm"]},
+                     {"ramp_mm", std::clamp(r.joint_ramp->ramp_mm, 0.01, 50.0)},
+                     {"torque_per_N_m", jf["torque_per_N_m"]}}}};
+    json& effects = doc["effects"];
+    if (!effects.is_array()) effects = json::array();
+    bool replaced = false;
+    for (auto& e : effects) {
+      if (e.is_object() && e.value("effect", "") == "joint_friction") {
+        e = effect;
+        replaced = true;
+      }
+    }
+    if (!replaced) effects.push_back(effect);
   }
   return doc.dump(2) + "\n";
 }

@@ -24,13 +24,15 @@ inline constexpr const char* kServoAnalysisVersion = "servo/1";
 
 // {machine_id, files[], samples, identified{…}, uncertainty{…}, residual_rms_N[6],
 //  residual_sigma_N, rows_used[6], condition_number, fixed[], fixed_reasons[],
-//  held_design_values[], iterations}
+//  held_design_values[], iterations, joint_friction{torque_Nm, torque_per_N_m, ramp_mm,
+//  ramp_sigma_mm, residual_rms_N, step_residual_rms_N}}
 nlohmann::json ServoIdentifyJson(const std::string& machine_id,
                                  const std::vector<servo::ServoFile>& files,
                                  const servo::IdentifyResult& r);
 
 // The machine document with the identified values written into its `gravity` and `friction`
-// blocks (other keys kept), pretty-printed.
+// blocks and the `joint_friction` effect with the identified torque, load factor and ramp
+// in its `effects` block (known parameters; other keys kept), pretty-printed.
 std::string MachineWithIdentified(const ingest::MachineDefinition& machine,
                                   const servo::IdentifyResult& r);
 

@@ -159,6 +159,10 @@ IdentifyResult IdentifyLoads(const hexapod::HexapodGeometry& geometry,
   r.identified = WithParameters(machine, theta);
   CogSigma(sol, r);
   Residuals(machine, tracks, theta, options.inertia, r);
+  if (options.estimate_ramp) {
+    r.joint_ramp = EstimateJointRamp(geometry, r.identified, files, options.min_rate_fraction,
+                                     options.reversal_skip_mm);
+  }
   return r;
 }
 

@@ -8,11 +8,13 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "analysis/hexapod/kinematics.h"
 #include "analysis/hexapod/statics.h"
+#include "analysis/servo/joint_ramp.h"
 #include "analysis/servo/load_model.h"
 #include "analysis/servo/servo_types.h"
 
@@ -26,6 +28,7 @@ struct IdentifyOptions {
   int max_iterations = 20;           // ĝ refreshed for t1
   double min_singular_ratio = 1e-4;  // identifiability threshold (linear_lsq.h)
   bool inertia = true;               // the platform's inertia (eq. 3.13) in the model
+  bool estimate_ramp = true;         // the joint-friction ramp after reversals (joint_ramp.h)
   // Throws km::InvalidInput naming the field when a value is out of range.
   void Check() const;
 };
@@ -47,6 +50,7 @@ struct IdentifyResult {
   double condition_number = 0.0;
   int iterations = 0;
   std::size_t samples = 0;
+  std::optional<RampEstimate> joint_ramp;  // with IdentifyOptions::estimate_ramp
 };
 
 // `machine` supplies the geometry, gravity vector, the fixed masses m_B, m_J, lengths l1–l3,

@@ -70,6 +70,15 @@ TEST_F(ServoCli, IdentifyPrintsTheMachineKeysAndWritesTheMachine) {
   ASSERT_TRUE(machine.physics.has_value());
   EXPECT_NEAR(machine.physics->platform_mass_kg, m.m_platform, 5.0);
   EXPECT_NEAR(machine.physics->base_joint_torque_Nm, m.t0, 0.9);
+  // The joint friction is a known effect of the written model (docs/hexapod-effects.md).
+  ASSERT_EQ(machine.effects.size(), 1u);
+  EXPECT_EQ(machine.effects[0].effect, "joint_friction");
+  std::map<std::string, double> p(machine.effects[0].parameters.begin(),
+                                  machine.effects[0].parameters.end());
+  EXPECT_NEAR(p.at("torque_Nm"), m.t0, 0.9);
+  EXPECT_NEAR(p.at("torque_per_N_m"), m.t1, 0.0014);
+  EXPECT_NEAR(p.at("ramp_mm"), m.joint_ramp_mm, 0.15);
+  EXPECT_NEAR(j["joint_friction"]["ramp_mm"].get<double>(), m.joint_ramp_mm, 0.15);
 }
 
 TEST_F(ServoCli, ForceGivesAForcePerSampleWithItsUncertainty) {

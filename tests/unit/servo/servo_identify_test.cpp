@@ -44,6 +44,12 @@ TEST(ServoIdentify, RecoversMassesAndFrictionOfTheJigPlan) {
   EXPECT_LT(std::abs(id.base_joint_torque_Nm - m.t0), 5.0 * r.sigma[kT0]);
   EXPECT_GT(r.condition_number, 1.0);
   EXPECT_TRUE(r.fixed.empty()) << r.fixed.front().parameter;
+  // The joint-friction ramp after reversals (0.5 mm simulated), seen in the samples the
+  // identification leaves out; the ramp explains what a step would leave.
+  ASSERT_TRUE(r.joint_ramp.has_value());
+  EXPECT_NEAR(r.joint_ramp->ramp_mm, m.joint_ramp_mm, 0.1 * m.joint_ramp_mm);
+  EXPECT_LT(r.joint_ramp->residual_rms_N, 0.8 * r.joint_ramp->step_residual_rms_N);
+  EXPECT_LT(std::abs(r.joint_ramp->ramp_mm - m.joint_ramp_mm), 5.0 * r.joint_ramp->sigma_mm + 0.01);
 }
 
 TEST(ServoIdentify, NamesWhatLevelCirclesCannotSeparate) {

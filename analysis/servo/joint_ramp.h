@@ -1,0 +1,33 @@
+// The travel over which the base-joint friction goes over to the other side after a reversal
+// of a joint's swing ([Joint patent] figs. 10–12; the ramp λ of docs/hexapod-effects.md
+// § joint_friction), from the servo loads once the masses and friction are identified
+// (docs/methods.md §12). Each joint axis carries a friction state r ∈ [−1, 1] that moves by
+// 2δ/λ with the swing δ of each sample (after one pass through the record, its steady state);
+// λ minimises the residual of the strut forces over every sample where the tool tip moves and
+// the strut's screw friction is settled — the samples the identification leaves out near
+// reversals are the ones that see λ. A line search over log λ in [0.01, 20] mm; σ from the
+// curvature of the residual.
+#pragma once
+
+#include <vector>
+
+#include "analysis/hexapod/statics.h"
+#include "analysis/servo/servo_types.h"
+
+namespace km::servo {
+
+struct RampEstimate {
+  double ramp_mm = 0.0;
+  double sigma_mm = 0.0;
+  double residual_rms_N = 0.0;       // at the estimate, over the rows used
+  double step_residual_rms_N = 0.0;  // with a step (λ → 0), the same rows
+  std::size_t rows = 0;
+};
+
+// `physics`: the identified machine. Throws km::NotObservable when no sample is usable.
+RampEstimate EstimateJointRamp(const hexapod::HexapodGeometry& geometry,
+                               const hexapod::MachinePhysics& physics,
+                               const std::vector<ServoFile>& files, double min_rate_fraction,
+                               double reversal_skip_mm);
+
+}  // namespace km::servo
