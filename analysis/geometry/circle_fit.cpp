@@ -85,6 +85,8 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
       Eigen::Matrix3d a = jtj;
       a.diagonal() += lambda * jtj.diagonal().cwiseMax(1e-300);
       step = -a.ldlt().solve(jtd);
+      // A step below the tolerance cannot lower the cost beyond rounding: converged.
+      if (step.norm() <= tol) break;
       const Eigen::Vector2d c_new = c + step.head<2>();
       const double r_new = r + step(2);
       const double cost_new = SumSquares(p, c_new, r_new);
