@@ -170,6 +170,20 @@ TEST_F(ServerIntegration, UploadQueryRestartAndNothingLost) {
       3);
   EXPECT_EQ(api.Get("/api/v1/measurements?limit=0")->status, 400);
   EXPECT_EQ(api.Get("/api/v1/measurements?from=yesterday")->status, 400);
+  // Newest first, the newest upload first, free text (an id with '#', URL-encoded), and an
+  // order that does not exist (400 naming the field).
+  auto newest = json::parse(
+      api.Get("/api/v1/measurements?machine_id=it-vmc&kind=dbb&order=uploaded&limit=1")->body);
+  EXPECT_EQ(newest["total"], 3);
+  EXPECT_EQ(newest["items"][0]["id"], id2);  // the last upload
+  EXPECT_TRUE(newest["items"][0]["key_result"]["value"].is_number());
+  auto by_id =
+      json::parse(api.Get("/api/v1/measurements?q=%23" + std::to_string(id2) + "&limit=5")->body);
+  ASSERT_EQ(by_id["items"].size(), 1u);
+  EXPECT_EQ(by_id["items"][0]["id"], id2);
+  auto bad_order = api.Get("/api/v1/measurements?order=sideways");
+  EXPECT_EQ(bad_order->status, 400);
+  EXPECT_EQ(json::parse(bad_order->body)["field"], "order");
   EXPECT_EQ(api.Get("/api/v1/measurements/999")->status, 404);
   EXPECT_EQ(api.Get("/api/v1/measurements/abc")->status, 400);
 
