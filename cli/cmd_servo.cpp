@@ -97,7 +97,9 @@ int RunForce(const Args& args, std::ostream& out) {
   }
   if (args.positional.size() != 1) throw InvalidInput("", 0, "FILE", "give exactly one file");
   const auto files = Files(args, machine.machine_id, true);
-  servo::ForceOptions o;
+  servo::ForceOptions o = server::ForceOptionsOf(machine);
+  if (args.Has("--joint-ramp-mm")) o.joint_ramp_mm = args.GetNumber("--joint-ramp-mm", 0.0);
+  if (args.Has("--screw-ramp-mm")) o.screw_ramp_mm = args.GetNumber("--screw-ramp-mm", 0.0);
   if (args.Has("--noise-N")) {
     std::array<double, 6> n{};
     n.fill(args.GetNumber("--noise-N", 0.0));
@@ -175,8 +177,10 @@ KM_CLI_COMMAND("servo identify",
                "[--reversal-skip-mm D] [--no-inertia] [--json]",
                {"--machine", "--write-machine", "--min-rate-fraction", "--reversal-skip-mm"},
                RunIdentify);
-KM_CLI_COMMAND("servo force", "--machine M.json FILE [--noise-N S] [--json]",
-               {"--machine", "--noise-N"}, RunForce);
+KM_CLI_COMMAND("servo force",
+               "--machine M.json FILE [--joint-ramp-mm L] [--screw-ramp-mm L] [--noise-N S] "
+               "[--json]",
+               {"--machine", "--noise-N", "--joint-ramp-mm", "--screw-ramp-mm"}, RunForce);
 KM_CLI_COMMAND("servo joints",
                "--machine M.json FILE... [--previous RESULT.json] [--level2-ratio R] "
                "[--level3-ratio R] [--increase-warn F] [--increase-stop F] [--reference-Nm T] "

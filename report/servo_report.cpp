@@ -158,8 +158,23 @@ json ServoForceJson(const std::string& machine_id, const servo::ServoFile& file,
   j["mean_force_N"] = Vec3(f.mean_force_N);
   j["mean_sigma_N"] = Vec3(f.mean_sigma_N);
   j["strut_noise_N"] = Array(f.strut_noise_N.data(), 6);
+  j["joint_ramp_mm"] = Number(f.joint_ramp_mm);
+  j["screw_ramp_mm"] = Number(f.screw_ramp_mm);
+  j["ramps_from"] = {{"joint", f.joint_ramp_estimated ? "record" : "machine model"},
+                     {"screw", f.screw_ramp_estimated ? "record" : "given"}};
   j["analysis_version"] = kServoAnalysisVersion;
   return j;
+}
+
+servo::ForceOptions ForceOptionsOf(const ingest::MachineDefinition& machine) {
+  servo::ForceOptions o;
+  for (const auto& e : machine.effects) {
+    if (e.effect != "joint_friction") continue;
+    for (const auto& [name, value] : e.parameters) {
+      if (name == "ramp_mm" && value >= 0.0 && value <= 100.0) o.joint_ramp_mm = value;
+    }
+  }
+  return o;
 }
 
 json ServoJointsJson(const std::string& machine_id, const servo::JointsResult& r,

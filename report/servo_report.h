@@ -37,9 +37,12 @@ std::string MachineWithIdentified(const ingest::MachineDefinition& machine,
                                   const servo::IdentifyResult& r);
 
 // {machine_id, file, test_id, t_s[], force_N[][3], sigma_N[][3], mean_force_N[3],
-//  mean_sigma_N[3], strut_noise_N[6]}
+//  mean_sigma_N[3], strut_noise_N[6], joint_ramp_mm, screw_ramp_mm, ramps_from{joint, screw}}
 nlohmann::json ServoForceJson(const std::string& machine_id, const servo::ServoFile& file,
                               const servo::ForceEstimate& f);
+
+// The force options of a machine: the ramp of its `joint_friction` effect, when it has one.
+servo::ForceOptions ForceOptionsOf(const ingest::MachineDefinition& machine);
 
 // {machine_id, legs[] {leg, resistance_Nm, sigma_Nm, level, evidence, reference_Nm, ratio,
 //  previous_Nm, joints[] {joint, resistance_Nm, sigma_Nm, identified}, screw_friction_N,

@@ -161,7 +161,8 @@ nlohmann::json ServoForce(Service& service, std::int64_t measurement_id,
   if (!file.hexapod) {
     throw InvalidInput("", 0, "id", "a feed-drive record has no tool-tip force");
   }
-  const auto f = servo::EstimateExternalForce(machine.geometry, *machine.physics, file);
+  const auto f = servo::EstimateExternalForce(machine.geometry, *machine.physics, file,
+                                              ForceOptionsOf(machine));
   nlohmann::json j = ServoForceJson(machine.machine_id, file, f);
   j["machine_version"] = version;
   return j;

@@ -3,11 +3,16 @@
 // modelled gravity, friction and inertia (pose second derivative by finite differences), and
 // â = Σ d̂_j l_j.
 //
+// Friction follows the states of friction_states.h: the base joints and ball screws go over to
+// the other side after a reversal as a ramp over a travel λ. λ of the joints is the machine
+// model's `joint_friction` ramp when given, λ of both otherwise the one that makes the estimated
+// force smoothest (least sum of squared successive differences; a grid over log λ in
+// [0.01, 20] mm and the step, then golden-section search) — a wrong λ leaves spikes at every
+// reversal.
+//
 // Uncertainty per sample and axis: the strut forces' noise σ_j (from the record itself: the
 // spread of successive differences of d̂_j, /√2, robust by the median absolute deviation, or
-// given), and, where a strut stands still or has just reversed, the friction the model cannot
-// know the sign of: the ball-screw friction is then left out and counted as uniform in
-// ±f0_j (σ = f0_j/√3).
+// given), and where a strut stands still the static friction, uniform in ±f0_j (σ = f0_j/√3).
 #pragma once
 
 #include <array>
@@ -22,8 +27,8 @@
 namespace km::servo {
 
 struct ForceOptions {
-  double min_rate_fraction = 0.2;  // as IdentifyOptions
-  double reversal_skip_mm = 1.0;
+  double min_rate_fraction = 0.2;  // a strut below this × its median rate stands still
+  std::optional<double> joint_ramp_mm, screw_ramp_mm;  // estimated from the record if unset
   std::optional<std::array<double, 6>> strut_noise_N;  // σ_j; estimated from the record if unset
   void Check() const;
 };
@@ -33,6 +38,8 @@ struct ForceEstimate {
   std::vector<Eigen::Vector3d> force_N;  // â, machine frame
   std::vector<Eigen::Vector3d> sigma_N;  // per axis
   std::array<double, 6> strut_noise_N{};
+  double joint_ramp_mm = 0.0, screw_ramp_mm = 0.0;  // used (0: a step)
+  bool joint_ramp_estimated = false, screw_ramp_estimated = false;
   Eigen::Vector3d mean_force_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d mean_sigma_N = Eigen::Vector3d::Zero();  // of the mean
 };

@@ -84,23 +84,20 @@ TEST(ServoForce, RecoversAStaticExternalForce) {
     const auto file = ingest::ParseServoFile(truth::ServoText(c, rec), "force.txt");
     const ForceEstimate f = EstimateExternalForce(testing::Pm600Geometry(), physics, file);
     ASSERT_EQ(f.force_N.size(), rec.t_s.size());
-    // Outside the friction ramps after reversals (which the estimate marks with a larger
-    // uncertainty) every sample within 10 % + 20 N; every sample within 5 σ of the truth; the
-    // mean much closer.
+    // Every sample within 10 % + 20 N and within 5 σ of the truth; the friction ramps of the
+    // simulator (0.5 mm joints, 0.3 mm screws) found from the smoothness of the estimate.
     const double tol = 0.1 * load.norm() + 20.0;
-    std::size_t settled = 0;
-    double worst_settled = 0.0, worst_z = 0.0;
+    double worst = 0.0, worst_z = 0.0;
     for (std::size_t i = 0; i < f.force_N.size(); ++i) {
       const Eigen::Vector3d e = f.force_N[i] - load;
-      if (f.sigma_N[i].norm() < 10.0) {
-        ++settled;
-        worst_settled = std::max(worst_settled, e.norm());
-      }
+      worst = std::max(worst, e.norm());
       for (int k = 0; k < 3; ++k) worst_z = std::max(worst_z, std::abs(e[k]) / f.sigma_N[i][k]);
     }
-    EXPECT_GT(settled, f.force_N.size() / 2) << "load " << load.transpose();
-    EXPECT_LT(worst_settled, tol) << "load " << load.transpose();
+    EXPECT_LT(worst, tol) << "load " << load.transpose();
     EXPECT_LT(worst_z, 5.0) << "load " << load.transpose();
+    EXPECT_TRUE(f.joint_ramp_estimated && f.screw_ramp_estimated);
+    EXPECT_NEAR(f.joint_ramp_mm, m.joint_ramp_mm, 0.15);
+    EXPECT_NEAR(f.screw_ramp_mm, m.screw_ramp_mm, 0.15);
     EXPECT_LT((f.mean_force_N - load).norm(), 0.02 * load.norm() + 5.0);
     for (int j = 0; j < 6; ++j) EXPECT_NEAR(f.strut_noise_N[j], 2.0, 0.75);
   }
