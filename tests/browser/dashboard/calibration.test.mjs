@@ -10,7 +10,7 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { dbbFile, fixtures, outDir, repo, withDashboard } from '../lib/harness.mjs';
+import { assertNoHorizontalOverflow, dbbFile, fixtures, outDir, repo, withDashboard } from '../lib/harness.mjs';
 
 const MACHINE_JSON = join(repo, 'tests/fixtures/pm600-like.json');
 const HEXAPOD = 'pm600-like';
@@ -97,6 +97,11 @@ test('one-test calibration: warning, reasons, no after figures; ten tests: ok', 
     const apiHistory = await api.get(`/api/v1/jobs?machine_id=${HEXAPOD}`);
     assert.deepEqual(apiHistory.items.map((j) => j.id), [okId, jobId]);
     assert.deepEqual((await api.get('/api/v1/jobs?machine_id=serial-vmc')).items, []);
+    // 400 px wide: the job view with its tables fits (the tables scroll inside themselves).
+    await page.setViewportSize({ width: 400, height: 800 });
+    await assertNoHorizontalOverflow(page, '400 px, calibration job');
+    await page.setViewportSize({ width: 1280, height: 900 });
+
     // Back to the warning job from the history.
     await page.click(`[data-testid="job-item"][data-job-id="${jobId}"]`);
     await page.waitForSelector(`#job-view[data-job-id="${jobId}"][data-job-verdict="warning"]`);
