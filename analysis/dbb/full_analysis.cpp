@@ -2,14 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <functional>
 #include <map>
 #include <numbers>
+#include <optional>
+#include <thread>
 #include <tuple>
 
 #include <Eigen/Core>
 #include <Eigen/LU>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/parallel.h"
 #include "analysis/effects/registry.h"
 
 namespace km::dbb {
@@ -119,8 +124,148 @@ std::vector<double> BarDeviation(const DbbTestReport& t, std::vector<double> dev
   return dev;
 }
 
+unsigned Threads(const DbbAnalysisOptions& opt) {
+  return opt.threads > 0 ? opt.threads : std::max(1u, std::thread::hardware_concurrency());
+}
+
 std::string Where(const DbbTest& t, std::size_t i) {
   return t.test_id.empty() ? "test #" + std::to_string(i + 1) : "test " + t.test_id;
+}
+
+// Figures of test i: circle, ISO 230-4, minimum zone, harmonics; `dev` receives the deviation
+// about the nominal centre.
+void AnalyzeOne(const DbbTest& t, std::size_t i, const DbbAnalysisOptions& opt, DbbTestReport& tr,
+                std::vector<double>& dev) {
+  try {
+    tr.circular = AnalyzeCircularTest(t, DeviationUnits::kToolPath);
+    tr.plane = t.plane;
+    tr.iso230_4 = ComputeIso230(tr.circular);
+    // Minimum zone on the planar representation about the nominal centre (µm).
+    const double rn = NominalRadiusUm(tr.circular);
+    dev = DeviationAboutNominalCentre(tr.circular);
+    std::vector<Eigen::Vector2d> pts(dev.size());
+    std::vector<double> c(dev.size()), s(dev.size());
+    for (std::size_t k = 0; k < dev.size(); ++k) {
+      c[k] = CosAngle(tr.circular, k);
+      s[k] = SinAngle(tr.circular, k);
+      pts[k] = (rn + dev[k]) * Eigen::Vector2d(c[k], s[k]);
+    }
+    tr.min_zone = geometry::FitMinZoneCircle(
+        pts, Eigen::Vector2d(tr.circular.centre_offset_um[0], tr.circular.centre_offset_um[1]));
+    tr.min_zone_circularity_um = tr.min_zone.width;
+    tr.harmonics =
+        FitHarmonics(c, s, tr.circular.mode == Mode::kAbsolute ? dev : tr.circular.radial_error_um,
+                     std::min(opt.harmonic_orders, static_cast<int>((dev.size() - 1) / 2)));
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(e.file(), e.line(), e.field(), Where(t, i) + ": " + e.reason());
+  }
+}
+
+// Diagnosis of one unit (a single test or a ccw + cw pair).
+DiagnosisResult DiagnoseUnit(const std::vector<DbbTest>& tests, const DbbReport& rep,
+                             const std::vector<std::vector<double>>& devs,
+                             const std::vector<std::size_t>& members,
+                             const DbbAnalysisOptions& opt) {
+  std::vector<DiagnosisTrace> tr;
+  for (std::size_t i : members) {
+    tr.push_back(
+        MakeDiagnosisTrace(tests[i], rep.tests[i].circular, BarDeviation(rep.tests[i], devs[i])));
+  }
+  try {
+    return DiagnoseSerialDbb(tr, tests[members.front()].plane, opt.diagnosis);
+  } catch (const NotObservable& e) {
+    DiagnosisResult r;
+    r.not_identifiable.push_back(std::string("diagnosis not possible: ") + e.what());
+    return r;
+  }
+}
+
+// A cw and a ccw test with the same test_id: a pair when their figures can be compared (arcs
+// that do not overlap are two separate tests). Its diagnosis as a pair runs beside the pair
+// figures and counts only when the pair holds.
+struct PairCandidate {
+  std::string id;
+  std::size_t cw = 0, ccw = 0;
+  bool same_plane = false;
+  std::optional<Iso230PairFigures> iso;
+  DiagnosisResult diagnosis;
+  std::exception_ptr diagnosis_error;
+};
+
+std::vector<PairCandidate> FindPairCandidates(const std::vector<DbbTest>& tests) {
+  std::map<std::string, std::vector<std::size_t>> by_id;
+  for (std::size_t i = 0; i < tests.size(); ++i) by_id[tests[i].test_id].push_back(i);
+  std::vector<PairCandidate> out;
+  for (const auto& [id, idx] : by_id) {
+    if (idx.size() != 2) continue;
+    std::size_t cw = idx[0], ccw = idx[1];
+    if (tests[cw].direction == Direction::kCcw) std::swap(cw, ccw);
+    if (tests[cw].direction != Direction::kCw || tests[ccw].direction != Direction::kCcw) continue;
+    PairCandidate c;
+    c.id = id;
+    c.cw = cw;
+    c.ccw = ccw;
+    c.same_plane = tests[cw].plane == tests[ccw].plane;
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+// The pair figures, the pair diagnoses and the single-test diagnoses, as independent jobs run
+// in parallel; the result equals running them in order. Returns the diagnosis units.
+std::vector<Unit> PairsAndDiagnoses(const std::vector<DbbTest>& tests, DbbReport& rep,
+                                    const std::vector<std::vector<double>>& devs,
+                                    const DbbAnalysisOptions& opt) {
+  std::vector<PairCandidate> cands = FindPairCandidates(tests);
+  std::vector<bool> speculative(tests.size(), false);
+  std::vector<std::function<void()>> jobs;
+  for (auto& c : cands) {
+    jobs.emplace_back([&] {
+      try {
+        c.iso = ComputeIso230Pair(rep.tests[c.cw].circular, rep.tests[c.ccw].circular, devs[c.cw],
+                                  devs[c.ccw]);
+      } catch (const InvalidInput&) {
+        c.iso.reset();  // partial arcs that do not overlap: two separate tests, not a pair
+      }
+    });
+    if (!opt.diagnose || !c.same_plane) continue;
+    speculative[c.cw] = speculative[c.ccw] = true;
+    jobs.emplace_back([&] {
+      try {
+        c.diagnosis = DiagnoseUnit(tests, rep, devs, {c.ccw, c.cw}, opt);
+      } catch (...) {
+        c.diagnosis_error = std::current_exception();
+      }
+    });
+  }
+  std::vector<Unit> singles;
+  for (std::size_t i = 0; i < tests.size(); ++i)
+    if (opt.diagnose && !speculative[i]) singles.push_back(Unit{{i}, {}});
+  for (auto& u : singles)
+    jobs.emplace_back([&] { u.result = DiagnoseUnit(tests, rep, devs, u.tests, opt); });
+  ParallelFor(
+      jobs.size(), [&](std::size_t j) { jobs[j](); }, Threads(opt));
+
+  std::vector<Unit> units = std::move(singles);
+  for (auto& c : cands) {
+    const bool paired = c.iso.has_value();
+    if (paired) {
+      rep.tests[c.cw].pair = rep.pairs.size();
+      rep.tests[c.ccw].pair = rep.pairs.size();
+      rep.pairs.push_back(DbbPairReport{c.id, c.cw, c.ccw, *c.iso});
+    }
+    if (!opt.diagnose || !c.same_plane) continue;
+    if (paired) {
+      if (c.diagnosis_error) std::rethrow_exception(c.diagnosis_error);
+      units.push_back(Unit{{c.ccw, c.cw}, std::move(c.diagnosis)});
+    } else {
+      for (std::size_t i : {c.cw, c.ccw})
+        units.push_back(Unit{{i}, DiagnoseUnit(tests, rep, devs, {i}, opt)});
+    }
+  }
+  std::sort(units.begin(), units.end(),
+            [](const Unit& a, const Unit& b) { return a.tests.front() < b.tests.front(); });
+  return units;
 }
 
 }  // namespace
@@ -131,83 +276,11 @@ DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOpti
   DbbReport rep;
   rep.tests.resize(tests.size());
   std::vector<std::vector<double>> devs(tests.size());  // deviation about the nominal centre
-  for (std::size_t i = 0; i < tests.size(); ++i) {
-    const DbbTest& t = tests[i];
-    DbbTestReport& tr = rep.tests[i];
-    try {
-      tr.circular = AnalyzeCircularTest(t, DeviationUnits::kToolPath);
-      tr.plane = t.plane;
-      tr.iso230_4 = ComputeIso230(tr.circular);
-      // Minimum zone on the planar representation about the nominal centre (µm).
-      const double rn = NominalRadiusUm(tr.circular);
-      devs[i] = DeviationAboutNominalCentre(tr.circular);
-      const auto& dev = devs[i];
-      std::vector<Eigen::Vector2d> pts(dev.size());
-      for (std::size_t k = 0; k < dev.size(); ++k) {
-        pts[k] =
-            (rn + dev[k]) * Eigen::Vector2d(CosAngle(tr.circular, k), SinAngle(tr.circular, k));
-      }
-      tr.min_zone = geometry::FitMinZoneCircle(
-          pts, Eigen::Vector2d(tr.circular.centre_offset_um[0], tr.circular.centre_offset_um[1]));
-      tr.min_zone_circularity_um = tr.min_zone.width;
-      std::vector<double> c(dev.size()), s(dev.size());
-      for (std::size_t k = 0; k < dev.size(); ++k) {
-        c[k] = CosAngle(tr.circular, k);
-        s[k] = SinAngle(tr.circular, k);
-      }
-      tr.harmonics = FitHarmonics(
-          c, s, tr.circular.mode == Mode::kAbsolute ? dev : tr.circular.radial_error_um,
-          std::min(opt.harmonic_orders, static_cast<int>((dev.size() - 1) / 2)));
-    } catch (const InvalidInput& e) {
-      throw InvalidInput(e.file(), e.line(), e.field(), Where(t, i) + ": " + e.reason());
-    }
-  }
-  // Pairs: exactly one cw and one ccw with the same test_id.
-  std::map<std::string, std::vector<std::size_t>> by_id;
-  for (std::size_t i = 0; i < tests.size(); ++i) by_id[tests[i].test_id].push_back(i);
-  std::vector<bool> in_pair(tests.size(), false);
-  std::vector<Unit> units;
-  for (const auto& [id, idx] : by_id) {
-    if (idx.size() != 2) continue;
-    std::size_t cw = idx[0], ccw = idx[1];
-    if (tests[cw].direction == Direction::kCcw) std::swap(cw, ccw);
-    if (tests[cw].direction != Direction::kCw || tests[ccw].direction != Direction::kCcw) continue;
-    DbbPairReport pr;
-    pr.test_id = id;
-    pr.cw = cw;
-    pr.ccw = ccw;
-    try {
-      pr.iso230_4 =
-          ComputeIso230Pair(rep.tests[cw].circular, rep.tests[ccw].circular, devs[cw], devs[ccw]);
-    } catch (const InvalidInput&) {
-      continue;  // partial arcs that do not overlap: two separate tests, not a pair
-    }
-    rep.tests[cw].pair = rep.pairs.size();
-    rep.tests[ccw].pair = rep.pairs.size();
-    rep.pairs.push_back(pr);
-    if (tests[cw].plane == tests[ccw].plane) {
-      in_pair[cw] = in_pair[ccw] = true;
-      units.push_back(Unit{{ccw, cw}, {}});
-    }
-  }
-  for (std::size_t i = 0; i < tests.size(); ++i)
-    if (!in_pair[i]) units.push_back(Unit{{i}, {}});
-  std::sort(units.begin(), units.end(),
-            [](const Unit& a, const Unit& b) { return a.tests.front() < b.tests.front(); });
+  ParallelFor(
+      tests.size(), [&](std::size_t i) { AnalyzeOne(tests[i], i, opt, rep.tests[i], devs[i]); },
+      Threads(opt));
+  std::vector<Unit> units = PairsAndDiagnoses(tests, rep, devs, opt);
   if (!opt.diagnose) return rep;
-  for (auto& u : units) {
-    std::vector<DiagnosisTrace> tr;
-    for (std::size_t i : u.tests) {
-      tr.push_back(
-          MakeDiagnosisTrace(tests[i], rep.tests[i].circular, BarDeviation(rep.tests[i], devs[i])));
-    }
-    try {
-      u.result = DiagnoseSerialDbb(tr, tests[u.tests.front()].plane, opt.diagnosis);
-    } catch (const NotObservable& e) {
-      u.result = DiagnosisResult{};
-      u.result.not_identifiable.push_back(std::string("diagnosis not possible: ") + e.what());
-    }
-  }
   SeparateServoLag(tests, units, opt.diagnosis);
   for (const auto& u : units) {
     for (std::size_t k = 0; k < u.tests.size(); ++k) {

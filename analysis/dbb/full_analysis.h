@@ -67,6 +67,9 @@ struct DbbAnalysisOptions {
   int harmonic_orders = 10;
   bool diagnose = true;
   DiagnosisOptions diagnosis;
+  // Threads for the independent parts (the tests' figures, the pairs, the diagnosis units):
+  // 0 = the machine's cores, 1 = in order on the calling thread. The result is the same.
+  unsigned threads = 0;
 };
 
 // Throws km::InvalidInput for unusable tests (the message names the test_id).

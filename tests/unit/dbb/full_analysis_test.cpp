@@ -196,6 +196,31 @@ TEST(FullAnalysis, CoarseSamplingStillAnalysed) {
   EXPECT_NEAR(rep.tests[0].diagnosis.front().value[0], 40.0, 2.0);
 }
 
+TEST(FullAnalysis, ParallelAnalysisEqualsAnalysisInOrder) {
+  // Two pairs at two feeds (servo lag across units) and an unpaired test: the threaded analysis
+  // gives exactly the report of the one-thread run.
+  std::vector<DbbTest> tests;
+  for (double feed : {500.0, 3000.0}) {
+    SerialDbbSimOptions o;
+    o.seed = static_cast<unsigned>(feed);
+    o.feed_mm_min = feed;
+    o.test_id = "F" + std::to_string(static_cast<int>(feed));
+    o.effects = {{EffectId::kBacklashU, {2.0}}, {EffectId::kReversalSpikeV, {3.0, 1.0}}};
+    for (auto& t : testing::SimulatePair(o)) tests.push_back(std::move(t));
+  }
+  SerialDbbSimOptions single;
+  single.test_id = "S";
+  single.effects = {{EffectId::kSquareness, {20.0}}};
+  tests.push_back(SimulateSerialDbbTest(single));
+  DbbAnalysisOptions in_order, threaded;
+  in_order.threads = 1;
+  threaded.threads = 4;
+  const auto a = DbbReportToJson(AnalyzeDbbSet(tests, in_order));
+  const auto b = DbbReportToJson(AnalyzeDbbSet(tests, threaded));
+  EXPECT_EQ(a.dump(), b.dump());
+  EXPECT_EQ(a["pairs"].size(), 2u);
+}
+
 TEST(FullAnalysis, BadInputNamesTheTest) {
   SerialDbbSimOptions o;
   o.test_id = "broken";
