@@ -227,9 +227,11 @@ void JudgeCalibration(const nlohmann::json& r, Judgement& out) {
   const std::size_t gauge = r.value("method", std::string()) == "centre_corrected" ? 6 : 0;
   if (fixed.is_array() && fixed.size() > gauge) {
     out.Warn("under-determined: " + std::to_string(fixed.size()) +
-             " parameters cannot be identified from these tests and were fixed (the method "
-             "fixes " +
-             std::to_string(gauge) + ")");
+             " parameters cannot be identified from these tests and were fixed (" +
+             (gauge == 0 ? std::string("an absolute calibration fixes none")
+                         : "a centre-corrected one fixes the " + std::to_string(gauge) +
+                               " rigid motions of the base") +
+             ")");
   }
 }
 

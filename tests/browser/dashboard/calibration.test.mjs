@@ -63,7 +63,7 @@ test('one-test calibration: warning, reasons, no after figures; ten tests: ok', 
     const ddBox = await page.locator('[data-testid="calib-summary"] dd[data-key="fixed_parameters"]').boundingBox();
     const dlBox = await page.locator('[data-testid="calib-summary"]').boundingBox();
     assert.ok(ddBox.x >= dlBox.x, 'the wrapped value starts inside the summary (no clipped first letter)');
-    await page.screenshot({ path: join(outDir, 'views-calibration-warning.png') });
+    await page.locator('#job-view').screenshot({ path: join(outDir, 'views-calibration-warning.png') });
 
     // Reload keeps the job view.
     await page.reload();
