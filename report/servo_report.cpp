@@ -264,6 +264,7 @@ json FeedDriveAxisJson(const servo::FeedDriveResult& r) {
          {"viscous_sigma_N_s_per_mm", Number(r.viscous_sigma_N_s_per_mm)},
          {"offset_N", Number(r.offset_N)},
          {"slope_N_per_mm", Number(r.slope_N_per_mm)},
+         {"moving_mass_kg", Number(r.moving_mass_kg)},
          {"residual_rms_N", Number(r.residual_rms_N)}};
   j["ripple"] = json::array();
   for (const auto& p : r.ripple) {

@@ -1,8 +1,8 @@
 // Friction of a serial feed drive from its motor force over strokes in both directions
 // ([Fujita thesis] ch. 4, eqs. 4.1–4.2, 4.8; docs/methods.md §14).
 //
-// 1. Steady motion (away from reversals): F = c0 + c1·x + f_rg(x) + F_c sign(v) + c_v v, with
-//    the position-dependent part f_rg(x) = (f₊ + f₋)/2 of eq. 4.8 (guide and screw waviness)
+// 1. Steady motion (away from reversals): F = c0 + c1·x + f_rg(x) + F_c sign(v) + c_v v + m a,
+//    with the position-dependent part f_rg(x) = (f₊ + f₋)/2 of eq. 4.8 (guide and screw waviness)
 //    written as sinusoids whose periods are found from the periodogram of the even part of the
 //    binned residual and refined by a line search, and the direction-dependent part
 //    (f₊ − f₋)/2 = F_c + c_v |v| (Coulomb + viscous). Linear least squares with uncertainties.
@@ -26,7 +26,7 @@
 namespace km::servo {
 
 struct FeedDriveOptions {
-  double min_speed_fraction = 0.05;  // steady samples: |v| >= this × the largest speed…
+  double min_speed_fraction = 0.5;  // steady: |v| >= this × the record's top speed (cruise)…
   double reversal_skip_mm = 2.0;     // …and this far from the last reversal
   double bin_mm = 0.5;               // bins of the position-dependent part
   int max_ripple_components = 3;
@@ -56,6 +56,7 @@ struct FeedDriveResult {
   double coulomb_N = 0.0, coulomb_sigma_N = 0.0;
   double viscous_N_s_per_mm = 0.0, viscous_sigma_N_s_per_mm = 0.0;
   double offset_N = 0.0, slope_N_per_mm = 0.0;
+  double moving_mass_kg = 0.0;  // the force's part in proportion to the acceleration
   double residual_rms_N = 0.0;
   std::vector<Ripple> ripple;
   std::optional<LugreParameters> lugre, lugre_sigma;

@@ -11,7 +11,7 @@
 namespace km::servo::detail {
 
 struct Strokes {
-  std::vector<double> t, x, v, f;        // every record, one after the other
+  std::vector<double> t, x, v, a, f;     // every record, one after the other (a in mm/s²)
   std::vector<std::size_t> segment_end;  // one past the last sample of each record
   std::vector<bool> steady;              // used by the steady-motion fit
   std::vector<std::size_t> reversals;    // first sample after each change of direction

@@ -13,6 +13,8 @@ namespace km::servo::detail {
 namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
+// Columns of the steady fit before the ripple: offset, slope, Coulomb, viscous, moving mass.
+constexpr int kBase = 5;
 
 struct Component {
   double period = 0.0, a = 0.0, b = 0.0;
@@ -152,6 +154,14 @@ Strokes CollectStrokes(const std::vector<const ServoFile*>& files, const std::st
       s.steady.push_back(st);
       if (st) (s.v[i] > 0.0 ? forward : backward)++;
     }
+    for (std::size_t i = first; i < s.x.size(); ++i) {  // second differences, mm/s²
+      const std::size_t c = std::clamp(i, first + 1, std::max(first + 1, s.x.size() - 2));
+      const double h1 = s.t[c] - s.t[c - 1], h2 = s.t[c + 1] - s.t[c];
+      s.a.push_back(h1 > 0.0 && h2 > 0.0
+                        ? 2.0 * ((s.x[c + 1] - s.x[c]) / h2 - (s.x[c] - s.x[c - 1]) / h1) /
+                              (h1 + h2)
+                        : 0.0);
+    }
     s.segment_end.push_back(s.x.size());
   }
   if (forward < 10 || backward < 10) {
@@ -166,11 +176,11 @@ Strokes CollectStrokes(const std::vector<const ServoFile*>& files, const std::st
 void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   // 1. Without the ripple: offset, slope, Coulomb, viscous.
   const auto base = [&](std::size_t i) {
-    Eigen::VectorXd c(4);
-    c << 1.0, s.x[i], Sign(s.v[i]), s.v[i];
+    Eigen::VectorXd c(kBase);
+    c << 1.0, s.x[i], Sign(s.v[i]), s.v[i], 1e-3 * s.a[i];
     return c;
   };
-  const Eigen::VectorXd b0 = Solve(s, 4, base, nullptr, nullptr);
+  const Eigen::VectorXd b0 = Solve(s, kBase, base, nullptr, nullptr);
   // 2. The position-dependent part binned (eq. 4.8: the direction-dependent part is removed).
   double xmin = INFINITY, xmax = -INFINITY;
   for (std::size_t i = 0; i < s.x.size(); ++i) {
@@ -193,34 +203,34 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
     y.push_back(sum[b] / cnt[b]);
   }
   const double pmin = o.min_period_mm > 0.0 ? o.min_period_mm : 4.0 * o.bin_mm;
-  const double pmax = o.max_period_mm > 0.0 ? o.max_period_mm : (xmax - xmin) / 3.0;
+  const double pmax = o.max_period_mm > 0.0 ? o.max_period_mm : (xmax - xmin) / 2.0;
   std::vector<Component> comps = FindPeriods(xc, y, pmin, pmax, o.max_ripple_components);
   // 3. Everything together; Gauss–Newton on the periods (columns ∂/∂P).
   const int nc = static_cast<int>(comps.size());
-  const int p = 4 + 3 * nc;
+  const int p = kBase + 3 * nc;
   Eigen::VectorXd x;
   Eigen::MatrixXd cov;
   double rms = 0.0;
   for (int it = 0; it < 4; ++it) {
     const auto cols = [&](std::size_t i) {
       Eigen::VectorXd c(p);
-      c.head<4>() = base(i);
+      c.head<kBase>() = base(i);
       for (int k = 0; k < nc; ++k) {
         const double w = kTwoPi * s.x[i] / comps[k].period;
-        c[4 + 3 * k] = std::cos(w);
-        c[5 + 3 * k] = std::sin(w);
+        c[kBase + 3 * k] = std::cos(w);
+        c[kBase + 1 + 3 * k] = std::sin(w);
         // ∂/∂P of a cos w + b sin w, w = 2πx/P.
-        c[6 + 3 * k] =
+        c[kBase + 2 + 3 * k] =
             (w / comps[k].period) * (comps[k].a * std::sin(w) - comps[k].b * std::cos(w));
       }
       return c;
     };
     x = Solve(s, p, cols, &cov, &rms);
     for (int k = 0; k < nc; ++k) {
-      comps[k].a = x[4 + 3 * k];
-      comps[k].b = x[5 + 3 * k];
+      comps[k].a = x[kBase + 3 * k];
+      comps[k].b = x[kBase + 1 + 3 * k];
       // A Gauss–Newton step on the period, at most 2 % at a time.
-      const double step = x[6 + 3 * k], limit = 0.02 * comps[k].period;
+      const double step = x[kBase + 2 + 3 * k], limit = 0.02 * comps[k].period;
       comps[k].period += std::clamp(step, -limit, limit);
     }
   }
@@ -230,10 +240,11 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   r.coulomb_sigma_N = std::sqrt(cov(2, 2));
   r.viscous_N_s_per_mm = x[3];
   r.viscous_sigma_N_s_per_mm = std::sqrt(cov(3, 3));
+  r.moving_mass_kg = x[4];
   r.residual_rms_N = rms;
   for (std::size_t i = 0; i < s.x.size(); ++i) r.steady_samples += s.steady[i];
   for (int k = 0; k < nc; ++k) {
-    const int ia = 4 + 3 * k, ib = ia + 1;
+    const int ia = kBase + 3 * k, ib = ia + 1;
     Ripple rp;
     rp.period_mm = comps[k].period;
     rp.period_sigma_mm = std::sqrt(std::max(0.0, cov(ib + 1, ib + 1)));
@@ -247,6 +258,12 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   }
   std::sort(r.ripple.begin(), r.ripple.end(),
             [](const Ripple& l, const Ripple& q) { return l.amplitude_N > q.amplitude_N; });
+  // Reported: components above 4 σ of their amplitude and 5 % of the largest (the others stay
+  // in the fit, where they cost nothing).
+  const double largest = r.ripple.empty() ? 0.0 : r.ripple.front().amplitude_N;
+  std::erase_if(r.ripple, [&](const Ripple& q) {
+    return !(q.amplitude_N > 4.0 * q.amplitude_sigma_N && q.amplitude_N >= 0.05 * largest);
+  });
   s.position_part.resize(s.x.size());
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     double v = x[0] + x[1] * s.x[i];
