@@ -548,6 +548,16 @@ test('discovery page: hexapod gravity + friction found step by step, saved as ve
       assert.equal(await page.isHidden('#discovery'), true);
       await item.click();
       await page.waitForSelector('#discovery:not([hidden]) [data-testid="disc-verdict"][data-verdict="complete"]');
+      // The job's general address #/jobs/{id} leads to the discovery page; the view carries the
+      // job and the server's verdict on it (a complete discovery is "ok").
+      const job = await apiGet(server, `/api/v1/jobs/${jobId}`);
+      assert.equal(job.verdict, 'ok');
+      assert.deepEqual(job.verdict_reasons, []);
+      await page.evaluate((id) => {
+        window.location.hash = `#/jobs/${id}`;
+      }, jobId);
+      await page.waitForFunction((id) => window.location.hash === `#/discoveries/${id}`, jobId);
+      await page.waitForSelector(`#discovery:not([hidden])[data-job-id="${jobId}"][data-job-verdict="ok"]`);
       // A new discovery starts from the newest version, the one just saved.
       await page.click('[data-testid="discovery-new-link"]');
       await page.waitForSelector('#disc-version option[value="2"]', { state: 'attached' });
