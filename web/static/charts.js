@@ -5,20 +5,10 @@
 
 import { effectWords, niceStep, formatStep } from './format.js';
 import { DIRECTION_STYLE } from './polar.js';
+import { el, r2 } from './dom.js';
 
-const SVG_NS = 'http://www.w3.org/2000/svg';
-
-export function el(name, attrs = {}, text) {
-  const node = document.createElementNS(SVG_NS, name);
-  for (const [k, v] of Object.entries(attrs)) {
-    if (v === undefined || v === null) continue;
-    node.setAttribute(k, String(v));
-  }
-  if (text !== undefined) node.textContent = text;
-  return node;
-}
-
-export const r2 = (v) => Math.round(v * 100) / 100;
+// The SVG helpers live in dom.js; charts.js passes them on to its users.
+export { el, r2 };
 const minus = (s) => String(s).replace('-', '−');
 
 // Tick values from lo to hi with a 1-2-5 step giving about `count` intervals.

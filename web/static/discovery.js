@@ -11,10 +11,9 @@
 
 import { api, ApiError } from './api.js';
 import { axesGrid, el, r2, ticks } from './charts.js';
-import { asProblem, errorBox, h, problemContent, setMessage } from './dom.js';
+import { $, asProblem, errorBox, h, problemContent, setMessage } from './dom.js';
 import { displayUnit, effectWords, formatDirection, formatNumber, formatTimestamp } from './format.js';
 
-const $ = (sel) => document.querySelector(sel);
 
 const JOB_POLL_MS = 500;
 // The engine's default maximum number of steps (analysis/discovery/engine.h, EngineOptions): the

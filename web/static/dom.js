@@ -1,5 +1,6 @@
-// Small DOM helpers shared by the dashboard modules: element builder, status messages and the
-// rendering of an API problem (application/problem+json: title, detail, file, line, field).
+// The DOM helpers of every dashboard module: HTML and SVG element builders, status messages, the
+// rendering of an API problem (application/problem+json: title, detail, file, line, field),
+// focus kept over a rebuild, downloads of text made in the page.
 
 import { ApiError } from './api.js';
 
@@ -53,6 +54,22 @@ export function errorBox(err) {
 }
 
 export const $ = (sel, root = document) => root.querySelector(sel);
+
+const SVG_NS = 'http://www.w3.org/2000/svg';
+
+// el('line', {x1: 0, …}, text?): an SVG element; attributes with null / undefined values are left
+// out. r2: a coordinate rounded to 0.01 px.
+export function el(name, attrs = {}, text) {
+  const node = document.createElementNS(SVG_NS, name);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (v === undefined || v === null) continue;
+    node.setAttribute(k, String(v));
+  }
+  if (text !== undefined) node.textContent = text;
+  return node;
+}
+
+export const r2 = (v) => Math.round(v * 100) / 100;
 export const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];
 
 // Rebuilds the children of `container` with `build()` and keeps the keyboard focus: an element

@@ -5,8 +5,7 @@
 // the circle itself.
 
 import { niceStep, formatStep } from './format.js';
-
-const SVG_NS = 'http://www.w3.org/2000/svg';
+import { el, r2 } from './dom.js';
 
 const HALF = 300; // half the viewBox size, px
 const R0 = 150; // nominal circle radius, px
@@ -18,15 +17,6 @@ export const DIRECTION_STYLE = {
   ccw: { colour: '#0b5cad', dash: '', label: 'CCW (counter-clockwise)' },
   cw: { colour: '#c2410c', dash: '7 4', label: 'CW (clockwise)' },
 };
-
-function el(name, attrs = {}, text) {
-  const node = document.createElementNS(SVG_NS, name);
-  for (const [k, v] of Object.entries(attrs)) if (v !== null && v !== undefined) node.setAttribute(k, String(v));
-  if (text !== undefined) node.textContent = text;
-  return node;
-}
-
-const r2 = (v) => Math.round(v * 100) / 100;
 
 // Chooses the scale shared by all traces: µm per division from the 1-2-5 series.
 export function chooseScale(traces) {

@@ -5,23 +5,14 @@
 // The scale bar shows what a given µm length looks like after magnification.
 
 import { formatStep, niceStep } from './format.js';
+import { el, r2 } from './dom.js';
 
-const SVG_NS = 'http://www.w3.org/2000/svg';
 const VIEW = 300; // size of one view, px
 const PAD = 34; // inner margin of a view, px
 const GAP = 28; // between the two views, px
 const TOP = 34; // title row, px
 const BOTTOM = 64; // scale bar + legend, px
 const ARROW_FRACTION = 0.55; // the longest arrow is at most this share of the point spacing
-
-function el(name, attrs = {}, text) {
-  const node = document.createElementNS(SVG_NS, name);
-  for (const [k, v] of Object.entries(attrs)) node.setAttribute(k, String(v));
-  if (text !== undefined) node.textContent = text;
-  return node;
-}
-
-const r2 = (v) => Math.round(v * 100) / 100;
 
 // Largest 1-2-5 value ≤ x.
 function niceFloor(x) {
