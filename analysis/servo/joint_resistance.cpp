@@ -89,20 +89,53 @@ struct Accumulated {
 };
 
 // The CCW sample at the pose of each usable CW sample (or -1).
-std::vector<long> Matches(const Track& cw, const Track& ccw, double match_mm) {
-  std::vector<long> out(cw.motion.size(), -1);
+// The CCW pose matching a CW sample: between samples k and k2 of the CCW record, weight w on
+// k2 (the point of that segment nearest to the CW pose); k < 0 when none is within match_mm.
+struct Match {
+  long k = -1, k2 = -1;
+  double w = 0.0;
+};
+
+double Distance(const HexapodSample& a, const HexapodSample& b, const HexapodSample& c, double w) {
+  HexapodSample m = b;
+  for (int q = 0; q < 3; ++q) {
+    m.tip_mm[q] = (1 - w) * b.tip_mm[q] + w * c.tip_mm[q];
+    m.abc_deg[q] = (1 - w) * b.abc_deg[q] + w * c.abc_deg[q];
+  }
+  return PoseDistance(a, m);
+}
+
+std::vector<Match> Matches(const Track& cw, const Track& ccw, double match_mm) {
+  std::vector<Match> out(cw.motion.size());
+  const auto& cs = ccw.file->samples;
+  const std::size_t n = cs.size();
   for (std::size_t i = 0; i < cw.motion.size(); ++i) {
     if (!cw.use[i].joints) continue;
+    const HexapodSample& p = cw.file->samples[i];
     std::size_t best = 0;
     double best_d = INFINITY;
-    for (std::size_t k = 0; k < ccw.motion.size(); ++k) {
-      const double d = PoseDistance(cw.file->samples[i], ccw.file->samples[k]);
+    for (std::size_t k = 0; k < n; ++k) {
+      const double d = PoseDistance(p, cs[k]);
       if (d < best_d) {
         best_d = d;
         best = k;
       }
     }
-    if (best_d <= match_mm && ccw.use[best].joints) out[i] = static_cast<long>(best);
+    Match m{static_cast<long>(best), static_cast<long>(best), 0.0};
+    // The nearer neighbour, and the point between them nearest to the CW pose.
+    for (const std::size_t k2 : {best > 0 ? best - 1 : best, best + 1 < n ? best + 1 : best}) {
+      if (k2 == best) continue;
+      Eigen::Vector3d a(cs[best].tip_mm.data()), b(cs[k2].tip_mm.data()), x(p.tip_mm.data());
+      const double len2 = (b - a).squaredNorm();
+      const double w = len2 > 0.0 ? std::clamp((x - a).dot(b - a) / len2, 0.0, 1.0) : 0.0;
+      const double d = Distance(p, cs[best], cs[k2], w);
+      if (d < best_d) {
+        best_d = d;
+        m = {static_cast<long>(best), static_cast<long>(k2), w};
+      }
+    }
+    const auto k = static_cast<std::size_t>(m.k), k2 = static_cast<std::size_t>(m.k2);
+    if (best_d <= match_mm && ccw.use[k].joints && ccw.use[k2].joints) out[i] = m;
   }
   return out;
 }
@@ -120,10 +153,10 @@ std::array<double, 6> AbsGravity(const hexapod::MachinePhysics& m, const Track& 
 }
 
 // First pass: the mean axial gravity of each strut over the matched poses.
-void AddGravity(const hexapod::MachinePhysics& m, const Track& cw, const std::vector<long>& match,
+void AddGravity(const hexapod::MachinePhysics& m, const Track& cw, const std::vector<Match>& match,
                 Accumulated& acc) {
   for (std::size_t i = 0; i < cw.motion.size(); ++i) {
-    if (match[i] < 0) continue;
+    if (match[i].k < 0) continue;
     const auto g = AbsGravity(m, cw, i);
     for (int j = 0; j < 6; ++j) acc.abs_gravity_sum[j] += g[j];
     ++acc.gravity_samples;
@@ -131,11 +164,12 @@ void AddGravity(const hexapod::MachinePhysics& m, const Track& cw, const std::ve
 }
 
 void AddPair(const hexapod::MachinePhysics& m, const Track& cw, const Track& ccw,
-             const std::vector<long>& match, Accumulated& acc) {
+             const std::vector<Match>& match, Accumulated& acc) {
   const bool load = LoadDependent(m) && acc.gravity_samples > 0;
   for (std::size_t i = 0; i < cw.motion.size(); ++i) {
-    if (match[i] < 0) continue;
-    const auto best = static_cast<std::size_t>(match[i]);
+    if (match[i].k < 0) continue;
+    const auto k = static_cast<std::size_t>(match[i].k), k2 = static_cast<std::size_t>(match[i].k2);
+    const double w = match[i].w;
     std::array<double, 6> shape{};
     shape.fill(1.0);
     if (load) {
@@ -146,11 +180,14 @@ void AddPair(const hexapod::MachinePhysics& m, const Track& cw, const Track& ccw
                    (m.base_joint_torque_Nm + m.base_joint_torque_per_N_m * mean);
       }
     }
-    const FrictionRows a =
-        FrictionRegressor(cw.motion[i], shape) - FrictionRegressor(ccw.motion[best], shape);
+    const FrictionRows a = FrictionRegressor(cw.motion[i], shape) -
+                           (1 - w) * FrictionRegressor(ccw.motion[k], shape) -
+                           w * FrictionRegressor(ccw.motion[k2], shape);
     for (int j = 0; j < 6; ++j) {
-      if (!cw.use[i].screw[j] || !ccw.use[best].screw[j]) continue;
-      const double df = cw.file->samples[i].force_N[j] - ccw.file->samples[best].force_N[j];
+      if (!cw.use[i].screw[j] || !ccw.use[k].screw[j] || !ccw.use[k2].screw[j]) continue;
+      const double ccw_force =
+          (1 - w) * ccw.file->samples[k].force_N[j] + w * ccw.file->samples[k2].force_N[j];
+      const double df = cw.file->samples[i].force_N[j] - ccw_force;
       acc.ne.Add(a.row(j), Eigen::Matrix<double, 1, 1>(df));
     }
   }
@@ -270,7 +307,7 @@ JointsResult EstimateJointResistance(const hexapod::HexapodGeometry& geometry,
   }
   JointsResult r;
   Accumulated acc;
-  std::vector<std::vector<long>> matches;
+  std::vector<std::vector<Match>> matches;
   for (const auto& [cw, ccw] : pairs) {
     matches.push_back(Matches(*cw, *ccw, options.match_mm));
     AddGravity(machine, *cw, matches.back(), acc);

@@ -2,6 +2,7 @@
 // (analysis/servo/joint_resistance.h) on the independent simulator (servo_truth.h): CW and CCW
 // circles of the jig plan, noise 2 N, joint friction ramping after every reversal.
 #include <cmath>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -32,6 +33,30 @@ TEST(ServoJoints, NamesTheStiffLegAtLevel3) {
   }
   EXPECT_NE(r.legs[2].evidence.find("leg 3"), std::string::npos);
   EXPECT_LT(r.residual_rms_N, 2.0 * std::sqrt(2.0) * 1.5);
+}
+
+TEST(ServoJoints, PairsPosesBetweenSamples) {
+  // The CCW circles sampled half a step away from the CW samples (1.3 mm apart on the circle):
+  // the CCW loads are interpolated to the CW poses.
+  truth::Machine m = truth::Pm600Truth();
+  m.leg_factor[5] = 3.0;
+  std::mt19937 rng(25);
+  std::vector<ServoFile> files;
+  for (auto c : truth::JigPlan(720)) {
+    for (bool ccw : {true, false}) {
+      c.ccw = ccw;
+      c.phase_steps = ccw ? 0.5 : 0.0;
+      files.push_back(ingest::ParseServoFile(truth::ServoText(c, truth::Simulate(m, c, 2.0, rng)),
+                                             c.test_id + ".txt"));
+    }
+  }
+  const JointsResult r =
+      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(), files);
+  EXPECT_GT(r.rows, 20000u);
+  for (int j = 0; j < 6; ++j) {
+    EXPECT_NEAR(r.legs[j].ratio, m.leg_factor[j], 0.1 * m.leg_factor[j]) << r.legs[j].evidence;
+    EXPECT_EQ(r.legs[j].level, j == 5 ? 3 : 1) << r.legs[j].evidence;
+  }
 }
 
 TEST(ServoJoints, EqualLegsStayAtLevel1) {

@@ -137,12 +137,12 @@ Record Simulate(const Machine& m, const Circle& c, double noise_N, std::mt19937&
   std::vector<Eigen::Vector3d> tip(n), acc(n);
   Record rec;
   for (int i = 0; i < n; ++i) {
-    const double th = sign * 2.0 * kPi * i / n;
+    const double th = sign * 2.0 * kPi * (i + c.phase_steps) / n;
     const Eigen::Vector3d ring(std::cos(th), std::sin(th), 0.0);
     tip[i] = c.centre + Eigen::Vector3d(0, 0, c.z_offset_mm) + c.radius_mm * ring;
     acc[i] = -(speed * speed / c.radius_mm) * ring * 1e-3;  // m/s²
     st.push_back(At(m, tip[i], r, c.tool_mm));
-    rec.t_s.push_back(c.radius_mm * std::abs(th) / speed);
+    rec.t_s.push_back(c.radius_mm * 2.0 * kPi * i / n / speed);
   }
   // Friction states, run through the closed path once before recording (steady state).
   std::array<double, 6> screw{};

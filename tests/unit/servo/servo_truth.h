@@ -42,6 +42,7 @@ struct Circle {
   double tool_mm = 104.255;
   double feed_mm_min = 1000.0;
   int samples = 720;
+  double phase_steps = 0.0;  // the samples shifted along the circle by this fraction of a step
   Eigen::Vector3d external_N = Eigen::Vector3d::Zero();  // force on the tool tip
 };
 
