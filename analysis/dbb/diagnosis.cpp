@@ -1,14 +1,17 @@
 #include "analysis/dbb/diagnosis.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
+#include <thread>
 #include <tuple>
 #include <utility>
 
 #include <Eigen/Core>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/parallel.h"
 #include "analysis/dbb/diagnosis_fit.h"
 #include "analysis/dbb/diagnosis_search.h"
 #include "analysis/dbb/iso230.h"
@@ -169,6 +172,7 @@ class DiagnosisRun {
   GramCache cache_;
   FitContext ctx_;
   double median_step_ = 0.0;
+  unsigned threads_ = 1;
   double spike_lo_ = 0.0;
   double spike_hi_ = 0.0;
   std::vector<ReversalOrder> order_;  // per axis, when spikes are assessed
@@ -190,6 +194,7 @@ DiagnosisRun::DiagnosisRun(const std::vector<DiagnosisTrace>& traces, Plane plan
   p_.RemoveSetup(e0_, &setup_);
   ctx_ = {&p_, &e0_, opt.confound_ratio, first_, second_, &cache_};
   median_step_ = MedianStepDeg(traces);
+  threads_ = opt.threads > 0 ? opt.threads : std::max(1u, std::thread::hardware_concurrency());
   spike_lo_ = std::max(opt.spike_min_width_deg, 0.5 * median_step_);
   spike_hi_ = opt.spike_max_width_deg;
   if (spike_hi_ > spike_lo_) {
@@ -200,7 +205,9 @@ DiagnosisRun::DiagnosisRun(const std::vector<DiagnosisTrace>& traces, Plane plan
 }
 
 DiagnosisResult DiagnosisRun::Run() {
-  for (EffectId id : FixedShapeEffects()) cands_.push_back(MakeCandidate(p_, id, {}));
+  std::vector<CandidateSpec> fixed;
+  for (EffectId id : FixedShapeEffects()) fixed.push_back({id, {}});
+  cands_ = MakeCandidates(p_, fixed, threads_);
   const FitResult f1 = FitAll(cands_);
   AddSpikes(f1);
   FitResult f2 = FitAll(cands_);
@@ -234,12 +241,19 @@ void DiagnosisRun::AddSpikes(const FitResult& f1) {
     return;
   }
   const Base b1 = MakeBase(f1);
-  for (int axis = 0; axis < 2; ++axis) {
+  std::array<SpikeShape, 2> shape;
+  ParallelFor(
+      2,
+      [&](std::size_t axis) {
+        shape[axis] = SearchSpike(p_, order_[axis], b1, spike_lo_, spike_hi_, 10);
+      },
+      threads_);
+  std::vector<CandidateSpec> found;
+  for (std::size_t axis = 0; axis < 2; ++axis) {
     const EffectId id = axis == 0 ? EffectId::kReversalSpikeU : EffectId::kReversalSpikeV;
-    const SpikeShape s =
-        SearchSpike(p_, order_[static_cast<std::size_t>(axis)], b1, spike_lo_, spike_hi_, 10);
-    if (s.gain > 0.0) cands_.push_back(MakeCandidate(p_, id, {s.width, s.exponent}));
+    if (shape[axis].gain > 0.0) found.push_back({id, {shape[axis].width, shape[axis].exponent}});
   }
+  for (auto& c : MakeCandidates(p_, found, threads_)) cands_.push_back(std::move(c));
 }
 
 // Stick-slip, a sawtooth in the low-speed zones; period from a periodogram over the angle since
@@ -289,38 +303,59 @@ void DiagnosisRun::AddCyclicErrors(const FitResult& f2) {
   const double var = f2.residual.squaredNorm() / p_.n;
   const bool structured = var > s2 * (1.0 + 4.0 * std::sqrt(2.0 / p_.n));
   if (!(structured && pmax > pmin && s2 > 0.0)) return;
-  for (int axis = 0; axis < 2; ++axis) {
-    const double period = CyclicPeriodPeak(p_, f2.residual, axis, pmin, pmax);
-    if (!(period > 0.0)) continue;
-    // Projection energy of the residual (on a subsample that keeps ≥ 4 samples a period),
-    // scaled to the full sample count, against the noise variance.
-    const int stride = std::max(1, static_cast<int>(period / (4.0 * sp.rmin * sp.max_step)));
-    const double energy = stride * CyclicEnergy(p_, f2.residual, axis, period, stride);
-    if (energy / s2 > opt_.cyclic_detection_chi2) {
-      cands_.push_back(MakeCandidate(
-          p_, axis == 0 ? EffectId::kCyclicErrorU : EffectId::kCyclicErrorV, {period}));
+  std::array<double, 2> found{0.0, 0.0};  // period of each axis, 0 when not detected
+  ParallelFor(
+      2,
+      [&](std::size_t axis) {
+        const int a = static_cast<int>(axis);
+        const double period = CyclicPeriodPeak(p_, f2.residual, a, pmin, pmax);
+        if (!(period > 0.0)) return;
+        // Projection energy of the residual (on a subsample that keeps ≥ 4 samples a period),
+        // scaled to the full sample count, against the noise variance.
+        const int stride = std::max(1, static_cast<int>(period / (4.0 * sp.rmin * sp.max_step)));
+        const double energy = stride * CyclicEnergy(p_, f2.residual, a, period, stride);
+        if (energy / s2 > opt_.cyclic_detection_chi2) found[axis] = period;
+      },
+      threads_);
+  std::vector<CandidateSpec> specs;
+  for (std::size_t axis = 0; axis < 2; ++axis) {
+    if (found[axis] > 0.0) {
+      specs.push_back(
+          {axis == 0 ? EffectId::kCyclicErrorU : EffectId::kCyclicErrorV, {found[axis]}});
     }
   }
+  for (auto& c : MakeCandidates(p_, specs, threads_)) cands_.push_back(std::move(c));
 }
 
 // Cyclic periods refined by one backfitting step: maximise the projection energy of the partial
 // residual (data minus every other jointly fitted effect) within ±2 periodogram bins.
 void DiagnosisRun::RefineCyclicPeriods(FitResult& f3) {
-  bool changed = false;
   const Spacing sp = TraceSpacing(traces_);
+  std::vector<std::size_t> kept;  // indices into f3.kept of the cyclic errors
   for (std::size_t j = 0; j < f3.kept.size(); ++j) {
-    Candidate& c = cands_[static_cast<std::size_t>(f3.kept[j])];
-    if (c.id != EffectId::kCyclicErrorU && c.id != EffectId::kCyclicErrorV) continue;
-    const int axis = c.id == EffectId::kCyclicErrorU ? 0 : 1;
-    const VectorXd partial = f3.residual + f3.Combine(f3.first_col[j], 2, p_.n);
-    const double period = c.shape[0];
-    const double bin_rel = 2.0 * period * kCyclicBins / (2.0 * kCyclicFft * sp.rmin);
-    const double refined =
-        RefinePeriod(p_, partial, axis, period, std::min(0.2, bin_rel), sp.rmin * sp.max_step);
-    c = MakeCandidate(p_, c.id, {refined});
-    changed = true;
+    const EffectId id = cands_[static_cast<std::size_t>(f3.kept[j])].id;
+    if (id == EffectId::kCyclicErrorU || id == EffectId::kCyclicErrorV) kept.push_back(j);
   }
-  if (changed) f3 = FitAll(cands_);
+  if (kept.empty()) return;
+  std::vector<CandidateSpec> specs(kept.size());
+  ParallelFor(
+      kept.size(),
+      [&](std::size_t k) {
+        const std::size_t j = kept[k];
+        const Candidate& c = cands_[static_cast<std::size_t>(f3.kept[j])];
+        const int axis = c.id == EffectId::kCyclicErrorU ? 0 : 1;
+        const VectorXd partial = f3.residual + f3.Combine(f3.first_col[j], 2, p_.n);
+        const double period = c.shape[0];
+        const double bin_rel = 2.0 * period * kCyclicBins / (2.0 * kCyclicFft * sp.rmin);
+        specs[k] = {c.id,
+                    {RefinePeriod(p_, partial, axis, period, std::min(0.2, bin_rel),
+                                  sp.rmin * sp.max_step)}};
+      },
+      threads_);
+  std::vector<Candidate> refined = MakeCandidates(p_, specs, threads_);
+  for (std::size_t k = 0; k < kept.size(); ++k)
+    cands_[static_cast<std::size_t>(f3.kept[kept[k]])] = std::move(refined[k]);
+  f3 = FitAll(cands_);
 }
 
 // Fitted shapes, jointly: each spike's width and decay shape and the stick-slip period again,

@@ -101,6 +101,9 @@ struct DiagnosisOptions {
   double stick_slip_max_step_deg = 0.2;     // coarser sampling: stick_slip not assessed
   double stick_slip_detection_chi2 = 30.0;  // projection energy / σ² needed to try a sawtooth
   bool search_cyclic = true;
+  // Threads for independent parts (the fixed-shape signatures, the two axes' spike and cyclic
+  // searches): 0 = the machine's cores, 1 = in order. The result is the same.
+  unsigned threads = 0;
   void Check() const;  // throws km::InvalidInput on nonsense
 };
 

@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/parallel.h"
 
 namespace km::dbb::diag {
 
@@ -23,8 +24,10 @@ bool HasFittedShape(EffectId id) {
   return IsSpike(id) || id == EffectId::kStickSlip;
 }
 
-Candidate MakeCandidate(const Problem& p, EffectId id, std::vector<double> shape) {
-  EffectColumns e = SetupFreeSignature(p, id, std::move(shape));
+namespace {
+
+// A candidate from its set-up-free columns; its column ids are taken from the problem.
+Candidate FromColumns(const Problem& p, EffectId id, EffectColumns e) {
   Candidate c;
   c.id = id;
   c.shape = std::move(e.shape);
@@ -41,6 +44,25 @@ Candidate MakeCandidate(const Problem& p, EffectId id, std::vector<double> shape
     c.raw_norm2.push_back(raw);
   }
   return c;
+}
+
+}  // namespace
+
+Candidate MakeCandidate(const Problem& p, EffectId id, std::vector<double> shape) {
+  return FromColumns(p, id, SetupFreeSignature(p, id, std::move(shape)));
+}
+
+std::vector<Candidate> MakeCandidates(const Problem& p, const std::vector<CandidateSpec>& specs,
+                                      unsigned threads) {
+  std::vector<EffectColumns> cols(specs.size());
+  ParallelFor(
+      specs.size(),
+      [&](std::size_t k) { cols[k] = SetupFreeSignature(p, specs[k].id, specs[k].shape); },
+      threads);
+  std::vector<Candidate> out;
+  for (std::size_t k = 0; k < specs.size(); ++k)
+    out.push_back(FromColumns(p, specs[k].id, std::move(cols[k])));
+  return out;
 }
 
 VectorXd FitResult::Combine(int off, int count, Eigen::Index n) const {

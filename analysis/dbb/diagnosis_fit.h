@@ -36,6 +36,14 @@ struct Candidate {
 };
 
 Candidate MakeCandidate(const Problem& p, effects::EffectId id, std::vector<double> shape);
+// Several candidates at once, their signatures computed on up to `threads` threads; the column
+// ids are given in list order, as MakeCandidate one after another would give them.
+struct CandidateSpec {
+  effects::EffectId id;
+  std::vector<double> shape;
+};
+std::vector<Candidate> MakeCandidates(const Problem& p, const std::vector<CandidateSpec>& specs,
+                                      unsigned threads);
 
 struct FitResult {
   std::vector<int> kept;                  // candidate indices

@@ -171,8 +171,10 @@ DiagnosisResult DiagnoseUnit(const std::vector<DbbTest>& tests, const DbbReport&
     tr.push_back(
         MakeDiagnosisTrace(tests[i], rep.tests[i].circular, BarDeviation(rep.tests[i], devs[i])));
   }
+  DiagnosisOptions d = opt.diagnosis;
+  if (d.threads == 0) d.threads = opt.threads;
   try {
-    return DiagnoseSerialDbb(tr, tests[members.front()].plane, opt.diagnosis);
+    return DiagnoseSerialDbb(tr, tests[members.front()].plane, d);
   } catch (const NotObservable& e) {
     DiagnosisResult r;
     r.not_identifiable.push_back(std::string("diagnosis not possible: ") + e.what());

@@ -205,7 +205,9 @@ TEST(FullAnalysis, ParallelAnalysisEqualsAnalysisInOrder) {
     o.seed = static_cast<unsigned>(feed);
     o.feed_mm_min = feed;
     o.test_id = "F" + std::to_string(static_cast<int>(feed));
-    o.effects = {{EffectId::kBacklashU, {2.0}}, {EffectId::kReversalSpikeV, {3.0, 1.0}}};
+    o.effects = {{EffectId::kBacklashU, {2.0}},
+                 {EffectId::kReversalSpikeV, {3.0, 1.0}},
+                 {EffectId::kCyclicErrorU, {0.6, 0.3, 10.0}}};
     for (auto& t : testing::SimulatePair(o)) tests.push_back(std::move(t));
   }
   SerialDbbSimOptions single;
