@@ -27,5 +27,7 @@ inline void CheckOption(bool ok, const char* name, const std::string& reason) {
 #define KM_OPTION_LE(x, y) ::km::internal::CheckOption((x) <= (y), #x, "must be ≤ " #y)
 #define KM_OPTION_IN_OPEN(x, lo, hi) \
   ::km::internal::CheckOption((x) > (lo) && (x) < (hi), #x, "must lie in (" #lo ", " #hi ")")
+#define KM_OPTION_IN_HALF_OPEN(x, lo, hi) \
+  ::km::internal::CheckOption((x) >= (lo) && (x) < (hi), #x, "must lie in [" #lo ", " #hi ")")
 #define KM_OPTION_IN(x, lo, hi) \
   ::km::internal::CheckOption((x) >= (lo) && (x) <= (hi), #x, "must lie in [" #lo ", " #hi "]")

@@ -10,6 +10,7 @@
 #include <Eigen/QR>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 #include "analysis/dbb/discovery.h"
 
 namespace km::discovery {
@@ -245,13 +246,11 @@ std::vector<GroupGap> GroupGaps(const FitState& before, const FitState& after) {
 }  // namespace
 
 void EngineOptions::Check() const {
-  if (!(max_p_value > 0.0 && max_p_value < 1.0))
-    throw InvalidInput("", 0, "max_p_value", "must be within (0, 1)");
-  if (folds < 2) throw InvalidInput("", 0, "folds", "at least 2");
-  if (!(min_cv_gain >= 0.0 && min_cv_gain < 1.0))
-    throw InvalidInput("", 0, "min_cv_gain", "must be within [0, 1)");
-  if (!(misfit_ratio >= 1.0)) throw InvalidInput("", 0, "misfit_ratio", "at least 1");
-  if (max_steps < 0) throw InvalidInput("", 0, "max_steps", ">= 0");
+  KM_OPTION_IN_OPEN(max_p_value, 0.0, 1.0);
+  KM_OPTION_GE(folds, 2);
+  KM_OPTION_IN_HALF_OPEN(min_cv_gain, 0.0, 1.0);
+  KM_OPTION_GE(misfit_ratio, 1.0);
+  KM_OPTION_GE(max_steps, 0);
 }
 
 double NoiseFloor(const VectorXd& residual, const std::vector<int>& row_begin) {

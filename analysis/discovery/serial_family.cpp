@@ -11,6 +11,7 @@
 #include <Eigen/Cholesky>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 
 namespace km::discovery {
 namespace {
@@ -74,14 +75,13 @@ bool Within(const std::vector<VectorXd>& a, const std::vector<VectorXd>& b, doub
 }  // namespace
 
 void SerialFamilyOptions::Check() const {
-  if (spike_widths_deg.empty()) throw InvalidInput("", 0, "spike_widths_deg", "empty");
+  internal::CheckOption(!spike_widths_deg.empty(), "spike_widths_deg", "must not be empty");
   for (double w : spike_widths_deg)
-    if (!(w > 0.0)) throw InvalidInput("", 0, "spike_widths_deg", "must be positive");
-  if (!(cyclic_min_period_mm > 0.0)) throw InvalidInput("", 0, "cyclic_min_period_mm", "> 0");
-  if (!(cyclic_max_period_fraction > 0.0))
-    throw InvalidInput("", 0, "cyclic_max_period_fraction", "> 0");
-  if (sample_folds < 2) throw InvalidInput("", 0, "sample_folds", "at least 2");
-  if (!(resolution_um >= 0.0)) throw InvalidInput("", 0, "resolution_um", ">= 0");
+    internal::CheckOption(w > 0.0, "spike_widths_deg", "must be > 0");
+  KM_OPTION_GT(cyclic_min_period_mm, 0.0);
+  KM_OPTION_GT(cyclic_max_period_fraction, 0.0);
+  KM_OPTION_GE(sample_folds, 2);
+  KM_OPTION_GE(resolution_um, 0.0);
 }
 
 SerialFamily::SerialFamily(const std::vector<dbb::DiagnosisTrace>& traces,

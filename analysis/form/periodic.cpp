@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 
 namespace km::form {
 namespace {
@@ -166,24 +167,13 @@ double RefinePeak(std::span<const double> xc, std::span<const double> r, double 
 }  // namespace
 
 void PeriodicOptions::Check() const {
-  if (!(min_period_mm >= 0.0) || !(max_period_mm >= 0.0)) {
-    throw InvalidInput("", 0, "min_period_mm", "periods must be >= 0 (0 = automatic)");
-  }
-  if (min_period_mm > 0.0 && max_period_mm > 0.0 && !(max_period_mm > min_period_mm)) {
-    throw InvalidInput("", 0, "max_period_mm", "must exceed min_period_mm");
-  }
-  if (!(oversampling >= 1.0 && oversampling <= 100.0)) {
-    throw InvalidInput("", 0, "oversampling", "must be in [1, 100]");
-  }
-  if (!(false_alarm_probability > 0.0 && false_alarm_probability < 1.0)) {
-    throw InvalidInput("", 0, "false_alarm_probability", "must be in (0, 1)");
-  }
-  if (detrend_degree < 0 || detrend_degree > 5) {
-    throw InvalidInput("", 0, "detrend_degree", "must be in [0, 5]");
-  }
-  if (max_components < 0 || max_components > 50) {
-    throw InvalidInput("", 0, "max_components", "must be in [0, 50]");
-  }
+  KM_OPTION_GE(min_period_mm, 0.0);  // 0 = automatic
+  KM_OPTION_GE(max_period_mm, 0.0);  // 0 = automatic
+  if (min_period_mm > 0.0 && max_period_mm > 0.0) KM_OPTION_GT(max_period_mm, min_period_mm);
+  KM_OPTION_IN(oversampling, 1.0, 100.0);
+  KM_OPTION_IN_OPEN(false_alarm_probability, 0.0, 1.0);
+  KM_OPTION_IN(detrend_degree, 0, 5);
+  KM_OPTION_IN(max_components, 0, 50);
 }
 
 std::vector<PeriodicComponent> FindPeriodicComponents(std::span<const double> position_mm,

@@ -9,13 +9,12 @@
 #include <Eigen/QR>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 
 namespace km::tracker {
 
 void DecompositionOptions::Check() const {
-  if (max_order < 1 || max_order > 8) {
-    throw InvalidInput("", 0, "max_order", "polynomial order must be within 1..8");
-  }
+  KM_OPTION_IN(max_order, 1, 8);
 }
 
 namespace {
