@@ -11,6 +11,7 @@
 
 #include "analysis/core/errors.h"
 #include "cli/command.h"
+#include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
 #include "ingest/servo_parser.h"
 #include "report/servo_report.h"
@@ -162,7 +163,18 @@ int RunFeedDrive(const Args& args, std::ostream& out) {
   for (const auto& f : files) ptr.push_back(&f);
   std::vector<servo::FeedDriveResult> results;
   for (const auto& a : axes) results.push_back(servo::AnalyzeFeedDrive(ptr, a, o));
-  const json j = server::ServoFeedDriveJson(files.front().machine_id, results);
+  json j = server::ServoFeedDriveJson(files.front().machine_id, results);
+  if (const auto dbb = args.Get("--dbb")) {  // DBB tests of the machine, comma-separated
+    std::vector<dbb::DbbTest> tests;
+    std::vector<std::string> names;
+    std::stringstream ss(*dbb);
+    for (std::string path; std::getline(ss, path, ',');) {
+      if (path.empty()) continue;
+      tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
+      names.push_back(path);
+    }
+    j["dbb_comparison"] = server::DbbStickComparisonJson(tests, names, results.front(), o.kp_per_s);
+  }
   std::ostringstream t;
   for (const auto& a : j["axes"]) {
     t << "axis " << a["axis"].get<std::string>() << ": Coulomb " << a["coulomb_N"] << " N, viscous "
@@ -189,8 +201,9 @@ KM_CLI_COMMAND("servo joints",
                 "--increase-stop", "--reference-Nm"},
                RunJoints);
 KM_CLI_COMMAND("servo feed-drive",
-               "FILE... [--axis X] [--radius-mm R --feed-mm-min F --kp-per-s K] [--json]",
-               {"--axis", "--radius-mm", "--feed-mm-min", "--kp-per-s"}, RunFeedDrive);
+               "FILE... [--axis X] [--radius-mm R --feed-mm-min F --kp-per-s K] "
+               "[--dbb DBB1,DBB2] [--json]",
+               {"--axis", "--radius-mm", "--feed-mm-min", "--kp-per-s", "--dbb"}, RunFeedDrive);
 
 }  // namespace
 }  // namespace km::cli

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "analysis/core/errors.h"
+#include "report/dbb_report.h"
 
 namespace km::server {
 namespace {
@@ -303,6 +304,38 @@ json ServoFeedDriveJson(const std::string& machine_id,
   }
   j["analysis_version"] = kServoAnalysisVersion;
   return j;
+}
+
+json DbbStickComparisonJson(const std::vector<dbb::DbbTest>& tests,
+                            const std::vector<std::string>& names,
+                            const servo::FeedDriveResult& drive, std::optional<double> kp_per_s) {
+  json out = json::array();
+  for (std::size_t i = 0; i < tests.size(); ++i) {
+    const auto& t = tests[i];
+    const json analysed = DbbTestJson(t);
+    json measured = json::array();
+    for (const auto& d : analysed.value("diagnosis", json::array())) {
+      const std::string effect = d.value("effect", "");
+      if (effect.rfind("reversal_spike", 0) == 0 || effect == "stick_slip") {
+        measured.push_back({{"effect", effect},
+                            {"value", d.value("value", json(nullptr))},
+                            {"uncertainty", d.value("uncertainty", json(nullptr))},
+                            {"unit", d.value("unit", json(nullptr))}});
+      }
+    }
+    json predicted = nullptr;
+    if (drive.lugre && kp_per_s && t.radius_mm > 0.0 && t.feed_mm_min > 0.0) {
+      predicted = Number(servo::StickMotionUm(*drive.lugre, t.radius_mm, t.feed_mm_min, *kp_per_s));
+    }
+    out.push_back({{"file", i < names.size() ? names[i] : t.test_id},
+                   {"test_id", t.test_id},
+                   {"direction", dbb::ToString(t.direction)},
+                   {"radius_mm", t.radius_mm},
+                   {"feed_mm_min", t.feed_mm_min},
+                   {"measured", measured},
+                   {"predicted_stick_motion_um", predicted}});
+  }
+  return out;
 }
 
 json ServoSummaryJson(const servo::ServoFile& f) {

@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/dbb/dbb_types.h"
 #include "analysis/servo/external_force.h"
 #include "analysis/servo/feed_drive.h"
 #include "analysis/servo/identify.h"
@@ -59,6 +60,16 @@ std::array<double, 6> PreviousResistances(const std::string& text, const std::st
 //  lugre{}, stick_motion_um} — the first axis's values also at the top level.
 nlohmann::json ServoFeedDriveJson(const std::string& machine_id,
                                   const std::vector<servo::FeedDriveResult>& axes);
+
+// DBB tests of the same machine next to the feed drive's stick-motion prediction ([Fujita
+// thesis] ch. 2–3): per test {file, test_id, direction, radius_mm, feed_mm_min, measured[]
+// (the diagnosis' reversal_spike_* and stick_slip entries: effect, value, uncertainty, unit),
+// predicted_stick_motion_um (the test's radius and feed, gain `kp_per_s`; null without a
+// gain or a LuGre fit)}.
+nlohmann::json DbbStickComparisonJson(const std::vector<dbb::DbbTest>& tests,
+                                      const std::vector<std::string>& names,
+                                      const servo::FeedDriveResult& drive,
+                                      std::optional<double> kp_per_s);
 
 // The summary stored with an upload: {record ("hexapod" | "feed_drive"), samples, duration_s,
 //  and per strut force_min_N[6], force_max_N[6], force_rms_N[6] or per axis axes[] {axis,

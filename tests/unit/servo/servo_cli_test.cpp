@@ -113,6 +113,27 @@ TEST_F(ServoCli, JointsGradeTheStiffLegAndReadThePrevious) {
   EXPECT_EQ(again["legs"][0]["level"], 1);
 }
 
+TEST_F(ServoCli, FeedDriveWithTheDbbTestsOfTheMachine) {
+  const auto j =
+      Run("servo feed-drive", {"data/examples/servo_x-strokes.txt"},
+          {{"--kp-per-s", "30"},
+           {"--dbb", "data/examples/dbb_xy-r150_ccw.txt,data/examples/dbb_xy-r150_cw.txt"}});
+  EXPECT_NEAR(j["coulomb_N"].get<double>(), 30.0, 1.5);
+  EXPECT_NEAR(j["viscous_N_s_per_mm"].get<double>(), 0.05, 0.01);
+  ASSERT_FALSE(j["ripple"].empty());
+  EXPECT_NEAR(j["ripple"][0]["period_mm"].get<double>(), 55.0, 1.1);
+  ASSERT_TRUE(j["lugre"].is_object());
+  for (const char* k :
+       {"Fc_N", "Fs_N", "vs_mm_s", "sigma0_N_per_um", "sigma1_N_s_per_mm", "sigma2_N_s_per_mm"}) {
+    EXPECT_TRUE(j["lugre"].contains(k)) << k;
+  }
+  EXPECT_TRUE(j["stick_motion_um"].is_null());  // no radius and feed given
+  ASSERT_EQ(j["dbb_comparison"].size(), 2u);
+  EXPECT_EQ(j["dbb_comparison"][1]["direction"], "cw");
+  EXPECT_GT(j["dbb_comparison"][0]["predicted_stick_motion_um"].get<double>(), 0.0);
+  EXPECT_TRUE(j["dbb_comparison"][0]["measured"].is_array());
+}
+
 TEST_F(ServoCli, BadInputIsNamed) {
   const std::string bad = Write("bad.txt", "# format: kinemetric-servo/1\n# machine_id: x\n");
   try {
