@@ -227,6 +227,7 @@ function renderDbbPlot(item, fetched) {
     note.textContent = 'Radial error about the least-squares circle, magnified around the nominal circle (thick grey).';
   }
   $('#plot-png-button').hidden = false;
+  $('#plot-save-png').hidden = false;
 }
 
 function renderCompareNote() {
@@ -327,6 +328,80 @@ async function openPlotPng() {
   }
 }
 
+// The plot as shown (same scale, overlay included) as a PNG with the key figures under it: the
+// SVG with its computed styles written into it, drawn on a canvas (blob: images are allowed).
+const STYLE_PROPS = ['fill', 'stroke', 'stroke-width', 'stroke-dasharray', 'stroke-linejoin', 'paint-order', 'font-family', 'font-size', 'font-weight', 'text-anchor', 'opacity'];
+
+function inlineStyles(source, copy) {
+  const from = [source, ...source.querySelectorAll('*')];
+  const to = [copy, ...copy.querySelectorAll('*')];
+  from.forEach((node, i) => {
+    // As presentation attributes (the page's Content-Security-Policy refuses style attributes).
+    const cs = getComputedStyle(node);
+    for (const p of STYLE_PROPS) {
+      const v = cs.getPropertyValue(p);
+      if (v) to[i].setAttribute(p, v);
+    }
+  });
+}
+
+function keyFigureLines() {
+  const lines = [];
+  for (const th of document.querySelectorAll('[data-testid="figures-table"] thead th[data-direction]')) {
+    const dir = th.dataset.direction;
+    const id = th.querySelector('.col-id')?.textContent.trim() || '';
+    const cell = (key) => document.querySelector(`[data-testid="figures-table"] td[data-key="${key}"][data-direction="${dir}"]`)?.textContent || '—';
+    lines.push(`${formatDirection(dir)} ${id}: circularity ${cell('circularity_um')} µm, centre offset ${cell('centre_offset_x_um')}, ${cell('centre_offset_y_um')} µm`);
+  }
+  for (const [key, label] of [['circular_hysteresis_um', 'Circular hysteresis H'], ['bidirectional_circular_deviation_um', 'Bidirectional circular deviation G(b)']]) {
+    const td = document.querySelector(`[data-testid="pair-${key}"]`);
+    if (td) lines.push(`${label}: ${td.textContent} µm`);
+  }
+  const overlayNote = $('#compare-note');
+  if (!overlayNote.hidden && overlayNote.textContent) lines.push(overlayNote.textContent);
+  return lines;
+}
+
+async function savePlotPng() {
+  const svg = $('#polar-plot svg.polar');
+  if (!svg) return;
+  const copy = svg.cloneNode(true);
+  inlineStyles(svg, copy);
+  const W = 900;
+  const plotH = 900;
+  const lines = [$('#detail-heading').textContent, ...keyFigureLines()];
+  const lineH = 26;
+  const canvas = document.createElement('canvas');
+  canvas.width = W;
+  canvas.height = plotH + 20 + lines.length * lineH;
+  const g = canvas.getContext('2d');
+  g.fillStyle = '#fff';
+  g.fillRect(0, 0, canvas.width, canvas.height);
+  copy.setAttribute('width', String(W));
+  copy.setAttribute('height', String(plotH));
+  const url = URL.createObjectURL(new Blob([new XMLSerializer().serializeToString(copy)], { type: 'image/svg+xml' }));
+  try {
+    const img = new Image();
+    await new Promise((res, rej) => {
+      img.onload = res;
+      img.onerror = () => rej(new Error('the plot could not be drawn'));
+      img.src = url;
+    });
+    g.drawImage(img, 0, 0, W, plotH);
+  } finally {
+    URL.revokeObjectURL(url);
+  }
+  g.fillStyle = '#14202b';
+  g.font = '18px sans-serif';
+  lines.forEach((t, i) => g.fillText(t, 16, plotH + 10 + (i + 0.8) * lineH, W - 32));
+  const blob = await new Promise((res) => canvas.toBlob(res, 'image/png'));
+  const a = h('a', { href: URL.createObjectURL(blob), download: `kinemetric-${state.measurementId}-plot.png`, hidden: true });
+  document.body.append(a);
+  a.click();
+  a.remove();
+  $('#plot-save-png').dataset.lines = String(lines.length);
+}
+
 async function exportTrace() {
   const id = state.measurementId;
   if (!id) return;
@@ -347,6 +422,9 @@ export function initDetail() {
     if (e.target === e.currentTarget) $('#png-dialog').close(); // click on the backdrop
   });
   $('#print-report').addEventListener('click', () => window.print());
+  $('#plot-save-png').addEventListener('click', () =>
+    savePlotPng().catch((err) => $('#plot-note').replaceChildren(errorBox(err))),
+  );
   $('#trace-csv').addEventListener('click', () => exportTrace().catch((err) => handleAuth(err)));
   $('#compare-form').addEventListener('submit', onCompare);
   $('#compare-clear').addEventListener('click', () => {

@@ -14,6 +14,7 @@ export function resetAnalysis() {
   $('#not-identifiable').hidden = true;
   $('#not-identifiable').replaceChildren();
   $('#plot-png-button').hidden = true;
+  $('#plot-save-png').hidden = true;
 }
 
 function valueText(v) {
@@ -40,6 +41,7 @@ export function renderAnalysis(item, fetched, pair, pairError) {
   if (item.kind !== 'dbb') return;
   $('#analysis').hidden = false;
   $('#plot-png-button').hidden = false;
+  $('#plot-save-png').hidden = false;
   const own = fetched.find((f) => f.item.id === item.id);
   const results = own?.results || {};
   const joint = pair && Array.isArray(pair.joint_diagnosis);

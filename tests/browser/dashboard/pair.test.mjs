@@ -7,6 +7,7 @@
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
+import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { dbbFile, outDir, withDashboard } from '../lib/harness.mjs';
 
@@ -45,6 +46,15 @@ test('an older CCW test shows its own partner; reload keeps the view', { timeout
     const umPerDiv = Number(await page.getAttribute('#polar-plot svg', 'data-um-per-div'));
     assert.ok(maxAbs <= 3 * umPerDiv, `one scale holds all three traces (${maxAbs} µm, ${umPerDiv} µm/div)`);
     assert.match(await page.textContent('[data-testid="compare-note"]'), new RegExp(`#${ids.newCcw} \\(november_ccw\\.txt\\)`));
+    // The plot as shown, overlay included, saved as a PNG with the key figures under it.
+    const [png] = await Promise.all([page.waitForEvent('download'), page.click('[data-testid="plot-save-png"]')]);
+    const bytes = readFileSync(await png.path());
+    await png.saveAs(join(outDir, 'views-plot-as-shown.png'));
+    assert.equal(bytes.subarray(1, 4).toString(), 'PNG');
+    assert.equal(bytes.readUInt32BE(16), 900, 'PNG width');
+    const lines = Number(await page.getAttribute('[data-testid="plot-save-png"]', 'data-lines'));
+    assert.equal(bytes.readUInt32BE(20), 900 + 20 + lines * 26, 'PNG height: the plot and the key figures');
+    assert.ok(lines >= 5, `heading, two directions, H, G(b), overlay: ${lines} lines`);
     await page.click('[data-testid="compare-clear"]');
     await page.waitForSelector('#polar-plot svg path[data-role="compare"]', { state: 'detached' });
 
