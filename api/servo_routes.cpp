@@ -62,6 +62,21 @@ void AddServoRoutes(Router& router, server::Service& service) {
                     {"responses",
                      {{"200", JsonResponse("{legs[{leg, resistance_Nm, sigma_Nm, level, "
                                            "evidence}], level}")}}}}});
+  router.Add(
+      Route{"POST",
+            "/api/v1/streams/{id}/servo",
+            "A stretch of a stream (feed-drive position and force channels) stored as a "
+            "kinemetric-servo/1 measurement (docs/formats.md §5)",
+            true,
+            [svc](const Request& req) {
+              const auto out = server::ServoFromStream(*svc, req.PathId("id"), JsonBody(req));
+              return Response::Json({{"id", out.id}, {"kind", out.kind}, {"created", out.created}},
+                                    out.created ? 201 : 200);
+            },
+            {{"requestBody",
+              {{"required", true},
+               {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}}},
+             {"responses", {{"201", JsonResponse("{id, kind: servo, created}")}}}}});
   router.Add(Route{
       "GET",
       "/api/v1/measurements/{id}/servo/force",

@@ -1,5 +1,7 @@
 #include "server/servo_service.h"
 
+#include <algorithm>
+#include <cctype>
 #include <limits>
 #include <set>
 #include <string>
@@ -10,6 +12,7 @@
 #include "ingest/servo_parser.h"
 #include "report/servo_report.h"
 #include "server/request_json.h"
+#include "server/streams.h"
 
 namespace km::server {
 namespace {
@@ -166,6 +169,94 @@ nlohmann::json ServoForce(Service& service, std::int64_t measurement_id,
   nlohmann::json j = ServoForceJson(machine.machine_id, file, f);
   j["machine_version"] = version;
   return j;
+}
+
+namespace {
+
+// The value of a channel at time t by linear interpolation; nullopt outside its samples.
+std::optional<double> At(const ChannelSamples& c, std::int64_t t) {
+  if (c.t_us.empty() || t < c.t_us.front() || t > c.t_us.back()) return std::nullopt;
+  const auto it = std::lower_bound(c.t_us.begin(), c.t_us.end(), t);
+  const auto k = static_cast<std::size_t>(it - c.t_us.begin());
+  if (c.t_us[k] == t || k == 0) return c.value_um[k];
+  const double w =
+      static_cast<double>(t - c.t_us[k - 1]) / static_cast<double>(c.t_us[k] - c.t_us[k - 1]);
+  return (1.0 - w) * c.value_um[k - 1] + w * c.value_um[k];
+}
+
+std::int64_t Channel(const nlohmann::json& j, const std::string& key, const std::string& field) {
+  if (!j.contains(key) || !j[key].is_number_integer() || j[key].get<std::int64_t>() < 0 ||
+      j[key].get<std::int64_t>() > 65535) {
+    throw InvalidInput(req::kFile, 0, field + "." + key, "a channel number 0 … 65535 is required");
+  }
+  return j[key].get<std::int64_t>();
+}
+
+}  // namespace
+
+UploadOutcome ServoFromStream(Service& service, std::int64_t stream_id,
+                              const nlohmann::json& request) {
+  const auto rec = service.storage().GetStream(stream_id);
+  if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+  if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
+  if (!request.contains("axes") || !request["axes"].is_array() || request["axes"].empty() ||
+      request["axes"].size() > 6) {
+    throw InvalidInput(req::kFile, 0, "axes",
+                       "1 … 6 objects {\"axis\", \"position_channel\", \"force_channel\"}");
+  }
+  constexpr auto kMin = std::numeric_limits<std::int64_t>::min();
+  constexpr auto kMax = std::numeric_limits<std::int64_t>::max();
+  const auto from_us = req::WholeNumber(request, "from_us", kMin, kMax, kMin);
+  const auto to_us = req::WholeNumber(request, "to_us", kMin, kMax, kMax);
+  service.streams().Flush(stream_id);  // every sample received so far
+  std::vector<std::string> names;
+  std::vector<ChannelSamples> pos, force;
+  for (std::size_t a = 0; a < request["axes"].size(); ++a) {
+    const auto& ax = request["axes"][a];
+    const std::string field = "axes[" + std::to_string(a) + "]";
+    if (!ax.is_object()) throw InvalidInput(req::kFile, 0, field, "must be an object");
+    names.push_back(req::RequiredString(ax, "axis"));
+    pos.push_back(ReadChannelSamples(service.storage(), stream_id,
+                                     Channel(ax, "position_channel", field), from_us, to_us));
+    force.push_back(ReadChannelSamples(service.storage(), stream_id,
+                                       Channel(ax, "force_channel", field), from_us, to_us));
+  }
+  std::string text =
+      "# format: kinemetric-servo/1\n# machine_id: " + rec->machine_id + "\n# test_id: " +
+      req::OptionalString(request, "test_id", "stream-" + std::to_string(stream_id)) +
+      "\n# motion: path\n# axis: " + names[0] + "\n# source_stream: " + std::to_string(stream_id) +
+      "\n# force_unit: " + req::OptionalString(request, "force_unit", "N") + "\n";
+  if (request.contains("force_constant_N_per_A")) {
+    const auto& k = request["force_constant_N_per_A"];
+    if (!k.is_array()) throw InvalidInput(req::kFile, 0, "force_constant_N_per_A", "an array");
+    std::string list;
+    for (const auto& v : k) {
+      if (!v.is_number()) throw InvalidInput(req::kFile, 0, "force_constant_N_per_A", "numbers");
+      list += (list.empty() ? "" : ", ") + nlohmann::json(v.get<double>()).dump();
+    }
+    text += "# force_constant_N_per_A: " + list + "\n";
+  }
+  text += "t_s,pos_mm,force";
+  for (std::size_t a = 1; a < names.size(); ++a) {
+    std::string lower = names[a];
+    for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    text += ",pos_" + lower + "_mm,force_" + lower;
+  }
+  text += "\n";
+  const auto& rows = pos[0];
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const std::int64_t t = rows.t_us[i];
+    std::string line = nlohmann::json(static_cast<double>(t - rows.t_us.front()) * 1e-6).dump();
+    bool complete = true;
+    for (std::size_t a = 0; a < names.size() && complete; ++a) {
+      const auto p = At(pos[a], t), f = At(force[a], t);
+      complete = p && f;
+      if (complete)
+        line += "," + nlohmann::json(*p * 1e-3).dump() + "," + nlohmann::json(*f).dump();
+    }
+    if (complete) text += line + "\n";
+  }
+  return service.Upload(text, "stream-" + std::to_string(stream_id) + "-servo.csv");
 }
 
 }  // namespace km::server

@@ -32,4 +32,13 @@ nlohmann::json ServoJoints(Service& service, const nlohmann::json& request);
 nlohmann::json ServoForce(Service& service, std::int64_t measurement_id,
                           std::optional<std::int64_t> machine_version);
 
+// A stretch of a stream turned into a feed-drive servo record (docs/formats.md §1.7) and
+// uploaded like a file: {"axes": [{"axis", "position_channel", "force_channel"}, …],
+// "force_unit"? ("N" | "current_A"), "force_constant_N_per_A"? [one per axis], "test_id"?,
+// "from_us"?, "to_us"?}. The rows are the samples of the first axis's position channel (µm,
+// written in mm); the other channels are interpolated linearly in time to them (rows outside
+// any channel's time span are left out). Force channels carry N (or A) in their value field.
+UploadOutcome ServoFromStream(Service& service, std::int64_t stream_id,
+                              const nlohmann::json& request);
+
 }  // namespace km::server

@@ -87,6 +87,43 @@ TEST_F(ServoRoutes, IdentifySaveJointsAndForce) {
   EXPECT_EQ(json::parse(r.body)["force_N"].size(), 240u);
 }
 
+TEST_F(ServoRoutes, AStreamBecomesAFeedDriveRecord) {
+  const auto stream =
+      svc_->CreateStream({{"machine_id", "vmc-3axis"},
+                          {"channels", json::array({{{"channel", 1}}, {{"channel", 2}}})}});
+  // X strokes 0 → 100 → 0 mm at 20 mm/s sampled every 10 ms: the encoder in µm on channel 1, the
+  // drive force (Coulomb 30 N on an offset of 12 N) on channel 2, its samples 5 ms later.
+  std::string body;
+  const std::int64_t t0 = 1'700'000'000'000'000;
+  for (int k = 0; k < 1000; ++k) {
+    const double t = 0.01 * k, x = 20.0 * (t < 5.0 ? t : 10.0 - t);
+    const double f = 12.0 + (t < 5.0 ? 30.0 : -30.0);
+    body += json{{"channel", 1}, {"counter", k}, {"t_us", t0 + 10'000 * k}, {"value_um", 1e3 * x}}
+                .dump() +
+            "\n";
+    body += json{{"channel", 2}, {"counter", k}, {"t_us", t0 + 10'000 * k + 5'000}, {"value_um", f}}
+                .dump() +
+            "\n";
+  }
+  svc_->IngestFrames(stream, "application/x-ndjson",
+                     [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
+  const json request = {
+      {"axes", json::array({{{"axis", "X"}, {"position_channel", 1}, {"force_channel", 2}}})},
+      {"test_id", "x-strokes"}};
+  auto r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo", request.dump());
+  ASSERT_EQ(r.status, 201) << r.body;
+  const auto id = json::parse(r.body)["id"].get<std::int64_t>();
+  const auto result = svc_->Results(id);
+  EXPECT_EQ(result["record"], "feed_drive");
+  EXPECT_NEAR(result["axes"][0]["stroke_mm"].get<double>(), 100.0, 0.5);
+  EXPECT_NEAR(result["axes"][0]["force_max_N"].get<double>(), 42.0, 1e-6);
+  EXPECT_EQ(svc_->storage().GetMeasurement(id)->machine_id, "vmc-3axis");
+  r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo",
+           json{{"axes", json::array({{{"axis", "X"}, {"position_channel", 1}}})}}.dump());
+  EXPECT_EQ(r.status, 400);
+  EXPECT_NE(r.body.find("force_channel"), std::string::npos) << r.body;
+}
+
 TEST_F(ServoRoutes, BadRequestsAreNamed) {
   const auto ids = Upload(servo::truth::Pm600Truth(), 8);
   auto r = Call("POST", "/api/v1/servo/joints", json{{"machine_id", "pm600-like"}}.dump());
