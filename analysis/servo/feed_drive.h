@@ -27,8 +27,8 @@ namespace km::servo {
 
 struct FeedDriveOptions {
   double min_speed_fraction = 0.5;  // steady: |v| >= this × the record's top speed (cruise)…
-  double reversal_skip_mm = 2.0;     // …and this far from the last reversal
-  double bin_mm = 0.5;               // bins of the position-dependent part
+  double reversal_skip_mm = 2.0;    // …and this far from the last reversal
+  double bin_mm = 0.5;              // bins of the position-dependent part
   int max_ripple_components = 3;
   double min_period_mm = 2.0;    // 0: four bins
   double max_period_mm = 0.0;    // 0: a third of the stroke (three periods at least)
