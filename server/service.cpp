@@ -206,16 +206,18 @@ nlohmann::json Service::JobsOfMachine(const std::string& machine_id, std::int64_
   nlohmann::json items = nlohmann::json::array();
   for (const auto& j : storage_->ListJobs(scan)) {
     if (static_cast<std::int64_t>(items.size()) >= limit) break;
-    nlohmann::json x = JobJson(j);
-    x.erase("result");  // as Jobs: GET /api/v1/jobs/{id} has the result
-    const auto& req = x["request"];
+    // The request decides; only the jobs of the machine are turned into JSON (with the verdict).
+    const auto req = nlohmann::json::parse(j.request_json, nullptr, false);
     bool mine = req.is_object() && req.value("machine_id", std::string()) == machine_id;
     if (!mine && req.is_object() && req.contains("measurement_ids") &&
         req["measurement_ids"].is_array() && !req["measurement_ids"].empty() &&
         req["measurement_ids"][0].is_number_integer()) {
       mine = test_machine(req["measurement_ids"][0].get<std::int64_t>()) == machine_id;
     }
-    if (mine) items.push_back(std::move(x));
+    if (!mine) continue;
+    nlohmann::json x = JobJson(j);
+    x.erase("result");  // as Jobs: GET /api/v1/jobs/{id} has the result
+    items.push_back(std::move(x));
   }
   return {{"items", items}};
 }
