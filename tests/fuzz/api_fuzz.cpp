@@ -40,6 +40,11 @@ void SeedData(km::server::Service& svc) {
     const std::string bytes = km::fuzz::SourceFile(f);
     if (!bytes.empty()) svc.Upload(bytes, f);
   }
+  // A hexapod model and a servo record of it (measurement 7): the servo routes.
+  const std::string machine = km::fuzz::SourceFile("data/machines/pm600-like.json");
+  if (!machine.empty()) svc.StoreMachineModel(machine, "upload", "fuzz");
+  const std::string servo = km::fuzz::SourceFile("data/examples/servo_pm600-like_a_ccw.txt");
+  if (!servo.empty()) svc.Upload(servo, "servo_pm600-like_a_ccw.txt");
   const auto stream =
       svc.CreateStream(json{{"machine_id", "browser-test-vmc"},
                             {"channels", json::array({{{"channel", 1}}, {{"channel", 2}}})}});
