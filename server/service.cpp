@@ -33,8 +33,8 @@ std::map<std::string, ingest::TextLimits> DefaultUploadLimits() {
   tracker.max_cells = 80'000;
   out[ingest::kTrackerFormat] = tracker;
   // Servo loads: t_s, pose and six forces (or positions and forces of a few axes); the upload
-  // only summarises them.
-  out[ingest::kServoFormat] = limits(1'000'000, 32);
+  // only summarises them (parsing holds about 300 bytes a row).
+  out[ingest::kServoFormat] = limits(500'000, 32);
   return out;
 }
 

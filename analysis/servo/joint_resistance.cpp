@@ -109,18 +109,32 @@ std::vector<Match> Matches(const Track& cw, const Track& ccw, double match_mm) {
   std::vector<Match> out(cw.motion.size());
   const auto& cs = ccw.file->samples;
   const std::size_t n = cs.size();
+  if (n == 0) return out;
+  // CCW samples by x: a match lies within match_mm plus one sample step of the CW pose.
+  std::vector<std::size_t> by_x(n);
+  double step = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    by_x[k] = k;
+    if (k > 0) step = std::max(step, PoseDistance(cs[k], cs[k - 1]));
+  }
+  std::sort(by_x.begin(), by_x.end(),
+            [&](std::size_t a, std::size_t b) { return cs[a].tip_mm[0] < cs[b].tip_mm[0]; });
+  const double window = match_mm + step;
   for (std::size_t i = 0; i < cw.motion.size(); ++i) {
     if (!cw.use[i].joints) continue;
     const HexapodSample& p = cw.file->samples[i];
     std::size_t best = 0;
     double best_d = INFINITY;
-    for (std::size_t k = 0; k < n; ++k) {
-      const double d = PoseDistance(p, cs[k]);
+    auto it = std::lower_bound(by_x.begin(), by_x.end(), p.tip_mm[0] - window,
+                               [&](std::size_t k, double x) { return cs[k].tip_mm[0] < x; });
+    for (; it != by_x.end() && cs[*it].tip_mm[0] <= p.tip_mm[0] + window; ++it) {
+      const double d = PoseDistance(p, cs[*it]);
       if (d < best_d) {
         best_d = d;
-        best = k;
+        best = *it;
       }
     }
+    if (!(best_d <= window)) continue;
     Match m{static_cast<long>(best), static_cast<long>(best), 0.0};
     // The nearer neighbour, and the point between them nearest to the CW pose.
     for (const std::size_t k2 : {best > 0 ? best - 1 : best, best + 1 < n ? best + 1 : best}) {
