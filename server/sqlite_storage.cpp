@@ -231,15 +231,20 @@ MeasurementPage SqliteStorage::ListMeasurements(const MeasurementFilter& f) {
   }
   MeasurementPage page;
   {
-    auto c = Prepared(("SELECT COUNT(*) FROM measurements" + where));
-    bind(*c);
-    if (c->Step()) page.total = c->Int(0);
+    auto s = Prepared((std::string("SELECT ") + kRecordColumns + " FROM measurements" + where +
+                       order + " LIMIT ? OFFSET ?"));
+    const int next = bind(*s);
+    s->Bind(next, f.limit).Bind(next + 1, f.offset);
+    while (s->Step()) page.items.push_back(ReadRecord(*s));
   }
-  auto s = Prepared((std::string("SELECT ") + kRecordColumns + " FROM measurements" + where +
-                     order + " LIMIT ? OFFSET ?"));
-  const int next = bind(*s);
-  s->Bind(next, f.limit).Bind(next + 1, f.offset);
-  while (s->Step()) page.items.push_back(ReadRecord(*s));
+  // A first page that is not full holds every match: no second pass to count them.
+  if (f.offset == 0 && static_cast<std::int64_t>(page.items.size()) < f.limit) {
+    page.total = static_cast<std::int64_t>(page.items.size());
+    return page;
+  }
+  auto c = Prepared(("SELECT COUNT(*) FROM measurements" + where));
+  bind(*c);
+  if (c->Step()) page.total = c->Int(0);
   return page;
 }
 
