@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <limits>
 #include <set>
 #include <string>
@@ -194,68 +195,149 @@ std::int64_t Channel(const nlohmann::json& j, const std::string& key, const std:
 
 }  // namespace
 
+namespace {
+
+// One column of a record made from a stream: a channel's samples times a scale.
+struct Column {
+  std::string name;
+  ChannelSamples samples;
+  double scale = 1.0;
+};
+
+struct StreamRange {
+  Service* service = nullptr;
+  std::int64_t stream = 0, from_us = 0, to_us = 0;
+  Column Read(const std::string& name, std::int64_t channel, double scale) const {
+    return {name, ReadChannelSamples(service->storage(), stream, channel, from_us, to_us), scale};
+  }
+};
+
+// The column-header row and the rows: one at each sample of the first column, the other
+// columns interpolated in time to it; rows outside any column's span are left out.
+std::string Rows(const std::vector<Column>& cols) {
+  std::string text = "t_s";
+  for (const auto& c : cols) text += "," + c.name;
+  text += "\n";
+  const auto& rows = cols.front().samples;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const std::int64_t t = rows.t_us[i];
+    std::string line = nlohmann::json(static_cast<double>(t - rows.t_us.front()) * 1e-6).dump();
+    bool complete = true;
+    for (std::size_t c = 0; c < cols.size() && complete; ++c) {
+      const auto v = At(cols[c].samples, t);
+      complete = v.has_value();
+      if (complete) line += "," + nlohmann::json(*v * cols[c].scale).dump();
+    }
+    if (complete) text += line + "\n";
+  }
+  return text;
+}
+
+std::string ForceHeader(const nlohmann::json& request) {
+  std::string text = "# force_unit: " + req::OptionalString(request, "force_unit", "N") + "\n";
+  if (!request.contains("force_constant_N_per_A")) return text;
+  const auto& k = request["force_constant_N_per_A"];
+  if (!k.is_array()) throw InvalidInput(req::kFile, 0, "force_constant_N_per_A", "an array");
+  std::string list;
+  for (const auto& v : k) {
+    if (!v.is_number()) throw InvalidInput(req::kFile, 0, "force_constant_N_per_A", "numbers");
+    list += (list.empty() ? "" : ", ") + nlohmann::json(v.get<double>()).dump();
+  }
+  return text + "# force_constant_N_per_A: " + list + "\n";
+}
+
+// Feed-drive axes: {"axes": [{"axis", "position_channel" (µm), "force_channel"}, …]}.
+std::string FeedDriveRecord(const StreamRange& range, const nlohmann::json& request) {
+  const auto& axes = request["axes"];
+  if (!axes.is_array() || axes.empty() || axes.size() > 6) {
+    throw InvalidInput(req::kFile, 0, "axes",
+                       "1 … 6 objects {\"axis\", \"position_channel\", \"force_channel\"}");
+  }
+  std::vector<Column> cols;
+  std::string first;
+  for (std::size_t a = 0; a < axes.size(); ++a) {
+    const auto& ax = axes[a];
+    const std::string field = "axes[" + std::to_string(a) + "]";
+    if (!ax.is_object()) throw InvalidInput(req::kFile, 0, field, "must be an object");
+    std::string name = req::RequiredString(ax, "axis");
+    for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (a == 0) first = name;
+    const std::string pos = a == 0 ? "pos_mm" : "pos_" + name + "_mm";
+    const std::string force = a == 0 ? "force" : "force_" + name;
+    cols.push_back(range.Read(pos, Channel(ax, "position_channel", field), 1e-3));
+    cols.push_back(range.Read(force, Channel(ax, "force_channel", field), 1.0));
+  }
+  return "# motion: path\n# axis: " + first + "\n" + ForceHeader(request) + Rows(cols);
+}
+
+// Hexapod struts: {"struts": {"pose_channels": [x, y, z, a, b, c], "force_channels": [f1 … f6],
+// "pose_scale"?: [6] (default 0.001: µm → mm, millidegrees → degrees), "tool_length_mm",
+// "motion"?, "direction"?}}.
+std::string HexapodRecord(const StreamRange& range, const nlohmann::json& request) {
+  const auto& st = request["struts"];
+  if (!st.is_object()) throw InvalidInput(req::kFile, 0, "struts", "must be an object");
+  const auto six = [&](const char* key) {
+    if (!st.contains(key) || !st[key].is_array() || st[key].size() != 6) {
+      throw InvalidInput(req::kFile, 0, std::string("struts.") + key, "six channels");
+    }
+    return st[key];
+  };
+  const auto pose = six("pose_channels");
+  const auto force = six("force_channels");
+  std::vector<double> scale(6, 1e-3);
+  if (st.contains("pose_scale")) {
+    const auto ps = six("pose_scale");
+    for (std::size_t k = 0; k < 6; ++k) {
+      if (!ps[k].is_number() || !std::isfinite(ps[k].get<double>()) || ps[k].get<double>() == 0.0) {
+        throw InvalidInput(req::kFile, 0, "struts.pose_scale", "six finite, non-zero numbers");
+      }
+      scale[k] = ps[k].get<double>();
+    }
+  }
+  static const char* kPose[] = {"x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"};
+  std::vector<Column> cols;
+  for (std::size_t k = 0; k < 6; ++k) {
+    const nlohmann::json one = {{"channel", pose[k]}};
+    cols.push_back(range.Read(kPose[k], Channel(one, "channel", "struts.pose_channels"), scale[k]));
+  }
+  for (std::size_t k = 0; k < 6; ++k) {
+    const nlohmann::json one = {{"channel", force[k]}};
+    cols.push_back(range.Read("f" + std::to_string(k + 1),
+                              Channel(one, "channel", "struts.force_channels"), 1.0));
+  }
+  std::string head = "# motion: " + req::OptionalString(st, "motion", "path") + "\n";
+  if (st.contains("direction"))
+    head += "# direction: " + req::RequiredString(st, "direction") + "\n";
+  head += "# tool_length_mm: " +
+          nlohmann::json(req::Number(st, "tool_length_mm", std::nullopt)).dump() + "\n";
+  return head + ForceHeader(request) + Rows(cols);
+}
+
+}  // namespace
+
 UploadOutcome ServoFromStream(Service& service, std::int64_t stream_id,
                               const nlohmann::json& request) {
   const auto rec = service.storage().GetStream(stream_id);
   if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
   if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
-  if (!request.contains("axes") || !request["axes"].is_array() || request["axes"].empty() ||
-      request["axes"].size() > 6) {
+  if (request.contains("axes") == request.contains("struts")) {
     throw InvalidInput(req::kFile, 0, "axes",
-                       "1 … 6 objects {\"axis\", \"position_channel\", \"force_channel\"}");
+                       "give either \"axes\" (feed drives) or \"struts\" (a hexapod)");
   }
   constexpr auto kMin = std::numeric_limits<std::int64_t>::min();
   constexpr auto kMax = std::numeric_limits<std::int64_t>::max();
-  const auto from_us = req::WholeNumber(request, "from_us", kMin, kMax, kMin);
-  const auto to_us = req::WholeNumber(request, "to_us", kMin, kMax, kMax);
+  StreamRange range;
+  range.service = &service;
+  range.stream = stream_id;
+  range.from_us = req::WholeNumber(request, "from_us", kMin, kMax, kMin);
+  range.to_us = req::WholeNumber(request, "to_us", kMin, kMax, kMax);
   service.streams().Flush(stream_id);  // every sample received so far
-  std::vector<std::string> names;
-  std::vector<ChannelSamples> pos, force;
-  for (std::size_t a = 0; a < request["axes"].size(); ++a) {
-    const auto& ax = request["axes"][a];
-    const std::string field = "axes[" + std::to_string(a) + "]";
-    if (!ax.is_object()) throw InvalidInput(req::kFile, 0, field, "must be an object");
-    names.push_back(req::RequiredString(ax, "axis"));
-    pos.push_back(ReadChannelSamples(service.storage(), stream_id,
-                                     Channel(ax, "position_channel", field), from_us, to_us));
-    force.push_back(ReadChannelSamples(service.storage(), stream_id,
-                                       Channel(ax, "force_channel", field), from_us, to_us));
-  }
-  std::string text =
+  const std::string body =
+      request.contains("axes") ? FeedDriveRecord(range, request) : HexapodRecord(range, request);
+  const std::string text =
       "# format: kinemetric-servo/1\n# machine_id: " + rec->machine_id + "\n# test_id: " +
       req::OptionalString(request, "test_id", "stream-" + std::to_string(stream_id)) +
-      "\n# motion: path\n# axis: " + names[0] + "\n# source_stream: " + std::to_string(stream_id) +
-      "\n# force_unit: " + req::OptionalString(request, "force_unit", "N") + "\n";
-  if (request.contains("force_constant_N_per_A")) {
-    const auto& k = request["force_constant_N_per_A"];
-    if (!k.is_array()) throw InvalidInput(req::kFile, 0, "force_constant_N_per_A", "an array");
-    std::string list;
-    for (const auto& v : k) {
-      if (!v.is_number()) throw InvalidInput(req::kFile, 0, "force_constant_N_per_A", "numbers");
-      list += (list.empty() ? "" : ", ") + nlohmann::json(v.get<double>()).dump();
-    }
-    text += "# force_constant_N_per_A: " + list + "\n";
-  }
-  text += "t_s,pos_mm,force";
-  for (std::size_t a = 1; a < names.size(); ++a) {
-    std::string lower = names[a];
-    for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    text += ",pos_" + lower + "_mm,force_" + lower;
-  }
-  text += "\n";
-  const auto& rows = pos[0];
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const std::int64_t t = rows.t_us[i];
-    std::string line = nlohmann::json(static_cast<double>(t - rows.t_us.front()) * 1e-6).dump();
-    bool complete = true;
-    for (std::size_t a = 0; a < names.size() && complete; ++a) {
-      const auto p = At(pos[a], t), f = At(force[a], t);
-      complete = p && f;
-      if (complete)
-        line += "," + nlohmann::json(*p * 1e-3).dump() + "," + nlohmann::json(*f).dump();
-    }
-    if (complete) text += line + "\n";
-  }
+      "\n# source_stream: " + std::to_string(stream_id) + "\n" + body;
   return service.Upload(text, "stream-" + std::to_string(stream_id) + "-servo.csv");
 }
 

@@ -1,6 +1,7 @@
 // The servo routes (api/servo_routes.cpp → server/servo_service.h) on a service holding the
 // pm600-like model and the servo records of the jig plan: identify (and save as the next model
 // version), joints with health levels, the force of one record; bad requests named.
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -122,6 +123,55 @@ TEST_F(ServoRoutes, AStreamBecomesAFeedDriveRecord) {
            json{{"axes", json::array({{{"axis", "X"}, {"position_channel", 1}}})}}.dump());
   EXPECT_EQ(r.status, 400);
   EXPECT_NE(r.body.find("force_channel"), std::string::npos) << r.body;
+}
+
+TEST_F(ServoRoutes, AStreamOfStrutLoadsBecomesAHexapodRecord) {
+  const auto stream = svc_->CreateStream({{"machine_id", "pm600-like"}});
+  std::mt19937 rng(9);
+  auto c = servo::truth::JigPlan(120)[6];  // tilted cone test
+  const auto rec = servo::truth::Simulate(servo::truth::Pm600Truth(), c, 2.0, rng);
+  // Channels 1–6: x, y, z in µm and A, B, C in millidegrees; 7–12: the strut forces in N.
+  std::string body;
+  const std::int64_t t0 = 1'700'000'000'000'000;
+  for (std::size_t i = 0; i < rec.t_s.size(); ++i) {
+    const auto t = t0 + static_cast<std::int64_t>(std::llround(rec.t_s[i] * 1e6));
+    const double v[12] = {1e3 * rec.tip_mm[i].x(), 1e3 * rec.tip_mm[i].y(), 1e3 * rec.tip_mm[i].z(),
+                          1e3 * c.tilt_deg.x(),    1e3 * c.tilt_deg.y(),    1e3 * c.tilt_deg.z(),
+                          rec.force_N[i][0],       rec.force_N[i][1],       rec.force_N[i][2],
+                          rec.force_N[i][3],       rec.force_N[i][4],       rec.force_N[i][5]};
+    for (int ch = 0; ch < 12; ++ch) {
+      body +=
+          json{{"channel", ch + 1}, {"counter", i}, {"t_us", t}, {"value_um", v[ch]}}.dump() + "\n";
+    }
+  }
+  svc_->IngestFrames(stream, "application/x-ndjson",
+                     [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
+  const json request = {{"struts",
+                         {{"pose_channels", {1, 2, 3, 4, 5, 6}},
+                          {"force_channels", {7, 8, 9, 10, 11, 12}},
+                          {"tool_length_mm", c.tool_mm},
+                          {"motion", "circle"},
+                          {"direction", "ccw"}}},
+                        {"test_id", "g"}};
+  auto r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo", request.dump());
+  ASSERT_EQ(r.status, 201) << r.body;
+  const auto id = json::parse(r.body)["id"].get<std::int64_t>();
+  const auto result = svc_->Results(id);
+  EXPECT_EQ(result["record"], "hexapod");
+  EXPECT_EQ(result["samples"], 120);
+  double fmax = -1e300;
+  for (const auto& f : rec.force_N) fmax = std::max(fmax, f[2]);
+  EXPECT_NEAR(result["force_max_N"][2].get<double>(), fmax, 1e-6);
+  EXPECT_EQ(svc_->storage().GetMeasurement(id)->direction, "ccw");
+  // The force of the stored record with the machine's model: no load, small forces.
+  r = Call("GET", "/api/v1/measurements/" + std::to_string(id) + "/servo/force", "");
+  ASSERT_EQ(r.status, 200) << r.body;
+  for (const auto& v : json::parse(r.body)["mean_force_N"])
+    EXPECT_LT(std::abs(v.get<double>()), 20.0);
+  r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo",
+           json{{"struts", {{"pose_channels", {1, 2, 3}}}}}.dump());
+  EXPECT_EQ(r.status, 400);
+  EXPECT_NE(r.body.find("struts.pose_channels"), std::string::npos) << r.body;
 }
 
 TEST_F(ServoRoutes, BadRequestsAreNamed) {
