@@ -204,10 +204,16 @@ MeasurementPage SqliteStorage::ListMeasurements(const MeasurementFilter& f) {
   if (f.from) where += " AND COALESCE(measured_at, uploaded_at) >= ?";
   if (f.to) where += " AND COALESCE(measured_at, uploaded_at) < ?";
   if (text) {
-    where +=
-        " AND (filename LIKE ? ESCAPE '\\' OR test_id LIKE ? ESCAPE '\\'"
-        " OR direction LIKE ? ESCAPE '\\' OR kind LIKE ? ESCAPE '\\'" +
-        std::string(text_id ? " OR id = ?)" : ")");
+    const std::string match =
+        "(filename LIKE ? ESCAPE '\\' OR test_id LIKE ? ESCAPE '\\'"
+        " OR direction LIKE ? ESCAPE '\\' OR kind LIKE ? ESCAPE '\\')";
+    // Within a machine the text is matched on the entries of an index holding these columns
+    // (tens of bytes each), not on the rows, which carry the raw file and the samples.
+    where += f.machine_id ? " AND (id IN (SELECT id FROM measurements INDEXED BY "
+                            "measurements_by_machine_text WHERE machine_id = ? AND " +
+                                match + ")"
+                          : " AND (" + match;
+    where += text_id ? " OR id = ?)" : ")";
   }
   auto bind = [&](Statement& s) {
     int i = 1;
@@ -218,6 +224,7 @@ MeasurementPage SqliteStorage::ListMeasurements(const MeasurementFilter& f) {
     if (f.from) s.Bind(i++, *f.from);
     if (f.to) s.Bind(i++, *f.to);
     if (text) {
+      if (f.machine_id) s.Bind(i++, *f.machine_id);
       for (int k = 0; k < 4; ++k) s.Bind(i++, *text);
       if (text_id) s.Bind(i++, *text_id);
     }

@@ -65,8 +65,9 @@ BENCHMARK(BM_UploadToStoredResult)->Unit(benchmark::kMillisecond)->UseRealTime()
 // Target: one page of a machine's measurement list (GET /api/v1/measurements?machine_id=…, 50
 // items with their key results) under 20 ms with 100 000 measurements on that machine, newest
 // first, deep in the list, by kind and by free text. The database is filled directly (one
-// transaction, the rows the service itself writes) and then served by the real service and
-// router in this process; the page is asked for as the dashboard asks for it.
+// transaction, the rows the service itself writes, each with 4 KB of raw file and samples as a
+// small DBB upload has) and then served by the real service and router in this process; the
+// page is asked for as the dashboard asks for it.
 void BM_MeasurementListPage(benchmark::State& state) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / ("km-bench-list-" + std::to_string(::getpid()));
@@ -84,7 +85,7 @@ void BM_MeasurementListPage(benchmark::State& state) {
                        "INSERT INTO measurements (id, sha256, kind, format, machine_id, test_id, "
                        "direction, measured_at, uploaded_at, filename, sample_count, "
                        "metadata_json, raw, samples) VALUES (?, ?, ?, 'kinemetric-dbb/1', "
-                       "'vmc-1', ?, ?, ?, ?, ?, 720, '{}', x'00', x'00')",
+                       "'vmc-1', ?, ?, ?, ?, ?, 720, '{}', zeroblob(3000), zeroblob(1000))",
                        -1, &m, nullptr);
     sqlite3_prepare_v2(db,
                        "INSERT INTO results (measurement_id, analysis, analysis_version, "
