@@ -125,7 +125,19 @@ Response Router::Run(const Route& route, const Request& req) const {
 Response Router::Dispatch(Request& req) const {
   Response refusal;
   const Route* route = Admit(req, refusal);
-  return route ? Run(*route, req) : refusal;
+  Response res = route ? Run(*route, req) : refusal;
+  Observe(req, route, res);
+  return res;
+}
+
+void Router::Observe(const Request& req, const Route* route, const Response& res) const {
+  if (!observer_) return;
+  try {
+    observer_(req, route, res);
+  } catch (const std::exception& e) {
+    std::cerr << "kinemetricd: request " << req.id << ": " << e.what() << std::endl;
+  } catch (...) {  // NOLINT(bugprone-empty-catch): an observer never fails a request
+  }
 }
 
 namespace {
@@ -209,6 +221,7 @@ nlohmann::json OpenApiDocument(const Router& router, const std::string& version)
     std::string method = r.method;
     for (auto& c : method) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     op["operationId"] = method + r.pattern;
+    op["x-required-role"] = server::RoleName(RequiredRole(r));
     if (r.needs_token) {
       op["security"] = nlohmann::json::array({{{"bearer", nlohmann::json::array()}}});
     } else {

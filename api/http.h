@@ -15,6 +15,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "server/roles.h"
+
 namespace km::api {
 
 struct Request {
@@ -26,6 +28,10 @@ struct Request {
   std::string body;  // empty for routes with open_body (the body goes to the sink instead)
   std::string remote_addr;
   std::string id;  // request id: in the X-Request-Id header and in the log of server errors
+  // The caller, set by the access hook when a valid token was presented (0 / empty otherwise).
+  std::int64_t token_id = 0;
+  std::string token_name;
+  std::string token_role;
 
   std::optional<std::string> Query(const std::string& key) const;
   std::optional<std::string> Header(const std::string& lower_name) const;
@@ -67,15 +73,30 @@ struct Route {
   // Largest body of this route (0: the server's max_payload_bytes); a larger one is answered
   // 413 without being read. Never above the server's limit.
   std::size_t max_body_bytes = 0;
+  // The least role a token needs (server/roles.h); unset: the access policy's role for the
+  // method and pattern (RequiredRole).
+  std::optional<server::Role> role = std::nullopt;
 };
 
+// The role a route needs: its own, else kPublic without needs_token, else the policy of
+// api/access.cpp (reads: viewer; uploads and streams: operator; studies and machine
+// definitions: engineer; tokens, devices and the audit log: admin; anything else: admin).
+server::Role RequiredRole(const Route& route);
+
 // Called before every route's handler (access control sits here); throws to refuse.
-using RequestHook = std::function<void(const Request&, const Route&)>;
+// It may note the caller in the request (Request::token_id, token_name, token_role).
+using RequestHook = std::function<void(Request&, const Route&)>;
+// Told of every answer given to a request on a worker (route: nullptr when none was found or
+// access was refused), e.g. to keep an audit log; must not throw.
+using ResponseHook = std::function<void(const Request&, const Route*, const Response&)>;
 
 class Router {
  public:
   void Add(Route r) { routes_.push_back(std::move(r)); }
   void SetHook(RequestHook hook) { hook_ = std::move(hook); }
+  void SetObserver(ResponseHook observer) { observer_ = std::move(observer); }
+  // Tells the observer of an answer (never throws).
+  void Observe(const Request& req, const Route* route, const Response& res) const;
   const std::vector<Route>& routes() const { return routes_; }
   // Finds the route of the request (filling path_params) and checks access from the headers
   // alone, before any body is read. Returns the route, or sets `refusal` (401, 403, 404, 405,
@@ -89,6 +110,7 @@ class Router {
  private:
   std::vector<Route> routes_;
   RequestHook hook_;
+  ResponseHook observer_;
 };
 
 // RFC 7807 problem document.

@@ -235,6 +235,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void Post(std::function<void()> fn) { net::post(stream_.get_executor(), std::move(fn)); }
 
   void PostRespond(Response res, bool close) {
+    ctx_.router.Observe(req_, route_, res);
     Post([self = shared_from_this(), res = std::move(res), close]() mutable {
       self->Respond(std::move(res), close);
     });

@@ -95,6 +95,7 @@ int main(int argc, char** argv) {
     km::api::Router router;
     km::api::AddRoutes(router, service);
     router.SetHook(km::api::TokenHook(service));
+    router.SetObserver(km::api::AuditHook(service));
 
     km::api::HttpOptions ho;
     ho.host = cfg.host;

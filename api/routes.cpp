@@ -1,16 +1,11 @@
 #include "api/routes.h"
 
-#include <chrono>
 #include <limits>
-#include <memory>
-#include <mutex>
-#include <unordered_map>
 
 #include "analysis/core/errors.h"
 #include "api/http_target.h"
 #include "api/route_util.h"
 #include "server/request_json.h"
-#include "server/sha256.h"
 #include "server/time_util.h"
 
 namespace km::api {
@@ -367,6 +362,7 @@ void AddRoutes(Router& router, server::Service& service) {
   AddMachineModelRoutes(router, service);
   AddStreamRoutes(router, service);
   AddServoRoutes(router, service);
+  AddAccessRoutes(router, service);
 }
 
 void AddMachineModelRoutes(Router& router, server::Service& service) {
@@ -427,58 +423,6 @@ void AddMachineModelRoutes(Router& router, server::Service& service) {
           JsonResponse("{machine_id, versions[{version, created_at, source, note, sha256}]}")}}}}});
 
   AddStudyRoutes(router, service);
-}
-
-namespace {
-
-// Recently accepted token hashes, so that a busy client costs no database read per request. An
-// entry is trusted for kTrust only: a token removed from the store stops working within that.
-class TokenCache {
- public:
-  bool Knows(const std::string& sha) {
-    std::lock_guard lock(mu_);
-    const auto it = known_.find(sha);
-    return it != known_.end() && std::chrono::steady_clock::now() - it->second < kTrust;
-  }
-  void Remember(const std::string& sha) {
-    std::lock_guard lock(mu_);
-    if (known_.size() >= kMaxEntries) known_.clear();
-    known_[sha] = std::chrono::steady_clock::now();
-  }
-
- private:
-  static constexpr auto kTrust = std::chrono::seconds(2);
-  static constexpr std::size_t kMaxEntries = 1024;
-  std::mutex mu_;
-  std::unordered_map<std::string, std::chrono::steady_clock::time_point> known_;
-};
-
-// The hook over a lookup of token hashes.
-RequestHook TokenHookOver(std::function<bool(const std::string&)> known) {
-  auto cache = std::make_shared<TokenCache>();
-  return [known = std::move(known), cache](const Request& req, const Route& route) {
-    if (!route.needs_token) return;
-    const auto auth = req.Header("authorization");
-    if (!auth || auth->rfind("Bearer ", 0) != 0 || auth->size() <= 7) {
-      throw Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
-    }
-    const std::string sha = server::Sha256Hex(auth->substr(7));
-    if (cache->Knows(sha)) return;
-    if (!known(sha)) throw Unauthorized("the token is not valid");
-    cache->Remember(sha);
-  };
-}
-
-}  // namespace
-
-RequestHook TokenHook(server::Service& service) {
-  server::Service* svc = &service;
-  return TokenHookOver([svc](const std::string& sha) { return svc->TokenKnown(sha); });
-}
-
-RequestHook TokenHook(server::Storage& storage) {
-  server::Storage* st = &storage;
-  return TokenHookOver([st](const std::string& sha) { return st->FindTokenRole(sha).has_value(); });
 }
 
 std::string EnsureAdminToken(server::Storage& storage, const std::string& bootstrap) {

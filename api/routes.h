@@ -21,10 +21,19 @@ void AddStreamRoutes(Router& router, server::Service& service);
 // The servo-load analyses of stored measurements (api/servo_routes.cpp).
 void AddServoRoutes(Router& router, server::Service& service);
 
-// Access control: every route that needs a token checks `Authorization: Bearer TOKEN` against
-// the stored token hashes (through the service; the Storage overload serves tests and tools).
+// Tokens (create, list, revoke) and the audit log, all admin (api/access.cpp).
+void AddAccessRoutes(Router& router, server::Service& service);
+
+// Access control (api/access.cpp): every route that needs a token checks `Authorization: Bearer
+// TOKEN` against the stored token hashes (through the service; the Storage overload serves tests
+// and tools): 401 without a valid (known, unexpired, unrevoked) token, 403 when the token's role
+// is below RequiredRole(route). The caller is noted in the request.
 RequestHook TokenHook(server::Service& service);
 RequestHook TokenHook(server::Storage& storage);
+
+// Records every state-changing request (not GET) with its caller, status and subject in the
+// audit log; set with Router::SetObserver.
+ResponseHook AuditHook(server::Service& service);
 
 // First start: make sure an admin token exists. Uses `bootstrap` when given (the value of
 // KINEMETRIC_BOOTSTRAP_TOKEN), else generates one; returns the new token text when one was

@@ -140,6 +140,27 @@ CREATE INDEX measurements_by_test ON measurements(machine_id, test_id, kind);
 CREATE INDEX measurements_by_machine_text
   ON measurements(machine_id, filename, test_id, direction, kind);
 )sql",
+    // 6: named tokens with expiry and revocation; the audit log of state-changing requests,
+    // appended only.
+    R"sql(
+ALTER TABLE tokens ADD COLUMN expires_at TEXT;
+ALTER TABLE tokens ADD COLUMN revoked_at TEXT;
+CREATE TABLE audit_log (
+  id         INTEGER PRIMARY KEY,
+  at         TEXT NOT NULL,
+  token_id   INTEGER,
+  token_name TEXT NOT NULL DEFAULT '',
+  role       TEXT NOT NULL DEFAULT '',
+  method     TEXT NOT NULL,
+  path       TEXT NOT NULL,
+  status     INTEGER NOT NULL,
+  subject    TEXT NOT NULL DEFAULT ''
+);
+CREATE TRIGGER audit_log_immutable BEFORE UPDATE ON audit_log
+  BEGIN SELECT RAISE(ABORT, 'audit entries are immutable'); END;
+CREATE TRIGGER audit_log_kept BEFORE DELETE ON audit_log
+  BEGIN SELECT RAISE(ABORT, 'audit entries are never deleted'); END;
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

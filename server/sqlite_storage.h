@@ -74,6 +74,15 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   void PutToken(const std::string& token_sha256, const std::string& role,
                 const std::string& label) override;
   std::optional<std::string> FindTokenRole(const std::string& token_sha256) override;
+  // Tokens and the audit log: sqlite_access.cpp.
+  std::int64_t AddToken(const std::string& token_sha256, const std::string& role,
+                        const std::string& name,
+                        const std::optional<std::string>& expires_at) override;
+  std::optional<TokenRecord> FindToken(const std::string& token_sha256) override;
+  std::vector<TokenRecord> ListTokens() override;
+  bool RevokeToken(std::int64_t id) override;
+  void AppendAudit(const AuditEntry& entry) override;
+  AuditPage ListAudit(std::int64_t limit, std::int64_t offset) override;
 
  private:
   // The connection's prepared statement of this SQL, leased until the result goes out of scope.

@@ -193,6 +193,34 @@ struct StreamChannelSummary {
   std::int64_t gaps = 0, missing = 0;
 };
 
+// An access token as stored (never the secret, nor its hash once read back for a list).
+struct TokenRecord {
+  std::int64_t id = 0;
+  std::string role;
+  std::string name;
+  std::string created_at;
+  std::optional<std::string> expires_at;  // ISO 8601 UTC; none: never expires
+  std::optional<std::string> revoked_at;
+};
+
+// One state-changing request: who (token), what (method, path, status, subject), when.
+struct AuditEntry {
+  std::int64_t id = 0;        // set by the storage
+  std::string at;             // ISO 8601 UTC; the storage sets it when empty
+  std::int64_t token_id = 0;  // 0: no valid token was presented
+  std::string token_name;
+  std::string role;
+  std::string method;
+  std::string path;
+  int status = 0;
+  std::string subject;  // e.g. "measurement 7", "job 3", "token 4"; empty when none
+};
+
+struct AuditPage {
+  std::vector<AuditEntry> items;  // newest first
+  std::int64_t total = 0;
+};
+
 class Storage {
  public:
   virtual ~Storage() = default;
@@ -253,6 +281,19 @@ class Storage {
   virtual void PutToken(const std::string& token_sha256, const std::string& role,
                         const std::string& label) = 0;
   virtual std::optional<std::string> FindTokenRole(const std::string& token_sha256) = 0;
+  // Named tokens with a role and an optional expiry (server/access.h); the new token's id.
+  virtual std::int64_t AddToken(const std::string& token_sha256, const std::string& role,
+                                const std::string& name,
+                                const std::optional<std::string>& expires_at) = 0;
+  // The token of a hash, also when it is expired or revoked (the caller decides).
+  virtual std::optional<TokenRecord> FindToken(const std::string& token_sha256) = 0;
+  virtual std::vector<TokenRecord> ListTokens() = 0;  // by id
+  // Revokes a token from now on; false when there is no such token (a second revocation keeps
+  // the first time).
+  virtual bool RevokeToken(std::int64_t id) = 0;
+  // The audit log of state-changing requests, appended only; listed newest first.
+  virtual void AppendAudit(const AuditEntry& entry) = 0;
+  virtual AuditPage ListAudit(std::int64_t limit, std::int64_t offset) = 0;
 };
 
 }  // namespace km::server
