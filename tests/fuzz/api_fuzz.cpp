@@ -117,7 +117,7 @@ struct Api {
       router.Add(std::move(r));
     }
     router.SetHook(
-        [hook = api::TokenHook(svc.storage())](const api::Request& req, const api::Route& route) {
+        [hook = api::TokenHook(svc.storage())](api::Request& req, const api::Route& route) {
           Product([&] { hook(req, route); });
         });
     return router;
