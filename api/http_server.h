@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "api/http.h"
 
@@ -31,6 +32,9 @@ struct HttpOptions {
   std::size_t max_connections = 4096;
   int backlog = 1024;       // listen backlog (the kernel caps it at somaxconn)
   std::string static_root;  // dashboard files (served at "/" and "/static/…")
+  // Web origins allowed to call the API from a browser (CORS); others get no CORS headers and
+  // their preflight requests are refused with 403. Default: none.
+  std::vector<std::string> cors_origins;
 };
 
 class HttpServer {

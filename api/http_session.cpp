@@ -96,6 +96,7 @@ class Session : public std::enable_shared_from_this<Session> {
     if (!target) return Respond(Problem(400, "Bad Request", error), true);
     req_.path = std::move(target->path);
     req_.query = std::move(target->query);
+    if (req_.method == "OPTIONS" && req_.Header("origin")) return Respond(Preflight(), false);
     if (req_.method == "GET" && IsStaticPath(req_.path)) {
       return Enqueue([self = shared_from_this()] {
         self->PostRespond(ServeStatic(self->ctx_.options.static_root, self->req_.path), false);
@@ -197,6 +198,32 @@ class Session : public std::enable_shared_from_this<Session> {
         true);
   }
 
+  // ---- CORS: only the configured origins ----------------------------------------------------
+  bool OriginAllowed() const {
+    const auto origin = req_.Header("origin");
+    if (!origin) return false;
+    for (const auto& o : ctx_.options.cors_origins) {
+      if (o == *origin) return true;
+    }
+    return false;
+  }
+
+  // The answer to a browser's preflight request (OPTIONS with Origin).
+  Response Preflight() const {
+    if (!OriginAllowed()) {
+      return Problem(403, "Forbidden",
+                     "the origin '" + req_.Header("origin").value_or("") +
+                         "' may not call this API from a browser (server option cors_origins)");
+    }
+    Response r;
+    r.status = 204;
+    r.content_type = "text/plain";
+    r.headers["Access-Control-Allow-Methods"] = "GET, HEAD, POST, PUT, DELETE";
+    r.headers["Access-Control-Allow-Headers"] = "Authorization, Content-Type, X-Filename";
+    r.headers["Access-Control-Max-Age"] = "600";
+    return r;
+  }
+
   // ---- answers ------------------------------------------------------------------------------
   void SendContinueThen(std::function<void()> next) {
     const auto expect = req_.Header("expect");
@@ -259,6 +286,12 @@ class Session : public std::enable_shared_from_this<Session> {
       out->set("Content-Security-Policy", page ? kPageCsp : kApiCsp);
     }
     out->set("Referrer-Policy", "no-referrer");
+    if (OriginAllowed()) {
+      out->set("Access-Control-Allow-Origin", *req_.Header("origin"));
+      out->set("Access-Control-Expose-Headers",
+               "Location, Retry-After, X-Request-Id, X-Machine-Version, ETag");
+    }
+    if (!ctx_.options.cors_origins.empty()) out->set("Vary", "Origin");
     if (!req_.id.empty()) out->set("X-Request-Id", req_.id);
     out->keep_alive(keep_);
     out->body() = std::move(res.body);

@@ -86,6 +86,7 @@ int main(int argc, char** argv) {
                 << stream << std::endl;
     }
 
+    service.acquisition().SetLimits({cfg.max_devices, cfg.device_networks});
     if (!cfg.modbus_config.empty()) {
       service.acquisition().StartFromFile(cfg.modbus_config);
       std::cout << "kinemetricd: acquiring from " << service.acquisition().Devices().size()
@@ -113,6 +114,7 @@ int main(int argc, char** argv) {
     ho.max_connections = cfg.max_connections;
     ho.backlog = cfg.backlog;
     ho.max_header_bytes = cfg.max_header_bytes;
+    ho.cors_origins = cfg.cors_origins;
     ho.static_root = cfg.web_root.empty() ? DefaultWebRoot() : cfg.web_root;
     km::api::HttpServer http(router, ho);
     const int port = http.Bind();

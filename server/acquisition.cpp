@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "analysis/core/errors.h"
+#include "server/net_ranges.h"
 #include "server/service.h"
 
 namespace km::server {
@@ -108,8 +109,56 @@ void Acquisition::StartFromFile(const std::string& path) {
   for (auto& e : prepared) StartEntry(std::move(e));
 }
 
+void Acquisition::SetLimits(const DeviceLimits& limits) {
+  for (const auto& n : limits.networks) {
+    if (!ParseNetwork(n)) {
+      throw InvalidInput("", 0, "device_networks", "'" + n + "' is not an address range (CIDR)");
+    }
+  }
+  std::lock_guard lock(mu_);
+  max_devices_ = limits.max_devices;
+  networks_ = limits.networks;
+}
+
 nlohmann::json Acquisition::Add(const nlohmann::json& device, const std::string& file) {
-  return StartEntry(Prepare(device, file, ""));
+  auto e = Prepare(device, file, "");
+  const auto addr = ParseIpAddress(e->config.host);
+  if (!addr) {
+    throw InvalidInput(file, 0, "host",
+                       "'" + e->config.host +
+                           "' is not a numeric IPv4 or IPv6 address (nor localhost): devices "
+                           "added through the API name their host by address");
+  }
+  {
+    std::lock_guard lock(mu_);
+    bool allowed = false;
+    std::string list;
+    for (const auto& text : networks_) {
+      const auto net = ParseNetwork(text);
+      allowed = allowed || (net && NetworkContains(*net, *addr));
+      list += (list.empty() ? "" : ", ") + text;
+    }
+    if (!allowed) {
+      throw Forbidden("the device host " + e->config.host +
+                      " is outside the networks devices may poll (device_networks: " +
+                      (list.empty() ? std::string("none") : list) + ")");
+    }
+    if (entries_.size() + starting_ >= max_devices_) {
+      throw Forbidden("at most " + std::to_string(max_devices_) +
+                      " devices may run at once (max_devices); stop one first");
+    }
+    ++starting_;
+  }
+  try {
+    auto out = StartEntry(std::move(e));
+    std::lock_guard lock(mu_);
+    --starting_;
+    return out;
+  } catch (...) {
+    std::lock_guard lock(mu_);
+    --starting_;
+    throw;
+  }
 }
 
 void Acquisition::Remove(const std::string& name) {

@@ -22,6 +22,14 @@ namespace km::server {
 
 class Service;
 
+// What devices added through the API may be: at most max_devices running at once (those of
+// the config file included), each polling a host (a numeric address) within one of the
+// networks (CIDR). Devices of the config file are the operator's own and are not checked.
+struct DeviceLimits {
+  std::size_t max_devices = 16;
+  std::vector<std::string> networks = {"127.0.0.0/8", "::1/128"};
+};
+
 class Acquisition {
  public:
   explicit Acquisition(Service& service);
@@ -33,7 +41,11 @@ class Acquisition {
   // and JSON path of a bad field; nothing is started then).
   void StartFromFile(const std::string& path);
   // One device object (with machine_id); starts it and returns its entry (Devices() item).
+  // Refused: InvalidInput (400) when the host is not a numeric address, Forbidden (403) when
+  // it is outside the allowed networks or max_devices run already.
   nlohmann::json Add(const nlohmann::json& device, const std::string& file = "request");
+  // InvalidInput naming a malformed network.
+  void SetLimits(const DeviceLimits& limits);
   // Stops a device; its stream and samples stay. NotFound for an unknown name.
   void Remove(const std::string& name);
   // [{name, machine_id, stream_id, config, status}] in the order added.
@@ -50,6 +62,9 @@ class Acquisition {
   Service& service_;
   mutable std::mutex mu_;
   std::vector<std::unique_ptr<Entry>> entries_;
+  std::size_t max_devices_ = DeviceLimits{}.max_devices;
+  std::vector<std::string> networks_ = DeviceLimits{}.networks;
+  std::size_t starting_ = 0;  // added through the API, being started
 };
 
 }  // namespace km::server

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/errors.h"
+#include "server/net_ranges.h"
 
 namespace km::server {
 namespace {
@@ -29,6 +30,7 @@ constexpr Range kBacklog{1, 65535, ""};
 constexpr Range kHeaderBytes{1024, 1 << 20, " bytes"};
 constexpr Range kCount{1, std::int64_t{1} << 40, ""};
 constexpr Range kBusyTimeout{0, 600'000, " ms"};
+constexpr Range kDevices{0, 10'000, ""};
 
 // Every whole-number setting: its config-file key (the command-line option is "--" + key with
 // '-' for '_'), its range and where it goes.
@@ -70,6 +72,8 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.keep_alive_timeout_s = static_cast<int>(v); }},
     {"db_busy_timeout_ms", kBusyTimeout,
      [](ServerConfig& c, std::int64_t v) { c.db_busy_timeout_ms = static_cast<int>(v); }},
+    {"max_devices", kDevices,
+     [](ServerConfig& c, std::int64_t v) { c.max_devices = static_cast<std::size_t>(v); }},
 };
 
 const NumberOption* FindNumberOption(const std::string& key) {
@@ -155,6 +159,41 @@ void ReadUploadLimits(ServerConfig& cfg, const nlohmann::json& v, const std::str
   }
 }
 
+// A web origin: "http://host[:port]" or "https://host[:port]", nothing after.
+std::string Origin(const std::string& v, const std::string& where, const std::string& field) {
+  const auto scheme = v.find("://");
+  const std::string rest = scheme == std::string::npos ? "" : v.substr(scheme + 3);
+  const std::string s = scheme == std::string::npos ? "" : v.substr(0, scheme);
+  if ((s != "http" && s != "https") || rest.empty() ||
+      rest.find_first_of("/?#*@ ") != std::string::npos) {
+    throw InvalidInput(where, 0, field,
+                       "'" + v.substr(0, 80) + "' is not a web origin (http[s]://host[:port])");
+  }
+  return v;
+}
+
+std::string Cidr(const std::string& v, const std::string& where, const std::string& field) {
+  if (!ParseNetwork(v)) {
+    throw InvalidInput(where, 0, field,
+                       "'" + v.substr(0, 80) + "' is not an address range (e.g. 10.0.0.0/24)");
+  }
+  return v;
+}
+
+std::vector<std::string> StringList(const nlohmann::json& v, const std::string& where,
+                                    const std::string& key,
+                                    std::string (*check)(const std::string&, const std::string&,
+                                                         const std::string&)) {
+  if (!v.is_array()) throw InvalidInput(where, 0, key, "must be a list of strings");
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const std::string field = key + "[" + std::to_string(i) + "]";
+    if (!v[i].is_string()) throw InvalidInput(where, 0, field, "must be a string");
+    out.push_back(check(v[i].get<std::string>(), where, field));
+  }
+  return out;
+}
+
 std::string NonEmpty(const std::string& v, const std::string& where, const std::string& field) {
   if (v.empty()) throw InvalidInput(where, 0, field, "must not be empty");
   return v;
@@ -210,6 +249,10 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
         ReadUploadLimits(cfg, v, path);
       } else if (key == "modbus_config") {
         cfg.modbus_config = v.get<std::string>();
+      } else if (key == "cors_origins") {
+        cfg.cors_origins = StringList(v, path, key, Origin);
+      } else if (key == "device_networks") {
+        cfg.device_networks = StringList(v, path, key, Cidr);
       } else {
         throw InvalidInput(path, 0, key, "unknown configuration key");
       }
@@ -253,6 +296,10 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
       cfg.web_root = value();
     } else if (a == "--modbus-config") {
       cfg.modbus_config = value();
+    } else if (a == "--cors-origin") {
+      cfg.cors_origins.push_back(Origin(value(), "", a));
+    } else if (a == "--device-network") {
+      cfg.device_networks.push_back(Cidr(value(), "", a));
     } else if (a == "--demo-data") {
       cfg.demo_data = true;
     } else if (const auto* o = FindNumberOption(KeyOfFlag(a))) {

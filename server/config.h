@@ -40,6 +40,14 @@ struct ServerConfig {
   // How long a database call waits for a lock held by another connection before the request
   // is answered 503 with Retry-After.
   int db_busy_timeout_ms = 5000;
+  // Access from other web origins (config key cors_origins: ["https://dash.example:8443"], option
+  // --cors-origin ORIGIN, repeatable): only these get CORS headers; default none.
+  std::vector<std::string> cors_origins;
+  // Modbus devices added through the API (server/acquisition.h DeviceLimits): at most
+  // max_devices (0–10 000) running, hosts within device_networks (config key: a list of CIDR
+  // ranges replacing the default; option --device-network CIDR adds one).
+  std::size_t max_devices = 16;
+  std::vector<std::string> device_networks = {"127.0.0.0/8", "::1/128"};
 };
 
 // Applies a JSON config file: keys listen ("HOST:PORT"), data_dir, web_root, demo_data,
