@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <exception>
 #include <functional>
 #include <map>
@@ -305,6 +306,36 @@ DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOpti
   return rep;
 }
 
+namespace {
+
+std::string Um(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.2f", v);
+  return buf;
+}
+
+// Key figures of the plotted tests (and their pair) for the plot's lower left.
+std::vector<std::string> KeyFigures(const DbbReport& report, const std::vector<std::size_t>& idx,
+                                    const std::optional<std::size_t>& pair) {
+  std::vector<std::string> notes;
+  for (std::size_t i : idx) {
+    const DbbTestReport& t = report.tests[i];
+    notes.push_back(std::string(ToString(t.circular.direction)) + ": circularity " +
+                    Um(t.circular.circularity_um) + " um, min. zone " +
+                    Um(t.min_zone_circularity_um) + " um, centre (" +
+                    Um(t.circular.centre_offset_um[0]) + ", " + Um(t.circular.centre_offset_um[1]) +
+                    ") um");
+  }
+  if (pair) {
+    const auto& f = report.pairs[*pair].iso230_4;
+    notes.push_back("pair: G(b) " + Um(f.bidirectional_circular_deviation_um) + " um, H " +
+                    Um(f.circular_hysteresis_um) + " um (ISO 230-4, tool path)");
+  }
+  return notes;
+}
+
+}  // namespace
+
 std::vector<unsigned char> PolarPlotPng(const DbbReport& report, std::size_t test_index,
                                         const PolarPlotOptions& options) {
   if (test_index >= report.tests.size()) throw InvalidInput("", 0, "test", "no such test");
@@ -339,6 +370,7 @@ std::vector<unsigned char> PolarPlotPng(const DbbReport& report, std::size_t tes
   z.inner_um = t.min_zone.inner_radius - r0;
   z.outer_um = t.min_zone.outer_radius - r0;
   PolarPlotOptions o = options;
+  if (o.notes.empty()) o.notes = KeyFigures(report, idx, t.pair);
   if (o.title.empty()) o.title = "DBB " + t.circular.test_id + " " + ToString(t.plane);
   const auto [a, b] = AxisLetters(t.plane);
   o.first_axis = std::string(1, static_cast<char>(a - 'a' + 'A'));

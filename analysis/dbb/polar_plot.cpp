@@ -35,6 +35,12 @@ std::vector<unsigned char> RenderPolarPlot(const std::vector<PolarPlotTrace>& tr
                                            const std::optional<PolarPlotZone>& zone,
                                            const PolarPlotOptions& o) {
   if (o.size_px < 200) throw InvalidInput("", 0, "size_px", "at least 200 pixels");
+  if (!(o.um_per_div >= 0.0) || !std::isfinite(o.um_per_div)) {
+    throw InvalidInput("", 0, "um_per_div", "must be a positive number (or 0: automatic)");
+  }
+  if (o.divisions < 0 || o.divisions > 50) {
+    throw InvalidInput("", 0, "divisions", "must be within 1…50 (or 0: automatic)");
+  }
   if (traces.empty()) throw InvalidInput("", 0, "traces", "nothing to plot");
   double dmax = 0.0;
   for (const auto& t : traces) {
@@ -45,7 +51,8 @@ std::vector<unsigned char> RenderPolarPlot(const std::vector<PolarPlotTrace>& tr
   }
   if (zone) dmax = std::max({dmax, std::abs(zone->inner_um), std::abs(zone->outer_um)});
   const double div = o.um_per_div > 0.0 ? o.um_per_div : NiceStep(std::max(dmax, 1e-3) / 2.0);
-  const int ndiv = std::max(1, static_cast<int>(std::ceil(dmax / div - 1e-9)));
+  const int ndiv =
+      o.divisions > 0 ? o.divisions : std::max(1, static_cast<int>(std::ceil(dmax / div - 1e-9)));
   const double size = o.size_px;
   const double r0 = 0.27 * size;         // reference circle (deviation 0)
   const double band = 0.17 * size;       // ± band for ndiv divisions
@@ -110,6 +117,12 @@ std::vector<unsigned char> RenderPolarPlot(const std::vector<PolarPlotTrace>& tr
     cv::putText(img, o.title,
                 cv::Point(static_cast<int>(0.03 * size), static_cast<int>(0.05 * size)),
                 cv::FONT_HERSHEY_SIMPLEX, 1.3 * font, cv::Scalar(0, 0, 0), thin, cv::LINE_AA);
+  }
+  for (std::size_t i = 0; i < o.notes.size(); ++i) {
+    const double y = 0.97 - 0.03 * static_cast<double>(o.notes.size() - i);
+    cv::putText(img, o.notes[i],
+                cv::Point(static_cast<int>(0.03 * size), static_cast<int>(y * size)),
+                cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(0, 0, 0), thin, cv::LINE_AA);
   }
   cv::putText(img,
               "scale " + Fmt(div) + " um/div, " + Fmt(std::round(k * 100.0) / 100.0) +

@@ -35,6 +35,10 @@ struct PolarPlotOptions {
   std::string first_axis = "X";
   std::string second_axis = "Y";
   double um_per_div = 0.0;  // 0: chosen automatically (1-2-5 steps)
+  // Divisions of the ± band (0: as many as the largest deviation needs). With um_per_div also
+  // given the magnification is fixed, so plots of different tests share one scale.
+  int divisions = 0;
+  std::vector<std::string> notes;  // lines of key figures printed at the lower left
 };
 
 // Returns the PNG bytes. Throws km::InvalidInput on an empty plot or size below 200 px.

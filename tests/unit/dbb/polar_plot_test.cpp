@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "analysis/core/errors.h"
 
@@ -55,6 +56,45 @@ TEST(PolarPlot, DrawsTracesAndZone) {
   EXPECT_TRUE(blue_near(0.0, 3.0));
   EXPECT_TRUE(blue_near(std::numbers::pi / 2.0, -3.0));
   EXPECT_FALSE(blue_near(0.0, -3.0));
+}
+
+TEST(PolarPlot, FixedScaleIsTheSameForSmallAndLargeTraces) {
+  // 1 µm/div with 4 divisions: k = 0.17·size / 4 µm whatever the traces' size, so a 1 µm and a
+  // 3 µm trace are drawn at the radii of one scale (before/after comparison).
+  const double size = 600.0, r0 = 0.27 * size, k = 0.17 * size / 4.0;
+  const cv::Point2d c(size / 2.0, size / 2.0 + 0.02 * size);
+  for (double amp : {1.0, 3.0}) {
+    PolarPlotTrace t;
+    t.bgr = {255, 0, 0};
+    for (int i = 0; i < 3600; ++i) {
+      t.angle_rad.push_back(2.0 * std::numbers::pi * i / 3600.0);
+      t.dev_um.push_back(amp);
+    }
+    PolarPlotOptions o;
+    o.size_px = 600;
+    o.um_per_div = 1.0;
+    o.divisions = 4;
+    o.notes = {"ccw: circularity 0.00 um"};
+    const cv::Mat img = cv::imdecode(RenderPolarPlot({t}, std::nullopt, o), cv::IMREAD_COLOR);
+    const int x = static_cast<int>(std::lround(c.x + r0 + k * amp));
+    const int y = static_cast<int>(std::lround(c.y));
+    bool blue = false;
+    for (int dx = -2; dx <= 2; ++dx) {
+      const auto p = img.at<cv::Vec3b>(y, x + dx);
+      blue = blue || (p[0] > 150 && p[1] < 100 && p[2] < 100);
+    }
+    EXPECT_TRUE(blue) << amp << " um";
+    // The note is drawn (dark pixels) in its line at the lower left, above the scale line.
+    const cv::Mat line = img(cv::Rect(static_cast<int>(0.03 * size), static_cast<int>(0.92 * size),
+                                      200, static_cast<int>(0.03 * size)));
+    cv::Mat grey;
+    cv::cvtColor(line, grey, cv::COLOR_BGR2GRAY);
+    EXPECT_GT(cv::countNonZero(grey < 100), 20);
+  }
+  PolarPlotOptions bad;
+  bad.divisions = -1;
+  PolarPlotTrace t{"x", {0.0, 1.0}, {0.0, 0.0}, {0, 0, 0}};
+  EXPECT_THROW(RenderPolarPlot({t}, std::nullopt, bad), km::InvalidInput);
 }
 
 TEST(PolarPlot, RejectsEmptyInput) {
