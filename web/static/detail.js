@@ -353,7 +353,7 @@ function keyFigureLines() {
     const cell = (key) => document.querySelector(`[data-testid="figures-table"] td[data-key="${key}"][data-direction="${dir}"]`)?.textContent || '—';
     lines.push(`${formatDirection(dir)} ${id}: circularity ${cell('circularity_um')} µm, centre offset ${cell('centre_offset_x_um')}, ${cell('centre_offset_y_um')} µm`);
   }
-  for (const [key, label] of [['circular_hysteresis_um', 'Circular hysteresis H'], ['bidirectional_circular_deviation_um', 'Bidirectional circular deviation G(b)']]) {
+  for (const [key, label] of [['circular_hysteresis_um', 'Circular hysteresis H (common centre)'], ['circular_hysteresis_own_centres_um', 'H about each trace’s own centre'], ['bidirectional_circular_deviation_um', 'Bidirectional circular deviation G(b)']]) {
     const td = document.querySelector(`[data-testid="pair-${key}"]`);
     if (td) lines.push(`${label}: ${td.textContent} µm`);
   }

@@ -161,7 +161,7 @@ export function renderFigures(fetched, { kind = 'dbb', pair = null } = {}) {
   }
   // CW + CCW figures of the pair (ISO 230-4): one value for both directions.
   if (pair && pair.pair) {
-    const rows = ['circular_hysteresis_um', 'bidirectional_circular_deviation_um'].filter((k) => typeof pair.pair[k] === 'number');
+    const rows = ['circular_hysteresis_um', 'circular_hysteresis_own_centres_um', 'bidirectional_circular_deviation_um'].filter((k) => typeof pair.pair[k] === 'number');
     const firstLeadRow = [...tbody.children].findIndex((tr) => !tr.classList.contains('lead') && !KIND_ROWS.dbb.includes(tr.dataset.key));
     const anchor = firstLeadRow >= 0 ? tbody.children[firstLeadRow] : null;
     for (const k of rows) {

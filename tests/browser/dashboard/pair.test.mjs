@@ -35,6 +35,10 @@ test('an older CCW test shows its own partner; reload keeps the view', { timeout
     assert.match(await page.textContent('[data-testid="diagnosis-source"]'), new RegExp(`#${ids.oldCw}`));
     const hysteresis = await page.textContent('[data-testid="pair-circular_hysteresis_um"]');
     assert.equal(Number(hysteresis.replace('−', '-')).toFixed(3), pair.pair.circular_hysteresis_um.toFixed(3));
+    // H about each trace's own centre beside the ISO figure about the common centre (issue 12 §3).
+    const own = await page.textContent('[data-testid="pair-circular_hysteresis_own_centres_um"]');
+    assert.equal(Number(own.replace('−', '-')).toFixed(3), pair.pair.circular_hysteresis_own_centres_um.toFixed(3));
+    assert.match(await page.textContent('tr[data-key="pair.circular_hysteresis_um"] th'), /common centre/);
 
     // Before / after: the November CCW overlaid on the June pair, at one scale for all three.
     await page.fill('[data-testid="compare-id"]', `#${ids.newCcw}`);
