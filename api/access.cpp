@@ -242,9 +242,15 @@ void AddAccessRoutes(Router& router, server::Service& service) {
                "Revoke an access token at once",
                true,
                [svc](const Request& req) {
-                 return Response::Json(server::RevokeToken(*svc, req.PathId("id")));
+                 try {
+                   return Response::Json(server::RevokeToken(*svc, req.PathId("id")));
+                 } catch (const server::Conflict& e) {
+                   return Problem(409, "Conflict", e.what());
+                 }
                },
-               {{"responses", {{"200", JsonResponse("{id, revoked_at}")}}}}};
+               {{"responses",
+                 {{"200", JsonResponse("{id, revoked_at}")},
+                  {"409", {{"description", "the last active admin token"}}}}}}};
   revoke.role = Role::kAdmin;
   router.Add(std::move(revoke));
 

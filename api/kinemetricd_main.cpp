@@ -42,7 +42,8 @@ int main(int argc, char** argv) {
               << "usage: kinemetricd --listen HOST:PORT --data-dir DIR [--config FILE] "
                  "[--web-root DIR] [--demo-data] [--threads N] [--max-upload-bytes N] "
                  "[--modbus-config FILE] [--io-threads N] [--queue-limit N] [--max-connections N] "
-                 "[--header-timeout-s S] … (docs/http.md)\n";
+                 "[--header-timeout-s S] [--cors-origin ORIGIN] [--max-devices N] "
+                 "[--device-network CIDR] … (docs/http.md)\n";
     return 2;
   }
   // SIGINT / SIGTERM are taken by a waiting thread that stops the server cleanly.

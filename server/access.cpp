@@ -148,9 +148,23 @@ nlohmann::json ListTokens(Service& service) {
 }
 
 nlohmann::json RevokeToken(Service& service, std::int64_t id) {
-  if (!service.storage().RevokeToken(id)) {
-    throw NotFound("there is no token " + std::to_string(id));
+  const auto now = NowSeconds();
+  const auto tokens = service.storage().ListTokens();
+  const TokenRecord* target = nullptr;
+  int other_admins = 0;
+  for (const auto& t : tokens) {
+    if (t.id == id) {
+      target = &t;
+    } else if (t.role == "admin" && TokenState(t, now) == "active") {
+      ++other_admins;
+    }
   }
+  if (!target) throw NotFound("there is no token " + std::to_string(id));
+  if (target->role == "admin" && TokenState(*target, now) == "active" && other_admins == 0) {
+    throw Conflict("token " + std::to_string(id) +
+                   " is the last active admin token: create another admin token first");
+  }
+  service.storage().RevokeToken(id);
   ++g_revocations;
   for (const auto& t : service.storage().ListTokens()) {
     if (t.id == id) return {{"id", id}, {"revoked_at", OptionalJson(t.revoked_at)}};

@@ -39,7 +39,8 @@ nlohmann::json CreateToken(Service& service, const nlohmann::json& request);
 // Every token: {"items": [{"id", "name", "role", "created_at", "expires_at", "revoked_at",
 // "state": "active" | "expired" | "revoked"}]}; never a secret or a hash.
 nlohmann::json ListTokens(Service& service);
-// Revokes a token at once (NotFound for an unknown id): {"id", "revoked_at"}.
+// Revokes a token at once (NotFound for an unknown id; Conflict for the last active admin
+// token, so that the service is never left without one): {"id", "revoked_at"}.
 nlohmann::json RevokeToken(Service& service, std::int64_t id);
 
 // Appends one entry to the audit log (the storage's errors go to the caller).

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include "analysis/core/errors.h"
@@ -228,6 +229,36 @@ TEST(AccessOptions, OriginsAndNetworksAreReadAndCheckedFromTheCommandLine) {
   refused({"--cors-origin", "*"}, "--cors-origin");
   refused({"--device-network", "10.1.0.0/40"}, "--device-network");
   refused({"--max-devices", "-1"}, "--max-devices");
+}
+
+TEST(AccessOptions, TheConfigFileListsOriginsAndReplacesTheNetworks) {
+  const fs::path file =
+      fs::temp_directory_path() / ("km-access-config-" + std::to_string(::getpid()) + ".json");
+  const auto write = [&](const std::string& text) {
+    std::ofstream(file) << text;
+    return file.string();
+  };
+  auto cfg = server::ParseServerArgs(
+      {"--config", write(R"({"cors_origins": ["http://a.example:8080", "https://b.example"],
+                             "device_networks": ["192.168.10.0/24"], "max_devices": 0})")});
+  EXPECT_EQ(cfg.cors_origins,
+            (std::vector<std::string>{"http://a.example:8080", "https://b.example"}));
+  EXPECT_EQ(cfg.device_networks, std::vector<std::string>{"192.168.10.0/24"});
+  EXPECT_EQ(cfg.max_devices, 0u);
+  const auto refused = [&](const std::string& text, const std::string& field) {
+    try {
+      server::ParseServerArgs({"--config", write(text)});
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.field(), field) << e.what();
+      EXPECT_EQ(e.file(), file.string());
+    }
+  };
+  refused(R"({"cors_origins": ["https://a.example", "ftp://b"]})", "cors_origins[1]");
+  refused(R"({"cors_origins": "https://a.example"})", "cors_origins");
+  refused(R"({"device_networks": ["10.0.0.0/8", 7]})", "device_networks[1]");
+  refused(R"({"max_devices": 10001})", "max_devices");
+  fs::remove(file);
 }
 
 }  // namespace

@@ -266,6 +266,15 @@ TEST_F(Access, RevocationTakesEffectAtOnce) {
   EXPECT_EQ(Call("DELETE", "/api/v1/tokens/x", "boot").status, 400);
   // A second revocation keeps the first time.
   EXPECT_EQ(Call("DELETE", "/api/v1/tokens/" + t["id"].dump(), "boot").body, del.body);
+
+  // The last active admin token stays: revoking it would leave nobody to make tokens.
+  const auto last = Call("DELETE", "/api/v1/tokens/1", "boot");
+  EXPECT_EQ(last.status, 409) << last.body;
+  EXPECT_NE(last.body.find("last active admin"), std::string::npos) << last.body;
+  const json second = NewToken("admin", "second admin");
+  EXPECT_EQ(Call("DELETE", "/api/v1/tokens/1", second["token"]).status, 200);
+  EXPECT_EQ(Call("GET", "/api/v1/machines", "boot").status, 401);
+  EXPECT_EQ(Call("DELETE", "/api/v1/tokens/" + second["id"].dump(), second["token"]).status, 409);
 }
 
 TEST_F(Access, TheAuditLogRecordsWhoChangedWhatNewestFirst) {
