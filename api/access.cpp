@@ -199,6 +199,17 @@ ResponseHook AuditHook(server::Service& service) {
 
 void AddAccessRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
+  router.Add(
+      Route{"GET",
+            "/api/v1/whoami",
+            "The caller: its token's id, name and role (e.g. for a dashboard to hide what the role "
+            "may not do)",
+            true,
+            [](const Request& req) {
+              return Response::Json(
+                  {{"token_id", req.token_id}, {"name", req.token_name}, {"role", req.token_role}});
+            },
+            {{"responses", {{"200", JsonResponse("{token_id, name, role}")}}}}});
   Route create{"POST",
                "/api/v1/tokens",
                "Create an access token (the secret is shown only in this answer)",

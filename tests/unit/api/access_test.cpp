@@ -63,6 +63,7 @@ const std::map<std::string, Role>& ExpectedRoles() {
       {"GET /api/v1/tokens", Role::kAdmin},
       {"DELETE /api/v1/tokens/{id}", Role::kAdmin},
       {"GET /api/v1/audit-log", Role::kAdmin},
+      {"GET /api/v1/whoami", Role::kViewer},
   };
   return roles;
 }
@@ -216,6 +217,8 @@ TEST_F(Access, TokensAreShownOnceListedWithoutSecretsAndCheckedField) {
   EXPECT_EQ(items[1]["name"], "line 3 uploader");
   EXPECT_EQ(items[1]["state"], "active");
   EXPECT_FALSE(items[1].contains("token"));
+  const auto me = json::parse(Call("GET", "/api/v1/whoami", secret).body);
+  EXPECT_EQ(me, (json{{"token_id", t["id"]}, {"name", "line 3 uploader"}, {"role", "operator"}}));
 
   const auto bad = [&](const json& body, const std::string& field) {
     const auto r = Call("POST", "/api/v1/tokens", "boot", body.dump());
