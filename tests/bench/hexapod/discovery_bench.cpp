@@ -10,7 +10,7 @@ namespace km::discovery {
 namespace {
 
 void BM_HexapodDiscovery(benchmark::State& state) {
-  const auto s = hexapod::testing::Simulate(
+  const auto s = hexapod::test::Simulate(
       {{"gravity_deflection", {{0, 1.52e-5}}}, {"joint_friction", {{0, 8.88}, {1, 2.0}}}}, true,
       720);
   std::size_t steps = 0;

@@ -21,7 +21,7 @@ struct FkCase {
 };
 
 std::vector<FkCase> MakeFkCases(bool near_guess) {
-  const auto nominal = testing::Pm600Like();
+  const auto nominal = test::Pm600Like();
   std::mt19937 rng(42);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::vector<FkCase> cases;
@@ -42,7 +42,7 @@ std::vector<FkCase> MakeFkCases(bool near_guess) {
 }
 
 void BM_ForwardKinematicsFromCommandedPose(benchmark::State& state) {
-  const auto truth = sim::PerturbGeometry(testing::Pm600Like(), 0.3, 0.1, 1);
+  const auto truth = sim::PerturbGeometry(test::Pm600Like(), 0.3, 0.1, 1);
   const auto cases = MakeFkCases(true);
   std::size_t i = 0;
   for (auto _ : state) {
@@ -53,7 +53,7 @@ void BM_ForwardKinematicsFromCommandedPose(benchmark::State& state) {
 BENCHMARK(BM_ForwardKinematicsFromCommandedPose);
 
 void BM_ForwardKinematicsFromHomePose(benchmark::State& state) {
-  const auto truth = sim::PerturbGeometry(testing::Pm600Like(), 0.3, 0.1, 1);
+  const auto truth = sim::PerturbGeometry(test::Pm600Like(), 0.3, 0.1, 1);
   const auto cases = MakeFkCases(false);
   std::size_t i = 0;
   for (auto _ : state) {
@@ -64,7 +64,7 @@ void BM_ForwardKinematicsFromHomePose(benchmark::State& state) {
 BENCHMARK(BM_ForwardKinematicsFromHomePose);
 
 void BM_InverseKinematics(benchmark::State& state) {
-  const auto g = testing::Pm600Like();
+  const auto g = test::Pm600Like();
   Pose p;
   p.tip_mm = {50, -20, -1000};
   p.abc_rad = {0.1, -0.05, 0.02};
@@ -77,7 +77,7 @@ BENCHMARK(BM_InverseKinematics);
 
 void BM_Calibration(benchmark::State& state) {
   const bool absolute = state.range(0) == 1;
-  const auto nominal = testing::Pm600Like();
+  const auto nominal = test::Pm600Like();
   const auto truth = sim::PerturbGeometry(nominal, 0.3, 0.1, 3);
   sim::HexapodDbbSimOptions opt;
   opt.absolute = absolute;

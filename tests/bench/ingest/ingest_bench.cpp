@@ -138,7 +138,7 @@ BENCHMARK(BM_UploadFlatness1MPoints)->Unit(benchmark::kMillisecond)->Iterations(
 void BM_UploadTrackerSurvey(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   const int per_axis = n <= 4 ? 21 : n <= 8 ? 18 : 15;
-  const auto o = km::tracker::testing::MakeSetup(400.0, per_axis, n, 7);
+  const auto o = km::tracker::test::MakeSetup(400.0, per_axis, n, 7);
   RunUpload(state, km::ingest::WriteTrackerFile(km::tracker::SimulateTrackerSurvey(o).readings));
 }
 BENCHMARK(BM_UploadTrackerSurvey)

@@ -16,14 +16,14 @@ using namespace km::servo;
 
 const std::vector<ServoFile>& Plan() {
   static const std::vector<ServoFile> files =
-      km::servo::testing::SimulatePlan(truth::Pm600Truth(), 2.0, 720, 1);
+      km::servo::test::SimulatePlan(truth::Pm600Truth(), 2.0, 720, 1);
   return files;
 }
 
 void BM_IdentifyJigPlan30x720(benchmark::State& state) {
   const auto& files = Plan();
-  const auto g = km::servo::testing::Pm600Geometry();
-  const auto m = km::servo::testing::Pm600Physics();
+  const auto g = km::servo::test::Pm600Geometry();
+  const auto m = km::servo::test::Pm600Physics();
   for (auto _ : state) benchmark::DoNotOptimize(IdentifyLoads(g, m, files));
   state.SetItemsProcessed(state.iterations() * 30 * 720);
 }
@@ -31,16 +31,16 @@ BENCHMARK(BM_IdentifyJigPlan30x720)->Unit(benchmark::kMillisecond);
 
 void BM_JointResistance30x720(benchmark::State& state) {
   const auto& files = Plan();
-  const auto g = km::servo::testing::Pm600Geometry();
-  const auto m = km::servo::testing::Pm600Physics();
+  const auto g = km::servo::test::Pm600Geometry();
+  const auto m = km::servo::test::Pm600Physics();
   for (auto _ : state) benchmark::DoNotOptimize(EstimateJointResistance(g, m, files));
 }
 BENCHMARK(BM_JointResistance30x720)->Unit(benchmark::kMillisecond);
 
 void BM_ExternalForce720(benchmark::State& state) {
   const auto& files = Plan();
-  const auto g = km::servo::testing::Pm600Geometry();
-  const auto m = km::servo::testing::Pm600Physics();
+  const auto g = km::servo::test::Pm600Geometry();
+  const auto m = km::servo::test::Pm600Physics();
   for (auto _ : state) benchmark::DoNotOptimize(EstimateExternalForce(g, m, files[0]));
 }
 BENCHMARK(BM_ExternalForce720)->Unit(benchmark::kMillisecond);

@@ -7,7 +7,7 @@
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/dbb/serial_sim.h"
 
-namespace km::dbb::testing {
+namespace km::dbb::test {
 
 inline std::vector<DbbTest> SimulatePair(SerialDbbSimOptions o, bool both = true) {
   std::vector<DbbTest> v;
@@ -28,4 +28,4 @@ inline DiagnosisResult DiagnoseTests(const std::vector<DbbTest>& tests,
   return DiagnoseSerialDbb(tr, tests.front().plane, opt);
 }
 
-}  // namespace km::dbb::testing
+}  // namespace km::dbb::test

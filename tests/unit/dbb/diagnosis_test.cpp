@@ -45,7 +45,7 @@ TEST_P(SingleEffect, RankedFirstAndRecovered) {
     o.noise_um = 0.1;
     o.fixed_ball_offset_um = {0.0, 0.0};
     o.effects = {{c.id, c.params}};
-    const auto r = testing::DiagnoseTests(testing::SimulatePair(o));
+    const auto r = test::DiagnoseTests(test::SimulatePair(o));
     const std::string name = effects::EffectName(c.id, 'x', 'y');
     ASSERT_FALSE(r.named.empty()) << name << " seed " << seed;
     EXPECT_EQ(r.named.front().effect, name) << Describe(r);
@@ -75,7 +75,7 @@ TEST(Diagnosis, PerfectMachineNamesNothing) {
     SerialDbbSimOptions o;
     o.seed = seed;
     o.noise_um = 0.2;
-    const auto r = testing::DiagnoseTests(testing::SimulatePair(o));
+    const auto r = test::DiagnoseTests(test::SimulatePair(o));
     EXPECT_TRUE(r.named.empty()) << "seed " << seed << ": " << Describe(r);
   }
 }
@@ -86,7 +86,7 @@ TEST(Diagnosis, PerfectMachineSingleTraceNamesNothing) {
     o.seed = seed;
     o.noise_um = 0.2;
     o.step_deg = 0.5;
-    const auto r = testing::DiagnoseTests(testing::SimulatePair(o, /*both=*/false));
+    const auto r = test::DiagnoseTests(test::SimulatePair(o, /*both=*/false));
     EXPECT_TRUE(r.named.empty()) << "seed " << seed << ": " << Describe(r);
   }
 }
@@ -101,7 +101,7 @@ TEST(Diagnosis, ConeTestAndAbsoluteModeRecoverInPlaneValues) {
   o.z_offset_mm = 42.0;
   o.absolute = true;
   o.effects = {{EffectId::kBacklashU, {4.0}}, {EffectId::kScaleMismatch, {30.0}}};
-  const auto r = testing::DiagnoseTests(testing::SimulatePair(o));
+  const auto r = test::DiagnoseTests(test::SimulatePair(o));
   const auto* bl = Find(r, "backlash_x");
   const auto* sc = Find(r, "scale_mismatch");
   ASSERT_TRUE(bl && sc) << Describe(r);
@@ -121,7 +121,7 @@ TEST(Diagnosis, UncertaintyMatchesScatterOverSeeds) {
     o.noise_um = 0.5;
     o.step_deg = 0.5;
     o.effects = {{EffectId::kSquareness, {40.0}}};
-    const auto r = testing::DiagnoseTests(testing::SimulatePair(o));
+    const auto r = test::DiagnoseTests(test::SimulatePair(o));
     const auto* e = Find(r, "squareness");
     ASSERT_NE(e, nullptr);
     v.push_back(e->value[0]);
@@ -140,7 +140,7 @@ TEST(Diagnosis, CentreOffsetOnlyWhenInjected) {
     o.seed = seed;
     o.noise_um = 0.2;
     o.effects = {{EffectId::kCentreOffset, {12.0, -7.0}}};
-    const auto r = testing::DiagnoseTests(testing::SimulatePair(o));
+    const auto r = test::DiagnoseTests(test::SimulatePair(o));
     ASSERT_EQ(r.named.size(), 1u) << Describe(r);
     EXPECT_EQ(r.named[0].effect, "centre_offset");
     EXPECT_NEAR(r.named[0].value[0], 12.0, 0.1);
@@ -155,7 +155,7 @@ TEST(Diagnosis, ThreeMixedEffectsSeparated) {
     o.effects = {{EffectId::kSquareness, {25.0}},
                  {EffectId::kServoMismatch, {0.25}},
                  {EffectId::kBacklashU, {3.0}}};
-    const auto r = testing::DiagnoseTests(testing::SimulatePair(o));
+    const auto r = test::DiagnoseTests(test::SimulatePair(o));
     const auto* sq = Find(r, "squareness");
     const auto* sm = Find(r, "servo_mismatch");
     const auto* bl = Find(r, "backlash_x");
@@ -171,7 +171,7 @@ TEST(Diagnosis, SingleTraceReportsConfoundedEffects) {
   SerialDbbSimOptions o;
   o.seed = 41;
   o.effects = {{EffectId::kSquareness, {30.0}}};
-  const auto r = testing::DiagnoseTests(testing::SimulatePair(o, /*both=*/false));
+  const auto r = test::DiagnoseTests(test::SimulatePair(o, /*both=*/false));
   ASSERT_FALSE(r.named.empty());
   EXPECT_EQ(r.named.front().effect, "squareness");
   bool found = false;
@@ -184,7 +184,7 @@ TEST(Diagnosis, PlaneLettersFollowThePlane) {
   o.seed = 51;
   o.plane = Plane::kYZ;
   o.effects = {{EffectId::kBacklashV, {3.0}}};
-  const auto r = testing::DiagnoseTests(testing::SimulatePair(o));
+  const auto r = test::DiagnoseTests(test::SimulatePair(o));
   ASSERT_FALSE(r.named.empty());
   EXPECT_EQ(r.named.front().effect, "backlash_z");
 }

@@ -32,7 +32,7 @@ TEST(FullAnalysis, JsonCarriesContractKeys) {
   o.lead_deg = 20.0;
   o.fixed_ball_offset_um = {5.0, -4.0};
   o.effects = {{EffectId::kServoMismatch, {0.3}}, {EffectId::kBacklashV, {2.0}}};
-  auto tests = testing::SimulatePair(o);
+  auto tests = test::SimulatePair(o);
   o.test_id = "T2";
   o.direction = Direction::kCcw;
   tests.push_back(SimulateSerialDbbTest(o));  // unpaired
@@ -142,7 +142,7 @@ TEST(FullAnalysis, ServoLagSeparatedByTwoFeeds) {
     o.feed_mm_min = feed;
     o.test_id = "F" + std::to_string(static_cast<int>(feed));
     o.effects = {{EffectId::kServoLag, {c}}, {EffectId::kRadiusError, {1.5}}};
-    for (auto& t : testing::SimulatePair(o)) tests.push_back(std::move(t));
+    for (auto& t : test::SimulatePair(o)) tests.push_back(std::move(t));
   }
   const auto rep = AnalyzeDbbSet(tests);
   for (std::size_t i = 0; i < tests.size(); ++i) {
@@ -162,7 +162,7 @@ TEST(FullAnalysis, ServoLagSeparatedByTwoFeeds) {
 TEST(FullAnalysis, SinglePairLeavesServoLagInRadiusError) {
   SerialDbbSimOptions o;
   o.effects = {{EffectId::kServoLag, {1000.0}}};
-  const auto rep = AnalyzeDbbSet(testing::SimulatePair(o));
+  const auto rep = AnalyzeDbbSet(test::SimulatePair(o));
   EXPECT_EQ(Find(rep.tests[0], "servo_lag"), nullptr);
   const auto* re = Find(rep.tests[0], "radius_error");
   ASSERT_NE(re, nullptr);
@@ -175,7 +175,7 @@ TEST(FullAnalysis, AbsoluteModeHarmonicsCarryTheCentreError) {
   o.absolute = true;
   o.noise_um = 0.05;
   o.effects = {{EffectId::kCentreOffset, {3.0, 4.0}}};
-  const auto rep = AnalyzeDbbSet(testing::SimulatePair(o, false));
+  const auto rep = AnalyzeDbbSet(test::SimulatePair(o, false));
   ASSERT_EQ(rep.tests[0].circular.mode, Mode::kAbsolute);
   EXPECT_NEAR(rep.tests[0].harmonics.harmonics[0].amplitude_um, 5.0, 0.01);
   EXPECT_NEAR(rep.tests[0].harmonics.harmonics[0].phase_deg,
@@ -188,7 +188,7 @@ TEST(FullAnalysis, CoarseSamplingStillAnalysed) {
   o.step_deg = 10.0;  // 36 samples per turn, the coarsest the lead's turn selection accepts
   o.noise_um = 0.05;
   o.effects = {{EffectId::kScaleMismatch, {40.0}}};
-  const auto rep = AnalyzeDbbSet(testing::SimulatePair(o, false));
+  const auto rep = AnalyzeDbbSet(test::SimulatePair(o, false));
   ASSERT_EQ(rep.tests.size(), 1u);
   EXPECT_LE(rep.tests[0].min_zone_circularity_um, rep.tests[0].circular.circularity_um + 1e-9);
   ASSERT_FALSE(rep.tests[0].diagnosis.empty());
@@ -208,7 +208,7 @@ TEST(FullAnalysis, ParallelAnalysisEqualsAnalysisInOrder) {
     o.effects = {{EffectId::kBacklashU, {2.0}},
                  {EffectId::kReversalSpikeV, {3.0, 1.0}},
                  {EffectId::kCyclicErrorU, {0.6, 0.3, 10.0}}};
-    for (auto& t : testing::SimulatePair(o)) tests.push_back(std::move(t));
+    for (auto& t : test::SimulatePair(o)) tests.push_back(std::move(t));
   }
   SerialDbbSimOptions single;
   single.test_id = "S";

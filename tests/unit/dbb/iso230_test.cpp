@@ -26,7 +26,7 @@ TEST(Iso230, ClosedFormsForScaleAndServoMismatch) {
       o.effects = {{EffectId::kScaleMismatch, {dk}},
                    {EffectId::kServoMismatch, {dtau}},
                    {EffectId::kRadiusError, {2.5}}};
-      const auto tests = testing::SimulatePair(o);
+      const auto tests = test::SimulatePair(o);
       const double a = std::abs(dk) * 1e-6 * 150000.0 / 2.0;
       const double b = std::abs(1000.0 / 60.0 * dtau / 2.0);
       const double amp = std::hypot(a, b);
@@ -71,7 +71,7 @@ TEST(Iso230, AbsoluteModeMeasuresFromTheNominalCentre) {
   o.absolute = true;
   o.fixed_ball_offset_um = {0.0, 0.0};
   o.effects = {{EffectId::kCentreOffset, {6.0, 8.0}}, {EffectId::kRadiusError, {-1.0}}};
-  const auto tests = testing::SimulatePair(o, false);
+  const auto tests = test::SimulatePair(o, false);
   const auto r = AnalyzeCircularTest(tests[0]);
   ASSERT_EQ(r.mode, Mode::kAbsolute);
   const auto f = ComputeIso230(r);

@@ -33,7 +33,7 @@ struct Scenario {
 Scenario MakeScenario(std::uint32_t seed, bool absolute, int samples = 360, bool both = true,
                       double seat_error_um = 0.0) {
   Scenario s;
-  s.nominal = testing::Pm600Like();
+  s.nominal = test::Pm600Like();
   s.truth = sim::PerturbGeometry(s.nominal, 0.3, 0.1, seed);
   s.plan = sim::Table21Plan(samples, both);
   s.sim.absolute = absolute;

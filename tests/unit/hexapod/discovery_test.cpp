@@ -13,8 +13,8 @@
 namespace km::discovery {
 namespace {
 
-using hexapod::testing::Scenario;
-using hexapod::testing::Simulate;
+using hexapod::test::Scenario;
+using hexapod::test::Simulate;
 
 struct Outcome {
   EngineResult result;

@@ -12,7 +12,7 @@
 #include "analysis/sim/hexapod_dbb_sim.h"
 #include "tests/unit/hexapod/pm600_fixture.h"
 
-namespace km::hexapod::testing {
+namespace km::hexapod::test {
 
 // The gravity and friction blocks of the reference machine file.
 inline MachinePhysics Pm600Physics() {
@@ -75,4 +75,4 @@ inline Scenario Simulate(
   return s;
 }
 
-}  // namespace km::hexapod::testing
+}  // namespace km::hexapod::test

@@ -20,8 +20,8 @@
 namespace km::hexapod {
 namespace {
 
-using testing::Pm600Physics;
-using testing::Simulate;
+using test::Pm600Physics;
+using test::Simulate;
 
 Pose PoseAt(double x, double y, double z, double a_deg = 0, double b_deg = 0) {
   Pose p;
@@ -31,7 +31,7 @@ Pose PoseAt(double x, double y, double z, double a_deg = 0, double b_deg = 0) {
 }
 
 TEST(Statics, TensionsHoldThePlatformInEquilibrium) {
-  const auto g = testing::Pm600Like();
+  const auto g = test::Pm600Like();
   const auto phys = Pm600Physics();
   const Pose pose = PoseAt(40, -30, -1050, 12, -7);
   const double l = 120.0;
@@ -61,7 +61,7 @@ TEST(Statics, TensionsHoldThePlatformInEquilibrium) {
 }
 
 TEST(GravityDeflection, StrutsInTensionAndTheToolSags) {
-  const auto g = testing::Pm600Like();
+  const auto g = test::Pm600Like();
   const auto phys = Pm600Physics();
   for (double tilt : {0.0, 15.0, -20.0}) {
     const Pose pose = PoseAt(0, 0, -1050, tilt, 0);
@@ -100,7 +100,7 @@ PreparedTests OneCircle(dbb::Direction dir, const MachinePhysics& phys, int n = 
     t.angle_deg.push_back(sign * 360.0 * k / n);
     t.dr_um.push_back(0.0);
   }
-  return PrepareTests(testing::Pm600Like(), &phys, {t}, {0.0});
+  return PrepareTests(test::Pm600Like(), &phys, {t}, {0.0});
 }
 
 TEST(JointFriction, OppositeInCwAndCcwAndRampsAfterReversal) {
@@ -152,7 +152,7 @@ TEST(ToolLengthError, MovesTheTipAlongTheSpindleAxis) {
   ApplyEffects({a}, prepared.paths[0], prepared.setup, p);
   const auto& path = prepared.paths[0];
   const Pose pose = path.pose[3];
-  const auto real = ForwardKinematics(testing::Pm600Like(), path.strut_mm[3] + p.ds_mm[3],
+  const auto real = ForwardKinematics(test::Pm600Like(), path.strut_mm[3] + p.ds_mm[3],
                                       104.255 + p.dl_mm[3], pose);
   // A shorter real tool: the tip stands 62 µm higher (+z) at an untilted pose.
   EXPECT_NEAR(real.pose.tip_mm.z() - pose.tip_mm.z(), 0.062, 1e-9);

@@ -22,7 +22,7 @@ std::string Pm600Json() {
   j["format"] = "kinemetric-machine/1";
   j["machine_id"] = "pm600-like";
   j["kind"] = "hexapod";
-  const auto g = hexapod::testing::Pm600Like();
+  const auto g = hexapod::test::Pm600Like();
   for (int k = 0; k < 6; ++k) {
     j["base_joints_mm"].push_back(
         {g.base_joints_mm[k].x(), g.base_joints_mm[k].y(), g.base_joints_mm[k].z()});
@@ -38,7 +38,7 @@ std::string Pm600Json() {
 TEST(HexapodIo, MachineJsonParsesAndRoundTrips) {
   const auto m = ParseHexapodMachineJson(Pm600Json(), "pm600.json");
   EXPECT_EQ(m.machine_id, "pm600-like");
-  const auto g = hexapod::testing::Pm600Like();
+  const auto g = hexapod::test::Pm600Like();
   for (int j = 0; j < 6; ++j) {
     EXPECT_EQ(m.geometry.base_joints_mm[j], g.base_joints_mm[j]);
     EXPECT_EQ(m.geometry.platform_joints_mm[j], g.platform_joints_mm[j]);
@@ -103,7 +103,7 @@ TEST(HexapodIo, MachineJsonRefusesNumbersBeyondDouble) {
 }
 
 TEST(HexapodIo, DbbWriterRoundTripsThroughTheParser) {
-  const auto g = hexapod::testing::Pm600Like();
+  const auto g = hexapod::test::Pm600Like();
   const auto truth = sim::PerturbGeometry(g, 0.3, 0.1, 2);
   for (bool absolute : {true, false}) {
     sim::HexapodDbbSimOptions opt;

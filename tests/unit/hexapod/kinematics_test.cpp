@@ -26,18 +26,17 @@ Pose RandomWorkspacePose(std::mt19937& rng) {
     x = u(rng);
     y = u(rng);
   } while (x * x + y * y > 1.0);
-  const double zmid = 0.5 * (testing::kWorkspaceZLowMm + testing::kWorkspaceZHighMm);
-  const double zhalf = 0.5 * (testing::kWorkspaceZHighMm - testing::kWorkspaceZLowMm);
-  p.tip_mm = {testing::kWorkspaceRadiusMm * x, testing::kWorkspaceRadiusMm * y,
-              zmid + zhalf * u(rng)};
+  const double zmid = 0.5 * (test::kWorkspaceZLowMm + test::kWorkspaceZHighMm);
+  const double zhalf = 0.5 * (test::kWorkspaceZHighMm - test::kWorkspaceZLowMm);
+  p.tip_mm = {test::kWorkspaceRadiusMm * x, test::kWorkspaceRadiusMm * y, zmid + zhalf * u(rng)};
   double a, b;
   do {
     a = u(rng);
     b = u(rng);
   } while (a * a + b * b > 1.0);
-  p.abc_rad = Eigen::Vector3d(a * testing::kMaxTiltDeg, b * testing::kMaxTiltDeg,
-                              u(rng) * testing::kMaxSpinDeg) *
-              kDeg;
+  p.abc_rad =
+      Eigen::Vector3d(a * test::kMaxTiltDeg, b * test::kMaxTiltDeg, u(rng) * test::kMaxSpinDeg) *
+      kDeg;
   return p;
 }
 
@@ -62,7 +61,7 @@ TEST(HexapodKinematics, RotationMatchesSeedEquation14) {
 TEST(HexapodKinematics, InverseKinematicsMatchesDirectGeometry) {
   // Independent computation: tool tip at (0,0,-l) in the platform frame, so the spindle nose is
   // at X + R·(0,0,l) and the platform joint at nose + R·p_j.
-  const auto g = testing::Pm600Like();
+  const auto g = test::Pm600Like();
   std::mt19937 rng(5);
   for (int i = 0; i < 50; ++i) {
     const Pose p = RandomWorkspacePose(rng);
@@ -98,7 +97,7 @@ double NumericalScaledCondition(const HexapodGeometry& g, const Pose& pose, doub
 }
 
 TEST(HexapodKinematics, ForwardRoundTripsInverseOverWorkspace) {
-  const auto g0 = testing::Pm600Like();
+  const auto g0 = test::Pm600Like();
   for (unsigned seed : {1u, 2u, 3u}) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -131,7 +130,7 @@ TEST(HexapodKinematics, ForwardRoundTripsInverseOverWorkspace) {
 }
 
 TEST(HexapodKinematics, AnalyticJacobianMatchesNumericalDifferentiation) {
-  const auto g = testing::Pm600Like();
+  const auto g = test::Pm600Like();
   std::mt19937 rng(7);
   for (int i = 0; i < 20; ++i) {
     const Pose p = RandomWorkspacePose(rng);
@@ -154,7 +153,7 @@ TEST(HexapodKinematics, AnalyticJacobianMatchesNumericalDifferentiation) {
 TEST(HexapodKinematics, StrutOffsetConventionTrueMinusCommanded) {
   // A machine whose strut j is o_j longer than the nominal model thinks realises, for the
   // nominal command s, the joint distance s + o_j.
-  const auto nominal = testing::Pm600Like();
+  const auto nominal = test::Pm600Like();
   auto real = nominal;
   real.strut_offset_mm = {0.05, -0.02, 0.0, 0.01, 0.0, -0.07};
   Pose cmd;
@@ -171,7 +170,7 @@ TEST(HexapodKinematics, StrutOffsetConventionTrueMinusCommanded) {
 
 TEST(HexapodKinematics, NearSingularPoseIsRefused) {
   // Platform joints in the base-joint plane: all struts horizontal, ∂s/∂Z = 0 (singular).
-  const auto g = testing::Pm600Like();
+  const auto g = test::Pm600Like();
   const double l = 100.0;
   Pose singular;
   singular.tip_mm = {0, 0, -(250.0 + l)};

@@ -4,7 +4,7 @@
 
 #include "analysis/hexapod/kinematics.h"
 
-namespace km::hexapod::testing {
+namespace km::hexapod::test {
 
 inline HexapodGeometry Pm600Like() {
   HexapodGeometry g;
@@ -29,4 +29,4 @@ inline constexpr double kWorkspaceZHighMm = -850.0;
 inline constexpr double kMaxTiltDeg = 25.0;
 inline constexpr double kMaxSpinDeg = 10.0;
 
-}  // namespace km::hexapod::testing
+}  // namespace km::hexapod::test

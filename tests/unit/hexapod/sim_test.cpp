@@ -35,7 +35,7 @@ TEST(HexapodDbbSim, Table21PlanShape) {
 }
 
 TEST(HexapodDbbSim, PerfectMachineGivesZeroDeviation) {
-  const auto g = hexapod::testing::Pm600Like();
+  const auto g = hexapod::test::Pm600Like();
   for (bool absolute : {true, false}) {
     HexapodDbbSimOptions opt;
     opt.absolute = absolute;
@@ -55,7 +55,7 @@ TEST(HexapodDbbSim, RigidBaseTranslationMatchesClosedForm) {
   // True base = nominal base shifted by t: the real tool tip is the commanded one plus t, so
   // the bar reads |M(θ) + t − F| (independent closed form) in the jig set-up, and nothing in the
   // conventional set-up (the fixed ball is seated where the shifted spindle stands).
-  const auto nominal = hexapod::testing::Pm600Like();
+  const auto nominal = hexapod::test::Pm600Like();
   for (unsigned seed : {3u, 4u, 5u}) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> u(-0.3, 0.3);
@@ -80,7 +80,7 @@ TEST(HexapodDbbSim, RigidBaseTranslationMatchesClosedForm) {
 }
 
 TEST(HexapodDbbSim, NoiseHasTheRequestedSigmaAndIsSeeded) {
-  const auto g = hexapod::testing::Pm600Like();
+  const auto g = hexapod::test::Pm600Like();
   HexapodDbbSimOptions opt;
   opt.noise_um = 0.3;
   auto spec = Table21Plan(2000, false)[0];
@@ -95,7 +95,7 @@ TEST(HexapodDbbSim, NoiseHasTheRequestedSigmaAndIsSeeded) {
 }
 
 TEST(HexapodDbbSim, StrutErrorHookActsLikeAStrutOffset) {
-  const auto nominal = hexapod::testing::Pm600Like();
+  const auto nominal = hexapod::test::Pm600Like();
   auto truth = nominal;
   truth.strut_offset_mm = {0.02, -0.03, 0.01, 0.04, -0.05, 0.0};
   HexapodDbbSimOptions with_hook;
@@ -119,7 +119,7 @@ TEST(HexapodDbbSim, StrutErrorHookActsLikeAStrutOffset) {
 }
 
 TEST(HexapodDbbSim, PerturbGeometryStaysWithinBoundsAndIsSeeded) {
-  const auto g = hexapod::testing::Pm600Like();
+  const auto g = hexapod::test::Pm600Like();
   const auto a = PerturbGeometry(g, 0.3, 0.1, 9);
   const auto b = PerturbGeometry(g, 0.3, 0.1, 9);
   for (int j = 0; j < 6; ++j) {

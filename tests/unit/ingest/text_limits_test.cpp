@@ -20,8 +20,8 @@ bool Utf8(const std::string& s) {
   return ValidUtf8(s, at);
 }
 
-using test::Contains;
-using test::Expect;
+using km::test::Contains;
+using km::test::Expect;
 
 const std::string kHead = "# format: x/1\n# note: ";  // the value is on line 2
 

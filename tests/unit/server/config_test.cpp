@@ -15,7 +15,7 @@
 namespace km::server {
 namespace {
 
-class ServerConfigTest : public testing::TempDirTest {
+class ServerConfigTest : public test::TempDirTest {
  protected:
   std::string File(const std::string& json) {
     const std::string p = Path("config.json");

@@ -69,11 +69,11 @@ std::string Dbb(const std::string& bad_row = "") {
 }
 
 tracker::TrackerReadings TrackerSurvey() {
-  const auto o = tracker::testing::MakeSetup(400.0, 4, 4, 5);
+  const auto o = tracker::test::MakeSetup(400.0, 4, 4, 5);
   return tracker::SimulateTrackerSurvey(o).readings;
 }
 
-class FiniteResults : public testing::TempDirTest {
+class FiniteResults : public test::TempDirTest {
  protected:
   void SetUp() override {
     TempDirTest::SetUp();

@@ -10,7 +10,7 @@
 #include "analysis/core/errors.h"
 #include "server/sqlite_storage.h"
 
-namespace km::server::testing {
+namespace km::server::test {
 
 class FlakyStorage final : public SqliteStorage {
  public:
@@ -40,4 +40,4 @@ class FlakyStorage final : public SqliteStorage {
   std::atomic<int> failed_{0};
 };
 
-}  // namespace km::server::testing
+}  // namespace km::server::test

@@ -14,9 +14,9 @@
 namespace km::server {
 namespace {
 
-using testing::FlakyStorage;
+using test::FlakyStorage;
 
-class JobStorageErrors : public testing::TempDirTest {
+class JobStorageErrors : public test::TempDirTest {
  protected:
   // Waits until the job is done or failed (or 20 s have passed).
   static JobRecord WaitFinished(Storage& st, std::int64_t id) {

@@ -21,9 +21,9 @@
 namespace km::server {
 namespace {
 
+using km::test::Contains;
+using km::test::Expect;
 using nlohmann::json;
-using test::Contains;
-using test::Expect;
 
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -53,7 +53,7 @@ NewMachineModel Model(const std::string& machine, const std::string& document) {
   return m;
 }
 
-class MachineModels : public testing::TempDirTest {
+class MachineModels : public test::TempDirTest {
  protected:
   void Start() {
     service_ =
@@ -62,7 +62,7 @@ class MachineModels : public testing::TempDirTest {
   }
   void TearDown() override {
     service_.reset();
-    testing::TempDirTest::TearDown();
+    test::TempDirTest::TearDown();
   }
   // The ten hexapod DBB fixtures of the example machine (tool length and fixed ball), uploaded.
   json UploadHexapodTests() {

@@ -24,7 +24,7 @@ unsigned Mode(const std::string& path) {
 }
 
 // Runs with a permissive umask, as a careless service manager might set.
-class PermissionsTest : public testing::TempDirTest {
+class PermissionsTest : public test::TempDirTest {
  protected:
   void SetUp() override {
     TempDirTest::SetUp();

@@ -119,8 +119,8 @@ class ServiceLimits : public ::testing::Test {
   std::unique_ptr<Service> service_;
 };
 
-using test::Contains;
-using test::Expect;
+using km::test::Contains;
+using km::test::Expect;
 
 TEST_F(ServiceLimits, TooManyCalibrationTestsAreRefusedBeforeAnythingIsRead) {
   Start();

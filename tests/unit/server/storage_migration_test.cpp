@@ -63,7 +63,7 @@ std::vector<std::string> Rows(const std::string& db_path, const std::string& que
 constexpr const char* kSchemaQuery =
     "SELECT type, name, tbl_name, sql FROM sqlite_master ORDER BY type, name";
 
-class StorageMigration : public testing::TempDirTest {
+class StorageMigration : public test::TempDirTest {
  protected:
   // A database file holding fixture vN, before any storage code has touched it.
   std::string OldDatabase(int version) {

@@ -17,7 +17,7 @@ namespace {
 constexpr std::int64_t kMin = std::numeric_limits<std::int64_t>::min();
 constexpr std::int64_t kMax = std::numeric_limits<std::int64_t>::max();
 
-class StreamExtremes : public testing::TempDirTest {
+class StreamExtremes : public test::TempDirTest {
  protected:
   // One channel whose samples are spread over (nearly) the whole int64 range.
   std::int64_t Store(SqliteStorage& st, const std::vector<std::int64_t>& t_us) {

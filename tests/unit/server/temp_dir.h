@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <string>
 
-namespace km::server::testing {
+namespace km::server::test {
 
 class TempDirTest : public ::testing::Test {
  protected:
@@ -29,4 +29,4 @@ class TempDirTest : public ::testing::Test {
   std::filesystem::path dir_;
 };
 
-}  // namespace km::server::testing
+}  // namespace km::server::test

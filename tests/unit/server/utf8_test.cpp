@@ -75,7 +75,7 @@ TEST(Utf8, EveryTwoByteStringIsSanitisedToValidText) {
   }
 }
 
-class StoredNonUtf8 : public testing::TempDirTest {};
+class StoredNonUtf8 : public test::TempDirTest {};
 
 // A row stored before file names were checked, with Latin-1 bytes in its file name and machine,
 // is listed (with U+FFFD in their place) instead of failing every listing.

@@ -10,7 +10,7 @@
 #include "ingest/servo_parser.h"
 #include "tests/unit/servo/servo_truth.h"
 
-namespace km::servo::testing {
+namespace km::servo::test {
 
 inline hexapod::HexapodGeometry Pm600Geometry() {
   const truth::Machine m = truth::Pm600Truth();
@@ -59,4 +59,4 @@ inline std::vector<ServoFile> SimulatePlan(const truth::Machine& m, double noise
   return SimulateCircles(m, truth::JigPlan(samples), noise_N, seed);
 }
 
-}  // namespace km::servo::testing
+}  // namespace km::servo::test

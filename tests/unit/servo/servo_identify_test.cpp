@@ -19,7 +19,7 @@ namespace {
 TEST(ServoIdentify, RecoversMassesAndFrictionOfTheJigPlan) {
   const truth::Machine m = truth::Pm600Truth();
   // The machine model starts from other values: the identification must not lean on them.
-  hexapod::MachinePhysics prior = testing::Pm600Physics();
+  hexapod::MachinePhysics prior = test::Pm600Physics();
   prior.platform_mass_kg = 200.0;
   prior.platform_cog_mm = Eigen::Vector3d(10.0, -10.0, 150.0);
   prior.strut_equivalent_mass_kg = 20.0;
@@ -27,8 +27,8 @@ TEST(ServoIdentify, RecoversMassesAndFrictionOfTheJigPlan) {
   prior.screw_friction_N.fill(100.0);
   prior.base_joint_torque_Nm = 5.0;
   prior.base_joint_torque_per_N_m = 0.02;
-  const auto files = testing::SimulatePlan(m, 2.0, 720, 11);
-  const IdentifyResult r = IdentifyLoads(testing::Pm600Geometry(), prior, files);
+  const auto files = test::SimulatePlan(m, 2.0, 720, 11);
+  const IdentifyResult r = IdentifyLoads(test::Pm600Geometry(), prior, files);
   const auto& id = r.identified;
   EXPECT_NEAR(id.platform_mass_kg, m.m_platform, 0.02 * m.m_platform);
   EXPECT_LT((id.platform_cog_mm - m.cog).norm(), 5.0) << id.platform_cog_mm.transpose();
@@ -59,12 +59,12 @@ TEST(ServoIdentify, NamesWhatLevelCirclesCannotSeparate) {
   std::vector<truth::Circle> level;
   for (const auto& c : truth::JigPlan(360))
     if (c.tilt_deg.norm() == 0.0) level.push_back(c);
-  const auto files = testing::SimulateCircles(m, level, 2.0, 5);
-  const hexapod::MachinePhysics prior = testing::Pm600Physics();
+  const auto files = test::SimulateCircles(m, level, 2.0, 5);
+  const hexapod::MachinePhysics prior = test::Pm600Physics();
   IdentifyOptions o;
   o.inertia = false;  // with the inertia in the model, 2 mm/s² of centripetal acceleration
                       // would see the height, with an uncertainty of metres
-  const IdentifyResult r = IdentifyLoads(testing::Pm600Geometry(), prior, files, o);
+  const IdentifyResult r = IdentifyLoads(test::Pm600Geometry(), prior, files, o);
   bool named = false;
   for (const auto& f : r.fixed) named = named || f.parameter == "platform_cog_mm[2]";
   EXPECT_TRUE(named);
@@ -74,7 +74,7 @@ TEST(ServoIdentify, NamesWhatLevelCirclesCannotSeparate) {
 
 TEST(ServoForce, RecoversAStaticExternalForce) {
   const truth::Machine m = truth::Pm600Truth();
-  const hexapod::MachinePhysics physics = testing::Pm600Physics();
+  const hexapod::MachinePhysics physics = test::Pm600Physics();
   std::mt19937 rng(3);
   const Eigen::Vector3d loads[] = {{100.0, 0.0, 0.0}, {0.0, -300.0, 0.0}, {200.0, 150.0, -500.0}};
   for (const auto& load : loads) {
@@ -82,7 +82,7 @@ TEST(ServoForce, RecoversAStaticExternalForce) {
     c.external_N = load;
     const auto rec = truth::Simulate(m, c, 2.0, rng);
     const auto file = ingest::ParseServoFile(truth::ServoText(c, rec), "force.txt");
-    const ForceEstimate f = EstimateExternalForce(testing::Pm600Geometry(), physics, file);
+    const ForceEstimate f = EstimateExternalForce(test::Pm600Geometry(), physics, file);
     ASSERT_EQ(f.force_N.size(), rec.t_s.size());
     // Every sample within 10 % + 20 N and within 5 σ of the truth; the friction ramps of the
     // simulator (0.5 mm joints, 0.3 mm screws) found from the smoothness of the estimate.

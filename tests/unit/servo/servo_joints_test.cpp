@@ -17,9 +17,9 @@ namespace {
 TEST(ServoJoints, NamesTheStiffLegAtLevel3) {
   truth::Machine m = truth::Pm600Truth();
   m.leg_factor[2] = 3.0;
-  const auto files = testing::SimulatePlan(m, 2.0, 720, 21);
+  const auto files = test::SimulatePlan(m, 2.0, 720, 21);
   const JointsResult r =
-      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(), files);
+      EstimateJointResistance(test::Pm600Geometry(), test::Pm600Physics(), files);
   EXPECT_EQ(r.reference_source, "machine model");
   EXPECT_EQ(r.pairs.size(), 15u);
   EXPECT_EQ(r.level, 3);
@@ -51,7 +51,7 @@ TEST(ServoJoints, PairsPosesBetweenSamples) {
     }
   }
   const JointsResult r =
-      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(), files);
+      EstimateJointResistance(test::Pm600Geometry(), test::Pm600Physics(), files);
   EXPECT_GT(r.rows, 20000u);
   for (int j = 0; j < 6; ++j) {
     EXPECT_NEAR(r.legs[j].ratio, m.leg_factor[j], 0.1 * m.leg_factor[j]) << r.legs[j].evidence;
@@ -61,9 +61,9 @@ TEST(ServoJoints, PairsPosesBetweenSamples) {
 
 TEST(ServoJoints, EqualLegsStayAtLevel1) {
   const truth::Machine m = truth::Pm600Truth();
-  const auto files = testing::SimulatePlan(m, 2.0, 720, 22);
+  const auto files = test::SimulatePlan(m, 2.0, 720, 22);
   const JointsResult r =
-      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(), files);
+      EstimateJointResistance(test::Pm600Geometry(), test::Pm600Physics(), files);
   EXPECT_EQ(r.level, 1);
   for (const auto& leg : r.legs) {
     EXPECT_EQ(leg.level, 1) << leg.evidence;
@@ -74,17 +74,17 @@ TEST(ServoJoints, EqualLegsStayAtLevel1) {
 TEST(ServoJoints, SeparatesAPlatformJointAndGradesTheGrowth) {
   truth::Machine m = truth::Pm600Truth();
   m.platform_factor[4] = 0.5;  // the platform joint of leg 5 at half the base joint's
-  const auto files = testing::SimulatePlan(m, 2.0, 720, 23);
+  const auto files = test::SimulatePlan(m, 2.0, 720, 23);
   JointOptions o;
   // The previous estimate: every leg as simulated, without the platform joint's resistance.
   const JointsResult before =
-      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(),
-                              testing::SimulatePlan(truth::Pm600Truth(), 2.0, 720, 24));
+      EstimateJointResistance(test::Pm600Geometry(), test::Pm600Physics(),
+                              test::SimulatePlan(truth::Pm600Truth(), 2.0, 720, 24));
   std::array<double, 6> prev{};
   for (int j = 0; j < 6; ++j) prev[j] = before.legs[j].resistance_Nm;
   o.previous_Nm = prev;
   const JointsResult r =
-      EstimateJointResistance(testing::Pm600Geometry(), testing::Pm600Physics(), files, o);
+      EstimateJointResistance(test::Pm600Geometry(), test::Pm600Physics(), files, o);
   const auto& leg5 = r.legs[4];
   ASSERT_TRUE(leg5.joints[1].identified);
   EXPECT_NEAR(leg5.joints[1].resistance_Nm, 0.5 * prev[4], 0.05 * prev[4]) << leg5.evidence;

@@ -18,7 +18,7 @@ namespace km {
 namespace {
 
 tracker::TrackerReadings Survey() {
-  const auto o = tracker::testing::MakeSetup(400.0, 4, 4, 11);
+  const auto o = tracker::test::MakeSetup(400.0, 4, 4, 11);
   return tracker::SimulateTrackerSurvey(o).readings;
 }
 
@@ -52,7 +52,7 @@ TEST(TrackerGuess, AbsurdGuessesAreRefusedNamingTheLine) {
 }
 
 TEST(TrackerGuess, SaneGuessesStillSolve) {
-  const auto o = tracker::testing::MakeSetup(400.0, 4, 4, 11);
+  const auto o = tracker::test::MakeSetup(400.0, 4, 4, 11);
   const std::string g = "# tracker_guess_mm: 1, " + std::to_string(o.trackers_mm[0].x()) + ", " +
                         std::to_string(o.trackers_mm[0].y()) + ", " +
                         std::to_string(o.trackers_mm[0].z()) + "\n";

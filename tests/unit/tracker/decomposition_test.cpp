@@ -29,7 +29,7 @@ TEST(VolumetricDecomposition, RecoversComponentsOfAnErrorMap) {
     std::uniform_real_distribution<double> u(-3.0, 3.0);
     const Eigen::Vector3d centre(300, 200, 250);
     const auto pts = GridPoints(centre, 400.0, 6);
-    MachineErrorModel m = testing::FewMicronMachine(centre, 400.0);
+    MachineErrorModel m = test::FewMicronMachine(centre, 400.0);
     m.scale_ppm = {12 + u(rng), -8 + u(rng), 10 + u(rng)};
     m.squareness_um_per_m = {15 + u(rng), -12 + u(rng), 9 + u(rng)};
     const Eigen::Vector3d w(3e-6 * g(rng), 3e-6 * g(rng), 3e-6 * g(rng));  // rad
@@ -77,7 +77,7 @@ TEST(VolumetricDecomposition, EndToEndFromTrackerSurvey) {
   // [Tracker paper] set-up on a 400 mm volume: scale and squareness recovered within 10 %.
   for (unsigned seed : {1u, 2u, 3u}) {
     SCOPED_TRACE(seed);
-    auto o = testing::MakeSetup(400.0, 6, 4, seed);
+    auto o = test::MakeSetup(400.0, 6, 4, seed);
     o.machine.scale_ppm = {25, -20, 30};
     o.machine.squareness_um_per_m = {30, -25, 20};
     const auto sim = SimulateTrackerSurvey(o);
@@ -144,7 +144,7 @@ namespace {
 TEST(VolumetricDecomposition, PropagatedSigmaMatchesMonteCarlo) {
   // Same geometry, 40 noise draws: the scatter of the recovered scale and squareness matches
   // the propagated σ (within a factor 1.6; 40 draws give ±11 % on a standard deviation).
-  auto o = testing::MakeSetup(100.0, 5, 4, 2);
+  auto o = test::MakeSetup(100.0, 5, 4, 2);
   const int draws = 40;
   Eigen::MatrixXd est(draws, 6);
   Eigen::VectorXd sig = Eigen::VectorXd::Zero(6);

@@ -47,7 +47,7 @@ TEST(TrackerParser, ReadsTheContractFormat) {
 }
 
 TEST(TrackerParser, RoundTripAndSolve) {
-  auto o = tracker::testing::MakeSetup(400.0, 5, 4, 3);
+  auto o = tracker::test::MakeSetup(400.0, 5, 4, 3);
   o.mode = tracker::TrackerMode::kSequential;
   o.beam_breaks = {{2, 60}};
   auto sim = tracker::SimulateTrackerSurvey(o);

@@ -258,7 +258,7 @@ std::vector<Eigen::Vector3d> Grid(const Eigen::Vector3d& centre, const Eigen::Ve
 // periods of 70–250 mm and amplitudes of 2–3.5 µm on random axes and components.
 MachineErrorModel WavyMachine(const Eigen::Vector3d& centre, const Eigen::Vector3d& size,
                               unsigned seed) {
-  MachineErrorModel m = testing::FewMicronMachine(centre, size.maxCoeff());
+  MachineErrorModel m = test::FewMicronMachine(centre, size.maxCoeff());
   m.half_range_mm = 0.5 * size;
   std::mt19937 rng(seed * 7919u + 17u);
   std::uniform_real_distribution<double> period(70.0, 250.0), amp(2.0, 3.5), phase(0.0, 6.2832);
@@ -430,7 +430,7 @@ TEST(TrackerSelfCalOptimum, SpatialCheckWarnsAndKeeps) {
   Simulated sm = Simulate(s);
   const int row = 100;
   const Eigen::Vector3d shift =
-      testing::AddCancellingGrossErrors(sm.sim, sm.options.trackers_mm, row, 40.0);
+      test::AddCancellingGrossErrors(sm.sim, sm.options.trackers_mm, row, 40.0);
   ASSERT_GT(shift.norm(), 20.0);
   const auto& rd = sm.sim.readings;
   const SelfCalResult r = SelfCalibrate(rd);

@@ -26,9 +26,9 @@
 namespace km::tracker {
 namespace {
 
-using testing::Accuracy;
-using testing::Evaluate;
-using testing::MakeSetup;
+using test::Accuracy;
+using test::Evaluate;
+using test::MakeSetup;
 
 // Tolerances (0.2 µm reading noise, 4 trackers 0.6–1.2 m away, injected errors of a few µm):
 //  - volumetric error: RMS over all components of (estimate − truth) < 0.5 µm;

@@ -19,7 +19,7 @@ namespace {
 class TrackerCli : public test::CliTest {
  protected:
   std::string SurveyFile(const std::string& header) {
-    const auto o = tracker::testing::MakeSetup(400.0, 4, 4, 13);
+    const auto o = tracker::test::MakeSetup(400.0, 4, 4, 13);
     std::string text = ingest::WriteTrackerFile(tracker::SimulateTrackerSurvey(o).readings);
     const std::string mode = "# mode: simultaneous\n";
     text.insert(text.find(mode) + mode.size(), header);
@@ -43,9 +43,9 @@ TEST_F(TrackerCli, AbsurdGuessIsBadInputNamingTheLine) {
 TEST_F(TrackerCli, SpatialOutliersAreWarningsInTheJson) {
   // Two gross errors on point 31 that cancel in its single redundant reading: no reading can be
   // rejected; the point is named in spatial_outliers and in warnings, and kept.
-  const auto o = tracker::testing::MakeSetup(400.0, 5, 4, 17);
+  const auto o = tracker::test::MakeSetup(400.0, 5, 4, 17);
   auto sim = tracker::SimulateTrackerSurvey(o);
-  tracker::testing::AddCancellingGrossErrors(sim, o.trackers_mm, 30, 40.0);
+  tracker::test::AddCancellingGrossErrors(sim, o.trackers_mm, 30, 40.0);
   const std::string path = Write("survey.txt", ingest::WriteTrackerFile(sim.readings));
   std::ostringstream out;
   ASSERT_EQ(Registry().at("tracker selfcal").run(JsonArgs({path}), out), 0);

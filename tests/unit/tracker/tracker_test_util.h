@@ -12,7 +12,7 @@
 #include "analysis/tracker/tracker_selfcal.h"
 #include "analysis/tracker/tracker_sim.h"
 
-namespace km::tracker::testing {
+namespace km::tracker::test {
 
 inline MachineErrorModel FewMicronMachine(const Eigen::Vector3d& centre, double size_mm) {
   MachineErrorModel m;
@@ -99,4 +99,4 @@ inline Accuracy Evaluate(const TrackerSimOptions& o, const TrackerSimResult& sim
   return a;
 }
 
-}  // namespace km::tracker::testing
+}  // namespace km::tracker::test
