@@ -161,16 +161,47 @@ void AddDbbRoutes(Router& router, server::Service& service) {
 
   router.Add(
       Route{"GET",
+            "/api/v1/measurements/{id}/reversal",
+            "Straightness: the reversal of this profile with the other set-up of its pair",
+            true,
+            [svc](const Request& req) {
+              const std::int64_t id = req.PathId("id");
+              auto j = svc->StraightnessReversalJson(id);
+              if (j.is_null()) {
+                throw NotFound("measurement " + std::to_string(id) +
+                               " has no stored profile of the other set-up of its reversal pair");
+              }
+              return Response::Json(j);
+            },
+            {{"responses",
+              {{"200", JsonResponse("{partner_id, reversal{machine_um[], artefact_um[], ...}, "
+                                    "profiles[]}")}}}}});
+
+  router.Add(
+      Route{"GET",
             "/api/v1/measurements/{id}/plot.png",
             "DBB: polar plot (both directions when the partner test is stored)",
             true,
             [svc](const Request& req) {
+              dbb::PolarPlotOptions o;
+              o.um_per_div = static_cast<double>(QueryInt(req, "um_per_div", 0, 0, 10000));
+              o.divisions = static_cast<int>(QueryInt(req, "divisions", 0, 0, 50));
+              if ((o.um_per_div > 0.0) != (o.divisions > 0)) {
+                throw InvalidInput("", 0, o.divisions > 0 ? "um_per_div" : "divisions",
+                                   "a fixed scale needs both um_per_div and divisions");
+              }
               Response r;
               r.content_type = "image/png";
-              r.body = svc->DbbPlotPng(req.PathId("id"));
+              r.body = svc->DbbPlotPng(req.PathId("id"), o);
               return r;
             },
-            {{"responses",
+            {{"parameters",
+              json::array({Param("um_per_div", "integer",
+                                 "fixed scale: micrometres per division (with divisions)"),
+                           Param("divisions", "integer",
+                                 "fixed scale: divisions of the band (with um_per_div); plots "
+                                 "with the same pair share one magnification")})},
+             {"responses",
               {{"200",
                 {{"description", "PNG image"},
                  {"content",

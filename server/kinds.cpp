@@ -240,16 +240,22 @@ dbb::DbbTest Service::LoadDbb(std::int64_t id, MeasurementRecord* record) {
 }
 
 std::optional<std::int64_t> Service::DbbPartner(const MeasurementRecord& rec) {
-  // The opposite-direction test of the same machine and test_id measured nearest in time to
-  // this one (measurement time, else upload time): a CW/CCW pair is run minutes apart, a repeat
-  // of the test days or months later. On equal distance the one stored nearest, then the later.
+  return NearestPartner(rec, rec.direction == "ccw" ? "cw" : "ccw");
+}
+
+std::optional<std::int64_t> Service::NearestPartner(const MeasurementRecord& rec,
+                                                    const std::string& other_direction) {
+  // The other-direction measurement (the opposite DBB direction, the other set-up of a
+  // reversal) of the same machine, kind and test_id measured nearest in time to this one
+  // (measurement time, else upload time): a pair is run minutes apart, a repeat days or months
+  // later. On equal distance the one stored nearest, then the later.
   const std::string when = rec.measured_at.value_or(rec.uploaded_at);
   const auto t = ingest::Iso8601EpochSeconds(when);
   MeasurementFilter f;
   f.machine_id = rec.machine_id;
-  f.kind = "dbb";
+  f.kind = rec.kind;
   f.test_id = rec.test_id;
-  f.direction = rec.direction == "ccw" ? "cw" : "ccw";
+  f.direction = other_direction;
   f.limit = 2;
   std::vector<MeasurementRecord> candidates;
   f.from = when;  // the nearest at or after it
@@ -301,13 +307,42 @@ nlohmann::json Service::DbbPairJson(std::int64_t id) {
   return out;
 }
 
-std::string Service::DbbPlotPng(std::int64_t id) {
+std::string Service::DbbPlotPng(std::int64_t id, const dbb::PolarPlotOptions& options) {
   MeasurementRecord rec;
   std::vector<dbb::DbbTest> tests{LoadDbb(id, &rec)};
   if (const auto partner = DbbPartner(rec)) tests.push_back(LoadDbb(*partner));
   const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
-  const auto png = dbb::PolarPlotPng(report, 0);
+  const auto png = dbb::PolarPlotPng(report, 0, options);
   return std::string(png.begin(), png.end());
+}
+
+nlohmann::json Service::StraightnessReversalJson(std::int64_t id) {
+  const auto rec = storage_->GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (rec->kind != "straightness") {
+    throw InvalidInput("", 0, "id",
+                       "measurement " + std::to_string(id) + " is not a straightness profile");
+  }
+  if (rec->direction != "a" && rec->direction != "b") {
+    throw InvalidInput(
+        "", 0, "reversal",
+        "measurement " + std::to_string(id) +
+            " is not one set-up of a reversal pair (its file has no `reversal` key)");
+  }
+  const auto partner = NearestPartner(*rec, rec->direction == "a" ? "b" : "a");
+  if (!partner) return nullptr;
+  const auto other = storage_->GetMeasurement(*partner);
+  std::vector<ingest::StraightnessFile> files;
+  for (const auto& [mid, name] :
+       {std::pair{id, rec->filename}, std::pair{*partner, other->filename}})
+    files.push_back(ingest::ParseStraightnessFile(storage_->GetRaw(mid), name));
+  if (files[0].reversal == "b") std::swap(files[0], files[1]);
+  const nlohmann::json j = StraightnessFilesToJson(files);
+  nlohmann::json out;
+  out["partner_id"] = *partner;
+  out["reversal"] = j.value("reversal", nlohmann::json(nullptr));
+  out["profiles"] = j["profiles"];
+  return out;
 }
 
 }  // namespace km::server

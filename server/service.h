@@ -13,6 +13,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/dbb/dbb_types.h"
+#include "analysis/dbb/polar_plot.h"
 #include "ingest/machine_json.h"
 #include "ingest/text_format.h"
 #include "server/acquisition.h"
@@ -123,7 +124,11 @@ class Service {
   // (null when there is none); the polar plot PNG (both directions when the partner exists).
   nlohmann::json DbbTrace(std::int64_t id);
   nlohmann::json DbbPairJson(std::int64_t id);
-  std::string DbbPlotPng(std::int64_t id);
+  std::string DbbPlotPng(std::int64_t id, const dbb::PolarPlotOptions& options = {});
+  // Straightness reversal of a stored profile with the other set-up of its pair (same machine
+  // and pair_id, measured nearest in time): {partner_id, reversal{...}, profiles[]}; null when
+  // the other set-up is not stored.
+  nlohmann::json StraightnessReversalJson(std::int64_t id);
   nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
   // Measurement metadata matching the filter: {"items": [MeasurementJson…], "total"}.
   nlohmann::json ListMeasurements(const MeasurementFilter& filter);
@@ -227,6 +232,8 @@ class Service {
                                           bool need_tool_length, bool need_fixed_ball,
                                           std::vector<std::string>* machines = nullptr);
   std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
+  std::optional<std::int64_t> NearestPartner(const MeasurementRecord& rec,
+                                             const std::string& other_direction);
 
   std::unique_ptr<Storage> storage_;
   ServiceOptions options_;

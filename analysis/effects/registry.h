@@ -71,8 +71,8 @@ Eigen::MatrixXd ValueJacobian(EffectId id, const EffectContext& ctx, const doubl
 template <typename F>
 void VisitEffect(EffectId id, F&& f) {
   switch (id) {
-#define KM_EFFECT_VISIT(eid, type)  \
-  case EffectId::eid:               \
+#define KM_EFFECT_VISIT(eid, type) \
+  case EffectId::eid:              \
     f.template operator()<type>(); \
     return;
     KM_SERIAL_EFFECT_LIST(KM_EFFECT_VISIT)

@@ -35,6 +35,7 @@ const std::map<std::string, Role>& ExpectedRoles() {
       {"GET /api/v1/measurements/{id}/results", Role::kViewer},
       {"GET /api/v1/measurements/{id}/trace", Role::kViewer},
       {"GET /api/v1/measurements/{id}/pair", Role::kViewer},
+      {"GET /api/v1/measurements/{id}/reversal", Role::kViewer},
       {"GET /api/v1/measurements/{id}/plot.png", Role::kViewer},
       {"GET /api/v1/measurements/{id}/servo/force", Role::kViewer},
       {"POST /api/v1/calibrations", Role::kEngineer},

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <tuple>
 
 #include "analysis/core/errors.h"
 #include "api/http.h"
@@ -80,6 +81,21 @@ TEST(Service, DemoDataGoesThroughTheNormalPathAndRoutesAnswer) {
     }
     EXPECT_EQ(operations, router.routes().size());
 
+    // The polar plot at a fixed scale; one of the two scale keys alone is refused by name.
+    api::Request plot;
+    plot.method = "GET";
+    plot.path = "/api/v1/measurements/1/plot.png";
+    plot.headers["authorization"] = "Bearer boot";
+    plot.query = {{"um_per_div", "2"}, {"divisions", "3"}};
+    const auto png = router.Dispatch(plot);
+    EXPECT_EQ(png.status, 200);
+    EXPECT_EQ(png.content_type, "image/png");
+    EXPECT_EQ(png.body.substr(1, 3), "PNG");
+    plot.query = {{"um_per_div", "2"}};
+    const auto half = router.Dispatch(plot);
+    EXPECT_EQ(half.status, 400);
+    EXPECT_NE(half.body.find("\"field\":\"divisions\""), std::string::npos) << half.body;
+
     // The demo stream: 30 s of a capacitance sensor and the X encoder, one lost frame, and the
     // straightness profile made from it finds the injected 55 mm waviness and 10 mm lead.
     const auto stream = LoadDemoStream(svc);
@@ -148,6 +164,88 @@ TEST(Service, APairIsTheOppositeDirectionMeasuredNearestInTime) {
     EXPECT_EQ(list["items"][0]["id"], nov_cw);
     EXPECT_EQ(list["items"][0]["key_result"]["name"], "circularity_um");
     EXPECT_EQ(list["items"][0]["key_result"]["value"], svc.Results(nov_cw)["circularity_um"]);
+  }
+  for (const char* ext : {"", "-wal", "-shm"}) fs::remove(db.string() + ext);
+}
+
+// Profiles of a reversal pair: a = M + S, b = M − S (the artefact turned over, the sensor stays).
+std::string ReversalText(const char* setup, const char* timestamp, double scale) {
+  std::string t =
+      "# format: kinemetric-straightness/1\n# machine_id: rev-vmc\n# axis: X\n"
+      "# error_direction: Y\n# sensor: indicator\n# reference: straightedge\n"
+      "# reversal: " +
+      std::string(setup) + "\n# pair_id: x-y\n# timestamp: " + timestamp +
+      "\nposition_mm,deviation_um\n";
+  const double sign = std::string(setup) == "a" ? 1.0 : -1.0;
+  for (int i = 0; i <= 30; ++i) {
+    const double x = 10.0 * i;
+    const double m = scale * std::sin(2.0 * M_PI * x / 300.0);
+    const double a = 1e-4 * (x - 150.0) * (x - 150.0);
+    t += std::to_string(x) + "," + std::to_string(m + sign * a) + "\n";
+  }
+  return t;
+}
+
+// Range of the residuals of M about its least-squares line (the independent figure).
+double LsqStraightness(double scale) {
+  std::vector<double> x, y;
+  for (int i = 0; i <= 30; ++i) {
+    x.push_back(10.0 * i);
+    y.push_back(scale * std::sin(2.0 * M_PI * x.back() / 300.0));
+  }
+  const double n = static_cast<double>(x.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    sx += x[i];
+    sy += y[i];
+    sxx += x[i] * x[i];
+    sxy += x[i] * y[i];
+  }
+  const double b = (n * sxy - sx * sy) / (n * sxx - sx * sx), a = (sy - b * sx) / n;
+  double lo = 1e300, hi = -1e300;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    lo = std::min(lo, y[i] - a - b * x[i]);
+    hi = std::max(hi, y[i] - a - b * x[i]);
+  }
+  return hi - lo;
+}
+
+TEST(Service, StraightnessReversalPairsTheStoredSetUps) {
+  const fs::path db =
+      fs::temp_directory_path() / ("km-service-rev-" + std::to_string(::getpid()) + ".db");
+  fs::remove(db);
+  {
+    Service svc(std::make_unique<SqliteStorage>(db.string()), {});
+    RegisterBuiltinKinds(svc);
+    const auto a_id = svc.Upload(ReversalText("a", "2026-11-03T09:00:00Z", 3.0), "a.txt").id;
+    EXPECT_THROW(
+        {
+          if (svc.StraightnessReversalJson(a_id).is_null()) throw NotFound("no partner yet");
+        },
+        NotFound);
+    const auto b_id = svc.Upload(ReversalText("b", "2026-11-03T09:20:00Z", 3.0), "b.txt").id;
+    // A later pair of the same pair_id (a repair, months later) is not mixed in.
+    const auto later_a = svc.Upload(ReversalText("a", "2027-02-01T09:00:00Z", 1.0), "c.txt").id;
+    const auto later_b = svc.Upload(ReversalText("b", "2027-02-01T09:20:00Z", 1.0), "d.txt").id;
+    for (auto [id, partner, scale] : {std::tuple{a_id, b_id, 3.0}, std::tuple{b_id, a_id, 3.0},
+                                      std::tuple{later_a, later_b, 1.0}}) {
+      const auto j = svc.StraightnessReversalJson(id);
+      EXPECT_EQ(j["partner_id"], partner);
+      ASSERT_TRUE(j["reversal"].is_object()) << j.dump();
+      EXPECT_NEAR(j["reversal"]["machine_straightness_lsq_um"].get<double>(),
+                  LsqStraightness(scale), 2e-5);
+    }
+    // A profile that is not part of a reversal pair is refused, naming the key.
+    std::string plain = ReversalText("a", "2026-11-04T09:00:00Z", 1.0);
+    plain.erase(plain.find("# reversal: a\n"), 14);
+    plain.erase(plain.find("# pair_id: x-y\n"), 15);
+    const auto plain_id = svc.Upload(plain, "plain.txt").id;
+    try {
+      svc.StraightnessReversalJson(plain_id);
+      FAIL() << "not refused";
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.field(), "reversal");
+    }
   }
   for (const char* ext : {"", "-wal", "-shm"}) fs::remove(db.string() + ext);
 }
