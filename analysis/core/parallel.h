@@ -1,49 +1,97 @@
-// ParallelFor: independent calls fn(0) … fn(n − 1) spread over a few threads (the calling
-// thread included). Used where an analysis has independent parts (the tests of a DBB set), so
-// that a user waiting for one result gets it sooner on a multi-core machine; the result is the
-// same as running the calls in order.
+// ParallelFor: independent calls fn(0) … fn(n − 1) spread over the machine's cores (the calling
+// thread included). Used where an analysis has independent parts (the tests of a DBB set, the
+// two axes of a search), so that a user waiting for one result gets it sooner on a multi-core
+// machine; the result is the same as running the calls in order.
+//
+// The helpers are threads of one process-wide pool started on first use (no thread is created
+// per call). The caller claims indices itself until none is left and then waits only for the
+// indices a helper is running, so nested calls (a parallel part that itself runs ParallelFor)
+// cannot deadlock, and a call never waits for a helper that has not started.
 #pragma once
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
 #include <cstddef>
 #include <exception>
-#include <system_error>
+#include <functional>
+#include <memory>
+#include <mutex>
 #include <thread>
 #include <vector>
 
 namespace km {
 
-// Runs fn(i) for every i < n on at most max_threads threads. The calls must not share mutable
-// state. When calls throw, the exception of the lowest index is rethrown after all have run
-// (as a loop in order would report it first). If no thread can be started the calls run on the
-// calling thread.
+namespace internal {
+
+// Runs posted jobs on hardware_concurrency − 1 threads (at least one).
+class WorkerPool {
+ public:
+  static WorkerPool& Instance();
+  // Queues `job`; false when the pool has no thread (the caller then does the work itself).
+  bool Post(std::function<void()> job);
+  std::size_t size() const { return threads_.size(); }
+  ~WorkerPool();
+
+ private:
+  WorkerPool();
+  void Loop();
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::vector<std::function<void()>> queue_;
+  std::vector<std::thread> threads_;
+  bool stop_ = false;
+};
+
+// The shared state of one ParallelFor call.
+struct ParallelState {
+  explicit ParallelState(std::size_t count) : n(count), errors(count) {}
+  std::size_t n;
+  std::atomic<std::size_t> next{0};
+  std::vector<std::exception_ptr> errors;
+  std::mutex mu;
+  std::condition_variable cv;
+  std::size_t done = 0;  // indices finished (under mu)
+};
+
+}  // namespace internal
+
+// Runs fn(i) for every i < n on at most max_threads threads (the caller and pool helpers). The
+// calls must not share mutable state. When calls throw, the exception of the lowest index is
+// rethrown after all have run (as a loop in order would report it first).
 template <typename F>
 void ParallelFor(std::size_t n, F&& fn,
                  unsigned max_threads = std::thread::hardware_concurrency()) {
-  std::vector<std::exception_ptr> errors(n);
-  std::atomic<std::size_t> next{0};
-  auto work = [&] {
-    for (std::size_t i = next.fetch_add(1); i < n; i = next.fetch_add(1)) {
+  if (n == 0) return;
+  auto state = std::make_shared<internal::ParallelState>(n);
+  // Claims and runs indices until none is left; every claimed index is counted done.
+  auto work = [state, &fn] {
+    for (std::size_t i = state->next.fetch_add(1); i < state->n; i = state->next.fetch_add(1)) {
       try {
         fn(i);
       } catch (...) {
-        errors[i] = std::current_exception();
+        state->errors[i] = std::current_exception();
       }
+      std::lock_guard<std::mutex> lock(state->mu);
+      if (++state->done == state->n) state->cv.notify_all();
     }
   };
-  const std::size_t workers = std::min<std::size_t>(n, std::max(1u, max_threads));
-  std::vector<std::thread> threads;
-  for (std::size_t k = 1; k < workers; ++k) {
-    try {
-      threads.emplace_back(work);
-    } catch (const std::system_error&) {
-      break;  // no more threads: the others (and this one) take the work
+  if (max_threads > 1 && n > 1) {
+    auto& pool = internal::WorkerPool::Instance();
+    const std::size_t helpers =
+        std::min({n - 1, static_cast<std::size_t>(max_threads - 1), pool.size()});
+    // A helper that starts after the caller has taken every index finds none and returns at
+    // once; `fn` is only touched for a claimed index, while the caller still waits below.
+    for (std::size_t k = 0; k < helpers; ++k) {
+      if (!pool.Post(work)) break;
     }
   }
   work();
-  for (auto& t : threads) t.join();
-  for (const auto& e : errors)
+  {
+    std::unique_lock<std::mutex> lock(state->mu);
+    state->cv.wait(lock, [&] { return state->done == state->n; });
+  }
+  for (const auto& e : state->errors)
     if (e) std::rethrow_exception(e);
 }
 

@@ -1,0 +1,57 @@
+#include "analysis/core/parallel.h"
+
+#include <system_error>
+
+namespace km::internal {
+
+WorkerPool& WorkerPool::Instance() {
+  static WorkerPool pool;
+  return pool;
+}
+
+WorkerPool::WorkerPool() {
+  const unsigned cores = std::thread::hardware_concurrency();
+  const unsigned want = cores > 1 ? cores - 1 : 1;
+  for (unsigned k = 0; k < want; ++k) {
+    try {
+      threads_.emplace_back([this] { Loop(); });
+    } catch (const std::system_error&) {
+      break;  // no more threads: the callers do the work
+    }
+  }
+}
+
+WorkerPool::~WorkerPool() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  for (auto& t : threads_) t.join();
+}
+
+bool WorkerPool::Post(std::function<void()> job) {
+  if (threads_.empty()) return false;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    queue_.push_back(std::move(job));
+  }
+  cv_.notify_one();
+  return true;
+}
+
+void WorkerPool::Loop() {
+  for (;;) {
+    std::function<void()> job;
+    {
+      std::unique_lock<std::mutex> lock(mu_);
+      cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+      if (queue_.empty()) return;  // stopping, nothing left
+      job = std::move(queue_.front());
+      queue_.erase(queue_.begin());
+    }
+    job();
+  }
+}
+
+}  // namespace km::internal
