@@ -62,7 +62,7 @@ TEST_F(ServoCli, IdentifyPrintsTheMachineKeysAndWritesTheMachine) {
     }
   }
   EXPECT_EQ(j["residual_rms_N"].size(), 6u);
-  EXPECT_GT(j["condition_number"].get<double>(), 1.0);
+  EXPECT_LT(j["condition_number"].get<double>(), 100.0);  // the plan separates every parameter
   EXPECT_TRUE(j["fixed"].is_array());
   EXPECT_NEAR(j["identified"]["platform_mass_kg"].get<double>(), m.m_platform, 5.0);
   EXPECT_NEAR(j["identified"]["screw_friction_N"][2].get<double>(), m.f0[2], 5.0);
