@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <ceres/jet.h>
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
@@ -226,26 +225,6 @@ void Solve(const FitContext& ctx, const Gram& gr, const std::vector<int>& kcols,
   f.sigma2 = f.residual.squaredNorm() / dof;
   f.normal_inv = ldlt.solve(MatrixXd::Identity(ncol, ncol));
   f.cov = f.sigma2 * f.normal_inv;
-}
-
-// d s / d (first shape parameter) of a one-linear-parameter effect at unit value, set-up free,
-// by automatic differentiation of the registry model.
-VectorXd ShapeDerivative(const Problem& p, const Candidate& c) {
-  using J = ceres::Jet<double, 1>;
-  VectorXd d(p.n);
-  J params[8];
-  params[0] = J(1.0);
-  for (std::size_t k = 0; k < c.shape.size() && k + 1 < 8; ++k) params[k + 1] = J(c.shape[k]);
-  params[1].v[0] = 1.0;
-  for (int i = 0; i < p.n; ++i) {
-    const auto& s = p.samples[static_cast<std::size_t>(i)];
-    const effects::Angle<J> a{J(s.a.theta), J(s.a.c), J(s.a.s)};
-    J e[2];
-    effects::PositionErrorT<J>(c.id, p.ctx[static_cast<std::size_t>(s.trace)], a, params, e);
-    d[i] = e[0].v[0] * s.a.c + e[1].v[0] * s.a.s;
-  }
-  p.RemoveSetup(d);
-  return d;
 }
 
 // Symmetric matrix of inner products of the columns `cols`.

@@ -110,6 +110,10 @@ struct Sparse {
 // Residual-sum-of-squares reduction when the set-up-free version of `s` joins the base.
 double Gain(const Problem& p, const Base& b, const Sparse& s);
 
+// d s / d (first shape parameter) of a one-linear-parameter candidate at unit value, set-up
+// free (diagnosis_fit_ceres.cpp: automatic differentiation of the registry model).
+Eigen::VectorXd ShapeDerivative(const Problem& p, const Candidate& c);
+
 // Pointers to the candidates, without the one at index `skip`.
 std::vector<const Candidate*> Pointers(const std::vector<Candidate>& cands,
                                        std::size_t skip = static_cast<std::size_t>(-1));

@@ -206,7 +206,7 @@ void DiscoveryOptions::Check() const {
   if (!(resolution_um >= 0.0)) throw InvalidInput("", 0, "resolution_um", ">= 0");
 }
 
-double RegularizedIncompleteBeta(double a, double b, double x) {
+double RegularisedIncompleteBeta(double a, double b, double x) {
   if (!(a > 0.0 && b > 0.0)) throw InvalidInput("", 0, "a, b", "must be positive");
   if (!(x >= 0.0 && x <= 1.0)) throw InvalidInput("", 0, "x", "must be within [0, 1]");
   if (x == 0.0) return 0.0;

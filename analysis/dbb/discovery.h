@@ -118,7 +118,7 @@ DiscoveryResult DiscoverSerialDbb(const std::vector<DiagnosisTrace>& traces, Pla
 
 // Regularised incomplete beta function I_x(a, b), a, b > 0, 0 ≤ x ≤ 1 (continued fraction,
 // modified Lentz; symmetry I_x(a, b) = 1 − I_{1−x}(b, a) where it converges faster).
-double RegularizedIncompleteBeta(double a, double b, double x);
+double RegularisedIncompleteBeta(double a, double b, double x);
 // Natural log of the upper tail P(F_{d1,d2} > f) = I_{d2/(d2 + d1 f)}(d2/2, d1/2).
 double LogFUpperTail(double f, double d1, double d2);
 // Robust white-noise σ of a stacked residual (see above): 1.4826 · MAD(Δ) / √2 per trace pool.

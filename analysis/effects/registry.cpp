@@ -2,8 +2,6 @@
 
 #include <cmath>
 
-#include <ceres/jet.h>
-
 #include "analysis/core/errors.h"
 
 namespace km::effects {
@@ -90,46 +88,6 @@ double RadialSignature(EffectId id, const EffectContext& ctx, const Angle<double
   double e[2];
   PositionErrorT<double>(id, ctx, a, params, e);
   return e[0] * a.c + e[1] * a.s;
-}
-
-namespace {
-
-// Columns of one model: its closed-form LinearBasis when it has one (one trigonometric
-// evaluation for all columns), otherwise the Jet dual parts of the linear parameters.
-template <typename M>
-void BasisOf(const EffectContext& ctx, const Angle<double>& a, const double* shape,
-             double* columns) {
-  if constexpr (requires(double(*e)[2]) { M::LinearBasis(ctx, a, shape, e); }) {
-    double e[kMaxLinearParams][2];
-    M::LinearBasis(ctx, a, shape, e);
-    for (int j = 0; j < M::kNumLinear; ++j) columns[j] = e[j][0] * a.c + e[j][1] * a.s;
-  } else {
-    using J = ceres::Jet<double, kMaxLinearParams>;
-    J p[8];
-    for (int j = 0; j < M::kNumParams; ++j) {
-      p[j] = j < M::kNumLinear ? J(0.0, j) : J(shape[j - M::kNumLinear]);
-    }
-    const Angle<J> aj{J(a.theta), J(a.c), J(a.s)};
-    J e[2];
-    M::template PositionError<J>(ctx, aj, p, e);
-    for (int j = 0; j < M::kNumLinear; ++j) columns[j] = e[0].v[j] * a.c + e[1].v[j] * a.s;
-  }
-}
-
-}  // namespace
-
-void RadialBasis(EffectId id, const EffectContext& ctx, const Angle<double>& a, const double* shape,
-                 double* columns) {
-  switch (id) {
-#define KM_EFFECT_BASIS(eid, type)         \
-  case EffectId::eid:                      \
-    BasisOf<type>(ctx, a, shape, columns); \
-    return;
-    KM_SERIAL_EFFECT_LIST(KM_EFFECT_BASIS)
-#undef KM_EFFECT_BASIS
-    default:
-      throw InvalidInput("unknown effect id");
-  }
 }
 
 std::vector<double> Value(EffectId id, const EffectContext& ctx, const double* params) {

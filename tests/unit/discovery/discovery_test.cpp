@@ -109,7 +109,7 @@ TEST(DiscoveryStats, IncompleteBetaMatchesQuadrature) {
         }
         s *= h / 3.0;
         const double beta = std::exp(std::lgamma(a) + std::lgamma(b) - std::lgamma(a + b));
-        EXPECT_NEAR(RegularizedIncompleteBeta(a, b, x), s / beta, 1e-8)
+        EXPECT_NEAR(RegularisedIncompleteBeta(a, b, x), s / beta, 1e-8)
             << a << " " << b << " " << x;
       }
     }
