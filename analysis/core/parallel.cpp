@@ -40,6 +40,18 @@ bool WorkerPool::Post(std::function<void()> job) {
   return true;
 }
 
+bool WorkerPool::TryRunOne() {
+  std::function<void()> job;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (queue_.empty()) return false;
+    job = std::move(queue_.front());
+    queue_.erase(queue_.begin());
+  }
+  job();
+  return true;
+}
+
 void WorkerPool::Loop() {
   for (;;) {
     std::function<void()> job;

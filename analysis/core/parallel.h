@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <exception>
@@ -30,6 +31,10 @@ class WorkerPool {
   static WorkerPool& Instance();
   // Queues `job`; false when the pool has no thread (the caller then does the work itself).
   bool Post(std::function<void()> job);
+  // Runs one queued job on the calling thread; false when the queue is empty. A ParallelFor
+  // waiting for its helpers runs queued jobs meanwhile (e.g. those of a nested ParallelFor
+  // started by one of its own calls), so no thread sits idle while work is queued.
+  bool TryRunOne();
   std::size_t size() const { return threads_.size(); }
   ~WorkerPool();
 
@@ -87,9 +92,15 @@ void ParallelFor(std::size_t n, F&& fn,
     }
   }
   work();
-  {
+  for (;;) {
+    {
+      std::lock_guard<std::mutex> lock(state->mu);
+      if (state->done == state->n) break;
+    }
+    if (max_threads > 1 && internal::WorkerPool::Instance().TryRunOne()) continue;
     std::unique_lock<std::mutex> lock(state->mu);
-    state->cv.wait(lock, [&] { return state->done == state->n; });
+    state->cv.wait_for(lock, std::chrono::microseconds(200),
+                       [&] { return state->done == state->n; });
   }
   for (const auto& e : state->errors)
     if (e) std::rethrow_exception(e);
