@@ -63,6 +63,18 @@ void AddServoRoutes(Router& router, server::Service& service) {
                      {{"200", JsonResponse("{legs[{leg, resistance_Nm, sigma_Nm, level, "
                                            "evidence}], level}")}}}}});
   router.Add(
+      Route{"GET",
+            "/api/v1/machines/{machine_id}/joint-health",
+            "The machine's stored joint-health estimates, oldest first, with the limits of "
+            "the newest (docs/formats.md §5)",
+            true,
+            [svc](const Request& req) {
+              return Response::Json(server::JointHealth(*svc, req.path_params.at("machine_id")));
+            },
+            {{"responses",
+              {{"200", JsonResponse("{machine_id, limits, estimates[{result_id, "
+                                    "measurement_ids[], estimated_at, legs[], level}]}")}}}}});
+  router.Add(
       Route{"POST",
             "/api/v1/streams/{id}/servo",
             "A stretch of a stream (feed-drive position and force channels) stored as a "

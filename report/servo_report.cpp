@@ -156,6 +156,13 @@ json ServoForceJson(const std::string& machine_id, const servo::ServoFile& file,
   }
   j["force_N"] = std::move(force);
   j["sigma_N"] = std::move(sigma);
+  json measured = json::array(), model = json::array();
+  for (std::size_t i = 0; i < f.strut_model_N.size(); ++i) {
+    measured.push_back(Array(file.samples[i].force_N.data(), 6));
+    model.push_back(Array(f.strut_model_N[i].data(), 6));
+  }
+  j["strut_force_N"] = std::move(measured);
+  j["strut_model_N"] = std::move(model);
   j["mean_force_N"] = Vec3(f.mean_force_N);
   j["mean_sigma_N"] = Vec3(f.mean_sigma_N);
   j["strut_noise_N"] = Array(f.strut_noise_N.data(), 6);

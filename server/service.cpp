@@ -7,6 +7,7 @@
 #include "ingest/text_format.h"
 #include "ingest/tracker_parser.h"
 #include "server/jobs.h"
+#include "server/servo_service.h"
 #include "server/sha256.h"
 #include "server/time_util.h"
 
@@ -114,7 +115,11 @@ nlohmann::json Service::Results(std::int64_t id) {
     }
     throw NotFound("measurement " + std::to_string(id) + " has no stored results");
   }
-  // Newest stored result (results are appended as analysis versions are added).
+  // Newest stored result of the measurement itself (results are appended as analysis versions
+  // are added); the joints estimates kept with servo records are answered elsewhere.
+  for (auto r = results.rbegin(); r != results.rend(); ++r) {
+    if (r->analysis != kJointsAnalysis) return nlohmann::json::parse(r->result_json);
+  }
   return nlohmann::json::parse(results.back().result_json);
 }
 

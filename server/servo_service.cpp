@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "ingest/servo_parser.h"
 #include "report/servo_report.h"
 #include "server/request_json.h"
+#include "server/sha256.h"
 #include "server/streams.h"
 
 namespace km::server {
@@ -99,6 +101,43 @@ Inputs Read(Service& svc, const nlohmann::json& request) {
   return in;
 }
 
+// The estimate kept as a result of each measurement it used (see kJointsAnalysis).
+void StoreJoints(Service& svc, const nlohmann::json& j) {
+  const std::string text = j.dump();
+  const NewResult result{kJointsAnalysis,
+                         std::string(kServoAnalysisVersion) + " #" + Sha256Hex(text).substr(0, 16),
+                         text};
+  for (const auto& id : j["measurement_ids"])
+    svc.storage().PutResult(id.get<std::int64_t>(), result);
+}
+
+// One stored estimate as an item of the history.
+nlohmann::json HistoryItem(const ResultRecord& rec) {
+  const auto j = nlohmann::json::parse(rec.result_json);
+  nlohmann::json legs = nlohmann::json::array();
+  nlohmann::json reference = nlohmann::json::array();
+  for (const auto& leg : j["legs"]) {
+    legs.push_back({{"leg", leg["leg"]},
+                    {"resistance_Nm", leg["resistance_Nm"]},
+                    {"sigma_Nm", leg["sigma_Nm"]},
+                    {"reference_Nm", leg["reference_Nm"]},
+                    {"ratio", leg["ratio"]},
+                    {"level", leg["level"]},
+                    {"evidence", leg["evidence"]}});
+    reference.push_back(leg["reference_Nm"]);
+  }
+  nlohmann::json limits = j["limits"];
+  limits["reference_Nm"] = reference;
+  limits["reference_source"] = j["reference_source"];
+  return {{"result_id", rec.analysis_version},
+          {"measurement_ids", j["measurement_ids"]},
+          {"estimated_at", rec.created_at},
+          {"machine_version", j["machine_version"]},
+          {"legs", legs},
+          {"level", j["level"]},
+          {"limits", limits}};
+}
+
 }  // namespace
 
 nlohmann::json ServoIdentify(Service& service, const nlohmann::json& request) {
@@ -142,7 +181,46 @@ nlohmann::json ServoJoints(Service& service, const nlohmann::json& request) {
       in.machine.geometry, in.machine.physics.value_or(hexapod::MachinePhysics{}), in.files, o);
   nlohmann::json j = ServoJointsJson(in.machine.machine_id, r, o);
   j["machine_version"] = in.version;
+  j["measurement_ids"] = request["measurement_ids"];
+  StoreJoints(service, j);
   return j;
+}
+
+nlohmann::json JointHealth(Service& service, const std::string& machine_id) {
+  const auto machines = service.storage().ListMachines();
+  if (std::none_of(machines.begin(), machines.end(),
+                   [&](const MachineSummary& m) { return m.machine_id == machine_id; })) {
+    throw NotFound("machine " + machine_id + " has no measurements and no model");
+  }
+  // Every stored estimate once (it is kept with each measurement it used), in the order first
+  // met (measurements oldest first, their results as stored), then by the time stored.
+  std::map<std::string, std::size_t> seen;
+  std::vector<ResultRecord> found;
+  MeasurementFilter f;
+  f.machine_id = machine_id;
+  f.kind = "servo";
+  f.limit = 500;
+  for (f.offset = 0;; f.offset += f.limit) {
+    const auto page = service.storage().ListMeasurements(f);
+    for (const auto& m : page.items) {
+      for (auto& r : service.storage().GetResults(m.id)) {
+        if (r.analysis != kJointsAnalysis ||
+            !seen.emplace(r.analysis_version, found.size()).second) {
+          continue;
+        }
+        found.push_back(std::move(r));
+      }
+    }
+    if (page.items.empty() || f.offset + f.limit >= page.total) break;
+  }
+  std::stable_sort(found.begin(), found.end(), [](const ResultRecord& a, const ResultRecord& b) {
+    return a.created_at < b.created_at;
+  });
+  nlohmann::json estimates = nlohmann::json::array();
+  for (const auto& r : found) estimates.push_back(HistoryItem(r));
+  const nlohmann::json limits =
+      estimates.empty() ? nlohmann::json(nullptr) : estimates.back()["limits"];
+  return {{"machine_id", machine_id}, {"limits", limits}, {"estimates", estimates}};
 }
 
 nlohmann::json ServoForce(Service& service, std::int64_t measurement_id,

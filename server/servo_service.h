@@ -26,9 +26,24 @@ namespace km::server {
 inline constexpr std::size_t kMaxServoMeasurements = 200;
 inline constexpr std::size_t kMaxServoSamples = 200'000;
 
+// The analysis name of a stored joints estimate: each estimate is kept as a result of every
+// servo measurement it used, with "measurement_ids" and "machine_version" added; its
+// analysis_version is "servo/1 #" and the first 16 hex digits of the SHA-256 of the JSON, so
+// the same estimate asked for again is stored once. GET …/results never answers it (it
+// answers the measurement's own result).
+inline constexpr const char* kJointsAnalysis = "servo-joints";
+
 // The identify JSON; with "save": true also "saved" {machine_id, version, created}.
 nlohmann::json ServoIdentify(Service& service, const nlohmann::json& request);
+// The joints JSON, stored as described at kJointsAnalysis; adds "measurement_ids".
 nlohmann::json ServoJoints(Service& service, const nlohmann::json& request);
+// The history of a machine's stored joints estimates, oldest first: {"machine_id", "limits"
+// (of the newest: level2_ratio, level3_ratio, increase_warn, increase_stop, reference_Nm[6],
+// reference_source; null without an estimate), "estimates": [{"result_id", "measurement_ids",
+// "estimated_at", "machine_version", "legs": [{"leg", "resistance_Nm", "sigma_Nm",
+// "reference_Nm", "ratio", "level", "evidence"}], "level", "limits"}]}. NotFound for a machine
+// with neither measurements nor a model.
+nlohmann::json JointHealth(Service& service, const std::string& machine_id);
 // The force JSON of one stored servo measurement with its machine's model (newest version, or
 // the one given).
 nlohmann::json ServoForce(Service& service, std::int64_t measurement_id,

@@ -188,10 +188,12 @@ ForceEstimate EstimateExternalForce(const hexapod::HexapodGeometry& geometry,
   out.t_s = file.t_s;
   out.force_N.resize(n);
   out.sigma_N.resize(n);
+  out.strut_model_N.resize(n);
   Eigen::Matrix3d sum_cov = Eigen::Matrix3d::Zero();
   for (std::size_t i = 0; i < n; ++i) {
     const auto& l = parts.units[i];
     out.force_N[i] = l * d[i];  // eq. 3.3
+    for (int j = 0; j < 6; ++j) out.strut_model_N[i][j] = file.samples[i].force_N[j] - d[i][j];
     hexapod::Vector6d var;
     for (int j = 0; j < 6; ++j) {
       // A strut at rest holds a static friction anywhere within ±f0_j.

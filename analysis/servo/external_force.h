@@ -37,6 +37,9 @@ struct ForceEstimate {
   std::vector<double> t_s;
   std::vector<Eigen::Vector3d> force_N;  // â, machine frame
   std::vector<Eigen::Vector3d> sigma_N;  // per axis
+  // Per sample and strut the modelled motor force ĝ_j + f̂_j + F̂_j (gravity, friction with its
+  // ramps, inertia): the motor force less d̂_j, what a record without an external load shows.
+  std::vector<std::array<double, 6>> strut_model_N;
   std::array<double, 6> strut_noise_N{};
   double joint_ramp_mm = 0.0, screw_ramp_mm = 0.0;  // used (0: a step)
   bool joint_ramp_estimated = false, screw_ramp_estimated = false;

@@ -169,6 +169,17 @@ export const api = {
       body: '{}',
       headers: { 'Content-Type': 'application/json' },
     }),
+  // Stored joint-health estimates of a machine, oldest first, with the newest's limits.
+  jointHealth: (machineId) => apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/joint-health`),
+  // Joint resistance and health from stored CW and CCW servo records (stored as an estimate).
+  servoJoints: (body) =>
+    apiFetch('/api/v1/servo/joints', {
+      method: 'POST',
+      body: JSON.stringify(body),
+      headers: { 'Content-Type': 'application/json' },
+    }),
+  // Strut forces measured and modelled, and the tool-tip force, of a hexapod servo record.
+  servoForce: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}/servo/force`),
   upload: (file, bytes) =>
     apiFetch('/api/v1/measurements', {
       method: 'POST',

@@ -16,6 +16,7 @@ import { loadMachines, renderMachines, selectMachine } from './machines.js';
 import { initMeasurementList } from './measurements.js';
 import { parseAppRoute } from './router.js';
 import { state } from './state.js';
+import { initServo, resetJointHealth } from './servo.js';
 import { initStreams, refreshStreams } from './streams.js';
 import { initUpload } from './upload.js';
 
@@ -86,6 +87,7 @@ function onTokenForget() {
   $('#measurements-count').textContent = '';
   resetDetail();
   resetCalibration();
+  resetJointHealth();
   showAuthProblem(null);
 }
 
@@ -106,6 +108,7 @@ function start() {
   initMeasurementList();
   initDetail();
   initCalibration();
+  initServo();
   window.addEventListener('hashchange', () => {
     if (takeTokenFromFragment()) {
       tokenChanged();

@@ -8,6 +8,7 @@ import { formatTimestamp } from './format.js';
 import { loadJobHistory, resetCalibration, renderCalibrationChoices } from './calibration.js';
 import { loadMeasurementPage, resetFilters } from './measurements.js';
 import { resetDetail } from './detail.js';
+import { loadJointHealth, resetJointHealth } from './servo.js';
 import { machineHash, navigate } from './router.js';
 import { state } from './state.js';
 import { discoveryMachineChanged, discoveryMachinesChanged, leaveDiscovery, parseRoute } from './discovery.js';
@@ -90,19 +91,21 @@ export async function selectMachine(machineId) {
     resetFilters();
     resetDetail();
     resetCalibration();
+    resetJointHealth();
   }
   $('#measurements-machine').textContent = `Machine ${machineId}`;
   if (!state.machines.some((m) => m.machine_id === machineId)) await loadMachines();
   renderMachines();
   const [items] = await Promise.all([loadMeasurementPage({ offset: 0 }), changed || state.dbbMachine !== machineId ? loadDbbTests(machineId) : null]);
   loadJobHistory();
+  loadJointHealth(machineId);
   return items || [];
 }
 
 // The selected machine's list, DBB tests and jobs again (after uploads).
 export async function refreshMachine() {
   if (!state.machineId) return;
-  await Promise.all([loadMeasurementPage({ offset: 0 }), loadDbbTests(state.machineId)]);
+  await Promise.all([loadMeasurementPage({ offset: 0 }), loadDbbTests(state.machineId), loadJointHealth(state.machineId)]);
 }
 
 // Every DBB test of the machine (oldest first) for the calibration and discovery forms, and

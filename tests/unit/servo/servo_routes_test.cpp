@@ -82,10 +82,49 @@ TEST_F(ServoRoutes, IdentifySaveJointsAndForce) {
   EXPECT_EQ(j["level"], 3);
   EXPECT_EQ(j["legs"][1]["level"], 3) << j["legs"][1]["evidence"];
   EXPECT_EQ(j["legs"][0]["level"], 1) << j["legs"][0]["evidence"];
+  EXPECT_EQ(j["measurement_ids"], json(ids));
+
+  // The estimate is kept: the machine's history holds it once, asked for twice.
+  r = Call("POST", "/api/v1/servo/joints", body.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  r = Call("GET", "/api/v1/machines/pm600-like/joint-health", "");
+  ASSERT_EQ(r.status, 200) << r.body;
+  const auto history = json::parse(r.body);
+  ASSERT_EQ(history["estimates"].size(), 1u) << r.body;
+  const auto& e = history["estimates"][0];
+  EXPECT_EQ(e["measurement_ids"], json(ids));
+  EXPECT_EQ(e["machine_version"], 1);
+  EXPECT_EQ(e["level"], 3);
+  for (std::size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(e["legs"][k]["level"], j["legs"][k]["level"]) << k;
+    EXPECT_EQ(e["legs"][k]["resistance_Nm"], j["legs"][k]["resistance_Nm"]) << k;
+    EXPECT_EQ(history["limits"]["reference_Nm"][k], j["legs"][k]["reference_Nm"]) << k;
+  }
+  EXPECT_EQ(history["limits"]["level2_ratio"], 1.5);
+  EXPECT_EQ(history["limits"]["level3_ratio"], 2.5);
+  // The records' own results are still what GET …/results answers.
+  EXPECT_EQ(svc_->Results(ids[0])["record"], "hexapod");
+  r = Call("GET", "/api/v1/machines/no-such-machine/joint-health", "");
+  EXPECT_EQ(r.status, 404) << r.body;
 
   r = Call("GET", "/api/v1/measurements/" + std::to_string(ids[0]) + "/servo/force", "");
   ASSERT_EQ(r.status, 200) << r.body;
-  EXPECT_EQ(json::parse(r.body)["force_N"].size(), 240u);
+  const auto force = json::parse(r.body);
+  EXPECT_EQ(force["force_N"].size(), 240u);
+  ASSERT_EQ(force["strut_force_N"].size(), 240u);
+  ASSERT_EQ(force["strut_model_N"].size(), 240u);
+  // Without an external load the model carries the motor force: what is left, projected on the
+  // tool tip, is the estimated force (eq. 3.3), small against the strut loads.
+  double load = 0.0, left = 0.0;
+  for (std::size_t i = 0; i < 240; ++i) {
+    for (std::size_t k = 0; k < 6; ++k) {
+      const double f = force["strut_force_N"][i][k].get<double>();
+      load += f * f;
+      const double d = f - force["strut_model_N"][i][k].get<double>();
+      left += d * d;
+    }
+  }
+  EXPECT_LT(std::sqrt(left / load), 0.1) << std::sqrt(load / 1440) << " N rms";
 }
 
 TEST_F(ServoRoutes, AStreamBecomesAFeedDriveRecord) {
