@@ -94,6 +94,7 @@ const Route* Router::Admit(Request& req, Response& refusal) const {
     path_known = true;
     if (route.method != req.method) continue;
     req.path_params = std::move(params);
+    req.route = route.pattern;
     try {
       if (hook_) hook_(req, route);
     } catch (...) {
@@ -106,6 +107,12 @@ const Route* Router::Admit(Request& req, Response& refusal) const {
                 ? Problem(405, "Method Not Allowed", req.method + " is not allowed on " + req.path)
                 : Problem(404, "Not Found", "no such resource: " + req.path);
   return nullptr;
+}
+
+void Router::SetRole(const std::string& method, const std::string& pattern, server::Role role) {
+  for (auto& route : routes_) {
+    if (route.method == method && route.pattern == pattern) route.role = role;
+  }
 }
 
 Response Router::Run(const Route& route, const Request& req) const {

@@ -27,7 +27,8 @@ struct Request {
   std::map<std::string, std::string> headers;  // lower-case names
   std::string body;  // empty for routes with open_body (the body goes to the sink instead)
   std::string remote_addr;
-  std::string id;  // request id: in the X-Request-Id header and in the log of server errors
+  std::string id;     // request id: in the X-Request-Id header and in the log of server errors
+  std::string route;  // the pattern of the route the path matched (also when access was refused)
   // The caller, set by the access hook when a valid token was presented (0 / empty otherwise).
   std::int64_t token_id = 0;
   std::string token_name;
@@ -95,6 +96,8 @@ class Router {
   void Add(Route r) { routes_.push_back(std::move(r)); }
   void SetHook(RequestHook hook) { hook_ = std::move(hook); }
   void SetObserver(ResponseHook observer) { observer_ = std::move(observer); }
+  // Gives the route (method, pattern) its own role, e.g. a route a deployment makes public.
+  void SetRole(const std::string& method, const std::string& pattern, server::Role role);
   // Tells the observer of an answer (never throws).
   void Observe(const Request& req, const Route* route, const Response& res) const;
   const std::vector<Route>& routes() const { return routes_; }

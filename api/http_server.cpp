@@ -8,6 +8,7 @@
 #include <thread>
 #include <vector>
 
+#include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
@@ -139,6 +140,9 @@ int HttpServer::Bind() {
 }
 
 void HttpServer::Serve() {
+  // Keeps the loop running while every request is on a worker and the acceptor is closed (a
+  // graceful stop); Stop() ends it.
+  const auto work = net::make_work_guard(impl_->ioc);
   impl_->Accept();
   std::vector<std::thread> extra;
   for (int i = 1; i < impl_->ctx.options.io_threads; ++i) {
@@ -150,6 +154,27 @@ void HttpServer::Serve() {
 
 void HttpServer::Stop() {
   if (impl_) impl_->StopAll();
+}
+
+std::int64_t HttpServer::Shutdown(std::chrono::milliseconds grace) {
+  auto& ctx = impl_->ctx;
+  ctx.stopping = true;
+  net::post(impl_->ioc, [this] {
+    boost::system::error_code ignored;
+    impl_->acceptor.close(ignored);
+    impl_->retry.cancel();
+  });
+  const auto deadline = std::chrono::steady_clock::now() + grace;
+  while (ctx.in_flight.load() > 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const std::int64_t left = ctx.in_flight.load();
+  Stop();
+  return left;
+}
+
+std::int64_t HttpServer::InFlight() const {
+  return impl_->ctx.in_flight.load();
 }
 
 }  // namespace km::api

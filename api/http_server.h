@@ -7,7 +7,10 @@
 // Access is checked from the headers before any body is read.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,6 +18,8 @@
 #include "api/http.h"
 
 namespace km::api {
+
+struct RequestRecord;  // api/metrics.h
 
 struct HttpOptions {
   std::string host = "127.0.0.1";
@@ -35,6 +40,9 @@ struct HttpOptions {
   // Web origins allowed to call the API from a browser (CORS); others get no CORS headers and
   // their preflight requests are refused with 403. Default: none.
   std::vector<std::string> cors_origins;
+  // Told of every answer as it is written (e.g. the access log); runs on the event loop, so it
+  // must be quick and must not throw.
+  std::function<void(const RequestRecord&)> on_answer;
 };
 
 class HttpServer {
@@ -47,6 +55,13 @@ class HttpServer {
   void Serve();
   // Stops accepting and serving; safe from any thread, also before Serve.
   void Stop();
+  // Graceful stop: stops accepting, answers new requests on open connections 503, waits until
+  // the requests in flight are answered (at most `grace`), then Stop(). Returns how many requests
+  // were still in flight when it gave up (0: all were answered). Call from another thread than
+  // Serve's.
+  std::int64_t Shutdown(std::chrono::milliseconds grace);
+  // Requests whose headers were read and whose answer is not yet written.
+  std::int64_t InFlight() const;
 
  private:
   struct Impl;

@@ -13,6 +13,7 @@
 #include <boost/beast/http.hpp>
 
 #include "api/http_target.h"
+#include "api/metrics.h"
 
 namespace km::api {
 namespace {
@@ -42,7 +43,10 @@ class Session : public std::enable_shared_from_this<Session> {
   Session(tcp::socket&& socket, ServerContext& ctx) : stream_(std::move(socket)), ctx_(ctx) {
     ++ctx_.connections;
   }
-  ~Session() { --ctx_.connections; }
+  ~Session() {
+    EndRequest();
+    --ctx_.connections;
+  }
 
   void Start() {
     net::dispatch(stream_.get_executor(), [self = shared_from_this()] { self->ReadHeader(); });
@@ -64,19 +68,19 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void OnHeader(beast::error_code ec) {
+    if (ec == http::error::end_of_stream || ec == beast::error::timeout ||
+        ec == net::error::connection_reset || ec == net::error::eof) {
+      return Close();
+    }
+    BeginRequest();
     if (ec == http::error::header_limit) {
       return Respond(Problem(431, "Request Header Fields Too Large",
                              "the request headers exceed " +
                                  std::to_string(ctx_.options.max_header_bytes) + " bytes"),
                      true);
     }
-    if (ec == http::error::end_of_stream || ec == beast::error::timeout ||
-        ec == net::error::connection_reset || ec == net::error::eof) {
-      return Close();
-    }
     if (ec) return Respond(Problem(400, "Bad Request", "the request is not valid HTTP/1.1"), true);
     const auto& msg = header_->get();
-    req_ = Request{};
     req_.id = ctx_.NextRequestId();
     req_.method = std::string(msg.method_string());
     head_ = msg.method() == http::verb::head;
@@ -96,8 +100,14 @@ class Session : public std::enable_shared_from_this<Session> {
     if (!target) return Respond(Problem(400, "Bad Request", error), true);
     req_.path = std::move(target->path);
     req_.query = std::move(target->query);
+    if (ctx_.stopping.load()) {
+      Response stopping = Problem(503, "Service Unavailable", "the server is stopping");
+      stopping.headers["Retry-After"] = "1";
+      return Respond(std::move(stopping), true);
+    }
     if (req_.method == "OPTIONS" && req_.Header("origin")) return Respond(Preflight(), false);
     if (req_.method == "GET" && IsStaticPath(req_.path)) {
+      req_.route = req_.path == "/" ? "/" : "/static/{file}";
       return Enqueue([self = shared_from_this()] {
         self->PostRespond(ServeStatic(self->ctx_.options.static_root, self->req_.path), false);
       });
@@ -270,6 +280,7 @@ class Session : public std::enable_shared_from_this<Session> {
 
   // close: the connection ends after the answer (also when a body was left unread).
   void Respond(Response res, bool close) {
+    Record(res);
     const bool body_unread =
         has_body_ && !(body_ && body_->is_done()) && !(stream_body_ && stream_body_->is_done());
     ++served_;
@@ -305,6 +316,7 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void OnWritten(beast::error_code ec) {
+    EndRequest();
     if (ec) return Close();
     if (!keep_) return drain_ ? Drain() : Close();
     header_.reset();
@@ -313,6 +325,40 @@ class Session : public std::enable_shared_from_this<Session> {
     sink_.reset();
     route_ = nullptr;
     ReadHeader();
+  }
+
+  // ---- telemetry: in flight from the end of the headers until the answer is written --------
+  void BeginRequest() {
+    req_ = Request{};
+    started_ = std::chrono::steady_clock::now();
+    in_flight_ = true;
+    ++ctx_.in_flight;
+    ProcessMetrics().Begin();
+  }
+
+  void EndRequest() {
+    if (!in_flight_) return;
+    in_flight_ = false;
+    --ctx_.in_flight;
+    ProcessMetrics().End();
+  }
+
+  // Counts the answer and writes its access-log line (never the token, only its id).
+  void Record(const Response& res) const {
+    RequestRecord r;
+    r.method = head_ ? "HEAD" : req_.method;
+    r.route = req_.route;
+    r.path = req_.path;
+    r.status = res.status;
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+    r.bytes = res.body.size();
+    r.request_bytes = req_.body.size();
+    r.response_body = res.body;
+    r.token_id = req_.token_id;
+    r.remote = req_.remote_addr;
+    r.request_id = req_.id;
+    ProcessMetrics().Count(r);
+    if (ctx_.options.on_answer) ctx_.options.on_answer(r);
   }
 
   // After refusing a request whose body was not read: stop sending, read (and drop) a little of
@@ -351,6 +397,8 @@ class Session : public std::enable_shared_from_this<Session> {
   Request req_;
   const Route* route_ = nullptr;
   int served_ = 0;
+  std::chrono::steady_clock::time_point started_;
+  bool in_flight_ = false;
   std::size_t drained_ = 0;
   bool head_ = false, keep_alive_ = false, has_body_ = false, keep_ = false, drain_ = false;
 };

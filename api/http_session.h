@@ -23,6 +23,10 @@ struct ServerContext {
   WorkerPool pool;
   std::atomic<std::size_t> connections{0};
   std::atomic<std::uint64_t> requests{0};
+  // Requests whose headers were read and whose answer is not yet written (graceful shutdown
+  // waits for them); while stopping, new requests on open connections are answered 503.
+  std::atomic<std::int64_t> in_flight{0};
+  std::atomic<bool> stopping{false};
   std::string request_id_prefix;  // random per server start, so ids do not repeat across starts
 
   std::string NextRequestId();

@@ -1,4 +1,6 @@
 // kinemetricd — the kinemetric service. Thin main: configuration, storage, routes, serve.
+#include <atomic>
+#include <chrono>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -9,6 +11,7 @@
 
 #include "analysis/core/errors.h"
 #include "api/http_server.h"
+#include "api/metrics.h"
 #include "api/routes.h"
 #include "server/config.h"
 #include "server/data_dir.h"
@@ -31,6 +34,29 @@ std::string DefaultWebRoot() {
   return "web/static";
 }
 
+// The HTTP layer's options from the server configuration (docs/http.md).
+km::api::HttpOptions HttpOptionsOf(const km::server::ServerConfig& cfg) {
+  km::api::HttpOptions ho;
+  ho.host = cfg.host;
+  ho.port = cfg.port;
+  // A little above the upload limit, so the service answers with its own precise 413.
+  ho.max_payload_bytes = cfg.max_upload_bytes + (1u << 20);
+  ho.header_timeout_s = cfg.header_timeout_s;
+  ho.read_timeout_s = cfg.read_timeout_s;
+  ho.write_timeout_s = cfg.write_timeout_s;
+  ho.keep_alive_max_count = cfg.keep_alive_max_count;
+  ho.keep_alive_timeout_s = cfg.keep_alive_timeout_s;
+  ho.threads = cfg.threads;
+  ho.io_threads = cfg.io_threads;
+  ho.queue_limit = cfg.queue_limit;
+  ho.max_connections = cfg.max_connections;
+  ho.backlog = cfg.backlog;
+  ho.max_header_bytes = cfg.max_header_bytes;
+  ho.cors_origins = cfg.cors_origins;
+  ho.static_root = cfg.web_root.empty() ? DefaultWebRoot() : cfg.web_root;
+  return ho;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -43,7 +69,8 @@ int main(int argc, char** argv) {
                  "[--web-root DIR] [--demo-data] [--threads N] [--max-upload-bytes N] "
                  "[--modbus-config FILE] [--io-threads N] [--queue-limit N] [--max-connections N] "
                  "[--header-timeout-s S] [--cors-origin ORIGIN] [--max-devices N] "
-                 "[--device-network CIDR] … (docs/http.md)\n";
+                 "[--device-network CIDR] [--access-log FILE|-|off] [--metrics-public] "
+                 "[--shutdown-timeout-s S] … (docs/http.md, docs/operations.md)\n";
     return 2;
   }
   // SIGINT / SIGTERM are taken by a waiting thread that stops the server cleanly.
@@ -98,36 +125,34 @@ int main(int argc, char** argv) {
     km::api::AddRoutes(router, service);
     router.SetHook(km::api::TokenHook(service));
     router.SetObserver(km::api::AuditHook(service));
+    if (cfg.metrics_public) router.SetRole("GET", "/metrics", km::server::Role::kPublic);
+    km::api::AccessLog access_log(cfg.access_log);
 
-    km::api::HttpOptions ho;
-    ho.host = cfg.host;
-    ho.port = cfg.port;
-    // A little above the upload limit, so the service answers with its own precise 413.
-    ho.max_payload_bytes = cfg.max_upload_bytes + (1u << 20);
-    ho.header_timeout_s = cfg.header_timeout_s;
-    ho.read_timeout_s = cfg.read_timeout_s;
-    ho.write_timeout_s = cfg.write_timeout_s;
-    ho.keep_alive_max_count = cfg.keep_alive_max_count;
-    ho.keep_alive_timeout_s = cfg.keep_alive_timeout_s;
-    ho.threads = cfg.threads;
-    ho.io_threads = cfg.io_threads;
-    ho.queue_limit = cfg.queue_limit;
-    ho.max_connections = cfg.max_connections;
-    ho.backlog = cfg.backlog;
-    ho.max_header_bytes = cfg.max_header_bytes;
-    ho.cors_origins = cfg.cors_origins;
-    ho.static_root = cfg.web_root.empty() ? DefaultWebRoot() : cfg.web_root;
+    km::api::HttpOptions ho = HttpOptionsOf(cfg);
+    if (access_log.enabled()) {
+      ho.on_answer = [&access_log](const km::api::RequestRecord& r) { access_log.Write(r); };
+    }
     km::api::HttpServer http(router, ho);
     const int port = http.Bind();
-    std::thread waiter([&http, signals]() mutable {
+    std::atomic<bool> serving{true};
+    std::thread waiter([&http, &serving, signals, grace = cfg.shutdown_timeout_s]() mutable {
       int sig = 0;
       sigwait(&signals, &sig);
-      http.Stop();
+      if (!serving.load()) return;
+      std::cout << "kinemetricd: stopping (" << (sig == SIGINT ? "SIGINT" : "SIGTERM")
+                << "): no new connections, waiting up to " << grace << " s for " << http.InFlight()
+                << " requests in flight" << std::endl;
+      const auto left = http.Shutdown(std::chrono::seconds(grace));
+      if (left > 0) {
+        std::cout << "kinemetricd: " << left << " requests were still in flight after " << grace
+                  << " s; closing them" << std::endl;
+      }
     });
     std::cout << "kinemetricd: listening on http://" << cfg.host << ":" << port << "/ (data in "
               << cfg.data_dir << ")" << std::endl;
     http.Serve();
     // Serve returned: stopped by a signal, or by an error. Wake the waiter if needed.
+    serving = false;
     pthread_kill(waiter.native_handle(), SIGTERM);
     waiter.join();
     std::cout << "kinemetricd: stopped" << std::endl;

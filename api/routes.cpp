@@ -393,6 +393,7 @@ void AddRoutes(Router& router, server::Service& service) {
   AddMachineModelRoutes(router, service);
   AddStreamRoutes(router, service);
   AddServoRoutes(router, service);
+  AddFleetRoutes(router, service);
   AddAccessRoutes(router, service);
 }
 

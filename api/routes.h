@@ -21,6 +21,9 @@ void AddStreamRoutes(Router& router, server::Service& service);
 // The servo-load analyses of stored measurements (api/servo_routes.cpp).
 void AddServoRoutes(Router& router, server::Service& service);
 
+// The fleet overview and a machine's trends (api/fleet_routes.cpp).
+void AddFleetRoutes(Router& router, server::Service& service);
+
 // Tokens (create, list, revoke) and the audit log, all admin (api/access.cpp).
 void AddAccessRoutes(Router& router, server::Service& service);
 

@@ -74,6 +74,8 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.db_busy_timeout_ms = static_cast<int>(v); }},
     {"max_devices", kDevices,
      [](ServerConfig& c, std::int64_t v) { c.max_devices = static_cast<std::size_t>(v); }},
+    {"shutdown_timeout_s", kTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.shutdown_timeout_s = static_cast<int>(v); }},
 };
 
 const NumberOption* FindNumberOption(const std::string& key) {
@@ -228,7 +230,7 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
   if (!in) throw InvalidInput(path, 0, "", "cannot open the config file");
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(in);
+    j = nlohmann::json::parse(in, nullptr, true, /*ignore_comments=*/true);
   } catch (const nlohmann::json::parse_error& e) {
     throw InvalidInput(path, 0, "", std::string("not valid JSON: ") + e.what());
   }
@@ -243,6 +245,10 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
         cfg.web_root = v.get<std::string>();
       } else if (key == "demo_data") {
         cfg.demo_data = v.get<bool>();
+      } else if (key == "access_log") {
+        cfg.access_log = v.get<std::string>();
+      } else if (key == "metrics_public") {
+        cfg.metrics_public = v.get<bool>();
       } else if (const auto* o = FindNumberOption(key)) {
         o->set(cfg, WholeFromJson(v, o->range, path, key));
       } else if (key == "upload_limits") {
@@ -302,6 +308,10 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
       cfg.device_networks.push_back(Cidr(value(), "", a));
     } else if (a == "--demo-data") {
       cfg.demo_data = true;
+    } else if (a == "--access-log") {
+      cfg.access_log = value();
+    } else if (a == "--metrics-public") {
+      cfg.metrics_public = true;
     } else if (const auto* o = FindNumberOption(KeyOfFlag(a))) {
       o->set(cfg, WholeFromText(value(), o->range, "", a));
     } else {

@@ -48,13 +48,19 @@ struct ServerConfig {
   // ranges replacing the default; option --device-network CIDR adds one).
   std::size_t max_devices = 16;
   std::vector<std::string> device_networks = {"127.0.0.0/8", "::1/128"};
+  // Operations (docs/operations.md): the access log ("-": stderr, "off": none, else a file
+  // appended to), GET /metrics without a token (default: viewer), and how long a stop (SIGTERM,
+  // SIGINT) waits for the requests in flight.
+  std::string access_log = "-";
+  bool metrics_public = false;
+  int shutdown_timeout_s = 10;
 };
 
-// Applies a JSON config file: keys listen ("HOST:PORT"), data_dir, web_root, demo_data,
-// modbus_config, and the whole numbers max_upload_bytes, threads, io_threads, queue_limit,
-// max_connections, backlog, max_header_bytes, header_timeout_s, read_timeout_s, write_timeout_s,
-// keep_alive_max_count, keep_alive_timeout_s, db_busy_timeout_ms (each also a command-line option,
-// e.g.
+// Applies a JSON config file (// comments allowed): keys listen ("HOST:PORT"), data_dir, web_root,
+// demo_data, modbus_config, access_log, metrics_public, and the whole numbers max_upload_bytes,
+// threads, io_threads, queue_limit, max_connections, backlog, max_header_bytes, header_timeout_s,
+// read_timeout_s, write_timeout_s, keep_alive_max_count, keep_alive_timeout_s, db_busy_timeout_ms,
+// shutdown_timeout_s (each also a command-line option, e.g.
 // --header-timeout-s). Unknown keys are an error (typos are not ignored). Numbers must be whole
 // and within range: threads 1–256, io_threads 1–64, queue_limit, keep_alive_max_count and
 // max_connections 1–1 000 000, backlog 1–65535, max_header_bytes 1 KiB–1 MiB, timeouts

@@ -361,6 +361,14 @@ int SqliteStorage::FailInterruptedJobs(const std::string& reason) {
   return sqlite3_changes(db_);
 }
 
+std::map<std::string, std::int64_t> SqliteStorage::CountJobsByStatus() {
+  std::lock_guard lock(mu_);
+  auto s = Prepared("SELECT status, COUNT(*) FROM jobs GROUP BY status");
+  std::map<std::string, std::int64_t> out;
+  while (s->Step()) out[s->Text(0)] = s->Int(1);
+  return out;
+}
+
 std::int64_t SqliteStorage::CountTokens() {
   std::lock_guard lock(mu_);
   auto s = Prepared("SELECT COUNT(*) FROM tokens");

@@ -57,6 +57,7 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::optional<JobRecord> GetJob(std::int64_t id) override;
   std::vector<JobRecord> ListJobs(std::int64_t limit) override;
   int FailInterruptedJobs(const std::string& reason) override;
+  std::map<std::string, std::int64_t> CountJobsByStatus() override;
   std::int64_t CreateStream(const NewStream& s) override;
   std::optional<StreamRecord> GetStream(std::int64_t id) override;
   std::vector<StreamRecord> ListStreams(const std::optional<std::string>& machine_id,

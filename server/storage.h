@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -256,6 +257,9 @@ class Storage {
   virtual std::vector<JobRecord> ListJobs(std::int64_t limit) = 0;
   // Marks jobs left queued or running by a previous process as failed; returns how many.
   virtual int FailInterruptedJobs(const std::string& reason) = 0;
+  // How many jobs are in each status (queued, running, done, failed); statuses with none are
+  // absent.
+  virtual std::map<std::string, std::int64_t> CountJobsByStatus() = 0;
 
   // Streams. AppendStream writes chunks and gaps in one transaction; a chunk whose
   // (stream, channel, first_counter) is stored already is refused (InvalidInput).

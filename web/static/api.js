@@ -180,6 +180,15 @@ export const api = {
     }),
   // Strut forces measured and modelled, and the tool-tip force, of a hexapod servo record.
   servoForce: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}/servo/force`),
+  // Every machine: newest measurement, open jobs, newest accuracy audit.
+  fleet: () => apiFetch('/api/v1/fleet'),
+  // The metrics a trend can show, and one metric of a machine's results over time.
+  trendMetrics: (machineId) => apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/trends`),
+  trends: (machineId, metric) =>
+    apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/trends?${new URLSearchParams({ metric })}`),
+  // The machine's audit rules and schedule (404 when none) and its audits, newest first.
+  machineAudit: (machineId) => apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/audit`),
+  audits: (machineId) => apiFetch(`/api/v1/audits?${new URLSearchParams({ machine_id: machineId })}`),
   upload: (file, bytes) =>
     apiFetch('/api/v1/measurements', {
       method: 'POST',

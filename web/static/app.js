@@ -16,6 +16,8 @@ import { loadMachines, renderMachines, selectMachine } from './machines.js';
 import { initMeasurementList } from './measurements.js';
 import { parseAppRoute } from './router.js';
 import { state } from './state.js';
+import { initFleet, showFleet, showTrends } from './fleet.js';
+import { forgetRole, loadRole } from './roles.js';
 import { initServo, resetJointHealth } from './servo.js';
 import { initStreams, refreshStreams } from './streams.js';
 import { initUpload } from './upload.js';
@@ -25,6 +27,8 @@ import { initUpload } from './upload.js';
 function showMainView(which) {
   $('#detail').hidden = which !== 'detail';
   $('#job-view').hidden = which !== 'job';
+  $('#fleet-view').hidden = which !== 'fleet';
+  $('#trends-view').hidden = which !== 'trends';
   if (which !== 'discovery') $('#discovery').hidden = true;
 }
 
@@ -37,6 +41,8 @@ async function applyRoute() {
   document.body.dataset.route = route.view;
   if (route.view === 'discovery') {
     $('#job-view').hidden = true;
+    $('#fleet-view').hidden = true;
+    $('#trends-view').hidden = true;
     applyDiscoveryRoute();
     return;
   }
@@ -44,6 +50,16 @@ async function applyRoute() {
   if (route.view === 'job') {
     showMainView('job');
     await showJob(route.jobId);
+    return;
+  }
+  if (route.view === 'fleet') {
+    showMainView('fleet');
+    await showFleet();
+    return;
+  }
+  if (route.view === 'trends') {
+    showMainView('trends');
+    await showTrends(route.machineId, route.metric);
     return;
   }
   showMainView('detail');
@@ -88,11 +104,13 @@ function onTokenForget() {
   resetDetail();
   resetCalibration();
   resetJointHealth();
+  forgetRole();
   showAuthProblem(null);
 }
 
 // Everything that needs the token: machines, then the view the address names, streams.
 async function start2() {
+  await loadRole();
   await loadMachines();
   await applyRoute().catch((err) => handleAuth(err));
   refreshStreams();
@@ -109,6 +127,7 @@ function start() {
   initDetail();
   initCalibration();
   initServo();
+  initFleet();
   window.addEventListener('hashchange', () => {
     if (takeTokenFromFragment()) {
       tokenChanged();

@@ -9,7 +9,7 @@ import { loadJobHistory, resetCalibration, renderCalibrationChoices } from './ca
 import { loadMeasurementPage, resetFilters } from './measurements.js';
 import { resetDetail } from './detail.js';
 import { loadJointHealth, resetJointHealth } from './servo.js';
-import { machineHash, navigate } from './router.js';
+import { machineHash, navigate, trendsHash } from './router.js';
 import { state } from './state.js';
 import { discoveryMachineChanged, discoveryMachinesChanged, leaveDiscovery, parseRoute } from './discovery.js';
 
@@ -94,6 +94,8 @@ export async function selectMachine(machineId) {
     resetJointHealth();
   }
   $('#measurements-machine').textContent = `Machine ${machineId}`;
+  $('#machine-trends-link').href = trendsHash(machineId);
+  $('#machine-trends-link').hidden = false;
   if (!state.machines.some((m) => m.machine_id === machineId)) await loadMachines();
   renderMachines();
   const [items] = await Promise.all([loadMeasurementPage({ offset: 0 }), changed || state.dbbMachine !== machineId ? loadDbbTests(machineId) : null]);

@@ -3,10 +3,15 @@
 //   #/measurements/{id}         one measurement (its machine's list beside it)
 //   #/jobs/{id}                 a calibration job (discovery jobs live at #/discoveries/{id})
 //   #/discoveries…              the model-gap discovery page (discovery.js)
+//   #/fleet                     every machine: audit level, last measurement, open jobs
+//   #/machines/{id}/trends?metric=…   one figure of a machine's results over time
 
 export function parseAppRoute(hash = window.location.hash) {
   const s = String(hash || '').replace(/^#/, '');
-  let m = s.match(/^\/machines\/([^/?]+)\/?$/);
+  let m = s.match(/^\/machines\/([^/?]+)\/trends\/?(?:\?(.*))?$/);
+  if (m) return { view: 'trends', machineId: decodeURIComponent(m[1]), metric: new URLSearchParams(m[2] || '').get('metric') };
+  if (/^\/fleet\/?$/.test(s)) return { view: 'fleet' };
+  m = s.match(/^\/machines\/([^/?]+)\/?$/);
   if (m) return { view: 'machine', machineId: decodeURIComponent(m[1]) };
   m = s.match(/^\/measurements\/(\d+)\/?$/);
   if (m) return { view: 'measurement', id: Number(m[1]) };
@@ -19,6 +24,7 @@ export function parseAppRoute(hash = window.location.hash) {
 export const machineHash = (id) => `#/machines/${encodeURIComponent(id)}`;
 export const measurementHash = (id) => `#/measurements/${id}`;
 export const jobHash = (id) => `#/jobs/${id}`;
+export const trendsHash = (id, metric) => `#/machines/${encodeURIComponent(id)}/trends${metric ? `?metric=${encodeURIComponent(metric)}` : ''}`;
 
 // Goes to an address (a hashchange follows, which shows the view); the same address again
 // shows it again.

@@ -9,6 +9,7 @@ import { handleAuth } from './auth.js';
 import { axesGrid, el, r2, ticks } from './charts.js';
 import { $, asProblem, errorBox, h, problemContent, setMessage } from './dom.js';
 import { formatTimestamp } from './format.js';
+import { refusalContent } from './roles.js';
 import { state } from './state.js';
 
 const LEVEL_WORDS = { 1: 'level 1 — normal', 2: 'level 2 — warn', 3: 'level 3 — stop' };
@@ -239,7 +240,7 @@ async function estimateJointHealth() {
     setMessage(status, 'success', `Estimated from ${ids.length} servo records: ${levelWords(result.level)}.`);
     await loadJointHealth(machineId);
   } catch (err) {
-    if (!handleAuth(err)) setMessage(status, 'error', ...problemContent(asProblem(err)));
+    if (!handleAuth(err)) setMessage(status, 'error', ...(refusalContent(err, 'estimate joint health') || problemContent(asProblem(err))));
   } finally {
     button.disabled = false;
   }

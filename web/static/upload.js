@@ -6,6 +6,7 @@ import { api, ApiError } from './api.js';
 import { clearAuthProblem, showAuthProblem } from './auth.js';
 import { $, h, problemContent, setMessage } from './dom.js';
 import { loadMachines, refreshMachine } from './machines.js';
+import { refusalContent } from './roles.js';
 import { measurementHash, navigate } from './router.js';
 
 async function uploadOne(file) {
@@ -30,7 +31,7 @@ function outcomeItem({ file, ok, res, err }) {
     );
   }
   const problem = err instanceof ApiError ? err : { title: 'Upload failed', detail: String(err.message || err) };
-  return h('li', { class: 'upload-error', 'data-testid': 'upload-outcome', 'data-outcome': 'refused' }, `“${file.name}”: `, ...problemContent(problem));
+  return h('li', { class: 'upload-error', 'data-testid': 'upload-outcome', 'data-outcome': 'refused' }, `“${file.name}”: `, ...(refusalContent(err, 'upload measurements') || problemContent(problem)));
 }
 
 export async function uploadFiles(files) {
@@ -68,7 +69,7 @@ export async function uploadFiles(files) {
     : `${stored.length} of ${outcomes.length} files stored${refused.length ? `, ${refused.length} refused` : ''}.`;
   const parts = [];
   if (summary) parts.push(h('span', { class: 'upload-summary' }, summary));
-  if (single && !stored.length) parts.push(...problemContent(refused[0].err instanceof ApiError ? refused[0].err : { title: 'Upload failed', detail: String(refused[0].err) }));
+  if (single && !stored.length) parts.push(...(refusalContent(refused[0].err, 'upload measurements') || problemContent(refused[0].err instanceof ApiError ? refused[0].err : { title: 'Upload failed', detail: String(refused[0].err) })));
   else if (!single) parts.push(h('ul', { class: 'upload-outcomes', 'data-testid': 'upload-outcomes' }, ...outcomes.map(outcomeItem)));
   setMessage(msg, kind, ...parts);
   msg.dataset.stored = String(stored.length);

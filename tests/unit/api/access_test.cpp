@@ -39,6 +39,8 @@ const std::map<std::string, Role>& ExpectedRoles() {
       {"GET /api/v1/measurements/{id}/plot.png", Role::kViewer},
       {"GET /api/v1/measurements/{id}/servo/force", Role::kViewer},
       {"GET /api/v1/machines/{machine_id}/joint-health", Role::kViewer},
+      {"GET /api/v1/fleet", Role::kViewer},
+      {"GET /api/v1/machines/{machine_id}/trends", Role::kViewer},
       {"POST /api/v1/calibrations", Role::kEngineer},
       {"GET /api/v1/jobs/{id}", Role::kViewer},
       {"GET /api/v1/jobs", Role::kViewer},

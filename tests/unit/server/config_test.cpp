@@ -156,3 +156,36 @@ TEST_F(ServerConfigTest, RefusesOutOfRangeAndNonIntegerConfigKeys) {
 
 }  // namespace
 }  // namespace km::server
+
+namespace km::server {
+namespace {
+
+// The operations options (docs/operations.md): the access log, a public /metrics, the bound of
+// a graceful stop; the config file may carry // comments (deploy/kinemetricd.example.conf).
+TEST_F(ServerConfigTest, OperationsOptions) {
+  const auto d = ParseServerArgs({});
+  EXPECT_EQ(d.access_log, "-");
+  EXPECT_FALSE(d.metrics_public);
+  EXPECT_EQ(d.shutdown_timeout_s, 10);
+  const auto c =
+      ParseServerArgs({"--access-log", "off", "--metrics-public", "--shutdown-timeout-s", "3600"});
+  EXPECT_EQ(c.access_log, "off");
+  EXPECT_TRUE(c.metrics_public);
+  EXPECT_EQ(c.shutdown_timeout_s, 3600);
+  ExpectRefused({"--shutdown-timeout-s", "0"}, "--shutdown-timeout-s");
+  ExpectRefused({"--access-log"}, "--access-log");
+
+  const auto f = ParseServerArgs({"--config", File("// the operations keys\n{\n"
+                                                   "  // a file\n"
+                                                   "  \"access_log\": \"/var/log/km.log\",\n"
+                                                   "  \"metrics_public\": true,\n"
+                                                   "  \"shutdown_timeout_s\": 30\n}\n")});
+  EXPECT_EQ(f.access_log, "/var/log/km.log");
+  EXPECT_TRUE(f.metrics_public);
+  EXPECT_EQ(f.shutdown_timeout_s, 30);
+  const std::string bad = File(R"({"metrics_public": "yes"})");
+  ExpectRefused({"--config", bad}, "metrics_public", bad);
+}
+
+}  // namespace
+}  // namespace km::server

@@ -1,0 +1,34 @@
+// The fleet overview and the trends of a machine's figures over time, read from what is stored
+// (docs/formats.md §5): for each machine its newest measurement, how many it has, its open jobs
+// and its newest accuracy audit; for one machine and metric, the metric of each stored result,
+// oldest first.
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "server/service.h"
+
+namespace km::server {
+
+// At most this many jobs are looked at for the open-job counts (the newest).
+inline constexpr std::int64_t kFleetJobScan = 2000;
+// At most this many points a trend (the newest of them).
+inline constexpr std::int64_t kMaxTrendPoints = 5000;
+
+// {"machines": [{"machine_id", "measurements", "model_versions", "last_measurement": {"id",
+// "kind", "test_id", "measured_at", "uploaded_at"} | null, "open_jobs", "audit": null}]} by
+// machine_id; audit is the newest accuracy audit {id, level, created_at} once audits are kept.
+nlohmann::json Fleet(Service& service);
+
+// {"machine_id", "metric", "label", "unit", "kind", "points": [{"measured_at", "value",
+// "measurement_id"}]}, oldest first (measurement time, else upload time). `metric` one of
+// TrendMetrics(); another is InvalidInput naming the field "metric" and the known ones; a
+// machine with neither measurements nor a model NotFound.
+nlohmann::json Trends(Service& service, const std::string& machine_id, const std::string& metric);
+
+// The metrics a trend can show: [{"metric", "label", "unit", "kind"}].
+nlohmann::json TrendMetrics();
+
+}  // namespace km::server

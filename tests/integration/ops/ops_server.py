@@ -1,0 +1,158 @@
+"""A real kinemetricd for the operations tests: started on a free loopback port with its own
+data directory, spoken to over plain HTTP/1.1 (http.client), stopped with a signal.
+Also makes distinct DBB measurement files from the example file (small changes of the header
+and of one reading) and checks a data directory's SQLite file after a stop or a crash."""
+import hashlib
+import http.client
+import json
+import os
+import re
+import signal
+import sqlite3
+import subprocess
+import threading
+import time
+
+ADMIN_TOKEN = "ops-admin-token-0123456789abcdef"
+
+
+class Server:
+    def __init__(self, binary, data_dir, extra=(), env=None):
+        self.binary, self.data_dir, self.extra = binary, data_dir, list(extra)
+        self.env = dict(os.environ, KINEMETRIC_BOOTSTRAP_TOKEN=ADMIN_TOKEN, **(env or {}))
+        self.proc, self.port, self.lines = None, 0, []
+        self.stderr = subprocess.DEVNULL
+
+    def start(self, timeout=20):
+        os.makedirs(self.data_dir, exist_ok=True)
+        self.lines = []
+        self.proc = subprocess.Popen(
+            [self.binary, "--listen", "127.0.0.1:0", "--data-dir", self.data_dir, "--threads",
+             "8"] + self.extra, stdout=subprocess.PIPE, stderr=self.stderr, text=True,
+            env=self.env)
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            line = self.proc.stdout.readline()
+            if not line:
+                break
+            self.lines.append(line)
+            m = re.search(r"listening on http://127\.0\.0\.1:(\d+)/", line)
+            if m:
+                self.port = int(m.group(1))
+                break
+        if not self.port:
+            self.proc.kill()
+            raise RuntimeError("kinemetricd did not start: " + "".join(self.lines))
+        threading.Thread(target=self._drain, daemon=True).start()
+        return self
+
+    def _drain(self):
+        for line in self.proc.stdout:
+            self.lines.append(line)
+
+    def signal(self, sig):
+        self.proc.send_signal(sig)
+
+    def wait(self, timeout):
+        return self.proc.wait(timeout=timeout)
+
+    def kill9(self):
+        self.proc.send_signal(signal.SIGKILL)
+        self.proc.wait(timeout=10)
+        self.port = 0
+
+    def stop(self):
+        if self.proc and self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        return self.proc.returncode if self.proc else None
+
+    def conn(self, timeout=30):
+        return http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout)
+
+    def request(self, method, path, body=None, token=ADMIN_TOKEN, headers=None, conn=None):
+        """(status, headers dict, body bytes); a fresh connection unless one is given."""
+        c = conn or self.conn()
+        h = dict(headers or {})
+        if token:
+            h["Authorization"] = "Bearer " + token
+        if body is not None and not isinstance(body, bytes):
+            body = json.dumps(body).encode()
+            h.setdefault("Content-Type", "application/json")
+        try:
+            c.request(method, path, body=body, headers=h)
+            r = c.getresponse()
+            data = r.read()
+            return r.status, {k.lower(): v for k, v in r.getheaders()}, data
+        finally:
+            if conn is None:
+                c.close()
+
+    def json(self, method, path, body=None, token=ADMIN_TOKEN, conn=None):
+        status, _, data = self.request(method, path, body, token, conn=conn)
+        return status, (json.loads(data) if data else None)
+
+
+def example_dbb(repo):
+    with open(os.path.join(repo, "data", "examples", "dbb_xy-r150_ccw.txt"), "rb") as f:
+        return f.read()
+
+
+def distinct_dbb(base, n, tag="ops"):
+    """The example DBB file with its own test_id and one reading moved by n nanometres: every n
+    gives other bytes (another SHA-256) and still a valid circular test."""
+    text = base.decode()
+    text = re.sub(r"(?m)^# test_id: .*$", "# test_id: %s-%d" % (tag, n), text, count=1)
+    lines = text.split("\n")
+    for i, line in enumerate(lines):
+        if re.match(r"^\d+,-?\d+\.\d+$", line):
+            angle, value = line.split(",")
+            lines[i] = "%s,%.6f" % (angle, float(value) + n * 1e-6)
+            break
+    return "\n".join(lines).encode()
+
+
+def sha256(data):
+    return hashlib.sha256(data).hexdigest()
+
+
+def check_database(data_dir):
+    """(integrity_check answer, measurements without results, {id: sha256 of the raw bytes})."""
+    db = sqlite3.connect(os.path.join(data_dir, "kinemetric.db"))
+    try:
+        integrity = db.execute("PRAGMA integrity_check").fetchone()[0]
+        orphans = db.execute(
+            "SELECT COUNT(*) FROM measurements m WHERE NOT EXISTS "
+            "(SELECT 1 FROM results r WHERE r.measurement_id = m.id)").fetchone()[0]
+        raw = {row[0]: sha256(row[1]) for row in db.execute("SELECT id, raw FROM measurements")}
+        return integrity, orphans, raw
+    finally:
+        db.close()
+
+
+def percentile(values, p):
+    if not values:
+        return float("nan")
+    s = sorted(values)
+    return s[min(len(s) - 1, int(round(p / 100.0 * (len(s) - 1))))]
+
+
+class Checks:
+    def __init__(self):
+        self.failures = []
+
+    def __call__(self, ok, what):
+        if not ok:
+            self.failures.append(what)
+            print("FAIL: " + what, flush=True)
+        return ok
+
+    def finish(self, name):
+        if self.failures:
+            print("%s: %d checks failed" % (name, len(self.failures)))
+            return 1
+        return 0

@@ -1,0 +1,198 @@
+// The fleet overview (#/fleet: every machine with its newest accuracy-audit level in colour and
+// words, its newest measurement and its open jobs, from GET /api/v1/fleet) and a machine's
+// trends (#/machines/{id}/trends?metric=…: one figure of its stored results over time, with the
+// warn and stop limits of its audit rules and the audit verdicts marked). Every chart carries
+// data-* attributes with the plotted numbers so what is drawn can be checked against the API.
+
+import { ApiError, api } from './api.js';
+import { handleAuth } from './auth.js';
+import { axesGrid, el, r2, ticks } from './charts.js';
+import { $, errorBox, h } from './dom.js';
+import { formatTimestamp } from './format.js';
+import { machineHash, measurementHash, trendsHash } from './router.js';
+
+const AUDIT_WORDS = { 1: 'level 1 — normal', 2: 'level 2 — warn', 3: 'level 3 — stop' };
+const auditWords = (level) => AUDIT_WORDS[level] || `level ${level}`;
+
+// 404 (a route or a record not there): null.
+const orNull = (promise) =>
+  promise.catch((err) => {
+    if (err instanceof ApiError && err.status === 404) return null;
+    throw err;
+  });
+
+// ---------------------------------------------------------------- fleet
+
+function auditCell(audit) {
+  if (!audit) return h('span', { class: 'level-badge no-audit', 'data-testid': 'fleet-audit', 'data-level': 'none' }, 'no audit');
+  return h(
+    'span',
+    { class: `level-badge level-${audit.level}`, 'data-testid': 'fleet-audit', 'data-level': audit.level },
+    auditWords(audit.level),
+    audit.created_at ? ` (${formatTimestamp(audit.created_at)})` : '',
+  );
+}
+
+function lastCell(last) {
+  if (!last) return 'none';
+  return h('a', { href: measurementHash(last.id), 'data-testid': 'fleet-last' }, `${last.kind} #${last.id}, ${formatTimestamp(last.measured_at || last.uploaded_at)}`);
+}
+
+function fleetRow(m) {
+  return h(
+    'tr',
+    { 'data-testid': 'fleet-machine', 'data-machine-id': m.machine_id },
+    h('th', { scope: 'row' }, h('a', { href: machineHash(m.machine_id) }, m.machine_id)),
+    h('td', {}, auditCell(m.audit)),
+    h('td', {}, lastCell(m.last_measurement)),
+    h('td', { class: 'num', 'data-key': 'measurements' }, String(m.measurements)),
+    h('td', { class: 'num', 'data-key': 'open_jobs' }, String(m.open_jobs)),
+    h('td', {}, h('a', { href: trendsHash(m.machine_id), 'data-testid': 'fleet-trends-link' }, 'trends')),
+  );
+}
+
+export async function showFleet() {
+  const box = $('#fleet-body');
+  box.setAttribute('aria-busy', 'true');
+  try {
+    const fleet = await api.fleet();
+    const machines = fleet.machines || [];
+    $('#fleet-view').dataset.machines = String(machines.length);
+    box.replaceChildren(
+      machines.length
+        ? h(
+            'div',
+            { class: 'joint-table-box' },
+            h(
+              'table',
+              { class: 'figures fleet-table', 'data-testid': 'fleet-table' },
+              h('thead', {}, h('tr', {}, ...['Machine', 'Accuracy audit', 'Last measurement', 'Measurements', 'Open jobs', ''].map((t) => h('th', { scope: 'col' }, t)))),
+              h('tbody', {}, ...machines.map(fleetRow)),
+            ),
+          )
+        : h('p', { class: 'placeholder' }, 'No machines yet.'),
+    );
+  } catch (err) {
+    if (!handleAuth(err)) box.replaceChildren(errorBox(err));
+  } finally {
+    box.removeAttribute('aria-busy');
+  }
+}
+
+// ---------------------------------------------------------------- trends
+
+// The warn / stop limits of the machine's audit rules for the metric (several rules: the
+// tightest), or null.
+function limitsOf(audit, metric) {
+  const rules = ((audit && audit.rules) || []).filter((r) => r.metric === metric);
+  if (!rules.length) return null;
+  const pick = (k) => {
+    const v = rules.map((r) => r[k]).filter((x) => typeof x === 'number');
+    return v.length ? Math.min(...v) : null;
+  };
+  return { warn: pick('warn'), stop: pick('stop') };
+}
+
+// measurement id → the worst audit finding level on it for the metric.
+function verdictsOf(audits, metric) {
+  const out = new Map();
+  for (const a of (audits && audits.audits) || []) {
+    for (const f of a.findings || []) {
+      if (f.metric !== metric || f.measurement_id === undefined || f.measurement_id === null) continue;
+      out.set(f.measurement_id, Math.max(out.get(f.measurement_id) || 0, f.level));
+    }
+  }
+  return out;
+}
+
+export function renderTrendChart(trend, limits, verdicts) {
+  const pts = trend.points.map((p) => ({ ...p, t: Date.parse(p.measured_at) }));
+  const W = 900;
+  const H = 340;
+  const L = 64;
+  const R = 70;
+  const T = 20;
+  const B = 48;
+  const values = pts.map((p) => p.value);
+  for (const v of [limits?.warn, limits?.stop]) if (typeof v === 'number') values.push(v);
+  const top = Math.max(...values, 0) * 1.1 || 1;
+  const lo = Math.min(0, ...values);
+  const t0 = Math.min(...pts.map((p) => p.t));
+  const t1 = Math.max(...pts.map((p) => p.t));
+  const px = (t) => L + (t1 > t0 ? (t - t0) / (t1 - t0) : 0.5) * (W - L - R);
+  const py = (v) => T + (1 - (v - lo) / (top - lo)) * (H - T - B);
+  const svg = el('svg', {
+    viewBox: `0 0 ${W} ${H}`,
+    width: W,
+    height: H,
+    role: 'img',
+    class: 'chart trend',
+    'data-testid': 'trend-chart',
+    'data-points': pts.length,
+    'aria-label': `${trend.label} (${trend.unit}) of ${trend.machine_id} over time, ${pts.length} points.`,
+  });
+  svg.append(el('title', {}, `${trend.label} over time`));
+  svg.append(axesGrid({ W, H, L, R, T, B, px, py, xt: { values: [], step: 1 }, yt: ticks(lo, top, 5) }));
+  const my = r2((T + H - B) / 2);
+  svg.append(el('text', { x: 16, y: my, 'text-anchor': 'middle', class: 'axis-title', transform: `rotate(-90 16 ${my})` }, `${trend.label} (${trend.unit})`));
+  if (pts.length) {
+    svg.append(el('text', { x: L, y: H - B + 18, class: 'tick' }, formatTimestamp(pts[0].measured_at)));
+    svg.append(el('text', { x: W - R, y: H - B + 18, 'text-anchor': 'end', class: 'tick' }, formatTimestamp(pts[pts.length - 1].measured_at)));
+  }
+  for (const [key, cls] of [['warn', 'level2'], ['stop', 'level3']]) {
+    const v = limits?.[key];
+    if (typeof v !== 'number') continue;
+    svg.append(el('line', { x1: L, x2: W - R, y1: r2(py(v)), y2: r2(py(v)), class: `limit ${cls}`, 'data-testid': `trend-limit-${key}`, 'data-value': v }));
+    svg.append(el('text', { x: W - R + 6, y: r2(py(v)), dy: '0.35em', class: `tick limit-label ${cls}` }, key));
+  }
+  svg.append(el('path', { d: pts.map((p, i) => `${i ? 'L' : 'M'}${r2(px(p.t))},${r2(py(p.value))}`).join(''), class: 'trend-line' }));
+  const dots = el('g', { class: 'trend-points' });
+  for (const p of pts) {
+    const level = verdicts.get(p.measurement_id);
+    const dot = el('circle', { cx: r2(px(p.t)), cy: r2(py(p.value)), r: level ? 6 : 4, class: level ? `verdict level-${level}` : 'point', 'data-testid': 'trend-point', 'data-measurement-id': p.measurement_id, 'data-value': p.value, 'data-level': level || '' });
+    dot.append(el('title', {}, `#${p.measurement_id}: ${p.value.toFixed(2)} ${trend.unit}${level ? `, audit ${auditWords(level)}` : ''}`));
+    dots.append(dot);
+  }
+  svg.append(dots);
+  return svg;
+}
+
+let metricsCache = null;
+
+export async function showTrends(machineId, metric) {
+  const view = $('#trends-view');
+  view.dataset.machineId = machineId;
+  $('#trends-heading').textContent = `Trends — ${machineId}`;
+  const box = $('#trends-body');
+  box.setAttribute('aria-busy', 'true');
+  try {
+    metricsCache = metricsCache || (await api.trendMetrics(machineId)).metrics;
+    const chosen = metric || 'circularity_um';
+    const select = $('#trend-metric');
+    select.replaceChildren(...metricsCache.map((m) => h('option', { value: m.metric }, `${m.label} (${m.kind})`)));
+    select.value = chosen;
+    const [trend, audit, audits] = await Promise.all([
+      api.trends(machineId, chosen),
+      orNull(api.machineAudit(machineId)),
+      orNull(api.audits(machineId)),
+    ]);
+    const limits = limitsOf(audit, chosen);
+    view.dataset.metric = chosen;
+    view.dataset.limits = limits ? 'rules' : 'none';
+    box.replaceChildren(
+      h('p', { class: 'note', 'data-testid': 'trend-note' }, `${trend.points.length} measurement${trend.points.length === 1 ? '' : 's'} of kind ${trend.kind}. `, limits ? 'Warn and stop limits from the machine’s audit rules.' : 'No audit rule for this figure: no limits drawn.'),
+      trend.points.length ? h('figure', { class: 'chart-box' }, renderTrendChart(trend, limits, verdictsOf(audits, chosen))) : h('p', { class: 'placeholder' }, 'No stored result has this figure yet.'),
+    );
+  } catch (err) {
+    if (!handleAuth(err)) box.replaceChildren(errorBox(err));
+  } finally {
+    box.removeAttribute('aria-busy');
+  }
+}
+
+export function initFleet() {
+  $('#trend-metric').addEventListener('change', (e) => {
+    const id = $('#trends-view').dataset.machineId;
+    if (id) window.location.hash = trendsHash(id, e.target.value);
+  });
+}
