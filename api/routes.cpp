@@ -4,6 +4,7 @@
 
 #include "analysis/core/errors.h"
 #include "api/http_target.h"
+#include "api/metrics.h"
 #include "api/route_util.h"
 #include "server/request_json.h"
 #include "server/time_util.h"
@@ -395,6 +396,7 @@ void AddRoutes(Router& router, server::Service& service) {
   AddServoRoutes(router, service);
   AddFleetRoutes(router, service);
   AddAccessRoutes(router, service);
+  AddMetricsRoute(router, service);
 }
 
 void AddMachineModelRoutes(Router& router, server::Service& service) {

@@ -68,6 +68,7 @@ const std::map<std::string, Role>& ExpectedRoles() {
       {"DELETE /api/v1/tokens/{id}", Role::kAdmin},
       {"GET /api/v1/audit-log", Role::kAdmin},
       {"GET /api/v1/whoami", Role::kViewer},
+      {"GET /metrics", Role::kViewer},
   };
   return roles;
 }
