@@ -4,6 +4,7 @@
 // shaded. "Live" refreshes every second.
 
 import { apiFetch } from './api.js';
+import { mayDo } from './roles.js';
 import { axesGrid, el, r2, ticks } from './charts.js';
 import { $, asProblem, h, problemContent, setMessage } from './dom.js';
 
@@ -277,8 +278,9 @@ export async function refreshStreams() {
   if (state.busy) return;
   state.busy = true;
   try {
-    const [devices, streams] = await Promise.all([apiFetch('/api/v1/devices'), apiFetch('/api/v1/streams?limit=100')]);
-    renderDevices(devices.items);
+    // Devices are the admin's: another role lists the streams only.
+    const [devices, streams] = await Promise.all([mayDo('admin') ? apiFetch('/api/v1/devices') : null, apiFetch('/api/v1/streams?limit=100')]);
+    if (devices) renderDevices(devices.items);
     state.streams = streams.items;
     renderStreamList();
     if (state.selected !== null) await refreshSelected();

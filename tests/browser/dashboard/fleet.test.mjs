@@ -112,6 +112,7 @@ test('fleet overview, trends with limits, viewer and operator controls', { timeo
     const viewer = await token(server, 'shop-floor screen', 'viewer');
     await openAs(page, server, viewer, 'viewer');
     assert.equal(await page.isHidden('#upload-panel'), true, 'no upload control for a viewer');
+    assert.equal(await page.isHidden('#devices'), true, 'no Modbus devices (admin) for a viewer');
     assert.match(await page.textContent('[data-testid="role-status"]'), /role viewer/);
     const forced = await fetch(`${server.base}/api/v1/measurements`, { method: 'POST', headers: { Authorization: `Bearer ${viewer}`, 'Content-Type': 'text/plain' }, body: dbbFile({ machine: MACHINE, timestamp: '2026-05-01T08:00:00Z' }) });
     assert.equal(forced.status, 403);
