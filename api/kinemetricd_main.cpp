@@ -90,6 +90,9 @@ int main(int argc, char** argv) {
     km::server::ApplyUploadLimits(cfg, so.upload_limits);
     so.max_calibration_tests = cfg.max_calibration_tests;
     so.max_calibration_samples = cfg.max_calibration_samples;
+    so.audits.webhook_url = cfg.audit_webhook_url;
+    so.audits.webhook_attempts = cfg.audit_webhook_attempts;
+    so.audits.webhook_first_delay_ms = cfg.audit_webhook_first_delay_ms;
     km::server::Service service(std::move(storage), so);
     km::server::RegisterBuiltinKinds(service);
 
@@ -125,6 +128,8 @@ int main(int argc, char** argv) {
     km::api::AddRoutes(router, service);
     router.SetHook(km::api::TokenHook(service));
     router.SetObserver(km::api::AuditHook(service));
+    // Scheduled accuracy audits (an audit missed while the server was down runs once now).
+    service.audits().Start();
     if (cfg.metrics_public) router.SetRole("GET", "/metrics", km::server::Role::kPublic);
     km::api::AccessLog access_log(cfg.access_log);
 
@@ -155,6 +160,7 @@ int main(int argc, char** argv) {
     serving = false;
     pthread_kill(waiter.native_handle(), SIGTERM);
     waiter.join();
+    service.audits().Stop();
     std::cout << "kinemetricd: stopped" << std::endl;
     return 0;
   } catch (const km::InvalidInput& e) {

@@ -10,6 +10,7 @@
 
 #include "analysis/core/errors.h"
 #include "server/net_ranges.h"
+#include "server/webhook.h"
 
 namespace km::server {
 namespace {
@@ -31,6 +32,8 @@ constexpr Range kHeaderBytes{1024, 1 << 20, " bytes"};
 constexpr Range kCount{1, std::int64_t{1} << 40, ""};
 constexpr Range kBusyTimeout{0, 600'000, " ms"};
 constexpr Range kDevices{0, 10'000, ""};
+constexpr Range kWebhookAttempts{1, 20, ""};
+constexpr Range kWebhookDelay{10, 600'000, " ms"};
 
 // Every whole-number setting: its config-file key (the command-line option is "--" + key with
 // '-' for '_'), its range and where it goes.
@@ -72,6 +75,10 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.keep_alive_timeout_s = static_cast<int>(v); }},
     {"db_busy_timeout_ms", kBusyTimeout,
      [](ServerConfig& c, std::int64_t v) { c.db_busy_timeout_ms = static_cast<int>(v); }},
+    {"audit_webhook_attempts", kWebhookAttempts,
+     [](ServerConfig& c, std::int64_t v) { c.audit_webhook_attempts = static_cast<int>(v); }},
+    {"audit_webhook_first_delay_ms", kWebhookDelay,
+     [](ServerConfig& c, std::int64_t v) { c.audit_webhook_first_delay_ms = static_cast<int>(v); }},
     {"max_devices", kDevices,
      [](ServerConfig& c, std::int64_t v) { c.max_devices = static_cast<std::size_t>(v); }},
     {"shutdown_timeout_s", kTimeout,
@@ -249,6 +256,9 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
         cfg.access_log = v.get<std::string>();
       } else if (key == "metrics_public") {
         cfg.metrics_public = v.get<bool>();
+      } else if (key == "audit_webhook_url") {
+        cfg.audit_webhook_url = v.get<std::string>();
+        if (!cfg.audit_webhook_url.empty()) CheckWebhookUrl(cfg.audit_webhook_url, key);
       } else if (const auto* o = FindNumberOption(key)) {
         o->set(cfg, WholeFromJson(v, o->range, path, key));
       } else if (key == "upload_limits") {
@@ -312,6 +322,9 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
       cfg.access_log = value();
     } else if (a == "--metrics-public") {
       cfg.metrics_public = true;
+    } else if (a == "--audit-webhook-url") {
+      cfg.audit_webhook_url = value();
+      if (!cfg.audit_webhook_url.empty()) CheckWebhookUrl(cfg.audit_webhook_url, a);
     } else if (const auto* o = FindNumberOption(KeyOfFlag(a))) {
       o->set(cfg, WholeFromText(value(), o->range, "", a));
     } else {

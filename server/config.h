@@ -48,6 +48,12 @@ struct ServerConfig {
   // ranges replacing the default; option --device-network CIDR adds one).
   std::size_t max_devices = 16;
   std::vector<std::string> device_networks = {"127.0.0.0/8", "::1/128"};
+  // Accuracy audits (docs/http.md): verdicts of level 2 and 3 are POSTed to
+  // audit_webhook_url (http:// only; empty: none), retried after audit_webhook_first_delay_ms,
+  // then twice, four times as long…, up to audit_webhook_attempts attempts in all.
+  std::string audit_webhook_url;
+  int audit_webhook_attempts = 5;
+  int audit_webhook_first_delay_ms = 1000;
   // Operations (docs/operations.md): the access log ("-": stderr, "off": none, else a file
   // appended to), GET /metrics without a token (default: viewer), and how long a stop (SIGTERM,
   // SIGINT) waits for the requests in flight.

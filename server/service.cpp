@@ -44,7 +44,8 @@ Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
       options_(options),
       streams_(std::make_unique<StreamHub>(*storage_, StreamOptions{})),
       acquisition_(std::make_unique<Acquisition>(*this)),
-      jobs_(std::make_unique<JobQueue>(*storage_)) {}
+      jobs_(std::make_unique<JobQueue>(*storage_)),
+      audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {}
 
 void Service::RegisterKind(const std::string& format, KindHandler handler) {
   kinds_[format] = std::move(handler);

@@ -17,6 +17,7 @@
 #include "ingest/machine_json.h"
 #include "ingest/text_format.h"
 #include "server/acquisition.h"
+#include "server/audit_scheduler.h"
 #include "server/jobs.h"
 #include "server/storage.h"
 #include "server/streams.h"
@@ -57,6 +58,8 @@ struct ServiceOptions {
   // this many samples in all of them (the running job holds every test in memory).
   std::size_t max_calibration_tests = 500;
   std::size_t max_calibration_samples = 2'000'000;
+  // Accuracy audits: the webhook of verdicts of level 2 and 3 (server/audit_scheduler.h).
+  AuditOptions audits;
 };
 
 // The largest machine definition the service stores (a hexapod document with gravity,
@@ -214,6 +217,8 @@ class Service {
   StreamHub& streams() { return *streams_; }
   // Modbus TCP devices (server/acquisition.h).
   Acquisition& acquisition() { return *acquisition_; }
+  // Accuracy audits: rules, runs and the scheduler thread (started by the server, Start()).
+  AuditScheduler& audits() { return *audits_; }
 
   // The storage itself, for tests and tools; the API's routes use the calls above.
   Storage& storage() { return *storage_; }
@@ -240,7 +245,8 @@ class Service {
   std::map<std::string, KindHandler> kinds_;
   std::unique_ptr<StreamHub> streams_;
   std::unique_ptr<Acquisition> acquisition_;  // after streams_: stopped before it
-  std::unique_ptr<JobQueue> jobs_;            // last: stopped first
+  std::unique_ptr<JobQueue> jobs_;            // stopped before the streams
+  std::unique_ptr<AuditScheduler> audits_;    // last: stopped first
 };
 
 // The admin token of a database without tokens (Service::EnsureAdminToken).

@@ -161,6 +161,33 @@ CREATE TRIGGER audit_log_immutable BEFORE UPDATE ON audit_log
 CREATE TRIGGER audit_log_kept BEFORE DELETE ON audit_log
   BEGIN SELECT RAISE(ABORT, 'audit entries are never deleted'); END;
 )sql",
+    // 7: accuracy audits: per machine the rules and the schedule (one row a machine, replaced
+    // when changed), and the verdicts of every run, kept.
+    R"sql(
+CREATE TABLE audit_configs (
+  machine_id  TEXT PRIMARY KEY,
+  schedule    TEXT,
+  rules_json  TEXT NOT NULL,
+  updated_at  TEXT NOT NULL,
+  last_run_at TEXT,
+  next_run_at TEXT
+);
+CREATE INDEX audit_configs_due ON audit_configs(next_run_at);
+CREATE TABLE audit_verdicts (
+  id               INTEGER PRIMARY KEY,
+  machine_id       TEXT NOT NULL,
+  level            INTEGER NOT NULL CHECK (level BETWEEN 1 AND 3),
+  run_trigger      TEXT NOT NULL,
+  created_at       TEXT NOT NULL,
+  verdict_json     TEXT NOT NULL,
+  webhook_status   TEXT NOT NULL DEFAULT '',
+  webhook_attempts INTEGER NOT NULL DEFAULT 0
+);
+CREATE INDEX audit_verdicts_by_machine ON audit_verdicts(machine_id, created_at, id);
+CREATE INDEX audit_verdicts_by_time ON audit_verdicts(created_at, id);
+CREATE TRIGGER audit_verdicts_kept BEFORE DELETE ON audit_verdicts
+  BEGIN SELECT RAISE(ABORT, 'audit verdicts are never deleted'); END;
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

@@ -5,7 +5,8 @@
 // Where it lives: server/sqlite_db.* (statements, the statement cache, transactions, errors),
 // server/sqlite_migrations.* (the schema), and the data access by table: sqlite_storage.cpp
 // (opening; measurements, results, machines, jobs, tokens), sqlite_streams.cpp (streams),
-// sqlite_machine_models.cpp (machine definitions).
+// sqlite_machine_models.cpp (machine definitions), sqlite_access.cpp (tokens, audit log),
+// sqlite_audits.cpp (accuracy audits).
 #pragma once
 
 #include <memory>
@@ -84,6 +85,16 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   bool RevokeToken(std::int64_t id) override;
   void AppendAudit(const AuditEntry& entry) override;
   AuditPage ListAudit(std::int64_t limit, std::int64_t offset) override;
+  // Accuracy audits: sqlite_audits.cpp.
+  void PutAuditConfig(const AuditConfigRecord& config) override;
+  std::optional<AuditConfigRecord> GetAuditConfig(const std::string& machine_id) override;
+  std::vector<AuditConfigRecord> ListAuditConfigs() override;
+  void SetAuditRun(const std::string& machine_id, const std::optional<std::string>& last,
+                   const std::optional<std::string>& next) override;
+  std::int64_t AddAuditVerdict(const AuditVerdictRecord& verdict) override;
+  std::optional<AuditVerdictRecord> GetAuditVerdict(std::int64_t id) override;
+  std::vector<AuditVerdictRecord> ListAuditVerdicts(const AuditVerdictFilter& filter) override;
+  void SetAuditWebhook(std::int64_t id, const std::string& status, std::int64_t attempts) override;
 
  private:
   // The connection's prepared statement of this SQL, leased until the result goes out of scope.

@@ -222,6 +222,35 @@ struct AuditPage {
   std::int64_t total = 0;
 };
 
+// The accuracy audit of one machine (server/accuracy_audit.h): its rules (JSON array, as
+// validated) and schedule (none: run only on request), with the times of the last and next run.
+struct AuditConfigRecord {
+  std::string machine_id;
+  std::optional<std::string> schedule;
+  std::string rules_json;
+  std::string updated_at;
+  std::optional<std::string> last_run_at, next_run_at;  // ISO 8601 UTC
+};
+
+// One run of an accuracy audit: the verdict (level 1 normal, 2 warn, 3 stop) and its findings.
+struct AuditVerdictRecord {
+  std::int64_t id = 0;
+  std::string machine_id;
+  int level = 1;
+  std::string trigger;     // "manual" or "schedule"
+  std::string created_at;  // ISO 8601 UTC; the storage sets it when empty
+  std::string verdict_json;
+  std::string webhook_status;  // "", "pending", "delivered", "failed"
+  std::int64_t webhook_attempts = 0;
+};
+
+struct AuditVerdictFilter {
+  std::optional<std::string> machine_id;
+  std::optional<std::string> from;  // created_at, inclusive
+  std::optional<std::string> to;    // exclusive
+  std::int64_t limit = 100;
+};
+
 class Storage {
  public:
   virtual ~Storage() = default;
@@ -298,6 +327,21 @@ class Storage {
   // The audit log of state-changing requests, appended only; listed newest first.
   virtual void AppendAudit(const AuditEntry& entry) = 0;
   virtual AuditPage ListAudit(std::int64_t limit, std::int64_t offset) = 0;
+  // Accuracy audits. PutAuditConfig stores (or replaces) a machine's rules and schedule;
+  // ListAuditConfigs: every machine's, by machine_id. SetAuditRun records a run's time and the
+  // next due time (none: not scheduled).
+  virtual void PutAuditConfig(const AuditConfigRecord& config) = 0;
+  virtual std::optional<AuditConfigRecord> GetAuditConfig(const std::string& machine_id) = 0;
+  virtual std::vector<AuditConfigRecord> ListAuditConfigs() = 0;
+  virtual void SetAuditRun(const std::string& machine_id, const std::optional<std::string>& last,
+                           const std::optional<std::string>& next) = 0;
+  // Verdicts are appended (the new id) and never deleted; listed newest first.
+  virtual std::int64_t AddAuditVerdict(const AuditVerdictRecord& verdict) = 0;
+  virtual std::optional<AuditVerdictRecord> GetAuditVerdict(std::int64_t id) = 0;
+  virtual std::vector<AuditVerdictRecord> ListAuditVerdicts(const AuditVerdictFilter& filter) = 0;
+  virtual void SetAuditWebhook(std::int64_t id, const std::string& status,
+                               std::int64_t attempts) = 0;
+
 };
 
 }  // namespace km::server

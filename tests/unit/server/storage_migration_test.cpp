@@ -208,6 +208,45 @@ void ExpectVersion4Rows(SqliteStorage& s) {
   EXPECT_EQ(m->document, R"({"format":"kinemetric-machine/1"})");
 }
 
+// Version 6: token expiry and revocation, the audit log of state-changing requests.
+void ExpectVersion6Rows(SqliteStorage& s) {
+  const auto token =
+      s.FindToken("c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3");
+  ASSERT_TRUE(token);
+  EXPECT_EQ(token->name, "bootstrap");
+  EXPECT_FALSE(token->expires_at);
+  EXPECT_FALSE(token->revoked_at);
+  const auto log = s.ListAudit(10, 0);
+  ASSERT_EQ(log.total, 1);
+  EXPECT_EQ(log.items[0].at, "2025-08-01T07:00:00Z");
+  EXPECT_EQ(log.items[0].token_id, 1);
+  EXPECT_EQ(log.items[0].method, "DELETE");
+  EXPECT_EQ(log.items[0].path, "/api/v1/tokens/2");
+  EXPECT_EQ(log.items[0].status, 200);
+  EXPECT_EQ(log.items[0].subject, "token 2");
+}
+
+// Accuracy audits (version 7) are usable at once after a migration.
+void ExpectAccuracyAuditsUsable(SqliteStorage& s) {
+  EXPECT_FALSE(s.GetAuditConfig("old-vmc"));
+  AuditConfigRecord c;
+  c.machine_id = "old-vmc";
+  c.schedule = "every 24h";
+  c.rules_json = "[]";
+  c.next_run_at = "2025-09-01T06:00:00Z";
+  s.PutAuditConfig(c);
+  ASSERT_TRUE(s.GetAuditConfig("old-vmc"));
+  EXPECT_EQ(s.GetAuditConfig("old-vmc")->schedule, c.schedule);
+  AuditVerdictRecord v;
+  v.machine_id = "old-vmc";
+  v.level = 2;
+  v.trigger = "manual";
+  v.verdict_json = R"({"findings":[],"checked":[]})";
+  const auto id = s.AddAuditVerdict(v);
+  ASSERT_TRUE(s.GetAuditVerdict(id));
+  EXPECT_EQ(s.GetAuditVerdict(id)->level, 2);
+}
+
 TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
   for (int v = 1; v < SqliteStorage::SchemaVersion(); ++v) {
     SCOPED_TRACE("from schema version " + std::to_string(v));
@@ -218,6 +257,8 @@ TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
       if (v >= 2) ExpectVersion2Rows(s);
       if (v >= 3) ExpectVersion3Rows(s);
       if (v >= 4) ExpectVersion4Rows(s);
+      if (v >= 6) ExpectVersion6Rows(s);
+      ExpectAccuracyAuditsUsable(s);
       // Tables a migration added are usable at once.
       NewMachineModel m{"old-vmc", "upload", "after migration", "{}", std::string(64, 'd')};
       EXPECT_EQ(s.PutMachineModel(m).record.version, 1);

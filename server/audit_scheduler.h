@@ -1,0 +1,68 @@
+// The accuracy-audit scheduler: a thread of the service that sleeps until the next audit is
+// due (a condition variable, woken early when a schedule changes or the service stops), runs
+// the due audits with trigger "schedule", and hands verdicts of level 2 and 3 to the webhook
+// queue. Due times are stored (audit_configs.next_run_at), so an audit whose time passed
+// while the server was down runs once when it starts again, not once per missed time.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "server/webhook.h"
+
+namespace km::server {
+
+class Service;
+
+struct AuditOptions {
+  std::string webhook_url;  // empty: no webhook
+  int webhook_attempts = 5;
+  int webhook_first_delay_ms = 1000;
+  int webhook_timeout_s = 5;
+};
+
+// Whole Unix seconds now (replaceable in tests).
+using AuditClock = std::function<std::int64_t()>;
+std::int64_t SystemUnixSeconds();
+
+class AuditScheduler {
+ public:
+  AuditScheduler(Service& service, AuditOptions options, AuditClock clock = SystemUnixSeconds);
+  ~AuditScheduler();
+  AuditScheduler(const AuditScheduler&) = delete;
+  AuditScheduler& operator=(const AuditScheduler&) = delete;
+
+  // Starts the scheduler thread and the webhook queue; Stop joins both (also the destructor).
+  void Start();
+  void Stop();
+
+  // Stores a machine's rules and schedule (server/audit_service.h) and wakes the thread.
+  nlohmann::json PutConfig(const std::string& machine_id, const nlohmann::json& body);
+  // Runs a machine's audit now, records the run and queues the webhook for level 2 and 3.
+  nlohmann::json Run(const std::string& machine_id, const std::string& trigger);
+  // Runs every scheduled audit due now, once each, and stores its next due time; how many ran.
+  int RunDue();
+
+ private:
+  void Loop();
+  // The earliest stored due time (Unix seconds); nullopt when nothing is scheduled.
+  std::optional<std::int64_t> NextDue();
+
+  Service& service_;
+  AuditOptions options_;
+  AuditClock clock_;
+  std::unique_ptr<WebhookSender> webhook_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool stop_ = false, changed_ = false;
+  std::thread thread_;
+};
+
+}  // namespace km::server

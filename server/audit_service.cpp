@@ -1,0 +1,245 @@
+#include "server/audit_service.h"
+
+#include <map>
+#include <optional>
+
+#include "analysis/core/errors.h"
+#include "server/accuracy_audit.h"
+#include "server/audit_schedule.h"
+#include "server/service.h"
+
+namespace km::server {
+namespace {
+
+using nlohmann::json;
+
+// How many of a machine's newest measurements of a kind an audit looks through, and how many
+// CW/CCW pair analyses it computes for one rule at most.
+constexpr std::int64_t kHistory = 500;
+constexpr int kMaxPairAnalyses = 4;
+// The analysis name of the joint-health estimates kept with servo records (docs/formats.md §5).
+constexpr const char* kJointsAnalysis = "servo-joints";
+
+// A stored measurement with the results an audit reads.
+struct Stored {
+  MeasurementRecord record;
+  json result;  // the measurement's own newest result (null when none)
+  json joints;  // the newest joint-health estimate kept with it (null when none)
+  std::int64_t at = 0;
+};
+
+std::string TimeOf(const MeasurementRecord& r) {
+  return r.measured_at ? *r.measured_at : r.uploaded_at;
+}
+
+std::vector<Stored> LoadHistory(Service& service, const std::string& machine_id,
+                                const std::string& kind) {
+  MeasurementFilter f;
+  f.machine_id = machine_id;
+  f.kind = kind;
+  f.order = MeasurementFilter::Order::kNewest;
+  f.limit = kHistory;
+  std::vector<Stored> out;
+  for (auto& rec : service.storage().ListMeasurements(f).items) {
+    Stored s;
+    s.at = UnixSecondsFromIso(TimeOf(rec)).value_or(0);
+    for (const auto& r : service.storage().GetResults(rec.id)) {
+      json& slot = r.analysis == kJointsAnalysis ? s.joints : s.result;
+      slot = json::parse(r.result_json, nullptr, false);
+      if (slot.is_discarded()) slot = nullptr;
+    }
+    s.record = std::move(rec);
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::optional<double> ValueOf(Service& service, const AuditMetric& m, const Stored& s,
+                              int& pair_budget) {
+  if (m.analysis == kJointsAnalysis) {
+    return s.joints.is_null() ? std::nullopt : ExtractAuditMetric(m, s.joints);
+  }
+  if (m.analysis == "dbb-pair") {
+    if (pair_budget <= 0) return std::nullopt;
+    --pair_budget;
+    return ExtractAuditMetric(m, service.DbbPairJson(s.record.id));
+  }
+  return s.result.is_null() ? std::nullopt : ExtractAuditMetric(m, s.result);
+}
+
+AuditValue Found(double v, const Stored& s) {
+  return {v, s.record.id, TimeOf(s.record)};
+}
+
+// The value of the rule's metric at the previous audit (from that verdict's checked list).
+std::optional<AuditValue> AtPreviousAudit(const json& previous, const AuditRule& rule) {
+  if (!previous.is_object()) return std::nullopt;
+  for (const auto& c : previous.value("checked", json::array())) {
+    if (c.value("kind", "") != rule.kind || c.value("metric", "") != rule.metric) continue;
+    const json& v = c.contains("newest_value") ? c["newest_value"] : c.value("value", json());
+    if (!v.is_number() || !c.contains("measurement_id")) continue;
+    return AuditValue{v.get<double>(), c["measurement_id"].get<std::int64_t>(),
+                      c.value("measured_at", "")};
+  }
+  return std::nullopt;
+}
+
+AuditEvidence Gather(Service& service, const AuditRule& rule, const std::vector<Stored>& history,
+                     const json& previous, std::int64_t now) {
+  AuditEvidence ev;
+  const auto metric = FindAuditMetric(rule.kind, rule.metric);
+  if (!metric) {
+    ev.missing = "unknown metric";
+    return ev;
+  }
+  int budget = kMaxPairAnalyses;
+  for (const auto& s : history) {
+    if (const auto v = ValueOf(service, *metric, s, budget)) {
+      ev.newest = Found(*v, s);
+      break;
+    }
+  }
+  if (rule.change == AuditRule::Change::kPreviousAudit) {
+    ev.reference = AtPreviousAudit(previous, rule);
+    if (!ev.reference && ev.newest) ev.missing = "no previous audit with a value of this metric";
+  } else if (rule.change == AuditRule::Change::kDays) {
+    const std::int64_t cutoff = now - rule.days * 86400;
+    budget = kMaxPairAnalyses;
+    for (const auto& s : history) {
+      if (s.at > cutoff) continue;
+      if (const auto v = ValueOf(service, *metric, s, budget)) {
+        ev.reference = Found(*v, s);
+        break;
+      }
+    }
+    if (!ev.reference && ev.newest) {
+      ev.missing = "no result at or before " + IsoFromUnixSeconds(cutoff);
+    }
+  }
+  return ev;
+}
+
+json ConfigJson(const AuditConfigRecord& c) {
+  const auto opt = [](const std::optional<std::string>& v) { return v ? json(*v) : json(nullptr); };
+  return {{"machine_id", c.machine_id},         {"schedule", opt(c.schedule)},
+          {"rules", json::parse(c.rules_json)}, {"updated_at", c.updated_at},
+          {"last_run_at", opt(c.last_run_at)},  {"next_run_at", opt(c.next_run_at)}};
+}
+
+AuditConfigRecord StoredConfig(Service& service, const std::string& machine_id) {
+  auto c = service.storage().GetAuditConfig(machine_id);
+  if (!c) throw NotFound("machine '" + machine_id + "' has no accuracy audit");
+  return *c;
+}
+
+}  // namespace
+
+json PutAuditConfig(Service& service, const std::string& machine_id, const json& body,
+                    std::int64_t now) {
+  if (!body.is_object()) throw InvalidInput("", 0, "", "the body must be a JSON object");
+  for (const auto& [key, value] : body.items()) {
+    if (key != "schedule" && key != "rules") {
+      throw InvalidInput("", 0, key, "is not a key of an audit (schedule, rules)");
+    }
+  }
+  if (machine_id.empty() || machine_id.size() > 256) {
+    throw InvalidInput("", 0, "machine_id", "must be 1 to 256 bytes");
+  }
+  if (!body.contains("rules")) throw InvalidInput("", 0, "rules", "is missing");
+  const auto rules = ParseAuditRules(body["rules"]);
+  AuditConfigRecord c;
+  c.machine_id = machine_id;
+  c.updated_at = IsoFromUnixSeconds(now);
+  if (body.contains("schedule") && !body["schedule"].is_null()) {
+    if (!body["schedule"].is_string()) {
+      throw InvalidInput("", 0, "schedule", "must be a string (\"every 24h\", cron) or null");
+    }
+    const auto schedule = ParseAuditSchedule(body["schedule"].get<std::string>());
+    c.schedule = schedule.text;
+    if (const auto next = NextAuditRun(schedule, now)) c.next_run_at = IsoFromUnixSeconds(*next);
+  }
+  json stored = json::array();
+  for (const auto& r : rules) stored.push_back(AuditRuleJson(r));
+  c.rules_json = stored.dump();
+  if (const auto old = service.storage().GetAuditConfig(machine_id))
+    c.last_run_at = old->last_run_at;
+  service.storage().PutAuditConfig(c);
+  return ConfigJson(c);
+}
+
+json AuditConfigJson(Service& service, const std::string& machine_id) {
+  return ConfigJson(StoredConfig(service, machine_id));
+}
+
+json RunAccuracyAudit(Service& service, const std::string& machine_id, const std::string& trigger,
+                      std::int64_t now) {
+  const AuditConfigRecord config = StoredConfig(service, machine_id);
+  const auto rules = ParseAuditRules(json::parse(config.rules_json));
+  AuditVerdictFilter last;
+  last.machine_id = machine_id;
+  last.limit = 1;
+  const auto previous_records = service.storage().ListAuditVerdicts(last);
+  const json previous = previous_records.empty()
+                            ? json(nullptr)
+                            : json::parse(previous_records[0].verdict_json, nullptr, false);
+  std::map<std::string, std::vector<Stored>> histories;
+  std::vector<AuditEvidence> evidence;
+  for (const auto& rule : rules) {
+    auto it = histories.find(rule.kind);
+    if (it == histories.end()) {
+      it = histories.emplace(rule.kind, LoadHistory(service, machine_id, rule.kind)).first;
+    }
+    evidence.push_back(Gather(service, rule, it->second, previous, now));
+  }
+  const json outcome = EvaluateAudit(rules, evidence);
+  AuditVerdictRecord v;
+  v.machine_id = machine_id;
+  v.level = outcome["level"].get<int>();
+  v.trigger = trigger;
+  v.created_at = IsoFromUnixSeconds(now);
+  v.verdict_json = json{{"findings", outcome["findings"]}, {"checked", outcome["checked"]}}.dump();
+  v.id = service.storage().AddAuditVerdict(v);
+  return VerdictJson(v);
+}
+
+json VerdictJson(const AuditVerdictRecord& v) {
+  const json body = json::parse(v.verdict_json, nullptr, false);
+  json j = {{"id", v.id},
+            {"machine_id", v.machine_id},
+            {"level", v.level},
+            {"created_at", v.created_at},
+            {"trigger", v.trigger},
+            {"findings", body.is_object() ? body.value("findings", json::array()) : json::array()},
+            {"checked", body.is_object() ? body.value("checked", json::array()) : json::array()}};
+  j["webhook"] = v.webhook_status.empty()
+                     ? json(nullptr)
+                     : json{{"status", v.webhook_status}, {"attempts", v.webhook_attempts}};
+  return j;
+}
+
+json ListAccuracyAudits(Service& service, const AuditVerdictFilter& filter) {
+  json items = json::array();
+  for (const auto& v : service.storage().ListAuditVerdicts(filter)) items.push_back(VerdictJson(v));
+  return {{"audits", items}};
+}
+
+json AccuracyAuditJson(Service& service, std::int64_t id) {
+  const auto v = service.storage().GetAuditVerdict(id);
+  if (!v) throw NotFound("accuracy audit " + std::to_string(id) + " does not exist");
+  return VerdictJson(*v);
+}
+
+json AuditMetricsJson() {
+  json items = json::array();
+  for (const auto& m : AuditMetrics()) {
+    items.push_back({{"kind", m.kind},
+                     {"metric", m.metric},
+                     {"analysis", m.analysis.empty() ? "result" : m.analysis},
+                     {"unit", m.unit},
+                     {"description", m.description},
+                     {"source", m.source}});
+  }
+  return {{"metrics", items}};
+}
+
+}  // namespace km::server

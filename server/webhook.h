@@ -1,0 +1,61 @@
+// Delivery of accuracy-audit verdicts to a webhook (config audit_webhook_url): a background
+// queue, off the request path. Each verdict is POSTed as JSON; a failure (no connection, a
+// timeout, a status other than 2xx) is retried after 1 s, 2 s, 4 s, … (first_delay doubled)
+// up to `attempts` attempts in all. Stop() ends at once: verdicts not yet delivered stay
+// "pending".
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <thread>
+
+namespace km::server {
+
+struct WebhookOptions {
+  std::string url;  // "http://HOST[:PORT][/PATH]"
+  int attempts = 5;
+  std::chrono::milliseconds first_delay{1000};
+  std::chrono::seconds timeout{5};  // connect, read and write, each attempt
+};
+
+// Checks a webhook URL (http:// only); km::InvalidInput naming `field` when it is not one.
+void CheckWebhookUrl(const std::string& url, const std::string& field);
+
+class WebhookSender {
+ public:
+  // status(id, "delivered" | "failed" | "pending", attempts so far) after every attempt.
+  using StatusFn = std::function<void(std::int64_t, const std::string&, std::int64_t)>;
+  WebhookSender(WebhookOptions options, StatusFn status);
+  ~WebhookSender();
+  WebhookSender(const WebhookSender&) = delete;
+  WebhookSender& operator=(const WebhookSender&) = delete;
+
+  void Start();
+  void Stop();
+  void Enqueue(std::int64_t id, std::string body);
+
+ private:
+  struct Item {
+    std::int64_t id;
+    std::string body;
+  };
+  void Loop();
+  bool Deliver(const std::string& body);
+
+  WebhookOptions options_;
+  StatusFn status_;
+  std::string host_, path_;
+  int port_ = 80;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<Item> queue_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+}  // namespace km::server
