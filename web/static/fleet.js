@@ -177,11 +177,12 @@ export async function showTrends(machineId, metric) {
       orNull(api.audits(machineId)),
     ]);
     const limits = limitsOf(audit, chosen);
+    const verdicts = verdictsOf(audits, chosen);
     view.dataset.metric = chosen;
     view.dataset.limits = limits ? 'rules' : 'none';
     box.replaceChildren(
-      h('p', { class: 'note', 'data-testid': 'trend-note' }, `${trend.points.length} measurement${trend.points.length === 1 ? '' : 's'} of kind ${trend.kind}. `, limits ? 'Warn and stop limits from the machine’s audit rules.' : 'No audit rule for this figure: no limits drawn.'),
-      trend.points.length ? h('figure', { class: 'chart-box' }, renderTrendChart(trend, limits, verdictsOf(audits, chosen))) : h('p', { class: 'placeholder' }, 'No stored result has this figure yet.'),
+      h('p', { class: 'note', 'data-testid': 'trend-note' }, `${trend.points.length} measurement${trend.points.length === 1 ? '' : 's'} of kind ${trend.kind}. `, limits ? 'Warn and stop limits from the machine’s audit rules.' : 'No audit rule for this figure: no limits drawn.', verdicts.size ? ` Larger points: audit findings (${[...new Set(verdicts.values())].sort().map(auditWords).join(', ')}).` : ''),
+      trend.points.length ? h('figure', { class: 'chart-box' }, renderTrendChart(trend, limits, verdicts)) : h('p', { class: 'placeholder' }, 'No stored result has this figure yet.'),
     );
   } catch (err) {
     if (!handleAuth(err)) box.replaceChildren(errorBox(err));

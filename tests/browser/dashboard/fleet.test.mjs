@@ -83,6 +83,14 @@ test('fleet overview, trends with limits, viewer and operator controls', { timeo
     });
     const withRules = put.ok;
     if (!withRules) console.log(`audit rules not stored (${put.status}): the trend is drawn without limits`);
+    // An audit run: its findings on the circularity are marked on the trend's points.
+    let findings = [];
+    if (withRules) {
+      const run = await fetch(`${server.base}/api/v1/machines/${MACHINE}/audit/run`, { method: 'POST', headers: { Authorization: `Bearer ${server.token}`, 'Content-Type': 'application/json' }, body: '{}' });
+      if (run.ok) findings = ((await run.json()).findings || []).filter((f) => f.metric === 'circularity_um' && f.measurement_id);
+      else console.log(`audit run refused (${run.status}): no verdicts marked`);
+      console.log(`audit findings on the circularity: ${JSON.stringify(findings)}`);
+    }
 
     // The trend: one point per DBB test, the stored circularity, oldest first.
     await page.evaluate((m) => {
@@ -94,6 +102,10 @@ test('fleet overview, trends with limits, viewer and operator controls', { timeo
     const drawn = await page.$$eval('[data-testid="trend-point"]', (cs) => cs.map((c) => [Number(c.dataset.measurementId), Number(c.dataset.value), Number(c.getAttribute('cx'))]));
     assert.deepEqual(drawn.map(([id, v]) => [id, v]), ids.map((id, k) => [id, circ[k]]));
     assert.ok(drawn[0][2] < drawn[1][2] && drawn[1][2] < drawn[2][2], 'oldest on the left');
+    const marked = await page.$$eval('[data-testid="trend-point"]', (cs) => cs.filter((c) => c.dataset.level).map((c) => [Number(c.dataset.measurementId), Number(c.dataset.level)]));
+    const want = new Map();
+    for (const f of findings) want.set(f.measurement_id, Math.max(want.get(f.measurement_id) || 0, f.level));
+    assert.deepEqual(marked, [...want].sort((a, b) => a[0] - b[0]), 'audit verdicts marked on their points');
     if (withRules) {
       assert.equal(await page.getAttribute('#trends-view', 'data-limits'), 'rules');
       assert.equal(Number(await page.getAttribute('[data-testid="trend-limit-warn"]', 'data-value')), rules.rules[0].warn);
