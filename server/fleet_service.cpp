@@ -98,6 +98,16 @@ nlohmann::json OrNull(const std::optional<std::string>& s) {
   return s ? nlohmann::json(*s) : nlohmann::json(nullptr);
 }
 
+// The newest accuracy audit of the machine {id, level, created_at}, or null.
+nlohmann::json NewestAudit(Service& service, const std::string& machine_id) {
+  AuditVerdictFilter f;
+  f.machine_id = machine_id;
+  f.limit = 1;
+  const auto v = service.storage().ListAuditVerdicts(f);
+  if (v.empty()) return nullptr;
+  return {{"id", v.front().id}, {"level", v.front().level}, {"created_at", v.front().created_at}};
+}
+
 }  // namespace
 
 nlohmann::json TrendMetrics() {
@@ -132,7 +142,7 @@ nlohmann::json Fleet(Service& service) {
                         {"model_versions", m.model_versions},
                         {"last_measurement", last},
                         {"open_jobs", it == open.end() ? 0 : it->second},
-                        {"audit", nullptr}});
+                        {"audit", NewestAudit(service, m.machine_id)}});
   }
   return {{"machines", machines}};
 }

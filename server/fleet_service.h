@@ -18,8 +18,8 @@ inline constexpr std::int64_t kFleetJobScan = 2000;
 inline constexpr std::int64_t kMaxTrendPoints = 5000;
 
 // {"machines": [{"machine_id", "measurements", "model_versions", "last_measurement": {"id",
-// "kind", "test_id", "measured_at", "uploaded_at"} | null, "open_jobs", "audit": null}]} by
-// machine_id; audit is the newest accuracy audit {id, level, created_at} once audits are kept.
+// "kind", "test_id", "measured_at", "uploaded_at"} | null, "open_jobs", "audit": {"id",
+// "level", "created_at"} | null}]} by machine_id; audit is the newest accuracy audit.
 nlohmann::json Fleet(Service& service);
 
 // {"machine_id", "metric", "label", "unit", "kind", "points": [{"measured_at", "value",

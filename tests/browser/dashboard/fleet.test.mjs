@@ -120,6 +120,19 @@ test('fleet overview, trends with limits, viewer and operator controls', { timeo
     assert.equal(bad.status, 400);
     assert.equal((await bad.json()).field, 'metric');
 
+    // After the audit run, the fleet shows its level in colour and words.
+    if (findings.length) {
+      const level = (await api.get('/api/v1/fleet')).machines.find((m) => m.machine_id === MACHINE).audit.level;
+      assert.equal(level, Math.max(...findings.map((f) => f.level)));
+      await page.evaluate(() => {
+        window.location.hash = '#/fleet';
+      });
+      const cell = `[data-testid="fleet-machine"][data-machine-id="${MACHINE}"] [data-testid="fleet-audit"]`;
+      await page.waitForSelector(`#fleet-view:not([hidden]) ${cell}[data-level="${level}"]`);
+      assert.match(await page.textContent(cell), new RegExp(`^level ${level} — (warn|stop) \\(`));
+      assert.match(await page.getAttribute(cell, 'class'), new RegExp(`level-${level}`));
+    }
+
     // A viewer: the upload panel is not shown; forced to show, the 403 is told in words.
     const viewer = await token(server, 'shop-floor screen', 'viewer');
     await openAs(page, server, viewer, 'viewer');

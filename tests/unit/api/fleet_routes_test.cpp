@@ -1,7 +1,7 @@
 // The fleet overview and trend routes (api/fleet_routes.cpp → server/fleet_service.h) on a
 // service holding the example DBB tests and flatness grid of vmc-3axis: each machine's newest
-// measurement, count and open jobs; a trend's points are the stored figures, oldest first
-// (the centre offset as the length of the stored vector); bad requests named.
+// measurement, count, open jobs and newest audit; a trend's points are the stored figures, oldest
+// first (the centre offset as the length of the stored vector); bad requests named.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -83,6 +83,19 @@ TEST_F(FleetRoutes, NewestMeasurementOpenJobsAndTrends) {
   EXPECT_EQ(m["last_measurement"]["measured_at"], "2026-11-03T10:00:00Z");
   EXPECT_EQ(m["open_jobs"], 2);
   EXPECT_TRUE(m["audit"].is_null());
+  // The newest accuracy audit of the machine.
+  server::AuditVerdictRecord v;
+  v.machine_id = "vmc-3axis";
+  v.level = 3;
+  v.trigger = "manual";
+  v.created_at = "2026-11-04T09:00:00Z";
+  v.verdict_json = "{}";
+  const auto newest = svc_->storage().AddAuditVerdict(v);
+  v.level = 1;
+  v.created_at = "2026-11-01T09:00:00Z";
+  svc_->storage().AddAuditVerdict(v);
+  const auto audit = Get("/api/v1/fleet")["machines"][0]["audit"];
+  EXPECT_EQ(audit, (json{{"id", newest}, {"level", 3}, {"created_at", "2026-11-04T09:00:00Z"}}));
 
   auto t = Get("/api/v1/machines/vmc-3axis/trends", "circularity_um");
   ASSERT_EQ(t["points"].size(), 2u);
