@@ -141,7 +141,9 @@ std::string AuditSubject(const Route* route, const Request& req, const Response&
   if (res.status >= 200 && res.status < 300 && res.content_type == "application/json") {
     const auto j = json::parse(res.body, nullptr, false);
     if (j.is_object()) {
-      if (j.contains("job_id")) {
+      if (j.contains("findings") && j.contains("id")) {
+        parts.push_back("audit " + j["id"].dump());  // an accuracy-audit run
+      } else if (j.contains("job_id")) {
         parts.push_back("job " + j["job_id"].dump());
       } else if (j.contains("id") && (j.contains("kind") || j.contains("sha256"))) {
         parts.push_back("measurement " + j["id"].dump());

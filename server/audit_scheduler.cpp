@@ -106,8 +106,16 @@ int AuditScheduler::RunDue() {
       if (const auto t = NextAuditRun(ParseAuditSchedule(*c.schedule), now)) {
         next = IsoFromUnixSeconds(*t);
       }
-      Run(c.machine_id, "schedule");
+      const auto verdict = Run(c.machine_id, "schedule");
       ++ran;
+      // In the audit log beside the runs asked for over HTTP (no token: the scheduler).
+      AuditEntry e;
+      e.token_name = "scheduler";
+      e.method = "SCHEDULE";
+      e.path = "/api/v1/machines/" + c.machine_id + "/audit/run";
+      e.status = 201;
+      e.subject = "machine " + c.machine_id + ", audit " + verdict["id"].dump();
+      service_.storage().AppendAudit(e);
     } catch (const std::exception& e) {
       std::cerr << "kinemetricd: scheduled accuracy audit of machine '" << c.machine_id
                 << "' failed: " << e.what() << std::endl;
