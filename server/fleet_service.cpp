@@ -7,61 +7,41 @@
 #include <vector>
 
 #include "analysis/core/errors.h"
+#include "server/accuracy_audit.h"
+#include "server/servo_service.h"
 
 namespace km::server {
 namespace {
 
-// A figure of a stored result: the analysis that holds it and where (a key, a key within an
-// object, or the length of a vector [x, y]).
-struct Metric {
-  const char* metric;
-  const char* label;
-  const char* kind;
-  const char* analysis;
-  const char* key;
-  const char* subkey;  // nullptr: result[key]; else result[key][subkey]
-  bool norm;           // result[key] is a vector: its length
-};
-constexpr Metric kMetrics[] = {
-    {"circularity_um", "DBB circularity", "dbb", "dbb", "circularity_um", nullptr, false},
-    {"min_zone_circularity_um", "DBB circularity (minimum zone)", "dbb", "dbb",
-     "min_zone_circularity_um", nullptr, false},
-    {"centre_offset_um", "DBB centre offset", "dbb", "dbb", "centre_offset_um", nullptr, true},
-    {"circular_deviation_um", "ISO 230-4 circular deviation G", "dbb", "dbb", "iso230_4",
-     "circular_deviation_um", false},
-    {"radial_deviation_max_um", "ISO 230-4 radial deviation F max", "dbb", "dbb", "iso230_4",
-     "radial_deviation_max_um", false},
-    {"straightness_min_zone_um", "straightness (minimum zone)", "straightness", "straightness",
-     "straightness_min_zone_um", nullptr, false},
-    {"flatness_min_zone_um", "flatness (minimum zone)", "flatness", "flatness",
-     "flatness_min_zone_um", nullptr, false},
-    {"parallelism_um", "parallelism", "parallelism", "parallelism", "parallelism_um", nullptr,
-     false},
-    {"residual_rms_um", "tracker residual RMS", "tracker", "tracker", "residual_rms_um", nullptr,
-     false},
-};
+// At most this many pair analyses a trend of a pair figure (each analyses two DBB files).
+constexpr std::size_t kMaxPairPoints = 100;
 
-std::optional<double> ValueOf(const Metric& m, const nlohmann::json& j) {
-  if (!j.is_object() || !j.contains(m.key)) return std::nullopt;
-  const auto& v = m.subkey ? j[m.key].value(m.subkey, nlohmann::json()) : j[m.key];
-  if (m.norm) {
-    if (!v.is_array() || v.empty()) return std::nullopt;
-    double ss = 0.0;
-    for (const auto& x : v) {
-      if (!x.is_number()) return std::nullopt;
-      ss += x.get<double>() * x.get<double>();
-    }
-    return std::sqrt(ss);
+// The audit metric of that name (docs/http.md; diagnosis.<effect> of DBB tests included).
+std::optional<AuditMetric> MetricNamed(const std::string& name) {
+  for (const auto& m : AuditMetrics()) {
+    if (m.metric == name && m.metric.find('<') == std::string::npos) return m;
   }
-  if (!v.is_number() || !std::isfinite(v.get<double>())) return std::nullopt;
-  return v.get<double>();
+  return FindAuditMetric("dbb", name);
 }
 
-// The newest stored result of that analysis, parsed (discarded on a parse error).
-std::optional<double> NewestValue(const Metric& m, const std::vector<ResultRecord>& results) {
+// The metric's value for one measurement: from its own newest result, the newest joints
+// estimate kept with it, or the analysis of its CW/CCW pair (none without a partner).
+std::optional<double> ValueAt(Service& service, const AuditMetric& m, std::int64_t id,
+                              const std::vector<ResultRecord>& results) {
+  if (m.analysis == "dbb-pair") {
+    try {
+      return ExtractAuditMetric(m, service.DbbPairJson(id));
+    } catch (const NotFound&) {
+      return std::nullopt;  // no opposite-direction partner stored
+    } catch (const InvalidInput&) {
+      return std::nullopt;  // a partner the pair analysis refuses
+    }
+  }
+  const bool joints = m.analysis == kJointsAnalysis;
   for (auto r = results.rbegin(); r != results.rend(); ++r) {
-    if (r->analysis != m.analysis) continue;
-    return ValueOf(m, nlohmann::json::parse(r->result_json, nullptr, false));
+    if ((r->analysis == kJointsAnalysis) != joints) continue;
+    const auto j = nlohmann::json::parse(r->result_json, nullptr, false);
+    return j.is_discarded() ? std::nullopt : ExtractAuditMetric(m, j);
   }
   return std::nullopt;
 }
@@ -112,8 +92,10 @@ nlohmann::json NewestAudit(Service& service, const std::string& machine_id) {
 
 nlohmann::json TrendMetrics() {
   nlohmann::json out = nlohmann::json::array();
-  for (const auto& m : kMetrics) {
-    out.push_back({{"metric", m.metric}, {"label", m.label}, {"unit", "µm"}, {"kind", m.kind}});
+  for (const auto& m : AuditMetrics()) {
+    if (m.metric.find('<') != std::string::npos) continue;  // diagnosis.<effect>: by name
+    out.push_back(
+        {{"metric", m.metric}, {"label", m.description}, {"unit", m.unit}, {"kind", m.kind}});
   }
   return out;
 }
@@ -148,31 +130,31 @@ nlohmann::json Fleet(Service& service) {
 }
 
 nlohmann::json Trends(Service& service, const std::string& machine_id, const std::string& metric) {
-  const auto m = std::find_if(std::begin(kMetrics), std::end(kMetrics),
-                              [&](const Metric& x) { return metric == x.metric; });
-  if (m == std::end(kMetrics)) {
-    std::string known;
-    for (const auto& x : kMetrics) known += std::string(known.empty() ? "" : ", ") + x.metric;
-    throw InvalidInput("", 0, "metric", "'" + metric + "' is not a trend metric; one of " + known);
+  const auto m = MetricNamed(metric);
+  if (!m) {
+    throw InvalidInput("", 0, "metric",
+                       "'" + metric +
+                           "' is not a trend metric; GET /api/v1/audit-metrics lists them (and "
+                           "diagnosis.<effect> for DBB tests)");
   }
   RequireMachine(service, machine_id);
-  // The newest kMaxTrendPoints measurements of the kind, returned oldest first.
+  // The newest measurements of the kind (fewer for a pair figure), returned oldest first.
   MeasurementFilter f;
   f.machine_id = machine_id;
   f.kind = m->kind;
   f.order = MeasurementFilter::Order::kNewest;
-  f.limit = kMaxTrendPoints;
+  f.limit = m->analysis == "dbb-pair" ? static_cast<std::int64_t>(kMaxPairPoints) : kMaxTrendPoints;
   const auto page = service.storage().ListMeasurements(f);
   nlohmann::json points = nlohmann::json::array();
   for (auto r = page.items.rbegin(); r != page.items.rend(); ++r) {
-    const auto v = NewestValue(*m, service.storage().GetResults(r->id));
-    if (!v) continue;
+    const auto v = ValueAt(service, *m, r->id, service.storage().GetResults(r->id));
+    if (!v || !std::isfinite(*v)) continue;
     points.push_back({{"measured_at", r->measured_at.value_or(r->uploaded_at)},
                       {"value", *v},
                       {"measurement_id", r->id}});
   }
-  return {{"machine_id", machine_id}, {"metric", m->metric}, {"label", m->label}, {"unit", "µm"},
-          {"kind", m->kind},          {"points", points}};
+  return {{"machine_id", machine_id}, {"metric", metric}, {"label", m->description},
+          {"unit", m->unit},          {"kind", m->kind},  {"points", points}};
 }
 
 }  // namespace km::server

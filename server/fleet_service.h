@@ -14,7 +14,7 @@ namespace km::server {
 
 // At most this many jobs are looked at for the open-job counts (the newest).
 inline constexpr std::int64_t kFleetJobScan = 2000;
-// At most this many points a trend (the newest of them).
+// At most this many points a trend (the newest of them; 100 for a figure of a DBB pair).
 inline constexpr std::int64_t kMaxTrendPoints = 5000;
 
 // {"machines": [{"machine_id", "measurements", "model_versions", "last_measurement": {"id",
@@ -23,12 +23,15 @@ inline constexpr std::int64_t kMaxTrendPoints = 5000;
 nlohmann::json Fleet(Service& service);
 
 // {"machine_id", "metric", "label", "unit", "kind", "points": [{"measured_at", "value",
-// "measurement_id"}]}, oldest first (measurement time, else upload time). `metric` one of
-// TrendMetrics(); another is InvalidInput naming the field "metric" and the known ones; a
-// machine with neither measurements nor a model NotFound.
+// "measurement_id"}]}, oldest first (measurement time, else upload time): the metric as an
+// accuracy audit reads it (server/accuracy_audit.h: the same table and extraction, so a trend
+// and an audit's limits agree), for each measurement of its kind. Another metric is
+// InvalidInput naming the field "metric"; a machine with neither measurements nor a model
+// NotFound.
 nlohmann::json Trends(Service& service, const std::string& machine_id, const std::string& metric);
 
-// The metrics a trend can show: [{"metric", "label", "unit", "kind"}].
+// The metrics a trend can show: [{"metric", "label", "unit", "kind"}] (those of the
+// audits but diagnosis.<effect>, which is asked for by name).
 nlohmann::json TrendMetrics();
 
 }  // namespace km::server

@@ -134,7 +134,7 @@ export function renderTrendChart(trend, limits, verdicts) {
   svg.append(el('title', {}, `${trend.label} over time`));
   svg.append(axesGrid({ W, H, L, R, T, B, px, py, xt: { values: [], step: 1 }, yt: ticks(lo, top, 5) }));
   const my = r2((T + H - B) / 2);
-  svg.append(el('text', { x: 16, y: my, 'text-anchor': 'middle', class: 'axis-title', transform: `rotate(-90 16 ${my})` }, `${trend.label} (${trend.unit})`));
+  svg.append(el('text', { x: 16, y: my, 'text-anchor': 'middle', class: 'axis-title', transform: `rotate(-90 16 ${my})` }, `${trend.metric} (${trend.unit})`));
   if (pts.length) {
     svg.append(el('text', { x: L, y: H - B + 18, class: 'tick' }, formatTimestamp(pts[0].measured_at)));
     svg.append(el('text', { x: W - R, y: H - B + 18, 'text-anchor': 'end', class: 'tick' }, formatTimestamp(pts[pts.length - 1].measured_at)));
@@ -169,7 +169,8 @@ export async function showTrends(machineId, metric) {
     metricsCache = metricsCache || (await api.trendMetrics(machineId)).metrics;
     const chosen = metric || 'circularity_um';
     const select = $('#trend-metric');
-    select.replaceChildren(...metricsCache.map((m) => h('option', { value: m.metric }, `${m.label} (${m.kind})`)));
+    select.replaceChildren(...metricsCache.map((m) => h('option', { value: m.metric }, `${m.kind}: ${m.metric} — ${m.label}`)));
+    if (!metricsCache.some((m) => m.metric === chosen)) select.append(h('option', { value: chosen }, chosen));
     select.value = chosen;
     const [trend, audit, audits] = await Promise.all([
       api.trends(machineId, chosen),

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "api/routes.h"
+#include "server/accuracy_audit.h"
 #include "server/service.h"
 #include "server/sqlite_storage.h"
 
@@ -113,7 +114,13 @@ TEST_F(FleetRoutes, NewestMeasurementOpenJobsAndTrends) {
   t = Get("/api/v1/machines/vmc-3axis/trends", "flatness_min_zone_um");
   ASSERT_EQ(t["points"].size(), 1u);
   EXPECT_EQ(t["points"][0]["value"], svc_->Results(flat)["flatness_min_zone_um"]);
-  EXPECT_EQ(Get("/api/v1/machines/vmc-3axis/trends")["metrics"].size(), 9u);
+  // A figure of the CW/CCW pair: each test with its partner.
+  t = Get("/api/v1/machines/vmc-3axis/trends", "circular_hysteresis_um");
+  ASSERT_EQ(t["points"].size(), 2u);
+  EXPECT_EQ(t["points"][0]["value"], svc_->DbbPairJson(cw)["pair"]["circular_hysteresis_um"]);
+  EXPECT_EQ(t["unit"], "µm");
+  EXPECT_EQ(Get("/api/v1/machines/vmc-3axis/trends")["metrics"].size(),
+            server::AuditMetrics().size() - 1);
 
   EXPECT_EQ(Get("/api/v1/machines/vmc-3axis/trends", "nonsense", 400)["field"], "metric");
   Get("/api/v1/machines/no-such/trends", "circularity_um", 404);
