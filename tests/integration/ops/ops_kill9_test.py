@@ -86,7 +86,10 @@ def main():
             before = len(acked)
             for t in threads:
                 t.start()
-            time.sleep(rng.uniform(0.6, 1.5))
+            deadline = time.time() + 20
+            while len(acked) == before and time.time() < deadline:
+                time.sleep(0.02)  # a slow machine: the first acknowledgement, then the kill
+            time.sleep(rng.uniform(0.3, 1.2))
             srv.kill9()
             for t in threads:
                 t.join(timeout=15)

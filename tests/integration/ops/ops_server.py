@@ -97,6 +97,18 @@ class Server:
         return status, (json.loads(data) if data else None)
 
 
+def wait_in_flight(srv, n, timeout=10.0):
+    """Waits until /metrics counts n requests in flight besides the scrape itself."""
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        status, _, body = srv.request("GET", "/metrics")
+        m = re.search(r"(?m)^kinemetric_http_requests_in_flight (\S+)$", body.decode())
+        if status == 200 and m and float(m.group(1)) >= n + 1:
+            return True
+        time.sleep(0.05)
+    return False
+
+
 def example_dbb(repo):
     with open(os.path.join(repo, "data", "examples", "dbb_xy-r150_ccw.txt"), "rb") as f:
         return f.read()

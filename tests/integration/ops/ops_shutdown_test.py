@@ -14,7 +14,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from ops_server import (ADMIN_TOKEN, Checks, Server, check_database, distinct_dbb,  # noqa: E402
-                        example_dbb, sha256)
+                        example_dbb, sha256, wait_in_flight)
 
 
 def open_upload(port, body):
@@ -44,7 +44,7 @@ def slow_upload_survives(binary, repo, tmp, check):
     check(srv.request("GET", "/healthz", token=None, conn=keep)[0] == 200, "keep-alive healthz")
     up = open_upload(srv.port, body)
     up.sendall(body[:1000])
-    time.sleep(0.3)  # the headers are read: the upload is in flight
+    check(wait_in_flight(srv, 1), "the upload is in flight")
     t0 = time.time()
     srv.signal(signal.SIGTERM)
     time.sleep(0.5)
@@ -85,7 +85,7 @@ def stalled_request_bounded(binary, tmp, check):
     srv = Server(binary, os.path.join(tmp, "stalled"), ["--shutdown-timeout-s", "1"]).start()
     up = open_upload(srv.port, b"x" * 5000)
     up.sendall(b"x" * 100)
-    time.sleep(0.3)
+    check(wait_in_flight(srv, 1), "the stalled upload is in flight")
     t0 = time.time()
     srv.signal(signal.SIGTERM)
     rc = srv.wait(timeout=15)
