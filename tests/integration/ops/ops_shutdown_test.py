@@ -92,7 +92,7 @@ def stalled_request_bounded(binary, tmp, check):
     elapsed = time.time() - t0
     up.close()
     check(rc == 0, "stalled request: exit status %d" % rc)
-    check(0.8 < elapsed < 4.0, "stalled request: stopped after %.2f s (bound 1 s)" % elapsed)
+    check(0.8 < elapsed < 6.0, "stalled request: stopped after %.2f s (bound 1 s)" % elapsed)
     check(any("still in flight" in line for line in srv.lines), "the stop names what it cut")
 
 
