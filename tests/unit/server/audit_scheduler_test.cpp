@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -16,6 +17,7 @@
 #include "analysis/core/errors.h"
 #include "server/audit_schedule.h"
 #include "server/audit_service.h"
+#include "server/config.h"
 #include "server/demo_data.h"
 #include "server/service.h"
 #include "server/sqlite_storage.h"
@@ -103,6 +105,61 @@ TEST_F(AccuracyAudits, PreviousAuditTrendComparesWithTheValueThatAuditSaw) {
   EXPECT_EQ(second["checked"][0]["status"], "ok");
   EXPECT_EQ(second["checked"][0]["value"], 0.0);
   EXPECT_EQ(second["checked"][0]["reference_measurement_id"], id);
+}
+
+// The demo machine's XY tests of 2 September, 1 October and 2 November 2026 (CCW and CW each),
+// whose squareness, servo mismatch and backlash grow.
+TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTests) {
+  auto svc = Open();
+  const auto files = DemoDbbFiles();
+  for (std::size_t i = 0; i < 6; ++i) svc->Upload(files[i].bytes, files[i].name);
+  AuditScheduler audits(*svc, {}, clock_);
+  const json rules = {{{"kind", "dbb"},
+                       {"metric", "circularity_um"},
+                       {"change", "days"},
+                       {"days", 40},
+                       {"warn", 0}},
+                      {{"kind", "dbb"}, {"metric", "circular_hysteresis_um"}, {"warn", 0}},
+                      {{"kind", "dbb"}, {"metric", "diagnosis.backlash_x"}, {"warn", 0}},
+                      {{"kind", "dbb"},
+                       {"metric", "circularity_um"},
+                       {"change", "days"},
+                       {"days", 3650},
+                       {"warn", 0}}};
+  audits.PutConfig("demo-vmc", {{"rules", rules}});
+  const json v = audits.Run("demo-vmc", "manual");
+  ASSERT_EQ(v["findings"].size(), 3u) << v.dump(1);
+  const auto measured = [&](const json& id) {
+    return svc->storage().GetMeasurement(id.get<std::int64_t>())->measured_at.value_or("");
+  };
+  const auto result = [&](const json& id) { return svc->Results(id.get<std::int64_t>()); };
+
+  const json& trend = v["findings"][0];
+  EXPECT_EQ(measured(trend["measurement_id"]), "2026-11-02T07:58:00Z");
+  EXPECT_EQ(measured(trend["reference_measurement_id"]), "2026-10-01T08:05:00Z");
+  const double newest = result(trend["measurement_id"])["circularity_um"].get<double>();
+  const double older = result(trend["reference_measurement_id"])["circularity_um"].get<double>();
+  EXPECT_EQ(trend["value"], newest - older);
+  EXPECT_GT(newest - older, 0.0);
+
+  const json& h = v["findings"][1];
+  EXPECT_EQ(h["metric"], "circular_hysteresis_um");
+  EXPECT_EQ(measured(h["measurement_id"]), "2026-11-02T07:58:00Z");
+  EXPECT_EQ(
+      h["value"],
+      svc->DbbPairJson(h["measurement_id"].get<std::int64_t>())["pair"]["circular_hysteresis_um"]);
+
+  const json& backlash = v["findings"][2];
+  double expected = -1;
+  const json diagnosed = result(backlash["measurement_id"]);  // kept alive over the loop
+  for (const auto& d : diagnosed["diagnosis"]) {
+    if (d["effect"] == "backlash_x") expected = std::abs(d["value"].get<double>());
+  }
+  EXPECT_EQ(backlash["value"], expected);
+  EXPECT_NEAR(expected, 3.0, 0.1);  // 3 µm of backlash simulated
+
+  EXPECT_EQ(v["checked"][3]["status"], "not evaluated");
+  EXPECT_EQ(v["checked"][3]["reason"], "no result at or before 2016-11-29T03:12:00Z");
 }
 
 TEST_F(AccuracyAudits, AMissedScheduleRunsOnceAlsoAfterARestart) {
@@ -214,6 +271,29 @@ TEST_F(AccuracyAudits, TheWebhookIsRetriedAfterA500AndTheDeliveryRecorded) {
   EXPECT_TRUE(audits.Run("demo-vmc", "manual")["webhook"].is_null());
   audits.Stop();
   EXPECT_EQ(receiver.bodies().size(), 2u);
+}
+
+TEST(AuditWebhookOptions, AreReadFromTheCommandLineAndChecked) {
+  const auto cfg =
+      ParseServerArgs({"--audit-webhook-url", "http://127.0.0.1:9000/hook",
+                       "--audit-webhook-attempts", "3", "--audit-webhook-first-delay-ms", "250"});
+  EXPECT_EQ(cfg.audit_webhook_url, "http://127.0.0.1:9000/hook");
+  EXPECT_EQ(cfg.audit_webhook_attempts, 3);
+  EXPECT_EQ(cfg.audit_webhook_first_delay_ms, 250);
+  const auto field = [](const std::vector<std::string>& args) {
+    try {
+      ParseServerArgs(args);
+    } catch (const InvalidInput& e) {
+      return e.field();
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(field({"--audit-webhook-url", "https://hooks.example/x"}), "--audit-webhook-url");
+  EXPECT_EQ(field({"--audit-webhook-url", "http://:80/x"}), "--audit-webhook-url");
+  EXPECT_EQ(field({"--audit-webhook-url", "http://h:99999/x"}), "--audit-webhook-url");
+  EXPECT_EQ(field({"--audit-webhook-attempts", "0"}), "--audit-webhook-attempts");
+  EXPECT_EQ(field({"--audit-webhook-attempts", "21"}), "--audit-webhook-attempts");
+  EXPECT_EQ(field({"--audit-webhook-first-delay-ms", "5"}), "--audit-webhook-first-delay-ms");
 }
 
 }  // namespace
