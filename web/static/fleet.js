@@ -159,6 +159,13 @@ export function renderTrendChart(trend, limits, verdicts) {
 
 let metricsCache = null;
 
+// Without a metric in the address: the first of the kind of the machine's newest measurement.
+async function defaultMetric(machineId) {
+  const page = await api.measurements(machineId, { limit: 1, order: 'newest' });
+  const kind = page.items && page.items.length ? page.items[0].kind : 'dbb';
+  return (metricsCache.find((m) => m.kind === kind) || { metric: 'circularity_um' }).metric;
+}
+
 export async function showTrends(machineId, metric) {
   const view = $('#trends-view');
   view.dataset.machineId = machineId;
@@ -167,7 +174,7 @@ export async function showTrends(machineId, metric) {
   box.setAttribute('aria-busy', 'true');
   try {
     metricsCache = metricsCache || (await api.trendMetrics(machineId)).metrics;
-    const chosen = metric || 'circularity_um';
+    const chosen = metric || (await defaultMetric(machineId));
     const select = $('#trend-metric');
     select.replaceChildren(...metricsCache.map((m) => h('option', { value: m.metric }, `${m.kind}: ${m.metric} — ${m.label}`)));
     if (!metricsCache.some((m) => m.metric === chosen)) select.append(h('option', { value: chosen }, chosen));

@@ -92,6 +92,14 @@ test('joint health names the stiff leg; strut forces measured and modelled', { t
     await assertNoHorizontalOverflow(page, '400 px, joint health');
     await page.setViewportSize({ width: 1280, height: 900 });
 
+    // The machine's trend opens on its servo figures: each record carries the estimate's level.
+    await page.evaluate((m) => {
+      window.location.hash = `#/machines/${m}/trends`;
+    }, MACHINE);
+    await page.waitForSelector('#trends-view:not([hidden])[data-metric="joint_level"] [data-testid="trend-chart"]');
+    const levels = await page.$$eval('[data-testid="trend-point"]', (cs) => cs.map((c) => Number(c.dataset.value)));
+    assert.deepEqual(levels, ids.map(() => 3));
+
     // A record's page: six strut charts, measured and model, as the force route answers.
     const id = ids[0];
     await page.evaluate((i) => {
