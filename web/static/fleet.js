@@ -81,10 +81,10 @@ export async function showFleet() {
 
 // ---------------------------------------------------------------- trends
 
-// The warn / stop limits of the machine's audit rules for the metric (several rules: the
-// tightest), or null.
+// The warn / stop limits of the machine's absolute audit rules for the metric (several rules:
+// the tightest), or null; rules on the increase ("change") bound no value and are not drawn.
 function limitsOf(audit, metric) {
-  const rules = ((audit && audit.rules) || []).filter((r) => r.metric === metric);
+  const rules = ((audit && audit.rules) || []).filter((r) => r.metric === metric && !r.change);
   if (!rules.length) return null;
   const pick = (k) => {
     const v = rules.map((r) => r[k]).filter((x) => typeof x === 'number');
