@@ -11,7 +11,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { join } from 'node:path';
-import { dbbFile, outDir, withDashboard } from '../lib/harness.mjs';
+import { assertNoHorizontalOverflow, dbbFile, outDir, withDashboard } from '../lib/harness.mjs';
 
 const MACHINE = 'trend-vmc';
 const OTHER = 'fleet-lathe';
@@ -73,6 +73,9 @@ test('fleet overview, trends with limits, viewer and operator controls', { timeo
       else assert.deepEqual([r.audit, r.level], ['no audit', 'none']);
     }
     await page.locator('#fleet-view').screenshot({ path: join(outDir, 'fleet-overview.png') });
+    await page.setViewportSize({ width: 400, height: 800 });
+    await assertNoHorizontalOverflow(page, '400 px, fleet');
+    await page.setViewportSize({ width: 1280, height: 900 });
 
     // Audit rules for the circularity (when the server keeps them): warn and stop lines.
     const rules = { schedule: null, rules: [{ kind: 'dbb', metric: 'circularity_um', warn: Math.max(...circ) * 0.9, stop: Math.max(...circ) * 1.2 }] };
@@ -115,6 +118,9 @@ test('fleet overview, trends with limits, viewer and operator controls', { timeo
       assert.equal(await page.locator('[data-testid^="trend-limit-"]').count(), 0);
     }
     await page.locator('#trends-view').screenshot({ path: join(outDir, 'fleet-trend.png') });
+    await page.setViewportSize({ width: 400, height: 800 });
+    await assertNoHorizontalOverflow(page, '400 px, trend');
+    await page.setViewportSize({ width: 1280, height: 900 });
     // An unknown metric is refused naming the field.
     const bad = await fetch(`${server.base}/api/v1/machines/${MACHINE}/trends?metric=nonsense`, { headers: { Authorization: `Bearer ${server.token}` } });
     assert.equal(bad.status, 400);
