@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <thread>
 #include <tuple>
 #include <utility>
@@ -154,6 +155,7 @@ class DiagnosisRun {
   void AddCyclicErrors(const FitResult& f2);
   void RefineCyclicPeriods(FitResult& f3);
   void RefineShapes(FitResult& f3);
+  std::optional<std::vector<double>> RefinedShape(const FitContext& ctx, std::size_t q) const;
   std::vector<Candidate> Screen(const FitResult& f3, DiagnosisResult& res) const;
   VectorXd NameEffects(const std::vector<Candidate>& chosen, const FitResult& f4,
                        DiagnosisResult& res);
@@ -192,9 +194,9 @@ DiagnosisRun::DiagnosisRun(const std::vector<DiagnosisTrace>& traces, Plane plan
   // Set-up fit (centre, radius per trace) and the residual about it.
   e0_ = p_.y;
   p_.RemoveSetup(e0_, &setup_);
-  ctx_ = {&p_, &e0_, opt.confound_ratio, first_, second_, &cache_};
   median_step_ = MedianStepDeg(traces);
   threads_ = opt.threads > 0 ? opt.threads : std::max(1u, std::thread::hardware_concurrency());
+  ctx_ = {&p_, &e0_, opt.confound_ratio, first_, second_, &cache_, false, threads_};
   spike_lo_ = std::max(opt.spike_min_width_deg, 0.5 * median_step_);
   spike_hi_ = opt.spike_max_width_deg;
   if (spike_hi_ > spike_lo_) {
@@ -359,9 +361,10 @@ void DiagnosisRun::RefineCyclicPeriods(FitResult& f3) {
 }
 
 // Fitted shapes, jointly: each spike's width and decay shape and the stick-slip period again,
-// against the model of every other effect (one backfitting pass).
+// against the model of every other effect (one backfitting pass). The candidates are refined in
+// parallel: each fit leaves one column out of the last full fit, whose inner products are all
+// cached, so the cache is only read.
 void DiagnosisRun::RefineShapes(FitResult& f3) {
-  bool changed = false;
   std::vector<double> z(cands_.size(), 0.0);  // |value| / σ of the kept candidates in f3
   for (std::size_t j = 0; j < f3.kept.size(); ++j) {
     const int c = f3.first_col[j];
@@ -369,27 +372,47 @@ void DiagnosisRun::RefineShapes(FitResult& f3) {
       z[static_cast<std::size_t>(f3.kept[j])] = std::abs(f3.x[c]) / std::sqrt(f3.cov(c, c));
     }
   }
-  for (std::size_t q = 0; q < cands_.size(); ++q) {
-    const EffectId id = cands_[q].id;
-    // Not worth refining what is clearly not there (z < 2): it will not be named.
-    if (!HasFittedShape(id) || z[q] < 2.0) continue;
-    const Base b = MakeBase(Fit(ctx_, Pointers(cands_, q)));
-    if (IsSpike(id)) {
-      const auto axis = static_cast<std::size_t>(id == EffectId::kReversalSpikeU ? 0 : 1);
-      const SpikeShape s = SearchSpike(p_, order_[axis], b, spike_lo_, spike_hi_, 8);
-      if (s.gain > 0.0) cands_[q] = MakeCandidate(p_, id, {s.width, s.exponent});
-    } else {
-      const double period = cands_[q].shape[0];
-      const double tol = period * 1e-6;
-      // The teeth fall on the samples: the period is exact.
-      if (!CommensuratePeriods(period - tol, period + tol, median_step_).empty()) continue;
-      const auto r = RefineStickPeriod(p_, zones_, b, period, period * period / 180.0 / 32.0,
-                                       median_step_, buf_);
-      if (r.second > 0.0) cands_[q] = MakeCandidate(p_, id, {r.first});
-    }
+  // Not worth refining what is clearly not there (z < 2): it will not be named.
+  std::vector<std::size_t> todo;
+  for (std::size_t q = 0; q < cands_.size(); ++q)
+    if (HasFittedShape(cands_[q].id) && z[q] >= 2.0) todo.push_back(q);
+  if (todo.empty()) return;
+  std::vector<std::optional<std::vector<double>>> shape(todo.size());
+  FitContext ctx = ctx_;
+  ctx.read_only_cache = true;
+  ctx.threads = 1;
+  ParallelFor(
+      todo.size(), [&](std::size_t k) { shape[k] = RefinedShape(ctx, todo[k]); }, threads_);
+  bool changed = false;
+  for (std::size_t k = 0; k < todo.size(); ++k) {
+    if (!shape[k]) continue;
+    cands_[todo[k]] = MakeCandidate(p_, cands_[todo[k]].id, std::move(*shape[k]));
     changed = true;
   }
   if (changed) f3 = FitAll(cands_);
+}
+
+// The shape of candidate q refitted against every other candidate; none when the search finds
+// nothing or the shape is exact.
+std::optional<std::vector<double>> DiagnosisRun::RefinedShape(const FitContext& ctx,
+                                                              std::size_t q) const {
+  const EffectId id = cands_[q].id;
+  const Base b = MakeBase(Fit(ctx, Pointers(cands_, q)));
+  if (IsSpike(id)) {
+    const auto axis = static_cast<std::size_t>(id == EffectId::kReversalSpikeU ? 0 : 1);
+    const SpikeShape s = SearchSpike(p_, order_[axis], b, spike_lo_, spike_hi_, 8);
+    if (s.gain > 0.0) return std::vector<double>{s.width, s.exponent};
+    return std::nullopt;
+  }
+  const double period = cands_[q].shape[0];
+  const double tol = period * 1e-6;
+  // The teeth fall on the samples: the period is exact.
+  if (!CommensuratePeriods(period - tol, period + tol, median_step_).empty()) return std::nullopt;
+  Sparse buf;
+  const auto r =
+      RefineStickPeriod(p_, zones_, b, period, period * period / 180.0 / 32.0, median_step_, buf);
+  if (r.second > 0.0) return std::vector<double>{r.first};
+  return std::nullopt;
 }
 
 // Every estimated effect becomes a candidate entry; the significant ones with enough

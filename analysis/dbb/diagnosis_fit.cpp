@@ -82,6 +82,53 @@ struct Gram {
   VectorXd rhs;
 };
 
+// The inner products of the columns and with the data, from the cache where known; the
+// missing ones are computed in parallel (blocks of dot products) and cached unless read-only.
+void FillInnerProducts(const FitContext& ctx, const std::vector<int>& ids, Gram& gr) {
+  GramCache& cache = *ctx.cache;
+  const int total = static_cast<int>(gr.all.size());
+  std::vector<std::pair<int, int>> missing;  // (a, b ≤ a), b = −1 for the data
+  for (int a = 0; a < total; ++a) {
+    const int ia = ids[static_cast<std::size_t>(a)];
+    const auto r = cache.rhs.find(ia);
+    if (r != cache.rhs.end())
+      gr.rhs[a] = r->second;
+    else
+      missing.emplace_back(a, -1);
+    for (int b = 0; b <= a; ++b) {
+      const auto g = cache.gram.find({ia, ids[static_cast<std::size_t>(b)]});
+      if (g != cache.gram.end())
+        gr.g(a, b) = gr.g(b, a) = g->second;
+      else
+        missing.emplace_back(a, b);
+    }
+  }
+  constexpr std::size_t kBlock = 8;
+  std::vector<double> val(missing.size());
+  ParallelFor((missing.size() + kBlock - 1) / kBlock,
+              [&](std::size_t blk) {
+                for (std::size_t k = blk * kBlock; k < std::min(missing.size(), (blk + 1) * kBlock);
+                     ++k) {
+                  const auto [a, b] = missing[k];
+                  const VectorXd& other = b < 0 ? *ctx.e0 : *gr.all[static_cast<std::size_t>(b)];
+                  val[k] = gr.all[static_cast<std::size_t>(a)]->dot(other);
+                }
+              },
+              missing.size() >= 4 * kBlock ? ctx.threads : 1);
+  for (std::size_t k = 0; k < missing.size(); ++k) {
+    const auto [a, b] = missing[k];
+    const int ia = ids[static_cast<std::size_t>(a)];
+    if (b < 0) {
+      gr.rhs[a] = val[k];
+      if (!ctx.read_only_cache) cache.rhs.emplace(ia, val[k]);
+    } else {
+      gr.g(a, b) = gr.g(b, a) = val[k];
+      if (!ctx.read_only_cache)
+        cache.gram.emplace(std::make_pair(ia, ids[static_cast<std::size_t>(b)]), val[k]);
+    }
+  }
+}
+
 Gram GramOf(const FitContext& ctx, const std::vector<const Candidate*>& cands) {
   Gram gr;
   std::vector<int> ids;
@@ -94,22 +141,7 @@ Gram GramOf(const FitContext& ctx, const std::vector<const Candidate*>& cands) {
   const int total = static_cast<int>(gr.all.size());
   gr.g.resize(total, total);
   gr.rhs.resize(total);
-  GramCache& cache = *ctx.cache;
-  for (int a = 0; a < total; ++a) {
-    const VectorXd& ca = *gr.all[static_cast<std::size_t>(a)];
-    const int ia = ids[static_cast<std::size_t>(a)];
-    auto r = cache.rhs.find(ia);
-    if (r == cache.rhs.end()) r = cache.rhs.emplace(ia, ca.dot(*ctx.e0)).first;
-    gr.rhs[a] = r->second;
-    for (int b = 0; b <= a; ++b) {
-      const auto key = std::make_pair(ia, ids[static_cast<std::size_t>(b)]);
-      auto g = cache.gram.find(key);
-      if (g == cache.gram.end()) {
-        g = cache.gram.emplace(key, ca.dot(*gr.all[static_cast<std::size_t>(b)])).first;
-      }
-      gr.g(a, b) = gr.g(b, a) = g->second;
-    }
-  }
+  FillInnerProducts(ctx, ids, gr);
   return gr;
 }
 

@@ -78,6 +78,10 @@ struct FitContext {
   char first = 'x';
   char second = 'y';
   GramCache* cache = nullptr;
+  // Inner products missing from the cache are computed but not added to it (several fits may
+  // then share the cache on different threads).
+  bool read_only_cache = false;
+  unsigned threads = 1;  // for the inner products not yet cached
 };
 
 // Joint least-squares fit of the candidates in list order; a candidate whose columns are (almost)

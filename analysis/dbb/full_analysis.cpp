@@ -133,17 +133,25 @@ std::string Where(const DbbTest& t, std::size_t i) {
   return t.test_id.empty() ? "test #" + std::to_string(i + 1) : "test " + t.test_id;
 }
 
-// Figures of test i: circle, ISO 230-4, minimum zone, harmonics; `dev` receives the deviation
-// about the nominal centre.
-void AnalyzeOne(const DbbTest& t, std::size_t i, const DbbAnalysisOptions& opt, DbbTestReport& tr,
-                std::vector<double>& dev) {
+// Figures of test i the pair figures and the diagnosis need: circle and ISO 230-4; `dev`
+// receives the deviation about the nominal centre.
+void AnalyzeCircle(const DbbTest& t, std::size_t i, DbbTestReport& tr, std::vector<double>& dev) {
   try {
     tr.circular = AnalyzeCircularTest(t, DeviationUnits::kToolPath);
     tr.plane = t.plane;
     tr.iso230_4 = ComputeIso230(tr.circular);
-    // Minimum zone on the planar representation about the nominal centre (µm).
-    const double rn = NominalRadiusUm(tr.circular);
     dev = DeviationAboutNominalCentre(tr.circular);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(e.file(), e.line(), e.field(), Where(t, i) + ": " + e.reason());
+  }
+}
+
+// Form figures of test i, computed beside the diagnosis: minimum zone (on the planar
+// representation about the nominal centre, µm) and harmonics.
+void FormFigures(const DbbTest& t, std::size_t i, const DbbAnalysisOptions& opt, DbbTestReport& tr,
+                 const std::vector<double>& dev) {
+  try {
+    const double rn = NominalRadiusUm(tr.circular);
     std::vector<Eigen::Vector2d> pts(dev.size());
     std::vector<double> c(dev.size()), s(dev.size());
     for (std::size_t k = 0; k < dev.size(); ++k) {
@@ -221,9 +229,12 @@ std::vector<Unit> PairsAndDiagnoses(const std::vector<DbbTest>& tests, DbbReport
                                     const DbbAnalysisOptions& opt) {
   std::vector<PairCandidate> cands = FindPairCandidates(tests);
   std::vector<bool> speculative(tests.size(), false);
-  std::vector<std::function<void()>> jobs;
+  std::vector<std::function<void()>> jobs;  // the longest (diagnoses) first
+  std::vector<std::function<void()>> figures;
+  for (std::size_t i = 0; i < tests.size(); ++i)
+    figures.emplace_back([&, i] { FormFigures(tests[i], i, opt, rep.tests[i], devs[i]); });
   for (auto& c : cands) {
-    jobs.emplace_back([&] {
+    figures.emplace_back([&] {
       try {
         c.iso = ComputeIso230Pair(rep.tests[c.cw].circular, rep.tests[c.ccw].circular, devs[c.cw],
                                   devs[c.ccw]);
@@ -246,6 +257,7 @@ std::vector<Unit> PairsAndDiagnoses(const std::vector<DbbTest>& tests, DbbReport
     if (opt.diagnose && !speculative[i]) singles.push_back(Unit{{i}, {}});
   for (auto& u : singles)
     jobs.emplace_back([&] { u.result = DiagnoseUnit(tests, rep, devs, u.tests, opt); });
+  for (auto& f : figures) jobs.push_back(std::move(f));
   ParallelFor(
       jobs.size(), [&](std::size_t j) { jobs[j](); }, Threads(opt));
 
@@ -280,7 +292,7 @@ DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOpti
   rep.tests.resize(tests.size());
   std::vector<std::vector<double>> devs(tests.size());  // deviation about the nominal centre
   ParallelFor(
-      tests.size(), [&](std::size_t i) { AnalyzeOne(tests[i], i, opt, rep.tests[i], devs[i]); },
+      tests.size(), [&](std::size_t i) { AnalyzeCircle(tests[i], i, rep.tests[i], devs[i]); },
       Threads(opt));
   std::vector<Unit> units = PairsAndDiagnoses(tests, rep, devs, opt);
   if (!opt.diagnose) return rep;

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/sincos.h"
 
 namespace km::dbb {
 
@@ -213,7 +214,9 @@ double CyclicEnergy(const StackedTraces& p, const VectorXd& r, int axis, double 
     const double pos = axis == 0 ? rad * s.a.c : rad * s.a.s;
     const double w = axis == 0 ? s.a.c : s.a.s;
     const double arg = 2.0 * std::numbers::pi * pos / period;
-    const Eigen::Vector2d v(w * std::cos(arg), w * std::sin(arg));
+    double sa = 0.0, ca = 0.0;
+    SinCos(arg, &sa, &ca);
+    const Eigen::Vector2d v(w * ca, w * sa);
     g += v * v.transpose();
     b += v * r[i];
   }

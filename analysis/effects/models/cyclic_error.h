@@ -5,6 +5,7 @@
 // Linear in (c, d) for a fixed period; P is a shape parameter (found by a period search).
 #pragma once
 
+#include "analysis/core/sincos.h"
 #include "analysis/effects/effect_model.h"
 
 namespace km::effects {
@@ -35,8 +36,7 @@ struct CyclicError {
                           double (*e)[2]) {
     const double pos = c.radius_mm * (Axis == 0 ? a.c : a.s);
     const double arg = (2.0 * std::numbers::pi) * pos / shape[0];
-    e[0][Axis] = std::cos(arg);
-    e[1][Axis] = std::sin(arg);
+    SinCos(arg, &e[1][Axis], &e[0][Axis]);
     e[0][1 - Axis] = 0.0;
     e[1][1 - Axis] = 0.0;
   }
