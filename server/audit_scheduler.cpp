@@ -15,6 +15,8 @@ namespace {
 // The longest the thread sleeps without looking again (a clock set in tests, a time zone or
 // clock change of the host).
 constexpr std::int64_t kMaxSleepS = 60;
+// Verdicts looked through at a start for webhooks a stop left undelivered.
+constexpr std::int64_t kMaxResent = 1000;
 
 }  // namespace
 
@@ -52,8 +54,20 @@ AuditScheduler::~AuditScheduler() {
 void AuditScheduler::Start() {
   std::lock_guard lock(mu_);
   if (thread_.joinable() || stop_) return;
-  if (webhook_) webhook_->Start();
+  if (webhook_) {
+    ResendPending();
+    webhook_->Start();
+  }
   thread_ = std::thread([this] { Loop(); });
+}
+
+void AuditScheduler::ResendPending() {
+  AuditVerdictFilter f;
+  f.limit = kMaxResent;
+  const auto verdicts = service_.storage().ListAuditVerdicts(f);
+  for (auto v = verdicts.rbegin(); v != verdicts.rend(); ++v) {  // oldest first
+    if (v->webhook_status == "pending") webhook_->Enqueue(v->id, VerdictJson(*v).dump());
+  }
 }
 
 void AuditScheduler::Stop() {

@@ -39,7 +39,8 @@ class AuditScheduler {
   AuditScheduler(const AuditScheduler&) = delete;
   AuditScheduler& operator=(const AuditScheduler&) = delete;
 
-  // Starts the scheduler thread and the webhook queue; Stop joins both (also the destructor).
+  // Starts the scheduler thread and the webhook queue (with the verdicts a previous stop left
+  // undelivered); Stop joins both (also the destructor).
   void Start();
   void Stop();
 
@@ -52,6 +53,8 @@ class AuditScheduler {
 
  private:
   void Loop();
+  // Queues the webhook of verdicts a previous stop left "pending" (among the newest 1000).
+  void ResendPending();
   // The earliest stored due time (Unix seconds); nullopt when nothing is scheduled.
   std::optional<std::int64_t> NextDue();
 

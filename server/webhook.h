@@ -1,8 +1,8 @@
 // Delivery of accuracy-audit verdicts to a webhook (config audit_webhook_url): a background
 // queue, off the request path. Each verdict is POSTed as JSON; a failure (no connection, a
 // timeout, a status other than 2xx) is retried after 1 s, 2 s, 4 s, … (first_delay doubled)
-// up to `attempts` attempts in all. Stop() ends at once: verdicts not yet delivered stay
-// "pending".
+// up to `attempts` attempts in all. Stop() ends after the attempt under way (at most its
+// timeout): verdicts not yet delivered stay "pending" (AuditScheduler::Start sends them again).
 #pragma once
 
 #include <chrono>

@@ -273,6 +273,36 @@ TEST_F(AccuracyAudits, TheWebhookIsRetriedAfterA500AndTheDeliveryRecorded) {
   EXPECT_EQ(receiver.bodies().size(), 2u);
 }
 
+TEST_F(AccuracyAudits, AWebhookLeftPendingByAStopIsSentAtTheNextStart) {
+  Receiver receiver;
+  auto svc = Open();
+  const auto [id, circ] = UploadDbb(*svc);
+  AuditOptions o;
+  o.webhook_url = "http://127.0.0.1:" + std::to_string(receiver.port()) + "/hook";
+  o.webhook_first_delay_ms = 50;
+  json v;
+  {
+    AuditScheduler stopped(*svc, o, clock_);  // never started: the queue does not run
+    stopped.PutConfig("demo-vmc", Rules(circ / 2, circ * 2));
+    v = stopped.Run("demo-vmc", "manual");
+  }
+  EXPECT_EQ(AccuracyAuditJson(*svc, v["id"].get<std::int64_t>())["webhook"]["status"], "pending");
+  EXPECT_TRUE(receiver.bodies().empty());
+  AuditScheduler audits(*svc, o, clock_);
+  audits.Start();
+  const auto t0 = std::chrono::steady_clock::now();
+  json stored;
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10)) {
+    stored = AccuracyAuditJson(*svc, v["id"].get<std::int64_t>());
+    if (stored["webhook"]["status"] != "pending") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  audits.Stop();
+  EXPECT_EQ(stored["webhook"], (json{{"status", "delivered"}, {"attempts", 2}}));
+  ASSERT_EQ(receiver.bodies().size(), 2u);
+  EXPECT_EQ(json::parse(receiver.bodies()[1])["id"], v["id"]);
+}
+
 TEST(AuditWebhookOptions, AreReadFromTheCommandLineAndChecked) {
   const auto cfg =
       ParseServerArgs({"--audit-webhook-url", "http://127.0.0.1:9000/hook",
