@@ -85,6 +85,16 @@ TEST_F(AccuracyAudits, ARunFindsTheNewestResultAboveTheLimitsWithItsEvidence) {
   ASSERT_EQ(list["audits"].size(), 2u);
   EXPECT_EQ(list["audits"][0]["id"], stop["id"]);
   EXPECT_EQ(AuditConfigJson(*svc, "demo-vmc")["last_run_at"], "2026-11-27T03:12:00Z");
+  f.from = "2026-11-27T03:12:00Z";  // inclusive
+  EXPECT_EQ(ListAccuracyAudits(*svc, f)["audits"].size(), 2u);
+  f.from.reset();
+  f.to = "2026-11-27T03:12:00Z";  // exclusive
+  EXPECT_TRUE(ListAccuracyAudits(*svc, f)["audits"].empty());
+  f.to.reset();
+  f.limit = 1;
+  EXPECT_EQ(ListAccuracyAudits(*svc, f)["audits"][0]["id"], stop["id"]);
+  f.machine_id = "other";
+  EXPECT_TRUE(ListAccuracyAudits(*svc, f)["audits"].empty());
 }
 
 TEST_F(AccuracyAudits, PreviousAuditTrendComparesWithTheValueThatAuditSaw) {
