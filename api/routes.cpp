@@ -394,8 +394,8 @@ void AddRoutes(Router& router, server::Service& service) {
   AddMachineModelRoutes(router, service);
   AddStreamRoutes(router, service);
   AddServoRoutes(router, service);
-  AddAuditRoutes(router, service);
   AddFleetRoutes(router, service);
+  AddAuditRoutes(router, service);
   AddAccessRoutes(router, service);
   AddMetricsRoute(router, service);
 }

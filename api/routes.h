@@ -21,12 +21,12 @@ void AddStreamRoutes(Router& router, server::Service& service);
 // The servo-load analyses of stored measurements (api/servo_routes.cpp).
 void AddServoRoutes(Router& router, server::Service& service);
 
-// The fleet overview and a machine's trends (api/fleet_routes.cpp).
-void AddFleetRoutes(Router& router, server::Service& service);
-
 // Accuracy audits: rules and schedule of a machine, runs, verdicts, metrics
 // (api/audit_routes.cpp).
 void AddAuditRoutes(Router& router, server::Service& service);
+
+// The fleet overview and a machine's trends (api/fleet_routes.cpp).
+void AddFleetRoutes(Router& router, server::Service& service);
 
 // Tokens (create, list, revoke) and the audit log, all admin (api/access.cpp).
 void AddAccessRoutes(Router& router, server::Service& service);

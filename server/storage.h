@@ -327,6 +327,7 @@ class Storage {
   // The audit log of state-changing requests, appended only; listed newest first.
   virtual void AppendAudit(const AuditEntry& entry) = 0;
   virtual AuditPage ListAudit(std::int64_t limit, std::int64_t offset) = 0;
+
   // Accuracy audits. PutAuditConfig stores (or replaces) a machine's rules and schedule;
   // ListAuditConfigs: every machine's, by machine_id. SetAuditRun records a run's time and the
   // next due time (none: not scheduled).
@@ -341,7 +342,6 @@ class Storage {
   virtual std::vector<AuditVerdictRecord> ListAuditVerdicts(const AuditVerdictFilter& filter) = 0;
   virtual void SetAuditWebhook(std::int64_t id, const std::string& status,
                                std::int64_t attempts) = 0;
-
 };
 
 }  // namespace km::server
