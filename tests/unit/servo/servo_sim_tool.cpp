@@ -2,7 +2,7 @@
 // [PM-600 report] ch. 2) of the pm600-like machine as `kinemetric-servo/1` files, simulated by
 // the independent simulator (servo_truth.h), for scenarios that upload them to a real server
 // (tests/browser/dashboard/servo.test.mjs).
-//   km_servo_sim OUT_DIR [--samples N] [--stiff-leg K --factor F] [--noise-N S] [--seed S]
+//   km_servo_sim OUT_DIR [--samples N] [--stiff-leg K --factor F] [--noise-N S] [--noise-draw D]
 // One file a circle: OUT_DIR/<test_id>_<ccw|cw>.txt; the names are printed, one a line.
 #include <cstdio>
 #include <cstdlib>
@@ -18,7 +18,7 @@ struct Args {
   std::string out;
   int samples = 240, stiff_leg = 0;
   double factor = 1.0, noise_N = 2.0;
-  unsigned seed = 7;
+  unsigned noise_draw = 7;  // which draw of the noise generator
 };
 
 bool Parse(int argc, char** argv, Args& a) {
@@ -34,8 +34,8 @@ bool Parse(int argc, char** argv, Args& a) {
       a.factor = std::atof(v.c_str());
     } else if (k == "--noise-N") {
       a.noise_N = std::atof(v.c_str());
-    } else if (k == "--seed") {
-      a.seed = static_cast<unsigned>(std::atoi(v.c_str()));
+    } else if (k == "--noise-draw") {
+      a.noise_draw = static_cast<unsigned>(std::atoi(v.c_str()));
     } else {
       return false;
     }
@@ -50,12 +50,12 @@ int main(int argc, char** argv) {
   if (!Parse(argc, argv, a)) {
     std::fprintf(stderr,
                  "usage: km_servo_sim OUT_DIR [--samples N] [--stiff-leg K --factor F] "
-                 "[--noise-N S] [--seed S]\n");
+                 "[--noise-N S] [--noise-draw D]\n");
     return 2;
   }
   auto m = km::servo::truth::Pm600Truth();
   if (a.stiff_leg > 0) m.leg_factor[static_cast<std::size_t>(a.stiff_leg - 1)] = a.factor;
-  std::mt19937 rng(a.seed);
+  std::mt19937 rng(a.noise_draw);
   for (auto c : km::servo::truth::JigPlan(a.samples)) {
     for (bool ccw : {true, false}) {
       c.ccw = ccw;
