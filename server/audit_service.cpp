@@ -93,6 +93,47 @@ std::optional<AuditValue> AtPreviousAudit(const json& previous, const AuditRule&
   return std::nullopt;
 }
 
+bool SameTest(const MeasurementRecord& a, const MeasurementRecord& b) {
+  return a.test_id == b.test_id && a.direction == b.direction;
+}
+
+std::string TestName(const MeasurementRecord& r) {
+  std::string name = r.test_id.empty() ? "(no test_id)" : r.test_id;
+  return r.direction.empty() ? name : name + " " + r.direction;
+}
+
+// A trend's reference is a value of the same test (test_id and direction) as the newest one:
+// the value the previous audit saw, or the newest at or before now − days.
+void FindReference(Service& service, const AuditMetric& metric, const AuditRule& rule,
+                   std::vector<Stored>& history, const Stored& newest, const json& previous,
+                   std::int64_t now, AuditEvidence& ev) {
+  if (rule.change == AuditRule::Change::kPreviousAudit) {
+    ev.reference = AtPreviousAudit(previous, rule);
+    if (!ev.reference) {
+      ev.missing = "no previous audit with a value of this metric";
+      return;
+    }
+    const auto seen = service.storage().GetMeasurement(ev.reference->measurement_id);
+    if (!seen || !SameTest(*seen, newest.record)) {
+      ev.missing = "the previous audit saw another test than " + TestName(newest.record) +
+                   " (measurement " + std::to_string(ev.reference->measurement_id) + ")";
+      ev.reference.reset();
+    }
+    return;
+  }
+  const std::int64_t cutoff = now - rule.days * 86400;
+  int budget = kMaxPairAnalyses;
+  for (auto& s : history) {
+    if (s.at > cutoff || !SameTest(s.record, newest.record)) continue;
+    if (const auto v = ValueOf(service, metric, s, budget)) {
+      ev.reference = Found(*v, s);
+      return;
+    }
+  }
+  ev.missing = "no result of test " + TestName(newest.record) + " at or before " +
+               IsoFromUnixSeconds(cutoff);
+}
+
 AuditEvidence Gather(Service& service, const AuditRule& rule, std::vector<Stored>& history,
                      const json& previous, std::int64_t now) {
   AuditEvidence ev;
@@ -105,24 +146,10 @@ AuditEvidence Gather(Service& service, const AuditRule& rule, std::vector<Stored
   for (auto& s : history) {
     if (const auto v = ValueOf(service, *metric, s, budget)) {
       ev.newest = Found(*v, s);
-      break;
-    }
-  }
-  if (rule.change == AuditRule::Change::kPreviousAudit) {
-    ev.reference = AtPreviousAudit(previous, rule);
-    if (!ev.reference && ev.newest) ev.missing = "no previous audit with a value of this metric";
-  } else if (rule.change == AuditRule::Change::kDays) {
-    const std::int64_t cutoff = now - rule.days * 86400;
-    budget = kMaxPairAnalyses;
-    for (auto& s : history) {
-      if (s.at > cutoff) continue;
-      if (const auto v = ValueOf(service, *metric, s, budget)) {
-        ev.reference = Found(*v, s);
-        break;
+      if (rule.change != AuditRule::Change::kNone) {
+        FindReference(service, *metric, rule, history, s, previous, now, ev);
       }
-    }
-    if (!ev.reference && ev.newest) {
-      ev.missing = "no result at or before " + IsoFromUnixSeconds(cutoff);
+      break;
     }
   }
   return ev;

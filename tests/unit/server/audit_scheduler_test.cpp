@@ -169,7 +169,8 @@ TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTest
   EXPECT_NEAR(expected, 3.0, 0.1);  // 3 µm of backlash simulated
 
   EXPECT_EQ(v["checked"][3]["status"], "not evaluated");
-  EXPECT_EQ(v["checked"][3]["reason"], "no result at or before 2016-11-29T03:12:00Z");
+  EXPECT_EQ(v["checked"][3]["reason"],
+            "no result of test xy-r150 cw at or before 2016-11-29T03:12:00Z");
 }
 
 TEST_F(AccuracyAudits, AMissedScheduleRunsOnceAlsoAfterARestart) {
