@@ -115,6 +115,15 @@ TEST_F(AccuracyAudits, PreviousAuditTrendComparesWithTheValueThatAuditSaw) {
   EXPECT_EQ(second["checked"][0]["status"], "ok");
   EXPECT_EQ(second["checked"][0]["value"], 0.0);
   EXPECT_EQ(second["checked"][0]["reference_measurement_id"], id);
+  // A newer test of another plane is not compared with the one the previous audit saw.
+  const auto yz = DemoDbbFiles().back();
+  const auto yz_id = svc->Upload(yz.bytes, yz.name).id;
+  const json third = audits.Run("demo-vmc", "manual");
+  EXPECT_EQ(third["checked"][0]["status"], "not evaluated");
+  EXPECT_EQ(third["checked"][0]["measurement_id"], yz_id);
+  EXPECT_EQ(third["checked"][0]["reason"],
+            "the previous audit saw another test than yz-r150 cw (measurement " +
+                std::to_string(id) + ")");
 }
 
 // The demo machine's XY tests of 2 September, 1 October and 2 November 2026 (CCW and CW each),
