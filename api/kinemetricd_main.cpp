@@ -9,6 +9,7 @@
 
 #include <unistd.h>
 
+#include "analysis/core/allocator.h"
 #include "analysis/core/errors.h"
 #include "api/http_server.h"
 #include "api/metrics.h"
@@ -60,6 +61,7 @@ km::api::HttpOptions HttpOptionsOf(const km::server::ServerConfig& cfg) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  km::RetainFreedMemory();
   km::server::ServerConfig cfg;
   try {
     cfg = km::server::ParseServerArgs(std::vector<std::string>(argv + 1, argv + argc));

@@ -4,6 +4,7 @@
 #include <exception>
 #include <iostream>
 
+#include "analysis/core/allocator.h"
 #include "analysis/core/errors.h"
 #include "cli/command.h"
 
@@ -19,6 +20,7 @@ void PrintUsage(std::ostream& os) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  km::RetainFreedMemory();
   std::vector<std::string> words(argv + 1, argv + argc);
   if (words.empty() || words[0] == "--help" || words[0] == "-h" || words[0] == "help") {
     PrintUsage(words.empty() ? std::cerr : std::cout);

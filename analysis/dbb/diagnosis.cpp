@@ -199,11 +199,18 @@ DiagnosisRun::DiagnosisRun(const std::vector<DiagnosisTrace>& traces, Plane plan
   ctx_ = {&p_, &e0_, opt.confound_ratio, first_, second_, &cache_, false, threads_};
   spike_lo_ = std::max(opt.spike_min_width_deg, 0.5 * median_step_);
   spike_hi_ = opt.spike_max_width_deg;
-  if (spike_hi_ > spike_lo_) {
-    order_ = {MakeReversalOrder(p_, EffectId::kReversalSpikeU),
-              MakeReversalOrder(p_, EffectId::kReversalSpikeV)};
-  }
-  zones_ = MakeStickZones(p_);
+  if (spike_hi_ > spike_lo_) order_.resize(2);
+  ParallelFor(
+      3,
+      [&](std::size_t k) {
+        if (k == 2) {
+          zones_ = MakeStickZones(p_);
+        } else if (!order_.empty()) {
+          order_[k] =
+              MakeReversalOrder(p_, k == 0 ? EffectId::kReversalSpikeU : EffectId::kReversalSpikeV);
+        }
+      },
+      threads_);
 }
 
 DiagnosisResult DiagnosisRun::Run() {
@@ -226,7 +233,7 @@ DiagnosisResult DiagnosisRun::Run() {
   const std::vector<Candidate> chosen = Screen(f3, res);
   // Refit with the named form effects only; uncertainties with the fitted shapes.
   FitResult f4 = FitAll(chosen);
-  AugmentShapes(p_, chosen, f4);
+  AugmentShapes(p_, chosen, f4, threads_);
   const VectorXd final_res = NameEffects(chosen, f4, res);
   AddSetupEntries(f4, res);
   RankNamed(final_res, res);
@@ -418,11 +425,14 @@ std::optional<std::vector<double>> DiagnosisRun::RefinedShape(const FitContext& 
 // Every estimated effect becomes a candidate entry; the significant ones with enough
 // contribution are chosen for the final fit.
 std::vector<Candidate> DiagnosisRun::Screen(const FitResult& f3, DiagnosisResult& res) const {
-  std::vector<DiagnosisEntry> stage3;
-  for (std::size_t j = 0; j < f3.kept.size(); ++j) {
-    stage3.push_back(
-        MakeEntry(p_, cands_[static_cast<std::size_t>(f3.kept[j])], f3, j, first_, second_));
-  }
+  std::vector<DiagnosisEntry> stage3(f3.kept.size());
+  ParallelFor(
+      f3.kept.size(),
+      [&](std::size_t j) {
+        stage3[j] =
+            MakeEntry(p_, cands_[static_cast<std::size_t>(f3.kept[j])], f3, j, first_, second_);
+      },
+      threads_);
   std::vector<DiagnosisEntry*> ptrs;
   for (auto& e : stage3) ptrs.push_back(&e);
   Normalise(p_, ptrs, f3.residual);
@@ -516,74 +526,6 @@ void DiagnosisRun::RankNamed(const VectorXd& final_res, DiagnosisResult& res) co
 }
 
 }  // namespace
-
-void DiagnosisOptions::Check() const {
-  if (!(significance > 0.0)) throw InvalidInput("", 0, "significance", "must be positive");
-  if (min_contribution_pct < 0.0 || min_contribution_pct > 100.0) {
-    throw InvalidInput("", 0, "min_contribution_pct", "must be within 0…100");
-  }
-  if (!(confound_ratio > 0.0 && confound_ratio < 1.0)) {
-    throw InvalidInput("", 0, "confound_ratio", "must be within (0, 1)");
-  }
-  if (!(spike_min_width_deg > 0.0 && spike_max_width_deg > spike_min_width_deg)) {
-    throw InvalidInput("", 0, "spike_min_width_deg", "need 0 < min < max width");
-  }
-  if (!(cyclic_min_period_mm > 0.0)) throw InvalidInput("", 0, "cyclic_min_period_mm", "> 0");
-  if (!(stick_slip_min_period_deg > 0.0 && stick_slip_max_period_deg > stick_slip_min_period_deg)) {
-    throw InvalidInput("", 0, "stick_slip_min_period_deg", "need 0 < min < max period");
-  }
-  if (!(stick_slip_max_step_deg > 0.0)) {
-    throw InvalidInput("", 0, "stick_slip_max_step_deg", "must be positive");
-  }
-  if (!(stick_slip_detection_chi2 > 0.0)) {
-    throw InvalidInput("", 0, "stick_slip_detection_chi2", "must be positive");
-  }
-}
-
-double DiagnosisEntry::MaxContribution() const {
-  double m = 0.0;
-  for (double c : contribution_pct) m = std::max(m, c);
-  return m;
-}
-
-std::pair<char, char> AxisLetters(Plane plane) {
-  switch (plane) {
-    case Plane::kYZ:
-      return {'y', 'z'};
-    case Plane::kZX:
-      return {'z', 'x'};
-    case Plane::kXY:
-    default:
-      return {'x', 'y'};
-  }
-}
-
-DiagnosisTrace MakeDiagnosisTrace(const DbbTest& test, const CircularTestResult& result) {
-  return MakeDiagnosisTrace(test, result, DeviationAboutNominalCentre(result));
-}
-
-DiagnosisTrace MakeDiagnosisTrace(const DbbTest& test, const CircularTestResult& result,
-                                  const std::vector<double>& dev) {
-  if (dev.size() != result.angle_deg.size()) {
-    throw InvalidInput("", 0, "dr_um", "deviation and angle sizes differ");
-  }
-  DiagnosisTrace t;
-  t.direction = test.direction;
-  t.radius_mm = test.radius_mm;
-  t.feed_mm_min = test.feed_mm_min;
-  const double k = test.bar_length_mm / test.radius_mm;  // bar → in-plane radial (cone tests)
-  t.dev_um = dev;
-  for (double& d : t.dev_um) d *= k;
-  t.angle_rad.resize(result.angle_deg.size());
-  t.cos_angle.resize(t.angle_rad.size());
-  t.sin_angle.resize(t.angle_rad.size());
-  for (std::size_t i = 0; i < t.angle_rad.size(); ++i) {
-    t.angle_rad[i] = result.angle_deg[i] * kDeg;
-    t.cos_angle[i] = CosAngle(result, i);
-    t.sin_angle[i] = SinAngle(result, i);
-  }
-  return t;
-}
 
 DiagnosisResult DiagnoseSerialDbb(const std::vector<DiagnosisTrace>& traces, Plane plane,
                                   const DiagnosisOptions& opt) {

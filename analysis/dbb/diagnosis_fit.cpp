@@ -66,8 +66,15 @@ std::vector<Candidate> MakeCandidates(const Problem& p, const std::vector<Candid
 
 VectorXd FitResult::Combine(int off, int count, Eigen::Index n) const {
   if (count <= 0) return VectorXd::Zero(n);
-  VectorXd v = x[off] * *a[static_cast<std::size_t>(off)];
-  for (int m = off + 1; m < off + count; ++m) v += x[m] * *a[static_cast<std::size_t>(m)];
+  auto col = [&](int m) -> const VectorXd& { return *a[static_cast<std::size_t>(m)]; };
+  const int end = off + count;
+  int m = off;
+  // Four columns a pass: one sweep over the samples instead of four.
+  VectorXd v = x[m] * col(m);
+  for (++m; m + 3 < end; m += 4) {
+    v += x[m] * col(m) + x[m + 1] * col(m + 1) + x[m + 2] * col(m + 2) + x[m + 3] * col(m + 3);
+  }
+  for (; m < end; ++m) v += x[m] * col(m);
   return v;
 }
 
@@ -284,17 +291,29 @@ FitResult Fit(const FitContext& ctx, const std::vector<const Candidate*>& cands)
 // σ² = RSS / (N − 3T − p − q). Replaces f.cov and f.sigma2 and fills f.shape_sigma (left
 // unchanged when the augmented normal matrix is singular, e.g. a shape the data do not
 // determine).
-void AugmentShapes(const Problem& p, const std::vector<Candidate>& cands, FitResult& f) {
+void AugmentShapes(const Problem& p, const std::vector<Candidate>& cands, FitResult& f,
+                   unsigned threads) {
   const int ncol = static_cast<int>(f.a.size());
-  std::vector<VectorXd> d;
-  std::vector<int> which;
+  std::vector<std::size_t> shaped;  // indices into f.kept
   for (std::size_t j = 0; j < f.kept.size(); ++j) {
     const Candidate& c = cands[static_cast<std::size_t>(f.kept[j])];
-    if (!HasFittedShape(c.id) || c.cols.size() != 1) continue;
-    VectorXd col = ShapeDerivative(p, c) * f.x[f.first_col[j]];
-    if (!(col.squaredNorm() > 0.0)) continue;
-    d.push_back(std::move(col));
-    which.push_back(static_cast<int>(j));
+    if (HasFittedShape(c.id) && c.cols.size() == 1) shaped.push_back(j);
+  }
+  std::vector<VectorXd> all(shaped.size());
+  ParallelFor(
+      shaped.size(),
+      [&](std::size_t k) {
+        const std::size_t j = shaped[k];
+        all[k] =
+            ShapeDerivative(p, cands[static_cast<std::size_t>(f.kept[j])]) * f.x[f.first_col[j]];
+      },
+      threads);
+  std::vector<VectorXd> d;
+  std::vector<int> which;
+  for (std::size_t k = 0; k < shaped.size(); ++k) {
+    if (!(all[k].squaredNorm() > 0.0)) continue;
+    d.push_back(std::move(all[k]));
+    which.push_back(static_cast<int>(shaped[k]));
   }
   const int nd = static_cast<int>(d.size());
   const int dof = f.dof - nd;

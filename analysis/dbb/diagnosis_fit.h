@@ -89,7 +89,9 @@ struct FitContext {
 FitResult Fit(const FitContext& ctx, const std::vector<const Candidate*>& cands);
 
 // Covariance of the full model with the fitted shape parameters included (see diagnosis.cpp).
-void AugmentShapes(const Problem& p, const std::vector<Candidate>& cands, FitResult& f);
+// The shape derivatives are computed on up to `threads` threads.
+void AugmentShapes(const Problem& p, const std::vector<Candidate>& cands, FitResult& f,
+                   unsigned threads = 1);
 
 // Base of a conditional fit: the kept columns of a fit (owned by the candidates), their
 // (AᵀA)⁻¹ and the residual.

@@ -3,6 +3,7 @@
 // *OneThread variants give the figure on one core (DbbAnalysisOptions::threads = 1).
 #include <benchmark/benchmark.h>
 
+#include "analysis/core/allocator.h"
 #include "analysis/dbb/full_analysis.h"
 #include "analysis/dbb/serial_sim.h"
 
@@ -80,4 +81,12 @@ BENCHMARK(BM_PolarPlotPng)->Unit(benchmark::kMillisecond);
 }  // namespace
 }  // namespace km::dbb
 
-BENCHMARK_MAIN();
+// The executables' allocator setting (analysis/core/allocator.h), as the server runs it.
+int main(int argc, char** argv) {
+  km::RetainFreedMemory();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
