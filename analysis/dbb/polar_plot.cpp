@@ -6,10 +6,10 @@
 #include <numbers>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "analysis/core/errors.h"
+#include "analysis/dbb/png.h"
 
 namespace km::dbb {
 
@@ -133,9 +133,7 @@ std::vector<unsigned char> RenderPolarPlot(const std::vector<PolarPlotTrace>& tr
               font, cv::Scalar(0, 0, 0), thin, cv::LINE_AA);
   cv::putText(img, "+" + o.second_axis, to_px(std::numbers::pi / 2.0, (ndiv + 0.6) * div),
               cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(0, 0, 0), thin, cv::LINE_AA);
-  std::vector<unsigned char> png;
-  if (!cv::imencode(".png", img, png)) throw InvalidInput("", 0, "plot", "PNG encoding failed");
-  return png;
+  return EncodePngBgr(img.ptr<unsigned char>(0), img.cols, img.rows, img.step[0]);
 }
 
 }  // namespace km::dbb
