@@ -346,7 +346,8 @@ class Session : public std::enable_shared_from_this<Session> {
   // Counts the answer and writes its access-log line (never the token, only its id).
   void Record(const Response& res) const {
     RequestRecord r;
-    r.method = head_ ? "HEAD" : req_.method;
+    // Both arms string_view: a std::string arm would make "HEAD" a temporary string.
+    r.method = head_ ? std::string_view("HEAD") : std::string_view(req_.method);
     r.route = req_.route;
     r.path = req_.path;
     r.status = res.status;
