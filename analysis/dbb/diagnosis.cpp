@@ -151,12 +151,16 @@ class DiagnosisRun {
  private:
   FitResult FitAll(const std::vector<Candidate>& c) const { return Fit(ctx_, Pointers(c)); }
   void AddSpikes(const FitResult& f1);
-  void AddStickSlip(FitResult& f2);
-  void AddCyclicErrors(const FitResult& f2);
+  void AddStickSlipAndCyclicErrors(FitResult& f2);
+  bool StickSlipAssessed();
+  double StickSlipPeak(const FitResult& f2, double* chi2) const;
+  bool AddStickSlip(FitResult& f2, double peak, double chi2);
+  double CyclicPeriod(const FitResult& f2, int axis) const;
+  void AddCyclicErrors(const std::array<double, 2>& found);
   void RefineCyclicPeriods(FitResult& f3);
   void RefineShapes(FitResult& f3);
   std::optional<std::vector<double>> RefinedShape(const FitContext& ctx, std::size_t q) const;
-  std::vector<Candidate> Screen(const FitResult& f3, DiagnosisResult& res) const;
+  std::vector<Candidate> Screen(const FitResult& f3, DiagnosisResult& res);
   VectorXd NameEffects(const std::vector<Candidate>& chosen, const FitResult& f4,
                        DiagnosisResult& res);
   DiagnosisEntry SetupEntry(EffectId id, std::vector<double> value,
@@ -220,8 +224,7 @@ DiagnosisResult DiagnosisRun::Run() {
   const FitResult f1 = FitAll(cands_);
   AddSpikes(f1);
   FitResult f2 = FitAll(cands_);
-  AddStickSlip(f2);
-  AddCyclicErrors(f2);
+  AddStickSlipAndCyclicErrors(f2);
   FitResult f3 = FitAll(cands_);
   RefineCyclicPeriods(f3);
   RefineShapes(f3);
@@ -265,27 +268,62 @@ void DiagnosisRun::AddSpikes(const FitResult& f1) {
   for (auto& c : MakeCandidates(p_, found, threads_)) cands_.push_back(std::move(c));
 }
 
-// Stick-slip, a sawtooth in the low-speed zones; period from a periodogram over the angle since
-// the reversal, refined on the exact signature, tried when it stands out. Stick-slip teeth
-// shorter than three samples alias into longer, reversed ones: with steps above
-// stick_slip_max_step_deg the sawtooth is not assessed at all.
-void DiagnosisRun::AddStickSlip(FitResult& f2) {
+// Stick-slip, then cyclic errors, each searched on the residual of the model so far. The two
+// period searches read the same residual and run at once; the cyclic one is repeated when a
+// stick-slip sawtooth joins the model (its residual changes).
+void DiagnosisRun::AddStickSlipAndCyclicErrors(FitResult& f2) {
+  const bool stick = StickSlipAssessed();
+  double peak = 0.0, chi2 = 0.0;
+  std::array<double, 2> cyclic{0.0, 0.0};  // period of each axis, 0 when not detected
+  ParallelFor(
+      3,
+      [&](std::size_t k) {
+        if (k == 2) {
+          if (stick) peak = StickSlipPeak(f2, &chi2);
+        } else {
+          cyclic[k] = CyclicPeriod(f2, static_cast<int>(k));
+        }
+      },
+      threads_);
+  if (stick && AddStickSlip(f2, peak, chi2)) {
+    ParallelFor(
+        2, [&](std::size_t k) { cyclic[k] = CyclicPeriod(f2, static_cast<int>(k)); }, threads_);
+  }
+  AddCyclicErrors(cyclic);
+}
+
+// Stick-slip teeth shorter than three samples alias into longer, reversed ones: with steps
+// above stick_slip_max_step_deg the sawtooth is not assessed at all.
+bool DiagnosisRun::StickSlipAssessed() {
   const double lo = std::max(opt_.stick_slip_min_period_deg, 3.0 * median_step_);
   const double hi = opt_.stick_slip_max_period_deg;
   if (!(hi > lo && median_step_ <= opt_.stick_slip_max_step_deg)) {
     not_assessed_.push_back(effects::EffectName(EffectId::kStickSlip, first_, second_) +
                             " (samples too far apart to resolve its teeth)");
-    return;
+    return false;
   }
-  if (zones_.idx.size() <= 10) return;
+  return zones_.idx.size() > 10;
+}
+
+// Stick-slip, a sawtooth in the low-speed zones; period from a periodogram over the angle since
+// the reversal (0 when none; `chi2` its peak's strength).
+double DiagnosisRun::StickSlipPeak(const FitResult& f2, double* chi2) const {
+  const double lo = std::max(opt_.stick_slip_min_period_deg, 3.0 * median_step_);
+  const double hi = opt_.stick_slip_max_period_deg;
   const double s2 =
       std::max(std::pow(DiffNoiseUm(p_, f2.residual), 2), f2.residual.squaredNorm() / f2.dof);
-  double chi2 = 0.0;
-  const double peak = StickPeriodPeak(zones_, f2.residual, lo, hi, s2, &chi2);
+  return StickPeriodPeak(zones_, f2.residual, lo, hi, s2, chi2);
+}
+
+// The periodogram's peak refined on the exact signature and tried when it stands out; true
+// when the sawtooth joins the model (f2 is then refitted).
+bool DiagnosisRun::AddStickSlip(FitResult& f2, double peak, double chi2) {
   // The transform's peak must stand out before the fine scan is worth its cost: ~500
   // independent frequencies of exponentially distributed power (mean 1) exceed 15 by chance
   // with probability ~1e-4.
-  if (!(peak > 0.0 && chi2 > 15.0)) return;
+  if (!(peak > 0.0 && chi2 > 15.0)) return false;
+  const double s2 =
+      std::max(std::pow(DiffNoiseUm(p_, f2.residual), 2), f2.residual.squaredNorm() / f2.dof);
   const Base b2 = MakeBase(f2);
   std::pair<double, double> best{0.0, -1.0};  // period, gain
   const double fringe = peak * peak / 180.0;
@@ -294,38 +332,34 @@ void DiagnosisRun::AddStickSlip(FitResult& f2) {
     if (r.second > best.second) best = r;
   }
   best = PreferCommensurate(p_, zones_, b2, best, 4.0 * fringe, median_step_, buf_);
-  if (best.second / s2 > opt_.stick_slip_detection_chi2) {
-    cands_.push_back(MakeCandidate(p_, EffectId::kStickSlip, {best.first}));
-    f2 = FitAll(cands_);
-  }
+  if (!(best.second / s2 > opt_.stick_slip_detection_chi2)) return false;
+  cands_.push_back(MakeCandidate(p_, EffectId::kStickSlip, {best.first}));
+  f2 = FitAll(cands_);
+  return true;
 }
 
-// Cyclic errors: period search on the residual of the model so far.
-void DiagnosisRun::AddCyclicErrors(const FitResult& f2) {
-  if (!opt_.search_cyclic) return;
+// Cyclic error of one axis: period search on the residual of the model so far; 0 when none is
+// detected. Searched only when the residual is not white: a smooth periodic error raises its
+// variance above the successive-difference estimate of the noise variance.
+double DiagnosisRun::CyclicPeriod(const FitResult& f2, int axis) const {
+  if (!opt_.search_cyclic) return 0.0;
   const Spacing sp = TraceSpacing(traces_);
   const double pmin = std::max(opt_.cyclic_min_period_mm, 4.0 * sp.rmin * sp.max_step);
   const double pmax = opt_.cyclic_max_period_fraction * sp.rmin;
   const double s2 = std::pow(DiffNoiseUm(p_, f2.residual), 2);
-  // Search only when the residual is not white: a smooth periodic error raises its variance
-  // above the successive-difference estimate of the noise variance.
   const double var = f2.residual.squaredNorm() / p_.n;
   const bool structured = var > s2 * (1.0 + 4.0 * std::sqrt(2.0 / p_.n));
-  if (!(structured && pmax > pmin && s2 > 0.0)) return;
-  std::array<double, 2> found{0.0, 0.0};  // period of each axis, 0 when not detected
-  ParallelFor(
-      2,
-      [&](std::size_t axis) {
-        const int a = static_cast<int>(axis);
-        const double period = CyclicPeriodPeak(p_, f2.residual, a, pmin, pmax);
-        if (!(period > 0.0)) return;
-        // Projection energy of the residual (on a subsample that keeps ≥ 4 samples a period),
-        // scaled to the full sample count, against the noise variance.
-        const int stride = std::max(1, static_cast<int>(period / (4.0 * sp.rmin * sp.max_step)));
-        const double energy = stride * CyclicEnergy(p_, f2.residual, a, period, stride);
-        if (energy / s2 > opt_.cyclic_detection_chi2) found[axis] = period;
-      },
-      threads_);
+  if (!(structured && pmax > pmin && s2 > 0.0)) return 0.0;
+  const double period = CyclicPeriodPeak(p_, f2.residual, axis, pmin, pmax);
+  if (!(period > 0.0)) return 0.0;
+  // Projection energy of the residual (on a subsample that keeps ≥ 4 samples a period),
+  // scaled to the full sample count, against the noise variance.
+  const int stride = std::max(1, static_cast<int>(period / (4.0 * sp.rmin * sp.max_step)));
+  const double energy = stride * CyclicEnergy(p_, f2.residual, axis, period, stride);
+  return energy / s2 > opt_.cyclic_detection_chi2 ? period : 0.0;
+}
+
+void DiagnosisRun::AddCyclicErrors(const std::array<double, 2>& found) {
   std::vector<CandidateSpec> specs;
   for (std::size_t axis = 0; axis < 2; ++axis) {
     if (found[axis] > 0.0) {
@@ -390,13 +424,17 @@ void DiagnosisRun::RefineShapes(FitResult& f3) {
   ctx.threads = 1;
   ParallelFor(
       todo.size(), [&](std::size_t k) { shape[k] = RefinedShape(ctx, todo[k]); }, threads_);
-  bool changed = false;
+  std::vector<std::size_t> changed;
+  std::vector<CandidateSpec> specs;
   for (std::size_t k = 0; k < todo.size(); ++k) {
     if (!shape[k]) continue;
-    cands_[todo[k]] = MakeCandidate(p_, cands_[todo[k]].id, std::move(*shape[k]));
-    changed = true;
+    changed.push_back(todo[k]);
+    specs.push_back({cands_[todo[k]].id, std::move(*shape[k])});
   }
-  if (changed) f3 = FitAll(cands_);
+  if (changed.empty()) return;
+  std::vector<Candidate> refined = MakeCandidates(p_, specs, threads_);
+  for (std::size_t k = 0; k < changed.size(); ++k) cands_[changed[k]] = std::move(refined[k]);
+  f3 = FitAll(cands_);
 }
 
 // The shape of candidate q refitted against every other candidate; none when the search finds
@@ -423,8 +461,8 @@ std::optional<std::vector<double>> DiagnosisRun::RefinedShape(const FitContext& 
 }
 
 // Every estimated effect becomes a candidate entry; the significant ones with enough
-// contribution are chosen for the final fit.
-std::vector<Candidate> DiagnosisRun::Screen(const FitResult& f3, DiagnosisResult& res) const {
+// contribution are chosen for the final fit (moved out of the candidates: the last stage).
+std::vector<Candidate> DiagnosisRun::Screen(const FitResult& f3, DiagnosisResult& res) {
   std::vector<DiagnosisEntry> stage3(f3.kept.size());
   ParallelFor(
       f3.kept.size(),
@@ -439,7 +477,7 @@ std::vector<Candidate> DiagnosisRun::Screen(const FitResult& f3, DiagnosisResult
   std::vector<Candidate> chosen;
   for (std::size_t j = 0; j < stage3.size(); ++j) {
     if (Significant(stage3[j], opt_) && stage3[j].MaxContribution() >= opt_.min_contribution_pct) {
-      chosen.push_back(cands_[static_cast<std::size_t>(f3.kept[j])]);
+      chosen.push_back(std::move(cands_[static_cast<std::size_t>(f3.kept[j])]));
     }
     res.candidates.push_back(std::move(stage3[j]));
   }
@@ -450,10 +488,18 @@ std::vector<Candidate> DiagnosisRun::Screen(const FitResult& f3, DiagnosisResult
 // their own mean and first harmonic. Returns what the named effects leave unexplained.
 VectorXd DiagnosisRun::NameEffects(const std::vector<Candidate>& chosen, const FitResult& f4,
                                    DiagnosisResult& res) {
+  std::vector<DiagnosisEntry> entries(f4.kept.size());
+  ParallelFor(
+      f4.kept.size(),
+      [&](std::size_t j) {
+        entries[j] =
+            MakeEntry(p_, chosen[static_cast<std::size_t>(f4.kept[j])], f4, j, first_, second_);
+      },
+      threads_);
   VectorXd model = VectorXd::Zero(p_.n);
   for (std::size_t j = 0; j < f4.kept.size(); ++j) {
     const auto& c = chosen[static_cast<std::size_t>(f4.kept[j])];
-    DiagnosisEntry en = MakeEntry(p_, c, f4, j, first_, second_);
+    DiagnosisEntry& en = entries[j];
     if (!Significant(en, opt_)) continue;
     const int nl = static_cast<int>(c.cols.size());
     model += f4.Combine(f4.first_col[j], nl, p_.n);

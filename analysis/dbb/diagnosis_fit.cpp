@@ -53,10 +53,13 @@ Candidate MakeCandidate(const Problem& p, EffectId id, std::vector<double> shape
 
 std::vector<Candidate> MakeCandidates(const Problem& p, const std::vector<CandidateSpec>& specs,
                                       unsigned threads) {
-  std::vector<EffectColumns> cols(specs.size());
+  std::vector<EffectColumns> cols;
+  for (const auto& s : specs) cols.push_back(SignatureShell(p, s.id, s.shape));
+  // One job per candidate and trace: the rows of the traces are independent.
+  const auto traces = static_cast<std::size_t>(p.traces);
   ParallelFor(
-      specs.size(),
-      [&](std::size_t k) { cols[k] = SetupFreeSignature(p, specs[k].id, specs[k].shape); },
+      specs.size() * traces,
+      [&](std::size_t k) { SignatureOfTrace(p, static_cast<int>(k % traces), cols[k / traces]); },
       threads);
   std::vector<Candidate> out;
   for (std::size_t k = 0; k < specs.size(); ++k)

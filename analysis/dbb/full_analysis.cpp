@@ -146,24 +146,36 @@ void AnalyzeCircle(const DbbTest& t, std::size_t i, DbbTestReport& tr, std::vect
   }
 }
 
-// Form figures of test i, computed beside the diagnosis: minimum zone (on the planar
+// Form figures of test i, computed beside the diagnosis (two jobs): minimum zone (on the planar
 // representation about the nominal centre, µm) and harmonics.
-void FormFigures(const DbbTest& t, std::size_t i, const DbbAnalysisOptions& opt, DbbTestReport& tr,
-                 const std::vector<double>& dev) {
+void MinZone(const DbbTest& t, std::size_t i, DbbTestReport& tr, const std::vector<double>& dev) {
   try {
     const double rn = NominalRadiusUm(tr.circular);
     std::vector<Eigen::Vector2d> pts(dev.size());
-    std::vector<double> c(dev.size()), s(dev.size());
     for (std::size_t k = 0; k < dev.size(); ++k) {
-      c[k] = CosAngle(tr.circular, k);
-      s[k] = SinAngle(tr.circular, k);
-      pts[k] = (rn + dev[k]) * Eigen::Vector2d(c[k], s[k]);
+      pts[k] = (rn + dev[k]) * Eigen::Vector2d(CosAngle(tr.circular, k), SinAngle(tr.circular, k));
     }
     tr.min_zone = geometry::FitMinZoneCircle(
         pts, Eigen::Vector2d(tr.circular.centre_offset_um[0], tr.circular.centre_offset_um[1]));
     tr.min_zone_circularity_um = tr.min_zone.width;
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(e.file(), e.line(), e.field(), Where(t, i) + ": " + e.reason());
+  }
+}
+
+void Harmonics(const DbbTest& t, std::size_t i, const DbbAnalysisOptions& opt, DbbTestReport& tr,
+               const std::vector<double>& dev) {
+  try {
+    const CircularTestResult& r = tr.circular;
+    std::vector<double> c, s;
+    const bool cached = r.cos_angle.size() == dev.size() && r.sin_angle.size() == dev.size();
+    for (std::size_t k = 0; !cached && k < dev.size(); ++k) {
+      c.push_back(CosAngle(r, k));
+      s.push_back(SinAngle(r, k));
+    }
     tr.harmonics =
-        FitHarmonics(c, s, tr.circular.mode == Mode::kAbsolute ? dev : tr.circular.radial_error_um,
+        FitHarmonics(cached ? r.cos_angle : c, cached ? r.sin_angle : s,
+                     r.mode == Mode::kAbsolute ? dev : r.radial_error_um,
                      std::min(opt.harmonic_orders, static_cast<int>((dev.size() - 1) / 2)));
   } catch (const InvalidInput& e) {
     throw InvalidInput(e.file(), e.line(), e.field(), Where(t, i) + ": " + e.reason());
@@ -231,8 +243,10 @@ std::vector<Unit> PairsAndDiagnoses(const std::vector<DbbTest>& tests, DbbReport
   std::vector<bool> speculative(tests.size(), false);
   std::vector<std::function<void()>> jobs;  // the longest (diagnoses) first
   std::vector<std::function<void()>> figures;
-  for (std::size_t i = 0; i < tests.size(); ++i)
-    figures.emplace_back([&, i] { FormFigures(tests[i], i, opt, rep.tests[i], devs[i]); });
+  for (std::size_t i = 0; i < tests.size(); ++i) {
+    figures.emplace_back([&, i] { MinZone(tests[i], i, rep.tests[i], devs[i]); });
+    figures.emplace_back([&, i] { Harmonics(tests[i], i, opt, rep.tests[i], devs[i]); });
+  }
   for (auto& c : cands) {
     figures.emplace_back([&] {
       try {

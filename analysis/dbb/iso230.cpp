@@ -21,26 +21,55 @@ struct PeriodicTrace {
   std::vector<double> v;
 };
 
-PeriodicTrace MakePeriodic(const std::vector<double>& angle_rad, const std::vector<double>& val) {
-  std::vector<std::pair<double, double>> s(angle_rad.size());
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    double t = std::fmod(angle_rad[i], 2.0 * std::numbers::pi);
-    if (t < 0.0) t += 2.0 * std::numbers::pi;
-    s[i] = {t, val[i]};
-  }
-  // One turn in time order is a rotation of the sorted order (reversed for cw, where most steps
-  // go down): rotate when that gives strictly increasing angles (then it is what sorting gives),
-  // sort otherwise.
+double WrapTurn(double angle_rad) {
+  double t = std::fmod(angle_rad, 2.0 * std::numbers::pi);
+  if (t < 0.0) t += 2.0 * std::numbers::pi;
+  return t;
+}
+
+// A turn's sample order by angle in [0, 2π) when it does not depend on the values: `index`,
+// with the angles `a` in that order; empty otherwise.
+struct TurnOrder {
+  std::vector<std::size_t> index;
+  std::vector<double> a;
+};
+
+// One turn in time order is a rotation of the sorted order (reversed for cw, where most steps
+// go down): rotated when that gives strictly increasing angles (then it is what sorting gives).
+TurnOrder RotationOrder(const std::vector<double>& angle_rad) {
+  std::vector<std::pair<double, std::size_t>> s(angle_rad.size());
+  for (std::size_t i = 0; i < s.size(); ++i) s[i] = {WrapTurn(angle_rad[i]), i};
   std::size_t down = 0;
   for (std::size_t i = 1; i < s.size(); ++i) down += s[i].first < s[i - 1].first ? 1 : 0;
   if (2 * down > s.size()) std::reverse(s.begin(), s.end());
   const auto first = std::min_element(s.begin(), s.end());
   std::rotate(s.begin(), first, s.end());
   const auto not_increasing = [](const auto& x, const auto& y) { return y.first <= x.first; };
-  if (std::adjacent_find(s.begin(), s.end(), not_increasing) != s.end()) {
-    std::sort(s.begin(), s.end());
+  TurnOrder o;
+  if (std::adjacent_find(s.begin(), s.end(), not_increasing) != s.end()) return o;
+  o.index.reserve(s.size());
+  o.a.reserve(s.size());
+  for (const auto& [t, i] : s) {
+    o.index.push_back(i);
+    o.a.push_back(t);
   }
+  return o;
+}
+
+// The samples sorted by angle in [0, 2π): in the order `o` when it is not empty, otherwise
+// sorted by angle, then value, keeping the first of equal angles.
+PeriodicTrace MakePeriodic(const std::vector<double>& angle_rad, const std::vector<double>& val,
+                           const TurnOrder& o) {
   PeriodicTrace p;
+  if (!o.index.empty()) {
+    p.a = o.a;
+    p.v.reserve(o.index.size());
+    for (std::size_t i : o.index) p.v.push_back(val[i]);
+    return p;
+  }
+  std::vector<std::pair<double, double>> s(angle_rad.size());
+  for (std::size_t i = 0; i < s.size(); ++i) s[i] = {WrapTurn(angle_rad[i]), val[i]};
+  std::sort(s.begin(), s.end());
   p.a.reserve(s.size());
   p.v.reserve(s.size());
   for (const auto& [t, v] : s) {
@@ -119,21 +148,36 @@ std::vector<double> AnglesRad(const CircularTestResult& r) {
   return a;
 }
 
+// The angles (radians) of a pair's traces and, for full turns, their periodic orders
+// (RotationOrder), shared by the two hysteresis figures.
+struct PairAngles {
+  std::vector<double> cw, ccw;
+  TurnOrder order_cw, order_ccw;
+};
+
+PairAngles MakePairAngles(const CircularTestResult& cw, const CircularTestResult& ccw) {
+  PairAngles a{AnglesRad(cw), AnglesRad(ccw), {}, {}};
+  if (cw.full_turn && ccw.full_turn) {
+    a.order_cw = RotationOrder(a.cw);
+    a.order_ccw = RotationOrder(a.ccw);
+  }
+  return a;
+}
+
 // H of two traces given as radial deviations vcw, vccw at their angles: full turns compared
 // periodically, otherwise only where both arcs have samples (the common arc in *arc_deg).
-double Hysteresis(const CircularTestResult& cw, const CircularTestResult& ccw,
+double Hysteresis(const CircularTestResult& cw, const CircularTestResult& ccw, const PairAngles& an,
                   const std::vector<double>& vcw, const std::vector<double>& vccw,
                   double* arc_deg) {
-  const std::vector<double> acw = AnglesRad(cw), accw = AnglesRad(ccw);
   if (cw.full_turn && ccw.full_turn) {
-    const PeriodicTrace pcw = MakePeriodic(acw, vcw);
-    const PeriodicTrace pccw = MakePeriodic(accw, vccw);
+    const PeriodicTrace pcw = MakePeriodic(an.cw, vcw, an.order_cw);
+    const PeriodicTrace pccw = MakePeriodic(an.ccw, vccw, an.order_ccw);
     *arc_deg = 360.0;
     return std::max(MaxDifference(pccw, pcw), MaxDifference(pcw, pccw));
   }
   const double mid = 0.5 * (ccw.turn_start_deg + ccw.turn_end_deg) * kDeg;
-  const PeriodicTrace pcw = MakeLinear(acw, vcw, mid);
-  const PeriodicTrace pccw = MakeLinear(accw, vccw, mid);
+  const PeriodicTrace pcw = MakeLinear(an.cw, vcw, mid);
+  const PeriodicTrace pccw = MakeLinear(an.ccw, vccw, mid);
   *arc_deg = std::max(
       0.0,
       (std::min(pcw.a.back(), pccw.a.back()) - std::max(pcw.a.front(), pccw.a.front())) / kDeg);
@@ -262,10 +306,11 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
   const std::vector<double> rcw(res.begin(), res.begin() + ncw);
   const std::vector<double> rccw(res.begin() + ncw, res.end());
   // H about the common centre (the ISO 230-4 figure, iso230.h), and about each own centre.
-  f.circular_hysteresis_um = Hysteresis(cw, ccw, rcw, rccw, &f.evaluated_arc_deg);
+  const PairAngles angles = MakePairAngles(cw, ccw);
+  f.circular_hysteresis_um = Hysteresis(cw, ccw, angles, rcw, rccw, &f.evaluated_arc_deg);
   double arc = 0.0;
   f.circular_hysteresis_own_centres_um =
-      Hysteresis(cw, ccw, AboutOwnCentre(cw), AboutOwnCentre(ccw), &arc);
+      Hysteresis(cw, ccw, angles, AboutOwnCentre(cw), AboutOwnCentre(ccw), &arc);
   f.full_turn = cw.full_turn && ccw.full_turn;
   return f;
 }

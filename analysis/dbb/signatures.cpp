@@ -15,17 +15,22 @@ namespace km::dbb {
 
 using Eigen::VectorXd;
 
+Eigen::Vector3d StackedTraces::RemoveSetupOfTrace(VectorXd& col, int t) const {
+  const auto from = static_cast<Eigen::Index>(begin[static_cast<std::size_t>(t)]);
+  const auto len = static_cast<Eigen::Index>(begin[static_cast<std::size_t>(t) + 1]) - from;
+  auto seg = col.segment(from, len);
+  const auto c_t = cos_a.segment(from, len);
+  const auto s_t = sin_a.segment(from, len);
+  const Eigen::Vector3d c = setup_inv[static_cast<std::size_t>(t)] *
+                            Eigen::Vector3d(c_t.dot(seg), s_t.dot(seg), seg.sum());
+  seg.array() -= c[0] * c_t.array() + c[1] * s_t.array() + c[2];
+  return c;
+}
+
 void StackedTraces::RemoveSetup(VectorXd& col, std::vector<Eigen::Vector3d>* coef) const {
   if (coef) coef->assign(static_cast<std::size_t>(traces), Eigen::Vector3d::Zero());
   for (int t = 0; t < traces; ++t) {
-    const auto from = static_cast<Eigen::Index>(begin[static_cast<std::size_t>(t)]);
-    const auto len = static_cast<Eigen::Index>(begin[static_cast<std::size_t>(t) + 1]) - from;
-    auto seg = col.segment(from, len);
-    const auto c_t = cos_a.segment(from, len);
-    const auto s_t = sin_a.segment(from, len);
-    const Eigen::Vector3d c = setup_inv[static_cast<std::size_t>(t)] *
-                              Eigen::Vector3d(c_t.dot(seg), s_t.dot(seg), seg.sum());
-    seg.array() -= c[0] * c_t.array() + c[1] * s_t.array() + c[2];
+    const Eigen::Vector3d c = RemoveSetupOfTrace(col, t);
     if (coef) (*coef)[static_cast<std::size_t>(t)] = c;
   }
 }
@@ -82,8 +87,8 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
   return p;
 }
 
-EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
-                                 std::vector<double> shape) {
+EffectColumns SignatureShell(const StackedTraces& p, effects::EffectId id,
+                             std::vector<double> shape) {
   const auto& info = effects::Info(id);
   EffectColumns c;
   c.id = id;
@@ -93,41 +98,68 @@ EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
     shape.insert(shape.end(), info.default_shape.begin() + static_cast<long>(shape.size()),
                  info.default_shape.end());
   }
-  c.shape = shape;
-  const int nl = info.num_linear;
-  std::vector<VectorXd> cols;
-  cols.reserve(static_cast<std::size_t>(nl));
-  for (int j = 0; j < nl; ++j) cols.emplace_back(p.n);
-  if (nl == 1) {
+  c.shape = std::move(shape);
+  const auto nl = static_cast<std::size_t>(info.num_linear);
+  c.cols.resize(nl);
+  for (auto& col : c.cols) col.resize(p.n);
+  c.setup_part.assign(nl, std::vector<Eigen::Vector3d>(static_cast<std::size_t>(p.traces)));
+  return c;
+}
+
+namespace {
+
+// Rows [from, to) of the signature columns of model M at the shape `shape`.
+template <typename M>
+void SignatureRows(const StackedTraces& p, effects::EffectId id, int from, int to,
+                   const std::vector<double>& shape, std::vector<VectorXd>& cols) {
+  if constexpr (M::kNumLinear == 1) {
     // One linear parameter: the signature at p_0 = 1 is the column (plain doubles).
-    std::vector<double> params(static_cast<std::size_t>(info.num_params), 1.0);
-    std::copy(shape.begin(), shape.end(), params.begin() + 1);
-    // One dispatch for the column: the model's loop is compiled for its own type.
-    effects::VisitEffect(id, [&]<typename M>() {
-      VectorXd& col = cols[0];
-      for (int i = 0; i < p.n; ++i) {
-        const auto& s = p.samples[static_cast<std::size_t>(i)];
-        double e[2];
-        M::template PositionError<double>(p.ctx[static_cast<std::size_t>(s.trace)], s.a,
-                                          params.data(), e);
-        col[i] = e[0] * s.a.c + e[1] * s.a.s;
-      }
-    });
-  } else {
-    // Several linear parameters: all columns in one evaluation (Jet dual parts).
-    double basis[effects::kMaxLinearParams];
-    for (int i = 0; i < p.n; ++i) {
+    double params[M::kNumParams];
+    params[0] = 1.0;
+    for (int k = 1; k < M::kNumParams; ++k) {
+      const auto q = static_cast<std::size_t>(k - 1);
+      params[k] = q < shape.size() ? shape[q] : 1.0;
+    }
+    VectorXd& col = cols[0];
+    for (int i = from; i < to; ++i) {
       const auto& s = p.samples[static_cast<std::size_t>(i)];
-      effects::RadialBasis(id, p.ctx[static_cast<std::size_t>(s.trace)], s.a, shape.data(), basis);
-      for (int j = 0; j < nl; ++j) cols[static_cast<std::size_t>(j)][i] = basis[j];
+      double e[2];
+      M::template PositionError<double>(p.ctx[static_cast<std::size_t>(s.trace)], s.a, params, e);
+      col[i] = e[0] * s.a.c + e[1] * s.a.s;
+    }
+  } else {
+    // Several linear parameters: all columns in one evaluation (effects::RadialBasis, its
+    // closed form inlined when the model has one).
+    double basis[effects::kMaxLinearParams];
+    for (int i = from; i < to; ++i) {
+      const auto& s = p.samples[static_cast<std::size_t>(i)];
+      const auto& ctx = p.ctx[static_cast<std::size_t>(s.trace)];
+      if constexpr (effects::HasLinearBasis<M>) {
+        effects::ClosedFormBasis<M>(ctx, s.a, shape.data(), basis);
+      } else {
+        effects::RadialBasis(id, ctx, s.a, shape.data(), basis);
+      }
+      for (int j = 0; j < M::kNumLinear; ++j) cols[static_cast<std::size_t>(j)][i] = basis[j];
     }
   }
-  for (auto& col : cols) {
-    std::vector<Eigen::Vector3d> part;
-    p.RemoveSetup(col, &part);
-    c.cols.push_back(std::move(col));
-    c.setup_part.push_back(std::move(part));
-  }
+}
+
+}  // namespace
+
+void SignatureOfTrace(const StackedTraces& p, int t, EffectColumns& c) {
+  const auto ts = static_cast<std::size_t>(t);
+  const int from = static_cast<int>(p.begin[ts]), to = static_cast<int>(p.begin[ts + 1]);
+  // One dispatch for the rows: the model's loop is compiled for its own type.
+  effects::VisitEffect(c.id,
+                       [&]<typename M>() { SignatureRows<M>(p, c.id, from, to, c.shape, c.cols); });
+  for (std::size_t j = 0; j < c.cols.size(); ++j)
+    c.setup_part[j][ts] = p.RemoveSetupOfTrace(c.cols[j], t);
+}
+
+EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
+                                 std::vector<double> shape) {
+  EffectColumns c = SignatureShell(p, id, std::move(shape));
+  for (int t = 0; t < p.traces; ++t) SignatureOfTrace(p, t, c);
   return c;
 }
 

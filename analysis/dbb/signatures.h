@@ -52,6 +52,8 @@ struct StackedTraces {
   // Removes from `col` its least-squares projection on each trace's set-up columns; returns
   // the set-up coefficients of trace t in coef (3 per trace) when wanted.
   void RemoveSetup(Eigen::VectorXd& col, std::vector<Eigen::Vector3d>* coef = nullptr) const;
+  // The same for the rows of trace t only; returns its set-up coefficients.
+  Eigen::Vector3d RemoveSetupOfTrace(Eigen::VectorXd& col, int t) const;
 };
 
 // Validates and stacks the traces (≥ 16 samples each, positive radius, going around the
@@ -69,6 +71,12 @@ struct EffectColumns {
 };
 EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
                                  std::vector<double> shape);
+// The same in parts, e.g. the traces on several threads: SignatureShell gives the columns
+// (sized, not yet computed) with the shape completed, SignatureOfTrace fills the rows of trace t
+// and its set-up part. Shell plus every trace equals SetupFreeSignature.
+EffectColumns SignatureShell(const StackedTraces& p, effects::EffectId id,
+                             std::vector<double> shape);
+void SignatureOfTrace(const StackedTraces& p, int t, EffectColumns& c);
 
 // σ from successive differences of r within each trace: sqrt(Σ Δ² / (2·count)).
 double DiffNoiseUm(const StackedTraces& p, const Eigen::VectorXd& r);

@@ -59,6 +59,22 @@ constexpr int kMaxLinearParams = 2;
 void RadialBasis(EffectId id, const EffectContext& ctx, const Angle<double>& a, const double* shape,
                  double* columns);
 
+// Whether model M gives its linear-parameter columns in closed form, and those columns (the
+// radial projection of M::LinearBasis) — what RadialBasis returns for such a model, inlined in
+// a loop over samples.
+template <typename M>
+concept HasLinearBasis = requires(const EffectContext& ctx, const Angle<double>& a,
+                                  const double* shape, double (*e)[2]) {
+  M::LinearBasis(ctx, a, shape, e);
+};
+template <HasLinearBasis M>
+inline void ClosedFormBasis(const EffectContext& ctx, const Angle<double>& a, const double* shape,
+                            double* columns) {
+  double e[kMaxLinearParams][2];
+  M::LinearBasis(ctx, a, shape, e);
+  for (int j = 0; j < M::kNumLinear; ++j) columns[j] = e[j][0] * a.c + e[j][1] * a.s;
+}
+
 // Reported value (docs/formats.md §4 unit) and its jacobian with respect to the parameters.
 std::vector<double> Value(EffectId id, const EffectContext& ctx, const double* params);
 Eigen::MatrixXd ValueJacobian(EffectId id, const EffectContext& ctx, const double* params);

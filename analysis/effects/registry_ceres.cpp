@@ -14,10 +14,8 @@ namespace {
 template <typename M>
 void BasisOf(const EffectContext& ctx, const Angle<double>& a, const double* shape,
              double* columns) {
-  if constexpr (requires(double(*e)[2]) { M::LinearBasis(ctx, a, shape, e); }) {
-    double e[kMaxLinearParams][2];
-    M::LinearBasis(ctx, a, shape, e);
-    for (int j = 0; j < M::kNumLinear; ++j) columns[j] = e[j][0] * a.c + e[j][1] * a.s;
+  if constexpr (HasLinearBasis<M>) {
+    ClosedFormBasis<M>(ctx, a, shape, columns);
   } else {
     using J = ceres::Jet<double, kMaxLinearParams>;
     J p[8];
