@@ -262,6 +262,7 @@ void Solve(const FitContext& ctx, const Gram& gr, const std::vector<int>& kcols,
     return;
   }
   Eigen::LDLT<MatrixXd> ldlt(m);
+  f.normal = std::move(m);
   f.x = ldlt.solve(b);
   f.residual = *ctx.e0 - f.Combine(0, ncol, p.n);
   f.sigma2 = f.residual.squaredNorm() / dof;
@@ -269,11 +270,14 @@ void Solve(const FitContext& ctx, const Gram& gr, const std::vector<int>& kcols,
   f.cov = f.sigma2 * f.normal_inv;
 }
 
-// Symmetric matrix of inner products of the columns `cols`.
-MatrixXd InnerProducts(const std::vector<const VectorXd*>& cols) {
+// Symmetric matrix of inner products of the columns `cols`, whose first `known` ones have the
+// inner products `normal` (a fit's AᵀA: the same products, already computed).
+MatrixXd InnerProducts(const std::vector<const VectorXd*>& cols, const MatrixXd& normal) {
   const auto n = static_cast<Eigen::Index>(cols.size());
+  const Eigen::Index known = normal.rows();
   MatrixXd m(n, n);
-  for (Eigen::Index a = 0; a < n; ++a)
+  m.topLeftCorner(known, known) = normal;
+  for (Eigen::Index a = known; a < n; ++a)
     for (Eigen::Index b = 0; b <= a; ++b)
       m(a, b) = m(b, a) =
           cols[static_cast<std::size_t>(a)]->dot(*cols[static_cast<std::size_t>(b)]);
@@ -323,7 +327,7 @@ void AugmentShapes(const Problem& p, const std::vector<Candidate>& cands, FitRes
   if (d.empty() || dof <= 0) return;
   std::vector<const VectorXd*> cols = f.a;
   for (const auto& c : d) cols.push_back(&c);
-  Eigen::LDLT<MatrixXd> ldlt(InnerProducts(cols));
+  Eigen::LDLT<MatrixXd> ldlt(InnerProducts(cols, f.normal));
   if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return;
   const MatrixXd inv = ldlt.solve(MatrixXd::Identity(ncol + nd, ncol + nd));
   for (int a = 0; a < ncol + nd; ++a)

@@ -52,6 +52,7 @@ struct FitResult {
   std::vector<const Eigen::VectorXd*> a;  // kept columns (owned by the candidates)
   Eigen::VectorXd x;
   Eigen::MatrixXd cov;
+  Eigen::MatrixXd normal;      // AᵀA of the kept columns
   Eigen::MatrixXd normal_inv;  // (AᵀA)⁻¹
   double sigma2 = 0.0;
   int dof = 0;

@@ -73,11 +73,17 @@ DiagnosisTrace MakeDiagnosisTrace(const DbbTest& test, const CircularTestResult&
   const double k = test.bar_length_mm / test.radius_mm;  // bar → in-plane radial (cone tests)
   t.dev_um = dev;
   for (double& d : t.dev_um) d *= k;
-  t.angle_rad.resize(result.angle_deg.size());
-  t.cos_angle.resize(t.angle_rad.size());
-  t.sin_angle.resize(t.angle_rad.size());
-  for (std::size_t i = 0; i < t.angle_rad.size(); ++i) {
-    t.angle_rad[i] = result.angle_deg[i] * kDeg;
+  const std::size_t n = result.angle_deg.size();
+  t.angle_rad.resize(n);
+  for (std::size_t i = 0; i < n; ++i) t.angle_rad[i] = result.angle_deg[i] * kDeg;
+  if (result.cos_angle.size() == n && result.sin_angle.size() == n) {
+    t.cos_angle = result.cos_angle;
+    t.sin_angle = result.sin_angle;
+    return t;
+  }
+  t.cos_angle.resize(n);
+  t.sin_angle.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
     t.cos_angle[i] = CosAngle(result, i);
     t.sin_angle[i] = SinAngle(result, i);
   }

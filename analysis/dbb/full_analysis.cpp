@@ -187,11 +187,15 @@ DiagnosisResult DiagnoseUnit(const std::vector<DbbTest>& tests, const DbbReport&
                              const std::vector<std::vector<double>>& devs,
                              const std::vector<std::size_t>& members,
                              const DbbAnalysisOptions& opt) {
-  std::vector<DiagnosisTrace> tr;
-  for (std::size_t i : members) {
-    tr.push_back(
-        MakeDiagnosisTrace(tests[i], rep.tests[i].circular, BarDeviation(rep.tests[i], devs[i])));
-  }
+  std::vector<DiagnosisTrace> tr(members.size());
+  ParallelFor(
+      members.size(),
+      [&](std::size_t k) {
+        const std::size_t i = members[k];
+        tr[k] = MakeDiagnosisTrace(tests[i], rep.tests[i].circular,
+                                   BarDeviation(rep.tests[i], devs[i]));
+      },
+      Threads(opt));
   DiagnosisOptions d = opt.diagnosis;
   if (d.threads == 0) d.threads = opt.threads;
   try {
@@ -251,7 +255,7 @@ std::vector<Unit> PairsAndDiagnoses(const std::vector<DbbTest>& tests, DbbReport
     figures.emplace_back([&] {
       try {
         c.iso = ComputeIso230Pair(rep.tests[c.cw].circular, rep.tests[c.ccw].circular, devs[c.cw],
-                                  devs[c.ccw]);
+                                  devs[c.ccw], Threads(opt));
       } catch (const InvalidInput&) {
         c.iso.reset();  // partial arcs that do not overlap: two separate tests, not a pair
       }

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/parallel.h"
 
 namespace km::dbb {
 
@@ -209,6 +210,32 @@ Eigen::Vector3d CommonCircle(const std::vector<Eigen::Vector2d>& pts, double rn)
   return x;
 }
 
+// Radial deviations of both traces (cw, then ccw) about their common least-squares circle; sets
+// the common centre and G(b) of `f`.
+std::vector<double> CommonResiduals(const CircularTestResult& cw, const CircularTestResult& ccw,
+                                    const std::vector<double>& dcw, const std::vector<double>& dccw,
+                                    Iso230PairFigures& f) {
+  std::vector<Eigen::Vector2d> pts;
+  pts.reserve(dcw.size() + dccw.size());
+  // Each trace in its planar representation (own nominal radius; equal for a proper pair).
+  auto add = [&](const CircularTestResult& r, const std::vector<double>& d) {
+    const double rt = NominalRadiusUm(r);
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const double rho = rt + d[i];
+      pts.emplace_back(rho * CosAngle(r, i), rho * SinAngle(r, i));
+    }
+  };
+  add(cw, dcw);
+  add(ccw, dccw);
+  const Eigen::Vector3d x = CommonCircle(pts, NominalRadiusUm(ccw));  // centre x, y, radius
+  std::vector<double> res(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) res[i] = (pts[i] - x.head<2>()).norm() - x[2];
+  f.common_centre_um = {x[0], x[1]};
+  const auto [mn, mx] = std::minmax_element(res.begin(), res.end());
+  f.bidirectional_circular_deviation_um = *mx - *mn;
+  return res;
+}
+
 // Radial deviation of a trace about its own least-squares centre, relative to the nominal
 // radius: |P − c_own| − R = (R0 − R) + residual about the own circle.
 std::vector<double> AboutOwnCentre(const CircularTestResult& r) {
@@ -266,8 +293,8 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
 }
 
 Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw,
-                                    const std::vector<double>& dcw,
-                                    const std::vector<double>& dccw) {
+                                    const std::vector<double>& dcw, const std::vector<double>& dccw,
+                                    unsigned threads) {
   if (dcw.size() != cw.angle_deg.size() || dccw.size() != ccw.angle_deg.size()) {
     throw InvalidInput("", 0, "dr_um", "deviation and angle sizes differ");
   }
@@ -280,37 +307,29 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
   if (cw.units != ccw.units) {
     throw InvalidInput("", 0, "units", "the cw and ccw results are in different units");
   }
-  const double rn_ccw = NominalRadiusUm(ccw);
-  std::vector<Eigen::Vector2d> pts;
-  pts.reserve(dcw.size() + dccw.size());
-  // Each trace in its planar representation (own nominal radius; equal for a proper pair).
-  auto add = [&](const CircularTestResult& r, const std::vector<double>& d) {
-    const double rt = NominalRadiusUm(r);
-    for (std::size_t i = 0; i < d.size(); ++i) {
-      const double rho = rt + d[i];
-      pts.emplace_back(rho * CosAngle(r, i), rho * SinAngle(r, i));
-    }
-  };
-  add(cw, dcw);
-  add(ccw, dccw);
-  const Eigen::Vector3d x = CommonCircle(pts, rn_ccw);  // centre x, y, radius
-  std::vector<double> res(pts.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) res[i] = (pts[i] - x.head<2>()).norm() - x[2];
-
   Iso230PairFigures f;
   f.units = ccw.units;
-  f.common_centre_um = {x[0], x[1]};
-  const auto [mn, mx] = std::minmax_element(res.begin(), res.end());
-  f.bidirectional_circular_deviation_um = *mx - *mn;
+  // The common circle and the H about each own centre at once; then H about the common
+  // centre (the ISO 230-4 figure, iso230.h) from the residuals and the shared angle order.
+  std::vector<double> res;
+  PairAngles angles;
+  ParallelFor(
+      2,
+      [&](std::size_t k) {
+        if (k == 0) {
+          res = CommonResiduals(cw, ccw, dcw, dccw, f);
+          return;
+        }
+        angles = MakePairAngles(cw, ccw);
+        double arc = 0.0;
+        f.circular_hysteresis_own_centres_um =
+            Hysteresis(cw, ccw, angles, AboutOwnCentre(cw), AboutOwnCentre(ccw), &arc);
+      },
+      threads);
   const auto ncw = static_cast<long>(dcw.size());
   const std::vector<double> rcw(res.begin(), res.begin() + ncw);
   const std::vector<double> rccw(res.begin() + ncw, res.end());
-  // H about the common centre (the ISO 230-4 figure, iso230.h), and about each own centre.
-  const PairAngles angles = MakePairAngles(cw, ccw);
   f.circular_hysteresis_um = Hysteresis(cw, ccw, angles, rcw, rccw, &f.evaluated_arc_deg);
-  double arc = 0.0;
-  f.circular_hysteresis_own_centres_um =
-      Hysteresis(cw, ccw, angles, AboutOwnCentre(cw), AboutOwnCentre(ccw), &arc);
   f.full_turn = cw.full_turn && ccw.full_turn;
   return f;
 }

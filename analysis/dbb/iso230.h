@@ -72,9 +72,10 @@ Iso230Figures ComputeIso230(const CircularTestResult& r);
 
 // `cw` and `ccw` must be the two directions of one test_id. Throws km::InvalidInput otherwise.
 Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw);
-// Same, with DeviationAboutNominalCentre of both already computed.
+// Same, with DeviationAboutNominalCentre of both already computed; the common circle and the
+// hysteresis about the own centres run at once on up to `threads` threads (same result).
 Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw,
                                     const std::vector<double>& dev_cw_um,
-                                    const std::vector<double>& dev_ccw_um);
+                                    const std::vector<double>& dev_ccw_um, unsigned threads = 1);
 
 }  // namespace km::dbb
