@@ -124,7 +124,7 @@ void FillInnerProducts(const FitContext& ctx, const std::vector<int>& ids, Gram&
                   val[k] = gr.all[static_cast<std::size_t>(a)]->dot(other);
                 }
               },
-              missing.size() >= 4 * kBlock ? ctx.threads : 1);
+              missing.size() >= 2 * kBlock ? ctx.threads : 1);
   for (std::size_t k = 0; k < missing.size(); ++k) {
     const auto [a, b] = missing[k];
     const int ia = ids[static_cast<std::size_t>(a)];
@@ -271,16 +271,24 @@ void Solve(const FitContext& ctx, const Gram& gr, const std::vector<int>& kcols,
 }
 
 // Symmetric matrix of inner products of the columns `cols`, whose first `known` ones have the
-// inner products `normal` (a fit's AᵀA: the same products, already computed).
-MatrixXd InnerProducts(const std::vector<const VectorXd*>& cols, const MatrixXd& normal) {
+// inner products `normal` (a fit's AᵀA: the same products, already computed); the rows of the
+// others on up to `threads` threads.
+MatrixXd InnerProducts(const std::vector<const VectorXd*>& cols, const MatrixXd& normal,
+                       unsigned threads) {
   const auto n = static_cast<Eigen::Index>(cols.size());
   const Eigen::Index known = normal.rows();
   MatrixXd m(n, n);
   m.topLeftCorner(known, known) = normal;
+  ParallelFor(
+      static_cast<std::size_t>(n - known),
+      [&](std::size_t k) {
+        const Eigen::Index a = known + static_cast<Eigen::Index>(k);
+        for (Eigen::Index b = 0; b <= a; ++b)
+          m(a, b) = cols[static_cast<std::size_t>(a)]->dot(*cols[static_cast<std::size_t>(b)]);
+      },
+      threads);
   for (Eigen::Index a = known; a < n; ++a)
-    for (Eigen::Index b = 0; b <= a; ++b)
-      m(a, b) = m(b, a) =
-          cols[static_cast<std::size_t>(a)]->dot(*cols[static_cast<std::size_t>(b)]);
+    for (Eigen::Index b = 0; b < a; ++b) m(b, a) = m(a, b);
   return m;
 }
 
@@ -327,7 +335,7 @@ void AugmentShapes(const Problem& p, const std::vector<Candidate>& cands, FitRes
   if (d.empty() || dof <= 0) return;
   std::vector<const VectorXd*> cols = f.a;
   for (const auto& c : d) cols.push_back(&c);
-  Eigen::LDLT<MatrixXd> ldlt(InnerProducts(cols, f.normal));
+  Eigen::LDLT<MatrixXd> ldlt(InnerProducts(cols, f.normal, threads));
   if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return;
   const MatrixXd inv = ldlt.solve(MatrixXd::Identity(ncol + nd, ncol + nd));
   for (int a = 0; a < ncol + nd; ++a)
