@@ -15,28 +15,13 @@ Eigen::Vector2d Mean(const std::vector<Eigen::Vector2d>& p) {
   return m / static_cast<double>(p.size());
 }
 
-// One pass over the points at the circle (c, r): the sum of squared residuals d_i = |p_i − c| − r
-// and the normal equations of the next step (J row = [−u_x, −u_y, −1]), so a step that is
-// accepted needs no second pass for its own normal equations.
-struct Pass {
-  double cost = 0.0;
-  Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d jtd = Eigen::Vector3d::Zero();
-};
-
-Pass Evaluate(const std::vector<Eigen::Vector2d>& p, const Eigen::Vector2d& c, double r) {
-  Pass e;
+double SumSquares(const std::vector<Eigen::Vector2d>& p, const Eigen::Vector2d& c, double r) {
+  double s = 0.0;
   for (const auto& q : p) {
-    const Eigen::Vector2d v = q - c;
-    const double dist = v.norm();
-    const double d = dist - r;
-    e.cost += d * d;
-    if (!(dist > 0.0)) continue;
-    const Eigen::Vector3d j(-v.x() / dist, -v.y() / dist, -1.0);
-    e.jtj += j * j.transpose();
-    e.jtd += j * d;
+    const double d = (q - c).norm() - r;
+    s += d * d;
   }
-  return e;
+  return s;
 }
 
 }  // namespace
@@ -76,28 +61,39 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
   for (std::size_t i = 0; i < points.size(); ++i) p[i] = points[i] - m;
   Eigen::Vector2d c = start.centre - m;
   double r = start.radius;
-  Pass at = Evaluate(p, c, r);
+  double cost = SumSquares(p, c, r);
   double lambda = 1e-6;
   CircleFitResult out;
   const double tol = 1e-15 * std::max(1.0, r);
   for (int it = 1; it <= 200; ++it) {
     out.iterations = it;
-    const Eigen::Matrix3d& jtj = at.jtj;
+    // Normal equations of the residual d_i = |p_i − c| − r; J row = [−u_x, −u_y, −1].
+    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d jtd = Eigen::Vector3d::Zero();
+    for (const auto& q : p) {
+      const Eigen::Vector2d v = q - c;
+      const double dist = v.norm();
+      if (!(dist > 0.0)) continue;
+      const Eigen::Vector3d j(-v.x() / dist, -v.y() / dist, -1.0);
+      const double d = dist - r;
+      jtj += j * j.transpose();
+      jtd += j * d;
+    }
     bool accepted = false;
     Eigen::Vector3d step = Eigen::Vector3d::Zero();
     for (int k = 0; k < 30 && !accepted; ++k) {
       Eigen::Matrix3d a = jtj;
       a.diagonal() += lambda * jtj.diagonal().cwiseMax(1e-300);
-      step = -a.ldlt().solve(at.jtd);
+      step = -a.ldlt().solve(jtd);
       // A step below the tolerance cannot lower the cost beyond rounding: converged.
       if (step.norm() <= tol) break;
       const Eigen::Vector2d c_new = c + step.head<2>();
       const double r_new = r + step(2);
-      Pass next = Evaluate(p, c_new, r_new);
-      if (std::isfinite(next.cost) && next.cost <= at.cost) {
+      const double cost_new = SumSquares(p, c_new, r_new);
+      if (std::isfinite(cost_new) && cost_new <= cost) {
         c = c_new;
         r = r_new;
-        at = std::move(next);
+        cost = cost_new;
         lambda = std::max(lambda * 0.1, 1e-12);
         accepted = true;
       } else {
@@ -114,7 +110,7 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
     throw DidNotConverge("least-squares circle fit did not converge in 200 iterations");
   }
   out.circle = Circle{c + m, r};
-  out.rms_residual = std::sqrt(at.cost / static_cast<double>(p.size()));
+  out.rms_residual = std::sqrt(cost / static_cast<double>(p.size()));
   return out;
 }
 
