@@ -19,6 +19,34 @@ struct LinearisedZone {
   int iterations = 0;
 };
 
+// Pricing: the column with the largest reduced cost above `best` that is not in the basis
+// (Dantzig), or the first such column (Bland, after degenerate stalls); −1 when none. With
+// t_i = d_i − δ·u_i the reduced costs are r(p_i) = t_i − h and r(q_i) = l − t_i; the larger of
+// the two is computed for all points in one pass (`r`), then scanned.
+int Entering(const std::vector<double>& d, const Eigen::ArrayXd& ux, const Eigen::ArrayXd& uy,
+             const Eigen::Vector4d& x, const std::array<int, 4>& basis, double best, bool bland,
+             Eigen::ArrayXd& r) {
+  const int n = static_cast<int>(d.size());
+  const double x0 = x[0], x1 = x[1], x2 = x[2], x3 = x[3];
+  for (int i = 0; i < n; ++i) {
+    const double t = d[i] - x0 * ux[i] - x1 * uy[i];
+    const double rp = t - x2;
+    const double rq = x3 - t;
+    r[i] = rp >= rq ? rp : rq;
+  }
+  int enter = -1;
+  for (int i = 0; i < n; ++i) {
+    if (!(r[i] > best)) continue;
+    const double t = d[i] - x0 * ux[i] - x1 * uy[i];
+    const int j = t - x2 >= x3 - t ? i : n + i;
+    if (std::find(basis.begin(), basis.end(), j) != basis.end()) continue;
+    enter = j;
+    best = r[i];
+    if (bland) break;
+  }
+  return enter;
+}
+
 // Primal:  min h − l  s.t.  δ·u_i + h ≥ d_i,  −δ·u_i − l ≥ −d_i,  x = (δx, δy, h, l) free.
 // Dual:    max Σ y_j b_j  s.t.  Σ y_j a_j = c = (0, 0, 1, −1),  y ≥ 0, with
 //          a(p_i) = (u_x, u_y, 1, 0), b = d_i;   a(q_i) = (−u_x, −u_y, 0, −1), b = −d_i.
@@ -38,6 +66,11 @@ LinearisedZone SolveLinearised(const std::vector<double>& d,
     return a;
   };
   auto cost = [&](int j) { return j < n ? d[j] : -d[j - n]; };
+  Eigen::ArrayXd ux(n), uy(n), pricing(n);  // the unit vectors by coordinate; reduced costs
+  for (int i = 0; i < n; ++i) {
+    ux[i] = u[static_cast<std::size_t>(i)].x();
+    uy[i] = u[static_cast<std::size_t>(i)].y();
+  }
 
   // Initial feasible basis: p_i = q_i = 1 for one point i (weights balance trivially), plus two
   // zero-level columns p_j, p_k that make the basis non-singular (points ~120° apart).
@@ -85,21 +118,8 @@ LinearisedZone SolveLinearised(const std::vector<double>& d,
     for (int r = 0; r < 4; ++r) bb[r] = cost(basis[r]);
     x = binv.transpose() * bb;  // primal point (δx, δy, h, l)
     // Pricing: Dantzig (largest violation), Bland (lowest index) after degenerate stalls.
-    // With t_i = d_i − δ·u_i the reduced costs are r(p_i) = t_i − h and r(q_i) = l − t_i.
-    int enter = -1;
-    double best = tol;
     const bool bland = degenerate_run > 50;
-    for (int i = 0; i < n && !(bland && enter >= 0); ++i) {
-      const double t = d[i] - x[0] * u[i].x() - x[1] * u[i].y();
-      const double rp = t - x[2];
-      const double rq = x[3] - t;
-      const int j = rp >= rq ? i : n + i;
-      const double rj = rp >= rq ? rp : rq;
-      if (rj > best && std::find(basis.begin(), basis.end(), j) == basis.end()) {
-        enter = j;
-        best = rj;
-      }
-    }
+    const int enter = Entering(d, ux, uy, x, basis, tol, bland, pricing);
     if (enter < 0) break;  // optimal
     const Eigen::Vector4d w = binv * column(enter);
     int leave = -1;
