@@ -74,8 +74,14 @@ SpikeFrame MakeSpikeFrame(const Problem& p, const ReversalOrder& o, const Base& 
     if (ReversalOrder::Bucket(e.phi) > last) break;
     if (e.phi <= phimax) rows.push_back(&e);
   }
-  std::stable_sort(rows.begin(), rows.end(),
-                   [](const auto* x, const auto* y) { return x->phi < y->phi; });
+  // Within a bucket only: insertion sort, stable (what std::stable_sort gives) and linear for
+  // rows already in bucket order.
+  for (std::size_t k = 1; k < rows.size(); ++k) {
+    const ReversalOrder::Entry* e = rows[k];
+    std::size_t m = k;
+    for (; m > 0 && e->phi < rows[m - 1]->phi; --m) rows[m] = rows[m - 1];
+    rows[m] = e;
+  }
   SpikeFrame f;
   const auto n = static_cast<Eigen::Index>(rows.size());
   f.a.resize(n, b.m + 3 * p.traces + 1);

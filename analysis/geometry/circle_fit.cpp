@@ -15,10 +15,32 @@ Eigen::Vector2d Mean(const std::vector<Eigen::Vector2d>& p) {
   return m / static_cast<double>(p.size());
 }
 
-double SumSquares(const std::vector<Eigen::Vector2d>& p, const Eigen::Vector2d& c, double r) {
+// The points by coordinate, so the distances to a centre are computed a packet at a time.
+struct Coordinates {
+  Eigen::ArrayXd x, y;
+};
+
+Coordinates Split(const std::vector<Eigen::Vector2d>& p) {
+  Coordinates xy{Eigen::ArrayXd(static_cast<Eigen::Index>(p.size())),
+                 Eigen::ArrayXd(static_cast<Eigen::Index>(p.size()))};
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    xy.x[static_cast<Eigen::Index>(i)] = p[i].x();
+    xy.y[static_cast<Eigen::Index>(i)] = p[i].y();
+  }
+  return xy;
+}
+
+// |p_i − c| (as (p_i − c).norm(): the square root of x² + y²).
+Eigen::ArrayXd Distances(const Coordinates& xy, const Eigen::Vector2d& c) {
+  return ((xy.x - c.x()).square() + (xy.y - c.y()).square()).sqrt();
+}
+
+// Σ (|p_i − c| − r)², summed in point order.
+double SumSquares(const Coordinates& xy, const Eigen::Vector2d& c, double r) {
+  const Eigen::ArrayXd dist = Distances(xy, c);
   double s = 0.0;
-  for (const auto& q : p) {
-    const double d = (q - c).norm() - r;
+  for (Eigen::Index i = 0; i < dist.size(); ++i) {
+    const double d = dist[i] - r;
     s += d * d;
   }
   return s;
@@ -61,7 +83,8 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
   for (std::size_t i = 0; i < points.size(); ++i) p[i] = points[i] - m;
   Eigen::Vector2d c = start.centre - m;
   double r = start.radius;
-  double cost = SumSquares(p, c, r);
+  const Coordinates xy = Split(p);
+  double cost = SumSquares(xy, c, r);
   double lambda = 1e-6;
   CircleFitResult out;
   const double tol = 1e-15 * std::max(1.0, r);
@@ -70,12 +93,13 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
     // Normal equations of the residual d_i = |p_i − c| − r; J row = [−u_x, −u_y, −1].
     Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
     Eigen::Vector3d jtd = Eigen::Vector3d::Zero();
-    for (const auto& q : p) {
-      const Eigen::Vector2d v = q - c;
-      const double dist = v.norm();
-      if (!(dist > 0.0)) continue;
-      const Eigen::Vector3d j(-v.x() / dist, -v.y() / dist, -1.0);
-      const double d = dist - r;
+    const Eigen::ArrayXd dist = Distances(xy, c);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const Eigen::Vector2d v = p[i] - c;
+      const double di = dist[static_cast<Eigen::Index>(i)];
+      if (!(di > 0.0)) continue;
+      const Eigen::Vector3d j(-v.x() / di, -v.y() / di, -1.0);
+      const double d = di - r;
       jtj += j * j.transpose();
       jtd += j * d;
     }
@@ -89,7 +113,7 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
       if (step.norm() <= tol) break;
       const Eigen::Vector2d c_new = c + step.head<2>();
       const double r_new = r + step(2);
-      const double cost_new = SumSquares(p, c_new, r_new);
+      const double cost_new = SumSquares(xy, c_new, r_new);
       if (std::isfinite(cost_new) && cost_new <= cost) {
         c = c_new;
         r = r_new;
