@@ -51,24 +51,13 @@ inline void SinCos(double x, double* s, double* c) {
   const double r = ((x - q * kPio2_1) - q * kPio2_2) - q * kPio2_3;
   const double sr = internal::KernelSin(r);
   const double cr = internal::KernelCos(r);
-  switch (static_cast<long long>(q) & 3) {
-    case 0:
-      *s = sr;
-      *c = cr;
-      break;
-    case 1:
-      *s = cr;
-      *c = -sr;
-      break;
-    case 2:
-      *s = -sr;
-      *c = -cr;
-      break;
-    default:
-      *s = -cr;
-      *c = sr;
-      break;
-  }
+  // Quadrant k: (sin, cos) = (sr, cr), (cr, −sr), (−sr, −cr), (−cr, sr) for k = 0 … 3, chosen
+  // without a branch (the quadrant of successive samples is not predictable).
+  const auto k = static_cast<int>(static_cast<long long>(q) & 3);
+  const double v[2] = {sr, cr};
+  const double sign[2] = {1.0, -1.0};
+  *s = v[k & 1] * sign[k >> 1];
+  *c = v[(k & 1) ^ 1] * sign[((k + 1) >> 1) & 1];
 }
 
 }  // namespace km
