@@ -192,9 +192,12 @@ CircularTestResult AnalyzeCircularTest(const DbbTest& test, DeviationUnits units
   r.sin_angle.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double rho = r_um + dev[i];
-    r.cos_angle[i] = std::cos(turn.angle_rad[i]);
-    r.sin_angle[i] = std::sin(turn.angle_rad[i]);
-    pts[i] = Eigen::Vector2d(rho * r.cos_angle[i], rho * r.sin_angle[i]);
+    // One angle for both calls (the compiler may then evaluate them together).
+    const double a = turn.angle_rad[i];
+    const double c = std::cos(a), s = std::sin(a);
+    r.cos_angle[i] = c;
+    r.sin_angle[i] = s;
+    pts[i] = Eigen::Vector2d(rho * c, rho * s);
   }
   const auto fit = geometry::FitCircleLeastSquares(pts);
   r.centre_offset_um = {fit.circle.centre.x(), fit.circle.centre.y()};
