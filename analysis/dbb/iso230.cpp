@@ -23,6 +23,8 @@ struct PeriodicTrace {
 };
 
 double WrapTurn(double angle_rad) {
+  // fmod leaves an angle already within [0, 2π) unchanged (it is exact).
+  if (angle_rad >= 0.0 && angle_rad < 2.0 * std::numbers::pi) return angle_rad;
   double t = std::fmod(angle_rad, 2.0 * std::numbers::pi);
   if (t < 0.0) t += 2.0 * std::numbers::pi;
   return t;
