@@ -46,7 +46,7 @@ AuditVerdictRecord ReadVerdict(const Result& s, int i) {
 void PgStorage::PutAuditConfig(const AuditConfigRecord& cfg) {
   auto c = pool_->Acquire();
   Params p;
-  p.Text(cfg.machine_id, "machine_id").Text(cfg.schedule, "schedule");
+  p.Key(cfg.machine_id, "machine_id").Text(cfg.schedule, "schedule");
   p.Text(cfg.rules_json, "rules");
   p.Text(cfg.updated_at.empty() ? NowUtcIso8601() : cfg.updated_at, "updated_at");
   p.Text(cfg.last_run_at, "last_run_at").Text(cfg.next_run_at, "next_run_at");
@@ -94,7 +94,7 @@ void PgStorage::SetAuditRun(const std::string& machine_id, const std::optional<s
 std::int64_t PgStorage::AddAuditVerdict(const AuditVerdictRecord& v) {
   auto c = pool_->Acquire();
   Params p;
-  p.Text(v.machine_id, "machine_id").Int(v.level).Text(v.trigger, "trigger");
+  p.Key(v.machine_id, "machine_id").Int(v.level).Text(v.trigger, "trigger");
   p.Text(v.created_at.empty() ? NowUtcIso8601() : v.created_at, "created_at");
   p.Text(v.verdict_json, "verdict").Text(v.webhook_status, "webhook_status");
   p.Int(v.webhook_attempts);

@@ -83,6 +83,15 @@ Params& Params::Text(const std::string& v, const char* field) {
   return Add(IsValidUtf8(v) ? v : SanitizeUtf8(v), 0);
 }
 
+Params& Params::Key(const std::string& v, const char* field) {
+  if (v.size() > kMaxKeyBytes) {
+    throw InvalidInput("", 0, field,
+                       "is longer than " + std::to_string(kMaxKeyBytes) +
+                           " bytes, the most the PostgreSQL database indexes");
+  }
+  return Text(v, field);
+}
+
 Params& Params::Text(const std::optional<std::string>& v, const char* field) {
   return v ? Text(*v, field) : Null();
 }

@@ -43,7 +43,11 @@ class Params {
   // `field` names the value in the InvalidInput of a NUL byte.
   Params& Text(const std::string& v, const char* field);
   Params& Text(const std::optional<std::string>& v, const char* field);  // NULL when empty
-  Params& Bytes(const std::string& v);                                   // bytea, exact bytes
+  // Text that goes into a B-tree index (machine ids): at most kMaxKeyBytes, or InvalidInput
+  // naming the field (PostgreSQL cannot index longer entries; SQLite keeps them).
+  Params& Key(const std::string& v, const char* field);
+  static constexpr std::size_t kMaxKeyBytes = 2048;
+  Params& Bytes(const std::string& v);  // bytea, exact bytes
   Params& Null();
 
   int size() const { return static_cast<int>(values_.size()); }

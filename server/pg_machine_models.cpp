@@ -33,7 +33,7 @@ MachineModelPut PgStorage::PutMachineModel(const NewMachineModel& m) {
   r.note = m.note;
   r.sha256 = m.sha256;
   Params key;
-  key.Text(m.machine_id, "machine_id");
+  key.Key(m.machine_id, "machine_id");
   auto c = pool_->Acquire();
   Transaction tx(*c);
   // Writers of the same machine (in any instance) take turns until their transaction ends: the

@@ -137,7 +137,7 @@ PutOutcome PgStorage::PutMeasurement(const NewMeasurement& m,
   if (auto id = FindSha(*c, m.sha256)) return PutOutcome{*id, false};
   Params p;
   p.Text(m.sha256, "sha256").Text(m.kind, "kind").Text(m.format, "format");
-  p.Text(m.machine_id, "machine_id").Text(m.test_id, "test_id").Text(m.direction, "direction");
+  p.Key(m.machine_id, "machine_id").Text(m.test_id, "test_id").Text(m.direction, "direction");
   p.Text(m.measured_at, "measured_at").Text(NowUtcIso8601(), "uploaded_at");
   p.Text(m.filename, "filename").Int(static_cast<std::int64_t>(m.samples.rows()));
   p.Text(m.metadata_json, "metadata").Bytes(m.raw).Bytes(EncodeSamples(m.samples));

@@ -43,7 +43,7 @@ void InsertChunk(pg::Conn& c, const StreamChunk& ch) {
 std::int64_t PgStorage::CreateStream(const NewStream& st) {
   auto c = pool_->Acquire();
   Params p;
-  p.Text(st.machine_id, "machine_id").Text(st.name, "name").Text(st.source, "source");
+  p.Key(st.machine_id, "machine_id").Text(st.name, "name").Text(st.source, "source");
   p.Text(st.metadata_json, "metadata").Text(NowUtcIso8601(), "created_at");
   return c
       ->Query(

@@ -262,6 +262,30 @@ TEST_F(PgStorageTest, TextPostgreSqlCannotHoldIsRefusedNamingTheField) {
   EXPECT_FALSE(s.FindBySha256("nul"));
   EXPECT_THROW(s.CreateStream({"m", std::string("\0", 1), "http", "{}"}), InvalidInput);
   EXPECT_THROW(s.PutMachineModel({"m", "upload", std::string("n\0", 2), "d", "s"}), InvalidInput);
+  // A machine id longer than an index entry holds: refused naming it; 2048 bytes (of letters
+  // that do not compress) are stored and found.
+  std::string id;
+  std::uint32_t x = 12345;
+  while (id.size() < 3000) {
+    x = x * 1103515245u + 12345u;
+    id += static_cast<char>('a' + (x >> 16) % 26);
+  }
+  m = Sample("long");
+  m.machine_id = id;
+  try {
+    s.PutMeasurement(m, {});
+    ADD_FAILURE() << "a 3000-byte machine id was taken";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.field(), "machine_id");
+  }
+  EXPECT_THROW(s.CreateStream({id, "", "http", "{}"}), InvalidInput);
+  m.machine_id = id.substr(0, 2048);
+  EXPECT_TRUE(s.PutMeasurement(m, {}).created);
+  MeasurementFilter f;
+  f.machine_id = m.machine_id;
+  EXPECT_EQ(s.ListMeasurements(f).total, 1);
+  EXPECT_EQ(s.CreateStream({m.machine_id, "", "http", "{}"}), 1);
+  EXPECT_TRUE(s.PutMachineModel({m.machine_id, "upload", "", "d", "s"}).created);
 }
 
 TEST_F(PgStorageTest, MessagesNeverShowThePassword) {
