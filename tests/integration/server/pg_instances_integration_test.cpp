@@ -36,7 +36,7 @@ std::string SmallDbb(const std::string& test_id) {
 class PgInstances : public ::testing::Test {
  protected:
   void SetUp() override {
-    url_ = km::server::testing::FreshDatabaseUrl();
+    url_ = km::server::test::FreshDatabaseUrl();
     if (url_.empty()) GTEST_SKIP() << "no PostgreSQL server (KINEMETRIC_TEST_DATABASE)";
     base_ = fs::temp_directory_path() / ("kinemetric-pg-" + std::to_string(::getpid()));
     fs::remove_all(base_);
@@ -105,9 +105,9 @@ TEST_F(PgInstances, TheSameFileUploadedToBothAtOnceIsStoredOnceAndServedByEither
 }
 
 TEST_F(PgInstances, ADatabaseOutageIs503OnBothAndTheyServeAgainAfterIt) {
-  if (!km::server::testing::OwnCluster()) GTEST_SKIP() << "not our PostgreSQL server";
+  if (!km::server::test::OwnCluster()) GTEST_SKIP() << "not our PostgreSQL server";
   ASSERT_EQ(Upload(0, SmallDbb("before"))->status, 201);
-  km::server::testing::StopServer();
+  km::server::test::StopServer();
   for (int i = 0; i < 2; ++i) {
     const auto r = clients_[i]->Get("/api/v1/measurements");
     ASSERT_TRUE(r);
@@ -115,7 +115,7 @@ TEST_F(PgInstances, ADatabaseOutageIs503OnBothAndTheyServeAgainAfterIt) {
     EXPECT_EQ(r->get_header_value("Retry-After"), "1");
     EXPECT_EQ(r->body.find("postgresql://"), std::string::npos) << r->body;
   }
-  km::server::testing::StartServer();
+  km::server::test::StartServer();
   for (int i = 0; i < 2; ++i) {
     const auto r = clients_[i]->Get("/api/v1/measurements");
     ASSERT_TRUE(r);

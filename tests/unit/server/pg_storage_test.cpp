@@ -19,13 +19,13 @@
 namespace km::server {
 namespace {
 
-using testing::ExecSql;
-using testing::QueryValue;
+using test::ExecSql;
+using test::QueryValue;
 
 class PgStorageTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    url_ = testing::FreshDatabaseUrl();
+    url_ = test::FreshDatabaseUrl();
     if (url_.empty()) GTEST_SKIP() << "no PostgreSQL server (KINEMETRIC_TEST_DATABASE)";
   }
   static NewMeasurement Sample(const std::string& sha) {
@@ -164,7 +164,7 @@ TEST_F(PgStorageTest, KeptRowsAreImmutableInTheDatabaseItself) {
 }
 
 TEST_F(PgStorageTest, AServerRestartFailsCallsBusyMeanwhileAndTheyWorkAfter) {
-  if (!testing::OwnCluster()) GTEST_SKIP() << "the server of KINEMETRIC_TEST_DATABASE is not ours";
+  if (!test::OwnCluster()) GTEST_SKIP() << "the server of KINEMETRIC_TEST_DATABASE is not ours";
   PgOptions o;
   o.busy_timeout_ms = 1000;
   o.pool_size = 3;
@@ -174,7 +174,7 @@ TEST_F(PgStorageTest, AServerRestartFailsCallsBusyMeanwhileAndTheyWorkAfter) {
   std::vector<std::thread> readers;
   for (int t = 0; t < 3; ++t) readers.emplace_back([&] { s.GetMeasurement(id); });
   for (auto& th : readers) th.join();
-  testing::StopServer();
+  test::StopServer();
   for (int i = 0; i < 4; ++i) {
     try {
       s.GetMeasurement(id);
@@ -185,14 +185,14 @@ TEST_F(PgStorageTest, AServerRestartFailsCallsBusyMeanwhileAndTheyWorkAfter) {
     }
   }
   EXPECT_THROW(s.PutMeasurement(Sample("during"), {}), StorageError);
-  testing::StartServer();
+  test::StartServer();
   EXPECT_EQ(s.GetMeasurement(id)->sha256, "before");
   EXPECT_TRUE(s.PutMeasurement(Sample("after"), {}).created);
   // pg_ctl restart: the pool's idle connections are found closed and opened again.
   std::vector<std::thread> again;
   for (int t = 0; t < 3; ++t) again.emplace_back([&] { s.ListMachines(); });
   for (auto& th : again) th.join();
-  testing::RestartServer();
+  test::RestartServer();
   for (int i = 0; i < 5; ++i) EXPECT_EQ(s.GetMeasurement(id)->sha256, "before") << i;
   EXPECT_FALSE(s.PutMeasurement(Sample("after"), {}).created);
 }

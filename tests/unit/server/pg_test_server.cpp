@@ -13,7 +13,7 @@
 #include <stdexcept>
 #include <vector>
 
-namespace km::server::testing {
+namespace km::server::test {
 namespace {
 
 const std::string kScript = std::string(KINEMETRIC_SOURCE_DIR) + "/tests/tools/pg_cluster.sh";
@@ -154,4 +154,4 @@ void RestartServer() {
   }
 }
 
-}  // namespace km::server::testing
+}  // namespace km::server::test

@@ -7,7 +7,7 @@
 
 #include <string>
 
-namespace km::server::testing {
+namespace km::server::test {
 
 // A new, empty database (CREATE DATABASE with a unique name): its URL; empty when there is no
 // server (the caller skips; a failure is recorded under KINEMETRIC_CI=1).
@@ -26,4 +26,4 @@ void StopServer();
 void StartServer();
 void RestartServer();
 
-}  // namespace km::server::testing
+}  // namespace km::server::test

@@ -8,7 +8,7 @@
 #include "server/sqlite_storage.h"
 #include "tests/unit/server/pg_test_server.h"
 
-namespace km::server::testing {
+namespace km::server::test {
 
 namespace fs = std::filesystem;
 
@@ -60,4 +60,4 @@ NewMachineModel Backends::Model(const std::string& machine, const std::string& d
 INSTANTIATE_TEST_SUITE_P(, Backends, ::testing::Values("sqlite", "postgresql"),
                          [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
 
-}  // namespace km::server::testing
+}  // namespace km::server::test

@@ -11,7 +11,7 @@
 
 #include "server/storage.h"
 
-namespace km::server::testing {
+namespace km::server::test {
 
 class Backends : public ::testing::TestWithParam<std::string> {
  protected:
@@ -28,4 +28,4 @@ class Backends : public ::testing::TestWithParam<std::string> {
   std::string url_;   // PostgreSQL
 };
 
-}  // namespace km::server::testing
+}  // namespace km::server::test

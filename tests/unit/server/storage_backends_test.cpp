@@ -19,7 +19,7 @@
 namespace km::server {
 namespace {
 
-using testing::Backends;
+using test::Backends;
 
 TEST_P(Backends, StoresOnceAndKeepsEverythingAcrossReopen) {
   std::int64_t id = 0;
