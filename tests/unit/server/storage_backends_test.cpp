@@ -3,13 +3,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <chrono>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
 #include <map>
-#include <thread>
 
 #include "analysis/core/errors.h"
 #include "server/pg_storage.h"
@@ -507,53 +504,6 @@ TEST_P(Backends, StreamsChunksAndGaps) {
   EXPECT_EQ(gaps[1].detected_at, "2026-07-01T00:00:00Z");
   EXPECT_EQ(gaps[1].t_after_us, 25000);
   EXPECT_EQ(s->StreamGaps(1, 1).size(), 1u);
-}
-
-// A quick throughput figure (run with --gtest_also_run_disabled_tests): stores, reads and lists
-// per second, one thread and eight.
-TEST_P(Backends, DISABLED_Throughput) {
-  auto s = Open();
-  const auto rate = [](int n, auto t0) {
-    const std::chrono::duration<double> d = std::chrono::steady_clock::now() - t0;
-    return static_cast<double>(n) / d.count();
-  };
-  constexpr int kFiles = 1000;
-  auto t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < kFiles; ++i) {
-    NewMeasurement m = Sample("p" + std::to_string(i), "bench");
-    m.raw.assign(80'000, static_cast<char>('a' + i % 26));
-    m.samples.values.assign(2 * 2000, 0.5 * i);
-    s->PutMeasurement(m, {{"dbb", "dbb/1", R"({"r":1})"}});
-  }
-  const double puts = rate(kFiles, t0);
-  t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < 4 * kFiles; ++i) s->GetMeasurement(1 + i % kFiles);
-  const double gets = rate(4 * kFiles, t0);
-  std::vector<std::thread> threads;
-  t0 = std::chrono::steady_clock::now();
-  for (int t = 0; t < 8; ++t) {
-    threads.emplace_back([&] {
-      for (int i = 0; i < kFiles; ++i) s->GetMeasurement(1 + i % kFiles);
-    });
-  }
-  for (auto& th : threads) th.join();
-  const double gets8 = rate(8 * kFiles, t0);
-  MeasurementFilter f;
-  f.machine_id = "bench";
-  f.order = MeasurementFilter::Order::kNewest;
-  t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < 300; ++i) {
-    f.offset = (i * 50) % kFiles;
-    EXPECT_EQ(s->ListMeasurements(f).items.size(), 50u);
-  }
-  const double lists = rate(300, t0);
-  t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < 300; ++i) s->GetRaw(1 + i);
-  const double raws = rate(300, t0);
-  std::printf(
-      "%s: PutMeasurement %.0f/s, GetMeasurement %.0f/s (8 threads %.0f/s), "
-      "ListMeasurements (50 of 1000) %.0f/s, GetRaw (80 kB) %.0f/s\n",
-      GetParam().c_str(), puts, gets, gets8, lists, raws);
 }
 
 }  // namespace
