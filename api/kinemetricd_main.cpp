@@ -73,7 +73,8 @@ int main(int argc, char** argv) {
                  "[--modbus-config FILE] [--io-threads N] [--queue-limit N] [--max-connections N] "
                  "[--header-timeout-s S] [--cors-origin ORIGIN] [--max-devices N] "
                  "[--device-network CIDR] [--access-log FILE|-|off] [--metrics-public] "
-                 "[--shutdown-timeout-s S] … (docs/http.md, docs/operations.md)\n";
+                 "[--shutdown-timeout-s S] [--job-workers N] [--job-lease-s S] … (docs/http.md, "
+                 "docs/operations.md)\n";
     return 2;
   }
   // SIGINT / SIGTERM are taken by a waiting thread that stops the server cleanly.
@@ -93,6 +94,9 @@ int main(int argc, char** argv) {
     so.audits.webhook_url = cfg.audit_webhook_url;
     so.audits.webhook_attempts = cfg.audit_webhook_attempts;
     so.audits.webhook_first_delay_ms = cfg.audit_webhook_first_delay_ms;
+    so.jobs.workers = cfg.job_workers;
+    so.jobs.lease_ms = std::int64_t{cfg.job_lease_s} * 1000;
+    so.jobs.max_queued = cfg.max_queued_jobs;
     km::server::Service service(std::move(storage), so);
     km::server::RegisterBuiltinKinds(service);
 

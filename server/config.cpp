@@ -36,6 +36,7 @@ constexpr Range kDevices{0, 10'000, ""};
 constexpr Range kWebhookAttempts{1, 20, ""};
 constexpr Range kWebhookDelay{10, 600'000, " ms"};
 constexpr Range kPoolSize{1, 1000, ""};
+constexpr Range kJobWorkers{0, 64, ""};
 
 // Every whole-number setting: its config-file key (the command-line option is "--" + key with
 // '-' for '_'), its range and where it goes.
@@ -87,6 +88,12 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.max_devices = static_cast<std::size_t>(v); }},
     {"shutdown_timeout_s", kTimeout,
      [](ServerConfig& c, std::int64_t v) { c.shutdown_timeout_s = static_cast<int>(v); }},
+    {"job_workers", kJobWorkers,
+     [](ServerConfig& c, std::int64_t v) { c.job_workers = static_cast<int>(v); }},
+    {"job_lease_s", kTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.job_lease_s = static_cast<int>(v); }},
+    {"max_queued_jobs", kQueueLimit,
+     [](ServerConfig& c, std::int64_t v) { c.max_queued_jobs = static_cast<std::size_t>(v); }},
 };
 
 const NumberOption* FindNumberOption(const std::string& key) {
