@@ -91,6 +91,20 @@ void PgStorage::SetAuditRun(const std::string& machine_id, const std::optional<s
       p, "record audit run");
 }
 
+bool PgStorage::ClaimAuditRun(const std::string& machine_id, const std::string& due,
+                              const std::string& last, const std::optional<std::string>& next) {
+  auto c = pool_->Acquire();
+  Params p;
+  p.Text(last, "last_run_at").Text(next, "next_run_at").Text(machine_id, "machine_id");
+  p.Text(due, "due");
+  // A second instance's update waits for the first's row lock, then finds next_run_at moved.
+  return c->Query(
+              "UPDATE audit_configs SET last_run_at = $1, next_run_at = $2 "
+              "WHERE machine_id = $3 AND next_run_at = $4",
+              p, "claim audit run")
+             .Affected() == 1;
+}
+
 std::int64_t PgStorage::AddAuditVerdict(const AuditVerdictRecord& v) {
   auto c = pool_->Acquire();
   Params p;
