@@ -179,6 +179,16 @@ TEST_P(Backends, TextIsOrderedByteByByteAndCaseFoldingIsAsciiOnly) {
   EXPECT_EQ(s->ListMeasurements(f).total, 0);
   f.text = "Été.TXT";
   EXPECT_EQ(s->ListMeasurements(f).total, 1);
+  // LIKE's special characters are taken literally.
+  m = Sample("u2", "m");
+  m.filename = "a\\b_%c.txt";
+  s->PutMeasurement(m, {});
+  for (const std::string t : {"\\", "\\B_%", "_%c", "a\\b"}) {
+    f.text = t;
+    EXPECT_EQ(s->ListMeasurements(f).total, 1) << t;
+  }
+  f.text = "a_b";
+  EXPECT_EQ(s->ListMeasurements(f).total, 0);
 }
 
 TEST_P(Backends, InvalidUtf8IsAnsweredAsReplacementCharacters) {
