@@ -2,7 +2,10 @@
 # A private PostgreSQL 15 cluster for tests: initdb into a directory, a server listening on
 # 127.0.0.1 only, on a free port, trust authentication for loopback, fsync off (test data only).
 #
-#   pg_cluster.sh start DIR    prints one line: postgresql://kinemetric@127.0.0.1:PORT/postgres
+#   pg_cluster.sh start DIR [--watch PID]
+#                              prints one line: postgresql://kinemetric@127.0.0.1:PORT/postgres;
+#                              with --watch, the cluster is stopped and removed once process PID
+#                              has ended (a test that crashed leaves no server behind)
 #   pg_cluster.sh stop DIR     stops the server (fast) and removes the cluster and DIR
 #   pg_cluster.sh pause DIR    stops the server, keeps the cluster (an outage)
 #   pg_cluster.sh resume DIR   starts it again on the same port
@@ -17,13 +20,20 @@ BIN=${KINEMETRIC_PG_BIN:-/usr/lib/postgresql/15/bin}
 SUPERUSER=kinemetric
 
 usage() {
-  echo "usage: pg_cluster.sh start|stop|pause|resume|restart DIR" >&2
+  echo "usage: pg_cluster.sh start|stop|pause|resume|restart DIR [--watch PID]" >&2
   exit 2
 }
 
-[ $# -eq 2 ] || usage
+[ $# -eq 2 ] || [ $# -eq 4 ] || usage
 cmd=$1
 dir=$2
+watch_pid=""
+if [ $# -eq 4 ]; then
+  [ "$cmd" = start ] && [ "$3" = --watch ] || usage
+  watch_pid=$4
+fi
+script=$(cd "$(dirname "$0")" && pwd)/$(basename "$0")
+case $dir in /*) ;; *) dir=$(pwd)/$dir ;; esac
 cd /tmp
 
 runas=""
@@ -86,6 +96,12 @@ EOF
     fi
   done
   echo "$port" >"$dir/port"
+  if [ -n "$watch_pid" ]; then
+    (
+      while kill -0 "$watch_pid" 2>/dev/null; do sleep 1; done
+      sh "$script" stop "$dir"
+    ) </dev/null >/dev/null 2>&1 &
+  fi
   echo "postgresql://$SUPERUSER@127.0.0.1:$port/postgres"
 }
 

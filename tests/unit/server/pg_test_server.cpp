@@ -47,7 +47,8 @@ struct Server {
       return;
     }
     dir = tmpl;
-    const auto out = Run("sh " + kScript + " start " + dir + "/pg");
+    const auto out =
+        Run("sh " + kScript + " start " + dir + " --watch " + std::to_string(::getpid()));
     if (!out || out->rfind("postgresql://", 0) != 0) {
       error = "tests/tools/pg_cluster.sh could not start a PostgreSQL cluster";
       return;
@@ -58,7 +59,7 @@ struct Server {
     for (const auto& db : databases)
       ExecSql(url, "DROP DATABASE IF EXISTS " + db + " WITH (FORCE)");
     if (!dir.empty()) {
-      Run("sh " + kScript + " stop " + dir + "/pg >/dev/null 2>&1");
+      Run("sh " + kScript + " stop " + dir + " >/dev/null 2>&1");
       Run("rm -rf " + dir);
     }
   }
@@ -137,19 +138,19 @@ bool OwnCluster() {
 }
 
 void StopServer() {
-  if (!Run("sh " + kScript + " pause " + TheServer().dir + "/pg")) {
+  if (!Run("sh " + kScript + " pause " + TheServer().dir)) {
     throw std::runtime_error("pg_cluster.sh pause failed");
   }
 }
 
 void StartServer() {
-  if (!Run("sh " + kScript + " resume " + TheServer().dir + "/pg")) {
+  if (!Run("sh " + kScript + " resume " + TheServer().dir)) {
     throw std::runtime_error("pg_cluster.sh resume failed");
   }
 }
 
 void RestartServer() {
-  if (!Run("sh " + kScript + " restart " + TheServer().dir + "/pg")) {
+  if (!Run("sh " + kScript + " restart " + TheServer().dir)) {
     throw std::runtime_error("pg_cluster.sh restart failed");
   }
 }
