@@ -98,7 +98,7 @@ EOF
   echo "$port" >"$dir/port"
   if [ -n "$watch_pid" ]; then
     (
-      while kill -0 "$watch_pid" 2>/dev/null; do sleep 1; done
+      while [ -d "/proc/$watch_pid" ]; do sleep 1; done
       sh "$script" stop "$dir"
     ) </dev/null >/dev/null 2>&1 &
   fi
