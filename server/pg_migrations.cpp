@@ -1,5 +1,6 @@
 #include "server/pg_migrations.h"
 
+#include <algorithm>
 #include <string>
 
 #include "server/pg_db.h"
@@ -238,7 +239,7 @@ int SchemaVersion() {
   return kSchemaVersion;
 }
 
-void Migrate(Conn& c) {
+void Migrate(Conn& c, int target) {
   c.Exec(std::string("SELECT pg_advisory_lock(") + kLockKey + ")", "migration lock");
   try {
     c.Exec(
@@ -254,7 +255,7 @@ void Migrate(Conn& c) {
                              std::to_string(kSchemaVersion) + "); refusing to touch it",
                          SqlStateCode("55000"), false);
     }
-    for (int v = version; v < kSchemaVersion; ++v) {
+    for (int v = version; v < std::min(target, kSchemaVersion); ++v) {
       Transaction tx(c);
       c.Exec(kMigrations[v], "migration " + std::to_string(v + 1));
       Params p;

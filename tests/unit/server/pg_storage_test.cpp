@@ -14,6 +14,7 @@
 
 #include "analysis/core/errors.h"
 #include "server/pg_db.h"
+#include "server/pg_migrations.h"
 #include "server/storage_factory.h"
 #include "tests/unit/server/pg_test_server.h"
 
@@ -134,6 +135,36 @@ TEST_F(PgStorageTest, ADatabaseOfANewerSchemaIsRefusedUntouched) {
     EXPECT_NE(std::string(e.what()).find("newer than this program"), std::string::npos) << e.what();
   }
   EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"), "99");
+}
+
+TEST_F(PgStorageTest, ADatabaseOfVersion7GainsTheJobQueueWithNothingLost) {
+  {
+    pg::ConnOptions o;
+    o.url = url_;
+    pg::Conn c(o);
+    pg::Migrate(c, 7);
+  }
+  EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"), "7");
+  ASSERT_EQ(ExecSql(url_,
+                    "INSERT INTO jobs (kind, status, request_json, result_json, created_at, "
+                    "updated_at) VALUES ('calibration', 'done', '{\"a\":1}', '{\"r\":2}', "
+                    "'2026-01-01T00:00:00Z', '2026-01-01T00:00:01Z');"
+                    "INSERT INTO tokens (token_sha256, role, created_at) VALUES ('h', 'admin', "
+                    "'2026-01-01T00:00:00Z')"),
+            "");
+  PgStorage s(url_);
+  EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"), "8");
+  const auto j = *s.GetJob(1);
+  EXPECT_EQ(j.status, "done");
+  EXPECT_EQ(j.request_json, R"({"a":1})");
+  EXPECT_EQ(j.result_json, R"({"r":2})");
+  EXPECT_EQ(j.updated_at, "2026-01-01T00:00:01Z");
+  EXPECT_EQ(j.plan_json, "");
+  EXPECT_EQ(j.lease_owner, "");
+  EXPECT_EQ(j.lease_until_ms, 0);
+  EXPECT_EQ(j.attempts, 0);
+  EXPECT_EQ(s.FindTokenRole("h"), "admin");
+  EXPECT_EQ(s.QueueJob({"discovery", "{}", "{}"}), 2);
 }
 
 TEST_F(PgStorageTest, KeptRowsAreImmutableInTheDatabaseItself) {
