@@ -45,7 +45,7 @@ class Server:
     def start(self, timeout=20):
         os.makedirs(self.data_dir, exist_ok=True)
         self.lines = []
-        url = database_url(self.data_dir)
+        url = None if "--database" in self.extra else database_url(self.data_dir)
         database = ["--database", url] if url else []
         self.proc = subprocess.Popen(
             [self.binary, "--listen", "127.0.0.1:0", "--data-dir", self.data_dir, "--threads",
