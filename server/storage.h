@@ -19,9 +19,12 @@
 namespace km::server {
 
 // A failure of the storage backend. code() is the backend's result code (SQLite: the primary
-// result code, e.g. SQLITE_BUSY = 5); busy() is true when another connection held the database
-// locked for longer than the busy timeout, so the same request may succeed a little later (the
-// API answers 503 with Retry-After). The message is for the server log, not for clients.
+// result code, e.g. SQLITE_BUSY = 5; PostgreSQL: the SQLSTATE read as a base-36 number,
+// server/pg_db.h); busy() is true when another connection held the database locked for longer
+// than the busy timeout (PostgreSQL also: a serialization failure, a deadlock, a statement
+// timeout, a lost connection, a server shutting down), so the same request may succeed a little
+// later (the API answers 503 with Retry-After). The message is for the server log, not for
+// clients.
 class StorageError : public Error {
  public:
   StorageError(const std::string& message, int code, bool busy)
