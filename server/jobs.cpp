@@ -269,6 +269,10 @@ nlohmann::json JobJson(const JobRecord& job) {
       job.request_json.empty() ? nlohmann::json(nullptr) : nlohmann::json::parse(job.request_json);
   if (!job.result_json.empty()) j["result"] = nlohmann::json::parse(job.result_json);
   if (!job.error.empty()) j["error"] = job.error;
+  // The instance running the job, or the one that finished it; how often it was started.
+  j["instance"] =
+      job.lease_owner.empty() ? nlohmann::json(nullptr) : nlohmann::json(job.lease_owner);
+  j["attempts"] = job.attempts;
   const JobVerdict v =
       JudgeJob(job.kind, job.status, j.value("result", nlohmann::json()), job.error);
   j["verdict"] = v.verdict.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.verdict);

@@ -152,8 +152,7 @@ bool SqliteStorage::FinishJob(const JobRecord& job, const std::string& owner) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "UPDATE jobs SET status = ?, progress = ?, stage = ?, result_json = ?, error = ?, "
-      "lease_owner = '', lease_until_ms = 0, updated_at = ? "
-      "WHERE id = ? AND status = 'running' AND lease_owner = ?");
+      "lease_until_ms = 0, updated_at = ? WHERE id = ? AND status = 'running' AND lease_owner = ?");
   s->Bind(1, job.status).BindReal(2, job.progress).Bind(3, job.stage).Bind(4, job.result_json);
   s->Bind(5, job.error).Bind(6, NowUtcIso8601()).Bind(7, job.id).Bind(8, owner);
   s->Step();

@@ -323,7 +323,8 @@ class Storage {
   virtual bool RenewJob(std::int64_t id, const std::string& owner, double progress,
                         const std::string& stage, std::int64_t lease_until_ms) = 0;
   // The outcome of owner's running job (status done or failed, progress, stage, result_json,
-  // error); the lease is cleared. false when the job is no longer owner's (nothing written).
+  // error); the lease ends (lease_owner stays: the instance that ran it). false when the job is
+  // no longer owner's (nothing written).
   virtual bool FinishJob(const JobRecord& job, const std::string& owner) = 0;
   // owner's running jobs go back to the queue (a stopping instance): queued, lease cleared,
   // attempts kept; how many.

@@ -105,6 +105,7 @@ TEST_F(JobQueueTest, AStoppingInstanceGivesItsRunningJobBackAndAnotherFinishesIt
   b->Start();
   const auto done = WaitStatus(db_b, id, "done");
   EXPECT_EQ(done.attempts, 2);
+  EXPECT_EQ(done.lease_owner, "instance-b");  // the instance that ran it
   EXPECT_EQ(nlohmann::json::parse(done.result_json)["by"], "instance-b");
 }
 
