@@ -17,7 +17,12 @@ namespace {
 
 // A failed call's StorageError; r (may be null) is cleared here.
 [[noreturn]] void Throw(PGconn* c, PGresult* r, const std::string& what) {
-  std::string msg = r ? PQresultErrorMessage(r) : "";
+  // PostgreSQL's primary message (and its detail), without severity and context lines.
+  const char* primary = r ? PQresultErrorField(r, PG_DIAG_MESSAGE_PRIMARY) : nullptr;
+  const char* detail = r ? PQresultErrorField(r, PG_DIAG_MESSAGE_DETAIL) : nullptr;
+  std::string msg = primary ? primary : "";
+  if (primary && detail) msg += std::string(" (") + detail + ")";
+  if (msg.empty() && r) msg = PQresultErrorMessage(r);
   if (msg.empty() && c) msg = PQerrorMessage(c);
   while (!msg.empty() && (msg.back() == '\n' || msg.back() == ' ')) msg.pop_back();
   const char* state = r ? PQresultErrorField(r, PG_DIAG_SQLSTATE) : nullptr;

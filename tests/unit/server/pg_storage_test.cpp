@@ -312,6 +312,29 @@ TEST_F(PgStorageTest, ALockHeldLongerThanTheBusyTimeoutIsBusy) {
   EXPECT_EQ(s.GetJob(job)->status, "queued");
 }
 
+TEST_F(PgStorageTest, ErrorsAreBusyForTheSqlStatesARetryMayOutlast) {
+  pg::ConnOptions o;
+  o.url = url_;
+  pg::Conn c(o);
+  const std::pair<const char*, bool> states[] = {
+      {"40001", true},  {"40P01", true},  {"55P03", true},  {"57014", true},
+      {"08006", true},  {"57P01", true},  {"57P03", true},  {"23505", false},
+      {"42P01", false}, {"P0001", false}, {"53100", false}, {"22021", false}};
+  for (const auto& [state, busy] : states) {
+    try {
+      c.Exec(std::string("DO $$ BEGIN RAISE EXCEPTION 'raised' USING ERRCODE = '") + state +
+                 "'; END $$",
+             "raise");
+      ADD_FAILURE() << state << " raised nothing";
+    } catch (const StorageError& e) {
+      EXPECT_EQ(e.busy(), busy) << state;
+      EXPECT_EQ(e.code(), pg::SqlStateCode(state)) << state;
+      EXPECT_EQ(std::string(e.what()), "storage: raise: raised") << state;
+    }
+  }
+  EXPECT_EQ(pg::SqlStateCode("40001"), (((4 * 36 + 0) * 36 + 0) * 36 + 0) * 36 + 1);
+}
+
 TEST_F(PgStorageTest, ThePoolBoundsTheConnectionsAndServesManyThreads) {
   PgOptions o;
   o.pool_size = 2;
