@@ -15,6 +15,25 @@
 namespace km::server::pg {
 namespace {
 
+// libpq's message on one line: its lines joined with "; ", trailing blanks dropped.
+std::string OneLine(const std::string& text) {
+  std::string out;
+  bool newline = false;
+  for (const char ch : text) {
+    if (ch == '\n') {
+      newline = true;
+    } else if (newline && (ch == '\t' || ch == ' ')) {
+      continue;
+    } else {
+      if (newline && !out.empty()) out += "; ";
+      newline = false;
+      out += ch;
+    }
+  }
+  while (!out.empty() && out.back() == ' ') out.pop_back();
+  return out;
+}
+
 // A failed call's StorageError; r (may be null) is cleared here.
 [[noreturn]] void Throw(PGconn* c, PGresult* r, const std::string& what) {
   // PostgreSQL's primary message (and its detail), without severity and context lines.
@@ -24,7 +43,7 @@ namespace {
   if (primary && detail) msg += std::string(" (") + detail + ")";
   if (msg.empty() && r) msg = PQresultErrorMessage(r);
   if (msg.empty() && c) msg = PQerrorMessage(c);
-  while (!msg.empty() && (msg.back() == '\n' || msg.back() == ' ')) msg.pop_back();
+  msg = OneLine(msg);
   const char* state = r ? PQresultErrorField(r, PG_DIAG_SQLSTATE) : nullptr;
   std::string sqlstate = state ? state : "";
   if (r) PQclear(r);
@@ -162,7 +181,7 @@ Conn::Conn(const ConnOptions& o) {
   c_ = PQconnectdbParams(keys, values, 1);
   if (!c_ || PQstatus(c_) != CONNECTION_OK) {
     std::string msg = c_ ? PQerrorMessage(c_) : "out of memory";
-    while (!msg.empty() && (msg.back() == '\n' || msg.back() == ' ')) msg.pop_back();
+    msg = OneLine(msg);
     PQfinish(c_);
     c_ = nullptr;
     throw StorageError("storage: connect to " + MaskPassword(o.url) + ": " + msg,

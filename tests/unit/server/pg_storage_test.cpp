@@ -405,6 +405,7 @@ TEST_F(PgStorageTest, MessagesNeverShowThePassword) {
     EXPECT_NE(std::string(e.what()).find("kinemetric:***@127.0.0.1:1/x"), std::string::npos)
         << e.what();
     EXPECT_TRUE(e.busy());
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();  // one log line
   }
   EXPECT_EQ(MaskPassword("postgres://u:p%40ss@h/db?sslmode=require"),
             "postgres://u:***@h/db?sslmode=require");
