@@ -1,11 +1,14 @@
 // Integration test: two real kinemetricd instances on one PostgreSQL database (--database). The
 // same file uploaded to both at once is stored once; what one stores the other lists and
-// serves; a PostgreSQL stop answers 503 with Retry-After on both (never 500) and they serve
-// again once it is back, without a restart of theirs.
+// serves; a PostgreSQL stop, and a table another client holds locked past the busy timeout,
+// answer 503 with Retry-After on both (never 500) and they serve again once it is over, without
+// a restart of theirs.
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <libpq-fe.h>
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -123,6 +126,29 @@ TEST_F(PgInstances, ADatabaseOutageIs503OnBothAndTheyServeAgainAfterIt) {
     EXPECT_EQ(json::parse(r->body)["total"], 1);
   }
   EXPECT_EQ(Upload(1, SmallDbb("after"))->status, 201);
+}
+
+TEST_F(PgInstances, ATableLockedLongerThanTheBusyTimeoutIs503AndServesAfterwards) {
+  ASSERT_EQ(Upload(0, SmallDbb("before"))->status, 201);
+  // Another client (a maintenance job) holds the measurements table.
+  PGconn* other = PQconnectdb(url_.c_str());
+  ASSERT_EQ(PQstatus(other), CONNECTION_OK);
+  PQclear(PQexec(other, "BEGIN"));
+  PQclear(PQexec(other, "LOCK TABLE measurements IN ACCESS EXCLUSIVE MODE"));
+  for (int i = 0; i < 2; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto r = Upload(i, SmallDbb("locked " + std::to_string(i)));
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 503) << r->body;
+    EXPECT_EQ(r->get_header_value("Retry-After"), "1");
+    EXPECT_GE(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(400));
+  }
+  PQclear(PQexec(other, "ROLLBACK"));
+  PQfinish(other);
+  EXPECT_EQ(Upload(1, SmallDbb("locked 1"))->status, 201);
+  const auto list = clients_[0]->Get("/api/v1/measurements?machine_id=fleet-vmc");
+  ASSERT_TRUE(list);
+  EXPECT_EQ(json::parse(list->body)["total"], 2);  // nothing of the refused uploads kept
 }
 
 }  // namespace
