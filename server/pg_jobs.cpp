@@ -174,7 +174,7 @@ bool PgStorage::FinishJob(const JobRecord& job, const std::string& owner) {
   p.Int(job.id).Text(owner, "owner");
   return c->Query(
               "UPDATE jobs SET status = $1, progress = $2, stage = $3, result_json = $4, "
-              "error = $5, lease_owner = '', lease_until_ms = 0, updated_at = $6 "
+              "error = $5, lease_until_ms = 0, updated_at = $6 "
               "WHERE id = $7 AND status = 'running' AND lease_owner = $8",
               p, "finish job")
              .Affected() == 1;

@@ -104,7 +104,7 @@ TEST_P(Backends, TheOwnerFinishesItsJobOnce) {
   EXPECT_EQ(stored.status, "done");
   EXPECT_EQ(stored.result_json, R"({"r":1})");
   EXPECT_EQ(stored.progress, 1.0);
-  EXPECT_EQ(stored.lease_owner, "");
+  EXPECT_EQ(stored.lease_owner, "a");  // the instance that ran it
   EXPECT_EQ(stored.lease_until_ms, 0);
   EXPECT_FALSE(s->FinishJob(j, "a"));                             // no longer running
   EXPECT_FALSE(s->ClaimJob("b", 1'000'000, 100, 3, kAbandoned));  // done jobs are not taken
