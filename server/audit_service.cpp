@@ -313,7 +313,10 @@ std::vector<CalibrationRun> MachineCalibrations(Service& service, const std::str
   for (const auto& j : service.storage().ListJobs(kCalibrationJobScan)) {
     if (j.kind != "hexapod_calibration" || j.status != "done") continue;
     const json request = json::parse(j.request_json, nullptr, false);
-    if (!request.is_object() || request.value("machine_id", std::string()) != machine_id) continue;
+    if (!request.is_object() || !request.contains("machine_id") ||
+        request["machine_id"] != machine_id) {
+      continue;
+    }
     json result = json::parse(j.result_json, nullptr, false);
     if (!result.is_object() || JudgeJob(j.kind, j.status, result, j.error).verdict == "failed") {
       continue;
