@@ -2,7 +2,8 @@
 // uploaded DBB tests with the evidence of each finding, trend rules against the previous
 // audit, scheduled runs with a set clock (a time missed while the server was down runs once,
 // also after a restart on the same database), the scheduler thread with a 1 s schedule and a
-// prompt stop, a due run made once by one of two instances, and the webhook delivered to a local HTTP receiver after a first 500.
+// prompt stop, a due run made once by one of two instances, and the webhook delivered to a local
+// HTTP receiver after a first 500.
 #include "server/audit_scheduler.h"
 
 #include <gtest/gtest.h>
