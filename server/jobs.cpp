@@ -155,7 +155,9 @@ void JobQueue::Heartbeat() {
   while (!cv_.wait_for(lock, period, [this] { return stop_; })) {
     const auto running = running_;
     lock.unlock();
-    for (const auto& [id, r] : running) {
+    for (const auto& entry : running) {
+      const std::int64_t id = entry.first;
+      const Running& r = entry.second;
       if (r.lost) continue;
       bool held = true;
       if (const auto error = Guarded([&] {
