@@ -1,4 +1,4 @@
-// Browser scenario (issue 14 items 5, 6, 7): several files uploaded at once, each with its own
+// Browser scenario: several files uploaded at once, each with its own
 // outcome (a bad file names its line and field; the good ones are stored and linked); files
 // dropped on the upload panel; the printable DBB report (print stylesheet: no controls, the test
 // conditions); CSV of the list; keyboard focus kept and returned; token messages that never
