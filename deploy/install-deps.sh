@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(
-  build-essential cmake pkg-config git clang-format ccache
+  build-essential cmake ninja-build pkg-config git clang-format ccache
   clang libclang-rt-14-dev libboost-dev wrk
   libeigen3-dev libceres-dev libopencv-dev libmodbus-dev libsqlite3-dev sqlite3
   postgresql libpq-dev

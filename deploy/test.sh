@@ -32,9 +32,19 @@ if command -v ccache >/dev/null; then
   export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
   launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
 fi
+# Ninja (Debian ninja-build) for a new build directory; one made with another generator keeps it.
+gen=()
+use_generator_for() {
+  gen=()
+  if command -v ninja >/dev/null &&
+    { [ ! -f "$1/CMakeCache.txt" ] || grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja$' "$1/CMakeCache.txt"; }; then
+    gen=(-G Ninja)
+  fi
+}
 
 stage "Release build"
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=ON \
+use_generator_for build
+cmake -S . -B build "${gen[@]}" -DCMAKE_BUILD_TYPE=Release -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=ON \
   "${launcher[@]}" >/dev/null
 cmake --build build -j"$jobs"
 
@@ -66,7 +76,8 @@ pg_load_db=$(KINEMETRIC_TEST_DATABASE="$pg_url" tests/tools/test_database.sh "$p
 
 if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
   stage "AddressSanitizer + UBSan build"
-  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
+  use_generator_for build-asan
+  cmake -S . -B build-asan "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
     -DKINEMETRIC_SANITIZE=ON -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
   cmake --build build-asan -j"$jobs"
   stage "tests (ASan + UBSan)"
@@ -78,7 +89,8 @@ if [ "${KINEMETRIC_SKIP_FUZZ:-0}" != 1 ]; then
   # Every parser under libFuzzer + ASan + UBSan: known crash inputs (tests/fuzz/crashes/) are
   # replayed, then each target fuzzes from its seed corpus for a bounded time.
   stage "fuzz build (clang, libFuzzer + ASan + UBSan)"
-  CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
+  use_generator_for build-fuzz
+  CC=clang CXX=clang++ cmake -S . -B build-fuzz "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
     -DKINEMETRIC_FUZZ=ON -DKINEMETRIC_TESTS=OFF -DKINEMETRIC_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
   cmake --build build-fuzz -j"$jobs" --target fuzz_targets
   fuzz_seconds=10
