@@ -35,7 +35,8 @@ json AuditBody() {
 
 const char* const kVerdictKeys =
     "{id, machine_id, level, created_at, trigger, findings[{rule, kind, metric, level, value, "
-    "limit, measurement_id, measured_at, message}], checked[], webhook}";
+    "limit, measurement_id (job_id for kind calibration), measured_at, message}], checked[], "
+    "webhook}";
 
 void AddConfigRoutes(Router& router, server::Service* svc) {
   Route put{"PUT",

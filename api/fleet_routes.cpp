@@ -31,10 +31,11 @@ void AddFleetRoutes(Router& router, server::Service& service) {
       },
       {{"parameters", json::array({Param("metric", "string",
                                          "circularity_um, centre_offset_um, circular_deviation_um, "
-                                         "straightness_min_zone_um, flatness_min_zone_um, … ")})},
+                                         "straightness_min_zone_um, flatness_min_zone_um, "
+                                         "strut_offset_max_um, … ")})},
        {"responses",
         {{"200", JsonResponse("{machine_id, metric, label, unit, kind, points[{measured_at, "
-                              "value, measurement_id}]}")}}}}});
+                              "value, measurement_id (job_id for kind calibration)}]}")}}}}});
 }
 
 }  // namespace km::api

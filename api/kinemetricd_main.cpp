@@ -19,7 +19,7 @@
 #include "server/demo_data.h"
 #include "server/service.h"
 #include "server/sha256.h"
-#include "server/sqlite_storage.h"
+#include "server/storage_factory.h"
 
 namespace fs = std::filesystem;
 
@@ -69,10 +69,12 @@ int main(int argc, char** argv) {
     std::cerr << "kinemetricd: " << e.what() << "\n"
               << "usage: kinemetricd --listen HOST:PORT --data-dir DIR [--config FILE] "
                  "[--web-root DIR] [--demo-data] [--threads N] [--max-upload-bytes N] "
+                 "[--database sqlite:|postgresql://USER@HOST:PORT/DB] [--db-pool-size N] "
                  "[--modbus-config FILE] [--io-threads N] [--queue-limit N] [--max-connections N] "
                  "[--header-timeout-s S] [--cors-origin ORIGIN] [--max-devices N] "
                  "[--device-network CIDR] [--access-log FILE|-|off] [--metrics-public] "
-                 "[--shutdown-timeout-s S] … (docs/http.md, docs/operations.md)\n";
+                 "[--shutdown-timeout-s S] [--job-workers N] [--job-lease-s S] … (docs/http.md, "
+                 "docs/operations.md)\n";
     return 2;
   }
   // SIGINT / SIGTERM are taken by a waiting thread that stops the server cleanly.
@@ -83,10 +85,7 @@ int main(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   try {
     km::server::PrepareDataDir(cfg.data_dir);
-    const std::string db_path = (fs::path(cfg.data_dir) / "kinemetric.db").string();
-    km::server::SqliteOptions db_options;
-    db_options.busy_timeout_ms = cfg.db_busy_timeout_ms;
-    auto storage = std::make_unique<km::server::SqliteStorage>(db_path, db_options);
+    auto storage = km::server::OpenStorage(cfg);
     km::server::ServiceOptions so;
     so.max_upload_bytes = cfg.max_upload_bytes;
     km::server::ApplyUploadLimits(cfg, so.upload_limits);
@@ -95,6 +94,9 @@ int main(int argc, char** argv) {
     so.audits.webhook_url = cfg.audit_webhook_url;
     so.audits.webhook_attempts = cfg.audit_webhook_attempts;
     so.audits.webhook_first_delay_ms = cfg.audit_webhook_first_delay_ms;
+    so.jobs.workers = cfg.job_workers;
+    so.jobs.lease_ms = std::int64_t{cfg.job_lease_s} * 1000;
+    so.jobs.max_queued = cfg.max_queued_jobs;
     km::server::Service service(std::move(storage), so);
     km::server::RegisterBuiltinKinds(service);
 
@@ -156,7 +158,7 @@ int main(int argc, char** argv) {
       }
     });
     std::cout << "kinemetricd: listening on http://" << cfg.host << ":" << port << "/ (data in "
-              << cfg.data_dir << ")" << std::endl;
+              << km::server::DescribeDatabase(cfg) << ")" << std::endl;
     http.Serve();
     // Serve returned: stopped by a signal, or by an error. Wake the waiter if needed.
     serving = false;

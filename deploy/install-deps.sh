@@ -6,9 +6,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(
-  build-essential cmake pkg-config git clang-format
+  build-essential cmake ninja-build pkg-config git clang-format ccache
   clang libclang-rt-14-dev libboost-dev wrk
   libeigen3-dev libceres-dev libopencv-dev libmodbus-dev libsqlite3-dev sqlite3
+  postgresql libpq-dev
   libcpp-httplib-dev nlohmann-json3-dev libssl-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-pymodbus python3-serial python3-serial-asyncio

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Builds kinemetric and runs every test (unit, integration, browser) through CTest, then once
-# more under AddressSanitizer + UndefinedBehaviorSanitizer, then fuzzes every parser for a
+# Builds kinemetric and runs every test (unit, integration, browser) through CTest, the
+# integration and browser tests again on PostgreSQL, then every test once more under
+# AddressSanitizer + UndefinedBehaviorSanitizer, then fuzzes every parser for a
 # bounded time (clang, libFuzzer). Exits non-zero on any failure.
 #   KINEMETRIC_SKIP_SANITIZERS=1  skip the sanitizer pass (local quick runs only)
 #   KINEMETRIC_LONG=1             also run the long soak / load tests, and fuzz 300 s a target
@@ -24,8 +25,27 @@ if [ -n "$files" ]; then
   clang-format --dry-run --Werror $files
 fi
 
+# ccache (Debian) keeps compiled objects between runs of this script, also from another checkout
+# of the repository (paths relative to it); a first run builds everything.
+launcher=()
+if command -v ccache >/dev/null; then
+  export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
+  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+fi
+# Ninja (Debian ninja-build) for a new build directory; one made with another generator keeps it.
+gen=()
+use_generator_for() {
+  gen=()
+  if command -v ninja >/dev/null &&
+    { [ ! -f "$1/CMakeCache.txt" ] || grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja$' "$1/CMakeCache.txt"; }; then
+    gen=(-G Ninja)
+  fi
+}
+
 stage "Release build"
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=ON >/dev/null
+use_generator_for build
+cmake -S . -B build "${gen[@]}" -DCMAKE_BUILD_TYPE=Release -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=ON \
+  "${launcher[@]}" >/dev/null
 cmake --build build -j"$jobs"
 
 label_args=()
@@ -34,6 +54,15 @@ if [ "${KINEMETRIC_LONG:-0}" != 1 ]; then label_args=(-LE long); fi
 stage "tests (Release)"
 (cd build && ctest --output-on-failure -j"$jobs" "${label_args[@]}")
 
+# The integration suite again with every test server's data in PostgreSQL: a private cluster on a
+# loopback port (tests/tools/pg_cluster.sh), a database per server data directory.
+stage "integration and browser tests on PostgreSQL"
+pg_dir=$(mktemp -d /tmp/kinemetric-test-pg.XXXXXX)
+pg_url=$(tests/tools/pg_cluster.sh start "$pg_dir")
+trap 'tests/tools/pg_cluster.sh stop "$pg_dir" >/dev/null 2>&1 || true' EXIT
+(cd build && KINEMETRIC_TEST_DATABASE="$pg_url" ctest --output-on-failure -j"$jobs" \
+  -L 'integration|browser' "${label_args[@]}")
+
 stage "benchmarks (short smoke run; full figures: build/bench/<name>)"
 for b in build/bench/*; do
   [ -x "$b" ] || continue
@@ -41,11 +70,15 @@ for b in build/bench/*; do
 done
 stage "HTTP load benchmark (short form; full figures: tests/bench/http/load_bench.py)"
 /usr/bin/python3 tests/bench/http/load_bench.py build/bin/kinemetricd --seconds 2 --idle 200 --slow 20
+pg_load_db=$(KINEMETRIC_TEST_DATABASE="$pg_url" tests/tools/test_database.sh "$pg_dir/load")
+/usr/bin/python3 tests/bench/http/load_bench.py build/bin/kinemetricd --seconds 2 --idle 200 --slow 20 \
+  --database "$pg_load_db"
 
 if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
   stage "AddressSanitizer + UBSan build"
-  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
-    -DKINEMETRIC_SANITIZE=ON -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=OFF >/dev/null
+  use_generator_for build-asan
+  cmake -S . -B build-asan "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
+    -DKINEMETRIC_SANITIZE=ON -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
   cmake --build build-asan -j"$jobs"
   stage "tests (ASan + UBSan)"
   (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
@@ -56,8 +89,9 @@ if [ "${KINEMETRIC_SKIP_FUZZ:-0}" != 1 ]; then
   # Every parser under libFuzzer + ASan + UBSan: known crash inputs (tests/fuzz/crashes/) are
   # replayed, then each target fuzzes from its seed corpus for a bounded time.
   stage "fuzz build (clang, libFuzzer + ASan + UBSan)"
-  CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
-    -DKINEMETRIC_FUZZ=ON -DKINEMETRIC_TESTS=OFF -DKINEMETRIC_BENCHMARKS=OFF >/dev/null
+  use_generator_for build-fuzz
+  CC=clang CXX=clang++ cmake -S . -B build-fuzz "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
+    -DKINEMETRIC_FUZZ=ON -DKINEMETRIC_TESTS=OFF -DKINEMETRIC_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
   cmake --build build-fuzz -j"$jobs" --target fuzz_targets
   fuzz_seconds=10
   if [ "${KINEMETRIC_LONG:-0}" = 1 ]; then fuzz_seconds=300; fi

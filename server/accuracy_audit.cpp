@@ -58,6 +58,29 @@ Extractor MaxOver(const char* array, const char* pointer, bool vector_length) {
   };
 }
 
+// The largest change of a strut offset between a calibration and the one before it, from
+// {"newest": result, "previous": result}; nullopt unless both hold as many finite offsets.
+std::optional<double> StrutOffsetChange(const json& pair) {
+  const json::json_pointer p("/parameters/strut_offset_um");
+  if (!pair.is_object() || !pair.contains("newest") || !pair.contains("previous")) {
+    return std::nullopt;
+  }
+  const json& a = pair["newest"];
+  const json& b = pair["previous"];
+  if (!a.contains(p) || !b.contains(p)) return std::nullopt;
+  const json& x = a.at(p);
+  const json& y = b.at(p);
+  if (!x.is_array() || !y.is_array() || x.empty() || x.size() != y.size()) return std::nullopt;
+  double best = 0.0;
+  for (std::size_t j = 0; j < x.size(); ++j) {
+    if (!x[j].is_number() || !y[j].is_number()) return std::nullopt;
+    const double d = std::abs(x[j].get<double>() - y[j].get<double>());
+    if (!std::isfinite(d)) return std::nullopt;
+    best = std::max(best, d);
+  }
+  return best;
+}
+
 struct Entry {
   AuditMetric metric;
   Extractor extract;
@@ -116,6 +139,15 @@ const std::vector<Entry>& Table() {
       {{"servo", "joint_resistance_ratio_max", "servo-joints", "1",
         "largest resistance of a leg over its reference", "max /legs[i]/ratio"},
        MaxOver("/legs", "/ratio", false)},
+      {{"calibration", "strut_offset_max_um", "hexapod_calibration", "µm",
+        "largest identified strut length offset (true − nominal) of the newest hexapod "
+        "calibration",
+        "max |/parameters/strut_offset_um[j]|"},
+       MaxOver("/parameters/strut_offset_um", "", false)},
+      {{"calibration", "strut_offset_change_max_um", "hexapod_calibration-pair", "µm",
+        "largest change of a strut offset from the calibration before the newest",
+        "max |Δ /parameters/strut_offset_um[j]|"},
+       StrutOffsetChange},
   };
   return table;
 }
@@ -270,11 +302,21 @@ std::string Format(double v) {
   return o.str();
 }
 
+// The evidence's id: the job of a calibration, else the measurement.
 json Evidence(const AuditValue& v, const char* prefix) {
   const std::string p(prefix);
-  return {{p + "value", v.value},
-          {p + "measurement_id", v.measurement_id},
-          {p + "measured_at", v.measured_at}};
+  json j = {{p + "value", v.value}, {p + "measured_at", v.measured_at}};
+  if (v.job_id != 0) {
+    j[p + "job_id"] = v.job_id;
+  } else {
+    j[p + "measurement_id"] = v.measurement_id;
+  }
+  return j;
+}
+
+std::string EvidenceName(const AuditValue& v) {
+  return v.job_id != 0 ? "calibration job " + std::to_string(v.job_id)
+                       : "measurement " + std::to_string(v.measurement_id);
 }
 
 // The compared value of a rule (the newest value, or its increase) into `checked` and, when
@@ -306,17 +348,15 @@ int Judge(const AuditRule& rule, std::size_t i, const AuditEvidence& ev, json& c
             {"kind", rule.kind},
             {"metric", rule.metric},
             {"level", level},
-            {"value", value},
-            {"limit", *limit},
-            {"measurement_id", ev.newest->measurement_id},
-            {"measured_at", ev.newest->measured_at}};
+            {"limit", *limit}};
+  f.update(Evidence(*ev.newest, ""));
+  f["value"] = value;
   const std::string what = trend ? rule.kind + " " + rule.metric + " rose by " + Format(value) +
                                        " (from " + Format(ev.reference->value) + " to " +
                                        Format(ev.newest->value) + ")"
                                  : rule.kind + " " + rule.metric + " " + Format(value);
   f["message"] = what + ", above the " + (level == 3 ? "stop" : "warn") + " limit " +
-                 Format(*limit) + " (measurement " + std::to_string(ev.newest->measurement_id) +
-                 ")";
+                 Format(*limit) + " (" + EvidenceName(*ev.newest) + ")";
   if (trend) {
     f["newest_value"] = ev.newest->value;
     f.update(Evidence(*ev.reference, "reference_"));

@@ -1,6 +1,7 @@
-// Accuracy audits: per machine, rules over the newest results of each kind of measurement,
-// evaluated into a verdict of level 1 (normal), 2 (warn: still compensable) or 3 (stop). Not to
-// be confused with the audit log of state-changing requests (server/access.h).
+// Accuracy audits: per machine, rules over the newest results of each kind of measurement (and
+// of the machine's hexapod calibrations, kind "calibration"), evaluated into a verdict of level 1
+// (normal), 2 (warn: still compensable) or 3 (stop). Not to be confused with the audit log of
+// state-changing requests (server/access.h).
 //
 // This file holds the pure parts: the table of metrics an audit can read from stored results
 // (the same table validates rules, answers GET /api/v1/audit-metrics and is documented in
@@ -20,11 +21,14 @@ namespace km::server {
 // One metric: where it is read and what it means. Every metric is "bigger is worse" (a
 // magnitude: a signed figure is taken as its absolute value).
 struct AuditMetric {
-  std::string kind;    // measurement kind: dbb, straightness, flatness, parallelism, tracker, servo
-  std::string metric;  // the name rules use
+  std::string kind;  // measurement kind: dbb, straightness, flatness, parallelism, tracker, servo;
+                     // "calibration": the machine's done hexapod_calibration jobs
+  std::string metric;    // the name rules use
   std::string analysis;  // the result read: "" the measurement's own result; "servo-joints" the
                          // joint-health estimate kept with servo records; "dbb-pair" the CW/CCW
-                         // pair analysis of a DBB test with its partner
+                         // pair analysis of a DBB test with its partner; "hexapod_calibration"
+                         // a calibration job's result; "hexapod_calibration-pair" the object
+                         // {"newest": result, "previous": the calibration before's result}
   std::string unit;
   std::string description;
   std::string source;  // JSON pointer or rule of the value in that result, for the docs
@@ -55,11 +59,12 @@ inline constexpr std::size_t kMaxAuditRules = 200;
 std::vector<AuditRule> ParseAuditRules(const nlohmann::json& rules);
 nlohmann::json AuditRuleJson(const AuditRule& rule);
 
-// A value found for a rule, with its evidence.
+// A value found for a rule, with its evidence: a measurement, or (kind "calibration") a job.
 struct AuditValue {
   double value = 0.0;
-  std::int64_t measurement_id = 0;
-  std::string measured_at;  // measurement time, else upload time
+  std::int64_t measurement_id = 0;  // 0 when the evidence is a job
+  std::string measured_at;          // measurement time, else upload time; a job's finish time
+  std::int64_t job_id = 0;          // the calibration job; 0 for a measurement
 };
 
 // What was found for one rule: the newest value and, for a trend rule, the reference value.
@@ -70,8 +75,9 @@ struct AuditEvidence {
 };
 
 // The verdict over rules and their evidence (same order): {"level", "findings": [{"rule",
-// "kind", "metric", "level", "value", "limit", "measurement_id", "measured_at", "message", …}],
-// "checked": [{"rule", "kind", "metric", "status": "ok" | "finding" | "not evaluated", …}]}.
+// "kind", "metric", "level", "value", "limit", "measurement_id" (or "job_id" when the evidence is
+// a job), "measured_at", "message", …}], "checked": [{"rule", "kind", "metric", "status": "ok" |
+// "finding" | "not evaluated", …}]}.
 // Level = the worst finding, 1 without any.
 nlohmann::json EvaluateAudit(const std::vector<AuditRule>& rules,
                              const std::vector<AuditEvidence>& evidence);

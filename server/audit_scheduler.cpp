@@ -108,6 +108,24 @@ nlohmann::json AuditScheduler::Run(const std::string& machine_id, const std::str
   return verdict;
 }
 
+// Claims a due run for this instance: the next due time is stored before the audit runs, only
+// while the stored due time is still the one read (another instance on the same database may
+// have claimed it first). false: not this instance's run, or the claim could not be stored.
+bool AuditScheduler::ClaimDue(const AuditConfigRecord& c, std::int64_t now) {
+  std::optional<std::string> next;
+  try {
+    if (const auto t = NextAuditRun(ParseAuditSchedule(*c.schedule), now)) {
+      next = IsoFromUnixSeconds(*t);
+    }
+    return service_.storage().ClaimAuditRun(c.machine_id, *c.next_run_at, IsoFromUnixSeconds(now),
+                                            next);
+  } catch (const std::exception& e) {
+    std::cerr << "kinemetricd: accuracy audit of machine '" << c.machine_id
+              << "': the due run could not be claimed: " << e.what() << std::endl;
+    return false;
+  }
+}
+
 int AuditScheduler::RunDue() {
   const std::int64_t now = clock_();
   int ran = 0;
@@ -115,11 +133,8 @@ int AuditScheduler::RunDue() {
     if (!c.schedule || !c.next_run_at) continue;
     const auto due = UnixSecondsFromIso(*c.next_run_at);
     if (due && *due > now) continue;
-    std::optional<std::string> next;
+    if (!ClaimDue(c, now)) continue;
     try {
-      if (const auto t = NextAuditRun(ParseAuditSchedule(*c.schedule), now)) {
-        next = IsoFromUnixSeconds(*t);
-      }
       const auto verdict = Run(c.machine_id, "schedule");
       ++ran;
       // In the audit log beside the runs asked for over HTTP (no token: the scheduler).
@@ -133,12 +148,6 @@ int AuditScheduler::RunDue() {
     } catch (const std::exception& e) {
       std::cerr << "kinemetricd: scheduled accuracy audit of machine '" << c.machine_id
                 << "' failed: " << e.what() << std::endl;
-    }
-    try {
-      service_.storage().SetAuditRun(c.machine_id, IsoFromUnixSeconds(now), next);
-    } catch (const std::exception& e) {
-      std::cerr << "kinemetricd: accuracy audit of machine '" << c.machine_id
-                << "': next run not stored: " << e.what() << std::endl;
     }
   }
   return ran;

@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "server/storage.h"
 #include "server/webhook.h"
 
 namespace km::server {
@@ -49,10 +50,12 @@ class AuditScheduler {
   // Runs a machine's audit now, records the run and queues the webhook for level 2 and 3.
   nlohmann::json Run(const std::string& machine_id, const std::string& trigger);
   // Runs every scheduled audit due now, once each, and stores its next due time; how many ran.
+  // Each due run is claimed first, so of several instances on one database one runs it.
   int RunDue();
 
  private:
   void Loop();
+  bool ClaimDue(const AuditConfigRecord& config, std::int64_t now);
   // Queues the webhook of verdicts a previous stop left "pending" (among the newest 1000).
   void ResendPending();
   // The earliest stored due time (Unix seconds); nullopt when nothing is scheduled.

@@ -1,11 +1,13 @@
 #include "server/audit_service.h"
 
+#include <algorithm>
 #include <map>
 #include <optional>
 
 #include "analysis/core/errors.h"
 #include "server/accuracy_audit.h"
 #include "server/audit_schedule.h"
+#include "server/jobs.h"
 #include "server/service.h"
 
 namespace km::server {
@@ -20,13 +22,16 @@ constexpr int kMaxPairAnalyses = 4;
 // The analysis name of the joint-health estimates kept with servo records (docs/formats.md §5).
 constexpr const char* kJointsAnalysis = "servo-joints";
 
-// A stored measurement with the results an audit reads (read when first needed).
+// A stored measurement with the results an audit reads (read when first needed), or a
+// calibration job (kind "calibration").
 struct Stored {
   MeasurementRecord record;
   bool loaded = false;
   json result;  // the measurement's own newest result (null when none)
   json joints;  // the newest joint-health estimate kept with it (null when none)
   std::int64_t at = 0;
+  std::string time;                           // measurement (else upload) time; finish time
+  std::optional<CalibrationRun> calibration;  // set for a calibration job
 };
 
 std::string TimeOf(const MeasurementRecord& r) {
@@ -44,8 +49,22 @@ std::vector<Stored> ListHistory(Service& service, const std::string& machine_id,
   std::vector<Stored> out;
   for (auto& rec : service.storage().ListMeasurements(f).items) {
     Stored s;
-    s.at = UnixSecondsFromIso(TimeOf(rec)).value_or(0);
+    s.time = TimeOf(rec);
+    s.at = UnixSecondsFromIso(s.time).value_or(0);
     s.record = std::move(rec);
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::vector<Stored> ListCalibrationHistory(Service& service, const std::string& machine_id) {
+  std::vector<Stored> out;
+  for (auto& run : MachineCalibrations(service, machine_id)) {
+    Stored s;
+    s.loaded = true;
+    s.at = run.at;
+    s.time = run.finished_at;
+    s.calibration = std::move(run);
     out.push_back(std::move(s));
   }
   return out;
@@ -62,6 +81,7 @@ void LoadResults(Service& service, Stored& s) {
 }
 
 std::optional<double> ValueOf(Service& service, const AuditMetric& m, Stored& s, int& pair_budget) {
+  if (s.calibration) return CalibrationMetricValue(m, *s.calibration);
   if (m.analysis == "dbb-pair") {
     if (pair_budget <= 0) return std::nullopt;
     --pair_budget;
@@ -77,18 +97,22 @@ std::optional<double> ValueOf(Service& service, const AuditMetric& m, Stored& s,
 }
 
 AuditValue Found(double v, const Stored& s) {
-  return {v, s.record.id, TimeOf(s.record)};
+  if (s.calibration) return {v, 0, s.time, s.calibration->job_id};
+  return {v, s.record.id, s.time};
 }
 
-// The value of the rule's metric at the previous audit (from that verdict's checked list).
+// The value of the rule's metric at the previous audit (from that verdict's checked list), with
+// the measurement or (kind "calibration") the job it was read from.
 std::optional<AuditValue> AtPreviousAudit(const json& previous, const AuditRule& rule) {
   if (!previous.is_object()) return std::nullopt;
   for (const auto& c : previous.value("checked", json::array())) {
     if (c.value("kind", "") != rule.kind || c.value("metric", "") != rule.metric) continue;
     const json& v = c.contains("newest_value") ? c["newest_value"] : c.value("value", json());
-    if (!v.is_number() || !c.contains("measurement_id")) continue;
-    return AuditValue{v.get<double>(), c["measurement_id"].get<std::int64_t>(),
-                      c.value("measured_at", "")};
+    const char* id_key = c.contains("job_id") ? "job_id" : "measurement_id";
+    if (!v.is_number() || !c.contains(id_key) || !c[id_key].is_number_integer()) continue;
+    AuditValue seen{v.get<double>(), 0, c.value("measured_at", ""), 0};
+    (c.contains("job_id") ? seen.job_id : seen.measurement_id) = c[id_key].get<std::int64_t>();
+    return seen;
   }
   return std::nullopt;
 }
@@ -113,6 +137,7 @@ void FindReference(Service& service, const AuditMetric& metric, const AuditRule&
       ev.missing = "no previous audit with a value of this metric";
       return;
     }
+    if (newest.calibration) return;  // calibrations of a machine are all compared
     const auto seen = service.storage().GetMeasurement(ev.reference->measurement_id);
     if (!seen || !SameTest(*seen, newest.record)) {
       ev.missing = "the previous audit saw another test than " + TestName(newest.record) +
@@ -130,8 +155,9 @@ void FindReference(Service& service, const AuditMetric& metric, const AuditRule&
       return;
     }
   }
-  ev.missing = "no result of test " + TestName(newest.record) + " at or before " +
-               IsoFromUnixSeconds(cutoff);
+  ev.missing = (newest.calibration ? std::string("no calibration")
+                                   : "no result of test " + TestName(newest.record)) +
+               " at or before " + IsoFromUnixSeconds(cutoff);
 }
 
 AuditEvidence Gather(Service& service, const AuditRule& rule, std::vector<Stored>& history,
@@ -223,7 +249,11 @@ json RunAccuracyAudit(Service& service, const std::string& machine_id, const std
   for (const auto& rule : rules) {
     auto it = histories.find(rule.kind);
     if (it == histories.end()) {
-      it = histories.emplace(rule.kind, ListHistory(service, machine_id, rule.kind)).first;
+      it = histories
+               .emplace(rule.kind, rule.kind == "calibration"
+                                       ? ListCalibrationHistory(service, machine_id)
+                                       : ListHistory(service, machine_id, rule.kind))
+               .first;
     }
     evidence.push_back(Gather(service, rule, it->second, previous, now));
   }
@@ -276,6 +306,42 @@ json AuditMetricsJson() {
                      {"source", m.source}});
   }
   return {{"metrics", items}};
+}
+
+std::vector<CalibrationRun> MachineCalibrations(Service& service, const std::string& machine_id) {
+  std::vector<CalibrationRun> runs;
+  for (const auto& j : service.storage().ListJobs(kCalibrationJobScan)) {
+    if (j.kind != "hexapod_calibration" || j.status != "done") continue;
+    const json request = json::parse(j.request_json, nullptr, false);
+    if (!request.is_object() || !request.contains("machine_id") ||
+        request["machine_id"] != machine_id) {
+      continue;
+    }
+    json result = json::parse(j.result_json, nullptr, false);
+    if (!result.is_object() || JudgeJob(j.kind, j.status, result, j.error).verdict == "failed") {
+      continue;
+    }
+    CalibrationRun run;
+    run.job_id = j.id;
+    run.finished_at = j.updated_at;
+    run.at = UnixSecondsFromIso(j.updated_at).value_or(0);
+    run.result = std::move(result);
+    runs.push_back(std::move(run));
+  }
+  // Newest first by when they finished (jobs are listed by when they were queued).
+  std::stable_sort(runs.begin(), runs.end(), [](const CalibrationRun& a, const CalibrationRun& b) {
+    return a.at != b.at ? a.at > b.at : a.job_id > b.job_id;
+  });
+  for (std::size_t i = 0; i + 1 < runs.size(); ++i) runs[i].previous = runs[i + 1].result;
+  return runs;
+}
+
+std::optional<double> CalibrationMetricValue(const AuditMetric& metric, const CalibrationRun& run) {
+  if (metric.analysis == "hexapod_calibration-pair") {
+    if (run.previous.is_null()) return std::nullopt;
+    return ExtractAuditMetric(metric, json{{"newest", run.result}, {"previous", run.previous}});
+  }
+  return ExtractAuditMetric(metric, run.result);
 }
 
 }  // namespace km::server

@@ -21,9 +21,7 @@ namespace km::server {
 
 namespace req = km::server::request;
 
-namespace {
-
-// What a queued calibration job needs to run: the request, checked, with ids instead of tests.
+// What a calibration job needs to run: the request, checked, with ids instead of tests.
 struct CalibrationPlan {
   ingest::MachineDefinition machine;
   std::vector<std::int64_t> ids;
@@ -32,6 +30,8 @@ struct CalibrationPlan {
   int reduction_min_tests = 0;
   std::vector<std::string> effects;  // fitted with the kinematics (docs/hexapod-effects.md)
 };
+
+namespace {
 
 // `effects`: a list of hexapod effect names, each once.
 std::vector<std::string> EffectNames(const nlohmann::json& request) {
@@ -137,10 +137,11 @@ std::vector<std::int64_t> Service::CheckedDbbIds(const nlohmann::json& request,
   return ids;
 }
 
-std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
+std::shared_ptr<CalibrationPlan> Service::CheckCalibration(const nlohmann::json& request,
+                                                           std::int64_t& stored_version) {
   if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
   auto plan = std::make_shared<CalibrationPlan>();
-  std::int64_t stored_version = 0;
+  stored_version = 0;
   if (request.contains("machine")) {
     if (!request["machine"].is_object()) {
       throw InvalidInput("request", 0, "machine",
@@ -179,33 +180,48 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
   plan->ids = CheckedDbbIds(request, "calibration study", true,
                             plan->method == hexapod::CalibrationMethod::kAbsolute);
 
-  nlohmann::json stored = request;
-  stored.erase("machine");
-  stored["machine_id"] = plan->machine.machine_id;
-  if (stored_version > 0) stored["machine_version"] = stored_version;
-  // The job reads the tests when it runs (the Service outlives its job queue).
-  return jobs_->Submit(
-      "hexapod_calibration", stored,
-      [this, plan = std::shared_ptr<const CalibrationPlan>(plan)](const JobQueue::Progress& p) {
-        CalibrationStudy study;
-        study.machine = plan->machine;
-        study.method = plan->method;
-        study.max_samples_per_test = plan->max_samples_per_test;
-        study.reduction_min_tests = plan->reduction_min_tests;
-        study.effects = plan->effects;
-        if (p) p(0.0, "reading the DBB tests");
-        study.tests.reserve(plan->ids.size());
-        study.names.reserve(plan->ids.size());
-        for (const std::int64_t id : plan->ids) {
-          study.tests.push_back(LoadDbb(id));
-          study.names.push_back(TestName(id));
-        }
-        auto outcome = RunCalibrationStudy(study, p);
-        // The calibrated machine document, as `POST /api/v1/jobs/{id}/save-machine` stores it.
-        outcome.report["calibrated_machine"] =
-            nlohmann::json::parse(ingest::WriteMachineJson(outcome.calibrated));
-        return outcome.report;
-      });
+  return plan;
+}
+
+std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
+  std::int64_t stored_version = 0;
+  const auto plan = CheckCalibration(request, stored_version);
+  nlohmann::json shown = request;
+  shown.erase("machine");
+  shown["machine_id"] = plan->machine.machine_id;
+  // The plan any instance runs: the request, with the stored model's version it was checked
+  // against (versions are never changed).
+  nlohmann::json run = request;
+  if (stored_version > 0) {
+    shown["machine_version"] = stored_version;
+    run["machine_version"] = stored_version;
+  }
+  return jobs_->Submit("hexapod_calibration", shown, run);
+}
+
+// The job reads the tests when it runs, checked again from the plan.
+nlohmann::json Service::RunCalibrationJob(const nlohmann::json& plan_json,
+                                          const JobQueue::Progress& p) {
+  std::int64_t version = 0;
+  const auto plan = CheckCalibration(plan_json, version);
+  CalibrationStudy study;
+  study.machine = plan->machine;
+  study.method = plan->method;
+  study.max_samples_per_test = plan->max_samples_per_test;
+  study.reduction_min_tests = plan->reduction_min_tests;
+  study.effects = plan->effects;
+  if (p) p(0.0, "reading the DBB tests");
+  study.tests.reserve(plan->ids.size());
+  study.names.reserve(plan->ids.size());
+  for (const std::int64_t id : plan->ids) {
+    study.tests.push_back(LoadDbb(id));
+    study.names.push_back(TestName(id));
+  }
+  auto outcome = RunCalibrationStudy(study, p);
+  // The calibrated machine document, as `POST /api/v1/jobs/{id}/save-machine` stores it.
+  outcome.report["calibrated_machine"] =
+      nlohmann::json::parse(ingest::WriteMachineJson(outcome.calibrated));
+  return outcome.report;
 }
 
 nlohmann::json Service::Job(std::int64_t id) {

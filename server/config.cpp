@@ -10,6 +10,7 @@
 
 #include "analysis/core/errors.h"
 #include "server/net_ranges.h"
+#include "server/storage_factory.h"
 #include "server/webhook.h"
 
 namespace km::server {
@@ -34,6 +35,8 @@ constexpr Range kBusyTimeout{0, 600'000, " ms"};
 constexpr Range kDevices{0, 10'000, ""};
 constexpr Range kWebhookAttempts{1, 20, ""};
 constexpr Range kWebhookDelay{10, 600'000, " ms"};
+constexpr Range kPoolSize{1, 1000, ""};
+constexpr Range kJobWorkers{0, 64, ""};
 
 // Every whole-number setting: its config-file key (the command-line option is "--" + key with
 // '-' for '_'), its range and where it goes.
@@ -75,6 +78,8 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.keep_alive_timeout_s = static_cast<int>(v); }},
     {"db_busy_timeout_ms", kBusyTimeout,
      [](ServerConfig& c, std::int64_t v) { c.db_busy_timeout_ms = static_cast<int>(v); }},
+    {"db_pool_size", kPoolSize,
+     [](ServerConfig& c, std::int64_t v) { c.db_pool_size = static_cast<int>(v); }},
     {"audit_webhook_attempts", kWebhookAttempts,
      [](ServerConfig& c, std::int64_t v) { c.audit_webhook_attempts = static_cast<int>(v); }},
     {"audit_webhook_first_delay_ms", kWebhookDelay,
@@ -83,6 +88,12 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.max_devices = static_cast<std::size_t>(v); }},
     {"shutdown_timeout_s", kTimeout,
      [](ServerConfig& c, std::int64_t v) { c.shutdown_timeout_s = static_cast<int>(v); }},
+    {"job_workers", kJobWorkers,
+     [](ServerConfig& c, std::int64_t v) { c.job_workers = static_cast<int>(v); }},
+    {"job_lease_s", kTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.job_lease_s = static_cast<int>(v); }},
+    {"max_queued_jobs", kQueueLimit,
+     [](ServerConfig& c, std::int64_t v) { c.max_queued_jobs = static_cast<std::size_t>(v); }},
 };
 
 const NumberOption* FindNumberOption(const std::string& key) {
@@ -90,6 +101,20 @@ const NumberOption* FindNumberOption(const std::string& key) {
     if (key == o.key) return &o;
   }
   return nullptr;
+}
+
+// The database: empty or "sqlite:" (the SQLite file in the data directory), or a PostgreSQL URL.
+// The message of a refused one shows no password.
+std::string DatabaseUrl(const std::string& url, const std::string& where,
+                        const std::string& field) {
+  if (url.empty() || url == "sqlite:" || url.rfind("postgresql://", 0) == 0 ||
+      url.rfind("postgres://", 0) == 0) {
+    return url;
+  }
+  throw InvalidInput(where, 0, field,
+                     "'" + MaskPassword(url).substr(0, 80) +
+                         "' is not a database: use sqlite: (the default, a file in the data "
+                         "directory) or postgresql://USER@HOST:PORT/DATABASE");
 }
 
 // "--max-upload-bytes" → "max_upload_bytes"; empty when not an option.
@@ -256,6 +281,8 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
         cfg.access_log = v.get<std::string>();
       } else if (key == "metrics_public") {
         cfg.metrics_public = v.get<bool>();
+      } else if (key == "database") {
+        cfg.database = DatabaseUrl(v.get<std::string>(), path, key);
       } else if (key == "audit_webhook_url") {
         cfg.audit_webhook_url = v.get<std::string>();
         if (!cfg.audit_webhook_url.empty()) CheckWebhookUrl(cfg.audit_webhook_url, key);
@@ -322,6 +349,8 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
       cfg.access_log = value();
     } else if (a == "--metrics-public") {
       cfg.metrics_public = true;
+    } else if (a == "--database") {
+      cfg.database = DatabaseUrl(value(), "", a);
     } else if (a == "--audit-webhook-url") {
       cfg.audit_webhook_url = value();
       if (!cfg.audit_webhook_url.empty()) CheckWebhookUrl(cfg.audit_webhook_url, a);

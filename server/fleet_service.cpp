@@ -8,6 +8,7 @@
 
 #include "analysis/core/errors.h"
 #include "server/accuracy_audit.h"
+#include "server/audit_service.h"
 #include "server/servo_service.h"
 
 namespace km::server {
@@ -88,6 +89,20 @@ nlohmann::json NewestAudit(Service& service, const std::string& machine_id) {
   return {{"id", v.front().id}, {"level", v.front().level}, {"created_at", v.front().created_at}};
 }
 
+// A calibration metric at each of the machine's calibrations, oldest first, each point with its
+// job (kind "calibration": no measurement).
+nlohmann::json CalibrationPoints(Service& service, const AuditMetric& m,
+                                 const std::string& machine_id) {
+  const auto runs = MachineCalibrations(service, machine_id);
+  nlohmann::json points = nlohmann::json::array();
+  for (auto r = runs.rbegin(); r != runs.rend(); ++r) {
+    const auto v = CalibrationMetricValue(m, *r);
+    if (!v || !std::isfinite(*v)) continue;
+    points.push_back({{"measured_at", r->finished_at}, {"value", *v}, {"job_id", r->job_id}});
+  }
+  return points;
+}
+
 }  // namespace
 
 nlohmann::json TrendMetrics() {
@@ -138,6 +153,11 @@ nlohmann::json Trends(Service& service, const std::string& machine_id, const std
                            "diagnosis.<effect> for DBB tests)");
   }
   RequireMachine(service, machine_id);
+  const auto answer = [&](nlohmann::json points) {
+    return nlohmann::json{{"machine_id", machine_id}, {"metric", metric}, {"label", m->description},
+                          {"unit", m->unit},          {"kind", m->kind},  {"points", points}};
+  };
+  if (m->kind == "calibration") return answer(CalibrationPoints(service, *m, machine_id));
   // The newest measurements of the kind (fewer for a pair figure), returned oldest first.
   MeasurementFilter f;
   f.machine_id = machine_id;
@@ -153,8 +173,7 @@ nlohmann::json Trends(Service& service, const std::string& machine_id, const std
                       {"value", *v},
                       {"measurement_id", r->id}});
   }
-  return {{"machine_id", machine_id}, {"metric", metric}, {"label", m->description},
-          {"unit", m->unit},          {"kind", m->kind},  {"points", points}};
+  return answer(std::move(points));
 }
 
 }  // namespace km::server

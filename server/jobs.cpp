@@ -1,127 +1,260 @@
 #include "server/jobs.h"
 
+#include <unistd.h>
+
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <optional>
+#include <random>
 
 #include "analysis/core/errors.h"
 
 namespace km::server {
 namespace {
 
-// One storage update of the worker. A storage error (a full disk, a locked or damaged
-// database) must not end the process: it is reported on stderr with the job id and returned.
-std::optional<std::string> TryUpdate(Storage& storage, const JobRecord& job, const char* what) {
-  std::string error;
+// A running job stops at its next progress report: the instance stops, or lost its lease.
+struct JobInterrupted {};
+
+std::int64_t NowMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// host:pid:random — unique among the instances sharing a database.
+std::string InstanceName() {
+  char host[256] = {};
+  if (gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
+  std::random_device rd;
+  char tail[16];
+  std::snprintf(tail, sizeof tail, "%08x", static_cast<unsigned>(rd()));
+  return std::string(host[0] ? host : "host") + ":" + std::to_string(getpid()) + ":" + tail;
+}
+
+// The worker's storage calls must not end the process (a full disk, a locked or unreachable
+// database): a failure is reported on stderr with the job id.
+void LogStoreFailure(std::int64_t id, const char* what, const std::string& error) {
   try {
-    storage.UpdateJob(job);
-    return std::nullopt;
-  } catch (const std::exception& e) {
-    error = e.what();
-  } catch (...) {
-    error = "unknown storage error";
-  }
-  try {
-    std::cerr << "kinemetricd: job " << job.id << ": could not store " << what << " (" << job.status
-              << "): " << error << std::endl;
+    std::cerr << "kinemetricd: job " << id << ": could not store " << what << ": " << error
+              << std::endl;
   } catch (...) {  // NOLINT(bugprone-empty-catch): nothing is left to report to
   }
-  return error;
+}
+
+template <class F>
+std::optional<std::string> Guarded(F&& call) {
+  try {
+    call();
+    return std::nullopt;
+  } catch (const std::exception& e) {
+    return std::string(e.what());
+  } catch (...) {
+    return std::string("unknown storage error");
+  }
 }
 
 }  // namespace
 
-JobQueue::JobQueue(Storage& storage, std::size_t max_queued)
-    : storage_(storage), max_queued_(max_queued) {
-  storage_.FailInterruptedJobs("the server stopped before the job finished; submit it again");
-  worker_ = std::thread([this] { Run(); });
+JobQueue::JobQueue(Storage& storage, JobQueueOptions options)
+    : storage_(storage), options_(std::move(options)) {
+  if (options_.instance.empty()) options_.instance = InstanceName();
+  options_.workers = std::max(options_.workers, 0);
+  options_.lease_ms = std::max<std::int64_t>(options_.lease_ms, 100);
+  options_.poll_ms = std::max<std::int64_t>(options_.poll_ms, 10);
+  options_.max_attempts = std::max(options_.max_attempts, 1);
 }
 
 JobQueue::~JobQueue() {
+  Stop();
+}
+
+void JobQueue::Register(const std::string& kind, Runner runner) {
+  runners_[kind] = std::move(runner);
+}
+
+void JobQueue::Start() {
+  std::lock_guard lock(mu_);
+  if (started_) return;
+  started_ = true;
+  if (options_.workers == 0) return;  // an instance that runs no jobs
+  for (int i = 0; i < options_.workers; ++i) workers_.emplace_back([this] { Work(); });
+  heartbeat_ = std::thread([this] { Heartbeat(); });
+}
+
+void JobQueue::Stop() {
   {
     std::lock_guard lock(mu_);
+    if (!started_ || stop_) return;
     stop_ = true;
   }
   cv_.notify_all();
-  worker_.join();
-  for (const auto& [id, work] : queue_) {
-    JobRecord j;
-    j.id = id;
-    j.status = "failed";
-    j.error = "the server stopped before the job started; submit it again";
-    try {
-      TryUpdate(storage_, j, "that it was not started");
-    } catch (...) {  // NOLINT(bugprone-empty-catch): a destructor must not throw
-    }
+  for (auto& w : workers_) w.join();
+  if (heartbeat_.joinable()) heartbeat_.join();
+  // The jobs interrupted above wait in the queue for the next instance.
+  if (const auto error = Guarded([&] { storage_.ReleaseJobs(options_.instance); })) {
+    LogStoreFailure(0, "that this instance's jobs are free to run again", *error);
   }
 }
 
-std::int64_t JobQueue::Submit(const std::string& kind, const nlohmann::json& request, Work work) {
-  std::lock_guard lock(mu_);
-  if (queue_.size() >= max_queued_) {
-    throw Unavailable("the job queue is full (" + std::to_string(max_queued_) +
+std::int64_t JobQueue::Submit(const std::string& kind, const nlohmann::json& request,
+                              const nlohmann::json& plan) {
+  const auto counts = storage_.CountJobsByStatus();
+  const auto queued = counts.find("queued");
+  if (queued != counts.end() && queued->second >= static_cast<std::int64_t>(options_.max_queued)) {
+    throw Unavailable("the job queue is full (" + std::to_string(options_.max_queued) +
                       " jobs waiting); try again later");
   }
-  const std::int64_t id = storage_.CreateJob(kind, request.dump());
-  queue_.emplace_back(id, std::move(work));
-  cv_.notify_one();
+  const std::int64_t id = storage_.QueueJob(NewJob{kind, request.dump(), plan.dump()});
+  {
+    std::lock_guard lock(mu_);
+    ++pending_;
+  }
+  cv_.notify_all();  // the heartbeat waits on it too
   return id;
 }
 
-void JobQueue::Run() {
-  while (true) {
-    std::pair<std::int64_t, Work> item;
-    {
-      std::unique_lock lock(mu_);
-      cv_.wait(lock, [&] { return stop_ || !queue_.empty(); });
-      if (stop_) return;
-      item = std::move(queue_.front());
-      queue_.pop_front();
+void JobQueue::Work() {
+  std::unique_lock lock(mu_);
+  while (!stop_) {
+    if (pending_ > 0) --pending_;
+    lock.unlock();
+    auto job = TryClaim();
+    if (job) RunJob(std::move(*job));
+    lock.lock();
+    if (!job) {
+      cv_.wait_for(lock, std::chrono::milliseconds(options_.poll_ms),
+                   [this] { return stop_ || pending_ > 0; });
     }
-    // Every storage call below is guarded: the job runs even when its status cannot be
-    // written, and the worker goes on to the next job whatever happens to this one.
-    try {
-      JobRecord job;
-      job.id = item.first;
-      job.status = "running";
-      job.stage = "started";
-      TryUpdate(storage_, job, "its start");
-      auto progress = [&](double f, const std::string& stage) {
-        job.progress = f;
-        job.stage = stage;
-        TryUpdate(storage_, job, "its progress");
-      };
-      try {
-        const nlohmann::json result = item.second(progress);
-        job.status = "done";
-        job.progress = 1.0;
-        job.stage = "done";
-        job.result_json = result.dump();
-      } catch (const std::exception& e) {
-        job.status = "failed";
-        job.error = e.what();
-      } catch (...) {
-        job.status = "failed";
-        job.error = "the job failed with an unknown error";
+  }
+}
+
+std::optional<JobRecord> JobQueue::TryClaim() {
+  const std::string abandoned = "the instance running the job stopped " +
+                                std::to_string(options_.max_attempts) +
+                                " times before it finished; submit it again";
+  std::optional<JobRecord> job;
+  if (const auto error = Guarded([&] {
+        job = storage_.ClaimJob(options_.instance, NowMs(), options_.lease_ms,
+                                options_.max_attempts, abandoned);
+      })) {
+    LogStoreFailure(0, "the claim of a queued job", *error);
+    return std::nullopt;
+  }
+  return job;
+}
+
+std::int64_t JobQueue::LeaseEnd() const {
+  return NowMs() + options_.lease_ms;
+}
+
+void JobQueue::Heartbeat() {
+  std::unique_lock lock(mu_);
+  const auto period = std::chrono::milliseconds(std::max<std::int64_t>(options_.lease_ms / 3, 10));
+  while (!cv_.wait_for(lock, period, [this] { return stop_; })) {
+    const auto running = running_;
+    lock.unlock();
+    for (const auto& entry : running) {
+      const std::int64_t id = entry.first;
+      const Running& r = entry.second;
+      if (r.lost) continue;
+      bool held = true;
+      if (const auto error = Guarded([&] {
+            held = storage_.RenewJob(id, options_.instance, r.progress, r.stage, LeaseEnd());
+          })) {
+        LogStoreFailure(id, "its lease", *error);
       }
-      const auto error = TryUpdate(storage_, job, "its outcome");
-      if (error && job.status == "done") {
-        // The result could not be written (too large, disk full): record at least the failure.
-        JobRecord failed = job;
-        failed.status = "failed";
-        failed.stage = "storing the result";
-        failed.result_json.clear();
-        failed.error = "the result could not be stored: " + *error;
-        TryUpdate(storage_, failed, "its failure");
-      }
-    } catch (...) {
-      // Out of memory or the like while handling one job: the worker stays for the next.
-      try {
-        std::cerr << "kinemetricd: job " << item.first << ": aborted" << std::endl;
-      } catch (...) {  // NOLINT(bugprone-empty-catch): nothing is left to report to
+      if (!held) {
+        std::lock_guard relock(mu_);
+        if (auto it = running_.find(id); it != running_.end()) it->second.lost = true;
       }
     }
+    lock.lock();
+  }
+}
+
+void JobQueue::Report(std::int64_t id, double progress, const std::string& stage) {
+  {
+    std::lock_guard lock(mu_);
+    auto& r = running_[id];
+    if (stop_ || r.lost) throw JobInterrupted{};
+    r.progress = progress;
+    r.stage = stage;
+  }
+  bool held = true;
+  if (const auto error = Guarded(
+          [&] { held = storage_.RenewJob(id, options_.instance, progress, stage, LeaseEnd()); })) {
+    LogStoreFailure(id, "its progress", *error);
+  }
+  if (!held) {
+    std::lock_guard lock(mu_);
+    running_[id].lost = true;
+    throw JobInterrupted{};
+  }
+}
+
+nlohmann::json JobQueue::RunPlan(const JobRecord& job) {
+  const auto runner = runners_.find(job.kind);
+  if (runner == runners_.end()) {
+    throw Error("this server does not run jobs of kind '" + job.kind + "'");
+  }
+  if (job.plan_json.empty()) {
+    throw Error(
+        "the job was queued by an earlier version of the server, without its plan; "
+        "submit it again");
+  }
+  const auto plan = nlohmann::json::parse(job.plan_json);
+  return runner->second(plan,
+                        [&](double f, const std::string& stage) { Report(job.id, f, stage); });
+}
+
+void JobQueue::RunJob(JobRecord job) {
+  {
+    std::lock_guard lock(mu_);
+    running_[job.id] = Running{0.0, job.stage, false};
+  }
+  bool interrupted = false;
+  try {
+    job.result_json = RunPlan(job).dump();
+    job.status = "done";
+    job.progress = 1.0;
+    job.stage = "done";
+  } catch (const JobInterrupted&) {
+    interrupted = true;
+  } catch (const std::exception& e) {
+    job.status = "failed";
+    job.error = e.what();
+  } catch (...) {
+    job.status = "failed";
+    job.error = "the job failed with an unknown error";
+  }
+  bool lost = false;
+  {
+    std::lock_guard lock(mu_);
+    lost = running_[job.id].lost;
+    running_.erase(job.id);
+  }
+  // Interrupted: given back to the queue when the instance stops, or run by another instance.
+  if (!interrupted && !lost) Finish(std::move(job));
+}
+
+void JobQueue::Finish(JobRecord job) {
+  bool held = true;
+  auto error = Guarded([&] { held = storage_.FinishJob(job, options_.instance); });
+  if (error && job.status == "done") {
+    LogStoreFailure(job.id, "its result", *error);
+    // The result could not be written (too large, disk full): record at least the failure.
+    job.status = "failed";
+    job.stage = "storing the result";
+    job.result_json.clear();
+    job.error = "the result could not be stored: " + *error;
+    error = Guarded([&] { held = storage_.FinishJob(job, options_.instance); });
+  }
+  if (error) LogStoreFailure(job.id, "its outcome", *error);
+  if (!held) {
+    LogStoreFailure(job.id, "its outcome",
+                    "the lease ran out and another instance runs the job; this outcome is dropped");
   }
 }
 
@@ -138,6 +271,10 @@ nlohmann::json JobJson(const JobRecord& job) {
       job.request_json.empty() ? nlohmann::json(nullptr) : nlohmann::json::parse(job.request_json);
   if (!job.result_json.empty()) j["result"] = nlohmann::json::parse(job.result_json);
   if (!job.error.empty()) j["error"] = job.error;
+  // The instance running the job, or the one that finished it; how often it was started.
+  j["instance"] =
+      job.lease_owner.empty() ? nlohmann::json(nullptr) : nlohmann::json(job.lease_owner);
+  j["attempts"] = job.attempts;
   const JobVerdict v =
       JudgeJob(job.kind, job.status, j.value("result", nlohmann::json()), job.error);
   j["verdict"] = v.verdict.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.verdict);

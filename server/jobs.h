@@ -1,12 +1,15 @@
-// Background jobs: one worker thread runs submitted work in order; status, progress and the
-// result are kept in storage, so they survive the request that started them and are served
-// later. Jobs left unfinished by a stopped server are marked failed at the next start.
+// Background jobs (calibration and discovery studies), queued in the database: every instance
+// on the database takes jobs from the same queue under a lease it renews while the job runs
+// (its progress reports and a heartbeat), so adding an instance adds capacity, and a job whose
+// instance died is taken over by another when the lease runs out. A stopping instance gives its
+// running jobs back to the queue; queued jobs wait for the next instance. A job is stored with
+// its plan (the checked request, the machine resolved), from which any instance runs it.
 #pragma once
 
 #include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -18,28 +21,64 @@
 
 namespace km::server {
 
+struct JobQueueOptions {
+  std::size_t max_queued = 16;  // queued jobs (of every instance) beyond which Submit refuses
+  int workers = 1;              // jobs this instance runs at once (0: it queues jobs but runs none)
+  std::int64_t lease_ms = 30'000;  // a job not renewed for this long is another's to take
+  std::int64_t poll_ms = 1'000;    // how often an idle worker looks for other instances' jobs
+  int max_attempts = 3;            // starts of a job before its lapsed lease fails it
+  std::string instance;            // the lease owner's name; empty: host:pid:random
+};
+
 class JobQueue {
  public:
   using Progress = std::function<void(double, const std::string&)>;
-  using Work = std::function<nlohmann::json(const Progress&)>;
+  // Runs a job of one kind from its plan; the answer is stored as the job's result.
+  using Runner = std::function<nlohmann::json(const nlohmann::json& plan, const Progress&)>;
 
-  explicit JobQueue(Storage& storage, std::size_t max_queued = 16);
-  ~JobQueue();  // finishes the running job, fails the queued ones, joins the worker
+  explicit JobQueue(Storage& storage, JobQueueOptions options = {});
+  ~JobQueue();  // Stop()
   JobQueue(const JobQueue&) = delete;
   JobQueue& operator=(const JobQueue&) = delete;
 
-  // Stores the job as queued and schedules it. Throws km::Error when the queue is full.
-  std::int64_t Submit(const std::string& kind, const nlohmann::json& request, Work work);
+  // The runner of a kind (before Start).
+  void Register(const std::string& kind, Runner runner);
+  void Start();
+  // Stops taking jobs. A running job stops at its next progress report and goes back to the
+  // queue, to be run again by this or another instance; the workers are joined.
+  void Stop();
+
+  // Stores the job as queued (request: what the API shows; plan: what a worker runs) and wakes
+  // a worker. Throws Unavailable when max_queued jobs are waiting.
+  std::int64_t Submit(const std::string& kind, const nlohmann::json& request,
+                      const nlohmann::json& plan);
+  const std::string& instance() const { return options_.instance; }
 
  private:
-  void Run();
+  struct Running {
+    double progress = 0.0;
+    std::string stage;
+    bool lost = false;  // the lease was lost: another instance runs the job now
+  };
+  void Work();
+  void Heartbeat();
+  std::optional<JobRecord> TryClaim();
+  void RunJob(JobRecord job);
+  nlohmann::json RunPlan(const JobRecord& job);
+  void Report(std::int64_t id, double progress, const std::string& stage);
+  void Finish(JobRecord job);
+  std::int64_t LeaseEnd() const;
+
   Storage& storage_;
-  std::size_t max_queued_;
-  std::deque<std::pair<std::int64_t, Work>> queue_;
+  JobQueueOptions options_;
+  std::map<std::string, Runner> runners_;
   std::mutex mu_;
   std::condition_variable cv_;
-  bool stop_ = false;
-  std::thread worker_;
+  bool started_ = false, stop_ = false;
+  std::size_t pending_ = 0;  // submissions not yet looked for by a worker
+  std::map<std::int64_t, Running> running_;
+  std::vector<std::thread> workers_;
+  std::thread heartbeat_;
 };
 
 // The job as the API serves it: id, kind, status, progress, stage, times, request, result,

@@ -44,8 +44,17 @@ Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
       options_(options),
       streams_(std::make_unique<StreamHub>(*storage_, StreamOptions{})),
       acquisition_(std::make_unique<Acquisition>(*this)),
-      jobs_(std::make_unique<JobQueue>(*storage_)),
-      audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {}
+      jobs_(std::make_unique<JobQueue>(*storage_, options.jobs)),
+      audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {
+  jobs_->Register("hexapod_calibration",
+                  [this](const nlohmann::json& plan, const JobQueue::Progress& p) {
+                    return RunCalibrationJob(plan, p);
+                  });
+  jobs_->Register("discovery", [this](const nlohmann::json& plan, const JobQueue::Progress& p) {
+    return RunDiscoveryJob(plan, p);
+  });
+  jobs_->Start();
+}
 
 void Service::RegisterKind(const std::string& format, KindHandler handler) {
   kinds_[format] = std::move(handler);

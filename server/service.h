@@ -60,6 +60,8 @@ struct ServiceOptions {
   std::size_t max_calibration_samples = 2'000'000;
   // Accuracy audits: the webhook of verdicts of level 2 and 3 (server/audit_scheduler.h).
   AuditOptions audits;
+  // Background jobs: workers of this instance, lease, queue bound (server/jobs.h).
+  JobQueueOptions jobs;
 };
 
 // The largest machine definition the service stores (a hexapod document with gravity,
@@ -89,6 +91,8 @@ struct UploadOutcome {
 };
 
 class Service;
+struct CalibrationPlan;
+struct DiscoveryPlan;
 
 // One body of stream frames being received: Feed stores every complete frame as it arrives;
 // Finish answers what was received (frames, samples, stored, duplicates, gaps). Samples of
@@ -236,6 +240,14 @@ class Service {
   std::vector<std::int64_t> CheckedDbbIds(const nlohmann::json& request, const std::string& study,
                                           bool need_tool_length, bool need_fixed_ball,
                                           std::vector<std::string>* machines = nullptr);
+  // Study requests checked into what a job runs (calibration_jobs.cpp, discovery_jobs.cpp), and
+  // the jobs' runners (from the stored plan, on whichever instance takes the job).
+  std::shared_ptr<CalibrationPlan> CheckCalibration(const nlohmann::json& request,
+                                                    std::int64_t& stored_version);
+  std::shared_ptr<DiscoveryPlan> CheckDiscovery(const nlohmann::json& request,
+                                                std::int64_t& version);
+  nlohmann::json RunCalibrationJob(const nlohmann::json& plan, const JobQueue::Progress& p);
+  nlohmann::json RunDiscoveryJob(const nlohmann::json& plan, const JobQueue::Progress& p);
   std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
   std::optional<std::int64_t> NearestPartner(const MeasurementRecord& rec,
                                              const std::string& other_direction);

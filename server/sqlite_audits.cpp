@@ -87,6 +87,17 @@ void SqliteStorage::SetAuditRun(const std::string& machine_id,
   s->Step();
 }
 
+bool SqliteStorage::ClaimAuditRun(const std::string& machine_id, const std::string& due,
+                                  const std::string& last, const std::optional<std::string>& next) {
+  std::lock_guard lock(mu_);
+  auto s = Prepared(
+      "UPDATE audit_configs SET last_run_at = ?, next_run_at = ? "
+      "WHERE machine_id = ? AND next_run_at = ?");
+  s->Bind(1, last).Bind(2, next).Bind(3, machine_id).Bind(4, due);
+  s->Step();
+  return sqlite3_changes(db_) == 1;
+}
+
 std::int64_t SqliteStorage::AddAuditVerdict(const AuditVerdictRecord& v) {
   std::lock_guard lock(mu_);
   auto s = Prepared(

@@ -188,6 +188,15 @@ CREATE INDEX audit_verdicts_by_time ON audit_verdicts(created_at, id);
 CREATE TRIGGER audit_verdicts_kept BEFORE DELETE ON audit_verdicts
   BEGIN SELECT RAISE(ABORT, 'audit verdicts are never deleted'); END;
 )sql",
+    // 8: the job queue shared by every instance on the database: what a worker runs (the plan),
+    // the instance running a job and until when its lease holds, and how often it was started.
+    R"sql(
+ALTER TABLE jobs ADD COLUMN plan_json TEXT NOT NULL DEFAULT '';
+ALTER TABLE jobs ADD COLUMN lease_owner TEXT NOT NULL DEFAULT '';
+ALTER TABLE jobs ADD COLUMN lease_until_ms INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE jobs ADD COLUMN attempts INTEGER NOT NULL DEFAULT 0;
+CREATE INDEX jobs_by_status ON jobs(status, id);
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

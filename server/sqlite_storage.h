@@ -4,7 +4,8 @@
 //
 // Where it lives: server/sqlite_db.* (statements, the statement cache, transactions, errors),
 // server/sqlite_migrations.* (the schema), and the data access by table: sqlite_storage.cpp
-// (opening; measurements, results, machines, jobs, tokens), sqlite_streams.cpp (streams),
+// (opening; measurements, results, machines, tokens), sqlite_jobs.cpp (the job queue),
+// sqlite_streams.cpp (streams),
 // sqlite_machine_models.cpp (machine definitions), sqlite_access.cpp (tokens, audit log),
 // sqlite_audits.cpp (accuracy audits).
 #pragma once
@@ -59,6 +60,15 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::vector<JobRecord> ListJobs(std::int64_t limit) override;
   int FailInterruptedJobs(const std::string& reason) override;
   std::map<std::string, std::int64_t> CountJobsByStatus() override;
+  // The shared job queue: sqlite_jobs.cpp (with the job calls above).
+  std::int64_t QueueJob(const NewJob& job) override;
+  std::optional<JobRecord> ClaimJob(const std::string& owner, std::int64_t now_ms,
+                                    std::int64_t lease_ms, int max_attempts,
+                                    const std::string& abandoned_error) override;
+  bool RenewJob(std::int64_t id, const std::string& owner, double progress,
+                const std::string& stage, std::int64_t lease_until_ms) override;
+  bool FinishJob(const JobRecord& job, const std::string& owner) override;
+  int ReleaseJobs(const std::string& owner) override;
   std::int64_t CreateStream(const NewStream& s) override;
   std::optional<StreamRecord> GetStream(std::int64_t id) override;
   std::vector<StreamRecord> ListStreams(const std::optional<std::string>& machine_id,
@@ -91,6 +101,8 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::vector<AuditConfigRecord> ListAuditConfigs() override;
   void SetAuditRun(const std::string& machine_id, const std::optional<std::string>& last,
                    const std::optional<std::string>& next) override;
+  bool ClaimAuditRun(const std::string& machine_id, const std::string& due, const std::string& last,
+                     const std::optional<std::string>& next) override;
   std::int64_t AddAuditVerdict(const AuditVerdictRecord& verdict) override;
   std::optional<AuditVerdictRecord> GetAuditVerdict(std::int64_t id) override;
   std::vector<AuditVerdictRecord> ListAuditVerdicts(const AuditVerdictFilter& filter) override;

@@ -19,9 +19,12 @@
 namespace km::server {
 
 // A failure of the storage backend. code() is the backend's result code (SQLite: the primary
-// result code, e.g. SQLITE_BUSY = 5); busy() is true when another connection held the database
-// locked for longer than the busy timeout, so the same request may succeed a little later (the
-// API answers 503 with Retry-After). The message is for the server log, not for clients.
+// result code, e.g. SQLITE_BUSY = 5; PostgreSQL: the SQLSTATE read as a base-36 number,
+// server/pg_db.h); busy() is true when another connection held the database locked for longer
+// than the busy timeout (PostgreSQL also: a serialization failure, a deadlock, a statement
+// timeout, a lost connection, a server shutting down), so the same request may succeed a little
+// later (the API answers 503 with Retry-After). The message is for the server log, not for
+// clients.
 class StorageError : public Error {
  public:
   StorageError(const std::string& message, int code, bool busy)
@@ -147,6 +150,20 @@ struct JobRecord {
   std::string result_json;  // when done
   std::string error;        // when failed
   std::string created_at, updated_at;
+  // The job queue shared by every instance on the database (server/jobs.h): what a worker needs
+  // to run the job (the checked request with the machine resolved), the instance running it
+  // and until when its lease holds (Unix ms), and how many times it was started.
+  std::string plan_json;
+  std::string lease_owner;
+  std::int64_t lease_until_ms = 0;
+  std::int64_t attempts = 0;
+};
+
+// A job as queued: request_json is what the API shows, plan_json what a worker runs.
+struct NewJob {
+  std::string kind;
+  std::string request_json;
+  std::string plan_json;
 };
 
 // Capacitance-sensor streams (docs/streams.md). A stream belongs to a machine and has a source
@@ -290,6 +307,29 @@ class Storage {
   // absent.
   virtual std::map<std::string, std::int64_t> CountJobsByStatus() = 0;
 
+  // The job queue shared by every instance on the database. QueueJob stores a job as queued
+  // (the new id). ClaimJob takes the oldest job to run — queued, or running under a lease that
+  // ended before now_ms (its instance stopped) with attempts < max_attempts — marks it running
+  // for owner until now_ms + lease_ms with attempts + 1, and returns it with its plan; nullopt
+  // when there is none. Concurrent callers (threads, instances) never take the same job. In the
+  // same transaction, running jobs whose lease ended after max_attempts starts are failed with
+  // abandoned_error.
+  virtual std::int64_t QueueJob(const NewJob& job) = 0;
+  virtual std::optional<JobRecord> ClaimJob(const std::string& owner, std::int64_t now_ms,
+                                            std::int64_t lease_ms, int max_attempts,
+                                            const std::string& abandoned_error) = 0;
+  // Progress of owner's running job, its lease extended to lease_until_ms; false (nothing
+  // written) when the job is no longer owner's or no longer running.
+  virtual bool RenewJob(std::int64_t id, const std::string& owner, double progress,
+                        const std::string& stage, std::int64_t lease_until_ms) = 0;
+  // The outcome of owner's running job (status done or failed, progress, stage, result_json,
+  // error); the lease ends (lease_owner stays: the instance that ran it). false when the job is
+  // no longer owner's (nothing written).
+  virtual bool FinishJob(const JobRecord& job, const std::string& owner) = 0;
+  // owner's running jobs go back to the queue (a stopping instance): queued, lease cleared,
+  // attempts kept; how many.
+  virtual int ReleaseJobs(const std::string& owner) = 0;
+
   // Streams. AppendStream writes chunks and gaps in one transaction; a chunk whose
   // (stream, channel, first_counter) is stored already is refused (InvalidInput).
   virtual std::int64_t CreateStream(const NewStream& s) = 0;
@@ -336,6 +376,10 @@ class Storage {
   virtual std::vector<AuditConfigRecord> ListAuditConfigs() = 0;
   virtual void SetAuditRun(const std::string& machine_id, const std::optional<std::string>& last,
                            const std::optional<std::string>& next) = 0;
+  // Claims a scheduled run for one instance: sets last_run_at = last and next_run_at = next only
+  // while next_run_at still equals due; false when another instance claimed it first.
+  virtual bool ClaimAuditRun(const std::string& machine_id, const std::string& due,
+                             const std::string& last, const std::optional<std::string>& next) = 0;
   // Verdicts are appended (the new id) and never deleted; listed newest first.
   virtual std::int64_t AddAuditVerdict(const AuditVerdictRecord& verdict) = 0;
   virtual std::optional<AuditVerdictRecord> GetAuditVerdict(std::int64_t id) = 0;

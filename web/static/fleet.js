@@ -93,13 +93,22 @@ function limitsOf(audit, metric) {
   return { warn: pick('warn'), stop: pick('stop') };
 }
 
-// measurement id → the worst audit finding level on it for the metric.
+// The evidence of a trend point or an audit finding: its measurement or, for a figure of the
+// machine's hexapod calibrations, its calibration job; null when it names neither.
+const isId = (v) => v !== undefined && v !== null;
+function evidenceKey(x) {
+  if (isId(x.job_id)) return `job ${x.job_id}`;
+  return isId(x.measurement_id) ? `measurement ${x.measurement_id}` : null;
+}
+
+// evidence (evidenceKey) → the worst audit finding level on it for the metric.
 function verdictsOf(audits, metric) {
   const out = new Map();
   for (const a of (audits && audits.audits) || []) {
     for (const f of a.findings || []) {
-      if (f.metric !== metric || f.measurement_id === undefined || f.measurement_id === null) continue;
-      out.set(f.measurement_id, Math.max(out.get(f.measurement_id) || 0, f.level));
+      const key = evidenceKey(f);
+      if (f.metric !== metric || key === null) continue;
+      out.set(key, Math.max(out.get(key) || 0, f.level));
     }
   }
   return out;
@@ -148,9 +157,11 @@ export function renderTrendChart(trend, limits, verdicts) {
   svg.append(el('path', { d: pts.map((p, i) => `${i ? 'L' : 'M'}${r2(px(p.t))},${r2(py(p.value))}`).join(''), class: 'trend-line' }));
   const dots = el('g', { class: 'trend-points' });
   for (const p of pts) {
-    const level = verdicts.get(p.measurement_id);
-    const dot = el('circle', { cx: r2(px(p.t)), cy: r2(py(p.value)), r: level ? 6 : 4, class: level ? `verdict level-${level}` : 'point', 'data-testid': 'trend-point', 'data-measurement-id': p.measurement_id, 'data-value': p.value, 'data-level': level || '' });
-    dot.append(el('title', {}, `#${p.measurement_id}: ${p.value.toFixed(2)} ${trend.unit}${level ? `, audit ${auditWords(level)}` : ''}`));
+    const level = verdicts.get(evidenceKey(p));
+    const job = isId(p.job_id);
+    const source = job ? { 'data-job-id': p.job_id } : { 'data-measurement-id': p.measurement_id };
+    const dot = el('circle', { cx: r2(px(p.t)), cy: r2(py(p.value)), r: level ? 6 : 4, class: level ? `verdict level-${level}` : 'point', 'data-testid': 'trend-point', ...source, 'data-value': p.value, 'data-level': level || '' });
+    dot.append(el('title', {}, `${job ? `calibration job #${p.job_id}` : `#${p.measurement_id}`}: ${p.value.toFixed(2)} ${trend.unit}${level ? `, audit ${auditWords(level)}` : ''}`));
     dots.append(dot);
   }
   svg.append(dots);
@@ -189,7 +200,7 @@ export async function showTrends(machineId, metric) {
     view.dataset.metric = chosen;
     view.dataset.limits = limits ? 'rules' : 'none';
     box.replaceChildren(
-      h('p', { class: 'note', 'data-testid': 'trend-note' }, `${trend.points.length} measurement${trend.points.length === 1 ? '' : 's'} of kind ${trend.kind}. `, limits ? 'Warn and stop limits from the machine’s audit rules.' : 'No audit rule for this figure: no limits drawn.', verdicts.size ? ` Larger points: audit findings (${[...new Set(verdicts.values())].sort().map(auditWords).join(', ')}).` : ''),
+      h('p', { class: 'note', 'data-testid': 'trend-note' }, trend.kind === 'calibration' ? `${trend.points.length} hexapod calibration${trend.points.length === 1 ? '' : 's'}. ` : `${trend.points.length} measurement${trend.points.length === 1 ? '' : 's'} of kind ${trend.kind}. `, limits ? 'Warn and stop limits from the machine’s audit rules.' : 'No audit rule for this figure: no limits drawn.', verdicts.size ? ` Larger points: audit findings (${[...new Set(verdicts.values())].sort().map(auditWords).join(', ')}).` : ''),
       trend.points.length ? h('figure', { class: 'chart-box' }, renderTrendChart(trend, limits, verdicts)) : h('p', { class: 'placeholder' }, 'No stored result has this figure yet.'),
     );
   } catch (err) {

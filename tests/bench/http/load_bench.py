@@ -22,10 +22,11 @@ import time
 TOKEN = "bench-token"
 
 
-def start_server(binary, data_dir):
+def start_server(binary, data_dir, database=None):
     env = dict(os.environ, KINEMETRIC_BOOTSTRAP_TOKEN=TOKEN)
     proc = subprocess.Popen(
-        [binary, "--listen", "127.0.0.1:0", "--data-dir", data_dir, "--demo-data"],
+        [binary, "--listen", "127.0.0.1:0", "--data-dir", data_dir, "--demo-data"] +
+        (["--database", database] if database else []),
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
     for line in proc.stdout:
         m = re.search(r"listening on http://127\.0\.0\.1:(\d+)/", line)
@@ -118,13 +119,14 @@ def main():
     ap.add_argument("--idle", type=int, default=1000)
     ap.add_argument("--slow", type=int, default=100)
     ap.add_argument("--connections", type=int, default=16)
+    ap.add_argument("--database", help="postgresql://… (default: the SQLite file)")
     args = ap.parse_args()
     import resource
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
 
     data_dir = tempfile.mkdtemp(prefix="km-load-")
-    proc, port = start_server(args.binary, data_dir)
+    proc, port = start_server(args.binary, data_dir, args.database)
     try:
         holders = Holders(port, args.idle, args.slow)
         time.sleep(1.5)

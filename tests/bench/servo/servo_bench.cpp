@@ -1,4 +1,4 @@
-// Servo-load analyses (analysis/servo). Target (issue 16): the identification of a hexapod's
+// Servo-load analyses (analysis/servo). Target: the identification of a hexapod's
 // masses and friction from 30 circles × 720 samples in under 1 s. Also the CW/CCW joint
 // resistance of the same data and the external force of one circle.
 #include <random>

@@ -1,4 +1,4 @@
-// Browser scenario (issue 14 items 3, 4, 8): a calibration from one DBB test is under-determined:
+// Browser scenario: a calibration from one DBB test is under-determined:
 // the server's job JSON says "warning" with its reasons, and the job view (#/jobs/{id}) shows
 // them with no predicted "after" figures and no corrected machine file; fixed parameters are
 // named in words. A calibration from ten tests is "ok": after figures and the corrected machine

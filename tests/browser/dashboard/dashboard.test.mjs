@@ -4,8 +4,8 @@
 //   node tests/browser/dashboard/dashboard.test.mjs PATH/TO/kinemetricd [OUTPUT_DIR]
 //
 // Its steps come in independent groups, each run by ctest on its own server
-// (browser_dashboard_<group>); without KM_DASHBOARD_GROUP all run in order. The scenarios of
-// issue 14 (pair, list, calibration, upload) are files of their own beside it.
+// (browser_dashboard_<group>); without KM_DASHBOARD_GROUP all run in order. The pair, list,
+// calibration and upload scenarios are files of their own beside it.
 //
 // Environment (all optional except the server path, which may also come from KINEMETRICD):
 //   KINEMETRICD                  server binary (if not given as the first argument)

@@ -1,4 +1,4 @@
-// Browser scenario (issue 14 items 2, 4, 7): 210 uploads on one machine. The list is newest
+// Browser scenario: 210 uploads on one machine. The list is newest
 // first and paged on the server; the newest is one click away (the first row) and found by the
 // free-text filter; kind, test and date filters, a key result on every row, the next page and
 // back; a file uploaded through the form with an old measurement time is reached from its

@@ -1,4 +1,4 @@
-// Browser scenario (issue 14 items 1, 4): an older CCW test is drawn and tabled with its own
+// Browser scenario: an older CCW test is drawn and tabled with its own
 // partner — the one the server's /pair uses — not with the newest CW file of the same test_id;
 // the DBB view says which files it shows (data-measurement-id, data-partner-id, a note naming
 // the partner's file); another test overlaid at the same scale (before / after); a reload on the
@@ -35,7 +35,7 @@ test('an older CCW test shows its own partner; reload keeps the view', { timeout
     assert.match(await page.textContent('[data-testid="diagnosis-source"]'), new RegExp(`#${ids.oldCw}`));
     const hysteresis = await page.textContent('[data-testid="pair-circular_hysteresis_um"]');
     assert.equal(Number(hysteresis.replace('−', '-')).toFixed(3), pair.pair.circular_hysteresis_um.toFixed(3));
-    // H about each trace's own centre beside the ISO figure about the common centre (issue 12 §3).
+    // H about each trace's own centre beside the ISO figure about the common centre.
     const own = await page.textContent('[data-testid="pair-circular_hysteresis_own_centres_um"]');
     assert.equal(Number(own.replace('−', '-')).toFixed(3), pair.pair.circular_hysteresis_own_centres_um.toFixed(3));
     assert.match(await page.textContent('tr[data-key="pair.circular_hysteresis_um"] th'), /common centre/);

@@ -1,4 +1,4 @@
-// Browser scenario (issue 14 items 5, 6, 7): several files uploaded at once, each with its own
+// Browser scenario: several files uploaded at once, each with its own
 // outcome (a bad file names its line and field; the good ones are stored and linked); files
 // dropped on the upload panel; the printable DBB report (print stylesheet: no controls, the test
 // conditions); CSV of the list; keyboard focus kept and returned; token messages that never
@@ -54,6 +54,9 @@ test('multi-file and dropped uploads with per-file outcomes; report; token messa
       window.location.hash = `#/measurements/${id}`;
     }, cwId);
     await page.waitForSelector(`#detail[data-measurement-id="${cwId}"] [data-testid="conditions-table"]`);
+    // The pair's table is complete once both traces' temperatures are in it (a slow page may
+    // still be showing the table of the view before).
+    await page.waitForFunction(() => document.querySelectorAll('[data-testid="conditions-table"] tr[data-key="temperature_c"] td.text').length === 2, null, { timeout: 20_000 }).catch(() => {});
     const temps = await page.$$eval('[data-testid="conditions-table"] tr[data-key="temperature_c"] td.text', (tds) => tds.map((td) => td.textContent));
     assert.deepEqual(temps, ['20.4', '20.5'], 'CCW first, then CW');
     assert.equal(await page.locator('[data-testid="conditions-table"] tr[data-key="feed_mm_min"]').count(), 1);

@@ -31,6 +31,7 @@ import { createServer } from 'node:net';
 import { tmpdir } from 'node:os';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { databaseArgs } from '../lib/harness.mjs';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const repo = resolve(here, '../../..');
@@ -105,7 +106,7 @@ async function startServer() {
   const dataDir = mkdtempSync(join(tmpdir(), 'kinemetric-discovery-data-'));
   const token = `bt-${randomBytes(18).toString('hex')}`;
   const log = [];
-  const child = spawn(serverBin, ['--listen', `127.0.0.1:${port}`, '--data-dir', dataDir, '--web-root', webRoot], {
+  const child = spawn(serverBin, ['--listen', `127.0.0.1:${port}`, '--data-dir', dataDir, '--web-root', webRoot, ...databaseArgs(dataDir)], {
     env: { ...process.env, KINEMETRIC_BOOTSTRAP_TOKEN: token },
     stdio: ['ignore', 'pipe', 'pipe'],
   });

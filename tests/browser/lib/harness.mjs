@@ -10,7 +10,7 @@
 // /usr/bin/chromium). Missing prerequisites make the scenario FAIL with the reason.
 
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
+import { execFileSync, spawn } from 'node:child_process';
 import { randomBytes } from 'node:crypto';
 import { existsSync, mkdirSync, mkdtempSync, rmSync } from 'node:fs';
 import { createRequire } from 'node:module';
@@ -59,12 +59,20 @@ function freePort() {
   });
 }
 
+// The PostgreSQL database of a data directory when KINEMETRIC_TEST_DATABASE names a PostgreSQL
+// server (tests/tools/test_database.sh creates it); none otherwise (the SQLite file).
+export function databaseArgs(dataDir) {
+  if (!process.env.KINEMETRIC_TEST_DATABASE) return [];
+  const script = join(here, '..', '..', 'tools', 'test_database.sh');
+  return ['--database', execFileSync(script, [dataDir], { encoding: 'utf8' }).trim()];
+}
+
 async function startServer(extraArgs = []) {
   const port = await freePort();
   const dataDir = mkdtempSync(join(tmpdir(), 'kinemetric-browser-data-'));
   const token = `bt-${randomBytes(18).toString('hex')}`;
   const log = [];
-  const child = spawn(serverBin, ['--listen', `127.0.0.1:${port}`, '--data-dir', dataDir, '--web-root', webRoot, ...extraArgs], {
+  const child = spawn(serverBin, ['--listen', `127.0.0.1:${port}`, '--data-dir', dataDir, '--web-root', webRoot, ...databaseArgs(dataDir), ...extraArgs], {
     env: { ...process.env, KINEMETRIC_BOOTSTRAP_TOKEN: token },
     stdio: ['ignore', 'pipe', 'pipe'],
   });

@@ -1,7 +1,9 @@
 """A real kinemetricd for the operations tests: started on a free loopback port with its own
 data directory, spoken to over plain HTTP/1.1 (http.client), stopped with a signal.
 Also makes distinct DBB measurement files from the example file (small changes of the header
-and of one reading) and checks a data directory's SQLite file after a stop or a crash."""
+and of one reading) and checks a data directory's database after a stop or a crash: its SQLite
+file, or, when KINEMETRIC_TEST_DATABASE names a PostgreSQL server, its PostgreSQL database
+(tests/tools/test_database.sh)."""
 import hashlib
 import http.client
 import json
@@ -14,6 +16,23 @@ import threading
 import time
 
 ADMIN_TOKEN = "ops-admin-token-0123456789abcdef"
+TOOLS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools")
+
+
+def database_url(data_dir):
+    """The PostgreSQL database of a data directory (created when missing), or None: SQLite."""
+    if not os.environ.get("KINEMETRIC_TEST_DATABASE"):
+        return None
+    out = subprocess.run([os.path.join(TOOLS, "test_database.sh"), data_dir], check=True,
+                         capture_output=True, text=True).stdout.strip()
+    return out or None
+
+
+def psql(url, sql):
+    """Rows of a query on a PostgreSQL database, each a list of text columns."""
+    out = subprocess.run(["psql", "-qtA", "-F", "\t", "-v", "ON_ERROR_STOP=1", "-d", url, "-c", sql],
+                         check=True, capture_output=True, text=True).stdout
+    return [line.split("\t") for line in out.splitlines() if line]
 
 
 class Server:
@@ -26,9 +45,11 @@ class Server:
     def start(self, timeout=20):
         os.makedirs(self.data_dir, exist_ok=True)
         self.lines = []
+        url = None if "--database" in self.extra else database_url(self.data_dir)
+        database = ["--database", url] if url else []
         self.proc = subprocess.Popen(
             [self.binary, "--listen", "127.0.0.1:0", "--data-dir", self.data_dir, "--threads",
-             "8"] + self.extra, stdout=subprocess.PIPE, stderr=self.stderr, text=True,
+             "8"] + database + self.extra, stdout=subprocess.PIPE, stderr=self.stderr, text=True,
             env=self.env)
         deadline = time.time() + timeout
         while time.time() < deadline:
@@ -133,7 +154,16 @@ def sha256(data):
 
 
 def check_database(data_dir):
-    """(integrity_check answer, measurements without results, {id: sha256 of the raw bytes})."""
+    """(integrity_check answer, measurements without results, {id: sha256 of the raw bytes}).
+    On PostgreSQL the answer is "ok" when the tables read back in full (the server keeps its
+    own consistency; a kill -9 of kinemetricd cannot damage it)."""
+    url = database_url(data_dir)
+    if url:
+        orphans = int(psql(url, "SELECT COUNT(*) FROM measurements m WHERE NOT EXISTS "
+                                "(SELECT 1 FROM results r WHERE r.measurement_id = m.id)")[0][0])
+        raw = {int(i): h for i, h in psql(url, "SELECT id, encode(sha256(raw), 'hex') "
+                                               "FROM measurements")}
+        return "ok", orphans, raw
     db = sqlite3.connect(os.path.join(data_dir, "kinemetric.db"))
     try:
         integrity = db.execute("PRAGMA integrity_check").fetchone()[0]

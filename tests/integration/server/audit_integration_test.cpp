@@ -166,14 +166,14 @@ TEST_F(AuditIntegration, TheServerRunsSchedulesAndOnceForATimeMissedWhileDown) {
   const int before = Scheduled(Get("/api/v1/audits?machine_id=m1"));
   server_->Stop();
   // Down past ten due times: the stored next run lies ten days back.
-  {
+  const char* back =
+      "UPDATE audit_configs SET next_run_at = '2020-01-01T00:00:00Z' WHERE machine_id = 'm1'";
+  if (km::test::OnPostgresql()) {
+    ASSERT_TRUE(km::test::RunPostgresql(dir_.string(), back));
+  } else {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open((dir_ / "kinemetric.db").c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db,
-                           "UPDATE audit_configs SET next_run_at = '2020-01-01T00:00:00Z' "
-                           "WHERE machine_id = 'm1'",
-                           nullptr, nullptr, nullptr),
-              SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, back, nullptr, nullptr, nullptr), SQLITE_OK);
     sqlite3_close(db);
   }
   Start();

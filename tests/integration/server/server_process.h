@@ -1,4 +1,5 @@
-// Starts a real kinemetricd on a free loopback port with its own data directory, and stops it.
+// Starts a real kinemetricd on a free loopback port with its own data directory (and its own
+// PostgreSQL database when KINEMETRIC_TEST_DATABASE is set), and stops it.
 #pragma once
 
 #include <signal.h>
@@ -17,10 +18,44 @@
 
 namespace km::test {
 
+// The PostgreSQL database of a test server's data directory when KINEMETRIC_TEST_DATABASE names
+// a PostgreSQL server (tests/tools/test_database.sh creates it; the tests run from the source
+// directory); empty otherwise: the server keeps its SQLite file in the data directory.
+inline std::string DatabaseUrl(const std::string& data_dir) {
+  if (!std::getenv("KINEMETRIC_TEST_DATABASE")) return "";
+  const std::string cmd = "tests/tools/test_database.sh '" + data_dir + "'";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) throw std::runtime_error("cannot run " + cmd);
+  std::string url;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p)) url += buf;
+  if (pclose(p) != 0 || url.empty()) throw std::runtime_error(cmd + " failed");
+  while (!url.empty() && (url.back() == '\n' || url.back() == '\r')) url.pop_back();
+  return url;
+}
+
+inline std::string DatabaseArgs(const std::string& data_dir) {
+  const std::string url = DatabaseUrl(data_dir);
+  return url.empty() ? "" : " --database '" + url + "'";
+}
+
+// Whether the test servers keep their data in PostgreSQL (KINEMETRIC_TEST_DATABASE).
+inline bool OnPostgresql() {
+  return std::getenv("KINEMETRIC_TEST_DATABASE") != nullptr;
+}
+
+// Runs SQL on the PostgreSQL database of a data directory (psql); true when it succeeded.
+inline bool RunPostgresql(const std::string& data_dir, const std::string& sql) {
+  const std::string cmd =
+      "psql -q -v ON_ERROR_STOP=1 -d '" + DatabaseUrl(data_dir) + "' -c \"" + sql + "\" >/dev/null";
+  return std::system(cmd.c_str()) == 0;
+}
+
 class ServerProcess {
  public:
   ServerProcess(const std::string& binary, const std::string& data_dir, const std::string& token,
                 const std::string& extra_args = "") {
+    const std::string database = DatabaseArgs(data_dir);
     int fds[2];
     if (pipe(fds) != 0) throw std::runtime_error("pipe");
     pid_ = fork();
@@ -30,7 +65,7 @@ class ServerProcess {
       close(fds[1]);
       setenv("KINEMETRIC_BOOTSTRAP_TOKEN", token.c_str(), 1);
       const std::string cmd = "exec '" + binary + "' --listen 127.0.0.1:0 --data-dir '" + data_dir +
-                              "' --threads 4 " + extra_args;
+                              "' --threads 4" + database + " " + extra_args;
       execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
       _exit(127);
     }

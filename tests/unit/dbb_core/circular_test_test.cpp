@@ -105,7 +105,7 @@ TEST(CircularTest, EvaluatesExactlyOneTurnOfALongerTrace) {
 }
 
 TEST(CircularTest, RefusesLessThanAFullTurn) {
-  // Changed deliberately (issue 12 §3, partial arcs): a trace that does not come back to its
+  // Changed deliberately (partial arcs): a trace that does not come back to its
   // start is now a partial arc unless the file declares a full turn, so the 300° trace is
   // refused when it declares arc_deg 360, and a trace too short for a partial arc (150°) is
   // refused either way.

@@ -100,7 +100,7 @@ TEST(DbbParser, BadInputNamesFileLineAndField) {
   std::string big = Header() + Rows();
   big.replace(big.find("\n40.000000,0.400000"), 19, "\n40.000000,1e999");
   ExpectError(big, 13, "dr_um");
-  // Changed deliberately (issue 12 §3): 190° without arc_deg is a partial arc now; declared as
+  // Changed deliberately (partial arcs): 190° without arc_deg is a partial arc now; declared as
   // a full turn it is refused, and 140° is too short for a partial arc.
   ExpectError(Header("# arc_deg: 360\n") + Rows(20, 10.0), 0, "angle_deg", "full turn");
   ExpectError(Header() + Rows(15, 10.0), 0, "angle_deg", "partial arc");

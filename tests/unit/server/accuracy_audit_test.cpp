@@ -103,6 +103,19 @@ TEST(AccuracyAuditMetrics, ValuesAreReadFromStoredResultsAsMagnitudes) {
   EXPECT_EQ(value("straightness", "straightness_lsq_um", json{{"straightness_lsq_um", 4}}), 4.0);
   EXPECT_EQ(value("flatness", "flatness_min_zone_um", json{{"flatness_min_zone_um", 6}}), 6.0);
   EXPECT_EQ(value("parallelism", "parallelism_um", json{{"parallelism_um", 2}}), 2.0);
+  const json newest = {{"parameters", {{"strut_offset_um", {2, -3, 1, 0.5, -7.5, 4}}}}};
+  const json previous = {{"parameters", {{"strut_offset_um", {1, -2, 3, -4, 5, -6}}}}};
+  EXPECT_EQ(value("calibration", "strut_offset_max_um", newest), 7.5);
+  EXPECT_EQ(value("calibration", "strut_offset_change_max_um",
+                  json{{"newest", newest}, {"previous", previous}}),
+            12.5);
+  // Offsets of another number of struts, or missing ones, are no change.
+  EXPECT_FALSE(value(
+      "calibration", "strut_offset_change_max_um",
+      json{{"newest", newest}, {"previous", {{"parameters", {{"strut_offset_um", {1, 2}}}}}}}));
+  EXPECT_FALSE(value("calibration", "strut_offset_change_max_um", json{{"newest", newest}}));
+  EXPECT_FALSE(value("calibration", "strut_offset_max_um", json{{"parameters", json::object()}}));
+  EXPECT_FALSE(FindAuditMetric("calibration", "circularity_um"));
 }
 
 AuditRule Rule(const std::string& metric, double warn, double stop) {

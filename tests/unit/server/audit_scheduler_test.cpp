@@ -2,7 +2,8 @@
 // uploaded DBB tests with the evidence of each finding, trend rules against the previous
 // audit, scheduled runs with a set clock (a time missed while the server was down runs once,
 // also after a restart on the same database), the scheduler thread with a 1 s schedule and a
-// prompt stop, and the webhook delivered to a local HTTP receiver after a first 500.
+// prompt stop, a due run made once by one of two instances, and the webhook delivered to a local
+// HTTP receiver after a first 500.
 #include "server/audit_scheduler.h"
 
 #include <gtest/gtest.h>
@@ -207,6 +208,27 @@ TEST_F(AccuracyAudits, AMissedScheduleRunsOnceAlsoAfterARestart) {
   EXPECT_EQ(list["audits"][0]["created_at"], "2026-11-27T14:12:00Z");
   EXPECT_EQ(list["audits"][0]["level"], 1);
   EXPECT_EQ(AuditConfigJson(*svc, "demo-vmc")["next_run_at"], "2026-11-27T15:12:00Z");
+}
+
+// Two instances on one database, both finding the same run due at once (from threads): the run
+// is claimed by one of them and made once.
+TEST_F(AccuracyAudits, ADueRunIsMadeOnceByOneOfTwoInstances) {
+  auto svc_a = Open();
+  auto svc_b = Open();
+  UploadDbb(*svc_a);
+  AuditScheduler a(*svc_a, {}, clock_), b(*svc_b, {}, clock_);
+  a.PutConfig("demo-vmc", Rules(1000, 2000, "every 1h"));
+  for (int round = 1; round <= 5; ++round) {
+    now_ += 3600;
+    std::atomic<int> ran{0};
+    std::thread ta([&] { ran += a.RunDue(); });
+    std::thread tb([&] { ran += b.RunDue(); });
+    ta.join();
+    tb.join();
+    EXPECT_EQ(ran.load(), 1) << "round " << round;
+  }
+  AuditVerdictFilter f;
+  EXPECT_EQ(ListAccuracyAudits(*svc_b, f)["audits"].size(), 5u);
 }
 
 TEST_F(AccuracyAudits, TheThreadRunsAOneSecondScheduleAndStopsPromptly) {

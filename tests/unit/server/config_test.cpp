@@ -187,5 +187,34 @@ TEST_F(ServerConfigTest, OperationsOptions) {
   ExpectRefused({"--config", bad}, "metrics_public", bad);
 }
 
+TEST_F(ServerConfigTest, TheDatabaseIsSqliteByDefaultOrAPostgreSqlUrl) {
+  EXPECT_EQ(ParseServerArgs({}).database, "");
+  EXPECT_EQ(ParseServerArgs({}).db_pool_size, 8);
+  EXPECT_EQ(ParseServerArgs({"--database", "sqlite:"}).database, "sqlite:");
+  const auto pg = ParseServerArgs(
+      {"--database", "postgresql://km:pw@db.example:5432/kinemetric", "--db-pool-size", "32"});
+  EXPECT_EQ(pg.database, "postgresql://km:pw@db.example:5432/kinemetric");
+  EXPECT_EQ(pg.db_pool_size, 32);
+  EXPECT_EQ(ParseServerArgs({"--database", "postgres://h/db"}).database, "postgres://h/db");
+  const auto f = ParseServerArgs({"--config", File(R"({"database": "postgresql://h/km",
+      "db_pool_size": 1})")});
+  EXPECT_EQ(f.database, "postgresql://h/km");
+  EXPECT_EQ(f.db_pool_size, 1);
+  ExpectRefused({"--database", "mysql://h/db"}, "--database");
+  ExpectRefused({"--database", "kinemetric.db"}, "--database");
+  ExpectRefused({"--db-pool-size", "0"}, "--db-pool-size");
+  ExpectRefused({"--db-pool-size", "1001"}, "--db-pool-size");
+  const std::string file = File(R"({"database": "sqlite:/tmp/x.db"})");
+  ExpectRefused({"--config", file}, "database", file);
+  // A refused URL's password is not repeated.
+  try {
+    ParseServerArgs({"--database", "mysql://u:hunter2@h/db"});
+    ADD_FAILURE() << "accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(std::string(e.what()).find("hunter2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("mysql://u:***@h/db"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace km::server

@@ -1,5 +1,6 @@
-// A real SQLite storage whose job updates can be made to fail on demand (a full disk, a locked
-// database): every other call goes to the SQLite file unchanged.
+// A real SQLite storage whose job writes (progress with the lease, outcome) can be made to fail
+// on demand (a full disk, a locked database): every other call goes to the SQLite file
+// unchanged.
 #pragma once
 
 #include <atomic>
@@ -16,7 +17,8 @@ class FlakyStorage final : public SqliteStorage {
  public:
   explicit FlakyStorage(const std::string& path) : SqliteStorage(path) {}
 
-  // Decides, per update, whether it fails (called under a lock; may keep state).
+  // Decides, per write, whether it fails (called under a lock; may keep state). A progress
+  // report is seen as the job with status "running", its progress and stage.
   void FailUpdatesWhen(std::function<bool(const JobRecord&)> rule) {
     std::lock_guard lock(mu_);
     rule_ = std::move(rule);
@@ -24,17 +26,32 @@ class FlakyStorage final : public SqliteStorage {
   int failed_updates() const { return failed_.load(); }
 
   void UpdateJob(const JobRecord& job) override {
-    {
-      std::lock_guard lock(mu_);
-      if (rule_ && rule_(job)) {
-        ++failed_;
-        throw Error("storage: disk I/O error (simulated) updating job " + std::to_string(job.id));
-      }
-    }
+    MaybeFail(job);
     SqliteStorage::UpdateJob(job);
+  }
+  bool RenewJob(std::int64_t id, const std::string& owner, double progress,
+                const std::string& stage, std::int64_t lease_until_ms) override {
+    JobRecord j;
+    j.id = id;
+    j.status = "running";
+    j.progress = progress;
+    j.stage = stage;
+    MaybeFail(j);
+    return SqliteStorage::RenewJob(id, owner, progress, stage, lease_until_ms);
+  }
+  bool FinishJob(const JobRecord& job, const std::string& owner) override {
+    MaybeFail(job);
+    return SqliteStorage::FinishJob(job, owner);
   }
 
  private:
+  void MaybeFail(const JobRecord& job) {
+    std::lock_guard lock(mu_);
+    if (rule_ && rule_(job)) {
+      ++failed_;
+      throw Error("storage: disk I/O error (simulated) updating job " + std::to_string(job.id));
+    }
+  }
   std::mutex mu_;
   std::function<bool(const JobRecord&)> rule_;
   std::atomic<int> failed_{0};

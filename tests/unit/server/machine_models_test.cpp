@@ -53,11 +53,25 @@ NewMachineModel Model(const std::string& machine, const std::string& document) {
   return m;
 }
 
+JobRecord Job(std::int64_t id, const std::string& status, double progress, const std::string& stage,
+              const std::string& result, const std::string& error) {
+  JobRecord j;
+  j.id = id;
+  j.status = status;
+  j.progress = progress;
+  j.stage = stage;
+  j.result_json = result;
+  j.error = error;
+  return j;
+}
+
 class MachineModels : public test::TempDirTest {
  protected:
-  void Start() {
-    service_ =
-        std::make_unique<Service>(std::make_unique<SqliteStorage>(Path("km.db")), ServiceOptions{});
+  // job_workers 0: the jobs stay as stored (an instance that runs none).
+  void Start(int job_workers = 1) {
+    ServiceOptions options;
+    options.jobs.workers = job_workers;
+    service_ = std::make_unique<Service>(std::make_unique<SqliteStorage>(Path("km.db")), options);
     RegisterBuiltinKinds(*service_);
   }
   void TearDown() override {
@@ -307,7 +321,7 @@ TEST_F(MachineModels, CalibrationRequestsNamingAStoredModelAreChecked) {
 }
 
 TEST_F(MachineModels, SavingTheMachineOfAJobWithoutOneIsAConflict) {
-  Start();
+  Start(0);
   EXPECT_THROW(service_->SaveJobMachine(42, ""), NotFound);
   auto& st = service_->storage();
   // Job records in each state (not run: the records alone decide).
@@ -315,15 +329,15 @@ TEST_F(MachineModels, SavingTheMachineOfAJobWithoutOneIsAConflict) {
   const auto c1 = Expect<Conflict>([&] { service_->SaveJobMachine(queued, ""); });
   EXPECT_TRUE(Contains(c1.what(), "is queued")) << c1.what();
   const auto failed = st.CreateJob("hexapod_calibration", "{}");
-  st.UpdateJob(JobRecord{failed, "", "failed", 0.0, "", "", "", "no convergence", "", ""});
+  st.UpdateJob(Job(failed, "failed", 0.0, "", "", "no convergence"));
   const auto c2 = Expect<Conflict>([&] { service_->SaveJobMachine(failed, ""); });
   EXPECT_TRUE(Contains(c2.what(), "is failed")) << c2.what();
   const auto serial = st.CreateJob("discovery", "{}");
-  st.UpdateJob(JobRecord{serial, "", "done", 1.0, "done", "", R"({"verdict":"ok"})", "", "", ""});
+  st.UpdateJob(Job(serial, "done", 1.0, "done", R"({"verdict":"ok"})", ""));
   const auto c3 = Expect<Conflict>([&] { service_->SaveJobMachine(serial, ""); });
   EXPECT_TRUE(Contains(c3.what(), "updated_machine")) << c3.what();
   const auto other = st.CreateJob("something_else", "{}");
-  st.UpdateJob(JobRecord{other, "", "done", 1.0, "done", "", "{}", "", "", ""});
+  st.UpdateJob(Job(other, "done", 1.0, "done", "{}", ""));
   EXPECT_THROW(service_->SaveJobMachine(other, ""), Conflict);
   EXPECT_TRUE(st.ListMachines().empty());
 }

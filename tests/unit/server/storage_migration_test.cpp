@@ -226,6 +226,35 @@ void ExpectVersion6Rows(SqliteStorage& s) {
   EXPECT_EQ(log.items[0].subject, "token 2");
 }
 
+// Version 7: accuracy audits (a machine's rules and schedule, a verdict).
+void ExpectVersion7Rows(SqliteStorage& s) {
+  const auto c = s.GetAuditConfig("old-lathe");
+  ASSERT_TRUE(c);
+  EXPECT_EQ(c->schedule, "every 24h");
+  EXPECT_EQ(c->last_run_at, "2025-09-01T06:00:00Z");
+  EXPECT_EQ(c->next_run_at, "2025-09-02T06:00:00Z");
+  const auto v = s.GetAuditVerdict(1);
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->machine_id, "old-lathe");
+  EXPECT_EQ(v->level, 2);
+  EXPECT_EQ(v->trigger, "schedule");
+  EXPECT_EQ(v->webhook_status, "delivered");
+  EXPECT_EQ(v->webhook_attempts, 1);
+}
+
+// Jobs of earlier versions carry no plan and no lease (version 8): finished ones keep their
+// outcome, and the queue offers none of them.
+void ExpectJobsWithoutPlan(SqliteStorage& s) {
+  const auto j = s.GetJob(1);
+  ASSERT_TRUE(j);
+  EXPECT_EQ(j->status, "done");
+  EXPECT_EQ(j->result_json, R"({"rms_um":0.5})");
+  EXPECT_EQ(j->plan_json, "");
+  EXPECT_EQ(j->lease_owner, "");
+  EXPECT_EQ(j->attempts, 0);
+  EXPECT_FALSE(s.ClaimJob("instance-a", 1'000'000, 1000, 3, "abandoned"));
+}
+
 // Accuracy audits (version 7) are usable at once after a migration.
 void ExpectAccuracyAuditsUsable(SqliteStorage& s) {
   EXPECT_FALSE(s.GetAuditConfig("old-vmc"));
@@ -258,6 +287,8 @@ TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
       if (v >= 3) ExpectVersion3Rows(s);
       if (v >= 4) ExpectVersion4Rows(s);
       if (v >= 6) ExpectVersion6Rows(s);
+      if (v >= 7) ExpectVersion7Rows(s);
+      if (v >= 2) ExpectJobsWithoutPlan(s);
       ExpectAccuracyAuditsUsable(s);
       // Tables a migration added are usable at once.
       NewMachineModel m{"old-vmc", "upload", "after migration", "{}", std::string(64, 'd')};

@@ -1,0 +1,67 @@
+#include "server/storage_factory.h"
+
+#include <algorithm>
+#include <filesystem>
+
+#include "analysis/core/errors.h"
+#include "server/data_dir.h"
+#include "server/pg_storage.h"
+#include "server/sqlite_storage.h"
+
+namespace km::server {
+namespace {
+
+bool IsPostgres(const std::string& url) {
+  return url.rfind("postgresql://", 0) == 0 || url.rfind("postgres://", 0) == 0;
+}
+
+std::string SqlitePath(const ServerConfig& cfg) {
+  return (std::filesystem::path(cfg.data_dir) / "kinemetric.db").string();
+}
+
+}  // namespace
+
+std::unique_ptr<Storage> OpenStorage(const ServerConfig& cfg) {
+  if (IsPostgres(cfg.database)) {
+    PgOptions o;
+    o.busy_timeout_ms = cfg.db_busy_timeout_ms;
+    o.pool_size = cfg.db_pool_size;
+    return std::make_unique<PgStorage>(cfg.database, o);
+  }
+  if (!cfg.database.empty() && cfg.database != "sqlite:") {
+    throw InvalidInput("", 0, "database",
+                       "'" + MaskPassword(cfg.database).substr(0, 80) +
+                           "' is not a database: use sqlite: or postgresql://…");
+  }
+  PrepareDataDir(cfg.data_dir);
+  SqliteOptions o;
+  o.busy_timeout_ms = cfg.db_busy_timeout_ms;
+  return std::make_unique<SqliteStorage>(SqlitePath(cfg), o);
+}
+
+std::string DescribeDatabase(const ServerConfig& cfg) {
+  if (IsPostgres(cfg.database)) return "PostgreSQL " + MaskPassword(cfg.database);
+  return "SQLite " + SqlitePath(cfg);
+}
+
+std::string MaskPassword(const std::string& url) {
+  std::string out = url;
+  const auto scheme = out.find("://");
+  if (scheme != std::string::npos) {
+    const auto start = scheme + 3;
+    const auto end = std::min(out.find_first_of("/?#", start), out.size());
+    const auto at = out.rfind('@', end == out.size() ? std::string::npos : end);
+    if (at != std::string::npos && at >= start) {
+      const auto colon = out.find(':', start);
+      if (colon != std::string::npos && colon < at) out.replace(colon + 1, at - colon - 1, "***");
+    }
+  }
+  for (auto p = out.find("password="); p != std::string::npos; p = out.find("password=", p)) {
+    p += 9;
+    const auto end = std::min(out.find_first_of("& ", p), out.size());
+    out.replace(p, end - p, "***");
+  }
+  return out;
+}
+
+}  // namespace km::server
