@@ -4,13 +4,6 @@
 
 namespace km::internal {
 
-namespace {
-
-// Set while a pool thread runs queued jobs between the indices of a ParallelFor.
-thread_local bool draining = false;
-
-}  // namespace
-
 WorkerPool& WorkerPool::Instance() {
   static WorkerPool pool;
   return pool;
@@ -59,17 +52,7 @@ bool WorkerPool::TryRunOne() {
   return true;
 }
 
-void WorkerPool::RunQueuedOnHelper() {
-  if (!on_pool_thread || draining) return;
-  draining = true;
-  // The jobs are ParallelFor loops: they catch what their calls throw.
-  while (TryRunOne()) {
-  }
-  draining = false;
-}
-
 void WorkerPool::Loop() {
-  on_pool_thread = true;
   for (;;) {
     std::function<void()> job;
     {

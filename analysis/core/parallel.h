@@ -35,11 +35,6 @@ class WorkerPool {
   // waiting for its helpers runs queued jobs meanwhile (e.g. those of a nested ParallelFor
   // started by one of its own calls), so no thread sits idle while work is queued.
   bool TryRunOne();
-  // On a pool thread (not within a job it runs this way already): runs the jobs queued so far.
-  // A helper calls it between the indices of a ParallelFor, so the parts of a nested
-  // ParallelFor that the caller is running, usually the longest path of the whole, get the
-  // helper first and the independent calls of the outer loop fill the time around them.
-  void RunQueuedOnHelper();
   std::size_t size() const { return threads_.size(); }
   ~WorkerPool();
 
@@ -52,9 +47,6 @@ class WorkerPool {
   std::vector<std::thread> threads_;
   bool stop_ = false;
 };
-
-// True on the pool's threads.
-inline thread_local bool on_pool_thread = false;
 
 // The shared state of one ParallelFor call.
 struct ParallelState {
@@ -79,10 +71,7 @@ void ParallelFor(std::size_t n, F&& fn,
   auto state = std::make_shared<internal::ParallelState>(n);
   // Claims and runs indices until none is left; every claimed index is counted done.
   auto work = [state, &fn] {
-    for (;;) {
-      if (internal::on_pool_thread) internal::WorkerPool::Instance().RunQueuedOnHelper();
-      const std::size_t i = state->next.fetch_add(1);
-      if (i >= state->n) break;
+    for (std::size_t i = state->next.fetch_add(1); i < state->n; i = state->next.fetch_add(1)) {
       try {
         fn(i);
       } catch (...) {
