@@ -35,6 +35,7 @@ bool WorkerPool::Post(std::function<void()> job) {
   {
     std::lock_guard<std::mutex> lock(mu_);
     queue_.push_back(std::move(job));
+    queued_.store(queue_.size());
   }
   cv_.notify_one();
   return true;
@@ -47,6 +48,7 @@ bool WorkerPool::TryRunOne() {
     if (queue_.empty()) return false;
     job = std::move(queue_.front());
     queue_.erase(queue_.begin());
+    queued_.store(queue_.size());
   }
   job();
   return true;
@@ -54,6 +56,8 @@ bool WorkerPool::TryRunOne() {
 
 void WorkerPool::Loop() {
   for (;;) {
+    // The next part of an analysis usually follows within microseconds: watch, then sleep.
+    SpinUntil([this] { return HasQueued(); });
     std::function<void()> job;
     {
       std::unique_lock<std::mutex> lock(mu_);
@@ -61,6 +65,7 @@ void WorkerPool::Loop() {
       if (queue_.empty()) return;  // stopping, nothing left
       job = std::move(queue_.front());
       queue_.erase(queue_.begin());
+      queued_.store(queue_.size());
     }
     job();
   }

@@ -7,6 +7,11 @@
 // per call). The caller claims indices itself until none is left and then waits only for the
 // indices a helper is running, so nested calls (a parallel part that itself runs ParallelFor)
 // cannot deadlock, and a call never waits for a helper that has not started.
+//
+// An analysis is a chain of short parallel parts (a DBB pair's diagnosis has dozens of 0.05–0.5
+// ms ones). Waking a sleeping thread takes tens of microseconds, up to a scheduler tick on a
+// virtual machine, so a helper that runs out of work and a caller waiting for its helpers first
+// watch for the next part for a short while (kSpinMicroseconds) before they sleep.
 #pragma once
 
 #include <algorithm>
@@ -25,6 +30,20 @@ namespace km {
 
 namespace internal {
 
+inline constexpr int kSpinMicroseconds = 100;
+
+// Calls done() until it is true or kSpinMicroseconds have passed; its last answer.
+template <typename Done>
+bool SpinUntil(Done&& done) {
+  const auto until =
+      std::chrono::steady_clock::now() + std::chrono::microseconds(kSpinMicroseconds);
+  for (int k = 0;; ++k) {
+    if (done()) return true;
+    if ((k & 63) == 63 && std::chrono::steady_clock::now() > until) return done();
+    std::this_thread::yield();
+  }
+}
+
 // Runs posted jobs on hardware_concurrency − 1 threads (at least one).
 class WorkerPool {
  public:
@@ -35,6 +54,8 @@ class WorkerPool {
   // waiting for its helpers runs queued jobs meanwhile (e.g. those of a nested ParallelFor
   // started by one of its own calls), so no thread sits idle while work is queued.
   bool TryRunOne();
+  // True when a job is queued (a hint, read without the lock).
+  bool HasQueued() const { return queued_.load(std::memory_order_relaxed) > 0; }
   std::size_t size() const { return threads_.size(); }
   ~WorkerPool();
 
@@ -44,6 +65,7 @@ class WorkerPool {
   std::mutex mu_;
   std::condition_variable cv_;
   std::vector<std::function<void()>> queue_;
+  std::atomic<std::size_t> queued_{0};  // queue_.size(), readable without the lock
   std::vector<std::thread> threads_;
   bool stop_ = false;
 };
@@ -56,7 +78,7 @@ struct ParallelState {
   std::vector<std::exception_ptr> errors;
   std::mutex mu;
   std::condition_variable cv;
-  std::size_t done = 0;  // indices finished (under mu)
+  std::atomic<std::size_t> done{0};  // indices finished (changed under mu)
 };
 
 }  // namespace internal
@@ -92,12 +114,14 @@ void ParallelFor(std::size_t n, F&& fn,
     }
   }
   work();
+  auto finished = [&] { return state->done.load() == state->n; };
   for (;;) {
-    {
-      std::lock_guard<std::mutex> lock(state->mu);
-      if (state->done == state->n) break;
-    }
+    if (finished()) break;
     if (max_threads > 1 && internal::WorkerPool::Instance().TryRunOne()) continue;
+    // The helpers' last indices usually end within microseconds: watch before sleeping.
+    if (internal::SpinUntil(
+            [&] { return finished() || internal::WorkerPool::Instance().HasQueued(); }))
+      continue;
     std::unique_lock<std::mutex> lock(state->mu);
     state->cv.wait_for(lock, std::chrono::microseconds(200),
                        [&] { return state->done == state->n; });
