@@ -100,9 +100,7 @@ void JobQueue::Stop() {
 
 std::int64_t JobQueue::Submit(const std::string& kind, const nlohmann::json& request,
                               const nlohmann::json& plan) {
-  const auto counts = storage_.CountJobsByStatus();
-  const auto queued = counts.find("queued");
-  if (queued != counts.end() && queued->second >= static_cast<std::int64_t>(options_.max_queued)) {
+  if (storage_.CountJobsWithStatus("queued") >= static_cast<std::int64_t>(options_.max_queued)) {
     throw Unavailable("the job queue is full (" + std::to_string(options_.max_queued) +
                       " jobs waiting); try again later");
   }

@@ -98,6 +98,13 @@ std::map<std::string, std::int64_t> PgStorage::CountJobsByStatus() {
   return out;
 }
 
+std::int64_t PgStorage::CountJobsWithStatus(const std::string& status) {
+  auto c = pool_->Acquire();
+  Params p;
+  p.Text(status, "status");
+  return c->Query("SELECT COUNT(*) FROM jobs WHERE status = $1", p, "count jobs").Int(0, 0);
+}
+
 std::int64_t PgStorage::QueueJob(const NewJob& job) {
   auto c = pool_->Acquire();
   Params p;

@@ -97,6 +97,14 @@ std::map<std::string, std::int64_t> SqliteStorage::CountJobsByStatus() {
   return out;
 }
 
+std::int64_t SqliteStorage::CountJobsWithStatus(const std::string& status) {
+  std::lock_guard lock(mu_);
+  auto s = Prepared("SELECT COUNT(*) FROM jobs WHERE status = ?");
+  s->Bind(1, status);
+  s->Step();
+  return s->Int(0);
+}
+
 std::optional<JobRecord> SqliteStorage::ClaimJob(const std::string& owner, std::int64_t now_ms,
                                                  std::int64_t lease_ms, int max_attempts,
                                                  const std::string& abandoned_error) {

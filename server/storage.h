@@ -306,6 +306,9 @@ class Storage {
   // How many jobs are in each status (queued, running, done, failed); statuses with none are
   // absent.
   virtual std::map<std::string, std::int64_t> CountJobsByStatus() = 0;
+  // How many jobs have one status (read from the status index: the cost follows that count,
+  // not the years of finished jobs).
+  virtual std::int64_t CountJobsWithStatus(const std::string& status) = 0;
 
   // The job queue shared by every instance on the database. QueueJob stores a job as queued
   // (the new id). ClaimJob takes the oldest job to run — queued, or running under a lease that

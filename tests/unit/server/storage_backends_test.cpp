@@ -316,6 +316,9 @@ TEST_P(Backends, JobsAreStoredUpdatedListedAndCounted) {
   EXPECT_EQ(list[1].id, 2);
   EXPECT_EQ(s->CountJobsByStatus(),
             (std::map<std::string, std::int64_t>{{"done", 1}, {"queued", 2}}));
+  EXPECT_EQ(s->CountJobsWithStatus("queued"), 2);
+  EXPECT_EQ(s->CountJobsWithStatus("done"), 1);
+  EXPECT_EQ(s->CountJobsWithStatus("running"), 0);
   EXPECT_EQ(s->FailInterruptedJobs("stopped"), 2);
   EXPECT_EQ(s->GetJob(2)->error, "stopped");
   EXPECT_EQ(s->GetJob(1)->error, "");
