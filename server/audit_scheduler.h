@@ -27,6 +27,7 @@ struct AuditOptions {
   int webhook_attempts = 5;
   int webhook_first_delay_ms = 1000;
   int webhook_timeout_s = 5;
+  std::string webhook_secret;  // empty: deliveries unsigned
 };
 
 // Whole Unix seconds now (replaceable in tests).

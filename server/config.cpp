@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -233,6 +234,16 @@ std::string NonEmpty(const std::string& v, const std::string& where, const std::
   return v;
 }
 
+// check(value, field) for a value of the configuration file `path`; its error names the file.
+void CheckInFile(const std::string& path, void (*check)(const std::string&, const std::string&),
+                 const std::string& value, const std::string& field) {
+  try {
+    check(value, field);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(path, 0, e.field(), e.reason());
+  }
+}
+
 }  // namespace
 
 void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where) {
@@ -285,7 +296,12 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
         cfg.database = DatabaseUrl(v.get<std::string>(), path, key);
       } else if (key == "audit_webhook_url") {
         cfg.audit_webhook_url = v.get<std::string>();
-        if (!cfg.audit_webhook_url.empty()) CheckWebhookUrl(cfg.audit_webhook_url, key);
+        if (!cfg.audit_webhook_url.empty())
+          CheckInFile(path, CheckWebhookUrl, cfg.audit_webhook_url, key);
+      } else if (key == "audit_webhook_secret") {
+        cfg.audit_webhook_secret = v.get<std::string>();
+        if (!cfg.audit_webhook_secret.empty())
+          CheckInFile(path, CheckWebhookSecret, cfg.audit_webhook_secret, key);
       } else if (const auto* o = FindNumberOption(key)) {
         o->set(cfg, WholeFromJson(v, o->range, path, key));
       } else if (key == "upload_limits") {
@@ -359,6 +375,11 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
     } else {
       throw InvalidInput("", 0, a, "unknown option");
     }
+  }
+  const char* secret = std::getenv("KINEMETRIC_AUDIT_WEBHOOK_SECRET");
+  if (cfg.audit_webhook_secret.empty() && secret != nullptr && *secret != '\0') {
+    cfg.audit_webhook_secret = secret;
+    CheckWebhookSecret(cfg.audit_webhook_secret, "KINEMETRIC_AUDIT_WEBHOOK_SECRET");
   }
   return cfg;
 }

@@ -59,6 +59,10 @@ struct ServerConfig {
   std::string audit_webhook_url;
   int audit_webhook_attempts = 5;
   int audit_webhook_first_delay_ms = 1000;
+  // Key of the deliveries' X-Kinemetric-Signature (HMAC-SHA256; 16–1024 bytes): config key
+  // audit_webhook_secret, else the environment variable KINEMETRIC_AUDIT_WEBHOOK_SECRET (kept
+  // off the command line, where other users of the host could read it). Empty: unsigned.
+  std::string audit_webhook_secret;
   // Operations (docs/operations.md): the access log ("-": stderr, "off": none, else a file
   // appended to), GET /metrics without a token (default: viewer), and how long a stop (SIGTERM,
   // SIGINT) waits for the requests in flight.

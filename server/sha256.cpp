@@ -1,6 +1,7 @@
 #include "server/sha256.h"
 
 #include <openssl/evp.h>
+#include <openssl/hmac.h>
 #include <openssl/rand.h>
 
 #include "analysis/core/errors.h"
@@ -23,6 +24,17 @@ std::string Sha256Hex(std::string_view bytes) {
   unsigned int len = 0;
   if (EVP_Digest(bytes.data(), bytes.size(), md, &len, EVP_sha256(), nullptr) != 1) {
     throw Error("SHA-256 computation failed");
+  }
+  return Hex(md, len);
+}
+
+std::string HmacSha256Hex(std::string_view key, std::string_view bytes) {
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int len = 0;
+  if (key.size() > 1 << 20 || HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()),
+                                   reinterpret_cast<const unsigned char*>(bytes.data()),
+                                   bytes.size(), md, &len) == nullptr) {
+    throw Error("HMAC-SHA256 computation failed");
   }
   return Hex(md, len);
 }

@@ -6,6 +6,7 @@
 #include <httplib.h>
 
 #include "analysis/core/errors.h"
+#include "server/sha256.h"
 
 namespace km::server {
 namespace {
@@ -44,6 +45,30 @@ void CheckWebhookUrl(const std::string& url, const std::string& field) {
   ParseUrl(url, field);
 }
 
+void CheckWebhookSecret(const std::string& secret, const std::string& field) {
+  if (secret.size() < 16 || secret.size() > 1024) {
+    throw InvalidInput("", 0, field,
+                       "a webhook secret must have 16 to 1024 bytes (it has " +
+                           std::to_string(secret.size()) + ")");
+  }
+}
+
+std::vector<std::pair<std::string, std::string>> WebhookHeaders(const WebhookOptions& options,
+                                                                std::int64_t id, int attempt,
+                                                                std::int64_t unix_s,
+                                                                const std::string& body) {
+  const std::string ts = std::to_string(unix_s);
+  std::vector<std::pair<std::string, std::string>> h{
+      {"X-Kinemetric-Delivery", "audit-" + std::to_string(id)},
+      {"X-Kinemetric-Attempt", std::to_string(attempt)},
+      {"X-Kinemetric-Timestamp", ts}};
+  if (!options.secret.empty()) {
+    h.emplace_back("X-Kinemetric-Signature",
+                   "sha256=" + HmacSha256Hex(options.secret, ts + "." + body));
+  }
+  return h;
+}
+
 WebhookSender::WebhookSender(WebhookOptions options, StatusFn status)
     : options_(std::move(options)), status_(std::move(status)) {
   const Url u = ParseUrl(options_.url, "audit_webhook_url");
@@ -79,13 +104,19 @@ void WebhookSender::Enqueue(std::int64_t id, std::string body) {
   cv_.notify_all();
 }
 
-bool WebhookSender::Deliver(const std::string& body) {
+bool WebhookSender::Deliver(const Item& item, int attempt) {
+  const auto unix_s = std::chrono::duration_cast<std::chrono::seconds>(
+                          std::chrono::system_clock::now().time_since_epoch())
+                          .count();
+  httplib::Headers headers;
+  for (auto& [k, v] : WebhookHeaders(options_, item.id, attempt, unix_s, item.body))
+    headers.emplace(k, v);
   httplib::Client client(host_, port_);
   const auto t = static_cast<time_t>(options_.timeout.count());
   client.set_connection_timeout(t, 0);
   client.set_read_timeout(t, 0);
   client.set_write_timeout(t, 0);
-  const auto res = client.Post(path_, body, "application/json");
+  const auto res = client.Post(path_, headers, item.body, "application/json");
   return res && res->status >= 200 && res->status < 300;
 }
 
@@ -99,7 +130,7 @@ void WebhookSender::Loop() {
     auto delay = options_.first_delay;
     for (int attempt = 1; attempt <= options_.attempts; ++attempt) {
       lock.unlock();
-      const bool ok = Deliver(item.body);
+      const bool ok = Deliver(item, attempt);
       const bool last = ok || attempt == options_.attempts;
       status_(item.id, ok ? "delivered" : last ? "failed" : "pending", attempt);
       lock.lock();

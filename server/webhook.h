@@ -3,6 +3,11 @@
 // timeout, a status other than 2xx) is retried after 1 s, 2 s, 4 s, … (first_delay doubled)
 // up to `attempts` attempts in all. Stop() ends after the attempt under way (at most its
 // timeout): verdicts not yet delivered stay "pending" (AuditScheduler::Start sends them again).
+//
+// Delivery is at least once: every POST carries X-Kinemetric-Delivery ("audit-<id>", the same
+// for every attempt and every instance, for the receiver to drop repeats), X-Kinemetric-Attempt
+// and X-Kinemetric-Timestamp (Unix seconds), and with a secret X-Kinemetric-Signature:
+// "sha256=" + hex HMAC-SHA256(secret, timestamp + "." + body).
 #pragma once
 
 #include <chrono>
@@ -13,6 +18,8 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 namespace km::server {
 
@@ -21,7 +28,17 @@ struct WebhookOptions {
   int attempts = 5;
   std::chrono::milliseconds first_delay{1000};
   std::chrono::seconds timeout{5};  // connect, read and write, each attempt
+  std::string secret;               // key of X-Kinemetric-Signature; empty: unsigned
 };
+
+// Checks a webhook signing secret (16–1024 bytes); km::InvalidInput naming `field` otherwise.
+void CheckWebhookSecret(const std::string& secret, const std::string& field);
+
+// The headers of one delivery attempt of verdict `id` sent at Unix time `unix_s`.
+std::vector<std::pair<std::string, std::string>> WebhookHeaders(const WebhookOptions& options,
+                                                                std::int64_t id, int attempt,
+                                                                std::int64_t unix_s,
+                                                                const std::string& body);
 
 // Checks a webhook URL (http:// only); km::InvalidInput naming `field` when it is not one.
 void CheckWebhookUrl(const std::string& url, const std::string& field);
@@ -45,7 +62,7 @@ class WebhookSender {
     std::string body;
   };
   void Loop();
-  bool Deliver(const std::string& body);
+  bool Deliver(const Item& item, int attempt);
 
   WebhookOptions options_;
   StatusFn status_;

@@ -11,6 +11,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -21,6 +24,7 @@
 #include "server/config.h"
 #include "server/demo_data.h"
 #include "server/service.h"
+#include "server/sha256.h"
 #include "server/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
 
@@ -251,13 +255,19 @@ TEST_F(AccuracyAudits, TheThreadRunsAOneSecondScheduleAndStopsPromptly) {
   EXPECT_EQ(v["checked"][0]["status"], "not evaluated");
 }
 
-// A local receiver answering 500 to the first POST and 200 afterwards.
+// A local receiver answering 500 to the first POST and 200 afterwards; it keeps each POST's
+// body and its X-Kinemetric-* headers.
 class Receiver {
  public:
+  using Headers = std::map<std::string, std::string>;
   Receiver() {
     server_.Post("/hook", [this](const httplib::Request& req, httplib::Response& res) {
       std::lock_guard lock(mu_);
       bodies_.push_back(req.body);
+      Headers h;
+      for (const auto& [k, v] : req.headers)
+        if (k.rfind("X-Kinemetric-", 0) == 0) h[k] = v;
+      headers_.push_back(std::move(h));
       res.status = bodies_.size() == 1 ? 500 : 200;
     });
     port_ = server_.bind_to_any_port("127.0.0.1");
@@ -272,6 +282,10 @@ class Receiver {
     std::lock_guard lock(mu_);
     return bodies_;
   }
+  std::vector<Headers> headers() {
+    std::lock_guard lock(mu_);
+    return headers_;
+  }
 
  private:
   httplib::Server server_;
@@ -279,6 +293,7 @@ class Receiver {
   std::thread thread_;
   std::mutex mu_;
   std::vector<std::string> bodies_;
+  std::vector<Headers> headers_;
 };
 
 TEST_F(AccuracyAudits, TheWebhookIsRetriedAfterA500AndTheDeliveryRecorded) {
@@ -313,6 +328,69 @@ TEST_F(AccuracyAudits, TheWebhookIsRetriedAfterA500AndTheDeliveryRecorded) {
   EXPECT_TRUE(audits.Run("demo-vmc", "manual")["webhook"].is_null());
   audits.Stop();
   EXPECT_EQ(receiver.bodies().size(), 2u);
+}
+
+// Each attempt names the verdict (the same delivery id, for the receiver to drop repeats), its
+// attempt number and time, and is signed over "timestamp.body" with the configured secret.
+TEST_F(AccuracyAudits, WebhookDeliveriesAreSignedAndNamedForTheReceiverToDropRepeats) {
+  Receiver receiver;
+  auto svc = Open();
+  const auto circ = UploadDbb(*svc).second;
+  AuditOptions o;
+  o.webhook_url = "http://127.0.0.1:" + std::to_string(receiver.port()) + "/hook";
+  o.webhook_first_delay_ms = 50;
+  o.webhook_secret = "correct horse battery staple";
+  AuditScheduler audits(*svc, o, clock_);
+  audits.Start();
+  audits.PutConfig("demo-vmc", Rules(circ - 1.0, circ + 1.0));
+  const json v = audits.Run("demo-vmc", "manual");
+  const auto t0 = std::chrono::steady_clock::now();
+  while (receiver.bodies().size() < 2 &&
+         std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  audits.Stop();
+  const auto bodies = receiver.bodies();
+  const auto heads = receiver.headers();
+  ASSERT_EQ(heads.size(), 2u);
+  const auto now = std::chrono::duration_cast<std::chrono::seconds>(
+                       std::chrono::system_clock::now().time_since_epoch())
+                       .count();
+  for (std::size_t k = 0; k < 2; ++k) {
+    auto h = heads[k];
+    EXPECT_EQ(h["X-Kinemetric-Delivery"], "audit-" + std::to_string(v["id"].get<std::int64_t>()));
+    EXPECT_EQ(h["X-Kinemetric-Attempt"], std::to_string(k + 1));
+    const std::int64_t ts = std::stoll(h["X-Kinemetric-Timestamp"]);
+    EXPECT_LE(std::abs(now - ts), 30);
+    EXPECT_EQ(
+        h["X-Kinemetric-Signature"],
+        "sha256=" + HmacSha256Hex(o.webhook_secret, h["X-Kinemetric-Timestamp"] + "." + bodies[k]));
+    // A body changed on the way no longer matches the signature.
+    EXPECT_NE(h["X-Kinemetric-Signature"],
+              "sha256=" + HmacSha256Hex(o.webhook_secret,
+                                        h["X-Kinemetric-Timestamp"] + "." + bodies[k] + " "));
+  }
+}
+
+// Without a secret the deliveries carry no signature (and still their delivery id).
+TEST(WebhookHeaders, UnsignedWithoutASecret) {
+  WebhookOptions o;
+  const auto h = WebhookHeaders(o, 7, 3, 1795749120, "{}");
+  EXPECT_EQ(h, (std::vector<std::pair<std::string, std::string>>{
+                   {"X-Kinemetric-Delivery", "audit-7"},
+                   {"X-Kinemetric-Attempt", "3"},
+                   {"X-Kinemetric-Timestamp", "1795749120"}}));
+}
+
+// RFC 4231 test cases 1, 2 and 6 (a key longer than the hash's block).
+TEST(HmacSha256, MatchesTheRfc4231TestVectors) {
+  EXPECT_EQ(HmacSha256Hex(std::string(20, '\x0b'), "Hi There"),
+            "b0344c61d8db38535ca8afceaf0bf12b881dc200c9833da726e9376c2e32cff7");
+  EXPECT_EQ(HmacSha256Hex("Jefe", "what do ya want for nothing?"),
+            "5bdcc146bf60754e6a042426089575c75a003f089d2739839dec58b964ec3843");
+  EXPECT_EQ(HmacSha256Hex(std::string(131, '\xaa'),
+                          "Test Using Larger Than Block-Size Key - Hash Key First"),
+            "60e431591ee0b67f0d8a26aacbf5b77f8e0bc6213728c5140546040f0ee37f54");
 }
 
 TEST_F(AccuracyAudits, AWebhookLeftPendingByAStopIsSentAtTheNextStart) {
@@ -366,6 +444,33 @@ TEST(AuditWebhookOptions, AreReadFromTheCommandLineAndChecked) {
   EXPECT_EQ(field({"--audit-webhook-attempts", "0"}), "--audit-webhook-attempts");
   EXPECT_EQ(field({"--audit-webhook-attempts", "21"}), "--audit-webhook-attempts");
   EXPECT_EQ(field({"--audit-webhook-first-delay-ms", "5"}), "--audit-webhook-first-delay-ms");
+}
+
+// The signing secret comes from the config file (never the command line) or the environment;
+// one too short is refused naming the file and the key, without echoing the secret.
+TEST_F(AccuracyAudits, TheWebhookSecretIsReadFromTheConfigFileOrTheEnvironment) {
+  const auto write = [&](const std::string& secret) {
+    std::ofstream(Path("k.json")) << json{{"audit_webhook_secret", secret}}.dump();
+    return Path("k.json");
+  };
+  EXPECT_EQ(ParseServerArgs({"--config", write("0123456789abcdef")}).audit_webhook_secret,
+            "0123456789abcdef");
+  try {
+    ParseServerArgs({"--config", write("short-secret")});
+    ADD_FAILURE() << "a 12-byte secret was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.file(), Path("k.json"));
+    EXPECT_EQ(e.field(), "audit_webhook_secret");
+    EXPECT_EQ(std::string(e.what()).find("short-secret"), std::string::npos);
+  }
+  ::setenv("KINEMETRIC_AUDIT_WEBHOOK_SECRET", "from-the-environment", 1);
+  EXPECT_EQ(ParseServerArgs({}).audit_webhook_secret, "from-the-environment");
+  EXPECT_EQ(ParseServerArgs({"--config", write("0123456789abcdef")}).audit_webhook_secret,
+            "0123456789abcdef");
+  ::setenv("KINEMETRIC_AUDIT_WEBHOOK_SECRET", "tiny", 1);
+  EXPECT_THROW(ParseServerArgs({}), InvalidInput);
+  ::unsetenv("KINEMETRIC_AUDIT_WEBHOOK_SECRET");
+  EXPECT_EQ(ParseServerArgs({}).audit_webhook_secret, "");
 }
 
 }  // namespace
