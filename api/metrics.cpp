@@ -56,6 +56,65 @@ void Sample(std::string& out, const std::string& name, const std::string& labels
   out += name + (labels.empty() ? "" : "{" + labels + "}") + " " + Number(v) + "\n";
 }
 
+std::string DeviceLabels(const json& d) {
+  return "device=\"" + LabelValue(d.value("name", "")) + "\",machine_id=\"" +
+         LabelValue(d.value("machine_id", "")) + "\"";
+}
+
+// A whole number of a device's status object (0 when absent).
+double StatusCount(const json& status, const char* key) {
+  const auto it = status.find(key);
+  return it != status.end() && it->is_number() ? it->get<double>() : 0.0;
+}
+
+// Errors of the Modbus devices by kind.
+void ModbusErrors(std::string& out, const json& devices) {
+  Family(out, "kinemetric_modbus_errors_total", "counter",
+         "Modbus errors by kind: exception responses, timeouts, malformed responses, failed "
+         "connections");
+  for (const auto& d : devices) {
+    const json s = d.value("status", json::object());
+    for (const auto& [kind, key] :
+         {std::pair{"exception", "exceptions"}, std::pair{"timeout", "timeouts"},
+          std::pair{"protocol", "protocol_errors"}, std::pair{"connection", "connection_errors"}}) {
+      Sample(out, "kinemetric_modbus_errors_total", DeviceLabels(d) + ",kind=\"" + kind + "\"",
+             StatusCount(s, key));
+    }
+  }
+}
+
+// The Modbus acquisition devices (server/acquisition.h) from their status: one series per
+// device, labelled with its name and machine. Their counters start at 0 again when a device
+// restarts (a server start, a device added again), which Prometheus' rate() takes as a reset.
+void ModbusFamilies(std::string& out, const json& devices) {
+  struct Row {
+    const char *name, *type, *help, *key;
+  };
+  static const Row kRows[] = {
+      {"kinemetric_modbus_device_connected", "gauge", "Modbus devices: 1 while connected",
+       "connected"},
+      {"kinemetric_modbus_polls_total", "counter",
+       "Modbus polls at which every register block was read", "polls_ok"},
+      {"kinemetric_modbus_samples_total", "counter",
+       "Samples a Modbus device delivered into its stream", "samples_delivered"},
+      {"kinemetric_modbus_skipped_ticks_total", "counter",
+       "Modbus poll ticks at which a block was not read (each one a gap in the stream)",
+       "skipped_ticks"},
+      {"kinemetric_modbus_reconnects_total", "counter", "Modbus connections made again",
+       "reconnects"}};
+  for (const auto& row : kRows) {
+    Family(out, row.name, row.type, row.help);
+    for (const auto& d : devices) {
+      const json s = d.value("status", json::object());
+      const bool connected = s.value("connected", false);
+      Sample(out, row.name, DeviceLabels(d),
+             std::string_view(row.key) == "connected" ? (connected ? 1.0 : 0.0)
+                                                      : StatusCount(s, row.key));
+    }
+  }
+  ModbusErrors(out, devices);
+}
+
 }  // namespace
 
 Metrics::Metrics() : start_unix_(UnixNow()) {}
@@ -132,6 +191,7 @@ std::string Metrics::Exposition(server::Service* service) const {
       Sample(out, "kinemetric_jobs", "status=\"" + LabelValue(status) + "\"",
              static_cast<double>(n));
     }
+    ModbusFamilies(out, service->acquisition().Devices());
   }
   const std::pair<const char*, const std::atomic<std::uint64_t>*> counters[] = {
       {"kinemetric_measurements_stored_total", &measurements_},

@@ -2,7 +2,8 @@
 // libmodbus test server): a device from the config file is polled into its own stream, its
 // status is visible in the API; the Modbus server is killed and restarted — acquisition resumes
 // by itself, the outage is one recorded gap and every other tick is stored; a device added
-// through the API that cannot connect is counted, not fatal, and does not stall the first.
+// through the API that cannot connect is counted, not fatal, and does not stall the first; the
+// devices' figures are in /metrics.
 #include <gtest/gtest.h>
 #include <httplib.h>
 
@@ -44,10 +45,21 @@ class Api {
     return c_.Post(p.c_str(), body.dump(), "application/json");
   }
   httplib::Result Delete(const std::string& p) { return c_.Delete(p.c_str()); }
+  std::string Text(const std::string& p) {
+    auto r = c_.Get(p.c_str());
+    return r && r->status == 200 ? r->body : std::string();
+  }
 
  private:
   httplib::Client c_;
 };
+
+// The value of one series of a /metrics exposition (NaN when absent).
+double MetricValue(const std::string& text, const std::string& series) {
+  const auto at = text.find("\n" + series + " ");
+  if (at == std::string::npos) return std::nan("");
+  return std::stod(text.substr(at + series.size() + 2));
+}
 
 json Device(const json& devices, const std::string& name) {
   for (const auto& d : devices["items"]) {
@@ -156,6 +168,20 @@ TEST(Acquisition, ModbusDevicePolledIntoAStreamSurvivesAServerRestart) {
     ASSERT_EQ(d["items"].size(), 2u);
     EXPECT_GE(Device(d, "dead-rig")["status"]["connection_errors"].get<int>(), 2) << d.dump();
     EXPECT_FALSE(Device(d, "dead-rig")["status"]["connected"].get<bool>());
+    // The same figures in /metrics, per device (read after the list: counters only grew).
+    const std::string m = api.Text("/metrics");
+    const std::string cap = "{device=\"cap-rig\",machine_id=\"vmc-7\"",
+                      dead = "{device=\"dead-rig\",machine_id=\"vmc-7\"";
+    EXPECT_EQ(MetricValue(m, "kinemetric_modbus_device_connected" + cap + "}"), 1.0) << m;
+    EXPECT_EQ(MetricValue(m, "kinemetric_modbus_device_connected" + dead + "}"), 0.0) << m;
+    EXPECT_GE(MetricValue(m, "kinemetric_modbus_polls_total" + cap + "}"),
+              Device(d, "cap-rig")["status"]["polls_ok"].get<double>());
+    EXPECT_GE(MetricValue(m, "kinemetric_modbus_samples_total" + cap + "}"),
+              Device(d, "cap-rig")["status"]["samples_delivered"].get<double>());
+    EXPECT_GE(MetricValue(m, "kinemetric_modbus_reconnects_total" + cap + "}"), 1.0);
+    EXPECT_GE(MetricValue(m, "kinemetric_modbus_errors_total" + dead + ",kind=\"connection\"}"),
+              2.0);
+    EXPECT_EQ(MetricValue(m, "kinemetric_modbus_errors_total" + cap + ",kind=\"exception\"}"), 0.0);
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_add).count();
     const auto polls_now = Device(d, "cap-rig")["status"]["polls_ok"].get<std::int64_t>();
