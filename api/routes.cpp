@@ -213,42 +213,45 @@ void AddDbbRoutes(Router& router, server::Service& service) {
 void AddJobRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
 
-  router.Add(Route{
-      "POST",
-      "/api/v1/calibrations",
-      "Hexapod calibration study (machine definition or stored model + DBB measurement ids + "
-      "mode) as a background job",
-      true,
-      [svc](const Request& req) {
-        nlohmann::json body;
-        try {
-          body = nlohmann::json::parse(req.body);
-        } catch (const nlohmann::json::parse_error& e) {
-          throw InvalidInput("request", 0, "", std::string("the body is not JSON: ") + e.what());
-        }
-        const auto id = svc->SubmitCalibration(body);
-        Response r = Response::Json(
-            {{"job_id", id}, {"status_url", "/api/v1/jobs/" + std::to_string(id)}}, 202);
-        r.headers["Location"] = "/api/v1/jobs/" + std::to_string(id);
-        return r;
-      },
-      {{"requestBody",
-        {{"required", true},
-         {"content",
-          {{"application/json",
-            {{"schema",
-              {{"type", "object"},
-               {"required", json::array({"measurement_ids"})},
-               {"properties",
-                {{"machine", {{"type", "object"}}},
-                 {"machine_id", {{"type", "string"}}},
-                 {"machine_version", {{"type", "integer"}}},
-                 {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
-                 {"method",
-                  {{"type", "string"}, {"enum", json::array({"absolute", "centre-corrected"})}}},
-                 {"reduction_study_min_tests", {{"type", "integer"}}},
-                 {"max_samples_per_test", {{"type", "integer"}}}}}}}}}}}}},
-       {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}});
+  router.Add(WithBodyLimit(
+      Route{"POST",
+            "/api/v1/calibrations",
+            "Hexapod calibration study (machine definition or stored model + DBB measurement ids + "
+            "mode) as a background job",
+            true,
+            [svc](const Request& req) {
+              nlohmann::json body;
+              try {
+                body = nlohmann::json::parse(req.body);
+              } catch (const nlohmann::json::parse_error& e) {
+                throw InvalidInput("request", 0, "",
+                                   std::string("the body is not JSON: ") + e.what());
+              }
+              const auto id = svc->SubmitCalibration(body);
+              Response r = Response::Json(
+                  {{"job_id", id}, {"status_url", "/api/v1/jobs/" + std::to_string(id)}}, 202);
+              r.headers["Location"] = "/api/v1/jobs/" + std::to_string(id);
+              return r;
+            },
+            {{"requestBody",
+              {{"required", true},
+               {"content",
+                {{"application/json",
+                  {{"schema",
+                    {{"type", "object"},
+                     {"required", json::array({"measurement_ids"})},
+                     {"properties",
+                      {{"machine", {{"type", "object"}}},
+                       {"machine_id", {{"type", "string"}}},
+                       {"machine_version", {{"type", "integer"}}},
+                       {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
+                       {"method",
+                        {{"type", "string"},
+                         {"enum", json::array({"absolute", "centre-corrected"})}}},
+                       {"reduction_study_min_tests", {{"type", "integer"}}},
+                       {"max_samples_per_test", {{"type", "integer"}}}}}}}}}}}}},
+             {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}},
+      server::kMaxMachineModelBytes + kStudyRequestBytes));
 
   router.Add(
       Route{"GET",
@@ -303,7 +306,7 @@ void AddJobRoutes(Router& router, server::Service& service) {
 void AddStudyRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
 
-  router.Add(
+  router.Add(WithBodyLimit(
       Route{"POST",
             "/api/v1/discoveries",
             "Model-gap discovery study (stored model or serial + DBB measurement ids) as a "
@@ -328,7 +331,8 @@ void AddStudyRoutes(Router& router, server::Service& service) {
                        {"machine_version", {{"type", "integer"}}},
                        {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
                        {"max_samples_per_test", {{"type", "integer"}}}}}}}}}}}}},
-             {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}});
+             {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}},
+      kStudyRequestBytes));
 
   Route save{
       "POST",

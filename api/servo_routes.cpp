@@ -37,7 +37,7 @@ json ServoRequestBody(bool identify) {
 
 void AddServoRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
-  router.Add(
+  router.Add(WithBodyLimit(
       Route{"POST",
             "/api/v1/servo/identify",
             "Hexapod masses and friction from stored servo measurements (docs/formats.md §3.10); "
@@ -49,19 +49,22 @@ void AddServoRoutes(Router& router, server::Service& service) {
             {{"requestBody", ServoRequestBody(true)},
              {"responses",
               {{"200", JsonResponse("{identified{}, uncertainty{}, residual_rms_N[], "
-                                    "condition_number, fixed[], saved?}")}}}}});
-  router.Add(Route{"POST",
-                   "/api/v1/servo/joints",
-                   "Joint resistance per leg and health levels 1/2/3 from stored CW and CCW servo "
-                   "measurements (docs/formats.md §3.12)",
-                   true,
-                   [svc](const Request& req) {
-                     return Response::Json(server::ServoJoints(*svc, JsonBody(req)));
-                   },
-                   {{"requestBody", ServoRequestBody(false)},
-                    {"responses",
-                     {{"200", JsonResponse("{legs[{leg, resistance_Nm, sigma_Nm, level, "
-                                           "evidence}], level}")}}}}});
+                                    "condition_number, fixed[], saved?}")}}}}},
+      kStudyRequestBytes));
+  router.Add(WithBodyLimit(
+      Route{"POST",
+            "/api/v1/servo/joints",
+            "Joint resistance per leg and health levels 1/2/3 from stored CW and CCW servo "
+            "measurements (docs/formats.md §3.12)",
+            true,
+            [svc](const Request& req) {
+              return Response::Json(server::ServoJoints(*svc, JsonBody(req)));
+            },
+            {{"requestBody", ServoRequestBody(false)},
+             {"responses",
+              {{"200", JsonResponse("{legs[{leg, resistance_Nm, sigma_Nm, level, "
+                                    "evidence}], level}")}}}}},
+      kStudyRequestBytes));
   router.Add(
       Route{"GET",
             "/api/v1/machines/{machine_id}/joint-health",
