@@ -90,19 +90,19 @@ test('multi-file and dropped uploads with per-file outcomes; report; token messa
     // The list is rebuilt when the machine's view loads: wait until that has settled (a slow,
     // loaded machine may still be rebuilding), then focus must be on the machine.
     await page.waitForLoadState('networkidle');
-    await page.waitForFunction((m) => document.activeElement?.dataset?.machineId === m, MACHINE, { timeout: 5_000 }).catch(() => {});
+    await page.waitForFunction((m) => document.activeElement?.dataset?.machineId === m, MACHINE, { timeout: 15_000 }).catch(() => {});
     assert.equal(await page.evaluate(() => document.activeElement?.dataset?.machineId), MACHINE, 'focus kept on the machine');
 
     // Token messages: a wrong token shows one consistent state, and the right one clears it.
     await page.fill('#token-input', 'not-the-token');
     await page.click('#token-save');
     await page.waitForSelector('#auth-message:not([hidden])');
-    await page.waitForFunction(() => document.querySelector('#token-status')?.textContent === 'Token not accepted', null, { timeout: 5_000 }).catch(() => {});
+    await page.waitForFunction(() => document.querySelector('#token-status')?.textContent === 'Token not accepted', null, { timeout: 15_000 }).catch(() => {});
     assert.equal(await page.textContent('#token-status'), 'Token not accepted');
     await page.fill('#token-input', server.token);
     await page.click('#token-save');
     await page.waitForSelector('#auth-message[hidden]', { state: 'attached' });
-    await page.waitForFunction(() => document.querySelector('#token-status')?.textContent === 'Access token set', null, { timeout: 5_000 }).catch(() => {});
+    await page.waitForFunction(() => document.querySelector('#token-status')?.textContent === 'Access token set', null, { timeout: 15_000 }).catch(() => {});
     assert.equal(await page.textContent('#token-status'), 'Access token set');
     await page.waitForSelector(`#machines [data-machine-id="${MACHINE}"]`);
     assert.equal((await api.get(`/api/v1/measurements?machine_id=${MACHINE}`)).total, 3);
