@@ -82,6 +82,8 @@ test('multi-file and dropped uploads with per-file outcomes; report; token messa
     await page.waitForSelector('#png-dialog[open]');
     await page.keyboard.press('Escape');
     await page.waitForSelector('#png-dialog:not([open])', { state: 'attached' });
+    // The dialog's close event, which moves the focus, comes as a task after the dialog closed.
+    await page.waitForFunction(() => document.activeElement?.id === 'plot-png-button', null, { timeout: 15_000 }).catch(() => {});
     assert.equal(await page.evaluate(() => document.activeElement?.id), 'plot-png-button');
     await page.focus(`#machines [data-machine-id="${MACHINE}"]`);
     await page.keyboard.press('Enter');
