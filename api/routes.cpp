@@ -209,6 +209,14 @@ void AddDbbRoutes(Router& router, server::Service& service) {
                   {{"image/png", {{"schema", {{"type", "string"}, {"format", "binary"}}}}}}}}}}}}});
 }
 
+// 202 for a study queued as a background job: its id and where to follow it (also Location).
+Response JobAccepted(std::int64_t id) {
+  const std::string url = "/api/v1/jobs/" + std::to_string(id);
+  Response r = Response::Json({{"job_id", id}, {"status_url", url}}, 202);
+  r.headers["Location"] = url;
+  return r;
+}
+
 // Calibration studies as background jobs, the jobs, and the machines known.
 void AddJobRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
@@ -228,10 +236,7 @@ void AddJobRoutes(Router& router, server::Service& service) {
                                    std::string("the body is not JSON: ") + e.what());
               }
               const auto id = svc->SubmitCalibration(body);
-              Response r = Response::Json(
-                  {{"job_id", id}, {"status_url", "/api/v1/jobs/" + std::to_string(id)}}, 202);
-              r.headers["Location"] = "/api/v1/jobs/" + std::to_string(id);
-              return r;
+              return JobAccepted(id);
             },
             {{"requestBody",
               {{"required", true},
@@ -314,10 +319,7 @@ void AddStudyRoutes(Router& router, server::Service& service) {
             true,
             [svc](const Request& req) {
               const auto id = svc->SubmitDiscovery(JsonBody(req));
-              Response r = Response::Json(
-                  {{"job_id", id}, {"status_url", "/api/v1/jobs/" + std::to_string(id)}}, 202);
-              r.headers["Location"] = "/api/v1/jobs/" + std::to_string(id);
-              return r;
+              return JobAccepted(id);
             },
             {{"requestBody",
               {{"required", true},
