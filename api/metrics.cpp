@@ -61,6 +61,13 @@ std::string DeviceLabels(const json& d) {
          LabelValue(d.value("machine_id", "")) + "\"";
 }
 
+// A device's status object (server/acquisition.h Devices()); empty when absent.
+const json& StatusOf(const json& device) {
+  static const json kNone = json::object();
+  const auto it = device.find("status");
+  return it != device.end() ? *it : kNone;
+}
+
 // A whole number of a device's status object (0 when absent).
 double StatusCount(const json& status, const char* key) {
   const auto it = status.find(key);
@@ -73,7 +80,7 @@ void ModbusErrors(std::string& out, const json& devices) {
          "Modbus errors by kind: exception responses, timeouts, malformed responses, failed "
          "connections");
   for (const auto& d : devices) {
-    const json s = d.value("status", json::object());
+    const json& s = StatusOf(d);
     for (const auto& [kind, key] :
          {std::pair{"exception", "exceptions"}, std::pair{"timeout", "timeouts"},
           std::pair{"protocol", "protocol_errors"}, std::pair{"connection", "connection_errors"}}) {
@@ -105,7 +112,7 @@ void ModbusFamilies(std::string& out, const json& devices) {
   for (const auto& row : kRows) {
     Family(out, row.name, row.type, row.help);
     for (const auto& d : devices) {
-      const json s = d.value("status", json::object());
+      const json& s = StatusOf(d);
       const bool connected = s.value("connected", false);
       Sample(out, row.name, DeviceLabels(d),
              std::string_view(row.key) == "connected" ? (connected ? 1.0 : 0.0)

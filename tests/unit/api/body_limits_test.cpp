@@ -2,36 +2,18 @@
 // servo request names stored measurements, so a body far above what such a request needs is
 // refused 413 before it is parsed; a calibration may still carry a whole machine definition
 // (up to the model limit) inline.
-#include <filesystem>
 #include <string>
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include "api/route_util.h"
-#include "api/routes.h"
-#include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "tests/unit/api/routed_service.h"
 
 namespace km::api {
 namespace {
 
-namespace fs = std::filesystem;
-
-class BodyLimits : public ::testing::Test {
+class BodyLimits : public test::RoutedServiceTest {
  protected:
-  void SetUp() override {
-    db_ = fs::temp_directory_path() / ("km-body-limits-" + std::to_string(::getpid()) + ".db");
-    fs::remove(db_);
-    svc_ = std::make_unique<server::Service>(std::make_unique<server::SqliteStorage>(db_.string()),
-                                             server::ServiceOptions{});
-    server::RegisterBuiltinKinds(*svc_);
-    AddRoutes(router_, *svc_);
-  }
-  void TearDown() override {
-    svc_.reset();
-    fs::remove(db_);
-  }
   // The status of a POST whose JSON body is padded to `bytes` with a long string field.
   int Post(const std::string& path, std::size_t bytes) {
     const std::string head = R"({"measurement_ids": [1], "note": ")", tail = "\"}";
@@ -41,9 +23,6 @@ class BodyLimits : public ::testing::Test {
     r.body = head + std::string(bytes - head.size() - tail.size(), 'x') + tail;
     return router_.Dispatch(r).status;
   }
-  fs::path db_;
-  std::unique_ptr<server::Service> svc_;
-  Router router_;
 };
 
 TEST_F(BodyLimits, StudyRequestsAboveTheirLimitAre413BeforeParsing) {

@@ -14,11 +14,11 @@
 #include "server/accuracy_audit.h"
 #include "server/service.h"
 #include "server/sqlite_storage.h"
+#include "tests/unit/api/routed_service.h"
 
 namespace km::api {
 namespace {
 
-namespace fs = std::filesystem;
 using nlohmann::json;
 
 std::string Example(const std::string& name) {
@@ -34,20 +34,8 @@ std::string Replaced(std::string text, const std::string& from, const std::strin
   return text.replace(at, from.size(), to);
 }
 
-class FleetRoutes : public ::testing::Test {
+class FleetRoutes : public test::RoutedServiceTest {
  protected:
-  void SetUp() override {
-    db_ = fs::temp_directory_path() / ("km-fleet-routes-" + std::to_string(::getpid()) + ".db");
-    fs::remove(db_);
-    svc_ = std::make_unique<server::Service>(std::make_unique<server::SqliteStorage>(db_.string()),
-                                             server::ServiceOptions{});
-    server::RegisterBuiltinKinds(*svc_);
-    AddRoutes(router_, *svc_);
-  }
-  void TearDown() override {
-    svc_.reset();
-    fs::remove(db_);
-  }
   json Get(const std::string& path, const std::string& metric = "", int status = 200) {
     Request r;
     r.method = "GET";
@@ -57,9 +45,6 @@ class FleetRoutes : public ::testing::Test {
     EXPECT_EQ(out.status, status) << path << " " << metric << ": " << out.body;
     return json::parse(out.body);
   }
-  fs::path db_;
-  std::unique_ptr<server::Service> svc_;
-  Router router_;
 };
 
 TEST_F(FleetRoutes, NewestMeasurementOpenJobsAndTrends) {

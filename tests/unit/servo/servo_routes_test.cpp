@@ -13,31 +13,22 @@
 #include "api/routes.h"
 #include "server/service.h"
 #include "server/sqlite_storage.h"
+#include "tests/unit/api/routed_service.h"
 #include "tests/unit/servo/servo_truth.h"
 
 namespace km::api {
 namespace {
 
-namespace fs = std::filesystem;
 using nlohmann::json;
 
-class ServoRoutes : public ::testing::Test {
+class ServoRoutes : public test::RoutedServiceTest {
  protected:
   void SetUp() override {
-    db_ = fs::temp_directory_path() / ("km-servo-routes-" + std::to_string(::getpid()) + ".db");
-    fs::remove(db_);
-    svc_ = std::make_unique<server::Service>(std::make_unique<server::SqliteStorage>(db_.string()),
-                                             server::ServiceOptions{});
-    server::RegisterBuiltinKinds(*svc_);
-    AddRoutes(router_, *svc_);
+    RoutedServiceTest::SetUp();
     std::ifstream in("data/machines/pm600-like.json");
     std::stringstream machine;
     machine << in.rdbuf();
     svc_->StoreMachineModel(machine.str(), "upload", "");
-  }
-  void TearDown() override {
-    svc_.reset();
-    fs::remove(db_);
   }
   std::vector<std::int64_t> Upload(const servo::truth::Machine& m, unsigned seed) {
     std::mt19937 rng(seed);
@@ -58,9 +49,6 @@ class ServoRoutes : public ::testing::Test {
     r.body = body;
     return router_.Dispatch(r);
   }
-  fs::path db_;
-  std::unique_ptr<server::Service> svc_;
-  Router router_;
 };
 
 TEST_F(ServoRoutes, IdentifySaveJointsAndForce) {
