@@ -56,8 +56,13 @@ test('multi-file and dropped uploads with per-file outcomes; report; token messa
     await page.waitForSelector(`#detail[data-measurement-id="${cwId}"] [data-testid="conditions-table"]`);
     // The pair's table is complete once both traces' temperatures are in it (a slow page may
     // still be showing the table of the view before).
-    await page.waitForFunction(() => document.querySelectorAll('[data-testid="conditions-table"] tr[data-key="temperature_c"] td.text').length === 2, null, { timeout: 20_000 }).catch(() => {});
-    const temps = await page.$$eval('[data-testid="conditions-table"] tr[data-key="temperature_c"] td.text', (tds) => tds.map((td) => td.textContent));
+    // The table may be redrawn once more after it first shows both: read until it holds still.
+    const readTemps = () => page.$$eval('[data-testid="conditions-table"] tr[data-key="temperature_c"] td.text', (tds) => tds.map((td) => td.textContent));
+    let temps = await readTemps();
+    for (const end = Date.now() + 20_000; temps.join() !== '20.4,20.5' && Date.now() < end;) {
+      await page.waitForTimeout(50);
+      temps = await readTemps();
+    }
     assert.deepEqual(temps, ['20.4', '20.5'], 'CCW first, then CW');
     assert.equal(await page.locator('[data-testid="conditions-table"] tr[data-key="feed_mm_min"]').count(), 1);
     await page.emulateMedia({ media: 'print' });
