@@ -22,19 +22,44 @@ using km::server::Storage;
 
 constexpr int kFiles = 1000;
 
-std::unique_ptr<Storage> OpenBackend(const std::string& backend) {
-  if (backend == "postgresql") {
-    const std::string url = km::server::test::FreshDatabaseUrl();
-    if (url.empty()) return nullptr;
-    return std::make_unique<km::server::PgStorage>(url);
+// One benchmark's storage. A SQLite file (with its -wal and -shm companions) is removed when the
+// benchmark ends: each holds about 100 MB, and runs must not fill the temporary directory.
+class Backend {
+ public:
+  explicit Backend(const std::string& backend) {
+    if (backend == "postgresql") {
+      const std::string url = km::server::test::FreshDatabaseUrl();
+      if (!url.empty()) storage_ = std::make_unique<km::server::PgStorage>(url);
+      return;
+    }
+    static int n = 0;
+    file_ = fs::temp_directory_path() /
+            ("km-storage-bench-" + std::to_string(::getpid()) + "-" + std::to_string(++n) + ".db");
+    RemoveFiles();
+    storage_ = std::make_unique<km::server::SqliteStorage>(file_.string());
   }
-  static int n = 0;
-  const fs::path path =
-      fs::temp_directory_path() /
-      ("km-storage-bench-" + std::to_string(::getpid()) + "-" + std::to_string(++n) + ".db");
-  fs::remove(path);
-  return std::make_unique<km::server::SqliteStorage>(path.string());
-}
+  ~Backend() {
+    storage_.reset();
+    RemoveFiles();
+  }
+  Backend(const Backend&) = delete;
+  Backend& operator=(const Backend&) = delete;
+
+  explicit operator bool() const { return storage_ != nullptr; }
+  Storage* operator->() const { return storage_.get(); }
+
+ private:
+  void RemoveFiles() const {
+    if (file_.empty()) return;
+    std::error_code ec;
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
+      fs::remove(file_.string() + suffix, ec);
+    }
+  }
+
+  fs::path file_;
+  std::unique_ptr<Storage> storage_;
+};
 
 NewMeasurement File(int i) {
   NewMeasurement m;
@@ -54,16 +79,16 @@ NewMeasurement File(int i) {
 }
 
 // A storage holding kFiles measurements of machine "bench".
-std::unique_ptr<Storage> Filled(const std::string& backend) {
-  auto s = OpenBackend(backend);
-  if (s) {
-    for (int i = 0; i < kFiles; ++i) s->PutMeasurement(File(i), {{"dbb", "dbb/1", "{}"}});
+std::unique_ptr<Backend> Filled(const std::string& backend) {
+  auto s = std::make_unique<Backend>(backend);
+  if (*s) {
+    for (int i = 0; i < kFiles; ++i) (*s)->PutMeasurement(File(i), {{"dbb", "dbb/1", "{}"}});
   }
   return s;
 }
 
 void BM_PutMeasurement(benchmark::State& state, const std::string& backend) {
-  auto s = OpenBackend(backend);
+  Backend s(backend);
   if (!s) return state.SkipWithError("no PostgreSQL server");
   int i = 0;
   for (auto _ : state) s->PutMeasurement(File(i++), {{"dbb", "dbb/1", R"({"r":1})"}});
@@ -72,31 +97,31 @@ void BM_PutMeasurement(benchmark::State& state, const std::string& backend) {
 
 void BM_GetMeasurement(benchmark::State& state, const std::string& backend) {
   auto s = Filled(backend);
-  if (!s) return state.SkipWithError("no PostgreSQL server");
+  if (!*s) return state.SkipWithError("no PostgreSQL server");
   std::int64_t i = 0;
-  for (auto _ : state) benchmark::DoNotOptimize(s->GetMeasurement(1 + i++ % kFiles));
+  for (auto _ : state) benchmark::DoNotOptimize((*s)->GetMeasurement(1 + i++ % kFiles));
   state.SetItemsProcessed(state.iterations());
 }
 
 void BM_ListMeasurementsPage(benchmark::State& state, const std::string& backend) {
   auto s = Filled(backend);
-  if (!s) return state.SkipWithError("no PostgreSQL server");
+  if (!*s) return state.SkipWithError("no PostgreSQL server");
   km::server::MeasurementFilter f;
   f.machine_id = "bench";
   f.order = km::server::MeasurementFilter::Order::kNewest;
   std::int64_t i = 0;
   for (auto _ : state) {
     f.offset = (i++ * 50) % kFiles;
-    benchmark::DoNotOptimize(s->ListMeasurements(f));
+    benchmark::DoNotOptimize((*s)->ListMeasurements(f));
   }
   state.SetItemsProcessed(state.iterations());
 }
 
 void BM_GetRaw(benchmark::State& state, const std::string& backend) {
   auto s = Filled(backend);
-  if (!s) return state.SkipWithError("no PostgreSQL server");
+  if (!*s) return state.SkipWithError("no PostgreSQL server");
   std::int64_t i = 0;
-  for (auto _ : state) benchmark::DoNotOptimize(s->GetRaw(1 + i++ % kFiles));
+  for (auto _ : state) benchmark::DoNotOptimize((*s)->GetRaw(1 + i++ % kFiles));
   state.SetItemsProcessed(state.iterations());
 }
 

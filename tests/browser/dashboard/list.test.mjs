@@ -8,14 +8,13 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { writeFileSync, mkdtempSync } from 'node:fs';
-import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { assertNoHorizontalOverflow, dbbFile, outDir, withDashboard } from '../lib/harness.mjs';
 
 const MACHINE = 'browser-views-vmc';
 
 test('210 uploads: newest first, paged, filtered, reachable in one click', { timeout: 110_000 }, async () => {
-  await withDashboard('list', async ({ api, page, open }) => {
+  await withDashboard('list', async ({ api, page, open, server }) => {
     // 105 CCW + CW pairs, one a day from 2026-01-01, uploaded oldest first.
     const ids = [];
     const t0 = Date.UTC(2026, 0, 1, 8);
@@ -79,7 +78,8 @@ test('210 uploads: newest first, paged, filtered, reachable in one click', { tim
     await page.waitForSelector('[data-testid="list-range"]:has-text("1–50 of 210")');
 
     // An upload through the form with an old measurement time: "stored as #N" leads to it.
-    const dir = mkdtempSync(join(tmpdir(), 'km-upload-'));
+    // Under the server's data directory, which is removed when the server stops.
+    const dir = mkdtempSync(join(server.dataDir, 'upload-'));
     const oldFile = join(dir, 'late_upload_ccw.txt');
     writeFileSync(oldFile, dbbFile({ machine: MACHINE, test: 'xy-r150', direction: 'ccw', timestamp: '2025-12-01T08:00:00Z', shape: 0.05 }));
     await page.setInputFiles('#upload-file', oldFile);

@@ -8,7 +8,6 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { mkdtempSync, readFileSync, writeFileSync } from 'node:fs';
-import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { dbbFile, outDir, withDashboard } from '../lib/harness.mjs';
 
@@ -16,7 +15,8 @@ const MACHINE = 'browser-views-vmc';
 
 test('multi-file and dropped uploads with per-file outcomes; report; token messages', { timeout: 60_000 }, async () => {
   await withDashboard('upload', async ({ page, open, server, api }) => {
-    const dir = mkdtempSync(join(tmpdir(), 'km-multi-'));
+    // Under the server's data directory, which is removed when the server stops.
+    const dir = mkdtempSync(join(server.dataDir, 'multi-'));
     const files = {
       ccw: dbbFile({ machine: MACHINE, direction: 'ccw', timestamp: '2026-04-01T08:00:00Z', extra: ['# temperature_c: 20.4'] }),
       cw: dbbFile({ machine: MACHINE, direction: 'cw', timestamp: '2026-04-01T08:05:00Z', extra: ['# temperature_c: 20.5'] }),
