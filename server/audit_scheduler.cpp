@@ -109,21 +109,34 @@ nlohmann::json AuditScheduler::Run(const std::string& machine_id, const std::str
   return verdict;
 }
 
-// Claims a due run for this instance: the next due time is stored before the audit runs, only
-// while the stored due time is still the one read (another instance on the same database may
-// have claimed it first). false: not this instance's run, or the claim could not be stored.
+// Claims a due run for this instance: only while the stored due time is still the one read
+// (another instance on the same database may have claimed it first), the due time becomes the
+// lease's end, so the run is due again then if this instance dies before its verdict is stored.
+// false: not this instance's run, or the claim could not be stored.
 bool AuditScheduler::ClaimDue(const AuditConfigRecord& c, std::int64_t now) {
-  std::optional<std::string> next;
   try {
-    if (const auto t = NextAuditRun(ParseAuditSchedule(*c.schedule), now)) {
-      next = IsoFromUnixSeconds(*t);
-    }
     return service_.storage().ClaimAuditRun(c.machine_id, *c.next_run_at, IsoFromUnixSeconds(now),
-                                            next);
+                                            IsoFromUnixSeconds(now + kAuditLeaseSeconds));
   } catch (const std::exception& e) {
     std::cerr << "kinemetricd: accuracy audit of machine '" << c.machine_id
               << "': the due run could not be claimed: " << e.what() << std::endl;
     return false;
+  }
+}
+
+// After a claimed run (verdict stored, or the audit failed): the next due time by the schedule
+// replaces the lease, unless the schedule was changed meanwhile.
+void AuditScheduler::ReleaseClaim(const AuditConfigRecord& c, std::int64_t now) {
+  try {
+    std::optional<std::string> next;
+    if (const auto t = NextAuditRun(ParseAuditSchedule(*c.schedule), now)) {
+      next = IsoFromUnixSeconds(*t);
+    }
+    service_.storage().ClaimAuditRun(c.machine_id, IsoFromUnixSeconds(now + kAuditLeaseSeconds),
+                                     IsoFromUnixSeconds(now), next);
+  } catch (const std::exception& e) {
+    std::cerr << "kinemetricd: accuracy audit of machine '" << c.machine_id
+              << "': the next due time could not be stored: " << e.what() << std::endl;
   }
 }
 
@@ -135,23 +148,29 @@ int AuditScheduler::RunDue() {
     const auto due = UnixSecondsFromIso(*c.next_run_at);
     if (due && *due > now) continue;
     if (!ClaimDue(c, now)) continue;
-    try {
-      const auto verdict = Run(c.machine_id, "schedule");
-      ++ran;
-      // In the audit log beside the runs asked for over HTTP (no token: the scheduler).
-      AuditEntry e;
-      e.token_name = "scheduler";
-      e.method = "SCHEDULE";
-      e.path = "/api/v1/machines/" + c.machine_id + "/audit/run";
-      e.status = 201;
-      e.subject = "machine " + c.machine_id + ", audit " + verdict["id"].dump();
-      service_.storage().AppendAudit(e);
-    } catch (const std::exception& e) {
-      std::cerr << "kinemetricd: scheduled accuracy audit of machine '" << c.machine_id
-                << "' failed: " << e.what() << std::endl;
-    }
+    if (RunScheduled(c.machine_id)) ++ran;
+    ReleaseClaim(c, now);
   }
   return ran;
+}
+
+bool AuditScheduler::RunScheduled(const std::string& machine_id) {
+  try {
+    const auto verdict = Run(machine_id, "schedule");
+    // In the audit log beside the runs asked for over HTTP (no token: the scheduler).
+    AuditEntry e;
+    e.token_name = "scheduler";
+    e.method = "SCHEDULE";
+    e.path = "/api/v1/machines/" + machine_id + "/audit/run";
+    e.status = 201;
+    e.subject = "machine " + machine_id + ", audit " + verdict["id"].dump();
+    service_.storage().AppendAudit(e);
+    return true;
+  } catch (const std::exception& e) {
+    std::cerr << "kinemetricd: scheduled accuracy audit of machine '" << machine_id
+              << "' failed: " << e.what() << std::endl;
+    return false;
+  }
 }
 
 std::optional<std::int64_t> AuditScheduler::NextDue() {

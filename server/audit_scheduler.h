@@ -30,6 +30,10 @@ struct AuditOptions {
   std::string webhook_secret;  // empty: deliveries unsigned
 };
 
+// How long a claimed scheduled run stays claimed: an instance that dies between the claim and
+// the stored verdict leaves the run due again this much later (for any instance).
+constexpr std::int64_t kAuditLeaseSeconds = 300;
+
 // Whole Unix seconds now (replaceable in tests).
 using AuditClock = std::function<std::int64_t()>;
 std::int64_t SystemUnixSeconds();
@@ -51,12 +55,16 @@ class AuditScheduler {
   // Runs a machine's audit now, records the run and queues the webhook for level 2 and 3.
   nlohmann::json Run(const std::string& machine_id, const std::string& trigger);
   // Runs every scheduled audit due now, once each, and stores its next due time; how many ran.
-  // Each due run is claimed first, so of several instances on one database one runs it.
+  // Each due run is claimed first, so of several instances on one database one runs it, and
+  // a claim lapses after kAuditLeaseSeconds, so a run is never lost to an instance's death.
   int RunDue();
 
  private:
   void Loop();
   bool ClaimDue(const AuditConfigRecord& config, std::int64_t now);
+  void ReleaseClaim(const AuditConfigRecord& config, std::int64_t now);
+  // One scheduled run, recorded in the audit log; false when the audit failed (logged).
+  bool RunScheduled(const std::string& machine_id);
   // Queues the webhook of verdicts a previous stop left "pending" (among the newest 1000).
   void ResendPending();
   // The earliest stored due time (Unix seconds); nullopt when nothing is scheduled.

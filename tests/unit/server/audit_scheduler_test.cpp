@@ -2,11 +2,13 @@
 // uploaded DBB tests with the evidence of each finding, trend rules against the previous
 // audit, scheduled runs with a set clock (a time missed while the server was down runs once,
 // also after a restart on the same database), the scheduler thread with a 1 s schedule and a
-// prompt stop, a due run made once by one of two instances, and the webhook delivered to a local
-// HTTP receiver after a first 500.
+// prompt stop, a due run made once by one of two instances, a run whose claiming instance died
+// made when the claim lapses, and the webhook delivered to a local HTTP receiver after a first
+// 500.
 #include "server/audit_scheduler.h"
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <atomic>
 #include <chrono>
@@ -233,6 +235,53 @@ TEST_F(AccuracyAudits, ADueRunIsMadeOnceByOneOfTwoInstances) {
   }
   AuditVerdictFilter f;
   EXPECT_EQ(ListAccuracyAudits(*svc_b, f)["audits"].size(), 5u);
+}
+
+// Runs SQL on the database file through a connection of its own (as another process would).
+void ExecSql(const std::string& path, const char* sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  char* err = nullptr;
+  const int rc = sqlite3_exec(db, sql, nullptr, nullptr, &err);
+  EXPECT_EQ(rc, SQLITE_OK) << (err ? err : "");
+  sqlite3_free(err);
+  sqlite3_close(db);
+}
+
+// An instance that dies after claiming a due run, before its verdict is stored, leaves only its
+// claim behind (simulated by a database that refuses everything the instance writes after the
+// claim): the run is due again for any instance when the claim's lease ends, and made once.
+TEST_F(AccuracyAudits, ARunClaimedByAnInstanceThatDiedIsMadeWhenItsLeaseEnds) {
+  auto svc = Open();
+  UploadDbb(*svc);
+  AuditScheduler audits(*svc, {}, clock_);
+  audits.PutConfig("demo-vmc", Rules(1000, 2000, "every 1h"));
+  now_ += 3600;
+  const std::int64_t claimed = now_;
+  ExecSql(
+      Path("k.db"),
+      "CREATE TRIGGER died_verdict BEFORE INSERT ON audit_verdicts "
+      "BEGIN SELECT RAISE(ABORT, 'instance died'); END;"
+      "CREATE TRIGGER died_release BEFORE UPDATE ON audit_configs "
+      "WHEN OLD.next_run_at > NEW.last_run_at BEGIN SELECT RAISE(ABORT, 'instance died'); END;");
+  EXPECT_EQ(audits.RunDue(), 0);
+  ExecSql(Path("k.db"), "DROP TRIGGER died_verdict; DROP TRIGGER died_release;");
+  EXPECT_EQ(AuditConfigJson(*svc, "demo-vmc")["next_run_at"],
+            IsoFromUnixSeconds(claimed + kAuditLeaseSeconds));
+  EXPECT_EQ(audits.RunDue(), 0);
+  now_ = claimed + kAuditLeaseSeconds - 1;
+  EXPECT_EQ(audits.RunDue(), 0);
+  now_ = claimed + kAuditLeaseSeconds;
+  EXPECT_EQ(audits.RunDue(), 1);
+  EXPECT_EQ(audits.RunDue(), 0);
+  AuditVerdictFilter f;
+  const json list = ListAccuracyAudits(*svc, f);
+  ASSERT_EQ(list["audits"].size(), 1u);
+  EXPECT_EQ(list["audits"][0]["trigger"], "schedule");
+  EXPECT_EQ(list["audits"][0]["created_at"], IsoFromUnixSeconds(claimed + kAuditLeaseSeconds));
+  // Back on the schedule: an hour after the late run.
+  EXPECT_EQ(AuditConfigJson(*svc, "demo-vmc")["next_run_at"],
+            IsoFromUnixSeconds(claimed + kAuditLeaseSeconds + 3600));
 }
 
 TEST_F(AccuracyAudits, TheThreadRunsAOneSecondScheduleAndStopsPromptly) {
