@@ -37,6 +37,7 @@ constexpr Range kDevices{0, 10'000, ""};
 constexpr Range kWebhookAttempts{1, 20, ""};
 constexpr Range kWebhookDelay{10, 600'000, " ms"};
 constexpr Range kPoolSize{1, 1000, ""};
+constexpr Range kStatementTimeout{0, 3'600'000, " ms"};
 constexpr Range kJobWorkers{0, 64, ""};
 
 // Every whole-number setting: its config-file key (the command-line option is "--" + key with
@@ -81,6 +82,8 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.db_busy_timeout_ms = static_cast<int>(v); }},
     {"db_pool_size", kPoolSize,
      [](ServerConfig& c, std::int64_t v) { c.db_pool_size = static_cast<int>(v); }},
+    {"db_statement_timeout_ms", kStatementTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.db_statement_timeout_ms = static_cast<int>(v); }},
     {"audit_webhook_attempts", kWebhookAttempts,
      [](ServerConfig& c, std::int64_t v) { c.audit_webhook_attempts = static_cast<int>(v); }},
     {"audit_webhook_first_delay_ms", kWebhookDelay,

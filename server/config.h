@@ -45,6 +45,9 @@ struct ServerConfig {
   // database shared by several instances, with at most db_pool_size connections (1–1000).
   std::string database;
   int db_pool_size = 8;
+  // PostgreSQL: the longest one statement may run (statement_timeout) before the request is
+  // answered 503 with Retry-After; 0 (the default): no limit. SQLite: not applicable.
+  int db_statement_timeout_ms = 0;
   // Access from other web origins (config key cors_origins: ["https://dash.example:8443"], option
   // --cors-origin ORIGIN, repeatable): only these get CORS headers; default none.
   std::vector<std::string> cors_origins;
@@ -82,12 +85,14 @@ struct ServerConfig {
 // database, demo_data, modbus_config, access_log, metrics_public, and the whole numbers
 // max_upload_bytes, threads, io_threads, queue_limit, max_connections, backlog,
 // max_header_bytes, header_timeout_s, read_timeout_s, write_timeout_s, keep_alive_max_count,
-// keep_alive_timeout_s, db_busy_timeout_ms, db_pool_size, shutdown_timeout_s, job_workers,
+// keep_alive_timeout_s, db_busy_timeout_ms, db_pool_size, db_statement_timeout_ms,
+// shutdown_timeout_s, job_workers,
 // job_lease_s, max_queued_jobs (each also a command-line option, e.g. --header-timeout-s).
 // Unknown keys are an error (typos are not ignored). Numbers must be whole and within range:
 // threads 1–256, io_threads 1–64, queue_limit, keep_alive_max_count and max_connections
 // 1–1 000 000, backlog 1–65535, max_header_bytes 1 KiB–1 MiB, timeouts 1–3600 s, job_workers
 // 0–64, max_queued_jobs 1–1 000 000, db_busy_timeout_ms 0–600 000 ms, db_pool_size 1–1000,
+// db_statement_timeout_ms 0–3 600 000 ms,
 // max_upload_bytes 1 B–4 GiB, port 0–65535 (0: any free port); data_dir must not be empty;
 // database empty, sqlite: or a postgresql:// URL. Anything else is km::InvalidInput naming the
 // option or key.

@@ -26,6 +26,7 @@ std::unique_ptr<Storage> OpenStorage(const ServerConfig& cfg) {
     PgOptions o;
     o.busy_timeout_ms = cfg.db_busy_timeout_ms;
     o.pool_size = cfg.db_pool_size;
+    o.statement_timeout_ms = cfg.db_statement_timeout_ms;
     return std::make_unique<PgStorage>(cfg.database, o);
   }
   if (!cfg.database.empty() && cfg.database != "sqlite:") {

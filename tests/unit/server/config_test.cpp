@@ -204,6 +204,13 @@ TEST_F(ServerConfigTest, TheDatabaseIsSqliteByDefaultOrAPostgreSqlUrl) {
   ExpectRefused({"--database", "kinemetric.db"}, "--database");
   ExpectRefused({"--db-pool-size", "0"}, "--db-pool-size");
   ExpectRefused({"--db-pool-size", "1001"}, "--db-pool-size");
+  EXPECT_EQ(ParseServerArgs({}).db_statement_timeout_ms, 0);
+  EXPECT_EQ(ParseServerArgs({"--db-statement-timeout-ms", "30000"}).db_statement_timeout_ms, 30000);
+  EXPECT_EQ(ParseServerArgs({"--config", File(R"({"db_statement_timeout_ms": 250})")})
+                .db_statement_timeout_ms,
+            250);
+  ExpectRefused({"--db-statement-timeout-ms", "-1"}, "--db-statement-timeout-ms");
+  ExpectRefused({"--db-statement-timeout-ms", "3600001"}, "--db-statement-timeout-ms");
   const std::string file = File(R"({"database": "sqlite:/tmp/x.db"})");
   ExpectRefused({"--config", file}, "database", file);
   // A refused URL's password is not repeated.

@@ -268,22 +268,39 @@ TEST_F(PgStorageTest, CallsDuringARestartUnderLoadSucceedOrFailBusyOnly) {
   EXPECT_GE(std::stoi(QueryValue(url_, "SELECT COUNT(*) FROM measurements")), ok.load());
 }
 
+// Another session holding the jobs table exclusively (a transaction of its own thread) until
+// the object is destroyed.
+class JobsTableLock {
+ public:
+  explicit JobsTableLock(const std::string& url)
+      : holder_([this, url] {
+          PGconn* c = PQconnectdb(url.c_str());
+          PQclear(PQexec(c, "BEGIN"));
+          PQclear(PQexec(c, "LOCK TABLE jobs IN ACCESS EXCLUSIVE MODE"));
+          locked_ = true;
+          while (!release_) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+          PQclear(PQexec(c, "ROLLBACK"));
+          PQfinish(c);
+        }) {
+    while (!locked_) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ~JobsTableLock() { Release(); }
+  void Release() {
+    release_ = true;
+    if (holder_.joinable()) holder_.join();
+  }
+
+ private:
+  std::atomic<bool> locked_{false}, release_{false};
+  std::thread holder_;
+};
+
 TEST_F(PgStorageTest, ALockHeldLongerThanTheBusyTimeoutIsBusy) {
   PgOptions o;
   o.busy_timeout_ms = 200;
   PgStorage s(url_, o);
   const auto job = s.CreateJob("calibration", "{}");
-  std::atomic<bool> locked{false}, release{false};
-  std::thread holder([&] {
-    PGconn* c = PQconnectdb(url_.c_str());
-    PQclear(PQexec(c, "BEGIN"));
-    PQclear(PQexec(c, "LOCK TABLE jobs IN ACCESS EXCLUSIVE MODE"));
-    locked = true;
-    while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    PQclear(PQexec(c, "ROLLBACK"));
-    PQfinish(c);
-  });
-  while (!locked) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  JobsTableLock lock(url_);
   const auto t0 = std::chrono::steady_clock::now();
   try {
     s.GetJob(job);
@@ -307,8 +324,7 @@ TEST_F(PgStorageTest, ALockHeldLongerThanTheBusyTimeoutIsBusy) {
     EXPECT_TRUE(e.busy());
     EXPECT_EQ(e.code(), pg::SqlStateCode("57014")) << e.what();
   }
-  release = true;
-  holder.join();
+  lock.Release();
   EXPECT_EQ(s.GetJob(job)->status, "queued");
 }
 
@@ -424,6 +440,25 @@ TEST_F(PgStorageTest, TheFactoryOpensTheBackendOfTheConfiguration) {
   EXPECT_EQ(DescribeDatabase(cfg), "PostgreSQL " + url_);
   cfg.database = "mysql://x";
   EXPECT_THROW(OpenStorage(cfg), InvalidInput);
+}
+
+TEST_F(PgStorageTest, TheConfiguredStatementTimeoutCancelsALongStatement) {
+  ServerConfig cfg;
+  cfg.database = url_;
+  cfg.db_busy_timeout_ms = 5000;
+  cfg.db_statement_timeout_ms = 200;
+  auto s = OpenStorage(cfg);
+  const auto job = s->CreateJob("calibration", "{}");
+  JobsTableLock lock(url_);
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    s->GetJob(job);
+    ADD_FAILURE() << "read through an exclusive lock";
+  } catch (const StorageError& e) {
+    EXPECT_TRUE(e.busy());
+    EXPECT_EQ(e.code(), pg::SqlStateCode("57014")) << e.what();
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(3));
 }
 
 }  // namespace
