@@ -35,6 +35,10 @@ nlohmann::json CalibrationJson(const hexapod::CalibrationResult& r,
     if (i < names.size()) t["file"] = names[i];
     t["circularity_before_um"] = pred[i].circularity_before_um;
     t["predicted_circularity_after_um"] = pred[i].predicted_circularity_after_um;
+    // [PM-600 report] eq. 4.8 and table 2.2/5.1 give these figures in bar units (the bar's own
+    // reading); a cone test's tool-path figures are the factor times them.
+    t["deviation_units"] = dbb::ToString(dbb::DeviationUnits::kBar);
+    if (i < tests.size()) t["bar_to_tool_path_factor"] = dbb::ToolPathFactor(tests[i]);
     if (i < tests.size() && pred[i].predicted_dr_um.size() == tests[i].dr_um.size()) {
       AddFigures(t, tests[i], "_before_um");
       dbb::DbbTest after = tests[i];

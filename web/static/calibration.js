@@ -308,7 +308,12 @@ function testsTable(r, trusted) {
   const table = h(
     'table',
     { class: 'figures small calib-tests', 'data-testid': 'calib-tests-table', 'data-after': trusted ? 'shown' : 'withheld' },
-    h('caption', {}, trusted ? 'Before and predicted after the correction ([PM-600 report] table 2.2)' : 'The tests before calibration (no prediction: see the verdict)'),
+    h(
+      'caption',
+      {},
+      trusted ? 'Before and predicted after the correction ([PM-600 report] table 2.2)' : 'The tests before calibration (no prediction: see the verdict)',
+      tests.some((t) => t.deviation_units === 'bar') ? h('span', { class: 'units-note', 'data-testid': 'calib-units' }, ' — in bar units ([PM-600 report] eq. 4.8; a cone test\u2019s tool-path figure is bar length / radius times it)') : null,
+    ),
     h('thead', {}, h('tr', {}, ...head)),
     h(
       'tbody',

@@ -86,6 +86,9 @@ test('one-test calibration: warning, reasons, no after figures; ten tests: ok', 
     const after = await page.$$eval('[data-testid="calib-tests-table"] td[data-key="predicted_circularity_after_um"]', (tds) => tds.map((td) => td.textContent));
     assert.equal(after.length, 10);
     okJob.result.tests.forEach((t, i) => assert.equal(after[i], t.predicted_circularity_after_um.toFixed(3).replace('-', '−')));
+    // The figures' units are said (the calibration's DBB figures are the bar's).
+    assert.ok(okJob.result.tests.every((t) => t.deviation_units === 'bar'));
+    assert.match(await page.textContent('[data-testid="calib-units"]'), /bar units/);
     const [download] = await Promise.all([page.waitForEvent('download'), page.click('[data-testid="job-download-machine"]')]);
     const machine = JSON.parse(readFileSync(await download.path(), 'utf8'));
     assert.deepEqual(machine, okJob.result.calibrated_machine, 'the corrected machine file is the job\'s');

@@ -14,6 +14,7 @@
 
 #include "analysis/core/errors.h"
 #include "cli/command.h"
+#include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
 #include "tests/unit/cli_test_fixture.h"
 
@@ -86,8 +87,18 @@ TEST_F(HexapodCli, CalibrateRecoversTheSimulatedKinematicErrors) {
   EXPECT_GE(compared, 18);
   EXPECT_LT(j["residual_rms_um"].get<double>(), 0.01);
   // After calibration every trace is predicted round (the data hold nothing else).
-  for (const auto& t : j["tests"]) {
+  const auto files = Files(sim);
+  ASSERT_EQ(j["tests"].size(), files.size());
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const auto& t = j["tests"][i];
     EXPECT_LT(t["predicted_circularity_after_um"].get<double>(), 0.05) << t["test_id"];
+    // The figures' units are stated: the bar's, as [PM-600 report] eq. 4.8, with the factor to
+    // tool-path units (bar length / circle radius: 150/144 on the plan's cone tests).
+    const auto test = ingest::ParseDbb(ReadFileBytes(files[i]), files[i]);
+    EXPECT_EQ(t["deviation_units"], "bar") << t["test_id"];
+    EXPECT_DOUBLE_EQ(t["bar_to_tool_path_factor"].get<double>(),
+                     test.bar_length_mm / test.radius_mm)
+        << t["test_id"];
   }
 
   // The written machine has the true geometry where it is observable: compare base joints.
