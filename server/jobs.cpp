@@ -35,12 +35,15 @@ std::string InstanceName() {
 
 // The worker's storage calls must not end the process (a full disk, a locked or unreachable
 // database): a failure is reported on stderr with the job id.
-void LogStoreFailure(std::int64_t id, const char* what, const std::string& error) {
+void LogJob(std::int64_t id, const std::string& message) {
   try {
-    std::cerr << "kinemetricd: job " << id << ": could not store " << what << ": " << error
-              << std::endl;
+    std::cerr << "kinemetricd: job " << id << ": " << message << std::endl;
   } catch (...) {  // NOLINT(bugprone-empty-catch): nothing is left to report to
   }
+}
+
+void LogStoreFailure(std::int64_t id, const char* what, const std::string& error) {
+  LogJob(id, std::string("could not store ") + what + ": " + error);
 }
 
 template <class F>
@@ -220,9 +223,14 @@ void JobQueue::RunJob(JobRecord job) {
     job.stage = "done";
   } catch (const JobInterrupted&) {
     interrupted = true;
-  } catch (const std::exception& e) {
+  } catch (const Error& e) {  // the product's own errors are written for the user
     job.status = "failed";
     job.error = e.what();
+  } catch (const std::exception& e) {  // anything else is ours to look at, not the user's
+    job.status = "failed";
+    job.error = "the job failed with an internal error (logged by the server as job " +
+                std::to_string(job.id) + ")";
+    LogJob(job.id, std::string("failed: ") + e.what());
   } catch (...) {
     job.status = "failed";
     job.error = "the job failed with an unknown error";

@@ -10,6 +10,7 @@
 #include <memory>
 #include <thread>
 
+#include "analysis/core/errors.h"
 #include "tests/unit/server/flaky_storage.h"
 #include "tests/unit/server/temp_dir.h"
 
@@ -37,6 +38,7 @@ class JobStorageErrors : public test::TempDirTest {
     auto q = std::make_unique<JobQueue>(st);
     q->Register("test", [this](const nlohmann::json& plan, const JobQueue::Progress& progress) {
       if (plan.contains("throw")) throw std::runtime_error("the solve diverged");
+      if (plan.contains("refuse")) throw InvalidInput("plan.json", 3, "tests", "no DBB test");
       if (plan.contains("wait")) {
         while (!release_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
       }
@@ -102,6 +104,21 @@ TEST_F(JobStorageErrors, AJobThatThrowsWhileItsFailureCannotBeStoredLeavesTheWor
   const auto good = Submit(*q, {{"v", 4}});
   EXPECT_EQ(WaitFinished(st, good).status, "done");
   EXPECT_EQ(st.GetJob(bad)->status, "running");
+}
+
+// A job's error is for its user: the product's own errors (bad input, not observable, not
+// converged) keep their message; anything else is named an internal error, logged with the id.
+TEST_F(JobStorageErrors, AJobFailsWithTheUsersMessageOrAsAnInternalError) {
+  SqliteStorage st(Path("jobs.db"));
+  auto q = Queue(st);
+  const auto refused = WaitFinished(st, Submit(*q, {{"refuse", true}}));
+  EXPECT_EQ(refused.status, "failed");
+  EXPECT_EQ(refused.error, InvalidInput("plan.json", 3, "tests", "no DBB test").what());
+  const auto id = Submit(*q, {{"throw", true}});
+  const auto internal = WaitFinished(st, id);
+  EXPECT_EQ(internal.status, "failed");
+  EXPECT_EQ(internal.error, "the job failed with an internal error (logged by the server as job " +
+                                std::to_string(id) + ")");
 }
 
 TEST_F(JobStorageErrors, StoppingWithQueuedJobsAndAFailingStorageDoesNotTerminate) {
