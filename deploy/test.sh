@@ -21,7 +21,10 @@ deploy/install-deps.sh
 # A full disk fails a build midway with a linker error far from its cause: say it first. The
 # three build directories and the tests' temporary files take about 8 GB from scratch.
 need_mb=8192
-have_mb=$(du -sm build build-asan build-fuzz 2>/dev/null | awk '{s += $1} END {print s + 0}')
+have_mb=0
+for d in build build-asan build-fuzz; do
+  if [ -d "$d" ]; then have_mb=$((have_mb + $(du -sm "$d" | cut -f1))); fi
+done
 free_mb=$(df -Pm . | awk 'NR == 2 {print $4}')
 if [ "$free_mb" -lt $((need_mb - have_mb)) ]; then
   echo "deploy/test.sh: only ${free_mb} MB free on the disk of $PWD; the builds and tests need" \
