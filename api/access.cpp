@@ -212,29 +212,26 @@ void AddAccessRoutes(Router& router, server::Service& service) {
                   {{"token_id", req.token_id}, {"name", req.token_name}, {"role", req.token_role}});
             },
             {{"responses", {{"200", JsonResponse("{token_id, name, role}")}}}}});
-  Route create{"POST",
-               "/api/v1/tokens",
-               "Create an access token (the secret is shown only in this answer)",
-               true,
-               [svc](const Request& req) {
-                 Response r = Response::Json(server::CreateToken(*svc, JsonBody(req)), 201);
-                 r.headers["Cache-Control"] = "no-store";
-                 return r;
-               },
-               {{"requestBody",
-                 {{"required", true},
-                  {"content",
-                   {{"application/json",
-                     {{"schema",
-                       {{"type", "object"},
-                        {"required", json::array({"name", "role"})},
-                        {"properties",
-                         {{"name", {{"type", "string"}}},
-                          {"role",
-                           {{"type", "string"},
-                            {"enum", json::array({"viewer", "operator", "engineer", "admin"})}}},
-                          {"expires_in_s", {{"type", "integer"}, {"minimum", 1}}}}}}}}}}}}},
-                {"responses", {{"201", JsonResponse("{id, token, name, role, expires_at}")}}}}};
+  Route create{
+      "POST",
+      "/api/v1/tokens",
+      "Create an access token (the secret is shown only in this answer)",
+      true,
+      [svc](const Request& req) {
+        Response r = Response::Json(server::CreateToken(*svc, JsonBody(req)), 201);
+        r.headers["Cache-Control"] = "no-store";
+        return r;
+      },
+      {{"requestBody",
+        JsonRequestBody({{"type", "object"},
+                         {"required", json::array({"name", "role"})},
+                         {"properties",
+                          {{"name", {{"type", "string"}}},
+                           {"role",
+                            {{"type", "string"},
+                             {"enum", json::array({"viewer", "operator", "engineer", "admin"})}}},
+                           {"expires_in_s", {{"type", "integer"}, {"minimum", 1}}}}}})},
+       {"responses", {{"201", JsonResponse("{id, token, name, role, expires_at}")}}}}};
   create.max_body_bytes = 4096;
   create.role = Role::kAdmin;
   router.Add(std::move(create));

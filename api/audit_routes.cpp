@@ -22,15 +22,11 @@ json AuditBody() {
         {"stop", {{"type", "number"}}},
         {"change", {{"type", "string"}, {"enum", json::array({"previous_audit", "days"})}}},
         {"days", {{"type", "integer"}}}}}};
-  return {{"required", true},
-          {"content",
-           {{"application/json",
-             {{"schema",
-               {{"type", "object"},
-                {"required", json::array({"rules"})},
-                {"properties",
-                 {{"schedule", {{"type", "string"}, {"nullable", true}}},
-                  {"rules", {{"type", "array"}, {"maxItems", 200}, {"items", rule}}}}}}}}}}}};
+  return JsonRequestBody({{"type", "object"},
+                          {"required", json::array({"rules"})},
+                          {"properties",
+                           {{"schedule", {{"type", "string"}, {"nullable", true}}},
+                            {"rules", {{"type", "array"}, {"maxItems", 200}, {"items", rule}}}}}});
 }
 
 const char* const kVerdictKeys =

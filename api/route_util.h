@@ -47,12 +47,17 @@ inline json Param(const std::string& name, const std::string& type,
           {"schema", {{"type", type}}}};
 }
 
+// An OpenAPI request body of JSON with this schema.
+inline json JsonRequestBody(json schema, bool required = true) {
+  return {{"required", required},
+          {"content", {{"application/json", {{"schema", std::move(schema)}}}}}};
+}
+
 inline json JsonResponse(const std::string& description) {
   return {{"description", description},
           {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}};
 }
 
-// The request body as JSON; InvalidInput when it is not.
 // A route with a body limit of its own, below max_upload_bytes (docs/http.md): the request is
 // refused 413 before its body is read or parsed.
 inline Route WithBodyLimit(Route r, std::size_t bytes) {
@@ -63,6 +68,7 @@ inline Route WithBodyLimit(Route r, std::size_t bytes) {
 // Study requests name stored measurements (ids), so their bodies are small.
 inline constexpr std::size_t kStudyRequestBytes = 256u << 10;
 
+// The request body as JSON; InvalidInput when it is not.
 inline json JsonBody(const Request& req) {
   try {
     return json::parse(req.body);

@@ -222,40 +222,30 @@ void AddJobRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
 
   router.Add(WithBodyLimit(
-      Route{"POST",
-            "/api/v1/calibrations",
-            "Hexapod calibration study (machine definition or stored model + DBB measurement ids + "
-            "mode) as a background job",
-            true,
-            [svc](const Request& req) {
-              nlohmann::json body;
-              try {
-                body = nlohmann::json::parse(req.body);
-              } catch (const nlohmann::json::parse_error& e) {
-                throw InvalidInput("request", 0, "",
-                                   std::string("the body is not JSON: ") + e.what());
-              }
-              const auto id = svc->SubmitCalibration(body);
-              return JobAccepted(id);
-            },
-            {{"requestBody",
-              {{"required", true},
-               {"content",
-                {{"application/json",
-                  {{"schema",
-                    {{"type", "object"},
-                     {"required", json::array({"measurement_ids"})},
-                     {"properties",
-                      {{"machine", {{"type", "object"}}},
-                       {"machine_id", {{"type", "string"}}},
-                       {"machine_version", {{"type", "integer"}}},
-                       {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
-                       {"method",
-                        {{"type", "string"},
-                         {"enum", json::array({"absolute", "centre-corrected"})}}},
-                       {"reduction_study_min_tests", {{"type", "integer"}}},
-                       {"max_samples_per_test", {{"type", "integer"}}}}}}}}}}}}},
-             {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}},
+      Route{
+          "POST",
+          "/api/v1/calibrations",
+          "Hexapod calibration study (machine definition or stored model + DBB measurement ids + "
+          "mode) as a background job",
+          true,
+          [svc](const Request& req) {
+            const auto id = svc->SubmitCalibration(JsonBody(req));
+            return JobAccepted(id);
+          },
+          {{"requestBody",
+            JsonRequestBody(
+                {{"type", "object"},
+                 {"required", json::array({"measurement_ids"})},
+                 {"properties",
+                  {{"machine", {{"type", "object"}}},
+                   {"machine_id", {{"type", "string"}}},
+                   {"machine_version", {{"type", "integer"}}},
+                   {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
+                   {"method",
+                    {{"type", "string"}, {"enum", json::array({"absolute", "centre-corrected"})}}},
+                   {"reduction_study_min_tests", {{"type", "integer"}}},
+                   {"max_samples_per_test", {{"type", "integer"}}}}}})},
+           {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}},
       server::kMaxMachineModelBytes + kStudyRequestBytes));
 
   router.Add(
@@ -322,17 +312,14 @@ void AddStudyRoutes(Router& router, server::Service& service) {
               return JobAccepted(id);
             },
             {{"requestBody",
-              {{"required", true},
-               {"content",
-                {{"application/json",
-                  {{"schema",
-                    {{"type", "object"},
-                     {"required", json::array({"measurement_ids"})},
-                     {"properties",
-                      {{"machine_id", {{"type", "string"}}},
-                       {"machine_version", {{"type", "integer"}}},
-                       {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
-                       {"max_samples_per_test", {{"type", "integer"}}}}}}}}}}}}},
+              JsonRequestBody(
+                  {{"type", "object"},
+                   {"required", json::array({"measurement_ids"})},
+                   {"properties",
+                    {{"machine_id", {{"type", "string"}}},
+                     {"machine_version", {{"type", "integer"}}},
+                     {"measurement_ids", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
+                     {"max_samples_per_test", {{"type", "integer"}}}}}})},
              {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}},
       kStudyRequestBytes));
 
@@ -359,11 +346,8 @@ void AddStudyRoutes(Router& router, server::Service& service) {
         }
       },
       {{"requestBody",
-        {{"required", false},
-         {"content",
-          {{"application/json",
-            {{"schema",
-              {{"type", "object"}, {"properties", {{"note", {{"type", "string"}}}}}}}}}}}}},
+        JsonRequestBody({{"type", "object"}, {"properties", {{"note", {{"type", "string"}}}}}},
+                        false)},
        {"responses",
         {{"201", JsonResponse("stored: {machine_id, version, created_at, created: true}")},
          {"200", JsonResponse("the same bytes as the newest version: that version")},
@@ -420,9 +404,7 @@ void AddMachineModelRoutes(Router& router, server::Service& service) {
                                                          req.Query("note").value_or(""), file);
                  return Response::Json(StoredJson(out), out.created ? 201 : 200);
                },
-               {{"requestBody",
-                 {{"required", true},
-                  {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}}},
+               {{"requestBody", JsonRequestBody({{"type", "object"}})},
                 {"parameters", json::array({Param("note", "string", "stored with the version")})},
                 {"responses",
                  {{"201", JsonResponse("stored: {machine_id, version, created_at, created: true}")},

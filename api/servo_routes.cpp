@@ -24,13 +24,9 @@ json ServoRequestBody(bool identify) {
     }
     props["previous"] = {{"type", "object"}};
   }
-  return {{"required", true},
-          {"content",
-           {{"application/json",
-             {{"schema",
-               {{"type", "object"},
-                {"required", json::array({"machine_id", "measurement_ids"})},
-                {"properties", props}}}}}}}};
+  return JsonRequestBody({{"type", "object"},
+                          {"required", json::array({"machine_id", "measurement_ids"})},
+                          {"properties", props}});
 }
 
 }  // namespace

@@ -148,9 +148,7 @@ void AddDeviceRoutes(Router& router, server::Service& service) {
                    [svc](const Request& req) {
                      return Response::Json(svc->acquisition().Add(JsonBody(req)), 201);
                    },
-                   {{"requestBody",
-                     {{"required", true},
-                      {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}}},
+                   {{"requestBody", JsonRequestBody({{"type", "object"}})},
                     {"responses", {{"201", JsonResponse("the device entry")}}}}});
 
   router.Add(Route{"DELETE",
@@ -169,29 +167,25 @@ void AddDeviceRoutes(Router& router, server::Service& service) {
 void AddStreamRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
 
-  router.Add(
-      Route{"POST",
-            "/api/v1/streams",
-            "Open a capacitance-sensor stream (machine, channels)",
-            true,
-            [svc](const Request& req) {
-              const auto id = svc->CreateStream(JsonBody(req));
-              Response r = Response::Json(svc->StreamJson(id), 201);
-              r.headers["Location"] = "/api/v1/streams/" + std::to_string(id);
-              return r;
-            },
-            {{"requestBody",
-              {{"required", true},
-               {"content",
-                {{"application/json",
-                  {{"schema",
-                    {{"type", "object"},
-                     {"required", json::array({"machine_id"})},
-                     {"properties",
-                      {{"machine_id", {{"type", "string"}}},
-                       {"name", {{"type", "string"}}},
-                       {"channels", {{"type", "array"}, {"items", {{"type", "object"}}}}}}}}}}}}}}},
-             {"responses", {{"201", JsonResponse("the stream {id, channels[], …}")}}}}});
+  router.Add(Route{
+      "POST",
+      "/api/v1/streams",
+      "Open a capacitance-sensor stream (machine, channels)",
+      true,
+      [svc](const Request& req) {
+        const auto id = svc->CreateStream(JsonBody(req));
+        Response r = Response::Json(svc->StreamJson(id), 201);
+        r.headers["Location"] = "/api/v1/streams/" + std::to_string(id);
+        return r;
+      },
+      {{"requestBody",
+        JsonRequestBody({{"type", "object"},
+                         {"required", json::array({"machine_id"})},
+                         {"properties",
+                          {{"machine_id", {{"type", "string"}}},
+                           {"name", {{"type", "string"}}},
+                           {"channels", {{"type", "array"}, {"items", {{"type", "object"}}}}}}}})},
+       {"responses", {{"201", JsonResponse("the stream {id, channels[], …}")}}}}});
 
   Route frames{
       "POST",
