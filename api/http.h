@@ -109,6 +109,11 @@ class Router {
   Response Run(const Route& route, const Request& req) const;
   // Admit, then Run.
   Response Dispatch(Request& req) const;
+  // Checks access again for a request under way (a streamed body of any length): the hook as in
+  // Admit; throws what it throws (Unauthorized once the token was revoked or has expired).
+  void Recheck(Request& req, const Route& route) const {
+    if (hook_) hook_(req, route);
+  }
 
  private:
   std::vector<Route> routes_;

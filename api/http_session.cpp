@@ -29,6 +29,9 @@ constexpr const char* kPageCsp =
     "default-src 'self'; img-src 'self' blob: data:; object-src 'none'; base-uri 'none'; "
     "frame-ancestors 'none'; form-action 'self'";
 constexpr std::size_t kStreamPieceBytes = 64u << 10;
+// The status recorded (access log, audit log, metrics) for a request whose client closed the
+// connection before its body ended; never sent (as in nginx).
+constexpr int kClientClosedRequest = 499;
 constexpr std::size_t kMaxDrainBytes = 1u << 20;
 // "No limit" for Beast's parser. Not boost::none: Boost 1.74 compares lengths against an empty
 // optional as if it were smaller than any value and refuses every body.
@@ -149,12 +152,26 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void OnBody(beast::error_code ec) {
-    if (ec == http::error::body_limit) return Respond(TooLargeProblem(), true);
-    if (ec) return Close();
+    if (ec == http::error::body_limit) {  // a chunked body over the limit: audited like others
+      return Enqueue(
+          [self = shared_from_this()] { self->PostRespond(self->TooLargeProblem(), true); }, true);
+    }
+    if (ec) {
+      return Enqueue(
+          [self = shared_from_this(), ec] {
+            self->Abandon(ec, Problem(400, "Bad Request", "the body ended before it was complete"));
+          },
+          true);
+    }
     if (!body_->is_done()) return ReadBody();
     req_.body = body_->release().body();
     Enqueue(
         [self = shared_from_this()] {
+          try {
+            self->RecheckAccess();  // the body may have taken long to arrive
+          } catch (...) {
+            return self->PostRespond(ErrorResponse(std::current_exception(), self->req_), false);
+          }
           self->PostRespond(self->ctx_.router.Run(*self->route_, self->req_), false);
         },
         true);
@@ -184,12 +201,14 @@ class Session : public std::enable_shared_from_this<Session> {
     if (ec) {
       // The client went away or stalled: keep what arrived, answer nobody.
       return Enqueue(
-          [self = shared_from_this()] {
+          [self = shared_from_this(), ec] {
+            Response kept;
             try {
-              self->sink_->Finish(false);
-            } catch (...) {  // NOLINT(bugprone-empty-catch): the answer cannot be delivered
+              kept = self->sink_->Finish(false);
+            } catch (...) {
+              kept = ErrorResponse(std::current_exception(), self->req_);
             }
-            self->Post([self] { self->Close(); });
+            self->Abandon(ec, std::move(kept));
           },
           true);
     }
@@ -198,6 +217,7 @@ class Session : public std::enable_shared_from_this<Session> {
     Enqueue(
         [self = shared_from_this(), got, done] {
           try {
+            self->RecheckAccess();
             if (got > 0) self->sink_->Feed(std::string_view(self->piece_.data(), got));
             if (done) return self->PostRespond(self->sink_->Finish(true), false);
           } catch (...) {
@@ -206,6 +226,23 @@ class Session : public std::enable_shared_from_this<Session> {
           self->Post([self] { self->ReadPiece(); });
         },
         true);
+  }
+
+  // A streamed body may last for hours: its token is checked again before every piece is fed
+  // (the token hook's cache makes that cheap; a revocation in this process empties the cache,
+  // one on another instance is seen within the cache's 2 s), so a revoked or expired token
+  // stops writing at once. What was fed before stays stored, as after a bad frame; the answer
+  // is 401.
+  void RecheckAccess() { ctx_.router.Recheck(req_, *route_); }
+
+  // The client went away (499) or stalled past the read timeout (408) before its body ended. No
+  // answer can be delivered, but the request still leaves its access-log line and, through the
+  // observer, its audit entry (what a streamed body stored before is kept and counted in it).
+  void Abandon(beast::error_code ec, Response res) {
+    res.status = ec == beast::error::timeout ? 408 : kClientClosedRequest;
+    ctx_.router.Observe(req_, route_, res);
+    Record(res);
+    Post([self = shared_from_this()] { self->Close(); });
   }
 
   // ---- CORS: only the configured origins ----------------------------------------------------

@@ -58,6 +58,16 @@ km::api::HttpOptions HttpOptionsOf(const km::server::ServerConfig& cfg) {
   return ho;
 }
 
+// kinemetricd --reset-admin: a new admin token without expiry, for the operator with shell
+// access to the server when no admin token is left (docs/operations.md). The server may run.
+int ResetAdmin(km::server::Storage& storage) {
+  const std::string token = km::server::NewRandomToken();
+  const auto id = storage.AddToken(km::server::Sha256Hex(token), "admin",
+                                   "recovery (kinemetricd --reset-admin)", std::nullopt);
+  std::cout << "kinemetricd: new admin token " << id << " (shown once): " << token << std::endl;
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -66,15 +76,16 @@ int main(int argc, char** argv) {
   try {
     cfg = km::server::ParseServerArgs(std::vector<std::string>(argv + 1, argv + argc));
   } catch (const km::InvalidInput& e) {
-    std::cerr << "kinemetricd: " << e.what() << "\n"
-              << "usage: kinemetricd --listen HOST:PORT --data-dir DIR [--config FILE] "
-                 "[--web-root DIR] [--demo-data] [--threads N] [--max-upload-bytes N] "
-                 "[--database sqlite:|postgresql://USER@HOST:PORT/DB] [--db-pool-size N] "
-                 "[--modbus-config FILE] [--io-threads N] [--queue-limit N] [--max-connections N] "
-                 "[--header-timeout-s S] [--cors-origin ORIGIN] [--max-devices N] "
-                 "[--device-network CIDR] [--access-log FILE|-|off] [--metrics-public] "
-                 "[--shutdown-timeout-s S] [--job-workers N] [--job-lease-s S] … (docs/http.md, "
-                 "docs/operations.md)\n";
+    std::cerr
+        << "kinemetricd: " << e.what() << "\n"
+        << "usage: kinemetricd --listen HOST:PORT --data-dir DIR [--config FILE] "
+           "[--web-root DIR] [--demo-data] [--reset-admin] [--threads N] [--max-upload-bytes N] "
+           "[--database sqlite:|postgresql://USER@HOST:PORT/DB] [--db-pool-size N] "
+           "[--modbus-config FILE] [--io-threads N] [--queue-limit N] [--max-connections N] "
+           "[--header-timeout-s S] [--cors-origin ORIGIN] [--max-devices N] "
+           "[--device-network CIDR] [--access-log FILE|-|off] [--metrics-public] "
+           "[--shutdown-timeout-s S] [--job-workers N] [--job-lease-s S] … (docs/http.md, "
+           "docs/operations.md)\n";
     return 2;
   }
   // SIGINT / SIGTERM are taken by a waiting thread that stops the server cleanly.
@@ -86,6 +97,7 @@ int main(int argc, char** argv) {
   try {
     km::server::PrepareDataDir(cfg.data_dir);
     auto storage = km::server::OpenStorage(cfg);
+    if (cfg.reset_admin) return ResetAdmin(*storage);
     km::server::ServiceOptions so;
     so.max_upload_bytes = cfg.max_upload_bytes;
     km::server::ApplyUploadLimits(cfg, so.upload_limits);

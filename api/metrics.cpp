@@ -143,7 +143,9 @@ void Metrics::Count(const RequestRecord& r) {
     measurements_.fetch_add(1, std::memory_order_relaxed);
     measurement_bytes_.fetch_add(r.request_bytes, std::memory_order_relaxed);
   }
-  if (r.method == "POST" && r.route == kFramesRoute && r.status == 200) {
+  // 408 / 499: a frames upload cut off mid-body; what arrived was stored and is counted too.
+  const bool frames_kept = r.status == 200 || r.status == 408 || r.status == 499;
+  if (r.method == "POST" && r.route == kFramesRoute && frames_kept) {
     const auto j = json::parse(r.response_body, nullptr, false);
     if (!j.is_object()) return;
     const auto count = [&](const char* key) -> std::uint64_t {

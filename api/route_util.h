@@ -10,6 +10,7 @@
 
 #include "analysis/core/errors.h"
 #include "api/http.h"
+#include "ingest/json_text.h"
 #include "server/time_util.h"
 
 namespace km::api {
@@ -65,16 +66,17 @@ inline Route WithBodyLimit(Route r, std::size_t bytes) {
   return r;
 }
 
+// Requests that name a few fields (a stream to open, a stretch of one, a device): 256 KiB.
+inline constexpr std::size_t kSmallRequestBytes = 256u << 10;
+
 // Study requests name stored measurements (ids), so their bodies are small.
 inline constexpr std::size_t kStudyRequestBytes = 256u << 10;
 
 // The request body as JSON; InvalidInput when it is not.
+// The request body as JSON (ingest/json_text.h: nesting depth, repeated keys and numbers
+// beyond a double are refused as well); InvalidInput naming the field when it is not.
 inline json JsonBody(const Request& req) {
-  try {
-    return json::parse(req.body);
-  } catch (const json::parse_error& e) {
-    throw InvalidInput("request", 0, "", std::string("the body is not JSON: ") + e.what());
-  }
+  return ingest::ParseJsonText(req.body, "request");
 }
 
 }  // namespace km::api

@@ -73,7 +73,7 @@ void AddServoRoutes(Router& router, server::Service& service) {
             {{"responses",
               {{"200", JsonResponse("{machine_id, limits, estimates[{result_id, "
                                     "measurement_ids[], estimated_at, legs[], level}]}")}}}}});
-  router.Add(
+  router.Add(WithBodyLimit(
       Route{"POST",
             "/api/v1/streams/{id}/servo",
             "A stretch of a stream (feed-drive position and force channels) stored as a "
@@ -87,7 +87,8 @@ void AddServoRoutes(Router& router, server::Service& service) {
             {{"requestBody",
               {{"required", true},
                {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}}},
-             {"responses", {{"201", JsonResponse("{id, kind: servo, created}")}}}}});
+             {"responses", {{"201", JsonResponse("{id, kind: servo, created}")}}}}},
+      kSmallRequestBytes));
   router.Add(Route{
       "GET",
       "/api/v1/measurements/{id}/servo/force",

@@ -92,7 +92,7 @@ void AddStreamReadRoutes(Router& router, server::Service& service) {
                    {{"parameters", json::array({PathParam("stream id")})},
                     {"responses", {{"200", JsonResponse("{items[]}")}}}}});
 
-  router.Add(
+  router.Add(WithBodyLimit(
       Route{"POST",
             "/api/v1/streams/{id}/profile",
             "Turn a stretch of one channel into a straightness profile, stored and analysed as a "
@@ -123,7 +123,8 @@ void AddStreamReadRoutes(Router& router, server::Service& service) {
                        {"points", {{"type", "integer"}}},
                        {"position", {{"type", "object"}}}}}}}}}}}}},
              {"responses",
-              {{"201", JsonResponse("{id, results} of the new straightness measurement")}}}}});
+              {{"201", JsonResponse("{id, results} of the new straightness measurement")}}}}},
+      kSmallRequestBytes));
 }
 
 // The Modbus TCP acquisition devices (server/acquisition.h).
@@ -140,16 +141,18 @@ void AddDeviceRoutes(Router& router, server::Service& service) {
                    },
                    {{"responses", {{"200", JsonResponse("{items[]}")}}}}});
 
-  router.Add(Route{"POST",
-                   "/api/v1/devices",
-                   "Start acquiring from a Modbus TCP device (docs/modbus.md, plus machine_id); "
-                   "runs until the server stops",
-                   true,
-                   [svc](const Request& req) {
-                     return Response::Json(svc->acquisition().Add(JsonBody(req)), 201);
-                   },
-                   {{"requestBody", JsonRequestBody({{"type", "object"}})},
-                    {"responses", {{"201", JsonResponse("the device entry")}}}}});
+  router.Add(WithBodyLimit(
+      Route{"POST",
+            "/api/v1/devices",
+            "Start acquiring from a Modbus TCP device (docs/modbus.md, plus machine_id); "
+            "runs until the server stops",
+            true,
+            [svc](const Request& req) {
+              return Response::Json(svc->acquisition().Add(JsonBody(req)), 201);
+            },
+            {{"requestBody", JsonRequestBody({{"type", "object"}})},
+             {"responses", {{"201", JsonResponse("the device entry")}}}}},
+      kSmallRequestBytes));
 
   router.Add(Route{"DELETE",
                    "/api/v1/devices/{name}",
@@ -167,25 +170,27 @@ void AddDeviceRoutes(Router& router, server::Service& service) {
 void AddStreamRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
 
-  router.Add(Route{
-      "POST",
-      "/api/v1/streams",
-      "Open a capacitance-sensor stream (machine, channels)",
-      true,
-      [svc](const Request& req) {
-        const auto id = svc->CreateStream(JsonBody(req));
-        Response r = Response::Json(svc->StreamJson(id), 201);
-        r.headers["Location"] = "/api/v1/streams/" + std::to_string(id);
-        return r;
-      },
-      {{"requestBody",
-        JsonRequestBody({{"type", "object"},
-                         {"required", json::array({"machine_id"})},
-                         {"properties",
-                          {{"machine_id", {{"type", "string"}}},
-                           {"name", {{"type", "string"}}},
-                           {"channels", {{"type", "array"}, {"items", {{"type", "object"}}}}}}}})},
-       {"responses", {{"201", JsonResponse("the stream {id, channels[], …}")}}}}});
+  router.Add(WithBodyLimit(
+      Route{"POST",
+            "/api/v1/streams",
+            "Open a capacitance-sensor stream (machine, channels)",
+            true,
+            [svc](const Request& req) {
+              const auto id = svc->CreateStream(JsonBody(req));
+              Response r = Response::Json(svc->StreamJson(id), 201);
+              r.headers["Location"] = "/api/v1/streams/" + std::to_string(id);
+              return r;
+            },
+            {{"requestBody",
+              JsonRequestBody(
+                  {{"type", "object"},
+                   {"required", json::array({"machine_id"})},
+                   {"properties",
+                    {{"machine_id", {{"type", "string"}}},
+                     {"name", {{"type", "string"}}},
+                     {"channels", {{"type", "array"}, {"items", {{"type", "object"}}}}}}}})},
+             {"responses", {{"201", JsonResponse("the stream {id, channels[], …}")}}}}},
+      kSmallRequestBytes));
 
   Route frames{
       "POST",

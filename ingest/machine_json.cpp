@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 
 namespace km::ingest {
 
@@ -42,12 +43,7 @@ std::array<Eigen::Vector3d, 6> Points6x3(const json& doc, const std::string& key
 }  // namespace
 
 MachineDefinition ParseMachineJson(std::string_view bytes, const std::string& file) {
-  json doc;
-  try {
-    doc = json::parse(bytes.begin(), bytes.end());
-  } catch (const json::exception& e) {  // syntax, or a number that overflows a double
-    throw InvalidInput(file, 0, "", std::string("not valid JSON: ") + e.what());
-  }
+  json doc = ParseJsonText(bytes, file);
   if (!doc.is_object()) throw InvalidInput(file, 0, "", "the machine file must be a JSON object");
   if (!doc.contains("format") || !doc["format"].is_string()) {
     throw InvalidInput(file, 0, "format", "missing (expected \"kinemetric-machine/1\")");
@@ -111,11 +107,8 @@ MachineDefinition ParseHexapodMachineJson(std::string_view bytes, const std::str
 std::string WriteMachineJson(const MachineDefinition& machine) {
   json doc = json::object();
   if (!machine.source_json.empty()) {
-    try {
-      doc = json::parse(machine.source_json);
-    } catch (const json::parse_error&) {
-      doc = json::object();
-    }
+    doc = ParseJsonTextOrDiscarded(machine.source_json);
+    if (!doc.is_object()) doc = json::object();
   }
   doc["format"] = kMachineFormat;
   doc["machine_id"] = machine.machine_id;

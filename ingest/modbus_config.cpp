@@ -6,6 +6,7 @@
 #include <set>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 
 namespace km::ingest::modbus {
 
@@ -225,17 +226,7 @@ DeviceConfig ParseModbusDevice(const json& j, const std::string& file, const std
 }
 
 std::vector<DeviceConfig> ParseModbusConfig(std::string_view json_text, const std::string& file) {
-  json doc;
-  try {
-    doc = json::parse(json_text.begin(), json_text.end());
-  } catch (const json::parse_error& e) {
-    const std::size_t upto = std::min<std::size_t>(e.byte, json_text.size());
-    const std::size_t line =
-        1 + static_cast<std::size_t>(std::count(json_text.begin(), json_text.begin() + upto, '\n'));
-    throw InvalidInput(file, line, "", std::string("not valid JSON: ") + e.what());
-  } catch (const json::exception& e) {  // e.g. a number that overflows a double
-    throw InvalidInput(file, 0, "", std::string("not valid JSON: ") + e.what());
-  }
+  const json doc = ingest::ParseJsonText(json_text, file);
   if (!doc.is_object()) throw InvalidInput(file, 0, "", "must be a JSON object with \"devices\"");
   RejectUnknownKeys(doc, {"devices"}, file, "");
   if (!doc.contains("devices")) throw InvalidInput(file, 0, "devices", "missing");

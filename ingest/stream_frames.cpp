@@ -13,6 +13,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/crc32.h"
+#include "ingest/json_text.h"
 #include "ingest/stream_frames_bytes.h"
 
 namespace km::ingest {
@@ -40,6 +41,14 @@ bool IsBlank(std::string_view s) {
 }
 
 using Json = nlohmann::json;
+
+// Counters stop at kMaxStreamCounter and do not wrap (docs/streams.md).
+std::string CounterRangeMessage(std::uint64_t first, std::uint64_t n) {
+  return "counters " + std::to_string(first) + " … " + std::to_string(first) + " + " +
+         std::to_string(n - 1) + " go beyond 9223372036854775807 (2^63 - 1), the largest " +
+         "counter; counters do not wrap around: a device that restarts its count starts a " +
+         "new stream";
+}
 
 }  // namespace
 
@@ -162,8 +171,8 @@ StreamFrameDecoder::Header StreamFrameDecoder::ParseHeader(const char* p) const 
                        std::to_string(h.n) + " samples exceed the limit of " +
                        std::to_string(max_samples_) + " per frame");
   }
-  if (h.first_counter > std::numeric_limits<std::uint64_t>::max() - (h.n - 1)) {
-    FrameError("first_counter", "counter overflows 2^64 within the frame");
+  if (h.first_counter > kMaxStreamCounter - (h.n - 1)) {
+    FrameError("first_counter", CounterRangeMessage(h.first_counter, h.n));
   }
   const bool with_times = (h.flags & kFrameFlagTimestamps) != 0;
   if (!with_times) {
@@ -403,28 +412,18 @@ void StreamFrameDecoder::ProcessLine(std::string_view line, const RunCallback& o
   ++line_no_;
   if (IsBlank(line)) return;
   const LineContext ctx(source_, line_no_);
-  // The DOM keeps the last of repeated keys; the parser callback sees them all, so a repeated
-  // key (e.g. a pasted "t_us" that silently replaced the first) is refused as well.
-  std::vector<std::string> keys;
-  std::string repeated;
-  const auto watch_keys = [&](int depth, Json::parse_event_t event, Json& parsed) {
-    if (event == Json::parse_event_t::key && depth == 1) {
-      const auto& key = parsed.get_ref<const std::string&>();
-      if (repeated.empty() && std::find(keys.begin(), keys.end(), key) != keys.end()) {
-        repeated = key.empty() ? std::string("json") : key.substr(0, 64);
-      }
-      keys.push_back(key);
-    }
-    return true;
-  };
+  // A repeated key (e.g. a pasted "t_us" that would silently replace the first) is refused by
+  // the parser, as is nesting deeper than a line's arrays.
   Json obj;
   try {
-    obj = Json::parse(line.begin(), line.end(), watch_keys);
-  } catch (const Json::exception& e) {
-    ctx.Fail("json", std::string("not valid JSON: ") + e.what());
+    obj = ParseJsonText(line, source_, JsonTextLimits{.max_depth = 2});
+  } catch (const InvalidInput& e) {
+    // A syntax error is the line's ("json"); a refused value names its key in the line.
+    const bool syntax = e.reason().rfind("not valid JSON", 0) == 0;
+    const std::string key = e.field().substr(0, e.field().find_first_of("[."));
+    ctx.Fail(syntax || key.empty() ? std::string("json") : key, e.reason());
   }
   if (!obj.is_object()) ctx.Fail("json", "each line must be one JSON object");
-  if (!repeated.empty()) ctx.Fail(repeated, "key given more than once");
 
   const bool is_run = obj.contains("values_um");
   static const char* const kSampleKeys[] = {"channel", "counter", "t_us", "value_um", "status"};
@@ -456,8 +455,7 @@ void StreamFrameDecoder::ProcessLine(std::string_view line, const RunCallback& o
   SampleRun run;
   run.channel = static_cast<std::uint32_t>(ctx.Unsigned(require("channel"), "channel", 65535));
   if (!is_run) {
-    run.first_counter =
-        ctx.Unsigned(require("counter"), "counter", std::numeric_limits<std::uint64_t>::max());
+    run.first_counter = ctx.Unsigned(require("counter"), "counter", kMaxStreamCounter);
     run.t_us.push_back(ctx.Signed(require("t_us"), "t_us"));
     run.value_um.push_back(ctx.Finite(require("value_um"), "value_um"));
     const auto st = obj.find("status");
@@ -465,8 +463,7 @@ void StreamFrameDecoder::ProcessLine(std::string_view line, const RunCallback& o
                              ? kStatusGood
                              : static_cast<std::uint8_t>(ctx.Unsigned(*st, "status", 255)));
   } else {
-    run.first_counter = ctx.Unsigned(require("first_counter"), "first_counter",
-                                     std::numeric_limits<std::uint64_t>::max());
+    run.first_counter = ctx.Unsigned(require("first_counter"), "first_counter", kMaxStreamCounter);
     const Json& values = ctx.Array(obj, "values_um");
     const std::size_t n = values.size();
     if (n == 0) ctx.Fail("values_um", "must not be empty");
@@ -475,8 +472,8 @@ void StreamFrameDecoder::ProcessLine(std::string_view line, const RunCallback& o
                      std::to_string(n) + " samples exceed the limit of " +
                          std::to_string(max_samples_) + " per run");
     }
-    if (run.first_counter > std::numeric_limits<std::uint64_t>::max() - (n - 1)) {
-      ctx.Fail("first_counter", "counter overflows 2^64 within the run");
+    if (run.first_counter > kMaxStreamCounter - (n - 1)) {
+      ctx.Fail("first_counter", CounterRangeMessage(run.first_counter, n));
     }
     run.value_um.resize(n);
     for (std::size_t k = 0; k < n; ++k)

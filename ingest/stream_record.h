@@ -23,6 +23,10 @@ struct StreamSample {
   std::uint8_t status = 0;
 };
 
+// Counters are 0 … 2⁶³ − 1 (docs/streams.md): they fit storage's signed 64-bit integers, and one
+// past the last (the next expected counter) still fits an unsigned one. They do not wrap around.
+inline constexpr std::uint64_t kMaxStreamCounter = 9223372036854775807ULL;  // 2⁶³ − 1
+
 // Status values the product itself sets (devices may use others).
 inline constexpr std::uint8_t kStatusGood = 0;
 

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 #include "report/dbb_report.h"
 
 namespace km::server {
@@ -104,7 +105,7 @@ json ServoIdentifyJson(const std::string& machine_id, const std::vector<servo::S
 
 std::string MachineWithIdentified(const ingest::MachineDefinition& machine,
                                   const servo::IdentifyResult& r) {
-  json doc = json::parse(machine.source_json);
+  json doc = ingest::ParseJsonText(machine.source_json, "stored document");
   const json id = IdentifiedBlock(r, false);
   json& g = doc["gravity"];
   if (!g.is_object()) g = json::object();
@@ -228,11 +229,7 @@ json ServoJointsJson(const std::string& machine_id, const servo::JointsResult& r
 
 std::array<double, 6> PreviousResistances(const std::string& text, const std::string& file) {
   json doc;
-  try {
-    doc = json::parse(text);
-  } catch (const json::exception&) {
-    throw InvalidInput(file, 0, "legs", "not a JSON document");
-  }
+  doc = ingest::ParseJsonText(text, file);
   if (!doc.is_object() || !doc.contains("legs") || !doc["legs"].is_array()) {
     throw InvalidInput(file, 0, "legs", "a `servo joints` result with legs[] is needed");
   }

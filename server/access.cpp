@@ -147,24 +147,35 @@ nlohmann::json ListTokens(Service& service) {
   return {{"items", items}};
 }
 
-nlohmann::json RevokeToken(Service& service, std::int64_t id) {
+namespace {
+
+// Refuses to revoke an active admin token unless another active admin token without an expiry
+// remains: an expiring one would leave the service without an admin when it expires.
+void CheckAnAdminRemains(const std::vector<TokenRecord>& tokens, std::int64_t id) {
   const auto now = NowSeconds();
-  const auto tokens = service.storage().ListTokens();
   const TokenRecord* target = nullptr;
-  int other_admins = 0;
+  int lasting_admins = 0;
   for (const auto& t : tokens) {
     if (t.id == id) {
       target = &t;
-    } else if (t.role == "admin" && TokenState(t, now) == "active") {
-      ++other_admins;
+    } else if (t.role == "admin" && !t.expires_at && TokenState(t, now) == "active") {
+      ++lasting_admins;
     }
   }
   if (!target) throw NotFound("there is no token " + std::to_string(id));
-  if (target->role == "admin" && TokenState(*target, now) == "active" && other_admins == 0) {
+  if (target->role == "admin" && TokenState(*target, now) == "active" && lasting_admins == 0) {
     throw Conflict("token " + std::to_string(id) +
-                   " is the last active admin token: create another admin token first");
+                   " is the last active admin token without an expiry (an expiring admin token "
+                   "does not count): create another admin token without expires_in_s first, or "
+                   "recover with kinemetricd --reset-admin (docs/operations.md)");
   }
-  service.storage().RevokeToken(id);
+}
+
+}  // namespace
+
+nlohmann::json RevokeToken(Service& service, std::int64_t id) {
+  service.storage().RevokeToken(
+      id, [id](const std::vector<TokenRecord>& tokens) { CheckAnAdminRemains(tokens, id); });
   ++g_revocations;
   for (const auto& t : service.storage().ListTokens()) {
     if (t.id == id) return {{"id", id}, {"revoked_at", OptionalJson(t.revoked_at)}};

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 #include "server/net_ranges.h"
 #include "server/service.h"
 
@@ -78,16 +79,7 @@ void Acquisition::StartFromFile(const std::string& path) {
   std::ostringstream ss;
   ss << in.rdbuf();
   const std::string text = ss.str();
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& err) {
-    std::size_t line = 1;
-    for (std::size_t i = 0; i < std::min<std::size_t>(err.byte, text.size()); ++i) {
-      if (text[i] == '\n') ++line;
-    }
-    throw InvalidInput(path, line, "", std::string("not valid JSON: ") + err.what());
-  }
+  const nlohmann::json j = ingest::ParseJsonText(text, path);
   if (!j.is_object() || !j.contains("devices") || !j["devices"].is_array()) {
     throw InvalidInput(path, 0, "devices", "an object {\"devices\": [...]} is required");
   }

@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 #include "server/accuracy_audit.h"
 #include "server/audit_schedule.h"
 #include "server/jobs.h"
@@ -75,7 +76,7 @@ void LoadResults(Service& service, Stored& s) {
   s.loaded = true;
   for (const auto& r : service.storage().GetResults(s.record.id)) {
     json& slot = r.analysis == kJointsAnalysis ? s.joints : s.result;
-    slot = json::parse(r.result_json, nullptr, false);
+    slot = ingest::ParseJsonTextOrDiscarded(r.result_json);
     if (slot.is_discarded()) slot = nullptr;
   }
 }
@@ -183,9 +184,12 @@ AuditEvidence Gather(Service& service, const AuditRule& rule, std::vector<Stored
 
 json ConfigJson(const AuditConfigRecord& c) {
   const auto opt = [](const std::optional<std::string>& v) { return v ? json(*v) : json(nullptr); };
-  return {{"machine_id", c.machine_id},         {"schedule", opt(c.schedule)},
-          {"rules", json::parse(c.rules_json)}, {"updated_at", c.updated_at},
-          {"last_run_at", opt(c.last_run_at)},  {"next_run_at", opt(c.next_run_at)}};
+  return {{"machine_id", c.machine_id},
+          {"schedule", opt(c.schedule)},
+          {"rules", ingest::ParseJsonText(c.rules_json, "stored document")},
+          {"updated_at", c.updated_at},
+          {"last_run_at", opt(c.last_run_at)},
+          {"next_run_at", opt(c.next_run_at)}};
 }
 
 AuditConfigRecord StoredConfig(Service& service, const std::string& machine_id) {
@@ -236,14 +240,14 @@ json AuditConfigJson(Service& service, const std::string& machine_id) {
 json RunAccuracyAudit(Service& service, const std::string& machine_id, const std::string& trigger,
                       std::int64_t now) {
   const AuditConfigRecord config = StoredConfig(service, machine_id);
-  const auto rules = ParseAuditRules(json::parse(config.rules_json));
+  const auto rules = ParseAuditRules(ingest::ParseJsonText(config.rules_json, "stored document"));
   AuditVerdictFilter last;
   last.machine_id = machine_id;
   last.limit = 1;
   const auto previous_records = service.storage().ListAuditVerdicts(last);
   const json previous = previous_records.empty()
                             ? json(nullptr)
-                            : json::parse(previous_records[0].verdict_json, nullptr, false);
+                            : ingest::ParseJsonTextOrDiscarded(previous_records[0].verdict_json);
   std::map<std::string, std::vector<Stored>> histories;
   std::vector<AuditEvidence> evidence;
   for (const auto& rule : rules) {
@@ -269,7 +273,7 @@ json RunAccuracyAudit(Service& service, const std::string& machine_id, const std
 }
 
 json VerdictJson(const AuditVerdictRecord& v) {
-  const json body = json::parse(v.verdict_json, nullptr, false);
+  const json body = ingest::ParseJsonTextOrDiscarded(v.verdict_json);
   json j = {{"id", v.id},
             {"machine_id", v.machine_id},
             {"level", v.level},
@@ -312,12 +316,12 @@ std::vector<CalibrationRun> MachineCalibrations(Service& service, const std::str
   std::vector<CalibrationRun> runs;
   for (const auto& j : service.storage().ListJobs(kCalibrationJobScan)) {
     if (j.kind != "hexapod_calibration" || j.status != "done") continue;
-    const json request = json::parse(j.request_json, nullptr, false);
+    const json request = ingest::ParseJsonTextOrDiscarded(j.request_json);
     if (!request.is_object() || !request.contains("machine_id") ||
         request["machine_id"] != machine_id) {
       continue;
     }
-    json result = json::parse(j.result_json, nullptr, false);
+    json result = ingest::ParseJsonTextOrDiscarded(j.result_json);
     if (!result.is_object() || JudgeJob(j.kind, j.status, result, j.error).verdict == "failed") {
       continue;
     }

@@ -12,6 +12,7 @@
 #include "analysis/core/errors.h"
 #include "analysis/hexapod/effects/registry.h"
 #include "ingest/dbb_parser.h"
+#include "ingest/json_text.h"
 #include "ingest/machine_json.h"
 #include "report/calibration_study.h"
 #include "server/request_json.h"
@@ -115,7 +116,7 @@ std::vector<std::int64_t> Service::CheckedDbbIds(const nlohmann::json& request,
       throw InvalidInput("request", 0, "measurement_ids",
                          "measurement " + std::to_string(id) + " is not a DBB test");
     }
-    const auto meta = nlohmann::json::parse(rec->metadata_json, nullptr, false);
+    const auto meta = ingest::ParseJsonTextOrDiscarded(rec->metadata_json);
     const auto has = [&](const char* key) { return meta.is_object() && meta.contains(key); };
     if (need_tool_length && !has("tool_length_mm")) {
       throw InvalidInput(TestName(id), 0, "tool_length_mm",

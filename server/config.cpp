@@ -364,6 +364,8 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
       cfg.device_networks.push_back(Cidr(value(), "", a));
     } else if (a == "--demo-data") {
       cfg.demo_data = true;
+    } else if (a == "--reset-admin") {
+      cfg.reset_admin = true;
     } else if (a == "--access-log") {
       cfg.access_log = value();
     } else if (a == "--metrics-public") {

@@ -16,6 +16,9 @@ struct ServerConfig {
   std::string data_dir = "./var";
   std::string web_root;    // empty: <repo>/web/static found next to the binary
   bool demo_data = false;  // load demo data when the database is empty
+  // --reset-admin: add a new admin token to the database, print it and exit (recovery when
+  // every admin token is lost; docs/operations.md).
+  bool reset_admin = false;
   std::size_t max_upload_bytes = 32u << 20;
   // The HTTP layer (docs/http.md).
   int threads = 8;

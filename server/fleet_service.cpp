@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 #include "server/accuracy_audit.h"
 #include "server/audit_service.h"
 #include "server/servo_service.h"
@@ -41,7 +42,7 @@ std::optional<double> ValueAt(Service& service, const AuditMetric& m, std::int64
   const bool joints = m.analysis == kJointsAnalysis;
   for (auto r = results.rbegin(); r != results.rend(); ++r) {
     if ((r->analysis == kJointsAnalysis) != joints) continue;
-    const auto j = nlohmann::json::parse(r->result_json, nullptr, false);
+    const auto j = ingest::ParseJsonTextOrDiscarded(r->result_json);
     return j.is_discarded() ? std::nullopt : ExtractAuditMetric(m, j);
   }
   return std::nullopt;
@@ -61,7 +62,7 @@ std::map<std::string, std::int64_t> OpenJobs(Service& service) {
   std::map<std::string, std::int64_t> open;
   for (const auto& j : service.storage().ListJobs(kFleetJobScan)) {
     if (j.status != "queued" && j.status != "running") continue;
-    const auto req = nlohmann::json::parse(j.request_json, nullptr, false);
+    const auto req = ingest::ParseJsonTextOrDiscarded(j.request_json);
     if (!req.is_object()) continue;
     std::string machine = req.value("machine_id", std::string());
     if (machine.empty() && req.contains("measurement_ids") && req["measurement_ids"].is_array() &&

@@ -10,6 +10,7 @@
 #include <random>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 
 namespace km::server {
 namespace {
@@ -132,9 +133,12 @@ void JobQueue::Work() {
 }
 
 std::optional<JobRecord> JobQueue::TryClaim() {
-  const std::string abandoned = "the instance running the job stopped " +
-                                std::to_string(options_.max_attempts) +
-                                " times before it finished; submit it again";
+  // Said of a job that was started max_attempts times and never finished: each time its
+  // instance stopped (killed, or crashed — possibly by this job) while running it.
+  const std::string abandoned = "the job was started " + std::to_string(options_.max_attempts) +
+                                " times and each time the server running it stopped before it "
+                                "finished (killed, or crashed while running it: see that "
+                                "server's log); it is not started again";
   std::optional<JobRecord> job;
   if (const auto error = Guarded([&] {
         job = storage_.ClaimJob(options_.instance, NowMs(), options_.lease_ms,
@@ -205,7 +209,7 @@ nlohmann::json JobQueue::RunPlan(const JobRecord& job) {
         "the job was queued by an earlier version of the server, without its plan; "
         "submit it again");
   }
-  const auto plan = nlohmann::json::parse(job.plan_json);
+  const auto plan = ingest::ParseJsonText(job.plan_json, "stored document");
   return runner->second(plan,
                         [&](double f, const std::string& stage) { Report(job.id, f, stage); });
 }
@@ -273,9 +277,11 @@ nlohmann::json JobJson(const JobRecord& job) {
   j["stage"] = job.stage;
   j["created_at"] = job.created_at;
   j["updated_at"] = job.updated_at;
-  j["request"] =
-      job.request_json.empty() ? nlohmann::json(nullptr) : nlohmann::json::parse(job.request_json);
-  if (!job.result_json.empty()) j["result"] = nlohmann::json::parse(job.result_json);
+  j["request"] = job.request_json.empty()
+                     ? nlohmann::json(nullptr)
+                     : ingest::ParseJsonText(job.request_json, "stored document");
+  if (!job.result_json.empty())
+    j["result"] = ingest::ParseJsonText(job.result_json, "stored document");
   if (!job.error.empty()) j["error"] = job.error;
   // The instance running the job, or the one that finished it; how often it was started.
   j["instance"] =

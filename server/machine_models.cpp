@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 #include "ingest/machine_json.h"
 #include "server/request_json.h"
 #include "server/service.h"
@@ -124,7 +125,7 @@ MachineModelStored Service::SaveJobMachine(std::int64_t job_id, const std::strin
                    (job->status == "failed" ? "; it has no machine to save"
                                             : "; its machine can be saved once it is done"));
   }
-  const auto result = nlohmann::json::parse(job->result_json, nullptr, false);
+  const auto result = ingest::ParseJsonTextOrDiscarded(job->result_json);
   if (!result.is_object() || !result.contains(key) || !result[key].is_object()) {
     throw Conflict(name + " produced no machine to save (its result has no " + key + ")");
   }

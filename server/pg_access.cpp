@@ -61,13 +61,24 @@ std::vector<TokenRecord> PgStorage::ListTokens() {
   return out;
 }
 
-bool PgStorage::RevokeToken(std::int64_t id) {
+bool PgStorage::RevokeToken(std::int64_t id, const TokensCheck& check) {
   auto c = pool_->Acquire();
+  pg::Transaction tx(*c);
+  // Revocations of every instance take turns (the lock conflicts with itself); reads go on.
+  c->Exec("LOCK TABLE tokens IN SHARE ROW EXCLUSIVE MODE", "lock tokens");
+  const Result all =
+      c->Query(std::string("SELECT ") + kTokenColumns + " FROM tokens ORDER BY id", "list tokens");
+  std::vector<TokenRecord> tokens;
+  for (int i = 0; i < all.Rows(); ++i) tokens.push_back(ReadToken(all, i));
+  check(tokens);
   Params p;
   p.Text(NowUtcIso8601(), "revoked_at").Int(id);
-  return c->Query("UPDATE tokens SET revoked_at = COALESCE(revoked_at, $1) WHERE id = $2", p,
-                  "revoke token")
-             .Affected() > 0;
+  const bool changed =
+      c->Query("UPDATE tokens SET revoked_at = COALESCE(revoked_at, $1) WHERE id = $2", p,
+               "revoke token")
+          .Affected() > 0;
+  tx.Commit();
+  return changed;
 }
 
 void PgStorage::AppendAudit(const AuditEntry& e) {

@@ -104,7 +104,7 @@ std::vector<StreamChannelSummary> PgStorage::StreamChannels(std::int64_t stream_
   p.Int(stream_id);
   const Result s = c->Query(
       "SELECT channel, SUM(n)::BIGINT, COUNT(*), SUM(flagged)::BIGINT, MIN(t_first_us), "
-      "MAX(t_last_us), MAX(first_counter + n) FROM stream_chunks WHERE stream_id = $1 "
+      "MAX(t_last_us), MAX(first_counter + (n - 1)) FROM stream_chunks WHERE stream_id = $1 "
       "GROUP BY channel ORDER BY channel",
       p, "stream channels");
   std::vector<StreamChannelSummary> out;
@@ -116,7 +116,7 @@ std::vector<StreamChannelSummary> PgStorage::StreamChannels(std::int64_t stream_
     ch.flagged = s.Int(i, 3);
     ch.first_t_us = s.Int(i, 4);
     ch.last_t_us = s.Int(i, 5);
-    ch.next_counter = s.Int(i, 6);
+    ch.next_counter = static_cast<std::uint64_t>(s.Int(i, 6)) + 1;
     out.push_back(ch);
   }
   const Result g = c->Query(

@@ -3,6 +3,7 @@
 #include "analysis/core/errors.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/form_parsers.h"
+#include "ingest/json_text.h"
 #include "ingest/servo_parser.h"
 #include "ingest/text_format.h"
 #include "ingest/tracker_parser.h"
@@ -128,9 +129,10 @@ nlohmann::json Service::Results(std::int64_t id) {
   // Newest stored result of the measurement itself (results are appended as analysis versions
   // are added); the joints estimates kept with servo records are answered elsewhere.
   for (auto r = results.rbegin(); r != results.rend(); ++r) {
-    if (r->analysis != kJointsAnalysis) return nlohmann::json::parse(r->result_json);
+    if (r->analysis != kJointsAnalysis)
+      return ingest::ParseJsonText(r->result_json, "stored document");
   }
-  return nlohmann::json::parse(results.back().result_json);
+  return ingest::ParseJsonText(results.back().result_json, "stored document");
 }
 
 nlohmann::json Service::MeasurementJson(const MeasurementRecord& r) const {
@@ -172,7 +174,7 @@ nlohmann::json KeyResultJson(const std::string& kind, const std::vector<ResultRe
     if (kind != k.kind) continue;
     for (auto r = results.rbegin(); r != results.rend(); ++r) {
       if (r->analysis != k.analysis) continue;
-      const auto j = nlohmann::json::parse(r->result_json, nullptr, false);
+      const auto j = ingest::ParseJsonTextOrDiscarded(r->result_json);
       if (!j.is_object() || !j.contains(k.key) || !j[k.key].is_number()) return nullptr;
       return {{"name", k.key}, {"label", k.label}, {"value", j[k.key]}, {"unit", "µm"}};
     }
@@ -197,7 +199,7 @@ nlohmann::json Service::MeasurementWithSamples(std::int64_t id) {
   const auto rec = storage_->GetMeasurement(id);
   if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
   nlohmann::json j = MeasurementJson(*rec);
-  j["metadata"] = nlohmann::json::parse(rec->metadata_json);
+  j["metadata"] = ingest::ParseJsonText(rec->metadata_json, "stored document");
   const auto block = storage_->GetSamples(id);
   nlohmann::json samples = nlohmann::json::object();
   for (std::size_t c = 0; c < block.columns.size(); ++c) {
@@ -222,7 +224,7 @@ nlohmann::json Service::JobsOfMachine(const std::string& machine_id, std::int64_
   for (const auto& j : storage_->ListJobs(scan)) {
     if (static_cast<std::int64_t>(items.size()) >= limit) break;
     // The request decides; only the jobs of the machine are turned into JSON (with the verdict).
-    const auto req = nlohmann::json::parse(j.request_json, nullptr, false);
+    const auto req = ingest::ParseJsonTextOrDiscarded(j.request_json);
     bool mine = req.is_object() && req.value("machine_id", std::string()) == machine_id;
     if (!mine && req.is_object() && req.contains("measurement_ids") &&
         req["measurement_ids"].is_array() && !req["measurement_ids"].empty() &&

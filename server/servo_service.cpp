@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 #include "ingest/machine_json.h"
 #include "ingest/servo_parser.h"
 #include "report/servo_report.h"
@@ -113,7 +114,7 @@ void StoreJoints(Service& svc, const nlohmann::json& j) {
 
 // One stored estimate as an item of the history.
 nlohmann::json HistoryItem(const ResultRecord& rec) {
-  const auto j = nlohmann::json::parse(rec.result_json);
+  const auto j = ingest::ParseJsonText(rec.result_json, "stored document");
   nlohmann::json legs = nlohmann::json::array();
   nlohmann::json reference = nlohmann::json::array();
   for (const auto& leg : j["legs"]) {

@@ -56,12 +56,21 @@ std::vector<TokenRecord> SqliteStorage::ListTokens() {
   return out;
 }
 
-bool SqliteStorage::RevokeToken(std::int64_t id) {
+bool SqliteStorage::RevokeToken(std::int64_t id, const TokensCheck& check) {
   std::lock_guard lock(mu_);
+  sqlite::Transaction tx(db_);  // BEGIN IMMEDIATE: also other processes on the file wait
+  std::vector<TokenRecord> tokens;
+  {
+    auto all = Prepared(std::string("SELECT ") + kTokenColumns + " FROM tokens ORDER BY id");
+    while (all->Step()) tokens.push_back(ReadToken(*all));
+  }
+  check(tokens);
   auto s = Prepared("UPDATE tokens SET revoked_at = COALESCE(revoked_at, ?) WHERE id = ?");
   s->Bind(1, NowUtcIso8601()).Bind(2, id);
   s->Step();
-  return sqlite3_changes(db_) > 0;
+  const bool changed = sqlite3_changes(db_) > 0;
+  tx.Commit();
+  return changed;
 }
 
 void SqliteStorage::AppendAudit(const AuditEntry& e) {

@@ -93,7 +93,7 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
                         const std::optional<std::string>& expires_at) override;
   std::optional<TokenRecord> FindToken(const std::string& token_sha256) override;
   std::vector<TokenRecord> ListTokens() override;
-  bool RevokeToken(std::int64_t id) override;
+  bool RevokeToken(std::int64_t id, const TokensCheck& check) override;
   void AppendAudit(const AuditEntry& entry) override;
   AuditPage ListAudit(std::int64_t limit, std::int64_t offset) override;
   // Accuracy audits: sqlite_audits.cpp.

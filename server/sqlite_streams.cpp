@@ -97,7 +97,7 @@ std::vector<StreamChannelSummary> SqliteStorage::StreamChannels(std::int64_t str
   {
     auto s = Prepared(
         "SELECT channel, SUM(n), COUNT(*), SUM(flagged), MIN(t_first_us), MAX(t_last_us), "
-        "MAX(first_counter + n) FROM stream_chunks WHERE stream_id = ? GROUP BY channel "
+        "MAX(first_counter + (n - 1)) FROM stream_chunks WHERE stream_id = ? GROUP BY channel "
         "ORDER BY channel");
     s->Bind(1, stream_id);
     while (s->Step()) {
@@ -108,7 +108,7 @@ std::vector<StreamChannelSummary> SqliteStorage::StreamChannels(std::int64_t str
       c.flagged = s->Int(3);
       c.first_t_us = s->Int(4);
       c.last_t_us = s->Int(5);
-      c.next_counter = s->Int(6);
+      c.next_counter = static_cast<std::uint64_t>(s->Int(6)) + 1;
       out.push_back(c);
     }
   }

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -207,7 +208,8 @@ struct StreamChannelSummary {
   std::int64_t channel = 0;
   std::int64_t samples = 0, chunks = 0, flagged = 0;
   std::int64_t first_t_us = 0, last_t_us = 0;
-  std::int64_t next_counter = 0;  // one past the highest stored counter
+  // One past the highest stored counter (counters are 0 … 2⁶³ − 1, so this may be 2⁶³).
+  std::uint64_t next_counter = 0;
   std::int64_t gaps = 0, missing = 0;
 };
 
@@ -365,8 +367,10 @@ class Storage {
   virtual std::optional<TokenRecord> FindToken(const std::string& token_sha256) = 0;
   virtual std::vector<TokenRecord> ListTokens() = 0;  // by id
   // Revokes a token from now on; false when there is no such token (a second revocation keeps
-  // the first time).
-  virtual bool RevokeToken(std::int64_t id) = 0;
+  // the first time). `check` sees every token as stored at that moment and throws to refuse;
+  // the check and the revocation are one transaction, also against other instances.
+  using TokensCheck = std::function<void(const std::vector<TokenRecord>&)>;
+  virtual bool RevokeToken(std::int64_t id, const TokensCheck& check) = 0;
   // The audit log of state-changing requests, appended only; listed newest first.
   virtual void AppendAudit(const AuditEntry& entry) = 0;
   virtual AuditPage ListAudit(std::int64_t limit, std::int64_t offset) = 0;

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 #include "ingest/stream_frames.h"
 #include "report/stream_profile.h"
 #include "server/request_json.h"
@@ -169,10 +170,15 @@ json Service::StreamJson(std::int64_t stream_id) {
   j["name"] = rec->name;
   j["source"] = rec->source;
   j["created_at"] = rec->created_at;
-  j["metadata"] = json::parse(rec->metadata_json, nullptr, false);
+  j["metadata"] = ingest::ParseJsonTextOrDiscarded(rec->metadata_json);
   const auto pending = streams_->Pending(stream_id);
   json chans = json::array();
-  std::int64_t total = 0, gaps = 0, missing = 0;
+  std::int64_t total = 0, gaps = 0;
+  // Each channel's missing count fits 63 bits (its gaps lie within 0 … 2⁶³ − 1); their sum over
+  // channels may not, so it is kept unsigned and, past 2⁶⁴ − 1, given as a double.
+  std::uint64_t missing = 0;
+  bool missing_beyond_u64 = false;
+  double missing_approx = 0.0;
   for (const auto& c : storage_->StreamChannels(stream_id)) {
     const auto p = pending.find(static_cast<std::uint32_t>(c.channel));
     chans.push_back({{"channel", c.channel},
@@ -187,12 +193,14 @@ json Service::StreamJson(std::int64_t stream_id) {
                      {"buffered", p == pending.end() ? 0 : p->second}});
     total += c.samples;
     gaps += c.gaps;
-    missing += c.missing;
+    missing_beyond_u64 |=
+        __builtin_add_overflow(missing, static_cast<std::uint64_t>(c.missing), &missing);
+    missing_approx += static_cast<double>(c.missing);
   }
   j["channels"] = chans;
   j["samples"] = total;
   j["gap_count"] = gaps;
-  j["missing"] = missing;
+  j["missing"] = missing_beyond_u64 ? json(missing_approx) : json(missing);
   return j;
 }
 

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "analysis/core/errors.h"
+#include "ingest/json_text.h"
 #include "server/stream_chunks.h"
 #include "server/time_util.h"
 
@@ -63,7 +64,7 @@ StreamHub::State& StreamHub::Get(std::int64_t stream_id) {
       if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
       it = states_.emplace(stream_id, std::make_unique<State>()).first;
       if (!rec->metadata_json.empty()) {
-        const auto meta = nlohmann::json::parse(rec->metadata_json, nullptr, false);
+        const auto meta = ingest::ParseJsonTextOrDiscarded(rec->metadata_json);
         if (meta.is_object() && meta.contains("channels") && meta["channels"].is_array()) {
           for (const auto& c : meta["channels"]) {
             if (c.is_object() && c.contains("channel") && c["channel"].is_number_integer() &&
@@ -84,7 +85,7 @@ StreamHub::State& StreamHub::Get(std::int64_t stream_id) {
 void StreamHub::Load(std::int64_t stream_id, State& s) {
   for (const auto& c : storage_.StreamChannels(stream_id)) {
     Channel& ch = s.channels[static_cast<std::uint32_t>(c.channel)];
-    ch.counters = ingest::ChannelCounters(static_cast<std::uint64_t>(c.next_counter), c.last_t_us);
+    ch.counters = ingest::ChannelCounters(c.next_counter, c.last_t_us);
   }
   s.loaded = true;
 }

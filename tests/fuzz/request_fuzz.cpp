@@ -1,10 +1,12 @@
 // JSON request bodies checked without HTTP: the field helpers of server/request_json.h, and the
 // service calls that validate a request before doing anything (Service::CreateStream,
 // Service::SubmitCalibration, Service::StreamProfile on a stream that holds samples). The body
-// is the whole input; a body that is not JSON is refused before any of these runs.
+// is the whole input; a body that is not JSON, or that ingest/json_text.h refuses (nesting,
+// repeated keys, numbers beyond a double), is refused before any of these runs.
 #include <cmath>
 #include <limits>
 
+#include "ingest/json_text.h"
 #include "ingest/stream_frames.h"
 #include "server/request_json.h"
 #include "tests/fuzz/fuzz_service.h"
@@ -53,7 +55,9 @@ void CheckWhole(const json& j, const std::string& key, std::int64_t lo, std::int
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static km::fuzz::RecycledService service(2000, SeedStream);
-  const json j = json::parse(data, data + size, nullptr, /*allow_exceptions=*/false);
+  // Read as the server reads a request body (depth, repeated keys, numbers beyond a double).
+  const json j = km::ingest::ParseJsonTextOrDiscarded(
+      std::string_view(reinterpret_cast<const char*>(data), size));
   if (j.is_discarded()) return 0;
   auto& svc = service.Get();
   using km::fuzz::Guarded;

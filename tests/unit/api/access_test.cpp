@@ -285,6 +285,11 @@ TEST_F(Access, RevocationTakesEffectAtOnce) {
   const auto last = Call("DELETE", "/api/v1/tokens/1", "boot");
   EXPECT_EQ(last.status, 409) << last.body;
   EXPECT_NE(last.body.find("last active admin"), std::string::npos) << last.body;
+  // An admin token that expires is not the admin that remains.
+  const json expiring = NewToken("admin", "for an hour", 3600);
+  EXPECT_EQ(Call("DELETE", "/api/v1/tokens/1", "boot").status, 409);
+  EXPECT_EQ(Call("DELETE", "/api/v1/tokens/1", expiring["token"]).status, 409);
+  EXPECT_EQ(Call("DELETE", "/api/v1/tokens/" + expiring["id"].dump(), "boot").status, 200);
   const json second = NewToken("admin", "second admin");
   EXPECT_EQ(Call("DELETE", "/api/v1/tokens/1", second["token"]).status, 200);
   EXPECT_EQ(Call("GET", "/api/v1/machines", "boot").status, 401);

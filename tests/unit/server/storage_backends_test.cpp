@@ -344,12 +344,23 @@ TEST_P(Backends, TokensAndTheAuditLog) {
   EXPECT_EQ(t.expires_at, "2027-01-01T00:00:00Z");
   EXPECT_FALSE(t.revoked_at);
   EXPECT_FALSE(s->FindToken("nope"));
-  EXPECT_TRUE(s->RevokeToken(2));
+  const auto allow = [](const std::vector<TokenRecord>&) {};
+  EXPECT_TRUE(s->RevokeToken(2, allow));
   const auto first = s->FindToken("h2")->revoked_at;
   ASSERT_TRUE(first);
-  EXPECT_TRUE(s->RevokeToken(2));
+  EXPECT_TRUE(s->RevokeToken(2, allow));
   EXPECT_EQ(s->FindToken("h2")->revoked_at, first);  // a second revocation keeps the first time
-  EXPECT_FALSE(s->RevokeToken(99));
+  EXPECT_FALSE(s->RevokeToken(99, allow));
+  // A check that refuses leaves the token as it was (the check sees every token).
+  std::size_t seen = 0;
+  EXPECT_THROW(s->RevokeToken(3,
+                              [&](const std::vector<TokenRecord>& all) {
+                                seen = all.size();
+                                throw std::runtime_error("refused");
+                              }),
+               std::runtime_error);
+  EXPECT_EQ(seen, 3u);
+  EXPECT_FALSE(s->FindToken("h3")->revoked_at);
   const auto list = s->ListTokens();
   ASSERT_EQ(list.size(), 3u);
   EXPECT_EQ(list[0].name, "first");
@@ -486,7 +497,7 @@ TEST_P(Backends, StreamsChunksAndGaps) {
   EXPECT_EQ(chans[0].flagged, 0 + 1 + 1);
   EXPECT_EQ(chans[0].first_t_us, 0);
   EXPECT_EQ(chans[0].last_t_us, 34000);
-  EXPECT_EQ(chans[0].next_counter, 35);
+  EXPECT_EQ(chans[0].next_counter, 35u);
   EXPECT_EQ(chans[0].gaps, 1);
   EXPECT_EQ(chans[0].missing, 5);
   EXPECT_EQ(chans[1].samples, 5);

@@ -178,7 +178,7 @@ void ExpectVersion3Rows(SqliteStorage& s) {
   EXPECT_EQ(channels[0].flagged, 1);
   EXPECT_EQ(channels[0].first_t_us, 1000);
   EXPECT_EQ(channels[0].last_t_us, 12000);
-  EXPECT_EQ(channels[0].next_counter, 12);
+  EXPECT_EQ(channels[0].next_counter, 12u);
   EXPECT_EQ(channels[0].gaps, 1);
   EXPECT_EQ(channels[0].missing, 6);
   const auto chunks = s.ReadStreamChunks(1, 0, 0, 1'000'000, true);

@@ -181,7 +181,7 @@ TEST_F(StreamHubTest, GapsDuplicatesAndChunksOfConsecutiveCounters) {
   const auto chans = st.StreamChannels(id);
   ASSERT_EQ(chans.size(), 1u);
   EXPECT_EQ(chans[0].samples, 950);
-  EXPECT_EQ(chans[0].next_counter, 1000);
+  EXPECT_EQ(chans[0].next_counter, 1000u);
   EXPECT_EQ(chans[0].gaps, 1);
   EXPECT_EQ(chans[0].missing, 50);
 }

@@ -167,7 +167,7 @@ TEST(StreamFrames, DoublesRoundTripBitExactly) {
                                        123456.78901234567};
   SampleRun run;
   run.channel = 65535;
-  run.first_counter = std::numeric_limits<std::uint64_t>::max() - (special.size() - 1);
+  run.first_counter = kMaxStreamCounter - (special.size() - 1);  // ends on the last counter
   for (std::size_t k = 0; k < special.size(); ++k) {
     run.value_um.push_back(special[k]);
     run.t_us.push_back(-5 + static_cast<std::int64_t>(k));
@@ -493,6 +493,45 @@ void ExpectLineError(const std::string& text, std::size_t line, const std::strin
   EXPECT_EQ(f.delivered.size(), delivered_before) << text;
 }
 
+// Counters are 0 … 2⁶³ − 1 in both formats (docs/streams.md, Counter range): a frame or run
+// ending on 2⁶³ − 1 is read, one passing it is refused naming the counter field.
+TEST(StreamFrames, CountersStopAtTwoToTheSixtyThreeMinusOne) {
+  constexpr std::uint64_t kLast = 9223372036854775807ULL;
+  static_assert(kMaxStreamCounter == kLast);
+  SampleRun run;
+  run.channel = 1;
+  run.value_um = {0.5, 0.25, 0.125};
+  run.t_us = {1, 2, 3};
+  run.status = {0, 0, 0};
+  for (const std::uint64_t first :
+       std::initializer_list<std::uint64_t>{kLast - 2, kLast - 1, kLast, kLast + 1, ~0ULL - 2}) {
+    run.first_counter = first;
+    const bool fits = first <= kLast - 2;
+    for (const auto format : {FrameFormat::kBinary, FrameFormat::kNdjson}) {
+      const std::string bytes = format == FrameFormat::kBinary
+                                    ? EncodeBinaryFrame(run, true, false, 0)
+                                    : EncodeNdjsonRun(run);
+      if (fits) {
+        const auto runs = DecodeAll(format, bytes);
+        ASSERT_EQ(runs.size(), 1u);
+        EXPECT_EQ(runs[0].first_counter, first);
+        continue;
+      }
+      try {
+        DecodeAll(format, bytes);
+        ADD_FAILURE() << "accepted first counter " << first;
+      } catch (const InvalidInput& e) {
+        EXPECT_EQ(e.field(), "first_counter") << e.what();
+        EXPECT_NE(e.reason().find("9223372036854775807"), std::string::npos) << e.reason();
+      }
+    }
+  }
+  const std::string last =
+      "{\"channel\":1,\"counter\":9223372036854775807,\"t_us\":1,\"value_um\":1}\n";
+  ASSERT_EQ(DecodeAll(FrameFormat::kNdjson, last).size(), 1u);
+  EXPECT_EQ(DecodeAll(FrameFormat::kNdjson, last)[0].first_counter, kLast);
+}
+
 TEST(StreamFrames, NdjsonErrorsNameLineAndField) {
   // Two good lines and a blank one first: errors are on line 4.
   const std::string ok =
@@ -548,6 +587,10 @@ TEST(StreamFrames, NdjsonErrorsNameLineAndField) {
       "\"values_um\":[1,2]}",
       "first_counter");
   bad("{\"channel\":1,\"t_us\":[1,2],\"values_um\":[1,2]}", "first_counter");
+  bad("{\"channel\":1,\"counter\":9223372036854775808,\"t_us\":30,\"value_um\":1}", "counter");
+  bad("{\"channel\":1,\"counter\":3,\"t_us\":30,\"value_um\":1e999}", "value_um");
+  bad("{\"channel\":1,\"counter\":3,\"t_us\":30,\"value_um\":[[1]]}", "value_um");
+  bad("{" + r + "\"t0_us\":0,\"dt_us\":50,\"values_um\":[1,[2]]}", "values_um");
   // A run over the decoder's limit is TooLarge.
   bad("{" + r + "\"t_us\":[1,2,3],\"values_um\":[1,2,3]}", "values_um", 2);
   {
