@@ -98,7 +98,7 @@ struct ServerConfig {
 // threads 1–256, io_threads 1–64, queue_limit, keep_alive_max_count and max_connections
 // 1–1 000 000, backlog 1–65535, max_header_bytes 1 KiB–1 MiB, timeouts 1–3600 s, job_workers
 // 0–64, max_queued_jobs 1–1 000 000, db_busy_timeout_ms 0–600 000 ms, db_pool_size 1–1000,
-// db_statement_timeout_ms 0–3 600 000 ms,
+// db_statement_timeout_ms 0–3 600 000 ms, audit_webhook_timeout_s 1–300 s,
 // max_upload_bytes 1 B–4 GiB, port 0–65535 (0: any free port); data_dir must not be empty;
 // database empty, sqlite: or a postgresql:// URL. Anything else is km::InvalidInput naming the
 // option or key.
