@@ -149,7 +149,7 @@ TEST(WebhookDeadline, ADrippingReceiverEndsTheAttemptAtItsDeadlineAndTheNextVerd
   EXPECT_EQ(statuses.got[1], (std::pair<std::int64_t, std::string>{2, "delivered"}));
   const auto first = statuses.at[0] - t0;
   EXPECT_GE(first, milliseconds(950));
-  EXPECT_LT(first, milliseconds(1800));
+  EXPECT_LT(first, milliseconds(3000));  // the whole answer would take ~9 s
   sender.Stop();
 }
 
@@ -164,8 +164,8 @@ TEST(WebhookDeadline, AStopDuringADrippingAttemptIsPromptAndLeavesTheVerdictPend
   std::this_thread::sleep_for(milliseconds(300));  // the answer has begun to drip
   const auto t0 = Clock::now();
   sender.Stop();
-  EXPECT_LT(Clock::now() - t0, milliseconds(250));
-  EXPECT_EQ(statuses.Count(), 0u);  // no status: the verdict stays "pending"
+  EXPECT_LT(Clock::now() - t0, milliseconds(1000));  // not the attempt's 60 s
+  EXPECT_EQ(statuses.Count(), 0u);                   // no status: the verdict stays "pending"
 }
 
 TEST(WebhookTargets, NamesResolvedToLoopbackAreRefusedAtDeliveryUnlessAllowed) {
