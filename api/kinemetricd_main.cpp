@@ -107,6 +107,8 @@ int main(int argc, char** argv) {
     so.audits.webhook_attempts = cfg.audit_webhook_attempts;
     so.audits.webhook_first_delay_ms = cfg.audit_webhook_first_delay_ms;
     so.audits.webhook_secret = cfg.audit_webhook_secret;
+    so.audits.webhook_timeout_s = cfg.audit_webhook_timeout_s;
+    so.audits.webhook_allow_private = cfg.audit_webhook_allow_private;
     so.jobs.workers = cfg.job_workers;
     so.jobs.lease_ms = std::int64_t{cfg.job_lease_s} * 1000;
     so.jobs.max_queued = cfg.max_queued_jobs;

@@ -35,6 +35,7 @@ AuditScheduler::AuditScheduler(Service& service, AuditOptions options, AuditCloc
     w.first_delay = std::chrono::milliseconds(options_.webhook_first_delay_ms);
     w.timeout = std::chrono::seconds(options_.webhook_timeout_s);
     w.secret = options_.webhook_secret;
+    w.allow_private = options_.webhook_allow_private;
     Storage* storage = &service_.storage();
     webhook_ = std::make_unique<WebhookSender>(
         w, [storage](std::int64_t id, const std::string& status, std::int64_t attempts) {

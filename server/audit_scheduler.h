@@ -26,8 +26,9 @@ struct AuditOptions {
   std::string webhook_url;  // empty: no webhook
   int webhook_attempts = 5;
   int webhook_first_delay_ms = 1000;
-  int webhook_timeout_s = 5;
-  std::string webhook_secret;  // empty: deliveries unsigned
+  int webhook_timeout_s = 5;           // the whole of one attempt
+  std::string webhook_secret;          // empty: deliveries unsigned
+  bool webhook_allow_private = false;  // loopback and private targets (refused by default)
 };
 
 // How long a claimed scheduled run stays claimed: an instance that dies between the claim and

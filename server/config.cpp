@@ -36,6 +36,7 @@ constexpr Range kBusyTimeout{0, 600'000, " ms"};
 constexpr Range kDevices{0, 10'000, ""};
 constexpr Range kWebhookAttempts{1, 20, ""};
 constexpr Range kWebhookDelay{10, 600'000, " ms"};
+constexpr Range kWebhookTimeout{1, 300, " s"};
 constexpr Range kPoolSize{1, 1000, ""};
 constexpr Range kStatementTimeout{0, 3'600'000, " ms"};
 constexpr Range kJobWorkers{0, 64, ""};
@@ -88,6 +89,8 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.audit_webhook_attempts = static_cast<int>(v); }},
     {"audit_webhook_first_delay_ms", kWebhookDelay,
      [](ServerConfig& c, std::int64_t v) { c.audit_webhook_first_delay_ms = static_cast<int>(v); }},
+    {"audit_webhook_timeout_s", kWebhookTimeout,
+     [](ServerConfig& c, std::int64_t v) { c.audit_webhook_timeout_s = static_cast<int>(v); }},
     {"max_devices", kDevices,
      [](ServerConfig& c, std::int64_t v) { c.max_devices = static_cast<std::size_t>(v); }},
     {"shutdown_timeout_s", kTimeout,
@@ -247,6 +250,21 @@ void CheckInFile(const std::string& path, void (*check)(const std::string&, cons
   }
 }
 
+// The secret from the environment when the config has none, and the URL's host checked
+// against the loopback and private ranges once audit_webhook_allow_private is known; url_file
+// and url_field say where the URL was set.
+void FinishAuditWebhook(ServerConfig& cfg, const std::string& url_file,
+                        const std::string& url_field) {
+  const char* secret = std::getenv("KINEMETRIC_AUDIT_WEBHOOK_SECRET");
+  if (cfg.audit_webhook_secret.empty() && secret != nullptr && *secret != '\0') {
+    cfg.audit_webhook_secret = secret;
+    CheckWebhookSecret(cfg.audit_webhook_secret, "KINEMETRIC_AUDIT_WEBHOOK_SECRET");
+  }
+  if (!cfg.audit_webhook_url.empty()) {
+    CheckWebhookTarget(cfg.audit_webhook_url, cfg.audit_webhook_allow_private, url_file, url_field);
+  }
+}
+
 }  // namespace
 
 void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where) {
@@ -301,6 +319,8 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path) {
         cfg.audit_webhook_url = v.get<std::string>();
         if (!cfg.audit_webhook_url.empty())
           CheckInFile(path, CheckWebhookUrl, cfg.audit_webhook_url, key);
+      } else if (key == "audit_webhook_allow_private") {
+        cfg.audit_webhook_allow_private = v.get<bool>();
       } else if (key == "audit_webhook_secret") {
         cfg.audit_webhook_secret = v.get<std::string>();
         if (!cfg.audit_webhook_secret.empty())
@@ -334,8 +354,15 @@ void ApplyUploadLimits(const ServerConfig& cfg, std::map<std::string, ingest::Te
 ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
   ServerConfig cfg;
   // The config file first, so that command-line options override it.
+  std::string url_file, url_field;  // where audit_webhook_url was set last
   for (std::size_t i = 0; i + 1 < args.size(); ++i) {
-    if (args[i] == "--config") ApplyConfigFile(cfg, args[i + 1]);
+    if (args[i] != "--config") continue;
+    const std::string before = cfg.audit_webhook_url;
+    ApplyConfigFile(cfg, args[i + 1]);
+    if (cfg.audit_webhook_url != before) {
+      url_file = args[i + 1];
+      url_field = "audit_webhook_url";
+    }
   }
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
@@ -375,17 +402,17 @@ ServerConfig ParseServerArgs(const std::vector<std::string>& args) {
     } else if (a == "--audit-webhook-url") {
       cfg.audit_webhook_url = value();
       if (!cfg.audit_webhook_url.empty()) CheckWebhookUrl(cfg.audit_webhook_url, a);
+      url_file.clear();
+      url_field = a;
+    } else if (a == "--audit-webhook-allow-private") {
+      cfg.audit_webhook_allow_private = true;
     } else if (const auto* o = FindNumberOption(KeyOfFlag(a))) {
       o->set(cfg, WholeFromText(value(), o->range, "", a));
     } else {
       throw InvalidInput("", 0, a, "unknown option");
     }
   }
-  const char* secret = std::getenv("KINEMETRIC_AUDIT_WEBHOOK_SECRET");
-  if (cfg.audit_webhook_secret.empty() && secret != nullptr && *secret != '\0') {
-    cfg.audit_webhook_secret = secret;
-    CheckWebhookSecret(cfg.audit_webhook_secret, "KINEMETRIC_AUDIT_WEBHOOK_SECRET");
-  }
+  FinishAuditWebhook(cfg, url_file, url_field);
   return cfg;
 }
 

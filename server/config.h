@@ -61,10 +61,15 @@ struct ServerConfig {
   std::vector<std::string> device_networks = {"127.0.0.0/8", "::1/128"};
   // Accuracy audits (docs/http.md): verdicts of level 2 and 3 are POSTed to
   // audit_webhook_url (http:// only; empty: none), retried after audit_webhook_first_delay_ms,
-  // then twice, four times as long…, up to audit_webhook_attempts attempts in all.
+  // then twice, four times as long…, up to audit_webhook_attempts attempts in all; each attempt
+  // ends after audit_webhook_timeout_s in all. A target in a loopback or private range (written
+  // as such or resolved to one) is refused unless audit_webhook_allow_private
+  // (--audit-webhook-allow-private).
   std::string audit_webhook_url;
   int audit_webhook_attempts = 5;
   int audit_webhook_first_delay_ms = 1000;
+  int audit_webhook_timeout_s = 5;
+  bool audit_webhook_allow_private = false;
   // Key of the deliveries' X-Kinemetric-Signature (HMAC-SHA256; 16–1024 bytes): config key
   // audit_webhook_secret, else the environment variable KINEMETRIC_AUDIT_WEBHOOK_SECRET (kept
   // off the command line, where other users of the host could read it). Empty: unsigned.
@@ -85,7 +90,8 @@ struct ServerConfig {
 };
 
 // Applies a JSON config file (// comments allowed): keys listen ("HOST:PORT"), data_dir, web_root,
-// database, demo_data, modbus_config, access_log, metrics_public, and the whole numbers
+// database, demo_data, modbus_config, access_log, metrics_public, the audit_webhook_* keys, and
+// the whole numbers
 // max_upload_bytes, threads, io_threads, queue_limit, max_connections, backlog,
 // max_header_bytes, header_timeout_s, read_timeout_s, write_timeout_s, keep_alive_max_count,
 // keep_alive_timeout_s, db_busy_timeout_ms, db_pool_size, db_statement_timeout_ms,
@@ -95,7 +101,7 @@ struct ServerConfig {
 // threads 1–256, io_threads 1–64, queue_limit, keep_alive_max_count and max_connections
 // 1–1 000 000, backlog 1–65535, max_header_bytes 1 KiB–1 MiB, timeouts 1–3600 s, job_workers
 // 0–64, max_queued_jobs 1–1 000 000, db_busy_timeout_ms 0–600 000 ms, db_pool_size 1–1000,
-// db_statement_timeout_ms 0–3 600 000 ms,
+// db_statement_timeout_ms 0–3 600 000 ms, audit_webhook_timeout_s 1–300 s,
 // max_upload_bytes 1 B–4 GiB, port 0–65535 (0: any free port); data_dir must not be empty;
 // database empty, sqlite: or a postgresql:// URL. Anything else is km::InvalidInput naming the
 // option or key.
@@ -104,7 +110,9 @@ void ApplyConfigFile(ServerConfig& cfg, const std::string& path);
 void ApplyListen(ServerConfig& cfg, const std::string& listen, const std::string& where);
 // Applies the upload_limits overrides of a config onto per-format limits.
 void ApplyUploadLimits(const ServerConfig& cfg, std::map<std::string, ingest::TextLimits>& limits);
-// Parses argv (after the program name); throws km::InvalidInput on a bad option.
+// Parses argv (after the program name); throws km::InvalidInput on a bad option, and on a
+// webhook URL whose host is a loopback or private address without audit_webhook_allow_private
+// (naming the option, or the config file and its key).
 ServerConfig ParseServerArgs(const std::vector<std::string>& args);
 
 }  // namespace km::server

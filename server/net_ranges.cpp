@@ -6,6 +6,23 @@
 #include <cstring>
 
 namespace km::server {
+namespace {
+
+const char* const kPrivateNetworks[] = {
+    "0.0.0.0/8",     "10.0.0.0/8",     "100.64.0.0/10", "127.0.0.0/8", "169.254.0.0/16",
+    "172.16.0.0/12", "192.168.0.0/16", "224.0.0.0/3",   "::/128",      "::1/128",
+    "fc00::/7",      "fe80::/10",      "ff00::/8"};
+
+// ::ffff:a.b.c.d as a.b.c.d; anything else unchanged.
+IpAddress Unmapped(const IpAddress& addr) {
+  static constexpr std::uint8_t kPrefix[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xFF, 0xFF};
+  if (!addr.v6 || std::memcmp(addr.bytes.data(), kPrefix, sizeof kPrefix) != 0) return addr;
+  IpAddress v4;
+  std::memcpy(v4.bytes.data(), addr.bytes.data() + 12, 4);
+  return v4;
+}
+
+}  // namespace
 
 std::optional<IpAddress> ParseIpAddress(const std::string& text) {
   IpAddress a;
@@ -43,6 +60,19 @@ bool NetworkContains(const Network& net, const IpAddress& addr) {
   if (rest == 0) return true;
   const auto mask = static_cast<std::uint8_t>(0xFF << (8 - rest));
   return (net.base.bytes[whole] & mask) == (addr.bytes[whole] & mask);
+}
+
+bool IsPrivateAddress(const IpAddress& addr) {
+  static const std::vector<Network> networks = [] {
+    std::vector<Network> out;
+    for (const char* text : kPrivateNetworks) out.push_back(*ParseNetwork(text));
+    return out;
+  }();
+  const IpAddress a = Unmapped(addr);
+  for (const auto& net : networks) {
+    if (NetworkContains(net, a)) return true;
+  }
+  return false;
 }
 
 }  // namespace km::server

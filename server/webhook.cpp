@@ -3,39 +3,62 @@
 #include <charconv>
 #include <iostream>
 
-#include <httplib.h>
-
 #include "analysis/core/errors.h"
+#include "server/net_ranges.h"
 #include "server/sha256.h"
 
 namespace km::server {
 namespace {
 
-struct Url {
-  std::string host, path;
-  int port = 80;
-};
+std::string Quoted(const std::string& url) {
+  return "'" + url.substr(0, 80) + "'";
+}
 
-Url ParseUrl(const std::string& url, const std::string& field) {
+// "HOST[:PORT]" or "[IPV6][:PORT]" of an http:// URL.
+void ParseAuthority(const std::string& authority, const std::string& url, const std::string& field,
+                    WebhookTarget& out) {
+  std::string port;
+  bool has_port = false;
+  if (!authority.empty() && authority.front() == '[') {
+    const auto close = authority.find(']');
+    if (close == std::string::npos) throw InvalidInput("", 0, field, Quoted(url) + " has no host");
+    out.host = authority.substr(1, close - 1);
+    const std::string rest = authority.substr(close + 1);
+    if (!rest.empty() && rest.front() != ':') {
+      throw InvalidInput("", 0, field, Quoted(url) + " has no valid port");
+    }
+    has_port = !rest.empty();
+    if (has_port) port = rest.substr(1);
+  } else {
+    const auto colon = authority.rfind(':');
+    out.host = authority.substr(0, colon);
+    has_port = colon != std::string::npos;
+    if (has_port) port = authority.substr(colon + 1);
+  }
+  if (has_port) {
+    const auto [ptr, ec] = std::from_chars(port.data(), port.data() + port.size(), out.port);
+    if (ec != std::errc() || ptr != port.data() + port.size() || out.port < 1 || out.port > 65535) {
+      throw InvalidInput("", 0, field, Quoted(url) + " has no valid port");
+    }
+  }
+  if (out.host.empty()) throw InvalidInput("", 0, field, Quoted(url) + " has no host");
+}
+
+WebhookTarget ParseUrl(const std::string& url, const std::string& field) {
   const std::string scheme = "http://";
   if (url.rfind(scheme, 0) != 0 || url.size() > 2048) {
-    throw InvalidInput("", 0, field, "'" + url.substr(0, 80) + "' is not an http:// URL");
+    throw InvalidInput("", 0, field, Quoted(url) + " is not an http:// URL");
+  }
+  for (const char c : url) {
+    if (static_cast<unsigned char>(c) <= 0x20 || c == 0x7F) {
+      throw InvalidInput("", 0, field, Quoted(url) + " has a space or a control character");
+    }
   }
   const std::string rest = url.substr(scheme.size());
   const auto slash = rest.find('/');
-  const std::string authority = rest.substr(0, slash);
-  Url out;
+  WebhookTarget out;
   out.path = slash == std::string::npos ? "/" : rest.substr(slash);
-  const auto colon = authority.rfind(':');
-  out.host = authority.substr(0, colon);
-  if (colon != std::string::npos) {
-    const std::string port = authority.substr(colon + 1);
-    const auto [ptr, ec] = std::from_chars(port.data(), port.data() + port.size(), out.port);
-    if (ec != std::errc() || ptr != port.data() + port.size() || out.port < 1 || out.port > 65535) {
-      throw InvalidInput("", 0, field, "'" + url.substr(0, 80) + "' has no valid port");
-    }
-  }
-  if (out.host.empty()) throw InvalidInput("", 0, field, "'" + url.substr(0, 80) + "' has no host");
+  ParseAuthority(rest.substr(0, slash), url, field, out);
   return out;
 }
 
@@ -43,6 +66,18 @@ Url ParseUrl(const std::string& url, const std::string& field) {
 
 void CheckWebhookUrl(const std::string& url, const std::string& field) {
   ParseUrl(url, field);
+}
+
+void CheckWebhookTarget(const std::string& url, bool allow_private, const std::string& file,
+                        const std::string& field) {
+  const WebhookTarget t = ParseUrl(url, field);
+  const auto address = ParseIpAddress(t.host);
+  if (allow_private || !address || !IsPrivateAddress(*address)) return;
+  throw InvalidInput(file, 0, field,
+                     Quoted(url) +
+                         " is a loopback or private address; webhooks go there only with "
+                         "audit_webhook_allow_private: true in the config file "
+                         "(--audit-webhook-allow-private)");
 }
 
 void CheckWebhookSecret(const std::string& secret, const std::string& field) {
@@ -70,12 +105,9 @@ std::vector<std::pair<std::string, std::string>> WebhookHeaders(const WebhookOpt
 }
 
 WebhookSender::WebhookSender(WebhookOptions options, StatusFn status)
-    : options_(std::move(options)), status_(std::move(status)) {
-  const Url u = ParseUrl(options_.url, "audit_webhook_url");
-  host_ = u.host;
-  path_ = u.path;
-  port_ = u.port;
-}
+    : options_(std::move(options)),
+      status_(std::move(status)),
+      target_(ParseUrl(options_.url, "audit_webhook_url")) {}
 
 WebhookSender::~WebhookSender() {
   Stop();
@@ -93,6 +125,7 @@ void WebhookSender::Stop() {
     stop_ = true;
   }
   cv_.notify_all();
+  client_.Abort();
   if (thread_.joinable()) thread_.join();
 }
 
@@ -104,20 +137,41 @@ void WebhookSender::Enqueue(std::int64_t id, std::string body) {
   cv_.notify_all();
 }
 
-bool WebhookSender::Deliver(const Item& item, int attempt) {
+WebhookSender::Outcome WebhookSender::Deliver(const Item& item, int attempt) {
   const auto unix_s = std::chrono::duration_cast<std::chrono::seconds>(
                           std::chrono::system_clock::now().time_since_epoch())
                           .count();
-  httplib::Headers headers;
-  for (auto& [k, v] : WebhookHeaders(options_, item.id, attempt, unix_s, item.body))
-    headers.emplace(k, v);
-  httplib::Client client(host_, port_);
-  const auto t = static_cast<time_t>(options_.timeout.count());
-  client.set_connection_timeout(t, 0);
-  client.set_read_timeout(t, 0);
-  client.set_write_timeout(t, 0);
-  const auto res = client.Post(path_, headers, item.body, "application/json");
-  return res && res->status >= 200 && res->status < 300;
+  const auto deadline = WebhookClient::Clock::now() + options_.timeout;
+  const auto res =
+      client_.Post(target_, WebhookHeaders(options_, item.id, attempt, unix_s, item.body),
+                   item.body, deadline, options_.allow_private);
+  if (res.aborted) return Outcome::kStopped;
+  if (res.status >= 200 && res.status < 300) return Outcome::kDelivered;
+  std::cerr << "kinemetricd: audit " << item.id << " webhook attempt " << attempt << " of "
+            << options_.attempts << ": "
+            << (res.status != 0 ? "answered " + std::to_string(res.status) : res.error)
+            << std::endl;
+  return Outcome::kFailed;
+}
+
+bool WebhookSender::Send(const Item& item, std::unique_lock<std::mutex>& lock) {
+  auto delay = options_.first_delay;
+  for (int attempt = 1; attempt <= options_.attempts; ++attempt) {
+    lock.unlock();
+    const Outcome outcome = Deliver(item, attempt);
+    if (outcome == Outcome::kStopped) {
+      lock.lock();
+      return false;  // stays "pending", sent again at the next start
+    }
+    const bool ok = outcome == Outcome::kDelivered;
+    const bool last = ok || attempt == options_.attempts;
+    status_(item.id, ok ? "delivered" : last ? "failed" : "pending", attempt);
+    lock.lock();
+    if (last) return true;
+    if (cv_.wait_for(lock, delay, [this] { return stop_; })) return false;
+    delay *= 2;
+  }
+  return true;
 }
 
 void WebhookSender::Loop() {
@@ -127,17 +181,7 @@ void WebhookSender::Loop() {
     if (stop_) return;
     const Item item = std::move(queue_.front());
     queue_.pop_front();
-    auto delay = options_.first_delay;
-    for (int attempt = 1; attempt <= options_.attempts; ++attempt) {
-      lock.unlock();
-      const bool ok = Deliver(item, attempt);
-      const bool last = ok || attempt == options_.attempts;
-      status_(item.id, ok ? "delivered" : last ? "failed" : "pending", attempt);
-      lock.lock();
-      if (last) break;
-      if (cv_.wait_for(lock, delay, [this] { return stop_; })) return;
-      delay *= 2;
-    }
+    if (!Send(item, lock)) return;
   }
 }
 

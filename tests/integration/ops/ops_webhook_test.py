@@ -74,8 +74,8 @@ def run_audit(srv, repo):
 
 def scenario(a, tmp, name, secret, how, check):
     rec = Receiver()
-    extra = ["--audit-webhook-url", rec.url, "--audit-webhook-first-delay-ms", "100",
-             "--access-log", "off"]
+    extra = ["--audit-webhook-url", rec.url, "--audit-webhook-allow-private",
+             "--audit-webhook-first-delay-ms", "100", "--access-log", "off"]
     env = {}
     if how == "env":
         env["KINEMETRIC_AUDIT_WEBHOOK_SECRET"] = secret.decode()

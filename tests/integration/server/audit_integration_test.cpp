@@ -198,7 +198,7 @@ TEST_F(AuditIntegration, TheWebhookIsDeliveredAfterAFirst500) {
   const int port = receiver.bind_to_any_port("127.0.0.1");
   std::thread serving([&] { receiver.listen_after_bind(); });
   Start("--audit-webhook-url http://127.0.0.1:" + std::to_string(port) +
-        "/hook --audit-webhook-first-delay-ms 200");
+        "/hook --audit-webhook-first-delay-ms 200 --audit-webhook-allow-private");
   const auto [id, circ] = UploadDbb();
   ASSERT_EQ(Put("/api/v1/machines/demo-vmc/audit", Rules(circ - 1.0, circ + 10.0))->status, 200);
   const json v = Run("demo-vmc");

@@ -351,6 +351,7 @@ TEST_F(AccuracyAudits, TheWebhookIsRetriedAfterA500AndTheDeliveryRecorded) {
   const auto [id, circ] = UploadDbb(*svc);
   AuditOptions o;
   o.webhook_url = "http://127.0.0.1:" + std::to_string(receiver.port()) + "/hook";
+  o.webhook_allow_private = true;  // the receiver is on this host
   o.webhook_first_delay_ms = 100;
   AuditScheduler audits(*svc, o, clock_);
   audits.Start();
@@ -387,6 +388,7 @@ TEST_F(AccuracyAudits, WebhookDeliveriesAreSignedAndNamedForTheReceiverToDropRep
   const auto circ = UploadDbb(*svc).second;
   AuditOptions o;
   o.webhook_url = "http://127.0.0.1:" + std::to_string(receiver.port()) + "/hook";
+  o.webhook_allow_private = true;  // the receiver is on this host
   o.webhook_first_delay_ms = 50;
   o.webhook_secret = "correct horse battery staple";
   AuditScheduler audits(*svc, o, clock_);
@@ -448,6 +450,7 @@ TEST_F(AccuracyAudits, AWebhookLeftPendingByAStopIsSentAtTheNextStart) {
   const auto [id, circ] = UploadDbb(*svc);
   AuditOptions o;
   o.webhook_url = "http://127.0.0.1:" + std::to_string(receiver.port()) + "/hook";
+  o.webhook_allow_private = true;  // the receiver is on this host
   o.webhook_first_delay_ms = 50;
   json v;
   {
@@ -473,12 +476,14 @@ TEST_F(AccuracyAudits, AWebhookLeftPendingByAStopIsSentAtTheNextStart) {
 }
 
 TEST(AuditWebhookOptions, AreReadFromTheCommandLineAndChecked) {
-  const auto cfg =
-      ParseServerArgs({"--audit-webhook-url", "http://127.0.0.1:9000/hook",
-                       "--audit-webhook-attempts", "3", "--audit-webhook-first-delay-ms", "250"});
-  EXPECT_EQ(cfg.audit_webhook_url, "http://127.0.0.1:9000/hook");
+  const auto cfg = ParseServerArgs(
+      {"--audit-webhook-url", "http://hooks.example:9000/hook", "--audit-webhook-attempts", "3",
+       "--audit-webhook-first-delay-ms", "250", "--audit-webhook-timeout-s", "2"});
+  EXPECT_EQ(cfg.audit_webhook_url, "http://hooks.example:9000/hook");
   EXPECT_EQ(cfg.audit_webhook_attempts, 3);
   EXPECT_EQ(cfg.audit_webhook_first_delay_ms, 250);
+  EXPECT_EQ(cfg.audit_webhook_timeout_s, 2);
+  EXPECT_FALSE(cfg.audit_webhook_allow_private);
   const auto field = [](const std::vector<std::string>& args) {
     try {
       ParseServerArgs(args);
@@ -493,6 +498,9 @@ TEST(AuditWebhookOptions, AreReadFromTheCommandLineAndChecked) {
   EXPECT_EQ(field({"--audit-webhook-attempts", "0"}), "--audit-webhook-attempts");
   EXPECT_EQ(field({"--audit-webhook-attempts", "21"}), "--audit-webhook-attempts");
   EXPECT_EQ(field({"--audit-webhook-first-delay-ms", "5"}), "--audit-webhook-first-delay-ms");
+  EXPECT_EQ(field({"--audit-webhook-timeout-s", "0"}), "--audit-webhook-timeout-s");
+  EXPECT_EQ(field({"--audit-webhook-timeout-s", "301"}), "--audit-webhook-timeout-s");
+  EXPECT_EQ(field({"--audit-webhook-url", "http://h/a b"}), "--audit-webhook-url");
 }
 
 // The signing secret comes from the config file (never the command line) or the environment;
