@@ -36,6 +36,8 @@ constexpr PolicyEntry kPolicy[] = {
     {"POST", "/api/v1/calibrations", Role::kEngineer},
     {"POST", "/api/v1/discoveries", Role::kEngineer},
     {"POST", "/api/v1/jobs/{id}/save-machine", Role::kEngineer},
+    // Beyond the role, only the job's owner or an admin (Service::CancelJob).
+    {"DELETE", "/api/v1/jobs/{id}", Role::kEngineer},
     {"POST", "/api/v1/machines", Role::kEngineer},
     {"POST", "/api/v1/servo/identify", Role::kEngineer},
     {"PUT", "/api/v1/machines/{machine_id}/audit", Role::kEngineer},
@@ -145,7 +147,8 @@ std::string AuditSubject(const Route* route, const Request& req, const Response&
         parts.push_back("audit " + j["id"].dump());  // an accuracy-audit run
       } else if (j.contains("job_id")) {
         parts.push_back("job " + j["job_id"].dump());
-      } else if (j.contains("id") && (j.contains("kind") || j.contains("sha256"))) {
+      } else if (j.contains("id") && (j.contains("kind") || j.contains("sha256")) &&
+                 !j.contains("status")) {  // a job's answer (kind, status) names no measurement
         parts.push_back("measurement " + j["id"].dump());
       } else if (j.contains("id") && req.path_params.empty() && !first_noun.empty()) {
         parts.push_back(first_noun + " " + j["id"].dump());

@@ -47,13 +47,31 @@ std::optional<std::string> Request::Header(const std::string& lower_name) const 
   return it->second;
 }
 
+namespace {
+// What the id of a route names, from the path segment before it: "/api/v1/tokens/{id}" →
+// "token"; "" when the pattern does not say.
+std::string IdNoun(const std::string& pattern, const std::string& name) {
+  const auto at = pattern.find("/{" + name + "}");
+  if (at == std::string::npos || at == 0) return "";
+  const auto start = pattern.rfind('/', at - 1);
+  std::string segment = pattern.substr(start + 1, at - start - 1);
+  if (segment == "discoveries") return "discovery";
+  if (segment.size() > 1 && segment.back() == 's') segment.pop_back();
+  return segment;
+}
+}  // namespace
+
 std::int64_t Request::PathId(const std::string& name) const {
   const auto it = path_params.find(name);
   const std::string v = it == path_params.end() ? "" : it->second;
   std::int64_t id = 0;
   const auto [ptr, ec] = std::from_chars(v.data(), v.data() + v.size(), id);
   if (ec != std::errc() || ptr != v.data() + v.size() || id <= 0) {
-    throw InvalidInput("", 0, name, "'" + v + "' is not a measurement id (a positive integer)");
+    const std::string noun = IdNoun(route, name);
+    const bool vowel = noun.empty() || std::string("aeiou").find(noun[0]) != std::string::npos;
+    throw InvalidInput("", 0, name,
+                       "'" + v + "' is not " + (vowel ? "an " : "a ") + noun +
+                           (noun.empty() ? "" : " ") + "id (a positive integer)");
   }
   return id;
 }

@@ -195,7 +195,9 @@ std::string Metrics::Exposition(server::Service* service) const {
   if (service) {
     Family(out, "kinemetric_jobs", "gauge", "Background jobs by status");
     auto counts = service->storage().CountJobsByStatus();
-    for (const char* s : {"queued", "running", "done", "failed"}) counts.try_emplace(s, 0);
+    for (const char* s : {"queued", "running", "done", "failed", "cancelled"}) {
+      counts.try_emplace(s, 0);
+    }
     for (const auto& [status, n] : counts) {
       Sample(out, "kinemetric_jobs", "status=\"" + LabelValue(status) + "\"",
              static_cast<double>(n));

@@ -229,7 +229,7 @@ void AddJobRoutes(Router& router, server::Service& service) {
           "mode) as a background job",
           true,
           [svc](const Request& req) {
-            const auto id = svc->SubmitCalibration(JsonBody(req));
+            const auto id = svc->SubmitCalibration(JsonBody(req), req.token_id);
             return JobAccepted(id);
           },
           {{"requestBody",
@@ -256,6 +256,25 @@ void AddJobRoutes(Router& router, server::Service& service) {
             [svc](const Request& req) { return Response::Json(svc->Job(req.PathId("id"))); },
             {{"responses",
               {{"200", JsonResponse("{id, kind, status, progress, stage, result?, error?}")}}}}});
+
+  router.Add(Route{
+      "DELETE",
+      "/api/v1/jobs/{id}",
+      "Cancel a queued or running job (its owner, the token that submitted it, or an admin)",
+      true,
+      [svc](const Request& req) {
+        const server::JobCanceller by{req.token_id, req.token_name, req.token_role == "admin"};
+        try {
+          return Response::Json(svc->CancelJob(req.PathId("id"), by));
+        } catch (const server::Conflict& e) {
+          return Problem(409, "Conflict", e.what());
+        }
+      },
+      {{"responses",
+        {{"200", JsonResponse("the job, status cancelled; a running job stops at its next "
+                              "progress report")},
+         {"403", {{"description", "the token neither submitted the job nor is an admin"}}},
+         {"409", {{"description", "the job is done, failed or cancelled already"}}}}}}});
 
   router.Add(Route{
       "GET",
@@ -308,7 +327,7 @@ void AddStudyRoutes(Router& router, server::Service& service) {
             "background job",
             true,
             [svc](const Request& req) {
-              const auto id = svc->SubmitDiscovery(JsonBody(req));
+              const auto id = svc->SubmitDiscovery(JsonBody(req), req.token_id);
               return JobAccepted(id);
             },
             {{"requestBody",

@@ -1,5 +1,6 @@
 #include "report/calibration_study.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "analysis/core/errors.h"
@@ -111,8 +112,14 @@ CalibrationOutcome RunCalibrationStudy(const CalibrationStudy& study, const Prog
   if (study.reduction_min_tests > 0) {  // [PM-600 report] §5.2.3
     report(0.7, "test-set reduction study");
     nlohmann::json steps = nlohmann::json::array();
-    for (const auto& st : hexapod::TestSetReductionStudy(study.machine.geometry, study.tests,
-                                                         options, study.reduction_min_tests)) {
+    // Each of its calibrations is reported: a job's progress, and where a cancelled job stops.
+    const auto each = [&](int done, int total) {
+      report(0.7 + 0.29 * done / std::max(total, 1), "test-set reduction study: calibration " +
+                                                         std::to_string(done + 1) + " of " +
+                                                         std::to_string(total));
+    };
+    for (const auto& st : hexapod::TestSetReductionStudy(
+             study.machine.geometry, study.tests, options, study.reduction_min_tests, each)) {
       steps.push_back({{"tests_kept", st.groups_kept},
                        {"kept_test_ids", st.kept_test_ids},
                        {"dropped_test_id", st.dropped_test_id},

@@ -97,18 +97,49 @@ std::vector<std::int64_t> MeasurementIds(const nlohmann::json& request, std::siz
   return ids;
 }
 
+// The tests of a study are of one machine: a model is calibrated (or its gaps found) from the
+// tests of the machine it describes, not from another machine's.
+void RequireOneMachine(const std::vector<std::int64_t>& ids,
+                       const std::vector<std::string>& machines, const std::string& study) {
+  for (std::size_t i = 1; i < machines.size(); ++i) {
+    if (machines[i] != machines[0]) {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "measurement " + std::to_string(ids[0]) + " is of machine '" +
+                             machines[0] + "', measurement " + std::to_string(ids[i]) + " of '" +
+                             machines[i] + "'; a " + study + " takes the DBB tests of one machine");
+    }
+  }
+}
+
+// Effects fitted with the kinematics (named, or the stored model's own) leave no room for the
+// reduction study, which recalibrates the plain kinematics only.
+void RequireReductionWithoutEffects(const CalibrationPlan& plan) {
+  if (plan.reduction_min_tests == 0) return;
+  if (!plan.effects.empty()) {
+    throw InvalidInput("request", 0, "reduction_study_min_tests",
+                       "the reduction study is available for the plain calibration only; the "
+                       "request names effects to fit");
+  }
+  if (!plan.machine.effects.empty()) {
+    throw InvalidInput(
+        "request", 0, "reduction_study_min_tests",
+        "the reduction study is available for the plain calibration only; machine '" +
+            plan.machine.machine_id + "' has effects of its own");
+  }
+}
+
 }  // namespace
 
 std::vector<std::int64_t> Service::CheckedDbbIds(const nlohmann::json& request,
                                                  const std::string& study, bool need_tool_length,
-                                                 bool need_fixed_ball,
-                                                 std::vector<std::string>* machines) {
+                                                 bool need_fixed_ball) {
   const std::vector<std::int64_t> ids =
       MeasurementIds(request, options_.max_calibration_tests, study);
   // Every test from its stored record (no file is read now): it exists, is a DBB test, and has
   // what the study needs without a solve (tool length; the fixed ball when the method is
   // absolute). The samples of all tests together are bounded: the job holds them all.
   std::size_t samples = 0;
+  std::vector<std::string> machines;
   for (const std::int64_t id : ids) {
     const auto rec = storage_->GetMeasurement(id);
     if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
@@ -127,8 +158,9 @@ std::vector<std::int64_t> Service::CheckedDbbIds(const nlohmann::json& request,
                          "absolute calibration needs the measured fixed-ball position");
     }
     samples += static_cast<std::size_t>(std::max<std::int64_t>(rec->sample_count, 0));
-    if (machines) machines->push_back(rec->machine_id);
+    machines.push_back(rec->machine_id);
   }
+  RequireOneMachine(ids, machines, study);
   if (samples > options_.max_calibration_samples) {
     throw InvalidInput("request", 0, "measurement_ids",
                        "the " + std::to_string(ids.size()) + " DBB tests hold " +
@@ -178,13 +210,15 @@ std::shared_ptr<CalibrationPlan> Service::CheckCalibration(const nlohmann::json&
   plan->effects = EffectNames(request);
   plan->max_samples_per_test =
       static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
+  RequireReductionWithoutEffects(*plan);
   plan->ids = CheckedDbbIds(request, "calibration study", true,
                             plan->method == hexapod::CalibrationMethod::kAbsolute);
 
   return plan;
 }
 
-std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
+std::int64_t Service::SubmitCalibration(const nlohmann::json& request,
+                                        std::int64_t owner_token_id) {
   std::int64_t stored_version = 0;
   const auto plan = CheckCalibration(request, stored_version);
   nlohmann::json shown = request;
@@ -197,7 +231,7 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request) {
     shown["machine_version"] = stored_version;
     run["machine_version"] = stored_version;
   }
-  return jobs_->Submit("hexapod_calibration", shown, run);
+  return jobs_->Submit("hexapod_calibration", shown, run, owner_token_id);
 }
 
 // The job reads the tests when it runs, checked again from the plan.
@@ -229,6 +263,24 @@ nlohmann::json Service::Job(std::int64_t id) {
   const auto job = storage_->GetJob(id);
   if (!job) throw NotFound("job " + std::to_string(id) + " does not exist");
   return JobJson(*job);
+}
+
+nlohmann::json Service::CancelJob(std::int64_t id, const JobCanceller& by) {
+  const auto job = storage_->GetJob(id);
+  const std::string name = "job " + std::to_string(id);
+  if (!job) throw NotFound(name + " does not exist");
+  if (!by.admin && (job->owner_token_id == 0 || job->owner_token_id != by.token_id)) {
+    throw Forbidden(name + " was submitted by another token; only its owner or an admin may " +
+                    "cancel it");
+  }
+  const std::string reason =
+      "cancelled by token '" + by.token_name + "' (id " + std::to_string(by.token_id) + ")";
+  if (!jobs_->Cancel(id, reason)) {
+    const auto now = storage_->GetJob(id);
+    throw Conflict(name + " is " + (now ? now->status : std::string("gone")) +
+                   " already; only a queued or running job can be cancelled");
+  }
+  return Job(id);
 }
 
 nlohmann::json Service::Jobs(std::int64_t limit) {

@@ -42,28 +42,18 @@ std::shared_ptr<DiscoveryPlan> Service::CheckDiscovery(const nlohmann::json& req
   plan->max_samples_per_test =
       static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
   const bool hexapod = plan->machine && plan->machine->kind == "hexapod";
-  std::vector<std::string> machines;
-  plan->ids = CheckedDbbIds(request, "discovery study", hexapod, false, &machines);
-  for (std::size_t i = 1; i < machines.size(); ++i) {
-    if (machines[i] != machines[0]) {
-      throw InvalidInput("request", 0, "measurement_ids",
-                         "measurement " + std::to_string(plan->ids[0]) + " is of machine '" +
-                             machines[0] + "', measurement " + std::to_string(plan->ids[i]) +
-                             " of '" + machines[i] +
-                             "'; a discovery study takes the DBB tests of one machine");
-    }
-  }
+  plan->ids = CheckedDbbIds(request, "discovery study", hexapod, false);
 
   return plan;
 }
 
-std::int64_t Service::SubmitDiscovery(const nlohmann::json& request) {
+std::int64_t Service::SubmitDiscovery(const nlohmann::json& request, std::int64_t owner_token_id) {
   std::int64_t version = 0;
   const auto plan = CheckDiscovery(request, version);
   // Shown and run: the request with the stored model's version it was checked against.
   nlohmann::json stored = request;
   if (plan->machine) stored["machine_version"] = version;
-  return jobs_->Submit("discovery", stored, stored);
+  return jobs_->Submit("discovery", stored, stored, owner_token_id);
 }
 
 // The job reads the tests when it runs, checked again from the plan.

@@ -103,18 +103,26 @@ void JobQueue::Stop() {
 }
 
 std::int64_t JobQueue::Submit(const std::string& kind, const nlohmann::json& request,
-                              const nlohmann::json& plan) {
+                              const nlohmann::json& plan, std::int64_t owner_token_id) {
   if (storage_.CountJobsWithStatus("queued") >= static_cast<std::int64_t>(options_.max_queued)) {
     throw Unavailable("the job queue is full (" + std::to_string(options_.max_queued) +
                       " jobs waiting); try again later");
   }
-  const std::int64_t id = storage_.QueueJob(NewJob{kind, request.dump(), plan.dump()});
+  const std::int64_t id =
+      storage_.QueueJob(NewJob{kind, request.dump(), plan.dump(), owner_token_id});
   {
     std::lock_guard lock(mu_);
     ++pending_;
   }
   cv_.notify_all();  // the heartbeat waits on it too
   return id;
+}
+
+bool JobQueue::Cancel(std::int64_t id, const std::string& reason) {
+  if (!storage_.CancelJob(id, reason)) return false;
+  std::lock_guard lock(mu_);
+  if (const auto it = running_.find(id); it != running_.end()) it->second.lost = true;
+  return true;
 }
 
 void JobQueue::Work() {
@@ -263,8 +271,9 @@ void JobQueue::Finish(JobRecord job) {
   }
   if (error) LogStoreFailure(job.id, "its outcome", *error);
   if (!held) {
-    LogStoreFailure(job.id, "its outcome",
-                    "the lease ran out and another instance runs the job; this outcome is dropped");
+    LogJob(job.id,
+           "its outcome is dropped: the job was cancelled, or its lease ran out and another "
+           "instance runs it");
   }
 }
 
@@ -287,6 +296,8 @@ nlohmann::json JobJson(const JobRecord& job) {
   j["instance"] =
       job.lease_owner.empty() ? nlohmann::json(nullptr) : nlohmann::json(job.lease_owner);
   j["attempts"] = job.attempts;
+  j["owner_token_id"] =
+      job.owner_token_id > 0 ? nlohmann::json(job.owner_token_id) : nlohmann::json(nullptr);
   const JobVerdict v =
       JudgeJob(job.kind, job.status, j.value("result", nlohmann::json()), job.error);
   j["verdict"] = v.verdict.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.verdict);

@@ -51,14 +51,18 @@ class JobQueue {
   // Stores the job as queued (request: what the API shows; plan: what a worker runs) and wakes
   // a worker. Throws Unavailable when max_queued jobs are waiting.
   std::int64_t Submit(const std::string& kind, const nlohmann::json& request,
-                      const nlohmann::json& plan);
+                      const nlohmann::json& plan, std::int64_t owner_token_id = 0);
+  // Cancels a queued or running job (reason: its error); false when it is neither. A job
+  // running here stops at its next progress report, its worker free for the next job; one
+  // running on another instance stops there when its next report is refused by the storage.
+  bool Cancel(std::int64_t id, const std::string& reason);
   const std::string& instance() const { return options_.instance; }
 
  private:
   struct Running {
     double progress = 0.0;
     std::string stage;
-    bool lost = false;  // the lease was lost: another instance runs the job now
+    bool lost = false;  // the job is no longer ours: cancelled, or another instance runs it
   };
   void Work();
   void Heartbeat();
@@ -82,7 +86,8 @@ class JobQueue {
 };
 
 // The job as the API serves it: id, kind, status, progress, stage, times, request, result,
-// error, and the verdict on its outcome (JudgeJob) as "verdict" and "verdict_reasons".
+// error, owner_token_id (null when not known), and the verdict on its outcome (JudgeJob) as
+// "verdict" and "verdict_reasons".
 nlohmann::json JobJson(const JobRecord& job);
 
 // The verdict on a background job's outcome (docs/formats.md §5): can its figures be trusted?
@@ -101,7 +106,8 @@ struct JobVerdict {
 };
 
 // kind: "hexapod_calibration" or "discovery" (other kinds: "ok" when done); status: queued,
-// running, done, failed; result: the stored result (null when none); error: when failed.
+// running, done, failed, cancelled (no verdict: there are no figures to judge); result: the
+// stored result (null when none); error: when failed.
 JobVerdict JudgeJob(const std::string& kind, const std::string& status,
                     const nlohmann::json& result, const std::string& error);
 

@@ -1,4 +1,4 @@
-// Background jobs in the PostgreSQL backend (migrations 2 and 8): the job records, and the queue
+// Background jobs in the PostgreSQL backend (migrations 2, 8 and 9): the job records, and the queue
 // every worker of every instance takes jobs from under a lease (server/jobs.h). A claim locks
 // the row it takes and skips rows other claimers hold, so two never take the same job.
 #include "server/pg_db.h"
@@ -13,7 +13,7 @@ using pg::Result;
 
 constexpr const char* kJobColumns =
     "id, kind, status, progress, stage, request_json, result_json, error, created_at, updated_at, "
-    "plan_json, lease_owner, lease_until_ms, attempts";
+    "plan_json, lease_owner, lease_until_ms, attempts, owner_token_id";
 
 JobRecord ReadJob(const Result& s, int row) {
   JobRecord j;
@@ -31,6 +31,7 @@ JobRecord ReadJob(const Result& s, int row) {
   j.lease_owner = s.Text(row, 11);
   j.lease_until_ms = s.Int(row, 12);
   j.attempts = s.Int(row, 13);
+  j.owner_token_id = s.Int(row, 14);
   return j;
 }
 
@@ -109,11 +110,11 @@ std::int64_t PgStorage::QueueJob(const NewJob& job) {
   auto c = pool_->Acquire();
   Params p;
   p.Text(job.kind, "kind").Text(job.request_json, "request").Text(job.plan_json, "plan");
-  p.Text(NowUtcIso8601(), "created_at");
+  p.Text(NowUtcIso8601(), "created_at").Int(job.owner_token_id);
   return c
       ->Query(
-          "INSERT INTO jobs (kind, status, request_json, plan_json, created_at, updated_at) "
-          "VALUES ($1, 'queued', $2, $3, $4, $4) RETURNING id",
+          "INSERT INTO jobs (kind, status, request_json, plan_json, created_at, updated_at, "
+          "owner_token_id) VALUES ($1, 'queued', $2, $3, $4, $4, $5) RETURNING id",
           p, "queue job")
       .Int(0, 0);
 }
@@ -197,6 +198,18 @@ int PgStorage::ReleaseJobs(const std::string& owner) {
                "WHERE status = 'running' AND lease_owner = $2",
                p, "release jobs")
           .Affected());
+}
+
+bool PgStorage::CancelJob(std::int64_t id, const std::string& reason) {
+  auto c = pool_->Acquire();
+  Params p;
+  p.Text(reason, "reason").Text(NowUtcIso8601(), "updated_at").Int(id);
+  return c->Query(
+              "UPDATE jobs SET status = 'cancelled', stage = 'cancelled', error = $1, "
+              "lease_until_ms = 0, updated_at = $2 "
+              "WHERE id = $3 AND status IN ('queued', 'running')",
+              p, "cancel job")
+             .Affected() == 1;
 }
 
 }  // namespace km::server

@@ -72,6 +72,7 @@ class PgStorage : public Storage {
                 const std::string& stage, std::int64_t lease_until_ms) override;
   bool FinishJob(const JobRecord& job, const std::string& owner) override;
   int ReleaseJobs(const std::string& owner) override;
+  bool CancelJob(std::int64_t id, const std::string& reason) override;
   std::int64_t CreateStream(const NewStream& s) override;
   std::optional<StreamRecord> GetStream(std::int64_t id) override;
   std::vector<StreamRecord> ListStreams(const std::optional<std::string>& machine_id,

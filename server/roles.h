@@ -1,7 +1,8 @@
 // The roles of access tokens, each allowed everything of the roles below it: viewer (read),
 // operator (+ upload measurements, open and feed streams), engineer (+ calibrations,
-// discoveries, machine definitions, servo identification, audit rules), admin (+ tokens,
-// devices, schedules, the audit log). kPublic marks routes that need no token at all.
+// discoveries, cancelling its own jobs, machine definitions, servo identification, audit rules
+// and schedules), admin (+ tokens, devices, cancelling any job, the audit log). kPublic marks
+// routes that need no token at all.
 #pragma once
 
 #include <optional>

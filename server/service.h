@@ -83,6 +83,13 @@ class Conflict : public Error {
   using Error::Error;
 };
 
+// Who asks to cancel a job (Service::CancelJob): the caller's token and whether it is an admin.
+struct JobCanceller {
+  std::int64_t token_id = 0;
+  std::string token_name;
+  bool admin = false;
+};
+
 struct UploadOutcome {
   std::int64_t id = 0;
   bool created = false;
@@ -162,7 +169,10 @@ class Service {
   // machine.
   // Instead of "machine", the request may name a stored model: "machine_id" (and optionally
   // "machine_version", else the newest); the job's request then records the version used.
-  std::int64_t SubmitCalibration(const nlohmann::json& request);
+  // The tests must be of one machine, and the reduction study is refused together with
+  // effects (named, or the stored model's own). owner_token_id: the token submitting the job,
+  // who may cancel it (CancelJob).
+  std::int64_t SubmitCalibration(const nlohmann::json& request, std::int64_t owner_token_id = 0);
   // Model-gap discovery study (report/discovery_report.h) as a background job. Request:
   // {"machine_id"?, "machine_version"?, "measurement_ids": [DBB ids], "max_samples_per_test"?}.
   // Checked like a calibration request (at most max_calibration_tests ids, each once, each a
@@ -170,8 +180,13 @@ class Service {
   // serial study of the DBB tests' machine; with it: the stored model (a hexapod's tests need
   // the tool length). The job's result is the `kinemetric discover` object, plus
   // "updated_machine" when the study produced one.
-  std::int64_t SubmitDiscovery(const nlohmann::json& request);
+  std::int64_t SubmitDiscovery(const nlohmann::json& request, std::int64_t owner_token_id = 0);
   nlohmann::json Job(std::int64_t id);
+  // Cancels a queued or running job for its owner (the token that submitted it) or an admin;
+  // answers the job, status "cancelled" (its error says by whom). A running job stops at its
+  // next progress report (server/jobs.h). NotFound: no such job; Forbidden: `by` neither owns
+  // it nor is an admin; Conflict: the job is done, failed or cancelled already.
+  nlohmann::json CancelJob(std::int64_t id, const JobCanceller& by);
   nlohmann::json Jobs(std::int64_t limit);
   // The jobs of one machine, newest first, as Jobs: those whose request names the machine
   // (machine_id) or whose DBB tests are of it; among the newest `scan` jobs.
@@ -235,11 +250,10 @@ class Service {
   ingest::MachineDefinition RequestedMachine(const nlohmann::json& request, std::int64_t& version);
   // The "measurement_ids" of a study request, checked from the stored records alone (no file is
   // read): at most max_calibration_tests, each once, each a DBB test (with a tool length and,
-  // when asked, a fixed ball), at most max_calibration_samples samples in all. `machines` gets
-  // the machine_id of every test, in order (calibration_jobs.cpp).
+  // when asked, a fixed ball), all of one machine, at most max_calibration_samples samples in
+  // all (calibration_jobs.cpp).
   std::vector<std::int64_t> CheckedDbbIds(const nlohmann::json& request, const std::string& study,
-                                          bool need_tool_length, bool need_fixed_ball,
-                                          std::vector<std::string>* machines = nullptr);
+                                          bool need_tool_length, bool need_fixed_ball);
   // Study requests checked into what a job runs (calibration_jobs.cpp, discovery_jobs.cpp), and
   // the jobs' runners (from the stored plan, on whichever instance takes the job).
   std::shared_ptr<CalibrationPlan> CheckCalibration(const nlohmann::json& request,

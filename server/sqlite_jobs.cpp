@@ -1,4 +1,4 @@
-// Background jobs in the SQLite backend (migrations 2 and 8): the job records, and the queue
+// Background jobs in the SQLite backend (migrations 2, 8 and 9): the job records, and the queue
 // every worker takes jobs from under a lease (server/jobs.h). A claim is one write transaction,
 // so two connections never take the same job.
 #include <sqlite3.h>
@@ -14,7 +14,7 @@ using sqlite::Statement;
 
 constexpr const char* kJobColumns =
     "id, kind, status, progress, stage, request_json, result_json, error, created_at, updated_at, "
-    "plan_json, lease_owner, lease_until_ms, attempts";
+    "plan_json, lease_owner, lease_until_ms, attempts, owner_token_id";
 
 JobRecord ReadJob(const Statement& s) {
   JobRecord j;
@@ -32,6 +32,7 @@ JobRecord ReadJob(const Statement& s) {
   j.lease_owner = s.Text(11);
   j.lease_until_ms = s.Int(12);
   j.attempts = s.Int(13);
+  j.owner_token_id = s.Int(14);
   return j;
 }
 
@@ -44,10 +45,11 @@ std::int64_t SqliteStorage::CreateJob(const std::string& kind, const std::string
 std::int64_t SqliteStorage::QueueJob(const NewJob& job) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
-      "INSERT INTO jobs (kind, status, request_json, plan_json, created_at, updated_at) "
-      "VALUES (?, 'queued', ?, ?, ?, ?)");
+      "INSERT INTO jobs (kind, status, request_json, plan_json, created_at, updated_at, "
+      "owner_token_id) VALUES (?, 'queued', ?, ?, ?, ?, ?)");
   const std::string now = NowUtcIso8601();
   s->Bind(1, job.kind).Bind(2, job.request_json).Bind(3, job.plan_json).Bind(4, now).Bind(5, now);
+  s->Bind(6, job.owner_token_id);
   s->Step();
   return sqlite3_last_insert_rowid(db_);
 }
@@ -175,6 +177,16 @@ int SqliteStorage::ReleaseJobs(const std::string& owner) {
   s->Bind(1, NowUtcIso8601()).Bind(2, owner);
   s->Step();
   return sqlite3_changes(db_);
+}
+
+bool SqliteStorage::CancelJob(std::int64_t id, const std::string& reason) {
+  std::lock_guard lock(mu_);
+  auto s = Prepared(
+      "UPDATE jobs SET status = 'cancelled', stage = 'cancelled', error = ?, lease_until_ms = 0, "
+      "updated_at = ? WHERE id = ? AND status IN ('queued', 'running')");
+  s->Bind(1, reason).Bind(2, NowUtcIso8601()).Bind(3, id);
+  s->Step();
+  return sqlite3_changes(db_) == 1;
 }
 
 }  // namespace km::server

@@ -197,6 +197,10 @@ ALTER TABLE jobs ADD COLUMN lease_until_ms INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE jobs ADD COLUMN attempts INTEGER NOT NULL DEFAULT 0;
 CREATE INDEX jobs_by_status ON jobs(status, id);
 )sql",
+    // 9: the access token that submitted a job (its owner may cancel it; 0: not known).
+    R"sql(
+ALTER TABLE jobs ADD COLUMN owner_token_id INTEGER NOT NULL DEFAULT 0;
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

@@ -144,7 +144,7 @@ struct PutOutcome {
 struct JobRecord {
   std::int64_t id = 0;
   std::string kind;
-  std::string status;  // queued, running, done, failed
+  std::string status;  // queued, running, done, failed, cancelled
   double progress = 0.0;
   std::string stage;
   std::string request_json;
@@ -158,6 +158,8 @@ struct JobRecord {
   std::string lease_owner;
   std::int64_t lease_until_ms = 0;
   std::int64_t attempts = 0;
+  // The access token that submitted the job (0: not known, e.g. queued before it was kept).
+  std::int64_t owner_token_id = 0;
 };
 
 // A job as queued: request_json is what the API shows, plan_json what a worker runs.
@@ -165,6 +167,7 @@ struct NewJob {
   std::string kind;
   std::string request_json;
   std::string plan_json;
+  std::int64_t owner_token_id = 0;
 };
 
 // Capacitance-sensor streams (docs/streams.md). A stream belongs to a machine and has a source
@@ -334,6 +337,10 @@ class Storage {
   // owner's running jobs go back to the queue (a stopping instance): queued, lease cleared,
   // attempts kept; how many.
   virtual int ReleaseJobs(const std::string& owner) = 0;
+  // A queued or running job becomes cancelled (stage "cancelled", error = reason, lease ended):
+  // no instance claims it again, and the instance running it has its next RenewJob and
+  // FinishJob refused. false (nothing written) when the job is not queued or running.
+  virtual bool CancelJob(std::int64_t id, const std::string& reason) = 0;
 
   // Streams. AppendStream writes chunks and gaps in one transaction; a chunk whose
   // (stream, channel, first_counter) is stored already is refused (InvalidInput).

@@ -304,8 +304,8 @@ std::vector<TestPrediction> PredictAfterCalibration(
 
 std::vector<ReductionStep> TestSetReductionStudy(const HexapodGeometry& nominal,
                                                  const std::vector<dbb::DbbTest>& tests,
-                                                 const CalibrationOptions& options,
-                                                 int min_groups) {
+                                                 const CalibrationOptions& options, int min_groups,
+                                                 const ReductionProgress& on_calibration) {
   std::vector<std::string> groups;
   for (const auto& t : tests) {
     if (std::find(groups.begin(), groups.end(), t.test_id) == groups.end())
@@ -313,7 +313,14 @@ std::vector<ReductionStep> TestSetReductionStudy(const HexapodGeometry& nominal,
   }
   if (min_groups < 1) throw InvalidInput("", 0, "min_groups", "must be at least 1");
   std::size_t max_fixed = kNumKinematicParameters;  // set by the full set
+  // The calibrations of the study: the full set, then k trials of each set of k groups kept.
+  const int n = static_cast<int>(groups.size());
+  const int lowest = std::min(std::max(min_groups, 1), n);
+  const int total = 1 + (n * (n + 1) - lowest * (lowest + 1)) / 2;
+  int done = 0;
   auto evaluate = [&](const std::vector<std::string>& kept, ReductionStep* step) -> bool {
+    if (on_calibration) on_calibration(done, total);
+    ++done;
     std::vector<dbb::DbbTest> subset;
     for (const auto& t : tests) {
       if (std::find(kept.begin(), kept.end(), t.test_id) != kept.end()) subset.push_back(t);

@@ -28,6 +28,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -188,8 +189,13 @@ struct ReductionStep {
   double max_predicted_circularity_um = 0.0;
   double condition_number = 0.0;
 };
+// on_calibration(done, total), when given, is called before each of the study's calibrations
+// (done of about total so far): a caller follows the progress there, and may stop the study by
+// throwing from it.
+using ReductionProgress = std::function<void(int done, int total)>;
 std::vector<ReductionStep> TestSetReductionStudy(const HexapodGeometry& nominal,
                                                  const std::vector<dbb::DbbTest>& tests,
-                                                 const CalibrationOptions& options, int min_groups);
+                                                 const CalibrationOptions& options, int min_groups,
+                                                 const ReductionProgress& on_calibration = {});
 
 }  // namespace km::hexapod

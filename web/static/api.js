@@ -163,6 +163,8 @@ export const api = {
     }),
   // The machine a finished calibration / discovery job produced, stored as the next version of
   // its model → {machine_id, version, created_at, created}.
+  // Cancels a queued or running job (its owner or an admin) → the job, status cancelled.
+  cancelJob: (jobId) => apiFetch(`/api/v1/jobs/${encodeURIComponent(jobId)}`, { method: 'DELETE' }),
   saveJobMachine: (jobId) =>
     apiFetch(`/api/v1/jobs/${encodeURIComponent(jobId)}/save-machine`, {
       method: 'POST',

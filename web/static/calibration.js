@@ -7,6 +7,7 @@ import { api, ApiError } from './api.js';
 import { handleAuth } from './auth.js';
 import { $, asProblem, downloadText, errorBox, h, keepFocus, problemContent, setMessage } from './dom.js';
 import { formatDirection, formatMode, formatNumber, formatTimestamp, formatUncertainty } from './format.js';
+import { cancelledContent, jobCancelControl } from './job_cancel.js';
 import { jobHash, navigate } from './router.js';
 import { state } from './state.js';
 
@@ -165,8 +166,11 @@ export async function loadJobHistory() {
 
 // ---------------------------------------------------------------- the job view
 
+let showCancel = () => {}; // the view's Cancel button (initCalibration)
+
 export async function showJob(jobId) {
   const seq = ++state.jobSeq;
+  showCancel(null);
   const view = $('#job-view');
   view.dataset.jobId = String(jobId);
   view.dataset.jobVerdict = '';
@@ -191,6 +195,12 @@ export async function showJob(jobId) {
       }
       status.dataset.status = job.status;
       $('#job-sub').textContent = requestSummary(job);
+      showCancel(job);
+      if (job.status === 'cancelled') {
+        setMessage(status, 'info', ...cancelledContent(job));
+        loadJobHistory();
+        return;
+      }
       if (job.status === 'done' || job.status === 'failed') {
         view.dataset.jobVerdict = job.verdict || '';
         setMessage(status, null);
@@ -407,4 +417,5 @@ export function initCalibration() {
   $('#calib-all').addEventListener('click', () => setAllCalibChecks(true));
   $('#calib-none').addEventListener('click', () => setAllCalibChecks(false));
   $('#job-print').addEventListener('click', () => window.print());
+  showCancel = jobCancelControl($('#job-cancel'), $('#job-cancel-status'));
 }

@@ -16,6 +16,7 @@ import { ctx, newFormHash } from './discovery_ctx.js';
 import { renderFailed, renderResult } from './discovery_result.js';
 import { effectInText } from './discovery_words.js';
 import { formatDirection, formatTimestamp } from './format.js';
+import { cancelledContent, jobCancelControl } from './job_cancel.js';
 
 
 const JOB_POLL_MS = 500;
@@ -433,7 +434,10 @@ function requestSummary(job) {
   return `${ids.length} DBB test${ids.length === 1 ? '' : 's'} · ${model} · submitted ${formatTimestamp(job.created_at)}`;
 }
 
+let showCancel = () => {}; // the view's Cancel button (initDiscovery)
+
 async function showJob(jobId, seq) {
+  showCancel(null);
   const status = $('#disc-status');
   const result = $('#disc-result');
   result.replaceChildren();
@@ -459,6 +463,12 @@ async function showJob(jobId, seq) {
         highlightMachineOf(job);
       }
       status.dataset.status = job.status;
+      showCancel(job);
+      if (job.status === 'cancelled') {
+        setMessage(status, 'info', ...cancelledContent(job));
+        refreshDiscoveryList();
+        return;
+      }
       if (job.status === 'done') {
         setMessage(status, null);
         renderResult(job);
@@ -508,6 +518,7 @@ export function initDiscovery(callbacks) {
   $('#disc-model').addEventListener('change', () => loadVersions());
   $('#disc-store').addEventListener('click', onStoreModel);
   $('#discovery-close').addEventListener('click', leaveDiscovery);
+  showCancel = jobCancelControl($('#disc-cancel'), $('#disc-cancel-status'));
 }
 
 // The list of machines changed (a model was stored): the model choice follows.

@@ -136,7 +136,7 @@ def check_counters(before, after, a, b, check):
     check(delta("kinemetric_stream_samples_total") == 25, "samples +25")
     check(delta("kinemetric_stream_gaps_total") == 1, "gaps +1")
     check(value(after, "kinemetric_http_requests_in_flight") == 1, "in flight: the scrape itself")
-    for status in ("queued", "running", "done", "failed"):
+    for status in ("queued", "running", "done", "failed", "cancelled"):
         check(("kinemetric_jobs", frozenset({("status", status)})) in after, "jobs " + status)
     check(value(after, "process_start_time_seconds") > 1.7e9, "process start time")
 

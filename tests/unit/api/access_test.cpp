@@ -56,6 +56,7 @@ const std::map<std::string, Role>& ExpectedRoles() {
       {"GET /api/v1/machines/{machine_id}/definitions", Role::kViewer},
       {"POST /api/v1/discoveries", Role::kEngineer},
       {"POST /api/v1/jobs/{id}/save-machine", Role::kEngineer},
+      {"DELETE /api/v1/jobs/{id}", Role::kEngineer},
       {"POST /api/v1/streams", Role::kOperator},
       {"POST /api/v1/streams/{id}/frames", Role::kOperator},
       {"GET /api/v1/streams", Role::kViewer},
@@ -278,6 +279,21 @@ TEST_F(Access, RevocationTakesEffectAtOnce) {
             "revoked");
   EXPECT_EQ(Call("DELETE", "/api/v1/tokens/777", "boot").status, 404);
   EXPECT_EQ(Call("DELETE", "/api/v1/tokens/x", "boot").status, 400);
+  // A bad id is named as what the path holds: a token id, not a measurement id.
+  const auto negative = Call("DELETE", "/api/v1/tokens/-1", "boot");
+  EXPECT_EQ(negative.status, 400);
+  EXPECT_NE(negative.body.find("'-1' is not a token id (a positive integer)"), std::string::npos)
+      << negative.body;
+  for (const auto& [path, noun] :
+       std::map<std::string, std::string>{{"/api/v1/jobs/0", "a job id"},
+                                          {"/api/v1/measurements/abc/trace", "a measurement id"},
+                                          {"/api/v1/audits/-2", "an audit id"},
+                                          {"/api/v1/streams/1.5", "a stream id"}}) {
+    const auto r = Call("GET", path, "boot");
+    EXPECT_EQ(r.status, 400) << path;
+    EXPECT_NE(r.body.find("is not " + noun + " (a positive integer)"), std::string::npos)
+        << path << ": " << r.body;
+  }
   // A second revocation keeps the first time.
   EXPECT_EQ(Call("DELETE", "/api/v1/tokens/" + t["id"].dump(), "boot").body, del.body);
 

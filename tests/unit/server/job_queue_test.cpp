@@ -1,6 +1,7 @@
 // The job queue shared by the instances on one database (server/jobs.h), on a real SQLite file
 // opened by two connections as two instances would: every job runs once, a stopping instance
-// gives its job back, a lapsed lease is taken over, a lost lease drops the outcome.
+// gives its job back, a lapsed lease is taken over, a lost lease drops the outcome, a cancelled
+// job stops at its next progress report (on this instance or another) and frees its worker.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -197,6 +198,56 @@ TEST_F(JobQueueTest, AJobOfAnUnknownKindOrWithoutPlanFailsWithTheReason) {
   a->Start();
   EXPECT_NE(WaitStatus(db, other, "failed").error.find("kind 'telepathy'"), std::string::npos);
   EXPECT_NE(WaitStatus(db, old, "failed").error.find("submit it again"), std::string::npos);
+}
+
+TEST_F(JobQueueTest, ACancelledRunningJobStopsAtItsNextReportAndFreesTheWorker) {
+  SqliteStorage db(Path("jobs.db"));
+  auto a = Queue(db, "instance-a");  // one worker
+  a->Start();
+  const auto slow = a->Submit("count", {}, {{"n", 1}, {"slow", true}}, 7);
+  EXPECT_EQ(WaitStatus(db, slow, "running").owner_token_id, 7);
+  const auto next = a->Submit("count", {}, {{"n", 2}});
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(a->Cancel(slow, "cancelled by the test"));
+  const auto cancelled = *db.GetJob(slow);
+  EXPECT_EQ(cancelled.status, "cancelled");
+  EXPECT_EQ(cancelled.stage, "cancelled");
+  EXPECT_EQ(cancelled.error, "cancelled by the test");
+  // The worker is free: the next job runs at once.
+  WaitStatus(db, next, "done");
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 5s);
+  EXPECT_EQ(db.GetJob(slow)->status, "cancelled");  // never finished afterwards
+  EXPECT_TRUE(runs_[1].empty());
+  EXPECT_FALSE(a->Cancel(slow, "again"));     // cancelled already
+  EXPECT_FALSE(a->Cancel(next, "too late"));  // done
+  EXPECT_EQ(db.GetJob(next)->status, "done");
+}
+
+TEST_F(JobQueueTest, AJobCancelledThroughAnotherInstanceStopsWhereItRuns) {
+  SqliteStorage db_a(Path("jobs.db")), db_b(Path("jobs.db"));
+  auto a = Queue(db_a, "instance-a");
+  auto b = Queue(db_b, "instance-b", 0);  // runs no jobs: answers the API
+  a->Start();
+  b->Start();
+  const auto slow = b->Submit("count", {}, {{"n", 1}, {"slow", true}});
+  WaitStatus(db_b, slow, "running");
+  ASSERT_TRUE(b->Cancel(slow, "cancelled elsewhere"));
+  const auto next = b->Submit("count", {}, {{"n", 2}});
+  EXPECT_EQ(nlohmann::json::parse(WaitStatus(db_b, next, "done").result_json)["by"], "instance-a");
+  EXPECT_EQ(db_a.GetJob(slow)->status, "cancelled");
+  EXPECT_TRUE(runs_[1].empty());
+}
+
+TEST_F(JobQueueTest, AQueuedJobCancelledIsNeverRun) {
+  SqliteStorage db(Path("jobs.db"));
+  auto a = Queue(db, "instance-a");
+  const auto id = a->Submit("count", {}, {{"n", 3}});
+  ASSERT_TRUE(a->Cancel(id, "not wanted"));
+  const auto after = a->Submit("count", {}, {{"n", 4}});
+  a->Start();
+  WaitStatus(db, after, "done");
+  EXPECT_EQ(db.GetJob(id)->status, "cancelled");
+  EXPECT_TRUE(runs_[3].empty());
 }
 
 }  // namespace

@@ -115,13 +115,13 @@ TEST_F(PgStorageTest, InstancesStartingAtOnceMigrateOnce) {
   EXPECT_EQ(QueryValue(url_, "SELECT COUNT(*) FROM kinemetric_schema"), "1");
   EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"),
             std::to_string(PgStorage::SchemaVersion()));
-  EXPECT_EQ(PgStorage::SchemaVersion(), 8);
-  // The job-queue columns are there.
+  EXPECT_EQ(PgStorage::SchemaVersion(), 9);
+  // The job-queue columns and the job's owner are there.
   EXPECT_EQ(QueryValue(url_,
                        "SELECT COUNT(*) FROM information_schema.columns WHERE table_name = 'jobs' "
                        "AND column_name IN ('plan_json', 'lease_owner', 'lease_until_ms', "
-                       "'attempts')"),
-            "4");
+                       "'attempts', 'owner_token_id')"),
+            "5");
 }
 
 TEST_F(PgStorageTest, ADatabaseOfANewerSchemaIsRefusedUntouched) {

@@ -1,5 +1,6 @@
 // What a client sends is bounded before it costs memory or CPU: calibration requests (number of
-// tests, repeated ids, nothing read before the job runs, each test read once) and uploads
+// tests, repeated ids, tests of one machine, no reduction study with effects, nothing read before
+// the job runs, each test read once), who may cancel a job, and uploads
 // (per-format limits of rows, line length and columns, checked before parsing; the format line
 // checked before it is used).
 #include <gtest/gtest.h>
@@ -208,6 +209,80 @@ TEST_F(ServiceLimits, AQueuedStudyHoldsIdsAndTheJobReadsEachTestOnce) {
   EXPECT_EQ(storage_->RawReads(), ids.size());
   const auto read = storage_->RawIds();
   for (const auto id : ids) EXPECT_EQ(read.count(id), 1u) << id;
+}
+
+TEST_F(ServiceLimits, ACalibrationOfTheTestsOfTwoMachinesIsRefusedBeforeItIsQueued) {
+  Start();
+  const auto ids = UploadHexapodTests();
+  std::string other = ReadFile("tests/fixtures/browser/hexapod/dbb_b_ccw.txt");
+  const std::string line = "# machine_id: pm600-like";
+  other.replace(other.find(line), line.size(), "# machine_id: pm600-other");
+  const auto foreign = service_->Upload(other, "other.txt").id;
+  const auto e = Expect<InvalidInput>([&] {
+    service_->SubmitCalibration(Request({ids[0], ids[1], foreign}));
+  });
+  EXPECT_EQ(e.field(), "measurement_ids");
+  EXPECT_TRUE(Contains(e.what(), "of 'pm600-other'")) << e.what();
+  EXPECT_TRUE(Contains(e.what(), "a calibration study takes the DBB tests of one machine"))
+      << e.what();
+  EXPECT_TRUE(service_->Jobs(10)["items"].empty());
+  EXPECT_EQ(storage_->RawReads(), 0u);
+}
+
+TEST_F(ServiceLimits, AReductionStudyWithEffectsIsRefusedBeforeItIsQueued) {
+  ServiceOptions o;
+  o.jobs.workers = 0;  // nothing runs: a queued job would show
+  Start(o);
+  const auto ids = UploadHexapodTests();
+  nlohmann::json named = Request(ids);
+  named["reduction_study_min_tests"] = 4;
+  named["effects"] = nlohmann::json::array({"gravity_deflection"});
+  const auto e = Expect<InvalidInput>([&] { service_->SubmitCalibration(named); });
+  EXPECT_EQ(e.field(), "reduction_study_min_tests");
+  EXPECT_TRUE(Contains(e.what(), "plain calibration only")) << e.what();
+  // The model's own effects take part too: the same refusal.
+  nlohmann::json own = Request(ids);
+  own["machine"]["effects"] =
+      nlohmann::json::array({nlohmann::json{{"effect", "tool_length_error"}}});
+  own["reduction_study_min_tests"] = 4;
+  const auto e2 = Expect<InvalidInput>([&] { service_->SubmitCalibration(own); });
+  EXPECT_EQ(e2.field(), "reduction_study_min_tests");
+  EXPECT_TRUE(Contains(e2.what(), "has effects of its own")) << e2.what();
+  EXPECT_TRUE(service_->Jobs(10)["items"].empty());
+  // Each alone is accepted.
+  named.erase("reduction_study_min_tests");
+  EXPECT_GT(service_->SubmitCalibration(named), 0);
+  own.erase("reduction_study_min_tests");
+  EXPECT_GT(service_->SubmitCalibration(own), 0);
+  nlohmann::json plain = Request(ids);
+  plain["reduction_study_min_tests"] = 4;
+  EXPECT_GT(service_->SubmitCalibration(plain), 0);
+}
+
+TEST_F(ServiceLimits, AJobIsCancelledByItsOwnerOrAnAdminOnly) {
+  ServiceOptions o;
+  o.jobs.workers = 0;  // the jobs stay queued
+  Start(o);
+  const auto ids = UploadHexapodTests();
+  const auto job = service_->SubmitCalibration(Request({ids[0], ids[1]}), 5);
+  EXPECT_EQ(service_->Job(job)["owner_token_id"], 5);
+  const auto e = Expect<Forbidden>([&] { service_->CancelJob(job, {6, "other", false}); });
+  EXPECT_TRUE(Contains(e.what(), "only its owner or an admin")) << e.what();
+  EXPECT_EQ(service_->Job(job)["status"], "queued");
+  const auto j = service_->CancelJob(job, {5, "alice", false});
+  EXPECT_EQ(j["status"], "cancelled");
+  EXPECT_EQ(j["stage"], "cancelled");
+  EXPECT_EQ(j["error"], "cancelled by token 'alice' (id 5)");
+  EXPECT_TRUE(j["verdict"].is_null());
+  const auto again = Expect<Conflict>([&] { service_->CancelJob(job, {5, "alice", false}); });
+  EXPECT_TRUE(Contains(again.what(), "is cancelled already")) << again.what();
+  EXPECT_THROW(service_->CancelJob(job + 100, {1, "admin", true}), NotFound);
+  // An admin cancels any job, also one whose owner is not known (queued by an older version).
+  const auto other = service_->SubmitDiscovery({{"measurement_ids", {ids[0]}}});
+  EXPECT_TRUE(service_->Job(other)["owner_token_id"].is_null());
+  EXPECT_THROW(service_->CancelJob(other, {5, "alice", false}), Forbidden);
+  EXPECT_EQ(service_->CancelJob(other, {1, "root", true})["error"],
+            "cancelled by token 'root' (id 1)");
 }
 
 // A DBB file of `samples` rows.

@@ -1,7 +1,8 @@
 // The job queue and the claim of scheduled audit runs on both storage backends: the oldest job
 // first, leases taken over when they lapse, failed after the last attempt, a lost owner's
-// progress and outcome refused, jobs given back; two storages (two instances) claiming from
-// several threads at once take every job exactly once.
+// progress and outcome refused, jobs given back, queued and running jobs cancelled (never
+// claimed again, their owner's progress and outcome refused); two storages (two instances) claiming
+// from several threads at once take every job exactly once.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -130,6 +131,47 @@ TEST_P(Backends, AStoppingInstanceGivesItsJobsBack) {
   EXPECT_EQ(again->attempts, 2);
   EXPECT_EQ(s->ClaimJob("c", 10, 100, 3, kAbandoned)->id, 3);
   EXPECT_EQ(s->CountJobsByStatus(), (std::map<std::string, std::int64_t>{{"running", 3}}));
+}
+
+TEST_P(Backends, QueuedAndRunningJobsAreCancelledAndNeverTakenAgain) {
+  auto s = Open();
+  NewJob owned = Job(1);
+  owned.owner_token_id = 42;
+  s->QueueJob(owned);
+  s->QueueJob(Job(2));
+  s->QueueJob(Job(3));
+  EXPECT_EQ(s->GetJob(1)->owner_token_id, 42);
+  EXPECT_EQ(s->GetJob(2)->owner_token_id, 0);
+  JobRecord running = *s->ClaimJob("a", 0, 100, 3, kAbandoned);
+  ASSERT_EQ(running.id, 1);
+  EXPECT_EQ(running.owner_token_id, 42);
+  EXPECT_TRUE(s->CancelJob(1, "cancelled by token 'x' (id 42)"));
+  EXPECT_TRUE(s->CancelJob(2, "not wanted"));
+  const auto one = *s->GetJob(1);
+  EXPECT_EQ(one.status, "cancelled");
+  EXPECT_EQ(one.stage, "cancelled");
+  EXPECT_EQ(one.error, "cancelled by token 'x' (id 42)");
+  EXPECT_EQ(one.lease_until_ms, 0);
+  EXPECT_EQ(one.owner_token_id, 42);
+  // The instance running it learns at its next report; its outcome is refused.
+  EXPECT_FALSE(s->RenewJob(1, "a", 0.5, "x", 1000));
+  running.status = "done";
+  EXPECT_FALSE(s->FinishJob(running, "a"));
+  EXPECT_EQ(s->GetJob(1)->status, "cancelled");
+  EXPECT_EQ(s->ReleaseJobs("a"), 0);
+  // Never claimed again, also long after any lease; a second cancel changes nothing.
+  JobRecord three = *s->ClaimJob("b", 1'000'000, 100, 3, kAbandoned);
+  EXPECT_EQ(three.id, 3);
+  three.status = "done";
+  EXPECT_TRUE(s->FinishJob(three, "b"));
+  EXPECT_FALSE(s->ClaimJob("b", 2'000'000, 100, 3, kAbandoned));
+  EXPECT_FALSE(s->CancelJob(1, "again"));
+  EXPECT_EQ(s->GetJob(1)->error, "cancelled by token 'x' (id 42)");
+  EXPECT_FALSE(s->CancelJob(99, "no such job"));
+  EXPECT_FALSE(s->CancelJob(3, "finished"));  // done jobs stay done
+  EXPECT_EQ(s->CountJobsByStatus(),
+            (std::map<std::string, std::int64_t>{{"cancelled", 2}, {"done", 1}}));
+  EXPECT_EQ(s->FailInterruptedJobs("restart"), 0);
 }
 
 TEST_P(Backends, TwoInstancesClaimingFromManyThreadsTakeEveryJobOnce) {
