@@ -53,8 +53,8 @@ class CheckedDomBuilder {
                    const nlohmann::detail::exception& e) {
     // 406: a number beyond the range of a double ("1e999"); the lexer reports it here.
     if (e.id == 406) Fail(position, "a number that does not fit a double");
-    Fail(position, std::string("not valid JSON: ") + e.what());
-    return false;
+    // A syntax error belongs to no field: the line (and nlohmann's column) say where.
+    throw InvalidInput(file_, LineAt(position), "", std::string("not valid JSON: ") + e.what());
   }
 
  private:

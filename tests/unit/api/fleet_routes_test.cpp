@@ -36,6 +36,12 @@ std::string Replaced(std::string text, const std::string& from, const std::strin
 
 class FleetRoutes : public test::RoutedServiceTest {
  protected:
+  // The jobs stored by hand below are counted as open: no worker may take (and fail) them.
+  server::ServiceOptions Options() const override {
+    server::ServiceOptions o;
+    o.jobs.workers = 0;
+    return o;
+  }
   json Get(const std::string& path, const std::string& metric = "", int status = 200) {
     Request r;
     r.method = "GET";

@@ -161,12 +161,13 @@ TEST(ModbusConfig, ErrorsNameTheJsonPath) {
 }
 
 TEST(ModbusConfig, NonFiniteScaleIsRefused) {
-  // JSON text has no NaN/Inf; a number overflowing a double is refused as invalid JSON, and a
+  // JSON text has no NaN/Inf; a number overflowing a double is refused by the reader, and a
   // device object built in code (e.g. by the API) holding NaN/Inf is refused by the field check.
   const InvalidInput e =
       ErrorOf(R"({"devices":[{"name":"a","host":"h","poll_interval_ms":1,"channels":[{"channel":1,)"
               R"("address":0,"type":"int16","scale":1e999}]}]})");
-  EXPECT_NE(e.reason().find("not valid JSON"), std::string::npos) << e.reason();
+  EXPECT_NE(e.reason().find("does not fit a double"), std::string::npos) << e.reason();
+  EXPECT_EQ(e.field(), "devices[0].channels[0].scale");
   for (double bad :
        {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
     for (const char* key : {"scale", "offset"}) {

@@ -153,7 +153,8 @@ TEST_F(PgStorageTest, ADatabaseOfVersion7GainsTheJobQueueWithNothingLost) {
                     "'2026-01-01T00:00:00Z')"),
             "");
   PgStorage s(url_);
-  EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"), "8");
+  EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"),
+            std::to_string(pg::SchemaVersion()));
   const auto j = *s.GetJob(1);
   EXPECT_EQ(j.status, "done");
   EXPECT_EQ(j.request_json, R"({"a":1})");
