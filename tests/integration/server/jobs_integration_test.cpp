@@ -29,16 +29,6 @@ namespace {
 
 const char* kAdmin = "jobs-integration-admin";
 
-std::string ReadText(const std::string& path) {
-  FILE* f = std::fopen(path.c_str(), "rb");
-  std::string out;
-  char buf[4096];
-  std::size_t n = 0;
-  while (f && (n = std::fread(buf, 1, sizeof buf, f)) > 0) out.append(buf, n);
-  if (f) std::fclose(f);
-  return out;
-}
-
 class JobsIntegration : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -71,7 +61,7 @@ class JobsIntegration : public ::testing::Test {
   // uploaded; the request of a calibration of them.
   json CalibrationRequest() {
     const std::string machine_text =
-        ReadText(KINEMETRIC_SOURCE_DIR "/tests/fixtures/pm600-like.json");
+        km::test::ReadFileText(KINEMETRIC_SOURCE_DIR "/tests/fixtures/pm600-like.json");
     const auto machine = km::ingest::ParseHexapodMachineJson(machine_text, "pm600-like.json");
     const auto truth = km::sim::PerturbGeometry(machine.geometry, 0.3, 0.1, 11);
     km::sim::HexapodDbbSimOptions so;

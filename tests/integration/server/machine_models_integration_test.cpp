@@ -24,18 +24,8 @@ namespace {
 
 const char* kModelToken = "machine-models-token";
 
-std::string Slurp(const std::string& path) {
-  FILE* f = std::fopen(path.c_str(), "rb");
-  std::string out;
-  char buf[4096];
-  std::size_t n = 0;
-  while (f && (n = std::fread(buf, 1, sizeof buf, f)) > 0) out.append(buf, n);
-  if (f) std::fclose(f);
-  return out;
-}
-
 std::string Fixture(const std::string& name) {
-  return Slurp(std::string(KINEMETRIC_SOURCE_DIR) + "/tests/fixtures/" + name);
+  return km::test::ReadFileText(std::string(KINEMETRIC_SOURCE_DIR) + "/tests/fixtures/" + name);
 }
 
 class MachineModelsHttp : public ::testing::Test {

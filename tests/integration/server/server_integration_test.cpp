@@ -399,21 +399,11 @@ TEST_F(ServerIntegration, TrackerSurveyIsSelfCalibratedAtUpload) {
 
 namespace {
 
-std::string ReadText(const std::string& path) {
-  FILE* f = std::fopen(path.c_str(), "rb");
-  std::string out;
-  char buf[4096];
-  std::size_t n = 0;
-  while (f && (n = std::fread(buf, 1, sizeof buf, f)) > 0) out.append(buf, n);
-  if (f) std::fclose(f);
-  return out;
-}
-
 TEST_F(ServerIntegration, HexapodCalibrationRunsAsABackgroundJob) {
   auto server = Start();
   Api api(server->port());
   const std::string machine_text =
-      ReadText(KINEMETRIC_SOURCE_DIR "/tests/fixtures/pm600-like.json");
+      km::test::ReadFileText(KINEMETRIC_SOURCE_DIR "/tests/fixtures/pm600-like.json");
   ASSERT_FALSE(machine_text.empty());
   const auto machine = km::ingest::ParseHexapodMachineJson(machine_text, "pm600-like.json");
   const auto truth = km::sim::PerturbGeometry(machine.geometry, 0.3, 0.1, 11);

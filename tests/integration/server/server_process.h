@@ -18,6 +18,17 @@
 
 namespace km::test {
 
+// The bytes of a file (a fixture, an example), empty when it cannot be read.
+inline std::string ReadFileText(const std::string& path) {
+  FILE* f = std::fopen(path.c_str(), "rb");
+  std::string out;
+  char buf[4096];
+  std::size_t n = 0;
+  while (f && (n = std::fread(buf, 1, sizeof buf, f)) > 0) out.append(buf, n);
+  if (f) std::fclose(f);
+  return out;
+}
+
 // The PostgreSQL database of a test server's data directory when KINEMETRIC_TEST_DATABASE names
 // a PostgreSQL server (tests/tools/test_database.sh creates it; the tests run from the source
 // directory); empty otherwise: the server keeps its SQLite file in the data directory.
