@@ -14,6 +14,14 @@ namespace {
 
 using nlohmann::json;
 
+// At most `n` bytes of UTF-8 text, cut before a character rather than inside one (a key is
+// echoed in messages that end up in JSON answers and in storage).
+std::string Utf8Prefix(const std::string& s, std::size_t n) {
+  if (s.size() <= n) return s;
+  while (n > 0 && (static_cast<unsigned char>(s[n]) & 0xC0) == 0x80) --n;
+  return s.substr(0, n);
+}
+
 // Builds the document like nlohmann's own DOM parser, one level per open array or object, and
 // keeps the path to the value being read for the error messages.
 class CheckedDomBuilder {
@@ -111,7 +119,7 @@ class CheckedDomBuilder {
         const std::size_t n = level.value->size();
         parts.push_back("[" + std::to_string(i + 1 == levels_.size() ? n : n - 1) + "]");
       } else if (!level.key.empty()) {
-        parts.push_back((parts.empty() ? "" : ".") + level.key.substr(0, 64));
+        parts.push_back((parts.empty() ? "" : ".") + Utf8Prefix(level.key, 64));
       }
     }
     constexpr std::size_t kKeep = 6;

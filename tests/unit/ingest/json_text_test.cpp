@@ -89,6 +89,13 @@ TEST(JsonText, RepeatedKeysAreRefusedNamingTheKey) {
   EXPECT_NO_THROW(ParseJsonText(R"([{"k":1},{"k":2}])", "doc"));
 }
 
+TEST(JsonText, ALongKeyIsShortenedBeforeACharacterNotInsideOne) {
+  std::string key(63, 'k');
+  key += "\xc3\xa9\xc3\xa9";  // "éé": the 64-byte cut falls inside the first é
+  const auto e = Refusal("{\"" + key + "\":1e999}");
+  EXPECT_EQ(e.field(), std::string(63, 'k'));
+}
+
 TEST(JsonText, NumbersBeyondADoubleAreRefusedNamingTheField) {
   EXPECT_EQ(Refusal(R"({"x":1e999})").field(), "x");
   EXPECT_EQ(Refusal(R"({"a":{"b":[0,-1e999]}})").field(), "a.b[1]");
