@@ -28,18 +28,23 @@ json KinematicJson(const hexapod::ParameterVector& k) {
   return {{"strut_offset_um", strut}, {"base_joint_offset_um", base}};
 }
 
-json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& sigma) {
-  json p = json::object(), u = json::object(), fixed = json::array();
+json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& sigma,
+                     const std::vector<bool>& at_bound) {
+  json p = json::object(), u = json::object(), fixed = json::array(), bound = json::array();
   for (std::size_t i = 0; i < a.params.size(); ++i) {
     p[a.params[i].name] = a.params[i].value;
-    u[a.params[i].name] = i < sigma.size() ? sigma[i] : 0.0;
+    // A parameter on its bound has no σ (null): it is held there, not estimated.
+    const double sd = i < sigma.size() ? sigma[i] : 0.0;
+    u[a.params[i].name] = std::isfinite(sd) ? json(sd) : json(nullptr);
     if (!a.params[i].free) fixed.push_back(a.params[i].name);
+    if (i < at_bound.size() && at_bound[i]) bound.push_back(a.params[i].name);
   }
   json e = {{"effect", a.effect->Name()}, {"parameters", p}, {"uncertainty", u}};
   if (!fixed.empty()) e["fixed_parameters"] = fixed;
+  if (!bound.empty()) e["at_bound"] = bound;
   // The headline value: the first parameter, with its unit.
   e["value"] = a.params.front().value;
-  e["sigma"] = sigma.empty() ? 0.0 : sigma.front();
+  e["sigma"] = sigma.empty() || !std::isfinite(sigma.front()) ? json(nullptr) : json(sigma.front());
   e["unit"] = a.params.front().unit;
   return e;
 }
@@ -66,10 +71,12 @@ json TestGaps(const hexapod::EffectFitData& d, const Eigen::VectorXd& before,
 }
 
 const hexapod::ActiveEffect* FindEffect(const hexapod::EffectFitResult& f, const std::string& n,
-                                        std::vector<double>* sigma) {
+                                        std::vector<double>* sigma,
+                                        std::vector<bool>* at_bound = nullptr) {
   for (std::size_t e = 0; e < f.effects.size(); ++e) {
     if (f.effects[e].effect->Name() != n) continue;
     if (sigma) *sigma = f.effect_sigma[e];
+    if (at_bound && e < f.effect_at_bound.size()) *at_bound = f.effect_at_bound[e];
     return &f.effects[e];
   }
   return nullptr;
@@ -261,7 +268,8 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
     const auto& s = r.steps[i];
     const auto& after = history[i + 1];
     std::vector<double> sigma;
-    const auto* eff = FindEffect(after, s.added_effect, &sigma);
+    std::vector<bool> at_bound;
+    const auto* eff = FindEffect(after, s.added_effect, &sigma, &at_bound);
     json ev = {{"sentence", s.evidence.sentence},
                {"f_statistic", s.f_statistic},
                {"df_numerator", s.df_numerator},
@@ -275,9 +283,10 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                {"variant", s.variant}};
     for (const auto& [k, v] : s.evidence.figures) ev[k] = v;
     if (eff) {
-      const json entry = EffectModelJson(*eff, sigma);
+      const json entry = EffectModelJson(*eff, sigma, at_bound);
       ev["parameters"] = entry["parameters"];
       ev["uncertainty"] = entry["uncertainty"];
+      if (entry.contains("at_bound")) ev["at_bound"] = entry["at_bound"];
     }
     json cands = json::array();
     for (const auto& c : s.candidates) {
@@ -286,6 +295,8 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                        {"rss_after_um2", c.rss_after_um2},
                        {"cv_press_um2", c.press_um2},
                        {"log10_p_value", c.log10_p_value},
+                       {"log10_p_white", c.log10_p_white},
+                       {"log10_p_clustered", c.log10_p_clustered},
                        {"qualified", c.rejected_because.empty()},
                        {"rejected_because", c.rejected_because}});
     }
@@ -311,13 +322,17 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
       kin["fixed_parameters"].push_back(hexapod::ParameterName(i));
   model.push_back(kin);
   for (std::size_t e = 0; e < fin.effects.size(); ++e)
-    model.push_back(EffectModelJson(fin.effects[e], fin.effect_sigma[e]));
+    model.push_back(EffectModelJson(fin.effects[e], fin.effect_sigma[e],
+                                    e < fin.effect_at_bound.size() ? fin.effect_at_bound[e]
+                                                                   : std::vector<bool>{}));
   json last = json::array();
   for (const auto& c : r.last_candidates) {
     last.push_back({{"effect", c.effect},
                     {"variant", c.variant},
                     {"rejected_because", c.rejected_because},
-                    {"log10_p_value", c.log10_p_value}});
+                    {"log10_p_value", c.log10_p_value},
+                    {"log10_p_white", c.log10_p_white},
+                    {"log10_p_clustered", c.log10_p_clustered}});
   }
   return {{"kind", "hexapod"},
           {"machine_id", machine.machine_id},
@@ -330,7 +345,15 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
           {"final_model", model},
           {"unexplained_rms_um", r.unexplained_rms_um},
           {"noise_floor_um", r.noise_floor_um},
+          {"repeatability_floor_um", r.repeatability_floor_um},
           {"verdict", r.verdict},
+          {"misfit", r.misfit.sentence.empty()
+                         ? json(nullptr)
+                         : json{{"sentence", r.misfit.sentence}, {"figures", r.misfit.figures}}},
+          {"fit", {{"converged", fin.converged},
+                   {"stop_reason", fin.stop_reason},
+                   {"iterations", fin.iterations},
+                   {"uncertainty_clusters", fin.clusters}}},
           {"stop_reason", r.stop_reason},
           {"candidates_at_stop", last},
           {"final_tests", TestGaps(data, fin.residual_um, nullptr, names)},

@@ -27,7 +27,8 @@ nlohmann::json KinematicJson(const hexapod::ParameterVector& k);
 
 // One fitted effect: {effect, parameters {name: value}, uncertainty {name: σ}, value, sigma,
 // unit (of the first parameter), fixed_parameters}.
-nlohmann::json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& sigma);
+nlohmann::json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& sigma,
+                               const std::vector<bool>& at_bound = {});
 
 // The machine with the calibrated geometry (nominal + fitted kinematic parameters) and the
 // fitted effects as its "effects" block.

@@ -8,6 +8,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
+#include <Eigen/SVD>
 
 #include "analysis/core/errors.h"
 #include "analysis/core/option_check.h"
@@ -132,6 +133,8 @@ struct Workspace {
   int folds = 0;
   int total_columns = 0;
   FoldSystem base;
+  std::vector<int> row_cluster;  // cluster (fold key rank) of every row
+  int clusters = 0;
 };
 
 std::vector<int> RowFolds(const FitState& fit, const std::vector<int>& keys, int folds, int* used) {
@@ -165,6 +168,7 @@ Workspace MakeWorkspace(const FitState& fit, const LocalProjector& proj,
   proj.Project(w.gap);
   w.total_columns = static_cast<int>(fit.jacobian.cols());
   w.row_fold = RowFolds(fit, keys, folds, &w.folds);
+  w.row_cluster = RowFolds(fit, keys, std::numeric_limits<int>::max(), &w.clusters);
   w.base = Accumulate(w.model, w.gap, w.row_fold, w.folds);
   return w;
 }
@@ -178,6 +182,36 @@ struct Scored {
   int dof = 0;
   VectorXd contribution;
 };
+
+// Cluster-robust Wald test that the candidate's fitted contribution is present, with the
+// model's parameters partialled out (Frisch–Waugh–Lovell): `c` is the contribution (offset
+// and columns at the fitted values) and `y` the gap, both without their fit by the model;
+// θ = cᵀy/cᵀc (≈ 1) and its sandwich variance Σ_g (c_gᵀe_g)²/(cᵀc)²·G/(G − 1), e = y − θc,
+// over the clusters g. θ²/var/q is referred to F(q, G − 1), q the candidate's free parameters
+// (the shape of the contribution was itself fitted). Returns log10 of the p-value.
+double ClusteredLog10P(const Workspace& w, const VectorXd& c, const VectorXd& y, int q) {
+  const int n = static_cast<int>(c.size()), g = w.clusters;
+  const double cc = c.squaredNorm();
+  if (!(cc > 0.0)) return 0.0;
+  const double theta = c.dot(y) / cc;
+  std::vector<double> score(static_cast<std::size_t>(g), 0.0);
+  for (int r = 0; r < n; ++r)
+    score[static_cast<std::size_t>(w.row_cluster[static_cast<std::size_t>(r)])] +=
+        c[r] * (y[r] - theta * c[r]);
+  double meat = 0.0;
+  for (double sc : score) meat += sc * sc;
+  const double var = (static_cast<double>(g) / (g - 1)) * meat / (cc * cc);
+  const double wald = var > 0.0 ? theta * theta / var / q : HUGE_VAL;
+  if (!(wald > 0.0)) return 0.0;
+  if (!std::isfinite(wald)) return -300.0;
+  return dbb::LogFUpperTail(wald, q, g - 1) / std::log(10.0);
+}
+
+// `v` without its least-squares fit by the model's global columns.
+VectorXd Partial(const Workspace& w, const VectorXd& v) {
+  if (w.model.cols() == 0) return v;
+  return v - w.model * SolveSym(w.base.gram_all, w.model.transpose() * v);
+}
 
 Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Candidate& c,
                       ModelFamily& family, const EngineOptions& opt) {
@@ -218,16 +252,46 @@ Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Cand
   s.dof = std::max(1, n - w.total_columns - s.q);
   const double drop = s.rss_before - s.score.rss_after_um2;
   s.f = drop > 0.0 ? (drop / s.q) / (s.score.rss_after_um2 / s.dof + 1e-300) : 0.0;
-  s.score.log10_p_value = dbb::LogFUpperTail(s.f, s.q, s.dof) / std::log(10.0);
+  s.score.log10_p_white = dbb::LogFUpperTail(s.f, s.q, s.dof) / std::log(10.0);
+  s.score.log10_p_value = s.score.log10_p_white;
+
   // The fitted change of the model (the candidate with the model's readjustment), in the same
   // terms as the gap: gap − contribution is what remains.
   s.contribution = x * beta + (w.gap - y);
+  if (opt.cluster_inference && w.clusters >= opt.min_clusters && s.q > 0) {
+    const VectorXd own = x.rightCols(s.q) * s.score.estimate + (w.gap - y);
+    s.score.log10_p_clustered = ClusteredLog10P(w, Partial(w, own), Partial(w, w.gap), s.q);
+    s.score.log10_p_value = std::max(s.score.log10_p_value, s.score.log10_p_clustered);
+  }
   std::string why;
   if (s.score.identifiable && !family.Physical(c, s.score.estimate, &why)) {
     s.score.physical = false;
     s.score.rejected_because = "not physical: " + why;
   }
   return s;
+}
+
+// The qualifying candidate that predicts held-out tests best. Between forms of one effect, a
+// form with more free parameters must predict better by min_cv_gain than a simpler one.
+const Scored* ChooseBest(const std::vector<Scored>& scored, double min_cv_gain) {
+  std::map<std::string, const Scored*> per_effect;
+  for (const auto& s : scored) {
+    if (!s.score.rejected_because.empty()) continue;
+    const Scored*& b = per_effect[s.score.effect];
+    if (!b) {
+      b = &s;
+    } else if (s.q == b->q) {
+      if (s.score.press_um2 < b->score.press_um2) b = &s;
+    } else {
+      const Scored* simple = s.q < b->q ? &s : b;
+      const Scored* rich = s.q < b->q ? b : &s;
+      b = rich->score.press_um2 < (1.0 - min_cv_gain) * simple->score.press_um2 ? rich : simple;
+    }
+  }
+  const Scored* best = nullptr;
+  for (const auto& [name, s] : per_effect)
+    if (!best || s->score.press_um2 < best->score.press_um2) best = s;
+  return best;
 }
 
 std::vector<GroupGap> GroupGaps(const FitState& before, const FitState& after) {
@@ -251,6 +315,7 @@ void EngineOptions::Check() const {
   KM_OPTION_IN_HALF_OPEN(min_cv_gain, 0.0, 1.0);
   KM_OPTION_GE(misfit_ratio, 1.0);
   KM_OPTION_GE(max_steps, 0);
+  KM_OPTION_GE(min_clusters, 2);
 }
 
 double NoiseFloor(const VectorXd& residual, const std::vector<int>& row_begin) {
@@ -276,6 +341,9 @@ EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
     const int step_no = static_cast<int>(res.steps.size()) + 1;
     const double gap_rms = Rms(fit.residual);
     const double floor = std::max(NoiseFloor(fit.residual, fit.row_begin), opt.resolution_um);
+    // What no model can explain, coloured noise included: the verdict and the practical gain
+    // are judged against it.
+    const double repeat_floor = std::max(floor, family.RepeatabilityFloor(fit));
     if (gap_rms <= opt.noise_stop_ratio * floor) {
       res.stop_reason = "the gap is at the noise floor";
       break;
@@ -293,8 +361,10 @@ EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
       scored.push_back(ScoreCandidate(w, proj, c, family, opt));
     }
     // Qualification of every candidate.
-    const double excess = std::max(
-        0.0, scored.empty() ? 0.0 : scored.front().rss_before - floor * floor * w.gap.size());
+    const double excess =
+        std::max(0.0, scored.empty() ? 0.0
+                                     : scored.front().rss_before -
+                                           repeat_floor * repeat_floor * w.gap.size());
     for (auto& s : scored) {
       auto& sc = s.score;
       if (!sc.rejected_because.empty()) continue;
@@ -306,17 +376,16 @@ EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
         sc.rejected_because = "improvement too small to matter";
       }
     }
-    const Scored* best = nullptr;
-    for (const auto& s : scored) {
-      if (!s.score.rejected_because.empty()) continue;
-      if (!best || s.score.press_um2 < best->score.press_um2) best = &s;
-    }
+    const Scored* best = ChooseBest(scored, opt.min_cv_gain);
     std::vector<CandidateScore> all;
     for (const auto& s : scored) all.push_back(s.score);
     if (!best) {
       res.last_candidates = all;
       res.stop_reason = candidates.empty() ? "no candidate left" : "no candidate qualifies";
-      if (gap_rms > opt.misfit_ratio * floor) res.verdict = "model misfit";
+      if (gap_rms > opt.misfit_ratio * repeat_floor) {
+        res.verdict = "model misfit";
+        res.misfit = family.DescribeGap(fit);
+      }
       break;
     }
     const Candidate& chosen = candidates[static_cast<std::size_t>(best - scored.data())];
@@ -345,6 +414,7 @@ EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
   res.final_fit = fit;
   res.unexplained_rms_um = Rms(fit.residual);
   res.noise_floor_um = NoiseFloor(fit.residual, fit.row_begin);
+  res.repeatability_floor_um = family.RepeatabilityFloor(fit);
   return res;
 }
 

@@ -69,7 +69,14 @@ class ModelFamily {
   virtual Evidence Describe(const FitState& before, const Candidate& c,
                             const Eigen::VectorXd& contribution) = 0;
   // Groups held out together in the cross-validation (e.g. a CW/CCW pair): fold key per group.
+  // Groups with one key also form one cluster of the test-level inference.
   virtual std::vector<int> FoldKeys() const = 0;
+  // σ of what repeated measurements do not share (e.g. from CW/CCW pairs at the same angles),
+  // 0 when the data cannot tell. Unlike the white floor from successive differences it
+  // includes slowly correlated (coloured) noise, so a gap at this level is no misfit.
+  virtual double RepeatabilityFloor(const FitState&) const { return 0.0; }
+  // Describes a gap no candidate explains: where it is, what it depends on.
+  virtual Evidence DescribeGap(const FitState&) const { return {}; }
 };
 
 struct EngineOptions {
@@ -82,6 +89,11 @@ struct EngineOptions {
   double confound_ratio = 0.1;  // part of a candidate's column left after projecting the model
   int max_steps = 8;
   double resolution_um = 1e-6;
+  // Test-level inference: a candidate must also pass a cluster-robust Wald test (clusters = fold
+  // keys, F(q, G − 1)), which holds when the samples of a test are correlated, not independent.
+  // Used when there are at least min_clusters clusters.
+  bool cluster_inference = false;
+  int min_clusters = 6;
   void Check() const;
 };
 
@@ -96,7 +108,9 @@ struct CandidateScore {
   std::string variant;
   double rss_after_um2 = 0.0;  // linearised
   double press_um2 = 0.0;      // cross-validated
-  double log10_p_value = 0.0;
+  double log10_p_value = 0.0;          // the less significant of the two tests below
+  double log10_p_white = 0.0;          // F-test counting every sample as independent
+  double log10_p_clustered = 0.0;      // cluster-robust Wald test (0 when not used)
   bool identifiable = true;
   bool physical = true;
   std::string rejected_because;  // "" when it qualified
@@ -129,9 +143,11 @@ struct EngineResult {
   FitState final_fit;
   double unexplained_rms_um = 0.0;
   double noise_floor_um = 0.0;
+  double repeatability_floor_um = 0.0;
   std::string verdict;  // "complete" | "model misfit"
   std::string stop_reason;
   std::vector<CandidateScore> last_candidates;  // at the stop
+  Evidence misfit;                              // when the verdict is "model misfit"
 };
 
 using EngineProgress = std::function<void(int step, const std::string& what)>;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "analysis/discovery/engine.h"
+#include "analysis/discovery/hexapod_gap.h"
 #include "analysis/hexapod/effect_fit.h"
 
 namespace km::discovery {
@@ -25,6 +26,8 @@ class HexapodFamily final : public ModelFamily {
   Evidence Describe(const FitState& before, const Candidate& c,
                     const Eigen::VectorXd& contribution) override;
   std::vector<int> FoldKeys() const override;
+  double RepeatabilityFloor(const FitState& fit) const override;
+  Evidence DescribeGap(const FitState& fit) const override;
 
   // The fitted model after the base fit (index 0) and after every accepted step.
   const std::vector<hexapod::EffectFitResult>& History() const { return history_; }
@@ -39,10 +42,10 @@ class HexapodFamily final : public ModelFamily {
   };
   const Pending* Find(const Candidate& c) const;
   FitState StateOf(const hexapod::EffectFitResult& r) const;
-  void AddToolAndHarmonicFigures(const Eigen::VectorXd& gap,
-                                 std::map<std::string, double>& figures) const;
+  void AddToolFigures(const Eigen::VectorXd& gap, std::map<std::string, double>& figures) const;
 
   const hexapod::EffectFitData& data_;
+  PairedRows pairs_;
   std::vector<hexapod::ActiveEffect> known_;
   std::vector<hexapod::EffectFitResult> history_;
   std::vector<Pending> pending_;

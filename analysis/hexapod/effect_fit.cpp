@@ -2,9 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
+#include <string>
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <Eigen/QR>
 #include <Eigen/SVD>
 
 #include "analysis/core/errors.h"
@@ -159,8 +163,34 @@ std::vector<std::string> ColumnNames(const Layout& l, const EffectFitResult& s,
   return names;
 }
 
-// Covariance, uncertainties and statistics at the solution.
-void FillStatistics(const Layout& l, const Evaluation& ev, EffectFitResult& s) {
+// Cluster (test_id) of every residual row.
+std::vector<int> RowClusters(const EffectFitData& d, int* count) {
+  std::map<std::string, int> ids;
+  std::vector<int> rows(static_cast<std::size_t>(d.rows()), 0);
+  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+    const int c = ids.emplace(d.problem.tests[t].test_id, static_cast<int>(ids.size())).first->second;
+    for (int r = d.row_begin[t]; r < d.row_begin[t + 1]; ++r) rows[static_cast<std::size_t>(r)] = c;
+  }
+  *count = static_cast<int>(ids.size());
+  return rows;
+}
+
+// Which free parameters sit on a bound (effect parameters only).
+std::vector<bool> AtBound(const Layout& l, const EffectFitResult& s) {
+  std::vector<bool> held(static_cast<std::size_t>(l.size()), false);
+  for (std::size_t q = 0; q < l.effect.size(); ++q) {
+    const auto [e, p] = l.effect[q];
+    const auto& par = s.effects[e].params[p];
+    const double tol = 1e-9 * std::max(1.0, std::abs(par.value)) + 1e-12 * par.scale;
+    held[l.k.size() + q] = par.value <= par.lower + tol || par.value >= par.upper - tol;
+  }
+  return held;
+}
+
+// Covariance, uncertainties and statistics at the solution. Parameters on a bound are held
+// there; the σ of the others is the larger of the white-residual and the cluster-robust one.
+void FillStatistics(const Layout& l, const Evaluation& ev, const std::vector<int>& row_cluster,
+                    int clusters, EffectFitResult& s) {
   const int n = static_cast<int>(ev.r.size()), p = l.size();
   s.residual_um = ev.r;
   s.rss_um2 = ev.r.squaredNorm();
@@ -168,30 +198,75 @@ void FillStatistics(const Layout& l, const Evaluation& ev, EffectFitResult& s) {
   s.residual_rms_um = n > 0 ? std::sqrt(s.rss_um2 / n) : 0.0;
   s.jacobian = ev.jac;
   s.sensitivity = ev.sens;
+  s.clusters = clusters;
   s.k_sigma_um.setZero();
   s.effect_sigma.assign(s.effects.size(), {});
-  for (std::size_t e = 0; e < s.effects.size(); ++e)
+  s.effect_at_bound.assign(s.effects.size(), {});
+  for (std::size_t e = 0; e < s.effects.size(); ++e) {
     s.effect_sigma[e].assign(s.effects[e].params.size(), 0.0);
+    s.effect_at_bound[e].assign(s.effects[e].params.size(), false);
+  }
   if (p == 0) return;
+  const std::vector<bool> held = AtBound(l, s);
+  std::vector<int> cols;
+  for (int i = 0; i < p; ++i)
+    if (!held[static_cast<std::size_t>(i)]) cols.push_back(i);
+  const int m = static_cast<int>(cols.size());
   // Column scaling keeps the condition number meaningful across units.
-  Eigen::VectorXd scale = ev.jac.colwise().norm().transpose();
-  for (int i = 0; i < p; ++i) scale[i] = scale[i] > 0.0 ? scale[i] : 1.0;
-  const Eigen::MatrixXd js = ev.jac * scale.cwiseInverse().asDiagonal();
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(js);
-  const auto& sv = svd.singularValues();
-  s.condition_number = sv[sv.size() - 1] > 0.0 ? sv[0] / sv[sv.size() - 1] : 1e300;
-  const double sigma2 = s.rss_um2 / s.dof;
-  const Eigen::MatrixXd cov =
-      sigma2 * (js.transpose() * js).ldlt().solve(Eigen::MatrixXd::Identity(p, p));
+  Eigen::MatrixXd js(n, m);
+  Eigen::VectorXd scale(m);
+  for (int c = 0; c < m; ++c) {
+    const double norm = ev.jac.col(cols[c]).norm();
+    scale[c] = norm > 0.0 ? norm : 1.0;
+    js.col(c) = ev.jac.col(cols[c]) / scale[c];
+  }
+  Eigen::VectorXd var = Eigen::VectorXd::Zero(m);
+  if (m > 0) {
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(js);
+    const auto& sv = svd.singularValues();
+    s.condition_number = sv[sv.size() - 1] > 0.0 ? sv[0] / sv[sv.size() - 1] : 1e300;
+    const Eigen::MatrixXd bread =
+        (js.transpose() * js).ldlt().solve(Eigen::MatrixXd::Identity(m, m));
+    var = (s.rss_um2 / std::max(1, n - m)) * bread.diagonal();
+    if (clusters >= 4) {
+      Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(m, clusters);
+      for (int r = 0; r < n; ++r)
+        scores.col(row_cluster[static_cast<std::size_t>(r)]) += js.row(r).transpose() * ev.r[r];
+      const Eigen::MatrixXd half = bread * scores;
+      const double small = static_cast<double>(clusters) / (clusters - 1);
+      var = var.cwiseMax(small * half.rowwise().squaredNorm());
+    }
+  }
+  std::vector<double> sigma(static_cast<std::size_t>(p), std::nan(""));
+  for (int c = 0; c < m; ++c)
+    sigma[static_cast<std::size_t>(cols[c])] = std::sqrt(std::max(0.0, var[c])) / scale[c];
   int i = 0;
-  for (int k : l.k) {
-    s.k_sigma_um[k] = std::sqrt(std::max(0.0, cov(i, i))) / scale[i];
-    ++i;
-  }
+  for (int k : l.k) s.k_sigma_um[k] = sigma[static_cast<std::size_t>(i++)];
   for (auto [e, q] : l.effect) {
-    s.effect_sigma[e][q] = std::sqrt(std::max(0.0, cov(i, i))) / scale[i];
+    s.effect_sigma[e][q] = sigma[static_cast<std::size_t>(i)];
+    s.effect_at_bound[e][q] = held[static_cast<std::size_t>(i)];
     ++i;
   }
+}
+
+// Decrease of the cost that the linearised model predicts for a Gauss–Newton step, with the
+// parameters on a bound whose gradient pushes outward held.
+double PredictedDecrease(const Layout& l, const Evaluation& ev, const EffectFitResult& s) {
+  const Eigen::VectorXd g = ev.jac.transpose() * ev.r;
+  const std::vector<bool> held = AtBound(l, s);
+  std::vector<int> cols;
+  for (int i = 0; i < l.size(); ++i)
+    if (!held[static_cast<std::size_t>(i)]) cols.push_back(i);
+  if (cols.empty()) return 0.0;
+  Eigen::MatrixXd j(ev.jac.rows(), static_cast<int>(cols.size()));
+  Eigen::VectorXd gr(static_cast<int>(cols.size()));
+  for (std::size_t c = 0; c < cols.size(); ++c) {
+    j.col(static_cast<int>(c)) = ev.jac.col(cols[c]);
+    gr[static_cast<int>(c)] = g[cols[c]];
+  }
+  const Eigen::MatrixXd jtj = j.transpose() * j;
+  const Eigen::VectorXd step = jtj.completeOrthogonalDecomposition().solve(-gr);
+  return std::max(0.0, -gr.dot(step));
 }
 
 }  // namespace
@@ -256,6 +331,7 @@ EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult&
   if (!ev.ok) throw DidNotConverge("forward kinematics failed at the starting point of the fit");
   double cost = ev.r.squaredNorm();
   double mu = 1e-6;
+  s.stop_reason = "iteration limit";
   for (s.iterations = 0; s.iterations < options.max_iterations; ++s.iterations) {
     const Eigen::MatrixXd jtj = ev.jac.transpose() * ev.jac;
     const Eigen::VectorXd g = ev.jac.transpose() * ev.r;
@@ -275,19 +351,31 @@ EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult&
         cost = tc;
         mu = std::max(mu / 10.0, 1e-12);
         improved = true;
-        if (rel < options.relative_tolerance) {
-          s.converged = true;
-        }
+        s.converged = rel < options.relative_tolerance;
       } else {
         mu *= 10.0;
       }
     }
-    if (!improved || s.converged) {
-      s.converged = true;  // no descent left: a (local) minimum within the tolerance
+    if (s.converged) {
+      s.stop_reason = "converged";
+      break;
+    }
+    if (!improved) {
+      // No damped step lowers the cost: a minimum when the linear model agrees.
+      const double predicted = PredictedDecrease(layout, ev, s);
+      s.converged = predicted <= 10.0 * options.relative_tolerance * std::max(cost, 1e-300);
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "stalled: no step lowers the cost, though the linear model predicts a "
+                    "decrease of %.3g um^2 of %.3g",
+                    predicted, cost);
+      s.stop_reason = s.converged ? "converged" : buf;
       break;
     }
   }
-  FillStatistics(layout, ev, s);
+  int clusters = 0;
+  const std::vector<int> row_cluster = RowClusters(data, &clusters);
+  FillStatistics(layout, ev, row_cluster, clusters, s);
   s.column_test.clear();
   s.column_name = ColumnNames(layout, s, data, &s.column_test);
   return s;

@@ -59,7 +59,19 @@ struct EffectFitResult {
   double residual_rms_um = 0.0;
   double condition_number = 0.0;
   int iterations = 0;
+  // True only when the cost stopped changing (relative change below the tolerance, or no step
+  // left that the linearised model says would lower it). `stop_reason` says which, or why not:
+  // "converged", "stalled: …" (the damped steps no longer lower the cost although the linear
+  // model predicts they should), "iteration limit".
   bool converged = false;
+  std::string stop_reason;
+  // Free effect parameters that ended on a bound (value clamped there): they are held at the
+  // bound for the uncertainties, and their σ is NaN (not estimated).
+  std::vector<std::vector<bool>> effect_at_bound;
+  // σ are the larger of the usual (white-residual) estimate and the test-level (cluster-robust)
+  // one, which holds when the residuals of a test are correlated with each other: clusters are
+  // the tests with one test_id (a CW/CCW pair).
+  int clusters = 0;
 };
 
 struct EffectFitOptions {

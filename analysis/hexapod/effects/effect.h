@@ -5,6 +5,7 @@
 // this one interface. Adding an effect = one file in this folder + one line in effect_list.h.
 #pragma once
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,6 +30,14 @@ struct TestPath {
   std::optional<double> temperature_c;
   std::vector<StrutFrame> frame;    // strut geometry at the commanded pose (model geometry)
   std::vector<Vector6d> gravity_N;  // gravity axial forces (empty when the machine has none)
+  // Change of the gravity axial forces per kg of platform mass at the machine file's centre of
+  // gravity, and per kg·mm of m_P·Δc along each platform axis (the platform variant of
+  // gravity_deflection; the statics are linear in these loads, eqs. 3.5–3.7).
+  std::vector<Vector6d> gravity_per_kg;
+  std::vector<std::array<Vector6d, 3>> gravity_per_kg_mm;
+  // The commanded motion is one closed turn (its last pose next to its first); otherwise an
+  // open path (partial arc, lead-in or lead-out).
+  bool closed_turn = true;
 };
 
 // What the effects of a test set may depend on.
@@ -55,6 +64,17 @@ struct EffectParameter {
 struct ModelTerms {
   const MachinePhysics* physics = nullptr;
   double k_stiff2_mm_per_N = 0.0;
+  double platform_mass_change_kg = 0.0;               // m_P − m_P(file)
+  Eigen::Vector3d platform_moment_change_kg_mm{0, 0, 0};  // m_P·(c − c(file)), platform frame
+  // The strut axial gravity forces ĝ at sample i with the model's platform.
+  Vector6d GravityAt(const TestPath& path, std::size_t i) const {
+    Vector6d g = path.gravity_N[i];
+    if (platform_mass_change_kg != 0.0) g += platform_mass_change_kg * path.gravity_per_kg[i];
+    for (int k = 0; k < 3; ++k)
+      if (platform_moment_change_kg_mm[k] != 0.0)
+        g += platform_moment_change_kg_mm[k] * path.gravity_per_kg_mm[i][k];
+    return g;
+  }
 };
 
 // Per-sample output of the effects of one test, summed over the effects.
@@ -79,9 +99,20 @@ class HexapodEffect {
                      const EffectSetup& setup, Perturbation& out) const = 0;
   // How the effect shows in DBB traces, in words (for the evidence of a discovery).
   virtual const char* Signature() const = 0;
-  // The parameter searched over a grid by the discovery (shape parameter), −1 if none.
-  virtual int ShapeParameter() const { return -1; }
-  virtual std::vector<double> ShapeGrid() const { return {}; }
+  // The forms a discovery tries (e.g. ramp lengths, the platform's mass fitted or not, growth
+  // uniform or with strut length). Each has its parameters with start values and free flags
+  // (those of the refit once accepted); `held` lists free parameters held at their value while
+  // the candidate is screened linearly (shape parameters such as a ramp length).
+  struct Variant {
+    std::string label;  // "" for the plain form
+    std::vector<EffectParameter> params;
+    std::vector<int> held;
+  };
+  virtual std::vector<Variant> Variants(const EffectSetup& setup) const {
+    auto p = Parameters(setup);
+    if (p.empty()) return {};
+    return {{"", std::move(p), {}}};
+  }
 };
 
 }  // namespace km::hexapod

@@ -16,4 +16,7 @@ namespace km::hexapod {
 #define KM_DECLARE_HEXAPOD_EFFECT(id) const HexapodEffect& id##Effect();
 KM_HEXAPOD_EFFECT_LIST(KM_DECLARE_HEXAPOD_EFFECT)
 #undef KM_DECLARE_HEXAPOD_EFFECT
+// The platform mass and centre of gravity_deflection's parameters `p` as changes from the
+// machine file (ModelTerms::GravityAt).
+void PlatformTerms(const MachinePhysics& m, const double* p, ModelTerms& terms);
 }  // namespace km::hexapod

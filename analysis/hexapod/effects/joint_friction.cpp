@@ -1,75 +1,86 @@
 // joint_friction ([PM-600 report] eqs. 3.9–3.12, [Joint patent] figs. 10–12): each base joint
-// resists the swing of its strut with τ_j = t0 + t1·|F_j| (F_j the gravity axial force), a force
-// τ_j/L_j at the platform joint perpendicular to the strut and opposing the swing. After a
-// reversal of the swing along one joint axis the force goes over to the other side as a linear
-// ramp over a joint travel λ (the patent's ramp; a step fits badly). The friction forces load the
-// struts through the platform statics and deflect them with the strut compliance.
+// resists the swing of its strut with a torque f_t,j = t0 + t1·ĝ_j (ĝ_j the strut's axial
+// gravity force), a force of size f_t,j/L_j at the platform joint, normal to the strut and
+// against its swing (analysis/hexapod/joint_swing.h, the one law of the product). After a
+// reversal the direction passes to the other side over a joint travel λ (the patent's ramp;
+// λ → 0 is eq. 3.11 as printed). The friction forces load the struts through the platform
+// statics (eq. 3.9) and deflect them with the strut compliance of eq. 4.3.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <Eigen/Geometry>
 
 #include "analysis/hexapod/effects/effect_list.h"
+#include "analysis/hexapod/joint_swing.h"
 
 namespace km::hexapod {
 namespace {
 
-// Swing axes of a strut: a1 ⟂ (strut, vertical), a2 = l × a1.
-std::array<Eigen::Vector3d, 2> SwingAxes(const Eigen::Vector3d& l) {
-  Eigen::Vector3d a1 = Eigen::Vector3d::UnitZ().cross(l);
-  if (a1.norm() < 1e-9) a1 = Eigen::Vector3d::UnitX().cross(l);
-  a1.normalize();
-  return {a1, l.cross(a1)};
+using Joints = std::array<Eigen::Vector3d, 6>;
+
+Joints PlatformJoints(const TestPath& path, std::size_t i) {
+  Joints p;
+  for (int j = 0; j < 6; ++j) p[j] = path.frame[i].lever_mm[j] + path.pose[i].tip_mm;
+  return p;
+}
+
+// Friction direction states after each sample, from the commanded motion. A closed turn starts
+// from the steady state of its own motion (run through once); an open path (a partial arc, a
+// record with lead-in or lead-out) from steady sliding in the direction of each joint's first
+// swing, so no reversal is invented at its first sample.
+std::vector<Joints> SwingStates(const TestPath& path, double ramp_mm) {
+  const std::size_t n = path.pose.size();
+  std::vector<Joints> swing(n);
+  for (std::size_t i = 1; i < n; ++i) {
+    const Joints a = PlatformJoints(path, i - 1), b = PlatformJoints(path, i);
+    for (int j = 0; j < 6; ++j) swing[i][j] = SwingOf(path.frame[i].unit[j], b[j] - a[j]);
+  }
+  Joints r;
+  for (int j = 0; j < 6; ++j) {
+    r[j].setZero();
+    for (std::size_t i = 1; i < n && r[j].isZero(); ++i)
+      r[j] = StepSwingState(r[j], path.frame[i].unit[j], swing[i][j], 0.0);
+  }
+  if (path.closed_turn) {
+    for (std::size_t i = 1; i < n; ++i)
+      for (int j = 0; j < 6; ++j)
+        r[j] = StepSwingState(r[j], path.frame[i].unit[j], swing[i][j], ramp_mm);
+  }
+  std::vector<Joints> out(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (int j = 0; j < 6; ++j)
+      if (i > 0) r[j] = StepSwingState(r[j], path.frame[i].unit[j], swing[i][j], ramp_mm);
+    out[i] = r;
+  }
+  return out;
 }
 
 class JointFriction final : public HexapodEffect {
  public:
   const char* Name() const override { return "joint_friction"; }
   std::vector<EffectParameter> Parameters(const EffectSetup& s) const override {
-    if (!s.physics || !s.physics->has_gravity) return {};  // needs the strut compliance
+    if (!s.physics || !s.physics->has_gravity) return {};  // needs ĝ and the compliance
     double t0 = 5.0, t1 = 0.0;
-    if (s.physics && s.physics->has_friction) {
+    if (s.physics->has_friction) {
       t0 = s.physics->base_joint_torque_Nm > 0.0 ? s.physics->base_joint_torque_Nm : t0;
       t1 = s.physics->base_joint_torque_per_N_m;
     }
     return {{"torque_Nm", "N*m", t0, 0.0, 1000.0, true, 1.0},
-            {"ramp_mm", "mm", 2.0, 0.01, 50.0, true, 0.5},
-            {"torque_per_N_m", "m", t1, 0.0, 1.0, false, 0.01}};
+            {"ramp_mm", "mm", 0.05, 0.0, 50.0, true, 0.5},
+            {"torque_per_N_m", "m", t1, -1.0, 1.0, true, 0.01}};
   }
   void Apply(const TestPath& path, const double* p, const ModelTerms& terms, const EffectSetup& s,
              Perturbation& out) const override {
     const std::size_t n = path.pose.size();
-    if (n < 2 || !s.physics) return;
-    const double lambda = std::max(p[1], 1e-6);
-    std::array<std::array<double, 2>, 6> r{};
-    std::vector<std::array<Eigen::Vector3d, 6>> joints(n);
+    if (n < 2 || !s.physics || path.gravity_N.empty()) return;
+    const auto states = SwingStates(path, p[1]);
     for (std::size_t i = 0; i < n; ++i) {
-      const auto& f = path.frame[i];
-      for (int j = 0; j < 6; ++j) joints[i][j] = f.lever_mm[j] + path.pose[i].tip_mm;
-    }
-    auto advance = [&](std::size_t i) {
-      const std::size_t prev = i == 0 ? n - 1 : i - 1;
-      for (int j = 0; j < 6; ++j) {
-        const auto axes = SwingAxes(path.frame[i].unit[j]);
-        const Eigen::Vector3d d = joints[i][j] - joints[prev][j];
-        for (int k = 0; k < 2; ++k)
-          r[j][k] = std::clamp(r[j][k] + 2.0 * axes[k].dot(d) / lambda, -1.0, 1.0);
-      }
-    };
-    // Steady state: run through the test's motion once (the lead-in of a real test); the
-    // closing step from the last sample to the first is part of a full turn.
-    for (std::size_t i = 1; i < n; ++i) advance(i);
-    advance(0);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (i > 0) advance(i);
       const auto& f = path.frame[i];
       Eigen::Vector3d force = Eigen::Vector3d::Zero(), moment = Eigen::Vector3d::Zero();
       for (int j = 0; j < 6; ++j) {
-        const double load = path.gravity_N.empty() ? 0.0 : std::abs(path.gravity_N[i][j]);
-        const double tau = p[0] + p[2] * load;  // N·m
-        const auto axes = SwingAxes(f.unit[j]);
-        const Eigen::Vector3d fj =
-            -(tau / (1e-3 * f.length_mm[j])) * (r[j][0] * axes[0] + r[j][1] * axes[1]);
+        const double tau = JointFrictionTorque(p[0], p[2], terms.GravityAt(path, i)[j]);
+        const Eigen::Vector3d fj = -(tau / (1e-3 * f.length_mm[j])) * states[i][j];
         force += fj;
         moment += f.lever_mm[j].cross(fj);
       }
@@ -79,11 +90,31 @@ class JointFriction final : public HexapodEffect {
     }
   }
   const char* Signature() const override {
-    return "opposite in CW and CCW (odd), changing as a ramp after each reversal of a joint's "
-           "swing";
+    return "opposite in CW and CCW (odd): the friction of each base joint opposes its strut's "
+           "swing, so the tool lags its command along the path";
   }
-  int ShapeParameter() const override { return 1; }
-  std::vector<double> ShapeGrid() const override { return {0.5, 1.0, 2.0, 4.0, 8.0}; }
+  // Ramp lengths tried (0: eq. 3.11 as printed), each with t1 held at the machine file's value
+  // and with t1 fitted too (the data identify t1 when the struts' loads vary enough between
+  // the tests' poses).
+  std::vector<Variant> Variants(const EffectSetup& s) const override {
+    const auto params = Parameters(s);
+    if (params.empty()) return {};
+    std::vector<Variant> out;
+    for (double ramp : {0.0, 0.7, 2.5}) {
+      for (bool t1_free : {false, true}) {
+        Variant v;
+        v.params = params;
+        v.params[1].value = ramp;
+        v.params[2].free = t1_free;
+        v.held = {1};
+        char label[64];
+        std::snprintf(label, sizeof label, "ramp_mm = %g%s", ramp, t1_free ? ", t1 fitted" : "");
+        v.label = label;
+        out.push_back(std::move(v));
+      }
+    }
+    return out;
+  }
 };
 
 }  // namespace

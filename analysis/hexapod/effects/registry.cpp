@@ -30,7 +30,12 @@ ModelTerms TermsOf(const std::vector<ActiveEffect>& model, const MachinePhysics*
   t.physics = physics;
   if (physics) t.k_stiff2_mm_per_N = physics->compliance_other_mm_per_N;
   for (const auto& a : model)
-    if (a.effect == &GravityDeflectionEffect()) t.k_stiff2_mm_per_N = a.params[0].value;
+    if (a.effect == &GravityDeflectionEffect() && physics) {
+      std::vector<double> v;
+      for (const auto& p : a.params) v.push_back(p.value);
+      t.k_stiff2_mm_per_N = v[0];
+      PlatformTerms(*physics, v.data(), t);
+    }
   return t;
 }
 

@@ -4,12 +4,50 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <string>
+
+#include <Eigen/Geometry>
 
 #include "analysis/core/errors.h"
 #include "analysis/hexapod/dbb_geometry.h"
 
 namespace km::hexapod {
 namespace {
+
+// The commanded motion must go one way around the circle (angles increase for ccw, decrease
+// for cw, docs/formats.md §1.1): friction and time are read from it. Returns whether the
+// motion is one closed turn (its last sample one step short of the first).
+bool ReadMotion(const dbb::DbbTest& t) {
+  const double sense = t.direction == dbb::Direction::kCcw ? 1.0 : -1.0;
+  const auto& a = t.angle_deg;
+  for (std::size_t i = 1; i < a.size(); ++i) {
+    if (!std::isfinite(a[i]) || sense * (a[i] - a[i - 1]) < -1e-9) {
+      throw InvalidInput(t.test_id, 0, "angle_deg",
+                         "the commanded motion turns back at sample " + std::to_string(i + 1) +
+                             "; a hexapod test must move one way around its circle (angles " +
+                             std::string(sense > 0 ? "increasing for ccw" : "decreasing for cw") +
+                             ")");
+    }
+  }
+  const double span = std::abs(a.back() - a.front());
+  if (a.size() < 2 || !(span > 0.0))
+    throw InvalidInput(t.test_id, 0, "angle_deg", "the test's samples do not move");
+  const double step = span / static_cast<double>(a.size() - 1);
+  return std::abs(span + step - 360.0) <= 0.5 * step;
+}
+
+// Changes of the gravity axial forces per kg of platform mass at the file's centre of gravity
+// and per kg·mm of m_P·Δc along each platform axis.
+void PlatformGravityColumns(const MachinePhysics& m, const StrutFrame& f, const Pose& pose,
+                            double tool_length_mm, TestPath& p) {
+  const Eigen::Matrix3d r = RotationABC(pose.abc_rad);
+  const Eigen::Vector3d cog = r * (m.platform_cog_mm + Eigen::Vector3d(0.0, 0.0, tool_length_mm));
+  p.gravity_per_kg.push_back(TensionsForWrench(f, m.g_m_s2, cog.cross(m.g_m_s2)));
+  std::array<Vector6d, 3> per;
+  for (int k = 0; k < 3; ++k)
+    per[k] = TensionsForWrench(f, Eigen::Vector3d::Zero(), r.col(k).cross(m.g_m_s2));
+  p.gravity_per_kg_mm.push_back(per);
+}
 
 TestPath PathOf(const HexapodGeometry& model, const MachinePhysics* physics, const dbb::DbbTest& t,
                 double start_s) {
@@ -19,6 +57,7 @@ TestPath PathOf(const HexapodGeometry& model, const MachinePhysics* physics, con
   if (!(t.feed_mm_min > 0.0))
     throw InvalidInput(t.test_id, 0, "feed_mm_min", "must be positive for a hexapod test");
   TestPath p;
+  p.closed_turn = ReadMotion(t);
   p.test_id = t.test_id;
   p.direction = t.direction;
   p.tool_length_mm = *t.tool_length_mm;
@@ -38,6 +77,7 @@ TestPath PathOf(const HexapodGeometry& model, const MachinePhysics* physics, con
     p.frame.push_back(StrutFrameAt(model, pose, p.tool_length_mm));
     if (gravity) {
       p.gravity_N.push_back(GravityAxialForces(*physics, p.frame.back(), pose, p.tool_length_mm));
+      PlatformGravityColumns(*physics, p.frame.back(), pose, p.tool_length_mm, p);
     }
   }
   return p;
