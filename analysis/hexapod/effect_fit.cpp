@@ -333,8 +333,22 @@ EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult&
   double mu = 1e-6;
   s.stop_reason = "iteration limit";
   for (s.iterations = 0; s.iterations < options.max_iterations; ++s.iterations) {
-    const Eigen::MatrixXd jtj = ev.jac.transpose() * ev.jac;
-    const Eigen::VectorXd g = ev.jac.transpose() * ev.r;
+    Eigen::MatrixXd jtj = ev.jac.transpose() * ev.jac;
+    Eigen::VectorXd g = ev.jac.transpose() * ev.r;
+    // A parameter on its bound that the descent would push further out is held this step.
+    const std::vector<bool> bound = AtBound(layout, s);
+    for (int i = 0; i < layout.size(); ++i) {
+      if (!bound[static_cast<std::size_t>(i)]) continue;
+      const auto [e, q] = layout.effect[static_cast<std::size_t>(i) - layout.k.size()];
+      const auto& par = s.effects[e].params[q];
+      const bool at_lower = par.value <= 0.5 * (par.lower + par.upper);
+      if ((at_lower && g[i] > 0.0) || (!at_lower && g[i] < 0.0)) {
+        jtj.row(i).setZero();
+        jtj.col(i).setZero();
+        jtj(i, i) = 1.0;
+        g[i] = 0.0;
+      }
+    }
     bool improved = false;
     for (int tries = 0; tries < 12 && !improved; ++tries) {
       Eigen::MatrixXd a = jtj;

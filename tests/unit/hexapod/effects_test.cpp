@@ -4,6 +4,7 @@
 // drift with time; calibration with effects recovers the truth and removes the CW/CCW
 // dependence a friction-blind calibration shows ([Joint patent] fig. 15).
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <numbers>
 
@@ -200,8 +201,13 @@ TEST(CalibrationWithEffects, FrictionBlindCalibrationDependsOnTheDirection) {
   };
   const auto [blind, blind_sigma] = strut_gap(false);
   const auto [modelled, modelled_sigma] = strut_gap(true);
-  EXPECT_GT(blind, 20.0 * blind_sigma) << "a friction-blind calibration depends on direction";
+  // The σ are test-level (cluster-robust): the friction a blind calibration leaves in its
+  // residuals is systematic within each test, so its σ are honest about it and larger.
+  EXPECT_GT(blind, 4.0 * blind_sigma) << "a friction-blind calibration depends on direction";
+  EXPECT_GT(blind, 5.0 * modelled) << "modelling friction removes most of the dependence";
   EXPECT_LT(modelled, 6.0 * modelled_sigma) << "modelling friction removes the dependence";
+  std::printf("strut offsets CCW - CW: blind %.2f um (sigma %.2f), modelled %.2f um (sigma %.2f)\n",
+              blind, blind_sigma, modelled, modelled_sigma);
 }
 
 }  // namespace
