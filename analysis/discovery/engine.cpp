@@ -181,6 +181,7 @@ struct Scored {
   int q = 0;
   int dof = 0;
   VectorXd contribution;
+  VectorXd own;  // the candidate's own part of the contribution (offset and columns)
 };
 
 // Cluster-robust Wald test that the candidate's fitted contribution is present, with the
@@ -258,9 +259,9 @@ Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Cand
   // The fitted change of the model (the candidate with the model's readjustment), in the same
   // terms as the gap: gap − contribution is what remains.
   s.contribution = x * beta + (w.gap - y);
+  s.own = x.rightCols(s.q) * s.score.estimate + (w.gap - y);
   if (opt.cluster_inference && w.clusters >= opt.min_clusters && s.q > 0) {
-    const VectorXd own = x.rightCols(s.q) * s.score.estimate + (w.gap - y);
-    s.score.log10_p_clustered = ClusteredLog10P(w, Partial(w, own), Partial(w, w.gap), s.q);
+    s.score.log10_p_clustered = ClusteredLog10P(w, Partial(w, s.own), Partial(w, w.gap), s.q);
     s.score.log10_p_value = std::max(s.score.log10_p_value, s.score.log10_p_clustered);
   }
   std::string why;
@@ -271,9 +272,28 @@ Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Cand
   return s;
 }
 
-// The qualifying candidate that predicts held-out tests best. Between forms of one effect, a
-// form with more free parameters must predict better by min_cv_gain than a simpler one.
-const Scored* ChooseBest(const std::vector<Scored>& scored, double min_cv_gain) {
+// Whether the richer of two forms of one effect (more free parameters) is worth its extra
+// parameters: it predicts held-out tests better, and what it adds to the simpler form passes
+// the F-test (and the test-level Wald test when used) at max_p_value.
+bool RicherIsBetter(const Workspace& w, const Scored& simple, const Scored& rich,
+                    const EngineOptions& opt) {
+  if (!(rich.score.press_um2 < simple.score.press_um2)) return false;
+  const int dq = std::max(1, rich.q - simple.q);
+  const double drop = simple.score.rss_after_um2 - rich.score.rss_after_um2;
+  if (!(drop > 0.0)) return false;
+  const double f = (drop / dq) / (rich.score.rss_after_um2 / rich.dof + 1e-300);
+  double log_p = dbb::LogFUpperTail(f, dq, rich.dof) / std::log(10.0);
+  if (opt.cluster_inference && w.clusters >= opt.min_clusters) {
+    const VectorXd extra = Partial(w, rich.own - simple.own);
+    log_p = std::max(log_p, ClusteredLog10P(w, extra, Partial(w, w.gap - simple.own), dq));
+  }
+  return log_p < std::log10(opt.max_p_value);
+}
+
+// The qualifying candidate that predicts held-out tests best; between forms of one effect, a
+// form with more free parameters only when RicherIsBetter.
+const Scored* ChooseBest(const Workspace& w, const std::vector<Scored>& scored,
+                         const EngineOptions& opt) {
   std::map<std::string, const Scored*> per_effect;
   for (const auto& s : scored) {
     if (!s.score.rejected_because.empty()) continue;
@@ -285,7 +305,7 @@ const Scored* ChooseBest(const std::vector<Scored>& scored, double min_cv_gain) 
     } else {
       const Scored* simple = s.q < b->q ? &s : b;
       const Scored* rich = s.q < b->q ? b : &s;
-      b = rich->score.press_um2 < (1.0 - min_cv_gain) * simple->score.press_um2 ? rich : simple;
+      b = RicherIsBetter(w, *simple, *rich, opt) ? rich : simple;
     }
   }
   const Scored* best = nullptr;
@@ -376,7 +396,7 @@ EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
         sc.rejected_because = "improvement too small to matter";
       }
     }
-    const Scored* best = ChooseBest(scored, opt.min_cv_gain);
+    const Scored* best = ChooseBest(w, scored, opt);
     std::vector<CandidateScore> all;
     for (const auto& s : scored) all.push_back(s.score);
     if (!best) {
