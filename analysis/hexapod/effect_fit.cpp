@@ -12,6 +12,7 @@
 #include <Eigen/SVD>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/parallel.h"
 
 namespace km::hexapod {
 namespace {
@@ -68,6 +69,75 @@ struct Evaluation {
   bool ok = true;
 };
 
+// Residuals, and with a layout the Jacobian rows and sensitivities, of test t (rows disjoint
+// from every other test's). False when the forward kinematics fails.
+bool EvaluateTest(const EffectFitData& d, const EffectFitResult& s, const Layout* layout,
+                  const HexapodGeometry& g, std::size_t t, Evaluation& ev) {
+  const auto& test = d.problem.tests[t];
+  Perturbation pert;
+  ApplyEffects(s.effects, d.prepared.paths[t], d.prepared.setup, pert);
+  const Eigen::Vector3d& F = s.fixed_balls_mm[t];
+  for (std::size_t i = 0; i < test.samples.size(); ++i) {
+    const int row = d.row_begin[t] + static_cast<int>(i);
+    const auto& sample = test.samples[i];
+    const double l = test.tool_length_mm + pert.dl_mm[i];
+    ForwardResult fk;
+    try {
+      fk = ForwardKinematics(g, sample.strut_command_mm + pert.ds_mm[i], l, sample.commanded);
+    } catch (const DidNotConverge&) {
+      return false;
+    }
+    const Eigen::Vector3d v = fk.pose.tip_mm - F;
+    const double bar = v.norm();
+    ev.r[row] = 1000.0 * (bar - sample.measured_bar_mm);
+    if (!layout) continue;
+    const Eigen::Vector3d e = v / bar;
+    Vector6d rhs = Vector6d::Zero();
+    rhs.head<3>() = e;
+    const Vector6d w = fk.jacobian.transpose().partialPivLu().solve(rhs);
+    RowSensitivity sv;
+    sv.head<6>() = 1000.0 * w;
+    sv[6] = -1000.0 * e.dot(RotationABC(fk.pose.abc_rad).col(2));
+    ev.sens[static_cast<std::size_t>(row)] = sv;
+    int c = 0;
+    for (int k : layout->k)
+      ev.jac(row, c++) = k < 6 ? w[k] : w[(k - 6) / 3] * fk.jacobian((k - 6) / 3, (k - 6) % 3);
+    c += static_cast<int>(layout->effect.size());  // filled by EffectColumns
+    for (auto [bt, bc] : layout->ball) {
+      if (bt == static_cast<int>(t)) ev.jac(row, c) = -1000.0 * e[bc];
+      ++c;
+    }
+  }
+  return true;
+}
+
+// Effect parameter columns of test t: central differences of the effect models, mapped through
+// the row sensitivities.
+void EffectColumns(const EffectFitData& d, const EffectFitResult& s, const Layout& layout,
+                   std::size_t t, Evaluation& ev) {
+  const int c0 = static_cast<int>(layout.k.size());
+  Perturbation pp, pm;
+  for (std::size_t q = 0; q < layout.effect.size(); ++q) {
+    const auto [e, p] = layout.effect[q];
+    const auto& par = s.effects[e].params[p];
+    const double h = 1e-3 * std::max(std::abs(par.value), par.scale);
+    auto plus = s.effects, minus = s.effects;
+    plus[e].params[p].value += h;
+    minus[e].params[p].value -= h;
+    ApplyEffects(plus, d.prepared.paths[t], d.prepared.setup, pp);
+    ApplyEffects(minus, d.prepared.paths[t], d.prepared.setup, pm);
+    for (std::size_t i = 0; i < pp.ds_mm.size(); ++i) {
+      const int row = d.row_begin[t] + static_cast<int>(i);
+      RowSensitivity delta;
+      delta.head<6>() = pp.ds_mm[i] - pm.ds_mm[i];
+      delta[6] = pp.dl_mm[i] - pm.dl_mm[i];
+      ev.jac(row, c0 + static_cast<int>(q)) =
+          ev.sens[static_cast<std::size_t>(row)].dot(delta) / (2.0 * h);
+    }
+  }
+}
+
+// The tests are independent: evaluated in parallel, each writing its own rows.
 Evaluation Evaluate(const EffectFitData& d, const EffectFitResult& s, const Layout* layout) {
   const int n = d.rows();
   Evaluation ev;
@@ -77,71 +147,13 @@ Evaluation Evaluate(const EffectFitData& d, const EffectFitResult& s, const Layo
     ev.sens.resize(static_cast<std::size_t>(n));
   }
   const HexapodGeometry g = ApplyParameters(d.problem.nominal, s.k_um);
-  Perturbation pert;
-  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
-    const auto& test = d.problem.tests[t];
-    const auto& path = d.prepared.paths[t];
-    ApplyEffects(s.effects, path, d.prepared.setup, pert);
-    const Eigen::Vector3d& F = s.fixed_balls_mm[t];
-    for (std::size_t i = 0; i < test.samples.size(); ++i) {
-      const int row = d.row_begin[t] + static_cast<int>(i);
-      const auto& sample = test.samples[i];
-      const double l = test.tool_length_mm + pert.dl_mm[i];
-      ForwardResult fk;
-      try {
-        fk = ForwardKinematics(g, sample.strut_command_mm + pert.ds_mm[i], l, sample.commanded);
-      } catch (const DidNotConverge&) {
-        ev.ok = false;
-        return ev;
-      }
-      const Eigen::Vector3d v = fk.pose.tip_mm - F;
-      const double bar = v.norm();
-      ev.r[row] = 1000.0 * (bar - sample.measured_bar_mm);
-      if (!layout) continue;
-      const Eigen::Vector3d e = v / bar;
-      Vector6d rhs = Vector6d::Zero();
-      rhs.head<3>() = e;
-      const Vector6d w = fk.jacobian.transpose().partialPivLu().solve(rhs);
-      RowSensitivity sv;
-      sv.head<6>() = 1000.0 * w;
-      sv[6] = -1000.0 * e.dot(RotationABC(fk.pose.abc_rad).col(2));
-      ev.sens[static_cast<std::size_t>(row)] = sv;
-      int c = 0;
-      for (int k : layout->k) {
-        ev.jac(row, c++) = k < 6 ? w[k] : w[(k - 6) / 3] * fk.jacobian((k - 6) / 3, (k - 6) % 3);
-      }
-      c += static_cast<int>(layout->effect.size());  // filled below
-      for (auto [bt, bc] : layout->ball) {
-        if (bt == static_cast<int>(t)) ev.jac(row, c) = -1000.0 * e[bc];
-        ++c;
-      }
-    }
-  }
-  if (!layout) return ev;
-  // Effect parameter columns: central differences of the effect models, mapped through the
-  // row sensitivities.
-  const int c0 = static_cast<int>(layout->k.size());
-  for (std::size_t q = 0; q < layout->effect.size(); ++q) {
-    const auto [e, p] = layout->effect[q];
-    const auto& par = s.effects[e].params[p];
-    const double h = 1e-3 * std::max(std::abs(par.value), par.scale);
-    EffectFitResult plus = s, minus = s;
-    plus.effects[e].params[p].value += h;
-    minus.effects[e].params[p].value -= h;
-    Perturbation pp, pm;
-    for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
-      ApplyEffects(plus.effects, d.prepared.paths[t], d.prepared.setup, pp);
-      ApplyEffects(minus.effects, d.prepared.paths[t], d.prepared.setup, pm);
-      for (std::size_t i = 0; i < pp.ds_mm.size(); ++i) {
-        const int row = d.row_begin[t] + static_cast<int>(i);
-        RowSensitivity delta;
-        delta.head<6>() = pp.ds_mm[i] - pm.ds_mm[i];
-        delta[6] = pp.dl_mm[i] - pm.dl_mm[i];
-        ev.jac(row, c0 + static_cast<int>(q)) =
-            ev.sens[static_cast<std::size_t>(row)].dot(delta) / (2.0 * h);
-      }
-    }
-  }
+  const std::size_t tests = d.problem.tests.size();
+  std::vector<char> ok(tests, 1);
+  ParallelFor(tests, [&](std::size_t t) {
+    ok[t] = EvaluateTest(d, s, layout, g, t, ev) ? 1 : 0;
+    if (ok[t] && layout) EffectColumns(d, s, *layout, t, ev);
+  });
+  ev.ok = std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
   return ev;
 }
 
@@ -398,13 +410,12 @@ EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult&
 Eigen::VectorXd EffectContribution(const EffectFitData& data, const EffectFitResult& fit,
                                    const ActiveEffect& effect) {
   Eigen::VectorXd c(data.rows());
-  Perturbation pert;
   std::vector<ActiveEffect> model = {effect};
   // The effect sees the model's compliance when it depends on it (joint friction).
   for (const auto& a : fit.effects)
     if (a.effect != effect.effect) model.insert(model.begin(), a);
-  Perturbation base;
-  for (std::size_t t = 0; t < data.problem.tests.size(); ++t) {
+  ParallelFor(data.problem.tests.size(), [&](std::size_t t) {
+    Perturbation pert, base;
     ApplyEffects(model, data.prepared.paths[t], data.prepared.setup, pert);
     ApplyEffects(fit.effects, data.prepared.paths[t], data.prepared.setup, base);
     for (std::size_t i = 0; i < pert.ds_mm.size(); ++i) {
@@ -414,7 +425,7 @@ Eigen::VectorXd EffectContribution(const EffectFitData& data, const EffectFitRes
       delta[6] = pert.dl_mm[i] - base.dl_mm[i];
       c[row] = fit.sensitivity[static_cast<std::size_t>(row)].dot(delta);
     }
-  }
+  });
   return c;
 }
 
