@@ -74,8 +74,7 @@ DiscoveryOutcome HexapodDiscovery(const DiscoveryStudy& study,
   }
   discovery::HexapodFamily family(data, KnownEffects(machine, data.prepared.setup));
   const int max_steps = discovery::EngineOptions{}.max_steps;
-  discovery::EngineOptions options;
-  options.cluster_inference = true;  // the samples of a test are not independent
+  const auto options = discovery::HexapodEngineOptions();
   const auto r = discovery::RunDiscovery(family, options, [&](int step, const std::string& what) {
     if (progress) progress(std::min(0.95, step / static_cast<double>(max_steps + 1)), what);
   });

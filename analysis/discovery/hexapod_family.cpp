@@ -17,6 +17,12 @@ using Eigen::VectorXd;
 
 }  // namespace
 
+EngineOptions HexapodEngineOptions() {
+  EngineOptions o;
+  o.cluster_inference = true;
+  return o;
+}
+
 HexapodFamily::HexapodFamily(const hexapod::EffectFitData& data,
                              std::vector<hexapod::ActiveEffect> known)
     : data_(data), pairs_(data), known_(std::move(known)) {}

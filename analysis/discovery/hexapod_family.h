@@ -14,6 +14,10 @@
 
 namespace km::discovery {
 
+// The engine options of a hexapod discovery: test-level inference on (the samples of a DBB test
+// are correlated).
+EngineOptions HexapodEngineOptions();
+
 class HexapodFamily final : public ModelFamily {
  public:
   // `known`: effects the machine's stored model already has (kept in every fit, fitted again).

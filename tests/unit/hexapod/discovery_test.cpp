@@ -3,6 +3,7 @@
 // shrinks to the noise, the fitted values match the truth; a null control adds nothing.
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -26,7 +27,7 @@ Outcome Discover(const Scenario& s) {
                                               hexapod::CalibrationMethod::kAbsolute, 0);
   HexapodFamily family(data, {});
   Outcome o;
-  o.result = RunDiscovery(family);
+  o.result = RunDiscovery(family, HexapodEngineOptions());
   o.history = family.History();
   return o;
 }
@@ -45,6 +46,47 @@ TEST(HexapodDiscovery, NullControlAddsNothing) {
     EXPECT_EQ(o.result.verdict, "complete");
     EXPECT_LT(o.result.unexplained_rms_um, 1.3 * 0.3);
   }
+}
+
+// AR(1) noise (ρ per sample) plus a slow wander over each test, σ about `sigma_um` in all.
+void AddColouredNoise(Scenario& s, double rho, double sigma_um, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  for (auto& t : s.tests) {
+    double x = unit(rng) * sigma_um * 0.8;
+    const double phase = 6.283 * unit(rng), wander = 0.45 * sigma_um * unit(rng);
+    for (std::size_t i = 0; i < t.dr_um.size(); ++i) {
+      x = rho * x + std::sqrt(1.0 - rho * rho) * 0.8 * sigma_um * unit(rng);
+      t.dr_um[i] += x + wander * std::sin(phase + 3.0 * static_cast<double>(i) / t.dr_um.size());
+    }
+  }
+}
+
+TEST(HexapodDiscovery, ColouredNoiseOnAPerfectMachineIsNoMisfit) {
+  for (std::uint32_t seed : {4u, 5u}) {
+    auto s = Simulate({}, true, 720, seed);  // white noise 0.3 µm
+    AddColouredNoise(s, 0.97, 0.9, seed);
+    const auto o = Discover(s);
+    EXPECT_TRUE(o.result.steps.empty())
+        << "seed " << seed << ": added " << o.result.steps.front().added_effect;
+    EXPECT_EQ(o.result.verdict, "complete") << "seed " << seed;
+    // The white floor from successive differences misses coloured noise; the repeatability
+    // floor of the CW/CCW pairs sees it.
+    EXPECT_LT(o.result.noise_floor_um, 0.5 * o.result.repeatability_floor_um);
+    EXPECT_GT(o.result.repeatability_floor_um, 0.6);
+  }
+}
+
+TEST(HexapodDiscovery, AnUnmodelledKinematicErrorIsAMisfitAndDescribed) {
+  const auto o = Discover(Simulate({}, true, 180, 6, 0.15));
+  EXPECT_TRUE(o.result.steps.empty())
+      << "added " << o.result.steps.front().added_effect << ": " << o.result.steps.front().variant;
+  EXPECT_EQ(o.result.verdict, "model misfit");
+  const auto& m = o.result.misfit;
+  EXPECT_NE(m.sentence.find("No registered effect explains"), std::string::npos) << m.sentence;
+  EXPECT_GT(m.figures.at("even_part_pct"), 80.0) << m.sentence;  // geometric: alike CW/CCW
+  EXPECT_TRUE(m.figures.count("strongest_harmonic_order"));
+  EXPECT_TRUE(m.figures.count("worst_test_1_rms_um"));
 }
 
 TEST(HexapodDiscovery, GravityThenFrictionLargerFirst) {

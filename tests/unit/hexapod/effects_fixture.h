@@ -3,6 +3,7 @@
 // simulator through the effect registry; the independent simulator is tests/sim/).
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <string>
 #include <utility>
@@ -47,7 +48,8 @@ struct Scenario {
 
 inline Scenario Simulate(
     const std::vector<std::pair<std::string, std::vector<std::pair<int, double>>>>& effects,
-    bool both_directions = true, int samples = 180, std::uint32_t seed = 7) {
+    bool both_directions = true, int samples = 180, std::uint32_t seed = 7,
+    double platform_joint_error_mm = 0.0) {
   Scenario s;
   auto plan = sim::Table21Plan(samples, both_directions);
   for (std::size_t i = 0; i < plan.size(); ++i) {
@@ -70,7 +72,11 @@ inline Scenario Simulate(
     for (const auto& [i, v] : values) a.params[static_cast<std::size_t>(i)].value = v;
     opt.effects.push_back(a);
   }
-  const auto truth = sim::PerturbGeometry(s.nominal, 0.3, 0.1, seed);
+  auto truth = sim::PerturbGeometry(s.nominal, 0.3, 0.1, seed);
+  // Platform joints off their nominal places: outside the 24-parameter kinematic model.
+  for (int j = 0; j < 6; ++j)
+    for (int k = 0; k < 3; ++k)
+      truth.platform_joints_mm[j][k] += platform_joint_error_mm * std::sin(1.7 * (3 * j + k) + seed);
   s.tests = sim::SimulateHexapodDbbPlan(s.nominal, truth, plan, opt);
   return s;
 }
