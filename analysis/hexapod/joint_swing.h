@@ -41,11 +41,13 @@ inline Eigen::Vector3d StepSwingState(const Eigen::Vector3d& state, const Eigen:
   return r;
 }
 
-// Friction torque of one base joint (N·m), eq. 3.12: t0 + t1·ĝ_j with ĝ_j the axial gravity
-// force of the strut (N, tension positive — the struts of a hanging platform are in tension,
-// so this is the load on the joint). A negative sum (t1 < 0 on a light load) is no torque.
+// Friction torque of one base joint (N·m), eq. 3.12: t0 + t1·|ĝ_j| with ĝ_j the axial gravity
+// force of the strut (N). The load on the joint's bearings is the size of the force: a strut
+// pushed by the platform (compression at some tilts) loads its joint as a pulled one does. (On
+// a hanging platform, where every strut is in tension, this is the report's t0 + t1·ĝ_j.)
+// A negative sum (t1 < 0 under a large load) is no torque.
 inline double JointFrictionTorque(double t0_Nm, double t1_m, double gravity_N) {
-  const double t = t0_Nm + t1_m * gravity_N;
+  const double t = t0_Nm + t1_m * (gravity_N < 0.0 ? -gravity_N : gravity_N);
   return t > 0.0 ? t : 0.0;
 }
 
