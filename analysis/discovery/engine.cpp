@@ -225,6 +225,7 @@ Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Cand
   x.leftCols(p) = w.model;
   // Identifiability: each candidate column must keep part of its norm outside the model.
   const MatrixXd gm = w.base.gram_all;
+  std::vector<int> absorbed;  // candidate columns mostly inside the model's span
   for (int k = 0; k < s.q; ++k) {
     VectorXd a = c.columns.col(k);
     const double full = a.squaredNorm();
@@ -232,10 +233,7 @@ Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Cand
     x.col(p + k) = a;
     const VectorXd beta = SolveSym(gm, w.model.transpose() * a);
     const double left = a.squaredNorm() - (beta.size() ? (w.model.transpose() * a).dot(beta) : 0.0);
-    if (!(full > 0.0) || left < opt.confound_ratio * opt.confound_ratio * full) {
-      s.score.identifiable = false;
-      s.score.rejected_because = "not identifiable: the model's parameters absorb it";
-    }
+    if (!(full > 0.0) || left < opt.confound_ratio * opt.confound_ratio * full) absorbed.push_back(k);
   }
   VectorXd y = w.gap;
   if (c.offset.size() == n) {
@@ -251,6 +249,17 @@ Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Cand
   s.press_before = Press(w.base);
   s.score.press_um2 = Press(sys);
   s.dof = std::max(1, n - w.total_columns - s.q);
+  // A column mostly absorbed by the model is still identified when the data determine its
+  // parameter sharply (|estimate| ≥ determined_t σ, e.g. a large centre-of-gravity offset).
+  for (int k : absorbed) {
+    VectorXd unit = VectorXd::Zero(p + s.q);
+    unit[p + k] = 1.0;
+    const double var = SolveSym(sys.gram_all, unit)[p + k] * s.score.rss_after_um2 / s.dof;
+    const double t = var > 0.0 ? std::abs(beta[p + k]) / std::sqrt(var) : 0.0;
+    if (opt.determined_t > 0.0 && t >= opt.determined_t) continue;
+    s.score.identifiable = false;
+    s.score.rejected_because = "not identifiable: the model's parameters absorb it";
+  }
   const double drop = s.rss_before - s.score.rss_after_um2;
   s.f = drop > 0.0 ? (drop / s.q) / (s.score.rss_after_um2 / s.dof + 1e-300) : 0.0;
   s.score.log10_p_white = dbb::LogFUpperTail(s.f, s.q, s.dof) / std::log(10.0);

@@ -87,6 +87,9 @@ struct EngineOptions {
   double noise_stop_ratio = 1.05;
   double misfit_ratio = 1.3;
   double confound_ratio = 0.1;  // part of a candidate's column left after projecting the model
+  // A column with less left is still identified when its parameter's |estimate| is at least
+  // determined_t times its σ (0: never).
+  double determined_t = 0.0;
   int max_steps = 8;
   double resolution_um = 1e-6;
   // Test-level inference: a candidate must also pass a cluster-robust Wald test (clusters = fold

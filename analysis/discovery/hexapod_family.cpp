@@ -20,6 +20,7 @@ using Eigen::VectorXd;
 EngineOptions HexapodEngineOptions() {
   EngineOptions o;
   o.cluster_inference = true;
+  o.determined_t = 10.0;
   return o;
 }
 

@@ -34,11 +34,14 @@ class GravityDeflection final : public HexapodEffect {
     // axis it acts only through the tilt, like the tool length, and is left to the file.
     auto mass = plain;
     mass[kMass].free = true;
-    auto centre = mass;
+    auto centre = plain;
     centre[kCogX].free = centre[kCogY].free = true;
+    auto both = centre;
+    both[kMass].free = true;
     return {{"", plain, {}},
             {"platform mass fitted", mass, {}},
-            {"platform mass and centre fitted", centre, {}}};
+            {"platform centre fitted", centre, {}},
+            {"platform mass and centre fitted", both, {}}};
   }
   void Apply(const TestPath& path, const double* p, const ModelTerms& terms, const EffectSetup& s,
              Perturbation& out) const override {
