@@ -7,6 +7,7 @@
 #include <Eigen/LU>
 
 #include "analysis/core/errors.h"
+#include "analysis/hexapod/joint_swing.h"
 #include "analysis/servo/friction_states.h"
 #include "analysis/servo/hexapod_motion.h"
 #include "analysis/servo/load_model.h"
@@ -34,10 +35,11 @@ std::array<double, 6> NoiseFromDifferences(const std::vector<hexapod::Vector6d>&
   return out;
 }
 
-// The record without its friction, and the strut forces of each friction at full state.
+// The record without its friction, and the strut forces of the joint friction per component
+// of the joints' direction states (eqs. 3.11–3.12, linear in r_j).
 struct Parts {
   std::vector<hexapod::Vector6d> d0;                // motor − gravity − inertia
-  std::vector<Eigen::Matrix<double, 6, 12>> joint;  // per joint axis, state 1
+  std::vector<Eigen::Matrix<double, 6, 18>> joint;  // per joint state component
   std::vector<Eigen::Matrix<double, 3, 6>> units;   // l_j
   FrictionPath path;
 };
@@ -55,21 +57,17 @@ Parts Decompose(const hexapod::MachinePhysics& m, const std::vector<MotionSample
   const RowUse none;  // no friction columns
   for (std::size_t i = 0; i < n; ++i) {
     const MotionSample& s = motion[i];
-    const hexapod::Vector6d g = StaticGravity(m, theta, s, file.tool_length_mm);
-    std::array<double, 6> abs_g{};
-    for (int j = 0; j < 6; ++j) abs_g[j] = std::abs(g[j]);
-    LoadRegressor(m, s, file.tool_length_mm, abs_g, none, a, c);
+    const JointLoads loads =
+        JointLoadsOf(StaticGravity(m, theta, s, file.tool_length_mm), theta[kT0], theta[kT1]);
+    LoadRegressor(m, s, file.tool_length_mm, loads, none, a, c);
     const hexapod::Vector6d model = a * theta + c;
-    Eigen::Matrix<double, 6, 12> w;
+    Eigen::Matrix<double, 6, 18> w;
     for (int j = 0; j < 6; ++j) {
       p.d0[i][j] = file.samples[i].force_N[j] - model[j];
       p.units[i].col(j) = s.frame.unit[j];
-      const double tau = theta[kT0] + theta[kT1] * abs_g[j];
-      for (int k = 0; k < 2; ++k) {
-        const Eigen::Vector3d f = -(tau * 1e3 / s.frame.length_mm[j]) * s.swing_axis[j][k];
-        w.block<3, 1>(0, 2 * j + k) = f;
-        w.block<3, 1>(3, 2 * j + k) = s.frame.lever_mm[j].cross(f);
-      }
+      const double torque =
+          hexapod::JointFrictionTorque(theta[kT0], theta[kT1], loads.gravity_N[j]);
+      w.middleCols<3>(3 * j) = torque * JointFrictionWrenchMap(s, j);
     }
     p.joint[i] = Eigen::PartialPivLU<hexapod::Matrix6d>(s.frame.gamma).solve(w);
   }
@@ -80,12 +78,13 @@ Parts Decompose(const hexapod::MachinePhysics& m, const std::vector<MotionSample
 // d̂ with the friction states of the ramps.
 std::vector<hexapod::Vector6d> Residual(const Parts& p, const hexapod::MachinePhysics& m,
                                         double joint_ramp, double screw_ramp) {
-  std::vector<std::array<double, 12>> r;
+  std::vector<JointStates> r;
   std::vector<std::array<double, 6>> s;
   FrictionStates(p.path, joint_ramp, screw_ramp, r, s);
   std::vector<hexapod::Vector6d> d(p.d0.size());
   for (std::size_t i = 0; i < d.size(); ++i) {
-    const Eigen::Map<const Eigen::Matrix<double, 12, 1>> state(r[i].data());
+    Eigen::Matrix<double, 18, 1> state;
+    for (int j = 0; j < 6; ++j) state.segment<3>(3 * j) = r[i][j];
     d[i] = p.d0[i] - p.joint[i] * state;
     // The screw friction's share of the motor force is −f0_j s_j (eq. 3.10).
     for (int j = 0; j < 6; ++j) d[i][j] += m.screw_friction_N[j] * s[i][j];

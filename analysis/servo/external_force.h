@@ -3,12 +3,13 @@
 // modelled gravity, friction and inertia (pose second derivative by finite differences), and
 // â = Σ d̂_j l_j.
 //
-// Friction follows the states of friction_states.h: the base joints and ball screws go over to
-// the other side after a reversal as a ramp over a travel λ. λ of the joints is the machine
-// model's `joint_friction` ramp when given, λ of both otherwise the one that makes the estimated
-// force smoothest (least sum of squared successive differences; a grid over log λ in
-// [0.01, 20] mm and the step, then golden-section search) — a wrong λ leaves spikes at every
-// reversal.
+// Friction follows the states of friction_states.h: each base joint's force −(f_t,j/L_j) r_j
+// ([PM-600 report] eqs. 3.11–3.12) with its direction state r_j turning with the joint's swing,
+// and the ball screws, go over to the other side after a reversal as a ramp over a travel λ. λ of
+// the joints is the machine model's `joint_friction` ramp when given, λ of both otherwise the one
+// that makes the estimated force smoothest (least sum of squared successive differences; a grid
+// over log λ in [0.01, 20] mm and the step, then golden-section search) — a wrong λ leaves spikes
+// at every reversal.
 //
 // Uncertainty per sample and axis: the strut forces' noise σ_j (from the record itself: the
 // spread of successive differences of d̂_j, /√2, robust by the median absolute deviation, or

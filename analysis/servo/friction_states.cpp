@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "analysis/hexapod/joint_swing.h"
+
 namespace km::servo {
 namespace {
 
@@ -11,12 +13,31 @@ double Step(double state, double travel, double ramp) {
   return travel > 0.0 ? 1.0 : (travel < 0.0 ? -1.0 : state);
 }
 
+// Steady sliding before an open record: each joint's state is the direction of its first swing.
+JointStates FirstSwing(const FrictionPath& path) {
+  JointStates r;
+  r.fill(Eigen::Vector3d::Zero());
+  for (int j = 0; j < 6; ++j) {
+    for (std::size_t i = 0; i < path.swing_mm.size() && r[j].isZero(); ++i) {
+      r[j] = hexapod::StepSwingState(r[j], path.unit[i][j], path.swing_mm[i][j], 0.0);
+    }
+  }
+  return r;
+}
+
+void StepJoints(const FrictionPath& path, std::size_t i, double ramp, JointStates& r) {
+  for (int j = 0; j < 6; ++j) {
+    r[j] = hexapod::StepSwingState(r[j], path.unit[i][j], path.swing_mm[i][j], ramp);
+  }
+}
+
 }  // namespace
 
 FrictionPath PathOf(const std::vector<MotionSample>& motion) {
   const std::size_t n = motion.size();
   FrictionPath p;
   p.swing_mm.resize(n);
+  p.unit.resize(n);
   p.strut_mm.resize(n);
   double travel = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -24,9 +45,10 @@ FrictionPath PathOf(const std::vector<MotionSample>& motion) {
     const auto& s = motion[i];
     const auto& q = motion[prev];
     for (int j = 0; j < 6; ++j) {
-      const Eigen::Vector3d d =
-          (s.frame.lever_mm[j] + s.pose.tip_mm) - (q.frame.lever_mm[j] + q.pose.tip_mm);
-      for (int k = 0; k < 2; ++k) p.swing_mm[i][2 * j + k] = s.swing_axis[j][k].dot(d);
+      // The swing over the sample, centred on it (its swing velocity × its time step), so that
+      // with λ → 0 the state is unit(L_j dl_j/dt) at the sample, the direction of eq. 3.11.
+      p.unit[i][j] = s.frame.unit[j];
+      p.swing_mm[i][j] = s.swing_mm_s[j] * s.dt_s;
       p.strut_mm[i][j] = s.frame.length_mm[j] - q.frame.length_mm[j];
     }
     if (i > 0) travel += (s.pose.tip_mm - q.pose.tip_mm).norm();
@@ -38,39 +60,48 @@ FrictionPath PathOf(const std::vector<MotionSample>& motion) {
     p.closed = closing <= 2.0 * travel / static_cast<double>(n - 1);
   }
   if (!p.closed && n > 0) {  // no step into the first sample
-    p.swing_mm[0].fill(0.0);
+    p.swing_mm[0].fill(Eigen::Vector3d::Zero());
     p.strut_mm[0].fill(0.0);
   }
   return p;
 }
 
-void FrictionStates(const FrictionPath& path, double joint_ramp_mm, double screw_ramp_mm,
-                    std::vector<std::array<double, 12>>& r, std::vector<std::array<double, 6>>& s) {
+std::vector<JointStates> JointFrictionStates(const FrictionPath& path, double joint_ramp_mm) {
   const std::size_t n = path.swing_mm.size();
-  r.resize(n);
-  s.resize(n);
-  std::array<double, 12> jr{};
-  std::array<double, 6> sr{};
-  const auto advance = [&](std::size_t i) {
-    for (int q = 0; q < 12; ++q) jr[q] = Step(jr[q], path.swing_mm[i][q], joint_ramp_mm);
-    for (int j = 0; j < 6; ++j) sr[j] = Step(sr[j], path.strut_mm[i][j], screw_ramp_mm);
-  };
+  std::vector<JointStates> r(n);
+  JointStates jr;
+  jr.fill(Eigen::Vector3d::Zero());
   if (path.closed) {
-    for (std::size_t i = 0; i < n; ++i) advance(i);
+    for (std::size_t i = 0; i < n; ++i) StepJoints(path, i, joint_ramp_mm, jr);
   } else {
-    // Steady sliding before the record, in the direction of each axis's first motion.
-    for (int q = 0; q < 12; ++q) {
-      for (std::size_t i = 0; i < n && jr[q] == 0.0; ++i)
-        jr[q] = Step(0.0, path.swing_mm[i][q], 0.0);
+    jr = FirstSwing(path);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    StepJoints(path, i, joint_ramp_mm, jr);
+    r[i] = jr;
+  }
+  return r;
+}
+
+void FrictionStates(const FrictionPath& path, double joint_ramp_mm, double screw_ramp_mm,
+                    std::vector<JointStates>& r, std::vector<std::array<double, 6>>& s) {
+  const std::size_t n = path.strut_mm.size();
+  r = JointFrictionStates(path, joint_ramp_mm);
+  s.resize(n);
+  std::array<double, 6> sr{};
+  if (path.closed) {
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int j = 0; j < 6; ++j) sr[j] = Step(sr[j], path.strut_mm[i][j], screw_ramp_mm);
     }
+  } else {
+    // Steady sliding before the record, in the direction of each strut's first motion.
     for (int j = 0; j < 6; ++j) {
       for (std::size_t i = 0; i < n && sr[j] == 0.0; ++i)
         sr[j] = Step(0.0, path.strut_mm[i][j], 0.0);
     }
   }
   for (std::size_t i = 0; i < n; ++i) {
-    advance(i);
-    r[i] = jr;
+    for (int j = 0; j < 6; ++j) sr[j] = Step(sr[j], path.strut_mm[i][j], screw_ramp_mm);
     s[i] = sr;
   }
 }

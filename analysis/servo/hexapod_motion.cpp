@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 
+#include "analysis/hexapod/joint_swing.h"
+
 namespace km::servo {
 namespace {
 
@@ -81,12 +83,7 @@ std::vector<MotionSample> TrackMotion(const hexapod::HexapodGeometry& g,
       cur.strut_omega[j] = l.cross(ldot);
       // The platform joint's velocity across the strut is L_j dl_j/dt; along l_j it moves
       // with the strut rate, which has no swing component.
-      const Eigen::Vector3d across = cur.frame.length_mm[j] * (ldot - ldot.dot(l) * l);
-      Eigen::Vector3d a1 = Eigen::Vector3d::UnitZ().cross(l);
-      if (a1.norm() < 1e-12) a1 = Eigen::Vector3d::UnitX().cross(l);
-      a1.normalize();
-      cur.swing_axis[j] = {a1, l.cross(a1)};
-      for (int k = 0; k < 2; ++k) cur.swing_rate_mm_s[j][k] = cur.swing_axis[j][k].dot(across);
+      cur.swing_mm_s[j] = cur.frame.length_mm[j] * hexapod::SwingOf(l, ldot);
     }
   }
   return m;
@@ -117,6 +114,32 @@ std::vector<bool> Settled(const std::vector<double>& rate, const std::vector<dou
   return ok;
 }
 
+// Whether joint j's friction direction is known and settled at each sample: its swing speed is
+// >= min_rate, and over the last `skip` of swing (∫|v| dt back from the sample) no sample's
+// swing turned by more than 90° from the present one (v_k·v_i < 0: a reversal).
+std::vector<bool> SwingSettled(const std::vector<MotionSample>& motion, int j,
+                               double min_rate_fraction, double skip) {
+  const std::size_t n = motion.size();
+  std::vector<double> speed(n);
+  for (std::size_t i = 0; i < n; ++i) speed[i] = motion[i].swing_mm_s[j].norm();
+  const double min_rate = min_rate_fraction * Median(speed);
+  std::vector<bool> ok(n, false);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(speed[i] >= min_rate && min_rate > 0.0)) continue;
+    const Eigen::Vector3d& v = motion[i].swing_mm_s[j];
+    double travel = 0.0;
+    for (std::size_t k = i + 1; k-- > 0;) {
+      if (motion[k].swing_mm_s[j].dot(v) < 0.0) break;
+      travel += speed[k] * motion[k].dt_s;
+      if (travel >= skip) {
+        ok[i] = true;
+        break;
+      }
+    }
+  }
+  return ok;
+}
+
 }  // namespace
 
 std::vector<RowUse> UsableRows(const std::vector<MotionSample>& motion, double min_rate_fraction,
@@ -136,11 +159,8 @@ std::vector<RowUse> UsableRows(const std::vector<MotionSample>& motion, double m
   for (int j = 0; j < 6; ++j) {
     const auto screw = settled_of([j](const MotionSample& s) { return s.strut_rate_mm_s[j]; });
     for (std::size_t i = 0; i < n; ++i) use[i].screw[j] = screw[i];
-    for (int k = 0; k < 2; ++k) {
-      const auto swing =
-          settled_of([j, k](const MotionSample& s) { return s.swing_rate_mm_s[j][k]; });
-      for (std::size_t i = 0; i < n; ++i) use[i].joints = use[i].joints && swing[i];
-    }
+    const auto swing = SwingSettled(motion, j, min_rate_fraction, reversal_skip_mm);
+    for (std::size_t i = 0; i < n; ++i) use[i].joints = use[i].joints && swing[i];
   }
   return use;
 }

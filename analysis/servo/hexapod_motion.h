@@ -1,8 +1,9 @@
 // The motion of a hexapod along a servo-load record (docs/methods.md §12): at every sample the
 // strut frame of the commanded pose ([PM-600 report] eq. 3.4), and from finite differences in
-// time the strut rates dL_j/dt, the direction in which each platform joint moves across its
-// strut (the direction the base-joint friction of eq. 3.11 opposes), the strut and platform
-// angular velocities, and the tool-tip acceleration (the inertia of eq. 3.13).
+// time the strut rates dL_j/dt, the swing of each platform joint — its velocity across its
+// strut, L_j dl_j/dt, whose direction the base-joint friction of eqs. 3.11–3.12 opposes
+// (analysis/hexapod/joint_swing.h) —, the strut and platform angular velocities, and the
+// tool-tip acceleration (the inertia of eq. 3.13).
 #pragma once
 
 #include <array>
@@ -22,11 +23,9 @@ struct MotionSample {
   Eigen::Vector3d accel_mm_s2 = Eigen::Vector3d::Zero();  // tool tip
   double tip_speed_mm_s = 0.0;
   std::array<double, 6> strut_rate_mm_s{};  // dL_j/dt
-  // Swing axes of each strut's base joint, a1 = unit(e_z × l_j) (e_x × l_j when l_j ∥ e_z),
-  // a2 = l_j × a1 (docs/hexapod-effects.md § joint_friction), and the platform joint's speed
-  // along each (mm/s).
-  std::array<std::array<Eigen::Vector3d, 2>, 6> swing_axis;
-  std::array<std::array<double, 2>, 6> swing_rate_mm_s{};
+  // The swing velocity of each platform joint, L_j dl_j/dt (mm/s): its velocity normal to the
+  // strut (SwingOf of joint_swing.h).
+  std::array<Eigen::Vector3d, 6> swing_mm_s;
   // Angular velocity of each strut (perpendicular to it) and of the platform, rad/s.
   std::array<Eigen::Vector3d, 6> strut_omega;
   Eigen::Vector3d platform_omega = Eigen::Vector3d::Zero();
@@ -37,13 +36,15 @@ std::vector<MotionSample> TrackMotion(const hexapod::HexapodGeometry& g,
                                       const std::vector<HexapodSample>& samples,
                                       double tool_length_mm);
 
-// Which rows a friction model can use. Friction changes sign at a reversal and ramps over a
+// Which rows a friction model can use. Friction changes side at a reversal and ramps over a
 // short travel after it ([Joint patent] figs. 10–12), so a strut's row is used when the strut
 // moves (|dL/dt| >= min_rate_fraction × its median |dL/dt| over the record) and has travelled
-// `reversal_skip_mm` since its last reversal; a sample's rows only when, in addition, every
-// swing axis of every base joint has travelled that far since its own last reversal and moves
-// (the joint friction of all six struts reaches every strut through the statics), and the tool
-// tip moves (speed >= min_rate_fraction × its median).
+// `reversal_skip_mm` since its last reversal. A base joint's friction direction is known when
+// its swing speed |L_j dl_j/dt| is >= min_rate_fraction × its median, and settled when over the
+// last `reversal_skip_mm` of swing its direction has not turned by more than 90° from the
+// present one (a reversal of the swing). A sample's rows are used only when, in addition,
+// every joint's friction is settled (the joint friction of all six struts reaches every strut
+// through the statics) and the tool tip moves (speed >= min_rate_fraction × its median).
 struct RowUse {
   std::array<bool, 6> screw{};  // the strut's direction is known and settled
   bool joints = false;          // every joint's friction direction is known and settled

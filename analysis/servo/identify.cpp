@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "analysis/core/errors.h"
+#include "analysis/servo/friction_states.h"
 #include "analysis/servo/linear_lsq.h"
 
 namespace km::servo {
@@ -13,7 +14,18 @@ struct Track {
   const ServoFile* file = nullptr;
   std::vector<MotionSample> motion;
   std::vector<RowUse> moving;
+  FrictionPath path;
+  std::vector<JointStates> states;  // the joints' ramp states; empty: unit(swing)
+  const JointStates* StatesAt(std::size_t i) const { return states.empty() ? nullptr : &states[i]; }
 };
+
+// The joints' friction direction with the ramp λ (0: the swing's direction at once).
+void SetRamp(std::vector<Track>& tracks, double ramp_mm) {
+  for (auto& t : tracks) {
+    t.states.clear();
+    if (ramp_mm > 0.0) t.states = JointFrictionStates(t.path, ramp_mm);
+  }
+}
 
 std::vector<Track> Tracks(const hexapod::HexapodGeometry& g, const std::vector<ServoFile>& files,
                           const IdentifyOptions& o) {
@@ -26,17 +38,16 @@ std::vector<Track> Tracks(const hexapod::HexapodGeometry& g, const std::vector<S
     t.file = &f;
     t.motion = TrackMotion(g, f.samples, f.tool_length_mm);
     t.moving = UsableRows(t.motion, o.min_rate_fraction, o.reversal_skip_mm);
+    t.path = PathOf(t.motion);
     tracks.push_back(std::move(t));
   }
   return tracks;
 }
 
-std::array<double, 6> AbsGravity(const hexapod::MachinePhysics& m, const LoadVector& theta,
-                                 const MotionSample& s, double tool_length_mm) {
-  const hexapod::Vector6d g = StaticGravity(m, theta, s, tool_length_mm);
-  std::array<double, 6> out{};
-  for (int j = 0; j < 6; ++j) out[j] = std::abs(g[j]);
-  return out;
+// ĝ_j of eq. 3.12 (tension positive) with θ, and which joints carry friction with θ's t0, t1.
+JointLoads Loads(const hexapod::MachinePhysics& m, const LoadVector& theta, const MotionSample& s,
+                 double tool_length_mm) {
+  return JointLoadsOf(StaticGravity(m, theta, s, tool_length_mm), theta[kT0], theta[kT1]);
 }
 
 // Normal equations over every usable row with ĝ from θ. A strut's row is used when it moves.
@@ -50,8 +61,8 @@ NormalEquations Accumulate(const hexapod::MachinePhysics& m, const std::vector<T
       const auto& row_use = t.moving[i];
       MotionSample s = t.motion[i];
       if (!inertia) s.accel_mm_s2.setZero();
-      LoadRegressor(m, s, t.file->tool_length_mm, AbsGravity(m, theta, s, t.file->tool_length_mm),
-                    row_use, a, c);
+      LoadRegressor(m, s, t.file->tool_length_mm, Loads(m, theta, s, t.file->tool_length_mm),
+                    row_use, a, c, t.StatesAt(i));
       for (int j = 0; j < 6; ++j) {
         if (!row_use.Row(j)) continue;
         ne.Add(a.row(j), Eigen::Matrix<double, 1, 1>(t.file->samples[i].force_N[j] - c[j]));
@@ -70,8 +81,8 @@ void Residuals(const hexapod::MachinePhysics& m, const std::vector<Track>& track
     for (std::size_t i = 0; i < t.motion.size(); ++i) {
       MotionSample s = t.motion[i];
       if (!inertia) s.accel_mm_s2.setZero();
-      LoadRegressor(m, s, t.file->tool_length_mm, AbsGravity(m, theta, s, t.file->tool_length_mm),
-                    t.moving[i], a, c);
+      LoadRegressor(m, s, t.file->tool_length_mm, Loads(m, theta, s, t.file->tool_length_mm),
+                    t.moving[i], a, c, t.StatesAt(i));
       const hexapod::Vector6d model = a * theta + c;
       for (int j = 0; j < 6; ++j) {
         if (!t.moving[i].Row(j)) continue;
@@ -111,6 +122,54 @@ std::string HeldReason(int p) {
          "value";
 }
 
+// θ by least squares with the tracks' joint states, ĝ refreshed from the latest θ until θ
+// settles (at most `iterations` passes, from `theta`).
+struct Fit {
+  LoadVector theta;
+  LsqSolution sol;
+  int iterations = 0;
+};
+
+Fit Solve(const hexapod::MachinePhysics& machine, const std::vector<Track>& tracks,
+          const LoadVector& theta0, int iterations, const IdentifyOptions& options) {
+  const LoadVector prior = ParametersOf(machine);
+  const std::vector<bool> hold(kNumLoadParams, false);
+  Fit f;
+  f.theta = theta0;
+  for (f.iterations = 1; f.iterations <= iterations; ++f.iterations) {
+    const NormalEquations ne = Accumulate(machine, tracks, f.theta, options.inertia);
+    f.sol = SolveLeastSquares(ne, prior, hold, options.min_singular_ratio);
+    const LoadVector next = f.sol.x;
+    const bool settled = ((next - f.theta).cwiseAbs().array() <=
+                          1e-6 * (1.0 + f.theta.cwiseAbs().array()) + 1e-3 * f.sol.sigma.array())
+                             .all();
+    f.theta = next;
+    if (settled) break;
+  }
+  f.iterations = std::min(f.iterations, iterations);
+  return f;
+}
+
+// The joint ramp whose states, with θ refitted (ĝ held), leave the least residual over the
+// identification's rows: a grid over log λ and the step. On circles no joint reverses, but the
+// friction direction lags the turning swing by λ/(2 × the turn's radius); fitting θ with the
+// swing's direction at once would bias the masses, and a ramp searched with θ held would then
+// follow that bias.
+double ProfileRamp(const hexapod::MachinePhysics& machine, std::vector<Track>& tracks,
+                   const LoadVector& theta0, const IdentifyOptions& options) {
+  double best = 0.0, best_rss = INFINITY;
+  for (const double ramp :
+       {0.0, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0, 5.0, 10.0, 20.0}) {
+    SetRamp(tracks, ramp);
+    const double rss = Solve(machine, tracks, theta0, 1, options).sol.rss;
+    if (rss < best_rss) {
+      best_rss = rss;
+      best = ramp;
+    }
+  }
+  return best;
+}
+
 }  // namespace
 
 void IdentifyOptions::Check() const {
@@ -133,24 +192,23 @@ IdentifyResult IdentifyLoads(const hexapod::HexapodGeometry& geometry,
                              const std::vector<ServoFile>& files, const IdentifyOptions& options) {
   options.Check();
   if (files.empty()) throw InvalidInput("", 0, "FILE", "no servo file given");
-  const std::vector<Track> tracks = Tracks(geometry, files, options);
+  std::vector<Track> tracks = Tracks(geometry, files, options);
   IdentifyResult r;
   for (const auto& t : tracks) r.samples += t.motion.size();
-  const LoadVector prior = ParametersOf(machine);
-  LoadVector theta = prior;
-  const std::vector<bool> hold(kNumLoadParams, false);
-  LsqSolution sol;
-  for (r.iterations = 1; r.iterations <= options.max_iterations; ++r.iterations) {
-    const NormalEquations ne = Accumulate(machine, tracks, theta, options.inertia);
-    sol = SolveLeastSquares(ne, prior, hold, options.min_singular_ratio);
-    const LoadVector next = sol.x;
-    const bool settled = ((next - theta).cwiseAbs().array() <=
-                          1e-6 * (1.0 + theta.cwiseAbs().array()) + 1e-3 * sol.sigma.array())
-                             .all();
-    theta = next;
-    if (settled) break;
+  Fit fit = Solve(machine, tracks, ParametersOf(machine), options.max_iterations, options);
+  if (options.estimate_ramp) {
+    // λ from the profile, refined with θ held (joint_ramp.h); θ again with that λ.
+    const double coarse = ProfileRamp(machine, tracks, fit.theta, options);
+    SetRamp(tracks, coarse);
+    const Fit at = Solve(machine, tracks, fit.theta, options.max_iterations, options);
+    r.joint_ramp = EstimateJointRamp(geometry, WithParameters(machine, at.theta), files,
+                                     options.min_rate_fraction, options.reversal_skip_mm);
+    SetRamp(tracks, r.joint_ramp->ramp_mm);
+    fit = Solve(machine, tracks, at.theta, options.max_iterations, options);
   }
-  r.iterations = std::min(r.iterations, options.max_iterations);
+  const LoadVector& theta = fit.theta;
+  const LsqSolution& sol = fit.sol;
+  r.iterations = fit.iterations;
   r.theta = theta;
   r.sigma = sol.sigma;
   r.condition_number = sol.condition_number;
@@ -159,10 +217,6 @@ IdentifyResult IdentifyLoads(const hexapod::HexapodGeometry& geometry,
   r.identified = WithParameters(machine, theta);
   CogSigma(sol, r);
   Residuals(machine, tracks, theta, options.inertia, r);
-  if (options.estimate_ramp) {
-    r.joint_ramp = EstimateJointRamp(geometry, r.identified, files, options.min_rate_fraction,
-                                     options.reversal_skip_mm);
-  }
   return r;
 }
 

@@ -7,20 +7,36 @@
 #include <Eigen/LU>
 
 #include "analysis/core/errors.h"
+#include "analysis/hexapod/joint_swing.h"
+#include "analysis/servo/friction_states.h"
 #include "analysis/servo/hexapod_motion.h"
 #include "analysis/servo/load_model.h"
 
 namespace km::servo {
 namespace {
 
+using StateMap = Eigen::Matrix<double, 6, 18>;  // strut forces of the 6 × 3 joint states
+
 // One record prepared for the search: per sample the residual without joint friction, and the
-// strut forces of each joint axis's friction at full state (r = 1).
+// strut forces of each joint's friction, linear in its direction state r_j (3 components), at
+// the identified torque f_t,j = t0 + t1·ĝ_j.
 struct Prepared {
   std::vector<hexapod::Vector6d> residual;
   std::vector<std::array<bool, 6>> row;
-  std::vector<Eigen::Matrix<double, 6, 12>> axis_forces;
-  std::vector<std::array<std::array<double, 2>, 6>> swing_mm;  // δ since the previous sample
+  std::vector<StateMap> state_forces;
+  FrictionPath path;
 };
+
+// The strut forces of the joint friction per component of the states r_j (6 × 18).
+StateMap StateForces(const LoadVector& theta, const MotionSample& s,
+                     const std::array<double, 6>& gravity) {
+  StateMap w;
+  for (int j = 0; j < 6; ++j) {
+    const double torque = hexapod::JointFrictionTorque(theta[kT0], theta[kT1], gravity[j]);
+    w.middleCols<3>(3 * j) = torque * JointFrictionWrenchMap(s, j);
+  }
+  return Eigen::PartialPivLU<hexapod::Matrix6d>(s.frame.gamma).solve(w);
+}
 
 Prepared Prepare(const hexapod::HexapodGeometry& g, const hexapod::MachinePhysics& m,
                  const ServoFile& f, double min_rate_fraction, double skip) {
@@ -31,59 +47,38 @@ Prepared Prepare(const hexapod::HexapodGeometry& g, const hexapod::MachinePhysic
   Prepared p;
   p.residual.resize(n);
   p.row.resize(n);
-  p.axis_forces.resize(n);
-  p.swing_mm.resize(n);
+  p.state_forces.resize(n);
   LoadRows a;
   hexapod::Vector6d c;
   for (std::size_t i = 0; i < n; ++i) {
     const MotionSample& s = motion[i];
-    const hexapod::Vector6d grav = StaticGravity(m, theta, s, f.tool_length_mm);
+    const JointLoads loads =
+        JointLoadsOf(StaticGravity(m, theta, s, f.tool_length_mm), theta[kT0], theta[kT1]);
     RowUse u = use[i];
     u.joints = false;  // joint friction modelled here
-    std::array<double, 6> abs_g{};
-    for (int j = 0; j < 6; ++j) abs_g[j] = std::abs(grav[j]);
-    LoadRegressor(m, s, f.tool_length_mm, abs_g, u, a, c);
+    LoadRegressor(m, s, f.tool_length_mm, loads, u, a, c);
     const hexapod::Vector6d model = a * theta + c;
-    const std::size_t prev = i == 0 ? n - 1 : i - 1;
-    Eigen::Matrix<double, 6, 12> w;
     for (int j = 0; j < 6; ++j) {
       p.residual[i][j] = f.samples[i].force_N[j] - model[j];
       // Settled screw friction and a moving tool tip (the joints' own ramps are the subject).
       p.row[i][j] = use[i].screw[j] && s.tip_speed_mm_s > 0.0;
-      const double tau = theta[kT0] + theta[kT1] * abs_g[j];
-      const Eigen::Vector3d pj = s.frame.lever_mm[j] + s.pose.tip_mm;
-      const Eigen::Vector3d pp = motion[prev].frame.lever_mm[j] + motion[prev].pose.tip_mm;
-      for (int k = 0; k < 2; ++k) {
-        const Eigen::Vector3d force = -(tau * 1e3 / s.frame.length_mm[j]) * s.swing_axis[j][k];
-        w.block<3, 1>(0, 2 * j + k) = force;
-        w.block<3, 1>(3, 2 * j + k) = s.frame.lever_mm[j].cross(force);
-        p.swing_mm[i][j][k] = s.swing_axis[j][k].dot(pj - pp);
-      }
     }
-    p.axis_forces[i] = Eigen::PartialPivLU<hexapod::Matrix6d>(s.frame.gamma).solve(w);
+    p.state_forces[i] = StateForces(theta, s, loads.gravity_N);
   }
+  p.path = PathOf(motion);
   return p;
 }
 
-// Residual sum of squares with ramp λ (λ ≤ 0: a step at the reversal).
+// Residual sum of squares with ramp λ (λ ≤ 0: the direction of the swing at once).
 double Rss(const std::vector<Prepared>& recs, double lambda, std::size_t* rows) {
   double ss = 0.0;
   std::size_t count = 0;
   for (const auto& p : recs) {
-    const std::size_t n = p.residual.size();
-    std::array<double, 12> r{};
-    const auto advance = [&](std::size_t i) {
-      for (int q = 0; q < 12; ++q) {
-        const double d = p.swing_mm[i][q / 2][q % 2];
-        r[q] = lambda > 0.0 ? std::clamp(r[q] + 2.0 * d / lambda, -1.0, 1.0)
-                            : (d > 0.0 ? 1.0 : (d < 0.0 ? -1.0 : r[q]));
-      }
-    };
-    for (std::size_t i = 0; i < n; ++i) advance(i);  // steady state of the record's motion
-    for (std::size_t i = 0; i < n; ++i) {
-      advance(i);
-      const Eigen::Map<const Eigen::Matrix<double, 12, 1>> state(r.data());
-      const hexapod::Vector6d e = p.residual[i] - p.axis_forces[i] * state;
+    const auto states = JointFrictionStates(p.path, lambda);
+    for (std::size_t i = 0; i < p.residual.size(); ++i) {
+      Eigen::Matrix<double, 18, 1> r;
+      for (int j = 0; j < 6; ++j) r.segment<3>(3 * j) = states[i][j];
+      const hexapod::Vector6d e = p.residual[i] - p.state_forces[i] * r;
       for (int j = 0; j < 6; ++j) {
         if (!p.row[i][j]) continue;
         ss += e[j] * e[j];

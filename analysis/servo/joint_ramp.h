@@ -1,10 +1,11 @@
 // The travel over which the base-joint friction goes over to the other side after a reversal
-// of a joint's swing ([Joint patent] figs. 10–12; the ramp λ of docs/hexapod-effects.md
-// § joint_friction), from the servo loads once the masses and friction are identified
-// (docs/methods.md §12). Each joint axis carries a friction state r ∈ [−1, 1] that moves by
-// 2δ/λ with the swing δ of each sample (after one pass through the record, its steady state);
-// λ minimises the residual of the strut forces over every sample where the tool tip moves and
-// the strut's screw friction is settled — the samples the identification leaves out near
+// of a joint's swing ([Joint patent] figs. 10–12; the ramp λ of analysis/hexapod/joint_swing.h),
+// from the servo loads once the masses and friction are identified (docs/methods.md §12). Each
+// base joint carries a friction direction state r_j on the unit disk normal to its strut
+// (StepSwingState: it moves by 2δ/λ with the joint's swing δ of each sample; a closed record from
+// its steady state), and its force −(f_t,j/L_j) r_j ([PM-600 report] eqs. 3.11–3.12) is linear in
+// r_j; λ minimises the residual of the strut forces over every sample where the tool tip moves
+// and the strut's screw friction is settled — the samples the identification leaves out near
 // reversals are the ones that see λ. A line search over log λ in [0.01, 20] mm; σ from the
 // curvature of the residual.
 #pragma once
@@ -20,7 +21,7 @@ struct RampEstimate {
   double ramp_mm = 0.0;
   double sigma_mm = 0.0;
   double residual_rms_N = 0.0;       // at the estimate, over the rows used
-  double step_residual_rms_N = 0.0;  // with a step (λ → 0), the same rows
+  double step_residual_rms_N = 0.0;  // with no ramp (λ → 0: r = unit(swing)), the same rows
   std::size_t rows = 0;
 };
 

@@ -9,6 +9,7 @@
 #include <Eigen/LU>
 
 #include "analysis/core/errors.h"
+#include "analysis/hexapod/joint_swing.h"
 #include "analysis/servo/hexapod_motion.h"
 #include "analysis/servo/linear_lsq.h"
 #include "analysis/servo/load_model.h"
@@ -25,18 +26,22 @@ struct Track {
   std::vector<RowUse> use;
 };
 
+// The direction of the strut's rotation that the platform joint resists: l_j × unit(swing).
+Eigen::Vector3d TurnAxis(const MotionSample& s, int k) {
+  const Eigen::Vector3d& v = s.swing_mm_s[k];
+  const double speed = v.norm();
+  if (!(speed > 0.0)) return Eigen::Vector3d::Zero();
+  return s.frame.unit[k].cross(v / speed);
+}
+
 // `shape[k]`: the resistance of leg k at this pose relative to its mean (the load dependence
-// t0 + t1·|ĝ_k| of the machine's friction model, [PM-600 report] eq. 3.12).
+// t0 + t1·ĝ_k of the machine's friction model, [PM-600 report] eq. 3.12).
 FrictionRows FrictionRegressor(const MotionSample& s, const std::array<double, 6>& shape) {
   FrictionRows a = FrictionRows::Zero();
   Eigen::Matrix<double, 6, 12> w;
   for (int k = 0; k < 6; ++k) {
     const hexapod::Vector6d base = JointFrictionWrench(s, k);
-    Eigen::Vector3d turn = Eigen::Vector3d::Zero();
-    for (int q = 0; q < 2; ++q) {
-      const double r = s.swing_rate_mm_s[k][q];
-      if (r != 0.0) turn += (r > 0.0 ? 1.0 : -1.0) * s.frame.unit[k].cross(s.swing_axis[k][q]);
-    }
+    const Eigen::Vector3d turn = TurnAxis(s, k);
     w.col(k) = shape[k] * base;
     w.col(6 + k) = shape[k] * base;
     w.block<3, 1>(3, 6 + k) += shape[k] * 1e3 * turn;  // N·m → N·mm
@@ -84,7 +89,7 @@ std::string Fixed(double v, int digits = 2) {
 
 struct Accumulated {
   NormalEquations ne{kParams};
-  std::array<double, 6> abs_gravity_sum{};
+  std::array<double, 6> gravity_sum{};  // ĝ_j, tension positive
   std::size_t gravity_samples = 0;
 };
 
@@ -158,12 +163,18 @@ bool LoadDependent(const hexapod::MachinePhysics& m) {
   return m.has_friction && m.base_joint_torque_Nm > 0.0 && m.base_joint_torque_per_N_m > 0.0;
 }
 
-std::array<double, 6> AbsGravity(const hexapod::MachinePhysics& m, const Track& t, std::size_t i) {
+std::array<double, 6> Gravity(const hexapod::MachinePhysics& m, const Track& t, std::size_t i) {
   const hexapod::Vector6d g =
       StaticGravity(m, ParametersOf(m), t.motion[i], t.file->tool_length_mm);
   std::array<double, 6> out{};
-  for (int j = 0; j < 6; ++j) out[j] = std::abs(g[j]);
+  for (int j = 0; j < 6; ++j) out[j] = g[j];
   return out;
+}
+
+// The machine's joint friction torque at the axial gravity ĝ (eq. 3.12).
+double ModelTorque(const hexapod::MachinePhysics& m, double gravity_N) {
+  return hexapod::JointFrictionTorque(m.base_joint_torque_Nm, m.base_joint_torque_per_N_m,
+                                      gravity_N);
 }
 
 // First pass: the mean axial gravity of each strut over the matched poses.
@@ -171,8 +182,8 @@ void AddGravity(const hexapod::MachinePhysics& m, const Track& cw, const std::ve
                 Accumulated& acc) {
   for (std::size_t i = 0; i < cw.motion.size(); ++i) {
     if (match[i].k < 0) continue;
-    const auto g = AbsGravity(m, cw, i);
-    for (int j = 0; j < 6; ++j) acc.abs_gravity_sum[j] += g[j];
+    const auto g = Gravity(m, cw, i);
+    for (int j = 0; j < 6; ++j) acc.gravity_sum[j] += g[j];
     ++acc.gravity_samples;
   }
 }
@@ -187,11 +198,11 @@ void AddPair(const hexapod::MachinePhysics& m, const Track& cw, const Track& ccw
     std::array<double, 6> shape{};
     shape.fill(1.0);
     if (load) {
-      const auto g = AbsGravity(m, cw, i);
+      const auto g = Gravity(m, cw, i);
       for (int j = 0; j < 6; ++j) {
-        const double mean = acc.abs_gravity_sum[j] / static_cast<double>(acc.gravity_samples);
-        shape[j] = (m.base_joint_torque_Nm + m.base_joint_torque_per_N_m * g[j]) /
-                   (m.base_joint_torque_Nm + m.base_joint_torque_per_N_m * mean);
+        const double mean = acc.gravity_sum[j] / static_cast<double>(acc.gravity_samples);
+        const double at_mean = ModelTorque(m, mean);
+        shape[j] = at_mean > 0.0 ? ModelTorque(m, g[j]) / at_mean : 1.0;
       }
     }
     const FrictionRows a = FrictionRegressor(cw.motion[i], shape) -
@@ -219,8 +230,7 @@ std::array<double, 6> References(const hexapod::MachinePhysics& m, const Accumul
       acc.gravity_samples > 0) {
     source = "machine model";
     for (int j = 0; j < 6; ++j) {
-      ref[j] = m.base_joint_torque_Nm + m.base_joint_torque_per_N_m * acc.abs_gravity_sum[j] /
-                                            static_cast<double>(acc.gravity_samples);
+      ref[j] = ModelTorque(m, acc.gravity_sum[j] / static_cast<double>(acc.gravity_samples));
     }
     return ref;
   }

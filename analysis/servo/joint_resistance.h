@@ -4,16 +4,17 @@
 // both directions while friction changes sign, so the difference of the strut loads,
 // F_cw − F_ccw, holds friction alone (formulas 27–28). Per leg j it is modelled as
 //   - the ball-screw friction f0_j along the strut (eq. 3.10 of [PM-600 report]),
-//   - the base joint's resistance τb_j (N·m) against its swing, as a force −(τb_j/L_j) Σ_k
-//     sign(swing_k) a_k at the platform joint (docs/hexapod-effects.md § joint_friction),
+//   - the base joint's resistance τb_j (N·m) against its swing, as one force
+//     −(τb_j/L_j)·unit(L_j dl_j/dt) at the platform joint, normal to the strut ([PM-600 report]
+//     eqs. 3.11–3.12, analysis/hexapod/joint_swing.h),
 //   - the platform joint's resistance τp_j (N·m) against the strut's rotation relative to the
-//     platform: the same force and, in addition, a moment τp_j Σ_k sign(swing_k)(l_j × a_k) on
-//     the platform (circles at a constant tilt: the platform does not turn),
+//     platform: the same force and, in addition, a moment τp_j·(l_j × unit(L_j dl_j/dt)) on the
+//     platform (circles at a constant tilt: the platform does not turn),
 // stacked over every matched pair of samples and solved by least squares (formulas 21–26)
 // with the identifiability report of linear_lsq.h. A leg's resistance is τb_j + τp_j, at the
 // mean load of the poses used: when the machine's friction model makes the resistance grow
-// with the strut load (t0 + t1·|ĝ_j|, [PM-600 report] eq. 3.12), each pose's regressor is
-// scaled by that model's value there over its mean.
+// with the strut load (t0 + t1·ĝ_j, [PM-600 report] eq. 3.12, ĝ_j tension positive), each
+// pose's regressor is scaled by that model's value there over its mean.
 #pragma once
 
 #include <array>
@@ -39,7 +40,7 @@ struct JointOptions {
   double level3_ratio = 2.5;
   double increase_warn = 0.3;
   double increase_stop = 1.0;
-  // Reference resistance per leg (N·m); unset: the machine's t0 + t1·mean|ĝ_j| over the poses
+  // Reference resistance per leg (N·m); unset: the machine's t0 + t1·mean ĝ_j over the poses
   // used, or, without a friction model, the median of the six legs.
   std::optional<std::array<double, 6>> reference_Nm;
   // The previous estimate of the same machine, per leg (N·m).

@@ -5,6 +5,8 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
+#include "analysis/hexapod/joint_swing.h"
+
 namespace km::servo {
 namespace {
 
@@ -98,19 +100,36 @@ hexapod::MachinePhysics WithParameters(const hexapod::MachinePhysics& m, const L
   return out;
 }
 
-hexapod::Vector6d JointFrictionWrench(const MotionSample& s, int j) {
-  Eigen::Vector3d dir = Eigen::Vector3d::Zero();
-  for (int k = 0; k < 2; ++k) {
-    const double r = s.swing_rate_mm_s[j][k];
-    if (r != 0.0) dir += (r > 0.0 ? 1.0 : -1.0) * s.swing_axis[j][k];
-  }
+hexapod::Vector6d JointFrictionWrench(const MotionSample& s, int j, const Eigen::Vector3d& r) {
   // τ_j / L_j with τ in N·m and L_j in m.
-  return ForceAt(-(1e3 / s.frame.length_mm[j]) * dir, s.frame.lever_mm[j]);
+  return ForceAt(-(1e3 / s.frame.length_mm[j]) * r, s.frame.lever_mm[j]);
+}
+
+hexapod::Vector6d JointFrictionWrench(const MotionSample& s, int j) {
+  const Eigen::Vector3d& v = s.swing_mm_s[j];
+  const double speed = v.norm();
+  if (!(speed > 0.0)) return Wrench::Zero();
+  return JointFrictionWrench(s, j, v / speed);
+}
+
+Eigen::Matrix<double, 6, 3> JointFrictionWrenchMap(const MotionSample& s, int j) {
+  Eigen::Matrix<double, 6, 3> w;
+  for (int k = 0; k < 3; ++k) w.col(k) = JointFrictionWrench(s, j, Eigen::Vector3d::Unit(k));
+  return w;
+}
+
+JointLoads JointLoadsOf(const hexapod::Vector6d& gravity_N, double t0_Nm, double t1_m) {
+  JointLoads out;
+  for (int j = 0; j < 6; ++j) {
+    out.gravity_N[j] = gravity_N[j];
+    out.active[j] = hexapod::JointFrictionTorque(t0_Nm, t1_m, gravity_N[j]) > 0.0;
+  }
+  return out;
 }
 
 void LoadRegressor(const hexapod::MachinePhysics& m, const MotionSample& s, double tool_length_mm,
-                   const std::array<double, 6>& abs_gravity_N, const RowUse& use, LoadRows& a,
-                   hexapod::Vector6d& c) {
+                   const JointLoads& loads, const RowUse& use, LoadRows& a, hexapod::Vector6d& c,
+                   const std::array<Eigen::Vector3d, 6>* joint_states) {
   const auto& f = s.frame;
   const Eigen::Vector3d ge = m.g_m_s2 - s.accel_mm_s2 * 1e-3;
   Eigen::Matrix<double, 6, 7> w;  // wrench columns: m_P, m_PΔc (3), m_S, t0, t1
@@ -121,11 +140,13 @@ void LoadRegressor(const hexapod::MachinePhysics& m, const MotionSample& s, doub
   w.col(5).setZero();
   w.col(6).setZero();
   for (int j = 0; use.joints && j < 6; ++j) {
-    // Base-joint friction torque (N·m) as a force across the strut at the platform joint,
-    // against its swing (eq. 3.11).
-    const Wrench per_torque = JointFrictionWrench(s, j);
+    if (!loads.active[j]) continue;
+    // Base-joint friction torque t0 + t1·ĝ_j (N·m, eq. 3.12) as one force across the strut at
+    // the platform joint, against its swing (eq. 3.11).
+    const Wrench per_torque =
+        joint_states ? JointFrictionWrench(s, j, (*joint_states)[j]) : JointFrictionWrench(s, j);
     w.col(5) += per_torque;
-    w.col(6) += abs_gravity_N[j] * per_torque;
+    w.col(6) += loads.gravity_N[j] * per_torque;
   }
   const Eigen::PartialPivLU<hexapod::Matrix6d> lu(f.gamma);
   const Eigen::Matrix<double, 6, 7> x = lu.solve(w);

@@ -10,10 +10,11 @@
 // data cannot separate is held at that value); the strut weights split between their joints
 // (eqs. 3.6–3.7) with the ball-screw and joint masses m_B, m_J held at the machine's values; the
 // strut equivalent mass m_T (eq. 3.8); the ball-screw friction −f0_j sign(dL_j/dt) (eq. 3.10);
-// the base-joint friction torque τ_j = t0 + t1·|ĝ_j| acting across the strut against the
-// platform joint's swing (eqs. 3.11–3.12; the report writes t1·ĝ_j, and ĝ_j is tension,
-// positive, on a hanging platform), as a force −(τ_j/L_j) Σ_k sign(swing_k) a_k on each of the
-// joint's two swing axes (docs/hexapod-effects.md § joint_friction, after its ramp).
+// and the base-joint friction of eqs. 3.11–3.12 (analysis/hexapod/joint_swing.h): the torque
+// f_t,j = t0 + t1·ĝ_j (N·m; ĝ_j the strut's axial gravity force, tension positive — the struts
+// of a hanging platform are in tension) acts as one force of size f_t,j/L_j (L_j in m) at the
+// platform joint, normal to the strut, against the joint's swing L_j dl_j/dt:
+// −(f_t,j/L_j)·unit(L_j dl_j/dt). Its wrench about the tool tip reaches the struts through Γ⁻¹.
 #pragma once
 
 #include <array>
@@ -51,17 +52,37 @@ LoadVector ParametersOf(const hexapod::MachinePhysics& m);
 // The machine's physics with θ written into it (centre of gravity = machine value + Δc).
 hexapod::MachinePhysics WithParameters(const hexapod::MachinePhysics& m, const LoadVector& theta);
 
-// Rows A (6 × parameters) and the known part c for one sample. `abs_gravity_N` is |ĝ_j|, the
-// static axial gravity force of each strut with the current parameters (for t1). The screw
-// friction column of strut j is zero unless use.screw[j], the joint friction columns unless
-// use.joints.
+// The static axial gravity force ĝ_j of each strut (N, tension positive) with the current
+// parameters, and whether its joint friction torque t0 + t1·ĝ_j is positive with them: eq. 3.12
+// is linear in ĝ_j, and a strut where the sum is not positive (in compression beyond t0/t1)
+// carries no joint friction (JointFrictionTorque of joint_swing.h).
+struct JointLoads {
+  std::array<double, 6> gravity_N{};
+  std::array<bool, 6> active{};
+};
+JointLoads JointLoadsOf(const hexapod::Vector6d& gravity_N, double t0_Nm, double t1_m);
+
+// Rows A (6 × parameters) and the known part c for one sample. The t1 column of joint j is ĝ_j
+// times its t0 column; both are zero unless loads.active[j]. The screw friction column of strut
+// j is zero unless use.screw[j], the joint friction columns unless use.joints. The joint
+// friction's direction is unit(swing) (eq. 3.11), or the ramp states `joint_states` (r_j, one
+// per joint, friction_states.h) when given.
 void LoadRegressor(const hexapod::MachinePhysics& m, const MotionSample& s, double tool_length_mm,
-                   const std::array<double, 6>& abs_gravity_N, const RowUse& use, LoadRows& a,
-                   hexapod::Vector6d& c);
+                   const JointLoads& loads, const RowUse& use, LoadRows& a, hexapod::Vector6d& c,
+                   const std::array<Eigen::Vector3d, 6>* joint_states = nullptr);
 
 // The wrench on the platform (force N; moment N·mm about the tool tip) of a friction torque of
-// 1 N·m in strut j's base joint, against the joint's swing (zero when it does not swing).
+// 1 N·m in strut j's base joint, against the joint's swing: a force of 1/L_j N (L_j in m)
+// along −unit(L_j dl_j/dt) at the platform joint (zero when it does not swing).
 hexapod::Vector6d JointFrictionWrench(const MotionSample& s, int j);
+
+// The same with the friction direction state r of a ramp (joint_swing.h StepSwingState, |r| <= 1
+// in the plane normal to the strut): the force −r/L_j. Linear in r; r = unit(swing) above.
+hexapod::Vector6d JointFrictionWrench(const MotionSample& s, int j, const Eigen::Vector3d& r);
+
+// The 6 × 3 wrenches of JointFrictionWrench(s, j, r) for r = e_x, e_y, e_z, so that the wrench
+// of a state r is this × r.
+Eigen::Matrix<double, 6, 3> JointFrictionWrenchMap(const MotionSample& s, int j);
 
 // Static axial gravity forces ĝ (eqs. 3.5–3.8) of the sample's pose with the parameters θ.
 hexapod::Vector6d StaticGravity(const hexapod::MachinePhysics& m, const LoadVector& theta,

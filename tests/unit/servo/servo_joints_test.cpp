@@ -1,6 +1,7 @@
 // Recover-the-truth tests of the joint resistance and health levels
 // (analysis/servo/joint_resistance.h) on the independent simulator (servo_truth.h): CW and CCW
-// circles of the jig plan, noise 2 N, joint friction ramping after every reversal.
+// circles of the jig plan, noise 2 N, the base-joint friction of [PM-600 report] eq. 3.11 (one
+// force f_t/L across the strut against the swing).
 #include <cmath>
 #include <random>
 
@@ -12,7 +13,7 @@
 namespace km::servo {
 namespace {
 
-// The simulated resistance of leg j averaged over the poses: t0 + t1·mean|ĝ_j| per the
+// The simulated resistance of leg j averaged over the poses: t0 + t1·mean ĝ_j per the
 // reference of the estimate, so the ratio to it is the simulated factor.
 TEST(ServoJoints, NamesTheStiffLegAtLevel3) {
   truth::Machine m = truth::Pm600Truth();

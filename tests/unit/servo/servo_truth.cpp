@@ -24,7 +24,6 @@ Eigen::Matrix3d Rot(const Eigen::Vector3d& deg) {
 struct State {
   std::array<Eigen::Vector3d, 6> p, u, b;
   std::array<double, 6> len{};
-  std::array<std::array<Eigen::Vector3d, 2>, 6> axes;
   Eigen::Matrix<double, 6, 6> a;
 };
 
@@ -36,10 +35,6 @@ State At(const Machine& m, const Eigen::Vector3d& tip, const Eigen::Matrix3d& r,
     s.len[j] = d.norm();
     s.u[j] = d / s.len[j];
     s.b[j] = s.p[j] - tip;
-    Eigen::Vector3d a1 = Eigen::Vector3d(0, 0, 1).cross(s.u[j]);
-    if (a1.norm() < 1e-12) a1 = Eigen::Vector3d(1, 0, 0).cross(s.u[j]);
-    a1 /= a1.norm();
-    s.axes[j] = {a1, s.u[j].cross(a1)};
     s.a.block<3, 1>(0, j) = s.u[j];
     s.a.block<3, 1>(3, j) = s.b[j].cross(s.u[j]);
   }
@@ -79,6 +74,51 @@ Eigen::Matrix<double, 6, 1> GravityAxial(const Machine& m, const State& s, const
 
 double Clamp1(double v) {
   return std::clamp(v, -1.0, 1.0);
+}
+
+// The part of a platform joint's motion d across its strut u: d(L u) less its axial part L̇ u,
+// i.e. L du (eq. 3.11 read as a force normal to the strut, fig. 3.4).
+Eigen::Vector3d Across(const Eigen::Vector3d& u, const Eigen::Vector3d& d) {
+  return d - u.dot(d) * u;
+}
+
+// The friction direction of one base joint at a sample, from its direction `r` at the previous
+// one. With no ramp it is the direction of the joint's swing velocity `v` (eq. 3.11 as printed).
+// With a ramp λ the state in the plane normal to the strut moves by 2δ/λ with the swing δ and is
+// held to |r| <= 1: integrated over `sub` steps of the analytic motion between the samples
+// (`joint_at(k)`, `vel_at(k)`: the joint's position and velocity at sub-step k of `sub`).
+template <typename JointAt, typename VelAt>
+Eigen::Vector3d JointDirection(Eigen::Vector3d r, const Eigen::Vector3d& base, double ramp_mm,
+                               int sub, JointAt joint_at, VelAt vel_at) {
+  const auto unit_at = [&](int k) { return (joint_at(k) - base).normalized(); };
+  if (ramp_mm <= 0.0) {
+    const Eigen::Vector3d across = Across(unit_at(sub), vel_at(sub));
+    const double n = across.norm();
+    return n > 0.0 ? Eigen::Vector3d(across / n) : Across(unit_at(sub), r);
+  }
+  for (int k = 1; k <= sub; ++k) {
+    const Eigen::Vector3d u = unit_at(k);
+    r = Across(u, r) + (2.0 / ramp_mm) * Across(u, joint_at(k) - joint_at(k - 1));
+    const double n = r.norm();
+    if (n > 1.0) r /= n;
+  }
+  return r;
+}
+
+// The wrench of the base- and platform-joint friction of every strut (eqs. 3.11–3.12): strut j
+// pushes its platform joint with −(f_t,j/L_j) r_j, f_t,j = t0 + t1·ĝ_j (ĝ_j tension positive,
+// a negative sum no torque), and the platform joint's resistance adds its moment about r_j's
+// rotation axis u_j × r_j.
+void JointFrictionLoad(const Machine& m, const State& s, const Eigen::Matrix<double, 6, 1>& axial,
+                       const std::array<Eigen::Vector3d, 6>& dir, Eigen::Vector3d& force,
+                       Eigen::Vector3d& moment) {
+  for (int j = 0; j < 6; ++j) {
+    const double ft = std::max(0.0, m.t0 + m.t1 * axial[j]);
+    const double tau = m.leg_factor[j] * ft, rho = m.platform_factor[j] * ft;
+    const Eigen::Vector3d f = -((tau + rho) / (s.len[j] / 1000.0)) * dir[j];
+    force += f;
+    moment += s.b[j].cross(f) + 1000.0 * rho * s.u[j].cross(dir[j]);
+  }
 }
 
 }  // namespace
@@ -128,6 +168,21 @@ std::vector<Circle> JigPlan(int samples) {
   return out;
 }
 
+std::vector<Circle> Strokes(int samples) {
+  std::vector<Circle> out;
+  const char* names[] = {"sx", "sy", "sz"};
+  for (int k = 0; k < 3; ++k) {
+    Circle c;
+    c.test_id = names[k];
+    c.radius_mm = k == 2 ? 100.0 : 150.0;
+    c.axis_u = Eigen::Vector3d::Unit(k);
+    c.axis_v = Eigen::Vector3d::Zero();
+    c.samples = samples;
+    out.push_back(c);
+  }
+  return out;
+}
+
 Record Simulate(const Machine& m, const Circle& c, double noise_N, std::mt19937& rng) {
   const int n = c.samples;
   const double sign = c.ccw ? 1.0 : -1.0;
@@ -138,7 +193,7 @@ Record Simulate(const Machine& m, const Circle& c, double noise_N, std::mt19937&
   Record rec;
   for (int i = 0; i < n; ++i) {
     const double th = sign * 2.0 * kPi * (i + c.phase_steps) / n;
-    const Eigen::Vector3d ring(std::cos(th), std::sin(th), 0.0);
+    const Eigen::Vector3d ring = std::cos(th) * c.axis_u + std::sin(th) * c.axis_v;
     tip[i] = c.centre + Eigen::Vector3d(0, 0, c.z_offset_mm) + c.radius_mm * ring;
     acc[i] = -(speed * speed / c.radius_mm) * ring * 1e-3;  // m/s²
     st.push_back(At(m, tip[i], r, c.tool_mm));
@@ -146,34 +201,39 @@ Record Simulate(const Machine& m, const Circle& c, double noise_N, std::mt19937&
   }
   // Friction states, run through the closed path once before recording (steady state).
   std::array<double, 6> screw{};
-  std::array<std::array<double, 2>, 6> joint{};
+  std::array<Eigen::Vector3d, 6> joint;
+  joint.fill(Eigen::Vector3d::Zero());
   std::normal_distribution<double> noise(0.0, noise_N);
   for (int pass = 0; pass < 2; ++pass) {
     for (int i = 0; i < n; ++i) {
       const State& s = st[i];
       const State& prev = st[(i + n - 1) % n];
+      // The platform turns not: every platform joint moves with the tool tip's velocity.
+      const int sub = 16;
+      const auto th_at = [&](int k) {
+        return sign * 2.0 * kPi * (i - 1 + static_cast<double>(k) / sub + c.phase_steps) / n;
+      };
+      const auto tip_at = [&](int k) {
+        const double th = th_at(k);
+        return Eigen::Vector3d(c.centre + Eigen::Vector3d(0, 0, c.z_offset_mm) +
+                               c.radius_mm * (std::cos(th) * c.axis_u + std::sin(th) * c.axis_v));
+      };
+      const auto vel_at = [&](int k) {
+        const double th = th_at(k);
+        return Eigen::Vector3d(sign * speed * (std::cos(th) * c.axis_v - std::sin(th) * c.axis_u));
+      };
       for (int j = 0; j < 6; ++j) {
         screw[j] = Clamp1(screw[j] + 2.0 * (s.len[j] - prev.len[j]) / m.screw_ramp_mm);
-        const Eigen::Vector3d dp = s.p[j] - prev.p[j];
-        for (int k = 0; k < 2; ++k)
-          joint[j][k] = Clamp1(joint[j][k] + 2.0 * s.axes[j][k].dot(dp) / m.joint_ramp_mm);
+        const Eigen::Vector3d arm = r * (m.platform[j] + Eigen::Vector3d(0, 0, c.tool_mm));
+        joint[j] = JointDirection(
+            joint[j], m.base[j], m.joint_ramp_mm, sub,
+            [&](int k) { return Eigen::Vector3d(tip_at(k) + arm); }, vel_at);
       }
       if (pass == 0) continue;
       Eigen::Matrix<double, 6, 1> x;
       const auto axial = GravityAxial(m, s, r, c.tool_mm, acc[i], &x);
       Eigen::Vector3d force = c.external_N, moment = Eigen::Vector3d::Zero();
-      for (int j = 0; j < 6; ++j) {
-        const double tau = m.leg_factor[j] * (m.t0 + m.t1 * std::abs(axial[j]));
-        Eigen::Vector3d dir = Eigen::Vector3d::Zero(), rot = Eigen::Vector3d::Zero();
-        for (int k = 0; k < 2; ++k) {
-          dir += joint[j][k] * s.axes[j][k];
-          rot += joint[j][k] * s.u[j].cross(s.axes[j][k]);
-        }
-        const double rho = m.platform_factor[j] * (m.t0 + m.t1 * std::abs(axial[j]));
-        const Eigen::Vector3d f = -((tau + rho) / (s.len[j] / 1000.0)) * dir;
-        force += f;
-        moment += s.b[j].cross(f) + 1000.0 * rho * rot;
-      }
+      JointFrictionLoad(m, s, axial, joint, force, moment);
       x += Hold(s, force, moment);
       std::array<double, 6> out{};
       for (int j = 0; j < 6; ++j) out[j] = x[j] - m.f0[j] * screw[j] + noise(rng);
@@ -185,9 +245,10 @@ Record Simulate(const Machine& m, const Circle& c, double noise_N, std::mt19937&
 }
 
 std::string ServoText(const Circle& c, const Record& r, const std::string& machine_id) {
-  std::string s =
-      "# format: kinemetric-servo/1\n# machine_id: " + machine_id + "\n# test_id: " + c.test_id +
-      "\n# motion: circle\n# direction: " + (c.ccw ? "ccw" : "cw") + "\n# force_unit: N\n";
+  std::string s = "# format: kinemetric-servo/1\n# machine_id: " + machine_id +
+                  "\n# test_id: " + c.test_id +
+                  "\n# motion: " + (c.IsCircle() ? "circle" : "path") +
+                  "\n# direction: " + (c.ccw ? "ccw" : "cw") + "\n# force_unit: N\n";
   char buf[512];
   std::snprintf(buf, sizeof buf,
                 "# radius_mm: %.6f\n# centre_mm: %.6f, %.6f, %.6f\n# tilt_deg: %.6f, %.6f, "
