@@ -121,7 +121,7 @@ Eigen::Matrix<double, 6, 3> JointFrictionWrenchMap(const MotionSample& s, int j)
 JointLoads JointLoadsOf(const hexapod::Vector6d& gravity_N, double t0_Nm, double t1_m) {
   JointLoads out;
   for (int j = 0; j < 6; ++j) {
-    out.gravity_N[j] = gravity_N[j];
+    out.gravity_N[j] = std::abs(gravity_N[j]);  // the load on the joint (eq. 3.12)
     out.active[j] = hexapod::JointFrictionTorque(t0_Nm, t1_m, gravity_N[j]) > 0.0;
   }
   return out;

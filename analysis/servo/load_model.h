@@ -52,17 +52,17 @@ LoadVector ParametersOf(const hexapod::MachinePhysics& m);
 // The machine's physics with θ written into it (centre of gravity = machine value + Δc).
 hexapod::MachinePhysics WithParameters(const hexapod::MachinePhysics& m, const LoadVector& theta);
 
-// The static axial gravity force ĝ_j of each strut (N, tension positive) with the current
-// parameters, and whether its joint friction torque t0 + t1·ĝ_j is positive with them: eq. 3.12
-// is linear in ĝ_j, and a strut where the sum is not positive (in compression beyond t0/t1)
-// carries no joint friction (JointFrictionTorque of joint_swing.h).
+// The load on each base joint, |ĝ_j| (N; ĝ_j the static axial gravity force of the strut with
+// the current parameters), and whether its friction torque t0 + t1·|ĝ_j| is positive with them
+// (eq. 3.12 as JointFrictionTorque of joint_swing.h reads it: a pushed strut loads its joint as a
+// pulled one does); a joint where the sum is not positive carries no friction.
 struct JointLoads {
   std::array<double, 6> gravity_N{};
   std::array<bool, 6> active{};
 };
 JointLoads JointLoadsOf(const hexapod::Vector6d& gravity_N, double t0_Nm, double t1_m);
 
-// Rows A (6 × parameters) and the known part c for one sample. The t1 column of joint j is ĝ_j
+// Rows A (6 × parameters) and the known part c for one sample. The t1 column of joint j is |ĝ_j|
 // times its t0 column; both are zero unless loads.active[j]. The screw friction column of strut
 // j is zero unless use.screw[j], the joint friction columns unless use.joints. The joint
 // friction's direction is unit(swing) (eq. 3.11), or the ramp states `joint_states` (r_j, one

@@ -89,13 +89,16 @@ TEST(ServoJointLaw, TheRegressorAddsOneForcePerJointAndTheStateMapIsLinear) {
   LoadRows a;
   hexapod::Vector6d c;
   hexapod::Vector6d gravity = hexapod::Vector6d::Constant(1000.0);
-  gravity[4] = -2000.0;  // in compression beyond t0/t1: no joint friction
+  gravity[4] = -1000.0;  // a pushed strut loads its joint as a pulled one does
   const JointLoads loads = JointLoadsOf(gravity, 10.2, 0.0121);
   LoadRegressor(test::Pm600Physics(), s, 0.0, loads, use, a, c);
-  sum -= JointFrictionWrench(s, 4);
   EXPECT_LT((s.frame.gamma * a.col(kT0) - sum).norm(), 1e-9 * sum.norm());
-  EXPECT_FALSE(loads.active[4]);
+  EXPECT_TRUE(loads.active[4]);
+  EXPECT_DOUBLE_EQ(loads.gravity_N[4], 1000.0);
   EXPECT_LT((a.col(kT1) - 1000.0 * a.col(kT0)).norm(), 1e-9 * a.col(kT1).norm());
+  // A negative t1 large enough takes the torque of the loaded joints to nothing.
+  const JointLoads none = JointLoadsOf(gravity, 10.2, -0.0121);
+  for (int j = 0; j < 6; ++j) EXPECT_FALSE(none.active[j]);
 }
 
 // Straight strokes out and back along x: each joint's swing reverses at the turn. The friction
