@@ -199,10 +199,44 @@ std::vector<bool> AtBound(const Layout& l, const EffectFitResult& s) {
   return held;
 }
 
+// Test-level (delete-one-cluster jackknife, CR3) variance of the parameters of the linearised
+// problem J·δ = r: the change of the solution when the rows of one cluster are left out,
+// d_g = (JᵀJ − J_gᵀJ_g)⁻¹ J_gᵀ r_g, and V = (G − 1)/G · Σ_g (d_g − d̄)(d_g − d̄)ᵀ. Columns
+// local to the left-out cluster (a test's fixed-ball position) are held at their value. It
+// holds for residuals correlated within a test and is not optimistic with few clusters.
+Eigen::VectorXd JackknifeVariance(const Eigen::MatrixXd& j, const Eigen::VectorXd& r,
+                                  const std::vector<int>& row_cluster, int clusters,
+                                  const std::vector<int>& local_cluster) {
+  const int m = static_cast<int>(j.cols()), n = static_cast<int>(j.rows());
+  std::vector<Eigen::MatrixXd> gram(static_cast<std::size_t>(clusters), Eigen::MatrixXd::Zero(m, m));
+  Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(m, clusters);
+  for (int row = 0; row < n; ++row) {
+    const int g = row_cluster[static_cast<std::size_t>(row)];
+    gram[static_cast<std::size_t>(g)].selfadjointView<Eigen::Lower>().rankUpdate(
+        j.row(row).transpose());
+    scores.col(g) += j.row(row).transpose() * r[row];
+  }
+  Eigen::MatrixXd all = Eigen::MatrixXd::Zero(m, m);
+  for (auto& a : gram) {
+    a = a.selfadjointView<Eigen::Lower>();
+    all += a;
+  }
+  Eigen::MatrixXd d(m, clusters);
+  for (int g = 0; g < clusters; ++g) {
+    Eigen::MatrixXd rest = all - gram[static_cast<std::size_t>(g)];
+    for (int c = 0; c < m; ++c)
+      if (local_cluster[static_cast<std::size_t>(c)] == g) rest(c, c) += 1.0;
+    d.col(g) = rest.ldlt().solve(scores.col(g));
+  }
+  const Eigen::VectorXd mean = d.rowwise().mean();
+  const Eigen::MatrixXd dev = d.colwise() - mean;
+  return (static_cast<double>(clusters - 1) / clusters) * dev.rowwise().squaredNorm();
+}
+
 // Covariance, uncertainties and statistics at the solution. Parameters on a bound are held
 // there; the σ of the others is the larger of the white-residual and the cluster-robust one.
 void FillStatistics(const Layout& l, const Evaluation& ev, const std::vector<int>& row_cluster,
-                    int clusters, EffectFitResult& s) {
+                    int clusters, const std::vector<int>& rows_of_test, EffectFitResult& s) {
   const int n = static_cast<int>(ev.r.size()), p = l.size();
   s.residual_um = ev.r;
   s.rss_um2 = ev.r.squaredNorm();
@@ -241,12 +275,16 @@ void FillStatistics(const Layout& l, const Evaluation& ev, const std::vector<int
         (js.transpose() * js).ldlt().solve(Eigen::MatrixXd::Identity(m, m));
     var = (s.rss_um2 / std::max(1, n - m)) * bread.diagonal();
     if (clusters >= 4) {
-      Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(m, clusters);
-      for (int r = 0; r < n; ++r)
-        scores.col(row_cluster[static_cast<std::size_t>(r)]) += js.row(r).transpose() * ev.r[r];
-      const Eigen::MatrixXd half = bread * scores;
-      const double small = static_cast<double>(clusters) / (clusters - 1);
-      var = var.cwiseMax(small * half.rowwise().squaredNorm());
+      std::vector<int> local_cluster(static_cast<std::size_t>(m), -1);
+      for (int c = 0; c < m; ++c) {
+        const int q = cols[c] - static_cast<int>(l.k.size() + l.effect.size());
+        if (q >= 0) {
+          const int t = l.ball[static_cast<std::size_t>(q)].first;
+          local_cluster[static_cast<std::size_t>(c)] =
+              row_cluster[static_cast<std::size_t>(rows_of_test[static_cast<std::size_t>(t)])];
+        }
+      }
+      var = var.cwiseMax(JackknifeVariance(js, ev.r, row_cluster, clusters, local_cluster));
     }
   }
   std::vector<double> sigma(static_cast<std::size_t>(p), std::nan(""));
@@ -401,7 +439,7 @@ EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult&
   }
   int clusters = 0;
   const std::vector<int> row_cluster = RowClusters(data, &clusters);
-  FillStatistics(layout, ev, row_cluster, clusters, s);
+  FillStatistics(layout, ev, row_cluster, clusters, data.row_begin, s);
   s.column_test.clear();
   s.column_name = ColumnNames(layout, s, data, &s.column_test);
   return s;

@@ -68,9 +68,10 @@ struct EffectFitResult {
   // Free effect parameters that ended on a bound (value clamped there): they are held at the
   // bound for the uncertainties, and their σ is NaN (not estimated).
   std::vector<std::vector<bool>> effect_at_bound;
-  // σ are the larger of the usual (white-residual) estimate and the test-level (cluster-robust)
-  // one, which holds when the residuals of a test are correlated with each other: clusters are
-  // the tests with one test_id (a CW/CCW pair).
+  // σ are the larger of the usual (white-residual) estimate and the test-level one (the
+  // delete-one-cluster jackknife), which holds when the residuals of a test are correlated with
+  // each other or carry a systematic misfit: clusters are the tests with one test_id (a CW/CCW
+  // pair).
   int clusters = 0;
 };
 
