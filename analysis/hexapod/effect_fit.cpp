@@ -425,9 +425,11 @@ EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult&
       break;
     }
     if (!improved) {
-      // No damped step lowers the cost: a minimum when the linear model agrees.
+      // No damped step lowers the cost: a minimum when the linear model agrees, i.e. it
+      // promises less than options.stall_tolerance of the cost (the RMS would change by half
+      // that; finite-difference derivatives of the effects are not more accurate).
       const double predicted = PredictedDecrease(layout, ev, s);
-      s.converged = predicted <= 10.0 * options.relative_tolerance * std::max(cost, 1e-300);
+      s.converged = predicted <= options.stall_tolerance * std::max(cost, 1e-300);
       char buf[200];
       std::snprintf(buf, sizeof buf,
                     "stalled: no step lowers the cost, though the linear model predicts a "

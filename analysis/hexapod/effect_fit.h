@@ -78,6 +78,9 @@ struct EffectFitResult {
 struct EffectFitOptions {
   int max_iterations = 40;
   double relative_tolerance = 1e-10;  // on the cost
+  // When no step lowers the cost: a minimum if the linear model predicts a decrease below this
+  // fraction of the cost, else "stalled" (converged false).
+  double stall_tolerance = 1e-4;
 };
 
 // Fits from `start` (k and effect values; balls from the data). The effects in `start` with

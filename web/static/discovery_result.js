@@ -47,6 +47,10 @@ function verdictBanner(r) {
     h('strong', { class: 'verdict-title' }, title),
     h('span', { class: 'verdict-detail' }, say),
     h('span', { class: 'verdict-detail', 'data-testid': 'disc-stop-reason' }, `Stopped because ${r.stop_reason || 'no reason was given'}. ${figures}`),
+    typeof r.repeatability_floor_um === 'number' && r.repeatability_floor_um > 0
+      ? h('span', { class: 'verdict-detail', 'data-testid': 'disc-repeatability' }, `What the CW and CCW runs of a test do not share (noise, coloured noise included): ${um(r.repeatability_floor_um)} µm.`)
+      : null,
+    misfit && r.misfit?.sentence ? h('span', { class: 'verdict-detail', 'data-testid': 'disc-misfit' }, sentenceWords(r.misfit.sentence)) : null,
   );
 }
 
@@ -357,6 +361,7 @@ function effectsTable(entries) {
   for (const e of entries) {
     const params = Object.entries(e.parameters || {});
     const fixed = new Set(Array.isArray(e.fixed_parameters) ? e.fixed_parameters : []);
+    const atBound = new Set(Array.isArray(e.at_bound) ? e.at_bound : []);
     params.forEach(([name, value], i) => {
       const w = parameterWords(name);
       const sigma = e.uncertainty?.[name];
@@ -371,7 +376,11 @@ function effectsTable(entries) {
           h(
             'td',
             { class: `num${isFixed ? ' fixed' : ''}`, 'data-key': 'value' },
-            isFixed ? `${plain(shown)} (held at the machine file's value)` : valuePm(shown, typeof sigma === 'number' ? sigma * w.factor : null),
+            isFixed
+              ? `${plain(shown)} (held at the machine file's value)`
+              : atBound.has(name)
+                ? `${plain(shown)} (on its bound: held there, not estimated)`
+                : valuePm(shown, typeof sigma === 'number' ? sigma * w.factor : null),
           ),
           h('td', { class: 'unit' }, w.unit),
         ),

@@ -16,6 +16,12 @@ const PARAMETERS = {
   lag_coefficient_ms2: { label: 'Servo lag coefficient (1 − K_f²)/K_pp²', unit: 'ms²', factor: 1 },
   rate_um_per_h: { label: 'Thermal drift rate', unit: 'µm/h', factor: 1 },
   um_per_K: { label: 'Thermal growth per kelvin', unit: 'µm/K', factor: 1 },
+  strain_ppm_per_h: { label: 'Thermal growth with strut length', unit: 'µm/m per h', factor: 1 },
+  ppm_per_K: { label: 'Thermal expansion of the struts (α)', unit: 'µm/m per K', factor: 1 },
+  platform_mass_kg: { label: 'Platform mass', unit: 'kg', factor: 1 },
+  'platform_cog_mm[0]': { label: 'Platform centre of gravity, x (platform frame)', unit: 'mm', factor: 1 },
+  'platform_cog_mm[1]': { label: 'Platform centre of gravity, y (platform frame)', unit: 'mm', factor: 1 },
+  'platform_cog_mm[2]': { label: 'Platform centre of gravity, z (platform frame)', unit: 'mm', factor: 1 },
 };
 
 // Units as the analysis writes them → [display unit, factor] (fallback for unknown parameters).
@@ -52,6 +58,9 @@ export function parameterWords(name) {
 export function variantWords(variant) {
   const v = String(variant || '').trim();
   if (!v) return '';
+  // A form with several parts ("ramp_mm = 0.7, t1 fitted"): each part in words.
+  if (v.includes(', ')) return v.split(', ').map(variantWords).join(', ');
+  if (v === 't1 fitted') return 'load-dependent torque fitted';
   const m = v.match(/^([A-Za-z_][\w[\].]*)\s*=\s*(.+)$/);
   if (!m) return v.replace(/_/g, ' ');
   if (m[1] === 'ramp_mm') return `ramp length ${m[2]} mm`;

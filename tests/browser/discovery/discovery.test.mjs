@@ -366,7 +366,8 @@ test('discovery page: hexapod gravity + friction found step by step, saved as ve
       );
       assert.deepEqual(rows.map((x) => x.effect), ['gravity_deflection', 'joint_friction']);
       assert.match(rows[0].label, /^Gravity deflection/);
-      assert.match(rows[1].label, /^Joint friction \(ramp length 2 mm\)$/);
+      // The form taken: a ramp length of the candidate grid, t1 held or fitted, in words.
+      assert.match(rows[1].label, /^Joint friction \(ramp length [\d.]+ mm(, load-dependent torque fitted)?\)$/);
       rows.forEach((row, i) => {
         const s = r.steps[i];
         const ev = s.evidence;

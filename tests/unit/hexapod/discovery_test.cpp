@@ -90,14 +90,16 @@ TEST(HexapodDiscovery, AnUnmodelledKinematicErrorIsAMisfitAndDescribed) {
 }
 
 TEST(HexapodDiscovery, GravityThenFrictionLargerFirst) {
-  const auto o = Discover(Simulate(
-      {{"gravity_deflection", {{0, 1.52e-5}}}, {"joint_friction", {{0, 8.88}, {1, 2.0}}}}));
+  // Truths away from the machine file (1.52e-5, 8.88 N·m, 0.0139 m) and off the ramp grid.
+  const auto o = Discover(Simulate({{"gravity_deflection", {{0, 1.37e-5}}},
+                                    {"joint_friction", {{0, 10.2}, {1, 1.37}, {2, 0.0121}}}}));
   ASSERT_EQ(o.result.steps.size(), 2u);
   EXPECT_EQ(o.result.steps[0].added_effect, "gravity_deflection");
   EXPECT_EQ(o.result.steps[1].added_effect, "joint_friction");
   // Each step removes its effect's share: gravity (even) leaves the friction (odd) part, about
   // what a friction-only machine shows; friction then leaves the noise.
-  const auto friction_only = Discover(Simulate({{"joint_friction", {{0, 8.88}, {1, 2.0}}}}));
+  const auto friction_only =
+      Discover(Simulate({{"joint_friction", {{0, 10.2}, {1, 1.37}, {2, 0.0121}}}}));
   const double friction_gap = friction_only.result.steps.at(0).gap_rms_before_um;
   EXPECT_LT(o.result.steps[0].gap_rms_after_um, 1.2 * friction_gap);
   // The shrink of the gap above the injected noise (0.3 µm) is at least 80 %.
@@ -106,22 +108,23 @@ TEST(HexapodDiscovery, GravityThenFrictionLargerFirst) {
             0.2 * excess(o.result.steps[1].gap_rms_before_um));
   EXPECT_LT(o.result.unexplained_rms_um, 0.2 * o.result.steps[0].gap_rms_before_um);
   EXPECT_LT(o.result.unexplained_rms_um, 1.3 * 0.3);
-  EXPECT_NEAR(Param(o.history.back(), "gravity_deflection", 0), 1.52e-5, 0.05 * 1.52e-5);
+  EXPECT_NEAR(Param(o.history.back(), "gravity_deflection", 0), 1.37e-5, 0.03 * 1.37e-5);
+  EXPECT_NEAR(Param(o.history.back(), "joint_friction", 0), 10.2, 0.15 * 10.2);
   EXPECT_EQ(o.result.verdict, "complete");
   EXPECT_FALSE(o.result.steps[1].evidence.sentence.empty());
 }
 
 TEST(HexapodDiscovery, ToolLengthErrorOfOneToolAndDrift) {
   const auto o = Discover(
-      Simulate({{"tool_length_error", {{0, -62.0}, {1, 0.0}}}, {"thermal_drift", {{0, 20.0}}}}));
+      Simulate({{"tool_length_error", {{0, -47.3}, {1, 0.0}}}, {"thermal_drift", {{0, 8.37}}}}));
   ASSERT_EQ(o.result.steps.size(), 2u);
   std::set<std::string> named;
   for (const auto& st : o.result.steps) named.insert(st.added_effect);
   EXPECT_TRUE(named.count("tool_length_error"));
   EXPECT_TRUE(named.count("thermal_drift"));
-  EXPECT_NEAR(Param(o.history.back(), "tool_length_error", 0), -62.0, 0.05 * 62.0);
-  EXPECT_NEAR(Param(o.history.back(), "tool_length_error", 1), 0.0, 2.0);
-  EXPECT_NEAR(Param(o.history.back(), "thermal_drift", 0), 20.0, 0.05 * 20.0);
+  EXPECT_NEAR(Param(o.history.back(), "tool_length_error", 0), -47.3, 1.0);
+  EXPECT_NEAR(Param(o.history.back(), "tool_length_error", 1), 0.0, 1.0);
+  EXPECT_NEAR(Param(o.history.back(), "thermal_drift", 0), 8.37, 0.03 * 8.37);
   EXPECT_LT(o.result.unexplained_rms_um, 1.3 * 0.3);
 }
 

@@ -201,10 +201,11 @@ TEST(CalibrationWithEffects, FrictionBlindCalibrationDependsOnTheDirection) {
   };
   const auto [blind, blind_sigma] = strut_gap(false);
   const auto [modelled, modelled_sigma] = strut_gap(true);
-  // The σ are test-level (cluster-robust): the friction a blind calibration leaves in its
-  // residuals is systematic within each test, so its σ are honest about it and larger.
-  EXPECT_GT(blind, 4.0 * blind_sigma) << "a friction-blind calibration depends on direction";
-  EXPECT_GT(blind, 5.0 * modelled) << "modelling friction removes most of the dependence";
+  // The σ are test-level (jackknife over the tests): the friction a blind calibration leaves
+  // in its residuals is systematic within each test, so its σ are honest about it and large.
+  EXPECT_GT(blind, 2.0 * blind_sigma) << "a friction-blind calibration depends on direction";
+  EXPECT_GT(blind, 20.0 * modelled) << "modelling friction removes the dependence";
+  EXPECT_GT(blind_sigma, 3.0 * modelled_sigma) << "the blind fit's σ shows its misfit";
   EXPECT_LT(modelled, 6.0 * modelled_sigma) << "modelling friction removes the dependence";
   std::printf("strut offsets CCW - CW: blind %.2f um (sigma %.2f), modelled %.2f um (sigma %.2f)\n",
               blind, blind_sigma, modelled, modelled_sigma);
