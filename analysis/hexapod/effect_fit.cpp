@@ -74,8 +74,9 @@ struct Evaluation {
 bool EvaluateTest(const EffectFitData& d, const EffectFitResult& s, const Layout* layout,
                   const HexapodGeometry& g, std::size_t t, Evaluation& ev) {
   const auto& test = d.problem.tests[t];
+  const PreparedTests& pt = s.statics ? *s.statics : d.prepared;
   Perturbation pert;
-  ApplyEffects(s.effects, d.prepared.paths[t], d.prepared.setup, pert);
+  ApplyEffects(s.effects, pt.paths[t], pt.setup, pert);
   const Eigen::Vector3d& F = s.fixed_balls_mm[t];
   for (std::size_t i = 0; i < test.samples.size(); ++i) {
     const int row = d.row_begin[t] + static_cast<int>(i);
@@ -116,6 +117,7 @@ bool EvaluateTest(const EffectFitData& d, const EffectFitResult& s, const Layout
 void EffectColumns(const EffectFitData& d, const EffectFitResult& s, const Layout& layout,
                    std::size_t t, Evaluation& ev) {
   const int c0 = static_cast<int>(layout.k.size());
+  const PreparedTests& pt = s.statics ? *s.statics : d.prepared;
   Perturbation pp, pm;
   for (std::size_t q = 0; q < layout.effect.size(); ++q) {
     const auto [e, p] = layout.effect[q];
@@ -124,8 +126,8 @@ void EffectColumns(const EffectFitData& d, const EffectFitResult& s, const Layou
     auto plus = s.effects, minus = s.effects;
     plus[e].params[p].value += h;
     minus[e].params[p].value -= h;
-    ApplyEffects(plus, d.prepared.paths[t], d.prepared.setup, pp);
-    ApplyEffects(minus, d.prepared.paths[t], d.prepared.setup, pm);
+    ApplyEffects(plus, pt.paths[t], pt.setup, pp);
+    ApplyEffects(minus, pt.paths[t], pt.setup, pm);
     for (std::size_t i = 0; i < pp.ds_mm.size(); ++i) {
       const int row = d.row_begin[t] + static_cast<int>(i);
       RowSensitivity delta;
@@ -368,8 +370,19 @@ EffectFitResult StartingPoint(const EffectFitData& data,
   return s;
 }
 
-EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult& start,
-                               const EffectFitOptions& options) {
+namespace {
+
+// `r` with the tests' statics on the geometry of its kinematic parameters.
+EffectFitResult WithStatics(const EffectFitData& data, const EffectFitResult& r) {
+  EffectFitResult out = r;
+  auto statics = std::make_shared<PreparedTests>(data.prepared);
+  RefreshStatics(*statics, ApplyParameters(data.problem.nominal, r.k_um));
+  out.statics = std::move(statics);
+  return out;
+}
+
+EffectFitResult FitOnce(const EffectFitData& data, const EffectFitResult& start,
+                        const EffectFitOptions& options) {
   EffectFitResult s = start;
   s.converged = false;
   if (s.fixed_balls_mm.size() != data.problem.tests.size()) {
@@ -447,6 +460,20 @@ EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult&
   return s;
 }
 
+}  // namespace
+
+EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult& start,
+                               const EffectFitOptions& options) {
+  if (!data.prepared.setup.physics) return FitOnce(data, start, options);
+  EffectFitResult s = FitOnce(data, WithStatics(data, start), options);
+  if ((s.k_um - start.k_um).cwiseAbs().maxCoeff() > 10.0) {
+    const int first = s.iterations;
+    s = FitOnce(data, WithStatics(data, s), options);
+    s.iterations += first;
+  }
+  return s;
+}
+
 Eigen::VectorXd EffectContribution(const EffectFitData& data, const EffectFitResult& fit,
                                    const ActiveEffect& effect) {
   Eigen::VectorXd c(data.rows());
@@ -454,10 +481,11 @@ Eigen::VectorXd EffectContribution(const EffectFitData& data, const EffectFitRes
   // The effect sees the model's compliance when it depends on it (joint friction).
   for (const auto& a : fit.effects)
     if (a.effect != effect.effect) model.insert(model.begin(), a);
+  const PreparedTests& pt = fit.statics ? *fit.statics : data.prepared;
   ParallelFor(data.problem.tests.size(), [&](std::size_t t) {
     Perturbation pert, base;
-    ApplyEffects(model, data.prepared.paths[t], data.prepared.setup, pert);
-    ApplyEffects(fit.effects, data.prepared.paths[t], data.prepared.setup, base);
+    ApplyEffects(model, pt.paths[t], pt.setup, pert);
+    ApplyEffects(fit.effects, pt.paths[t], pt.setup, base);
     for (std::size_t i = 0; i < pert.ds_mm.size(); ++i) {
       const int row = data.row_begin[t] + static_cast<int>(i);
       RowSensitivity delta;

@@ -14,6 +14,7 @@
 // (AnalyzeObservability). Effect parameters stay inside their bounds.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,9 @@ struct EffectFitResult {
   Eigen::MatrixXd jacobian;              // n × free parameters, at the solution
   std::vector<int> column_test;          // −1: global column, t: nuisance of test t
   std::vector<std::string> column_name;  // e.g. "strut_offset_um[2]", "joint_friction.torque_Nm"
+  // The tests' statics (strut frames, gravity loads) on the geometry of this fit's kinematic
+  // parameters, which the effects were evaluated with (null: the model geometry's).
+  std::shared_ptr<const PreparedTests> statics;
   std::vector<RowSensitivity> sensitivity;
   double rss_um2 = 0.0;
   int dof = 0;
@@ -84,7 +88,9 @@ struct EffectFitOptions {
 };
 
 // Fits from `start` (k and effect values; balls from the data). The effects in `start` with
-// their parameters' `free` flags define the model.
+// their parameters' `free` flags define the model. The effects load the struts as the machine
+// is built: the statics are evaluated on the geometry of start's kinematic parameters, and once
+// more on the fitted geometry when the fit moved it by more than 10 µm (one refit).
 EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult& start,
                                const EffectFitOptions& options = {});
 

@@ -49,6 +49,21 @@ void PlatformGravityColumns(const MachinePhysics& m, const StrutFrame& f, const 
   p.gravity_per_kg_mm.push_back(per);
 }
 
+// Strut frames and gravity loads of every sample at its commanded pose on `physical`.
+void Statics(const HexapodGeometry& physical, const MachinePhysics* physics, TestPath& p) {
+  p.frame.clear();
+  p.gravity_N.clear();
+  p.gravity_per_kg.clear();
+  p.gravity_per_kg_mm.clear();
+  const bool gravity = physics && physics->has_gravity;
+  for (const auto& pose : p.pose) {
+    p.frame.push_back(StrutFrameAt(physical, pose, p.tool_length_mm));
+    if (!gravity) continue;
+    p.gravity_N.push_back(GravityAxialForces(*physics, p.frame.back(), pose, p.tool_length_mm));
+    PlatformGravityColumns(*physics, p.frame.back(), pose, p.tool_length_mm, p);
+  }
+}
+
 TestPath PathOf(const HexapodGeometry& model, const MachinePhysics* physics, const dbb::DbbTest& t,
                 double start_s) {
   if (!t.tool_length_mm)
@@ -67,23 +82,22 @@ TestPath PathOf(const HexapodGeometry& model, const MachinePhysics* physics, con
   const std::size_t n = t.angle_deg.size();
   const double speed = t.feed_mm_min / 60.0;
   const double theta0 = t.angle_deg.front() * std::numbers::pi / 180.0;
-  const bool gravity = physics && physics->has_gravity;
   for (std::size_t i = 0; i < n; ++i) {
     const double theta = t.angle_deg[i] * std::numbers::pi / 180.0;
     const Pose pose = CommandedDbbPose(t, theta);
     p.pose.push_back(pose);
     p.strut_mm.push_back(InverseKinematics(model, pose, p.tool_length_mm));
     p.time_s.push_back(start_s + t.radius_mm * std::abs(theta - theta0) / speed);
-    p.frame.push_back(StrutFrameAt(model, pose, p.tool_length_mm));
-    if (gravity) {
-      p.gravity_N.push_back(GravityAxialForces(*physics, p.frame.back(), pose, p.tool_length_mm));
-      PlatformGravityColumns(*physics, p.frame.back(), pose, p.tool_length_mm, p);
-    }
   }
+  Statics(model, physics, p);
   return p;
 }
 
 }  // namespace
+
+void RefreshStatics(PreparedTests& tests, const HexapodGeometry& physical) {
+  for (auto& p : tests.paths) Statics(physical, tests.setup.physics, p);
+}
 
 PreparedTests PrepareTests(const HexapodGeometry& model, const MachinePhysics* physics,
                            const std::vector<dbb::DbbTest>& tests,

@@ -23,4 +23,10 @@ PreparedTests PrepareTests(const HexapodGeometry& model, const MachinePhysics* p
                            const std::vector<dbb::DbbTest>& tests,
                            const std::vector<std::optional<double>>& start_time_s);
 
+// The strut frames and gravity loads of every sample recomputed at its commanded pose on the
+// machine's physical geometry (e.g. the calibrated one): the controller commands with its
+// model, but the struts are loaded and deflect as the real machine is built. PrepareTests uses
+// the model geometry.
+void RefreshStatics(PreparedTests& tests, const HexapodGeometry& physical);
+
 }  // namespace km::hexapod
