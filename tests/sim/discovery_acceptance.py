@@ -113,8 +113,9 @@ SCENARIOS = [
              sim_args=["--platform-joint-error-mm", "0.15"], verdict="model misfit", seeds=(1,)),
 ]
 # The CI form: seed 1, discovery on every third sample (240 a turn).
-QUICK = ("null", "null_coloured", "gravity", "gravity_heavy_offaxis", "friction", "tool", "drift",
-         "gravity+friction+tool+drift", "unmodelled_platform_joints")
+QUICK = ("null", "null_coloured", "gravity", "gravity_heavy_offaxis", "friction",
+         "friction_literal", "tool", "drift", "drift_strain", "gravity+friction+tool+drift",
+         "unmodelled_platform_joints")
 
 
 @dataclasses.dataclass
