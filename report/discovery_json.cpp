@@ -322,9 +322,9 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
       kin["fixed_parameters"].push_back(hexapod::ParameterName(i));
   model.push_back(kin);
   for (std::size_t e = 0; e < fin.effects.size(); ++e)
-    model.push_back(EffectModelJson(fin.effects[e], fin.effect_sigma[e],
-                                    e < fin.effect_at_bound.size() ? fin.effect_at_bound[e]
-                                                                   : std::vector<bool>{}));
+    model.push_back(EffectModelJson(
+        fin.effects[e], fin.effect_sigma[e],
+        e < fin.effect_at_bound.size() ? fin.effect_at_bound[e] : std::vector<bool>{}));
   json last = json::array();
   for (const auto& c : r.last_candidates) {
     last.push_back({{"effect", c.effect},
@@ -350,10 +350,11 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
           {"misfit", r.misfit.sentence.empty()
                          ? json(nullptr)
                          : json{{"sentence", r.misfit.sentence}, {"figures", r.misfit.figures}}},
-          {"fit", {{"converged", fin.converged},
-                   {"stop_reason", fin.stop_reason},
-                   {"iterations", fin.iterations},
-                   {"uncertainty_clusters", fin.clusters}}},
+          {"fit",
+           {{"converged", fin.converged},
+            {"stop_reason", fin.stop_reason},
+            {"iterations", fin.iterations},
+            {"uncertainty_clusters", fin.clusters}}},
           {"stop_reason", r.stop_reason},
           {"candidates_at_stop", last},
           {"final_tests", TestGaps(data, fin.residual_um, nullptr, names)},

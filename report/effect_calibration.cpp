@@ -110,9 +110,9 @@ CalibrationOutcome RunEffectCalibration(const CalibrationStudy& study, const Pro
   }
   j["effects"] = nlohmann::json::array();
   for (std::size_t e = 0; e < fit.effects.size(); ++e)
-    j["effects"].push_back(EffectModelJson(fit.effects[e], fit.effect_sigma[e],
-                                           e < fit.effect_at_bound.size() ? fit.effect_at_bound[e]
-                                                                          : std::vector<bool>{}));
+    j["effects"].push_back(EffectModelJson(
+        fit.effects[e], fit.effect_sigma[e],
+        e < fit.effect_at_bound.size() ? fit.effect_at_bound[e] : std::vector<bool>{}));
   j["residual_rms_um"] = fit.residual_rms_um;
   j["condition_number"] = fit.condition_number;
   j["iterations"] = fit.iterations;

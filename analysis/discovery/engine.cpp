@@ -233,7 +233,8 @@ Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Cand
     x.col(p + k) = a;
     const VectorXd beta = SolveSym(gm, w.model.transpose() * a);
     const double left = a.squaredNorm() - (beta.size() ? (w.model.transpose() * a).dot(beta) : 0.0);
-    if (!(full > 0.0) || left < opt.confound_ratio * opt.confound_ratio * full) absorbed.push_back(k);
+    if (!(full > 0.0) || left < opt.confound_ratio * opt.confound_ratio * full)
+      absorbed.push_back(k);
   }
   VectorXd y = w.gap;
   if (c.offset.size() == n) {
@@ -391,9 +392,9 @@ EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
     }
     // Qualification of every candidate.
     const double excess =
-        std::max(0.0, scored.empty() ? 0.0
-                                     : scored.front().rss_before -
-                                           repeat_floor * repeat_floor * w.gap.size());
+        std::max(0.0, scored.empty()
+                          ? 0.0
+                          : scored.front().rss_before - repeat_floor * repeat_floor * w.gap.size());
     for (auto& s : scored) {
       auto& sc = s.score;
       if (!sc.rejected_because.empty()) continue;

@@ -109,11 +109,11 @@ struct GroupGap {
 struct CandidateScore {
   std::string effect;
   std::string variant;
-  double rss_after_um2 = 0.0;  // linearised
-  double press_um2 = 0.0;      // cross-validated
-  double log10_p_value = 0.0;          // the less significant of the two tests below
-  double log10_p_white = 0.0;          // F-test counting every sample as independent
-  double log10_p_clustered = 0.0;      // cluster-robust Wald test (0 when not used)
+  double rss_after_um2 = 0.0;      // linearised
+  double press_um2 = 0.0;          // cross-validated
+  double log10_p_value = 0.0;      // the less significant of the two tests below
+  double log10_p_white = 0.0;      // F-test counting every sample as independent
+  double log10_p_clustered = 0.0;  // cluster-robust Wald test (0 when not used)
   bool identifiable = true;
   bool physical = true;
   std::string rejected_because;  // "" when it qualified

@@ -192,7 +192,8 @@ Evidence HexapodFamily::Describe(const FitState& before, const Candidate& c,
   if (c.effect == "gravity_deflection") {
     why += ", and its size per test " + FollowsWords("|tilt|", f.at("correlation_with_tilt"));
   } else if (c.effect == "thermal_drift") {
-    why += ", and its size per test " + FollowsWords("the test time", f.at("correlation_with_time"));
+    why +=
+        ", and its size per test " + FollowsWords("the test time", f.at("correlation_with_time"));
   } else {
     why += ", and its size per test " + FollowsWords("the effect's own prediction", r_fit);
   }

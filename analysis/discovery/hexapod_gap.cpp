@@ -129,8 +129,8 @@ GapFigures DescribeGapFigures(const hexapod::EffectFitData& d, const PairedRows&
     strut.push_back(mean_len);
     height.push_back(tests[t].fixed_ball_mm.z());
     tool.push_back(tests[t].tool_length_mm);
-    per_test.emplace_back(tests[t].test_id + (path.direction == dbb::Direction::kCcw ? " ccw" : " cw"),
-                          rms.back());
+    per_test.emplace_back(
+        tests[t].test_id + (path.direction == dbb::Direction::kCcw ? " ccw" : " cw"), rms.back());
   }
   f["correlation_with_tilt"] = Correlation(rms, tilt);
   f["correlation_with_time"] = Correlation(rms, time);

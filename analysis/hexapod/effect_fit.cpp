@@ -182,7 +182,8 @@ std::vector<int> RowClusters(const EffectFitData& d, int* count) {
   std::map<std::string, int> ids;
   std::vector<int> rows(static_cast<std::size_t>(d.rows()), 0);
   for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
-    const int c = ids.emplace(d.problem.tests[t].test_id, static_cast<int>(ids.size())).first->second;
+    const int c =
+        ids.emplace(d.problem.tests[t].test_id, static_cast<int>(ids.size())).first->second;
     for (int r = d.row_begin[t]; r < d.row_begin[t + 1]; ++r) rows[static_cast<std::size_t>(r)] = c;
   }
   *count = static_cast<int>(ids.size());
@@ -210,7 +211,8 @@ Eigen::VectorXd JackknifeVariance(const Eigen::MatrixXd& j, const Eigen::VectorX
                                   const std::vector<int>& row_cluster, int clusters,
                                   const std::vector<int>& local_cluster) {
   const int m = static_cast<int>(j.cols()), n = static_cast<int>(j.rows());
-  std::vector<Eigen::MatrixXd> gram(static_cast<std::size_t>(clusters), Eigen::MatrixXd::Zero(m, m));
+  std::vector<Eigen::MatrixXd> gram(static_cast<std::size_t>(clusters),
+                                    Eigen::MatrixXd::Zero(m, m));
   Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(m, clusters);
   for (int row = 0; row < n; ++row) {
     const int g = row_cluster[static_cast<std::size_t>(row)];

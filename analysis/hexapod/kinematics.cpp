@@ -177,10 +177,12 @@ ForwardResult ForwardKinematics(const HexapodGeometry& g, const Vector6d& struts
     const Eigen::PartialPivLU<Matrix6d> lu(Js);
     // The condition estimate (as costly as the factorisation) is taken where it decides: at
     // the solution, and while the iteration is still far from it.
-    const bool done = max_res <= options.strut_tolerance_mm && last_step <= options.step_tolerance_mm;
+    const bool done =
+        max_res <= options.strut_tolerance_mm && last_step <= options.step_tolerance_mm;
     const bool near = max_res <= 1e-3 && it > 0;
     if (done || !near) rcond = lu.rcond();
-    if (!std::isfinite(max_res) || ((done || !near) && !(rcond > 1.0 / options.max_condition_number)))
+    if (!std::isfinite(max_res) ||
+        ((done || !near) && !(rcond > 1.0 / options.max_condition_number)))
       break;
     if (done) {
       converged = true;

@@ -64,7 +64,7 @@ struct EffectParameter {
 struct ModelTerms {
   const MachinePhysics* physics = nullptr;
   double k_stiff2_mm_per_N = 0.0;
-  double platform_mass_change_kg = 0.0;               // m_P − m_P(file)
+  double platform_mass_change_kg = 0.0;                   // m_P − m_P(file)
   Eigen::Vector3d platform_moment_change_kg_mm{0, 0, 0};  // m_P·(c − c(file)), platform frame
   // The strut axial gravity forces ĝ at sample i with the model's platform.
   Vector6d GravityAt(const TestPath& path, std::size_t i) const {

@@ -34,10 +34,9 @@ class ThermalDrift final : public HexapodEffect {
              Perturbation& out) const override {
     for (std::size_t i = 0; i < out.ds_mm.size(); ++i) {
       // Elapsed hours, or kelvin above the reference temperature.
-      const double x =
-          s.all_temperatures
-              ? path.temperature_c.value_or(s.reference_temperature_c) - s.reference_temperature_c
-              : path.time_s[i] / 3600.0;
+      const double x = s.all_temperatures ? path.temperature_c.value_or(s.reference_temperature_c) -
+                                                s.reference_temperature_c
+                                          : path.time_s[i] / 3600.0;
       out.ds_mm[i].array() += 1e-3 * p[0] * x;
       if (p[1] == 0.0) continue;
       for (int j = 0; j < 6; ++j) out.ds_mm[i][j] += 1e-6 * p[1] * path.frame[i].length_mm[j] * x;

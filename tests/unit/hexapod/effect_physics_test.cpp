@@ -158,8 +158,8 @@ TEST(TestMotion, AMotionThatTurnsBackIsRefusedNamingTheField) {
 
 TEST(ThermalDrift, MaterialExpansionGrowsWithStrutLength) {
   const auto phys = Pm600Physics();
-  const auto p = PrepareTests(test::Pm600Like(), &phys, {Circle(dbb::Direction::kCcw, 36, 360.0, 20.0)},
-                              {0.0});
+  const auto p = PrepareTests(test::Pm600Like(), &phys,
+                              {Circle(dbb::Direction::kCcw, 36, 360.0, 20.0)}, {0.0});
   const auto* e = FindHexapodEffect("thermal_drift");
   auto variants = e->Variants(p.setup);
   ASSERT_EQ(variants.size(), 2u);
@@ -177,8 +177,8 @@ TEST(ThermalDrift, MaterialExpansionGrowsWithStrutLength) {
 
 TEST(GravityDeflection, PlatformVariantIsTheStaticsOfTheChangedPlatform) {
   auto phys = Pm600Physics();
-  const auto p =
-      PrepareTests(test::Pm600Like(), &phys, {Circle(dbb::Direction::kCcw, 24, 360.0, 23.0)}, {0.0});
+  const auto p = PrepareTests(test::Pm600Like(), &phys,
+                              {Circle(dbb::Direction::kCcw, 24, 360.0, 23.0)}, {0.0});
   const auto* e = FindHexapodEffect("gravity_deflection");
   ActiveEffect a{e, e->Parameters(p.setup)};
   a.params[1].value = 275.0;

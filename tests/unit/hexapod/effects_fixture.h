@@ -76,7 +76,8 @@ inline Scenario Simulate(
   // Platform joints off their nominal places: outside the 24-parameter kinematic model.
   for (int j = 0; j < 6; ++j)
     for (int k = 0; k < 3; ++k)
-      truth.platform_joints_mm[j][k] += platform_joint_error_mm * std::sin(1.7 * (3 * j + k) + seed);
+      truth.platform_joints_mm[j][k] +=
+          platform_joint_error_mm * std::sin(1.7 * (3 * j + k) + seed);
   s.tests = sim::SimulateHexapodDbbPlan(s.nominal, truth, plan, opt);
   return s;
 }

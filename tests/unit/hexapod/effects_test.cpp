@@ -4,8 +4,8 @@
 // drift with time; calibration with effects recovers the truth and removes the CW/CCW
 // dependence a friction-blind calibration shows ([Joint patent] fig. 15).
 #include <algorithm>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include <gtest/gtest.h>

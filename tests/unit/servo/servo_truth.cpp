@@ -107,8 +107,8 @@ Eigen::Vector3d JointDirection(Eigen::Vector3d r, const Eigen::Vector3d& base, d
 
 // The wrench of the base- and platform-joint friction of every strut (eqs. 3.11–3.12): strut j
 // pushes its platform joint with −(f_t,j/L_j) r_j, f_t,j = t0 + t1·|ĝ_j| (the joint's bearings
-// carry the size of the strut's axial gravity force, pulled or pushed; a negative sum no torque), and the platform joint's resistance adds its moment about r_j's
-// rotation axis u_j × r_j.
+// carry the size of the strut's axial gravity force, pulled or pushed; a negative sum no torque),
+// and the platform joint's resistance adds its moment about r_j's rotation axis u_j × r_j.
 void JointFrictionLoad(const Machine& m, const State& s, const Eigen::Matrix<double, 6, 1>& axial,
                        const std::array<Eigen::Vector3d, 6>& dir, Eigen::Vector3d& force,
                        Eigen::Vector3d& moment) {
