@@ -25,24 +25,8 @@ namespace {
 
 using test::Pm600Physics;
 
-// One circle of the jig plan's kind: R 150, centre (0, 0, −1050), 1000 mm/min.
 dbb::DbbTest Circle(dbb::Direction dir, int n, double arc_deg = 360.0, double tilt_a = 0.0) {
-  dbb::DbbTest t;
-  t.test_id = "t";
-  t.direction = dir;
-  t.bar_length_mm = 150.0;
-  t.radius_mm = 150.0;
-  t.centre_mm = {0, 0, -1050};
-  t.tilt_deg = {tilt_a, 0, 0};
-  t.feed_mm_min = 1000.0;
-  t.tool_length_mm = 104.255;
-  const double sign = dir == dbb::Direction::kCw ? -1.0 : 1.0;
-  const double step = arc_deg / (arc_deg >= 360.0 ? n : n - 1);
-  for (int k = 0; k < n; ++k) {
-    t.angle_deg.push_back(30.0 + sign * step * k);
-    t.dr_um.push_back(0.0);
-  }
-  return t;
+  return test::CircleTest(dir, n, arc_deg, tilt_a, 30.0);
 }
 
 ActiveEffect Friction(const EffectSetup& setup, double t0, double t1, double ramp) {

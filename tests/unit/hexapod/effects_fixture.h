@@ -37,6 +37,28 @@ inline MachinePhysics Pm600Physics() {
   return m;
 }
 
+// One DBB circle of the jig plan's kind (R 150 mm, centre (0, 0, −1050), 1000 mm/min, tool
+// 104.255 mm) with zero deviations: n samples over `arc_deg` from `start_deg`, tilt A.
+inline dbb::DbbTest CircleTest(dbb::Direction dir, int n, double arc_deg = 360.0,
+                               double tilt_a_deg = 0.0, double start_deg = 0.0) {
+  dbb::DbbTest t;
+  t.test_id = "t";
+  t.direction = dir;
+  t.bar_length_mm = 150.0;
+  t.radius_mm = 150.0;
+  t.centre_mm = {0, 0, -1050};
+  t.tilt_deg = {tilt_a_deg, 0, 0};
+  t.feed_mm_min = 1000.0;
+  t.tool_length_mm = 104.255;
+  const double sign = dir == dbb::Direction::kCw ? -1.0 : 1.0;
+  const double step = arc_deg / (arc_deg >= 360.0 ? n : n - 1);
+  for (int k = 0; k < n; ++k) {
+    t.angle_deg.push_back(start_deg + sign * step * k);
+    t.dr_um.push_back(0.0);
+  }
+  return t;
+}
+
 // A simulated absolute test set with hidden effects (the effects evaluated by the simulator
 // through the registry; the independent simulator is tests/sim/hexapod_truth.py).
 struct Scenario {

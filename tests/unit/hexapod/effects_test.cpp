@@ -88,20 +88,7 @@ TEST(GravityDeflection, StrutsInTensionAndTheToolSags) {
 
 // A single test prepared for the effects.
 PreparedTests OneCircle(dbb::Direction dir, const MachinePhysics& phys, int n = 720) {
-  dbb::DbbTest t;
-  t.test_id = "t";
-  t.direction = dir;
-  t.bar_length_mm = 150.0;
-  t.radius_mm = 150.0;
-  t.centre_mm = {0, 0, -1050};
-  t.feed_mm_min = 1000.0;
-  t.tool_length_mm = 104.255;
-  const double sign = dir == dbb::Direction::kCw ? -1.0 : 1.0;
-  for (int k = 0; k < n; ++k) {
-    t.angle_deg.push_back(sign * 360.0 * k / n);
-    t.dr_um.push_back(0.0);
-  }
-  return PrepareTests(test::Pm600Like(), &phys, {t}, {0.0});
+  return PrepareTests(test::Pm600Like(), &phys, {test::CircleTest(dir, n)}, {0.0});
 }
 
 TEST(JointFriction, OppositeInCwAndCcwAndRampsAfterReversal) {
