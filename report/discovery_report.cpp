@@ -59,19 +59,8 @@ DiscoveryOutcome HexapodDiscovery(const DiscoveryStudy& study,
   for (const auto& t : study.tests) absolute = absolute && t.fixed_ball_mm.has_value();
   const auto method = absolute ? hexapod::CalibrationMethod::kAbsolute
                                : hexapod::CalibrationMethod::kCentreCorrected;
-  const hexapod::MachinePhysics* physics = machine.physics ? &*machine.physics : nullptr;
-  hexapod::EffectFitData data;
-  try {
-    data = hexapod::PrepareEffectFit(machine.geometry, physics, study.tests,
-                                     TestStartTimes(study.tests, study.names), method,
-                                     study.max_samples_per_test);
-  } catch (const InvalidInput& e) {
-    // Name the file rather than the test id.
-    for (std::size_t k = 0; k < study.tests.size() && k < study.names.size(); ++k)
-      if (study.tests[k].test_id == e.file())
-        throw InvalidInput(study.names[k], e.line(), e.field(), e.reason());
-    throw;
-  }
+  const hexapod::EffectFitData data =
+      PrepareNamedEffectFit(machine, study.tests, study.names, method, study.max_samples_per_test);
   discovery::HexapodFamily family(data, KnownEffects(machine, data.prepared.setup));
   const int max_steps = discovery::EngineOptions{}.max_steps;
   const auto options = discovery::HexapodEngineOptions();

@@ -27,6 +27,24 @@ std::vector<std::optional<double>> TestStartTimes(const std::vector<dbb::DbbTest
   return out;
 }
 
+hexapod::EffectFitData PrepareNamedEffectFit(const ingest::MachineDefinition& machine,
+                                             const std::vector<dbb::DbbTest>& tests,
+                                             const std::vector<std::string>& names,
+                                             hexapod::CalibrationMethod method,
+                                             int max_samples_per_test) {
+  const hexapod::MachinePhysics* physics = machine.physics ? &*machine.physics : nullptr;
+  try {
+    return hexapod::PrepareEffectFit(machine.geometry, physics, tests, TestStartTimes(tests, names),
+                                     method, max_samples_per_test);
+  } catch (const InvalidInput& e) {
+    // Name the file rather than the test id.
+    for (std::size_t k = 0; k < tests.size() && k < names.size(); ++k)
+      if (tests[k].test_id == e.file())
+        throw InvalidInput(names[k], e.line(), e.field(), e.reason());
+    throw;
+  }
+}
+
 std::vector<hexapod::ActiveEffect> ResolveEffects(const std::vector<std::string>& names,
                                                   const ingest::MachineDefinition& machine,
                                                   const hexapod::EffectSetup& setup,
@@ -69,11 +87,9 @@ CalibrationOutcome RunEffectCalibration(const CalibrationStudy& study, const Pro
       study.method.value_or(all_have_ball ? hexapod::CalibrationMethod::kAbsolute
                                           : hexapod::CalibrationMethod::kCentreCorrected);
   const auto& machine = study.machine;
-  const hexapod::MachinePhysics* physics = machine.physics ? &*machine.physics : nullptr;
   report(0.05, "preparing the tests");
-  const auto data = hexapod::PrepareEffectFit(machine.geometry, physics, study.tests,
-                                              TestStartTimes(study.tests, study.names), method,
-                                              study.max_samples_per_test);
+  const auto data =
+      PrepareNamedEffectFit(machine, study.tests, study.names, method, study.max_samples_per_test);
   auto start = hexapod::StartingPoint(data, {});
   start.effects = ResolveEffects(study.effects, machine, data.prepared.setup, "--effects");
   // The machine model's own effects that were not named: known, kept at their stored values

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "analysis/dbb/dbb_types.h"
+#include "analysis/hexapod/effect_fit.h"
 #include "analysis/hexapod/effects/registry.h"
 #include "report/calibration_study.h"
 
@@ -18,6 +19,14 @@ namespace km::server {
 // Throws km::InvalidInput naming the file when a timestamp is not ISO 8601.
 std::vector<std::optional<double>> TestStartTimes(const std::vector<dbb::DbbTest>& tests,
                                                   const std::vector<std::string>& names);
+
+// The effect-fit problem of these tests on the machine (PrepareEffectFit); a test the effects
+// cannot read (e.g. a commanded motion that turns back) is refused naming its file.
+hexapod::EffectFitData PrepareNamedEffectFit(const ingest::MachineDefinition& machine,
+                                             const std::vector<dbb::DbbTest>& tests,
+                                             const std::vector<std::string>& names,
+                                             hexapod::CalibrationMethod method,
+                                             int max_samples_per_test);
 
 // The effects named (comma-separated list or vector), with their defaults for these tests and
 // the machine's stored values where its model has them. Throws km::InvalidInput (field
