@@ -8,7 +8,6 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
-#include <Eigen/SVD>
 
 #include "analysis/core/errors.h"
 #include "analysis/core/option_check.h"
@@ -127,8 +126,9 @@ double Press(const FoldSystem& s) {
 
 // The step's linear workspace: the model's global columns and the gap, local parts removed.
 struct Workspace {
-  MatrixXd model;  // n × p_global
-  VectorXd gap;    // −(residual), projected
+  MatrixXd model;        // n × p_global
+  VectorXd gap;          // −(residual), projected
+  VectorXd gap_partial;  // the gap without its fit by the model's global columns
   std::vector<int> row_fold;
   int folds = 0;
   int total_columns = 0;
@@ -170,6 +170,9 @@ Workspace MakeWorkspace(const FitState& fit, const LocalProjector& proj,
   w.row_fold = RowFolds(fit, keys, folds, &w.folds);
   w.row_cluster = RowFolds(fit, keys, std::numeric_limits<int>::max(), &w.clusters);
   w.base = Accumulate(w.model, w.gap, w.row_fold, w.folds);
+  w.gap_partial = w.gap;
+  if (w.model.cols() > 0)
+    w.gap_partial -= w.model * SolveSym(w.base.gram_all, w.model.transpose() * w.gap);
   return w;
 }
 
@@ -271,7 +274,7 @@ Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Cand
   s.contribution = x * beta + (w.gap - y);
   s.own = x.rightCols(s.q) * s.score.estimate + (w.gap - y);
   if (opt.cluster_inference && w.clusters >= opt.min_clusters && s.q > 0) {
-    s.score.log10_p_clustered = ClusteredLog10P(w, Partial(w, s.own), Partial(w, w.gap), s.q);
+    s.score.log10_p_clustered = ClusteredLog10P(w, Partial(w, s.own), w.gap_partial, s.q);
     s.score.log10_p_value = std::max(s.score.log10_p_value, s.score.log10_p_clustered);
   }
   std::string why;
@@ -295,7 +298,7 @@ bool RicherIsBetter(const Workspace& w, const Scored& simple, const Scored& rich
   double log_p = dbb::LogFUpperTail(f, dq, rich.dof) / std::log(10.0);
   if (opt.cluster_inference && w.clusters >= opt.min_clusters) {
     const VectorXd extra = Partial(w, rich.own - simple.own);
-    log_p = std::max(log_p, ClusteredLog10P(w, extra, Partial(w, w.gap - simple.own), dq));
+    log_p = std::max(log_p, ClusteredLog10P(w, extra, w.gap_partial - Partial(w, simple.own), dq));
   }
   return log_p < std::log10(opt.max_p_value);
 }

@@ -32,9 +32,11 @@ Joints PlatformJoints(const TestPath& path, std::size_t i) {
 std::vector<Joints> SwingStates(const TestPath& path, double ramp_mm) {
   const std::size_t n = path.pose.size();
   std::vector<Joints> swing(n);
+  Joints a = PlatformJoints(path, 0);
   for (std::size_t i = 1; i < n; ++i) {
-    const Joints a = PlatformJoints(path, i - 1), b = PlatformJoints(path, i);
+    const Joints b = PlatformJoints(path, i);
     for (int j = 0; j < 6; ++j) swing[i][j] = SwingOf(path.frame[i].unit[j], b[j] - a[j]);
+    a = b;
   }
   Joints r;
   for (int j = 0; j < 6; ++j) {
