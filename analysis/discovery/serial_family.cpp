@@ -168,6 +168,7 @@ SerialFamily::SerialFamily(const std::vector<dbb::DiagnosisTrace>& traces,
       fold_key_.push_back(ids.at(key_names[t]));
     }
   }
+  groups_ = groups;
   p_ = dbb::StackTraces(groups);
   e0_ = p_.y;
   p_.RemoveSetup(e0_, &setup_y_);
@@ -216,7 +217,8 @@ std::string SerialFamily::VariantOf(const dbb::EffectColumns& sig) const {
 // Least squares of e0 on the terms' columns with the physical lower bounds (active set: a
 // bounded value below its bound is held at the bound; held values whose gradient points back
 // inside are released).
-SerialFamily::Bounded SerialFamily::Fit(const std::vector<const Term*>& terms) const {
+SerialFamily::Bounded SerialFamily::FitTo(const VectorXd& e0,
+                                          const std::vector<const Term*>& terms) const {
   std::vector<const VectorXd*> cols;
   std::vector<double> lower;
   for (const Term* t : terms) {
@@ -229,7 +231,7 @@ SerialFamily::Bounded SerialFamily::Fit(const std::vector<const Term*>& terms) c
   MatrixXd g(k, k);
   VectorXd b(k);
   for (int i = 0; i < k; ++i) {
-    b[i] = cols[static_cast<std::size_t>(i)]->dot(e0_);
+    b[i] = cols[static_cast<std::size_t>(i)]->dot(e0);
     for (int j = 0; j <= i; ++j)
       g(i, j) = g(j, i) =
           cols[static_cast<std::size_t>(i)]->dot(*cols[static_cast<std::size_t>(j)]);
@@ -274,7 +276,7 @@ SerialFamily::Bounded SerialFamily::Fit(const std::vector<const Term*>& terms) c
     for (int j = 0; j < k; ++j) {
       if (!out.at_bound[static_cast<std::size_t>(j)]) continue;
       const double v = grad[j] / std::sqrt(std::max(g(j, j), 1e-300));
-      if (v > rv * (1.0 + 1e-9) && v > 1e-9 * e0_.norm()) {
+      if (v > rv * (1.0 + 1e-9) && v > 1e-9 * e0.norm()) {
         rv = v;
         release = j;
       }
@@ -282,7 +284,7 @@ SerialFamily::Bounded SerialFamily::Fit(const std::vector<const Term*>& terms) c
     if (release < 0) break;
     out.at_bound[static_cast<std::size_t>(release)] = false;
   }
-  out.residual = e0_;
+  out.residual = e0;
   for (int j = 0; j < k; ++j) out.residual -= out.x[j] * *cols[static_cast<std::size_t>(j)];
   out.rss = out.residual.squaredNorm();
   return out;
@@ -294,7 +296,7 @@ SerialModel SerialFamily::MakeModel(const std::vector<Term>& terms, const Bounde
   for (const auto& t : terms) k += static_cast<int>(t.sig.cols.size());
   int nfree = 0;
   for (bool a : fit.at_bound) nfree += a ? 0 : 1;
-  m.dof = std::max(1, p_.n - 3 * p_.traces - nfree);
+  m.dof = std::max(1, p_.n - 3 * p_.traces - nfree - (delay_ms_ > 0.0 ? 1 : 0));
   m.rss_um2 = fit.rss;
   m.residual = -fit.residual;
   const double sigma2 = fit.rss / m.dof;
@@ -367,6 +369,7 @@ SerialModel SerialFamily::MakeModel(const std::vector<Term>& terms, const Bounde
     m.effects.push_back(std::move(e));
     off += nl;
   }
+  if (delay_ms_ > 0.0) AddDelayEffect(m, sigma2);
   // Set-up terms net of the effects' own centre and radius parts, averaged over the groups.
   Eigen::Vector3d mean = Eigen::Vector3d::Zero(), var = Eigen::Vector3d::Zero();
   for (int gi = 0; gi < p_.traces; ++gi) {
@@ -415,6 +418,12 @@ FitState SerialFamily::StateOf(const std::vector<Term>& terms, const SerialModel
     }
     s.in_model.push_back(Name(t.sig.id));
   }
+  if (delay_ms_ > 0.0 && delay_col_.size() == p_.n) {
+    s.jacobian.conservativeResize(Eigen::NoChange, s.jacobian.cols() + 1);
+    s.jacobian.col(s.jacobian.cols() - 1) = delay_col_;
+    s.column_group.push_back(-1);
+    s.in_model.push_back(Name(EffectId::kServoLag));
+  }
   for (std::size_t b : p_.begin) s.row_begin.push_back(static_cast<int>(b));
   return s;
 }
@@ -423,6 +432,8 @@ FitState SerialFamily::FitBase() {
   model_.clear();
   history_.clear();
   notes_.clear();
+  if (delay_ms_ != 0.0) Restack(0.0);
+  delay_col_.resize(0);
   history_.push_back(MakeModel(model_, Fit({})));
   return StateOf(model_, history_.back());
 }
@@ -515,6 +526,7 @@ std::vector<Candidate> SerialFamily::Candidates(const FitState& fit) {
     }
     out.push_back(std::move(c));
   }
+  for (auto& c : DelayCandidate(step)) out.push_back(std::move(c));
   return out;
 }
 
@@ -525,6 +537,13 @@ const SerialFamily::Term* SerialFamily::Find(const Candidate& c) const {
 }
 
 bool SerialFamily::Physical(const Candidate& c, const VectorXd& x, std::string* why) {
+  if (IsDelay(c)) {
+    if (x.size() == 1 && x[0] >= 0.0 && x[0] <= kMaxDelayMs) return true;
+    *why = "delay_ms = " + Format("%.4g", x.size() ? x[0] : 0.0) +
+           (x.size() && x[0] < 0.0 ? " < 0 (the axes would run ahead of their command)"
+                                   : " > " + Format("%g", kMaxDelayMs));
+    return false;
+  }
   const Term* t = Find(c);
   if (!t) return false;
   const auto& info = effects::Info(t->sig.id);
@@ -571,14 +590,19 @@ bool SerialFamily::Physical(const Candidate& c, const VectorXd& x, std::string* 
   return true;
 }
 
-FitState SerialFamily::Accept(const Candidate& c, const VectorXd&) {
-  const Term* t = Find(c);
-  if (!t) throw DidNotConverge("discovery: unknown candidate " + c.effect);
-  model_.push_back(*t);
-  RefineShapes(model_, model_.size() - 1);
-  std::vector<const Term*> ptrs;
-  for (const auto& m : model_) ptrs.push_back(&m);
-  history_.push_back(MakeModel(model_, Fit(ptrs)));
+FitState SerialFamily::Accept(const Candidate& c, const VectorXd& x) {
+  if (IsDelay(c)) {
+    const double est = std::clamp(x.size() ? x[0] : delay_offered_ms_, 0.1, kMaxDelayMs);
+    RefineDelay(est / 2.0, std::min(2.0 * est, kMaxDelayMs));
+    RefineShapes(model_, 0);
+  } else {
+    const Term* t = Find(c);
+    if (!t) throw DidNotConverge("discovery: unknown candidate " + c.effect);
+    model_.push_back(*t);
+    RefineShapes(model_, model_.size() - 1);
+    if (delay_ms_ > 0.0) RefineDelay(delay_ms_ / 1.5, std::min(1.5 * delay_ms_, kMaxDelayMs));
+  }
+  FinishStep();
   return StateOf(model_, history_.back());
 }
 

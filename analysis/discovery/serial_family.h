@@ -20,6 +20,17 @@
 // fit noise. (Single samples are not interleaved: the noise floor is estimated from successive
 // differences within a group, which must stay neighbours.)
 //
+// Servo lag ("servo_lag", [Fujita thesis] ch. 2): a position loop with gain K_pp and velocity
+// feed-forward K_f keeps the axes (1 − K_f)/K_pp behind their command, so on a circle at
+// ω = V/R every position-dependent error (backlash at the axis's real reversal, a cyclic error
+// at the axis's real position) appears at θ − s·ω·τ, shifted the opposite way in cw and ccw.
+// Once the model has effects, a delay τ ≥ 0 is offered: all terms and the set-up columns are
+// evaluated at the shifted angles (the measured deviations stay where they were sampled). Its
+// candidate column is the model's change per ms of delay at fixed values (a secant to the best
+// delay of a coarse scan); an accepted delay is refined by golden section on the bounded
+// refit, and again after every later step. The radius reduction of the same loop
+// (servo_lag.h) is a radius change per test and stays in the set-up terms.
+//
 // Physical bounds (Physical(), and every refit is a bounded least-squares fit): the signs the
 // physics of an effect fixes, with the value conventions of analysis/effects/models:
 //   reversal_spike_<a>  height h ≥ 0 (the axis sticks, then follows: an outward spike)
@@ -142,11 +153,27 @@ class SerialFamily final : public ModelFamily {
   };
   // Lower bound of the j-th linear parameter of an effect (−∞ when free).
   double LowerBound(effects::EffectId id, int j) const;
-  Bounded Fit(const std::vector<const Term*>& terms) const;
+  Bounded Fit(const std::vector<const Term*>& terms) const { return FitTo(e0_, terms); }
+  Bounded FitTo(const Eigen::VectorXd& e0, const std::vector<const Term*>& terms) const;
   SerialModel MakeModel(const std::vector<Term>& terms, const Bounded& b) const;
   FitState StateOf(const std::vector<Term>& terms, const SerialModel& m) const;
   void RefineShapes(std::vector<Term>& terms, std::size_t first) const;
   const Term* Find(const Candidate& c) const;
+  // Servo lag (serial_family_lag.cpp): the stack with every sample at the angle where the
+  // axes are, `delay_ms` behind the command along the path; the bounded refit of the model's
+  // terms there; the change of the model per ms of delay at fixed values (a secant from
+  // `from_ms` to `to_ms`, or a derivative when they straddle the delay).
+  static constexpr double kMaxDelayMs = 500.0;  // beyond half a second it is no position loop
+  dbb::StackedTraces StackAt(double delay_ms) const;
+  double DelayRss(double delay_ms) const;
+  Eigen::VectorXd DelayColumn(double from_ms, double to_ms) const;
+  void Restack(double delay_ms);
+  void RefineDelay(double lo_ms, double hi_ms);
+  void FinishStep();  // refit, delay column, history entry
+  bool IsDelay(const Candidate& c) const;
+  std::vector<Candidate> DelayCandidate(int step);
+  Evidence DescribeDelay(const FitState& before, const Eigen::VectorXd& contribution) const;
+  void AddDelayEffect(SerialModel& m, double sigma2) const;
   std::string VariantOf(const dbb::EffectColumns& sig) const;
 
   dbb::Plane plane_;
@@ -155,6 +182,11 @@ class SerialFamily final : public ModelFamily {
   std::vector<int> fold_key_;        // per group
   std::vector<int> trace_of_group_;  // original trace of each group
   std::vector<dbb::DiagnosisTrace> traces_;
+  std::vector<dbb::DiagnosisTrace> groups_;  // traces or sub-traces, at the commanded angles
+  double delay_ms_ = 0.0;                    // servo lag in the model (0: none)
+  double delay_offered_ms_ = 0.0;            // this step's delay candidate: its secant end
+  Eigen::VectorXd delay_offered_col_;        // and its column
+  Eigen::VectorXd delay_col_;                // the model's change per ms of delay
   std::vector<std::string> test_ids_;
   bool split_ = false;
   Eigen::VectorXd e0_;                    // y with each group's set-up part removed

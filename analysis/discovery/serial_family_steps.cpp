@@ -90,6 +90,7 @@ void SerialFamily::RefineShapes(std::vector<Term>& terms, std::size_t first) con
 
 Evidence SerialFamily::Describe(const FitState& before, const Candidate& c,
                                 const VectorXd& contribution) {
+  if (IsDelay(c)) return DescribeDelay(before, contribution);
   Evidence ev;
   const VectorXd gap = -before.residual;  // measured − model
   const Term* term = Find(c);

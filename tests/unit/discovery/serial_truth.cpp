@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <numbers>
 #include <stdexcept>
@@ -144,15 +145,24 @@ std::array<double, 2> PositionErrorUm(const Effect& e, const Test& t, double the
 double BarDeviationUm(const Machine& m, const std::vector<Effect>& effects, const Test& t,
                       double theta) {
   const auto ax = Axes(m.plane);
+  // Where the axes are: the commanded angle and radius, or the loop's steady state.
+  double th = theta, r = t.radius_mm;
+  if (m.servo_kpp_per_s > 0.0) {
+    const double w = t.feed_mm_min / 60.0 / t.radius_mm;  // rad/s
+    const std::complex<double> g(m.servo_kpp_per_s, w * m.servo_kf);
+    const std::complex<double> h = g / std::complex<double>(m.servo_kpp_per_s, w);
+    th = theta + t.direction * std::arg(h);
+    r = t.radius_mm * std::abs(h);
+  }
   double eu = 0.0, ev = 0.0;
   for (const auto& e : effects) {
-    const auto d = PositionErrorUm(e, t, theta);
+    const auto d = PositionErrorUm(e, t, th);
     eu += d[0];
     ev += d[1];
   }
-  // P − F = R n + e − (fixed-ball set-up error), all in mm; C cancels.
-  const double pu = t.radius_mm * std::cos(theta) + 1e-3 * (eu - m.fixed_ball_offset_um[0]);
-  const double pv = t.radius_mm * std::sin(theta) + 1e-3 * (ev - m.fixed_ball_offset_um[1]);
+  // P − F = r n + e − (fixed-ball set-up error), all in mm; C cancels.
+  const double pu = r * std::cos(th) + 1e-3 * (eu - m.fixed_ball_offset_um[0]);
+  const double pv = r * std::sin(th) + 1e-3 * (ev - m.fixed_ball_offset_um[1]);
   double d2 = 0.0;
   for (int k = 0; k < 3; ++k) {
     const double x = pu * ax[0][k] + pv * ax[1][k];

@@ -70,6 +70,13 @@ struct Machine {
   double drift_um_per_turn = 0.0;
   double smooth_noise_um = 0.0;
   double smooth_noise_corr_deg = 10.0;
+  // Position loop of both axes (0: ideal, the axes are where they are commanded): first-order
+  // loop with velocity feed-forward, dx/dt = K_pp (x_c − x) + K_f dx_c/dt, in its steady state
+  // on the circle: the axes run on a circle of radius R·|G(jω)|, behind the command by
+  // −arg G(jω), G(s) = (K_pp + K_f s)/(K_pp + s), ω = V/R. Every effect is evaluated where the
+  // axes are (their positions and directions of motion), not where they are commanded.
+  double servo_kpp_per_s = 0.0;
+  double servo_kf = 0.0;
   std::vector<Effect> effects;
   std::vector<Test> tests;
 };
