@@ -8,16 +8,7 @@
 #include "analysis/hexapod/dbb_geometry.h"
 
 namespace km::server {
-namespace {
-
 using nlohmann::json;
-
-json Values(const std::vector<double>& v) {
-  if (v.size() == 1) return v[0];
-  return json(v);
-}
-
-}  // namespace
 
 json KinematicJson(const hexapod::ParameterVector& k) {
   json strut = json::array(), base = json::array();
@@ -205,59 +196,6 @@ json CompensationPreview(const hexapod::EffectFitData& d, const hexapod::EffectF
 }
 
 }  // namespace
-
-json SerialDiscoveryJson(const dbb::DiscoveryResult& r, dbb::Plane plane) {
-  json steps = json::array();
-  for (const auto& s : r.steps) {
-    const auto& e = s.evidence;
-    json params = json::object();
-    for (const auto& [k, v] : e.parameters) params[k] = v;
-    json ev = {{"rss_before_um2", e.rss_before_um2},
-               {"rss_after_um2", e.rss_after_um2},
-               {"f_statistic", e.f_statistic},
-               {"df_numerator", e.df_numerator},
-               {"df_denominator", e.df_denominator},
-               {"p_value", e.p_value},
-               {"log10_p_value", e.log10_p_value},
-               {"value", Values(e.value)},
-               {"unit", e.unit},
-               {"sigma", Values(e.sigma)},
-               {"z_score", e.z_score},
-               {"parameters", params},
-               {"indistinguishable_from", e.indistinguishable_from}};
-    ev["runner_up"] = e.runner_up.empty() ? json(nullptr) : json(e.runner_up);
-    ev["runner_up_rss_drop_um2"] = e.runner_up.empty() ? 0.0 : e.runner_up_rss_drop_um2;
-    steps.push_back({{"added_effect", s.added_effect},
-                     {"evidence", ev},
-                     {"gap_rms_before_um", s.gap_rms_before_um},
-                     {"gap_rms_after_um", s.gap_rms_after_um}});
-  }
-  json model = json::array();
-  for (const auto& m : r.final_model) {
-    json x = {{"effect", m.effect},
-              {"value", Values(m.value)},
-              {"unit", m.unit},
-              {"sigma", Values(m.sigma)}};
-    if (!m.shape.empty()) {
-      json sh = json::object();
-      for (const auto& [k, v] : m.shape) sh[k] = v;
-      x["shape"] = sh;
-    }
-    model.push_back(x);
-  }
-  const bool misfit = r.unexplained_rms_um > 1.3 * r.noise_floor_um &&
-                      r.stop_reason != "the gap is at the noise floor";
-  return {{"kind", "serial"},
-          {"plane", dbb::ToString(plane)},
-          {"steps", steps},
-          {"final_model", model},
-          {"unexplained_rms_um", r.unexplained_rms_um},
-          {"noise_floor_um", r.noise_floor_um},
-          {"verdict", misfit ? "model misfit" : "complete"},
-          {"stop_reason", r.stop_reason},
-          {"rejected", r.rejected},
-          {"not_identifiable", r.not_identifiable}};
-}
 
 json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                           const hexapod::EffectFitData& data,

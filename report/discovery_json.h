@@ -1,5 +1,6 @@
-// JSON of `kinemetric discover` (docs/formats.md §3) for the serial and the hexapod families,
-// and the machine model a hexapod discovery produces. Used by report/discovery_report.cpp.
+// JSON of `kinemetric discover` (docs/formats.md §3) for the hexapod family (the serial
+// family's is in discovery_report.cpp), and the machine model a hexapod discovery produces. Used by
+// report/discovery_report.cpp.
 #pragma once
 
 #include <string>
@@ -7,14 +8,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analysis/dbb/discovery.h"
 #include "analysis/discovery/engine.h"
 #include "analysis/hexapod/effect_fit.h"
 #include "ingest/machine_json.h"
 
 namespace km::server {
-
-nlohmann::json SerialDiscoveryJson(const dbb::DiscoveryResult& r, dbb::Plane plane);
 
 nlohmann::json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                                     const hexapod::EffectFitData& data,

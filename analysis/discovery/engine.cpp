@@ -11,7 +11,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/core/option_check.h"
-#include "analysis/dbb/discovery.h"
+#include "analysis/core/statistics.h"
 
 namespace km::discovery {
 namespace {
@@ -208,7 +208,7 @@ double ClusteredLog10P(const Workspace& w, const VectorXd& c, const VectorXd& y,
   const double wald = var > 0.0 ? theta * theta / var / q : HUGE_VAL;
   if (!(wald > 0.0)) return 0.0;
   if (!std::isfinite(wald)) return -300.0;
-  return dbb::LogFUpperTail(wald, q, g - 1) / std::log(10.0);
+  return LogFUpperTail(wald, q, g - 1) / std::log(10.0);
 }
 
 // `v` without its least-squares fit by the model's global columns.
@@ -266,7 +266,7 @@ Scored ScoreCandidate(const Workspace& w, const LocalProjector& proj, const Cand
   }
   const double drop = s.rss_before - s.score.rss_after_um2;
   s.f = drop > 0.0 ? (drop / s.q) / (s.score.rss_after_um2 / s.dof + 1e-300) : 0.0;
-  s.score.log10_p_white = dbb::LogFUpperTail(s.f, s.q, s.dof) / std::log(10.0);
+  s.score.log10_p_white = LogFUpperTail(s.f, s.q, s.dof) / std::log(10.0);
   s.score.log10_p_value = s.score.log10_p_white;
 
   // The fitted change of the model (the candidate with the model's readjustment), in the same
@@ -295,7 +295,7 @@ bool RicherIsBetter(const Workspace& w, const Scored& simple, const Scored& rich
   const double drop = simple.score.rss_after_um2 - rich.score.rss_after_um2;
   if (!(drop > 0.0)) return false;
   const double f = (drop / dq) / (rich.score.rss_after_um2 / rich.dof + 1e-300);
-  double log_p = dbb::LogFUpperTail(f, dq, rich.dof) / std::log(10.0);
+  double log_p = LogFUpperTail(f, dq, rich.dof) / std::log(10.0);
   if (opt.cluster_inference && w.clusters >= opt.min_clusters) {
     const VectorXd extra = Partial(w, rich.own - simple.own);
     log_p = std::max(log_p, ClusteredLog10P(w, extra, w.gap_partial - Partial(w, simple.own), dq));
@@ -355,7 +355,7 @@ double NoiseFloor(const VectorXd& residual, const std::vector<int>& row_begin) {
   std::vector<std::vector<double>> per;
   for (std::size_t g = 0; g + 1 < row_begin.size(); ++g)
     per.emplace_back(residual.data() + row_begin[g], residual.data() + row_begin[g + 1]);
-  return dbb::RobustDiffNoiseUm(per);
+  return RobustDiffNoiseUm(per);
 }
 
 EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,

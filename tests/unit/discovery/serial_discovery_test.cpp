@@ -1,9 +1,9 @@
 // Serial discovery (analysis/discovery/serial_family.h on the shared engine, through
 // server::RunDiscoveryStudy as `kinemetric discover` runs it) on DBB files of the independent
 // truth simulator (serial_truth.h): the three false discoveries verification found with the
-// former ladder (analysis/dbb/discovery.h), a wrong first turn of the greedy ladder undone, the
-// JSON keys of the contract, noise-free data, a single trace, per-file test ids, and the sign
-// of backlash.
+// former ladder (a greedy F-test ladder, since removed), a wrong first turn of the greedy ladder
+// undone, the JSON keys of the contract, noise-free data, a single trace, per-file test ids, and
+// the sign of backlash.
 //
 // What the former ladder did on the regression machines (same files): spike-only machine
 // (reversal_spike_y 6 µm, decay 1.4°) → reversal_spike_y + cyclic_error_y 0.04 µm; spike
