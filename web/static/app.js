@@ -15,6 +15,7 @@ import { applyRoute as applyDiscoveryRoute, initDiscovery } from './discovery.js
 import { loadMachines, renderMachines, selectMachine } from './machines.js';
 import { initMeasurementList } from './measurements.js';
 import { parseAppRoute } from './router.js';
+import { shell } from './shell.js';
 import { state } from './state.js';
 import { initFleet, showFleet, showTrends } from './fleet.js';
 import { forgetRole, loadRole } from './roles.js';
@@ -137,7 +138,7 @@ function start() {
     applyRoute().catch((err) => handleAuth(err));
   });
   initStreams();
-  initDiscovery({
+  Object.assign(shell, {
     getMachineId: () => state.machineId,
     getMachines: () => state.machines,
     getMeasurements: () => (state.dbbMachine === state.machineId ? state.dbb : []),
@@ -146,6 +147,7 @@ function start() {
     selectMachine: (id) => selectMachine(id),
     reloadMachines: () => loadMachines().then(() => loadJobHistory()),
   });
+  initDiscovery();
   resetDetail();
   if (!getToken()) {
     showAuthProblem(null);

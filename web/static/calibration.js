@@ -8,10 +8,9 @@ import { handleAuth } from './auth.js';
 import { $, asProblem, downloadText, errorBox, h, keepFocus, problemContent, setMessage } from './dom.js';
 import { formatDirection, formatMode, formatNumber, formatTimestamp, formatUncertainty } from './format.js';
 import { cancelledContent, jobCancelControl } from './job_cancel.js';
+import { pollJob, selectMachineOfJob } from './job_poll.js';
 import { jobHash, navigate } from './router.js';
 import { state } from './state.js';
-
-const JOB_POLL_MS = 500;
 
 // ---------------------------------------------------------------- the panel
 
@@ -180,58 +179,41 @@ export async function showJob(jobId) {
   setMessage(status, 'info', `Loading job #${jobId}…`);
   delete status.dataset.status;
   let machineShown = false;
-  try {
-    for (;;) {
-      const job = await api.job(jobId);
-      if (seq !== state.jobSeq) return;
+  await pollJob(jobId, {
+    current: () => seq === state.jobSeq,
+    show: (job) => {
       if (job.kind === 'discovery') {
         window.history.replaceState(null, '', `#/discoveries/${jobId}`);
         window.dispatchEvent(new HashChangeEvent('hashchange'));
-        return;
+        return false;
       }
       if (!machineShown) {
         machineShown = true;
-        selectMachineOf(job);
+        selectMachineOfJob(job);
       }
       status.dataset.status = job.status;
       $('#job-sub').textContent = requestSummary(job);
       showCancel(job);
+      return true;
+    },
+    ended: (job) => {
       if (job.status === 'cancelled') {
         setMessage(status, 'info', ...cancelledContent(job));
-        loadJobHistory();
-        return;
-      }
-      if (job.status === 'done' || job.status === 'failed') {
+      } else {
         view.dataset.jobVerdict = job.verdict || '';
         setMessage(status, null);
         renderJob(job);
-        loadJobHistory();
-        return;
       }
-      setMessage(status, 'info', ...jobStatusContent(job));
-      await new Promise((r) => setTimeout(r, JOB_POLL_MS));
-      if (seq !== state.jobSeq) return;
-    }
-  } catch (err) {
-    if (seq !== state.jobSeq) return;
-    if (!handleAuth(err)) {
-      const title = err instanceof ApiError && err.status === 404 ? `Job #${jobId} not found` : 'Could not load the job';
-      setMessage(status, 'error', ...problemContent(asProblem(err, title)));
-    }
-  }
-}
-
-// The sidebar shows the machine of the job's tests (after a reload, say).
-async function selectMachineOf(job) {
-  const id = job.request?.measurement_ids?.[0];
-  if (!id) return;
-  try {
-    const m = await api.measurement(id);
-    const { selectMachine } = await import('./machines.js');
-    if (m.machine_id && m.machine_id !== state.machineId) await selectMachine(m.machine_id);
-  } catch {
-    // the job is shown anyway
-  }
+      loadJobHistory();
+    },
+    waiting: (job) => setMessage(status, 'info', ...jobStatusContent(job)),
+    failedToLoad: (err) => {
+      if (!handleAuth(err)) {
+        const title = err instanceof ApiError && err.status === 404 ? `Job #${jobId} not found` : 'Could not load the job';
+        setMessage(status, 'error', ...problemContent(asProblem(err, title)));
+      }
+    },
+  });
 }
 
 function requestSummary(job) {

@@ -10,10 +10,10 @@ import { renderAnalysis, resetAnalysis } from './diagnosis.js';
 import { renderFigures } from './figures.js';
 import { formatDirection, formatNumber, formatTimestamp } from './format.js';
 import { renderFormPlot, renderTrackerPlot } from './formplots.js';
-import { selectMachine } from './machines.js';
 import { markCurrent } from './measurements.js';
 import { renderPolarPlot } from './polar.js';
 import { renderServoForce } from './servo.js';
+import { shell } from './shell.js';
 import { FORM_KINDS, WIDE_KINDS, state } from './state.js';
 
 export function resetDetail() {
@@ -79,7 +79,7 @@ export async function showMeasurement(id) {
     const measurement = await api.measurement(id);
     if (seq !== state.selectSeq) return;
     if (measurement.machine_id !== state.machineId) {
-      await selectMachine(measurement.machine_id);
+      await shell.selectMachine(measurement.machine_id);
       if (seq !== state.selectSeq) return;
       state.measurementId = id;
       markCurrent();

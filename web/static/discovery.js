@@ -17,9 +17,8 @@ import { renderFailed, renderResult } from './discovery_result.js';
 import { effectInText } from './discovery_words.js';
 import { formatDirection, formatTimestamp } from './format.js';
 import { cancelledContent, jobCancelControl } from './job_cancel.js';
+import { pollJob, selectMachineOfJob } from './job_poll.js';
 
-
-const JOB_POLL_MS = 500;
 // The engine's default maximum number of steps (analysis/discovery/engine.h, EngineOptions): the
 // job reports its progress as step / (max_steps + 1). Used only when the stage text does not
 // name the step.
@@ -446,13 +445,18 @@ async function showJob(jobId, seq) {
   setMessage(status, 'info', `Loading job #${jobId}…`);
   $('#discovery-sub').textContent = '';
   let highlighted = false;
-  try {
-    for (;;) {
-      const job = await api.job(jobId);
-      if (seq !== state.seq) return;
+  const shown = (job) => {
+    setMessage(status, null);
+    if (job.status === 'done') renderResult(job);
+    else renderFailed(job);
+    bringIntoView();
+  };
+  await pollJob(jobId, {
+    current: () => seq === state.seq,
+    show: (job) => {
       if (job.kind !== 'discovery') {
         setMessage(status, 'error', h('strong', { class: 'problem-title' }, `Job #${jobId} is not a discovery`), h('span', { class: 'problem-detail' }, `It is a ${String(job.kind).replace(/_/g, ' ')} job.`));
-        return;
+        return false;
       }
       $('#discovery-sub').textContent = requestSummary(job);
       // What the view shows, for tests and links: the job and the server's verdict on it.
@@ -460,58 +464,30 @@ async function showJob(jobId, seq) {
       $('#discovery').dataset.jobVerdict = job.verdict || '';
       if (!highlighted) {
         highlighted = true;
-        highlightMachineOf(job);
+        selectMachineOfJob(job);
       }
       status.dataset.status = job.status;
       showCancel(job);
-      if (job.status === 'cancelled') {
-        setMessage(status, 'info', ...cancelledContent(job));
-        refreshDiscoveryList();
-        return;
+      return true;
+    },
+    ended: (job) => {
+      if (job.status === 'cancelled') setMessage(status, 'info', ...cancelledContent(job));
+      else shown(job);
+      refreshDiscoveryList();
+    },
+    waiting: (job) => setMessage(status, 'info', ...jobStatusContent(job)),
+    failedToLoad: (err) => {
+      if (!ctx.handleAuth(err)) {
+        const title = err instanceof ApiError && err.status === 404 ? `Job #${jobId} not found` : 'Could not load the job';
+        setMessage(status, 'error', ...problemContent(asProblem(err, title)));
       }
-      if (job.status === 'done') {
-        setMessage(status, null);
-        renderResult(job);
-        bringIntoView();
-        refreshDiscoveryList();
-        return;
-      }
-      if (job.status === 'failed') {
-        setMessage(status, null);
-        renderFailed(job);
-        bringIntoView();
-        refreshDiscoveryList();
-        return;
-      }
-      setMessage(status, 'info', ...jobStatusContent(job));
-      await new Promise((r) => setTimeout(r, JOB_POLL_MS));
-      if (seq !== state.seq) return;
-    }
-  } catch (err) {
-    if (seq !== state.seq) return;
-    if (!ctx.handleAuth(err)) {
-      const title = err instanceof ApiError && err.status === 404 ? `Job #${jobId} not found` : 'Could not load the job';
-      setMessage(status, 'error', ...problemContent(asProblem(err, title)));
-    }
-  }
-}
-
-// Selects the machine of the job's tests in the sidebar (after a reload, say).
-async function highlightMachineOf(job) {
-  const id = job.request?.measurement_ids?.[0];
-  if (!id) return;
-  try {
-    const m = await api.measurement(id);
-    if (m.machine_id && m.machine_id !== ctx.getMachineId()) await ctx.selectMachine(m.machine_id);
-  } catch {
-    // The sidebar stays as it is; the job is shown anyway.
-  }
+    },
+  });
 }
 
 // ---------------------------------------------------------------- start
 
-export function initDiscovery(callbacks) {
-  Object.assign(ctx, callbacks);
+export function initDiscovery() {
   $('#disc-form').addEventListener('submit', onSubmit);
   $('#disc-all').addEventListener('click', () => setAllChecks(true));
   $('#disc-none').addEventListener('click', () => setAllChecks(false));

@@ -1,0 +1,147 @@
+#!/usr/bin/python3
+"""The layering of the sources, checked from their includes and imports (docs/architecture.md):
+
+  * C++: a folder includes only its own layer and those below it,
+        analysis < ingest < report < server < api, cli (cli beside api, without server);
+    and no circle between modules (a module = x.h, x.cpp and its parts x_<part>.h/.cpp in the
+    same folder), so no include runs back up inside a layer either.
+  * The web page (web/static/*.js): no circle of imports, static or dynamic (import('./x.js')).
+  * No source folder holds more than 40 source files.
+Prints every violation and exits 1 if there is one."""
+import os
+import re
+import sys
+from collections import defaultdict
+
+LAYERS = {"analysis": 0, "ingest": 1, "report": 2, "server": 3, "api": 4, "cli": 4}
+FORBIDDEN = {("cli", "server"), ("cli", "api"), ("api", "cli")}
+INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
+IMPORT = re.compile(r"""(?:\bfrom\s+|\bimport\s*\(\s*|^\s*import\s+)['"]\./([\w./-]+\.js)['"]""", re.M)
+MAX_FILES = 40
+
+
+def sources(repo, exts):
+    for top in LAYERS if exts != (".js",) else ["web/static"]:
+        for root, _, files in os.walk(os.path.join(repo, top)):
+            if "node_modules" in root:
+                continue
+            for f in files:
+                if f.endswith(exts):
+                    yield os.path.relpath(os.path.join(root, f), repo)
+
+
+def module_of(path, names):
+    """The module of a file: its path without extension, or the module it is a part of — the
+    longest name m in the same folder with path = m_<part> (diagnosis_fit.cpp and
+    diagnosis_search.h are parts of diagnosis; feed_drive_detail.h of feed_drive)."""
+    mod = os.path.splitext(path)[0]
+    base = mod
+    while "_" in os.path.basename(base):
+        base = base.rsplit("_", 1)[0]
+        if base in names:
+            mod = base
+    return mod
+
+
+def cycles(graph):
+    """Strongly connected components with more than one node (Tarjan, iterative)."""
+    index, low, on, stack, out, counter = {}, {}, set(), [], [], [0]
+    for start in list(graph):
+        if start in index:
+            continue
+        work = [(start, iter(sorted(graph[start])))]
+        index[start] = low[start] = counter[0]
+        counter[0] += 1
+        stack.append(start)
+        on.add(start)
+        while work:
+            node, it = work[-1]
+            nxt = next(it, None)
+            if nxt is not None:
+                if nxt not in index:
+                    index[nxt] = low[nxt] = counter[0]
+                    counter[0] += 1
+                    stack.append(nxt)
+                    on.add(nxt)
+                    work.append((nxt, iter(sorted(graph.get(nxt, ())))))
+                elif nxt in on:
+                    low[node] = min(low[node], index[nxt])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                comp = []
+                while True:
+                    w = stack.pop()
+                    on.discard(w)
+                    comp.append(w)
+                    if w == node:
+                        break
+                if len(comp) > 1:
+                    out.append(sorted(comp))
+    return out
+
+
+def check_cpp(repo, problems):
+    files = list(sources(repo, (".h", ".cpp")))
+    names = {os.path.splitext(f)[0] for f in files}
+    graph = defaultdict(set)
+    for f in files:
+        mod = module_of(f, names)
+        graph.setdefault(mod, set())
+        top = f.split("/")[0]
+        with open(os.path.join(repo, f), encoding="utf-8") as fh:
+            text = fh.read()
+        for inc in INCLUDE.findall(text):
+            itop = inc.split("/")[0]
+            if itop not in LAYERS:
+                continue
+            if LAYERS[itop] > LAYERS[top] or (top, itop) in FORBIDDEN:
+                problems.append("%s includes %s: %s may not include %s" % (f, inc, top, itop))
+            target = module_of(inc, names)
+            if target != mod:
+                graph[mod].add(target)
+    for comp in cycles(graph):
+        problems.append("include circle between modules: " + " ↔ ".join(comp))
+
+
+def check_web(repo, problems):
+    graph = defaultdict(set)
+    for f in sources(repo, (".js",)):
+        with open(os.path.join(repo, f), encoding="utf-8") as fh:
+            text = fh.read()
+        mod = os.path.basename(f)
+        graph.setdefault(mod, set())
+        for target in IMPORT.findall(text):
+            graph[mod].add(os.path.basename(target))
+    for comp in cycles(graph):
+        problems.append("import circle in web/static: " + " ↔ ".join(comp))
+
+
+def check_folders(repo, problems):
+    for top in list(LAYERS) + ["web/static"]:
+        for root, _, files in os.walk(os.path.join(repo, top)):
+            if "node_modules" in root:
+                continue
+            n = sum(1 for f in files if f.endswith((".h", ".cpp", ".js")))
+            if n > MAX_FILES:
+                problems.append("%s holds %d source files (at most %d)" %
+                                (os.path.relpath(root, repo), n, MAX_FILES))
+
+
+def main():
+    repo = sys.argv[1] if len(sys.argv) > 1 else os.path.dirname(
+        os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    problems = []
+    check_cpp(repo, problems)
+    check_web(repo, problems)
+    check_folders(repo, problems)
+    for p in problems:
+        print(p)
+    print("layering: %d problem%s" % (len(problems), "" if len(problems) == 1 else "s"))
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
