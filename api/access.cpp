@@ -10,8 +10,8 @@
 #include "analysis/core/errors.h"
 #include "api/route_util.h"
 #include "api/routes.h"
-#include "server/access.h"
-#include "server/sha256.h"
+#include "server/access/access.h"
+#include "server/base/sha256.h"
 
 namespace km::api {
 namespace {

@@ -1,12 +1,12 @@
 // Routes of the accuracy audits (docs/http.md "Accuracy audits"): a machine's rules and
 // schedule, a run on request, the stored verdicts and the metrics rules may name. The work is
-// done by the service (server/audit_service.h, server/audit_scheduler.h).
+// done by the service (server/audits/audit_service.h, server/audits/audit_scheduler.h).
 #include <limits>
 
 #include "api/route_util.h"
 #include "api/routes.h"
-#include "server/audit_scheduler.h"
-#include "server/audit_service.h"
+#include "server/audits/audit_scheduler.h"
+#include "server/audits/audit_service.h"
 
 namespace km::api {
 namespace {

@@ -1,9 +1,9 @@
 // Routes of the fleet overview and of a machine's trends (docs/formats.md §5): every machine
 // with its newest measurement, open jobs and newest audit; one figure of a machine's stored
-// results over time. The work is done by the service (server/fleet_service.h).
+// results over time. The work is done by the service (server/audits/fleet_service.h).
 #include "api/route_util.h"
 #include "api/routes.h"
-#include "server/fleet_service.h"
+#include "server/audits/fleet_service.h"
 
 namespace km::api {
 

@@ -5,7 +5,7 @@
 #include <iostream>
 
 #include "analysis/core/errors.h"
-#include "server/storage.h"
+#include "server/storage/storage.h"
 
 namespace km::api {
 namespace {

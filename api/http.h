@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "server/roles.h"
+#include "server/access/roles.h"
 
 namespace km::api {
 
@@ -74,7 +74,7 @@ struct Route {
   // Largest body of this route (0: the server's max_payload_bytes); a larger one is answered
   // 413 without being read. Never above the server's limit.
   std::size_t max_body_bytes = 0;
-  // The least role a token needs (server/roles.h); unset: the access policy's role for the
+  // The least role a token needs (server/access/roles.h); unset: the access policy's role for the
   // method and pattern (RequiredRole).
   std::optional<server::Role> role = std::nullopt;
 };

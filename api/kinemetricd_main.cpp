@@ -14,12 +14,12 @@
 #include "api/http_server.h"
 #include "api/metrics.h"
 #include "api/routes.h"
-#include "server/config.h"
-#include "server/data_dir.h"
-#include "server/demo_data.h"
+#include "server/base/config.h"
+#include "server/base/data_dir.h"
+#include "server/base/sha256.h"
+#include "server/measurements/demo_data.h"
 #include "server/service.h"
-#include "server/sha256.h"
-#include "server/storage_factory.h"
+#include "server/storage/open_storage.h"
 
 namespace fs = std::filesystem;
 

@@ -6,7 +6,7 @@
 #include <iostream>
 
 #include "api/route_util.h"
-#include "server/storage.h"
+#include "server/storage/storage.h"
 
 namespace km::api {
 namespace {
@@ -61,7 +61,7 @@ std::string DeviceLabels(const json& d) {
          LabelValue(d.value("machine_id", "")) + "\"";
 }
 
-// A device's status object (server/acquisition.h Devices()); empty when absent.
+// A device's status object (server/streams/acquisition.h Devices()); empty when absent.
 const json& StatusOf(const json& device) {
   static const json kNone = json::object();
   const auto it = device.find("status");
@@ -90,7 +90,7 @@ void ModbusErrors(std::string& out, const json& devices) {
   }
 }
 
-// The Modbus acquisition devices (server/acquisition.h) from their status: one series per
+// The Modbus acquisition devices (server/streams/acquisition.h) from their status: one series per
 // device, labelled with its name and machine. Their counters start at 0 again when a device
 // restarts (a server start, a device added again), which Prometheus' rate() takes as a reset.
 void ModbusFamilies(std::string& out, const json& devices) {

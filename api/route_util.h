@@ -11,7 +11,7 @@
 #include "analysis/core/errors.h"
 #include "api/http.h"
 #include "ingest/json_text.h"
-#include "server/time_util.h"
+#include "server/base/time_util.h"
 
 namespace km::api {
 

@@ -6,8 +6,8 @@
 #include "api/http_target.h"
 #include "api/metrics.h"
 #include "api/route_util.h"
-#include "server/request_json.h"
-#include "server/time_util.h"
+#include "server/base/request_json.h"
+#include "server/base/time_util.h"
 
 namespace km::api {
 namespace {

@@ -1,12 +1,12 @@
 // Routes of the servo-load analyses (docs/formats.md §5): identification of a hexapod's masses
 // and friction from stored servo measurements (optionally saved as the next version of its
 // model), joint resistance and health, and the external force of one stored record. The work
-// is done by the service (server/servo_service.h).
+// is done by the service (server/measurements/servo_service.h).
 #include <limits>
 
 #include "api/route_util.h"
 #include "api/routes.h"
-#include "server/servo_service.h"
+#include "server/measurements/servo_service.h"
 
 namespace km::api {
 namespace {

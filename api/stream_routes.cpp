@@ -127,7 +127,7 @@ void AddStreamReadRoutes(Router& router, server::Service& service) {
       kSmallRequestBytes));
 }
 
-// The Modbus TCP acquisition devices (server/acquisition.h).
+// The Modbus TCP acquisition devices (server/streams/acquisition.h).
 void AddDeviceRoutes(Router& router, server::Service& service) {
   server::Service* svc = &service;
 

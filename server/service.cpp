@@ -7,10 +7,10 @@
 #include "ingest/servo_parser.h"
 #include "ingest/text_format.h"
 #include "ingest/tracker_parser.h"
-#include "server/jobs.h"
-#include "server/servo_service.h"
-#include "server/sha256.h"
-#include "server/time_util.h"
+#include "server/base/sha256.h"
+#include "server/base/time_util.h"
+#include "server/jobs/jobs.h"
+#include "server/measurements/analyses.h"
 
 namespace km::server {
 
@@ -44,7 +44,9 @@ Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
     : storage_(std::move(storage)),
       options_(options),
       streams_(std::make_unique<StreamHub>(*storage_, StreamOptions{})),
-      acquisition_(std::make_unique<Acquisition>(*this)),
+      acquisition_(std::make_unique<Acquisition>(
+          *streams_, [this](const nlohmann::json& request,
+                            const std::string& source) { return CreateStream(request, source); })),
       jobs_(std::make_unique<JobQueue>(*storage_, options.jobs)),
       audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {
   jobs_->Register("hexapod_calibration",

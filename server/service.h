@@ -16,11 +16,12 @@
 #include "analysis/dbb/polar_plot.h"
 #include "ingest/machine_json.h"
 #include "ingest/text_format.h"
-#include "server/acquisition.h"
-#include "server/audit_scheduler.h"
-#include "server/jobs.h"
-#include "server/storage.h"
-#include "server/streams.h"
+#include "server/audits/audit_scheduler.h"
+#include "server/audits/audit_source.h"
+#include "server/jobs/jobs.h"
+#include "server/storage/storage.h"
+#include "server/streams/acquisition.h"
+#include "server/streams/streams.h"
 
 namespace km::server {
 
@@ -58,9 +59,9 @@ struct ServiceOptions {
   // this many samples in all of them (the running job holds every test in memory).
   std::size_t max_calibration_tests = 500;
   std::size_t max_calibration_samples = 2'000'000;
-  // Accuracy audits: the webhook of verdicts of level 2 and 3 (server/audit_scheduler.h).
+  // Accuracy audits: the webhook of verdicts of level 2 and 3 (server/audits/audit_scheduler.h).
   AuditOptions audits;
-  // Background jobs: workers of this instance, lease, queue bound (server/jobs.h).
+  // Background jobs: workers of this instance, lease, queue bound (server/jobs/jobs.h).
   JobQueueOptions jobs;
 };
 
@@ -119,7 +120,7 @@ class FrameIngestion {
   std::unique_ptr<State> state_;
 };
 
-class Service {
+class Service : public AuditSource {
  public:
   Service(std::unique_ptr<Storage> storage, ServiceOptions options);
 
@@ -137,7 +138,7 @@ class Service {
   // CW/CCW pair analysis with the opposite-direction test of the same machine and test_id
   // (null when there is none); the polar plot PNG (both directions when the partner exists).
   nlohmann::json DbbTrace(std::int64_t id);
-  nlohmann::json DbbPairJson(std::int64_t id);
+  nlohmann::json DbbPairJson(std::int64_t id) override;
   std::string DbbPlotPng(std::int64_t id, const dbb::PolarPlotOptions& options = {});
   // Straightness reversal of a stored profile with the other set-up of its pair (same machine
   // and pair_id, measured nearest in time): {partner_id, reversal{...}, profiles[]}; null when
@@ -184,7 +185,7 @@ class Service {
   nlohmann::json Job(std::int64_t id);
   // Cancels a queued or running job for its owner (the token that submitted it) or an admin;
   // answers the job, status "cancelled" (its error says by whom). A running job stops at its
-  // next progress report (server/jobs.h). NotFound: no such job; Forbidden: `by` neither owns
+  // next progress report (server/jobs/jobs.h). NotFound: no such job; Forbidden: `by` neither owns
   // it nor is an admin; Conflict: the job is done, failed or cancelled already.
   nlohmann::json CancelJob(std::int64_t id, const JobCanceller& by);
   nlohmann::json Jobs(std::int64_t limit);
@@ -234,13 +235,13 @@ class Service {
   // analyses it like an upload. Request: see docs/streams.md.
   UploadOutcome StreamProfile(std::int64_t stream_id, const nlohmann::json& request);
   StreamHub& streams() { return *streams_; }
-  // Modbus TCP devices (server/acquisition.h).
+  // Modbus TCP devices (server/streams/acquisition.h).
   Acquisition& acquisition() { return *acquisition_; }
   // Accuracy audits: rules, runs and the scheduler thread (started by the server, Start()).
   AuditScheduler& audits() { return *audits_; }
 
   // The storage itself, for tests and tools; the API's routes use the calls above.
-  Storage& storage() { return *storage_; }
+  Storage& storage() override { return *storage_; }
 
  private:
   friend class FrameIngestion;

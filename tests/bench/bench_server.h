@@ -10,7 +10,7 @@
 #include "api/http_server.h"
 #include "api/routes.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 
 namespace km::bench {
 

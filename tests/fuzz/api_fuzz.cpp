@@ -18,7 +18,7 @@
 
 #include "api/http.h"
 #include "api/routes.h"
-#include "server/sha256.h"
+#include "server/base/sha256.h"
 #include "tests/fuzz/fuzz_service.h"
 #include "tests/fuzz/fuzz_util.h"
 

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 
 namespace km::fuzz {
 

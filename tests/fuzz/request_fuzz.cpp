@@ -1,5 +1,5 @@
-// JSON request bodies checked without HTTP: the field helpers of server/request_json.h, and the
-// service calls that validate a request before doing anything (Service::CreateStream,
+// JSON request bodies checked without HTTP: the field helpers of server/base/request_json.h, and
+// the service calls that validate a request before doing anything (Service::CreateStream,
 // Service::SubmitCalibration, Service::StreamProfile on a stream that holds samples). The body
 // is the whole input; a body that is not JSON, or that ingest/json_text.h refuses (nesting,
 // repeated keys, numbers beyond a double), is refused before any of these runs.
@@ -8,7 +8,7 @@
 
 #include "ingest/json_text.h"
 #include "ingest/stream_frames.h"
-#include "server/request_json.h"
+#include "server/base/request_json.h"
 #include "tests/fuzz/fuzz_service.h"
 #include "tests/fuzz/fuzz_util.h"
 

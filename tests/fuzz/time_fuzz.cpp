@@ -1,8 +1,8 @@
-// Time stamps (server/time_util.h): a normalised time is itself a normalised time, and any
+// Time stamps (server/base/time_util.h): a normalised time is itself a normalised time, and any
 // microsecond count has a text form.
 #include <cstring>
 
-#include "server/time_util.h"
+#include "server/base/time_util.h"
 #include "tests/fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

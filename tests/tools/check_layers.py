@@ -30,17 +30,30 @@ def sources(repo, exts):
                     yield os.path.relpath(os.path.join(root, f), repo)
 
 
-def module_of(path, names):
-    """The module of a file: its path without extension, or the module it is a part of — the
-    longest name m in the same folder with path = m_<part> (diagnosis_fit.cpp and
-    diagnosis_search.h are parts of diagnosis; feed_drive_detail.h of feed_drive)."""
-    mod = os.path.splitext(path)[0]
-    base = mod
-    while "_" in os.path.basename(base):
-        base = base.rsplit("_", 1)[0]
-        if base in names:
-            mod = base
-    return mod
+def modules(files, includes):
+    """Module of each file: its path without extension, or the module it is a part of — the
+    longest name m in the same folder with path = m_<part> when the part has no header of its
+    own (feed_drive_lugre.cpp) or when m and the part include each other (diagnosis_fit.h
+    includes diagnosis.h and diagnosis.cpp includes diagnosis_fit.h: one module in two
+    files)."""
+    names = {os.path.splitext(f)[0] for f in files}
+    headers = {os.path.splitext(f)[0] for f in files if f.endswith(".h")}
+    uses = defaultdict(set)  # name → names its files include
+    for f in files:
+        for inc in includes[f]:
+            uses[os.path.splitext(f)[0]].add(os.path.splitext(inc)[0])
+    out = {}
+    for f in files:
+        mod = name = os.path.splitext(f)[0]
+        base = name
+        while "_" in os.path.basename(base):
+            base = base.rsplit("_", 1)[0]
+            if base in names and (name not in headers or
+                                  (base in uses[name] and name in uses[base])):
+                mod = base
+                break
+        out[f] = mod
+    return out
 
 
 def cycles(graph):
@@ -85,23 +98,23 @@ def cycles(graph):
 
 def check_cpp(repo, problems):
     files = list(sources(repo, (".h", ".cpp")))
-    names = {os.path.splitext(f)[0] for f in files}
+    includes = {}
+    for f in files:
+        with open(os.path.join(repo, f), encoding="utf-8") as fh:
+            includes[f] = [i for i in INCLUDE.findall(fh.read()) if i.split("/")[0] in LAYERS]
+    module = modules(files, includes)
+    by_name = {os.path.splitext(f)[0]: m for f, m in module.items()}
     graph = defaultdict(set)
     for f in files:
-        mod = module_of(f, names)
-        graph.setdefault(mod, set())
         top = f.split("/")[0]
-        with open(os.path.join(repo, f), encoding="utf-8") as fh:
-            text = fh.read()
-        for inc in INCLUDE.findall(text):
+        graph.setdefault(module[f], set())
+        for inc in includes[f]:
             itop = inc.split("/")[0]
-            if itop not in LAYERS:
-                continue
             if LAYERS[itop] > LAYERS[top] or (top, itop) in FORBIDDEN:
                 problems.append("%s includes %s: %s may not include %s" % (f, inc, top, itop))
-            target = module_of(inc, names)
-            if target != mod:
-                graph[mod].add(target)
+            target = by_name.get(os.path.splitext(inc)[0], os.path.splitext(inc)[0])
+            if target != module[f]:
+                graph[module[f]].add(target)
     for comp in cycles(graph):
         problems.append("include circle between modules: " + " ↔ ".join(comp))
 

@@ -14,7 +14,7 @@
 #include <thread>
 
 #include "ingest/dbb_writer.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/bench/bench_server.h"
 #include "tests/unit/dbb_core/dbb_synth.h"
 

@@ -18,7 +18,7 @@
 #include "ingest/text_format.h"
 #include "ingest/tracker_parser.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/ingest/big_files.h"
 #include "tests/unit/ingest/counting_new.h"
 #include "tests/unit/tracker/tracker_test_util.h"

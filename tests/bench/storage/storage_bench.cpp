@@ -10,8 +10,8 @@
 #include <memory>
 #include <string>
 
-#include "server/pg_storage.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/pg/pg_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/pg_test_server.h"
 
 namespace {

@@ -12,8 +12,8 @@
 
 #include "ingest/stream_frames.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
-#include "server/streams.h"
+#include "server/storage/sqlite/sqlite_storage.h"
+#include "server/streams/streams.h"
 #include "tests/bench/bench_server.h"
 
 // After the project headers: they bring in Eigen, which must come before httplib.h.

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The deployment files (docs/operations.md) against the code: deploy/kinemetricd.example.conf
-documents every configuration key that server/config.cpp reads, each under a // comment, and
+documents every configuration key that server/base/config.cpp reads, each under a // comment, and
 nothing else; a real kinemetricd starts with it and answers /healthz; docs/operations.md names
 the operations options; the systemd unit runs as its own user with a
 private data directory, restarts on failure and has the hardening options; the Containerfile
@@ -17,7 +17,7 @@ from ops_server import Checks, Server  # noqa: E402
 
 
 def code_keys(repo):
-    """The config-file keys of server/config.cpp: the whole-number table and the named keys."""
+    """The config-file keys of server/base/config.cpp: the whole-number table and the named keys."""
     src = open(os.path.join(repo, "server", "config.cpp"), encoding="utf-8").read()
     table = src[src.index("kNumberOptions[]"):]
     table = table[:table.index("};")]
@@ -77,7 +77,7 @@ def main():
     conf = os.path.join(a.repo, "deploy", "kinemetricd.example.conf")
     keys = example_keys(open(conf, encoding="utf-8").read(), check)
     known = code_keys(a.repo)
-    check(len(known) >= 25, "config keys found in server/config.cpp: %d" % len(known))
+    check(len(known) >= 25, "config keys found in server/base/config.cpp: %d" % len(known))
     check(not known - set(keys), "undocumented in the example conf: %s" % sorted(known - set(keys)))
     check(not set(keys) - known, "unknown to the server: %s" % sorted(set(keys) - known))
     ops_doc = open(os.path.join(a.repo, "docs", "operations.md"), encoding="utf-8").read()

@@ -11,10 +11,10 @@
 #include "analysis/core/errors.h"
 #include "api/http_server.h"
 #include "api/routes.h"
-#include "server/config.h"
-#include "server/net_ranges.h"
+#include "server/base/config.h"
+#include "server/base/net_ranges.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/api/raw_client.h"
 
 namespace km::api {

@@ -10,11 +10,11 @@
 
 #include "api/http.h"
 #include "api/routes.h"
-#include "server/access.h"
-#include "server/demo_data.h"
+#include "server/access/access.h"
+#include "server/base/sha256.h"
+#include "server/measurements/demo_data.h"
 #include "server/service.h"
-#include "server/sha256.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 
 namespace km::api {
 namespace {

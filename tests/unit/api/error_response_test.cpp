@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api/http.h"
-#include "server/storage.h"
+#include "server/storage/storage.h"
 
 namespace km::api {
 namespace {

@@ -1,4 +1,4 @@
-// The fleet overview and trend routes (api/fleet_routes.cpp → server/fleet_service.h) on a
+// The fleet overview and trend routes (api/fleet_routes.cpp → server/audits/fleet_service.h) on a
 // service holding the example DBB tests and flatness grid of vmc-3axis: each machine's newest
 // measurement, count, open jobs and newest audit; a trend's points are the stored figures, oldest
 // first (the centre offset as the length of the stored vector); bad requests named.
@@ -11,9 +11,9 @@
 #include <unistd.h>
 
 #include "api/routes.h"
-#include "server/accuracy_audit.h"
+#include "server/audits/accuracy_audit.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/api/routed_service.h"
 
 namespace km::api {

@@ -11,7 +11,7 @@
 
 #include "api/routes.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 
 namespace km::api::test {
 

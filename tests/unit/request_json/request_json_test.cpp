@@ -1,5 +1,5 @@
-// Field checks of JSON API requests (server/request_json.h).
-#include "server/request_json.h"
+// Field checks of JSON API requests (server/base/request_json.h).
+#include "server/base/request_json.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
-// Accuracy-audit rules and their evaluation (server/accuracy_audit.h), pure: rules validated
+// Accuracy-audit rules and their evaluation (server/audits/accuracy_audit.h), pure: rules validated
 // with errors naming rules[i].field, metrics read from result objects as stored, and verdicts
 // with exact levels, findings and evidence for absolute and trend rules.
-#include "server/accuracy_audit.h"
+#include "server/audits/accuracy_audit.h"
 
 #include <gtest/gtest.h>
 

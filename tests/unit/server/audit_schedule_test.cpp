@@ -1,8 +1,8 @@
-// Accuracy-audit schedules (server/audit_schedule.h): intervals and 5-field cron expressions in
-// UTC, with the exact next run times at the edges (the due minute itself, weekends, month and
+// Accuracy-audit schedules (server/audits/audit_schedule.h): intervals and 5-field cron expressions
+// in UTC, with the exact next run times at the edges (the due minute itself, weekends, month and
 // year ends, 29 February, day-of-month OR day-of-week, Sunday as 0 and 7) and the errors of
 // malformed schedules naming the field and the cron field.
-#include "server/audit_schedule.h"
+#include "server/audits/audit_schedule.h"
 
 #include <gtest/gtest.h>
 

@@ -1,11 +1,11 @@
-// Accuracy audits over a real service and SQLite file (server/audit_scheduler.h): runs over
+// Accuracy audits over a real service and SQLite file (server/audits/audit_scheduler.h): runs over
 // uploaded DBB tests with the evidence of each finding, trend rules against the previous
 // audit, scheduled runs with a set clock (a time missed while the server was down runs once,
 // also after a restart on the same database), the scheduler thread with a 1 s schedule and a
 // prompt stop, a due run made once by one of two instances, a run whose claiming instance died
 // made when the claim lapses, and the webhook delivered to a local HTTP receiver after a first
 // 500.
-#include "server/audit_scheduler.h"
+#include "server/audits/audit_scheduler.h"
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
@@ -21,13 +21,13 @@
 #include <thread>
 
 #include "analysis/core/errors.h"
-#include "server/audit_schedule.h"
-#include "server/audit_service.h"
-#include "server/config.h"
-#include "server/demo_data.h"
+#include "server/audits/audit_schedule.h"
+#include "server/audits/audit_service.h"
+#include "server/base/config.h"
+#include "server/base/sha256.h"
+#include "server/measurements/demo_data.h"
 #include "server/service.h"
-#include "server/sha256.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
 
 // Eigen (through service.h) before httplib: <resolv.h> (pulled in by httplib) defines _res.

@@ -8,13 +8,13 @@
 #include <memory>
 #include <string>
 
-#include "server/audit_schedule.h"
-#include "server/audit_service.h"
-#include "server/demo_data.h"
-#include "server/fleet_service.h"
-#include "server/jobs.h"
+#include "server/audits/audit_schedule.h"
+#include "server/audits/audit_service.h"
+#include "server/audits/fleet_service.h"
+#include "server/jobs/jobs.h"
+#include "server/measurements/demo_data.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
 
 namespace km::server::test {

@@ -1,7 +1,7 @@
 // Server options and config-file keys: every number is a whole number within its range, or the
 // start is refused naming the option (a server with 0 threads never answers; a negative upload
 // limit used to wrap around to 16 EiB).
-#include "server/config.h"
+#include "server/base/config.h"
 
 #include <gtest/gtest.h>
 

@@ -9,9 +9,9 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/tracker_parser.h"
-#include "server/finite_result.h"
+#include "server/base/finite_result.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
 #include "tests/unit/tracker/tracker_test_util.h"
 

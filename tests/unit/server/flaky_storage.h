@@ -9,7 +9,7 @@
 #include <string>
 
 #include "analysis/core/errors.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 
 namespace km::server::test {
 

@@ -1,4 +1,4 @@
-// The job queue shared by the instances on one database (server/jobs.h), on a real SQLite file
+// The job queue shared by the instances on one database (server/jobs/jobs.h), on a real SQLite file
 // opened by two connections as two instances would: every job runs once, a stopping instance
 // gives its job back, a lapsed lease is taken over, a lost lease drops the outcome, a cancelled
 // job stops at its next progress report (on this instance or another) and frees its worker.
@@ -13,8 +13,8 @@
 #include <thread>
 
 #include "analysis/core/errors.h"
-#include "server/jobs.h"
-#include "server/sqlite_storage.h"
+#include "server/jobs/jobs.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
 
 namespace km::server {

@@ -1,7 +1,7 @@
 // The job worker survives storage errors: a failed status, progress or result update is
 // reported with the job id, the job is marked failed when the storage allows it, and later
 // jobs still run.
-#include "server/jobs.h"
+#include "server/jobs/jobs.h"
 
 #include <gtest/gtest.h>
 

@@ -14,7 +14,7 @@
 #include "analysis/core/errors.h"
 #include "ingest/machine_json.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/expect_error.h"
 #include "tests/unit/server/temp_dir.h"
 

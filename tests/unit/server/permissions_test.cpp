@@ -8,8 +8,8 @@
 #include <fstream>
 
 #include "analysis/core/errors.h"
-#include "server/data_dir.h"
-#include "server/sqlite_storage.h"
+#include "server/base/data_dir.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
 
 namespace km::server {

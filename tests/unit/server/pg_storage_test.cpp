@@ -1,7 +1,7 @@
 // The PostgreSQL backend where it differs from an embedded file: several instances on one
 // database at once, migrations racing, a newer schema, triggers, a server restart, lock
 // timeouts, the connection pool, text PostgreSQL cannot hold, passwords kept out of messages.
-#include "server/pg_storage.h"
+#include "server/storage/pg/pg_storage.h"
 
 #include <gtest/gtest.h>
 
@@ -13,9 +13,10 @@
 #include <vector>
 
 #include "analysis/core/errors.h"
-#include "server/pg_db.h"
-#include "server/pg_migrations.h"
-#include "server/storage_factory.h"
+#include "server/base/database_url.h"
+#include "server/storage/open_storage.h"
+#include "server/storage/pg/pg_db.h"
+#include "server/storage/pg/pg_migrations.h"
 #include "tests/unit/server/pg_test_server.h"
 
 namespace km::server {

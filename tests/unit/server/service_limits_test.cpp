@@ -20,7 +20,7 @@
 #include "analysis/core/errors.h"
 #include "ingest/text_format.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/expect_error.h"
 
 namespace km::server {

@@ -10,8 +10,8 @@
 #include "analysis/core/errors.h"
 #include "api/http.h"
 #include "api/routes.h"
-#include "server/demo_data.h"
-#include "server/sqlite_storage.h"
+#include "server/measurements/demo_data.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 
 namespace km::server {
 namespace {

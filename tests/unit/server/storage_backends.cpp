@@ -4,8 +4,8 @@
 
 #include <filesystem>
 
-#include "server/pg_storage.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/pg/pg_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/pg_test_server.h"
 
 namespace km::server::test {

@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-#include "server/storage.h"
+#include "server/storage/storage.h"
 
 namespace km::server::test {
 

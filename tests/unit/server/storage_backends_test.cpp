@@ -9,8 +9,8 @@
 #include <map>
 
 #include "analysis/core/errors.h"
-#include "server/pg_storage.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/pg/pg_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/storage_backends.h"
 
 namespace km::server {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
 
 namespace km::server {

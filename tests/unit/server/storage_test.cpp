@@ -1,4 +1,4 @@
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
@@ -7,7 +7,7 @@
 #include <map>
 
 #include "analysis/core/errors.h"
-#include "server/time_util.h"
+#include "server/base/time_util.h"
 
 namespace km::server {
 namespace {

@@ -6,9 +6,9 @@
 #include <limits>
 
 #include "report/stream_profile.h"
-#include "server/sqlite_storage.h"
-#include "server/stream_chunks.h"
-#include "server/streams.h"
+#include "server/storage/sqlite/sqlite_storage.h"
+#include "server/streams/stream_chunks.h"
+#include "server/streams/streams.h"
 #include "tests/unit/server/temp_dir.h"
 
 namespace km::server {

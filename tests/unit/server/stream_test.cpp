@@ -11,9 +11,9 @@
 
 #include "analysis/core/errors.h"
 #include "report/stream_profile.h"
-#include "server/sqlite_storage.h"
-#include "server/stream_chunks.h"
-#include "server/streams.h"
+#include "server/storage/sqlite/sqlite_storage.h"
+#include "server/streams/stream_chunks.h"
+#include "server/streams/streams.h"
 
 namespace km::server {
 namespace {

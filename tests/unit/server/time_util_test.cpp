@@ -1,6 +1,6 @@
-// NormaliseIso8601 (server/time_util.h): the same answers as the regular expression that used
+// NormaliseIso8601 (server/base/time_util.h): the same answers as the regular expression that used
 // to define it, and very long texts (100 KB query values) refused without deep recursion.
-#include "server/time_util.h"
+#include "server/base/time_util.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
-// Strict UTF-8 checks and U+FFFD replacement (server/utf8.h), and stored text that is not
+// Strict UTF-8 checks and U+FFFD replacement (server/base/utf8.h), and stored text that is not
 // UTF-8 (rows written before uploads were checked) listed without failing.
-#include "server/utf8.h"
+#include "server/base/utf8.h"
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
 
 namespace km::server {

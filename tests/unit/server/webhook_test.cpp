@@ -1,9 +1,9 @@
-// Webhook delivery against receivers that misbehave (server/webhook.h, webhook_client.h): one
-// that answers a byte at a time ends the attempt at its deadline (not per read) and the next
+// Webhook delivery against receivers that misbehave (server/audits/webhook.h, webhook_client.h):
+// one that answers a byte at a time ends the attempt at its deadline (not per read) and the next
 // verdict still goes out; a stop during such an attempt is prompt; loopback and private
 // targets are refused unless allowed, written as such in the URL (at configuration) or
 // resolved to one (at delivery).
-#include "server/webhook.h"
+#include "server/audits/webhook.h"
 
 #include <gtest/gtest.h>
 #include <netinet/in.h>
@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "analysis/core/errors.h"
-#include "server/config.h"
-#include "server/net_ranges.h"
+#include "server/base/config.h"
+#include "server/base/net_ranges.h"
 #include "tests/unit/server/temp_dir.h"
 
 namespace km::server::test {

@@ -1,6 +1,6 @@
-// The servo routes (api/servo_routes.cpp → server/servo_service.h) on a service holding the
-// pm600-like model and the servo records of the jig plan: identify (and save as the next model
-// version), joints with health levels, the force of one record; bad requests named.
+// The servo routes (api/servo_routes.cpp → server/measurements/servo_service.h) on a service
+// holding the pm600-like model and the servo records of the jig plan: identify (and save as the
+// next model version), joints with health levels, the force of one record; bad requests named.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -12,7 +12,7 @@
 
 #include "api/routes.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/api/routed_service.h"
 #include "tests/unit/servo/servo_truth.h"
 

@@ -1,6 +1,6 @@
-// Upload of kinemetric-servo/1 files through the service (server/servo_kinds.h): stored as kind
-// "servo" with the samples and the summary result; bad files refused naming file, line, field,
-// and nothing stored.
+// Upload of kinemetric-servo/1 files through the service (server/measurements/servo_kinds.h):
+// stored as kind "servo" with the samples and the summary result; bad files refused naming file,
+// line, field, and nothing stored.
 #include <filesystem>
 #include <random>
 
@@ -9,7 +9,7 @@
 
 #include "analysis/core/errors.h"
 #include "server/service.h"
-#include "server/sqlite_storage.h"
+#include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/servo/servo_truth.h"
 
 namespace km::server {

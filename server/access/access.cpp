@@ -1,0 +1,207 @@
+#include "server/access/access.h"
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+
+#include "analysis/core/errors.h"
+#include "server/base/request_json.h"
+#include "server/base/sha256.h"
+#include "server/base/utf8.h"
+#include "server/service.h"
+
+namespace km::server {
+namespace {
+
+std::atomic<std::uint64_t> g_revocations{0};
+
+constexpr std::int64_t kMaxExpiresInS = 10LL * 366 * 24 * 3600;  // ten years
+constexpr std::size_t kMaxNameBytes = 128;
+
+std::int64_t NowSeconds() {
+  return std::chrono::duration_cast<std::chrono::seconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string TokenName(const nlohmann::json& request) {
+  const std::string name = request::RequiredString(request, "name");
+  if (name.size() > kMaxNameBytes) {
+    throw InvalidInput(request::kFile, 0, "name",
+                       "must be at most " + std::to_string(kMaxNameBytes) + " bytes");
+  }
+  if (!IsValidUtf8(name)) throw InvalidInput(request::kFile, 0, "name", "is not valid UTF-8");
+  for (const char c : name) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7F) {
+      throw InvalidInput(request::kFile, 0, "name", "holds a control character");
+    }
+  }
+  return name;
+}
+
+// "active", "expired" or "revoked" at `now`.
+std::string TokenState(const TokenRecord& t, std::int64_t now) {
+  if (t.revoked_at) return "revoked";
+  if (t.expires_at) {
+    const auto until = SecondsFromUtcIso8601(*t.expires_at);
+    if (!until || now >= *until) return "expired";
+  }
+  return "active";
+}
+
+nlohmann::json OptionalJson(const std::optional<std::string>& v) {
+  return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+std::string UtcIso8601FromSeconds(std::int64_t unix_seconds) {
+  const std::time_t t = static_cast<std::time_t>(unix_seconds);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02dZ", tm.tm_year + 1900, tm.tm_mon + 1,
+                tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec);
+  return buf;
+}
+
+std::optional<std::int64_t> SecondsFromUtcIso8601(const std::string& text) {
+  std::tm tm{};
+  char z = 0;
+  int consumed = 0;
+  if (std::sscanf(text.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d%c%n", &tm.tm_year, &tm.tm_mon, &tm.tm_mday,
+                  &tm.tm_hour, &tm.tm_min, &tm.tm_sec, &z, &consumed) != 7 ||
+      z != 'Z' || static_cast<std::size_t>(consumed) != text.size()) {
+    return std::nullopt;
+  }
+  tm.tm_year -= 1900;
+  tm.tm_mon -= 1;
+  return static_cast<std::int64_t>(timegm(&tm));
+}
+
+std::uint64_t TokenRevocations() {
+  return g_revocations.load();
+}
+
+Caller Authenticate(Storage& storage, const std::string& token_sha256) {
+  const auto t = storage.FindToken(token_sha256);
+  if (!t) throw Unauthorized("the token is not valid");
+  if (t->revoked_at) throw Unauthorized("the token was revoked at " + *t->revoked_at);
+  Caller c;
+  c.token_id = t->id;
+  c.name = t->name;
+  if (t->expires_at) {
+    c.expires_unix = SecondsFromUtcIso8601(*t->expires_at);
+    if (!c.expires_unix || NowSeconds() >= *c.expires_unix) {
+      throw Unauthorized("the token expired at " + *t->expires_at);
+    }
+  }
+  const auto role = ParseRole(t->role);
+  if (!role) throw Unauthorized("the token has no known role");
+  c.role = *role;
+  return c;
+}
+
+nlohmann::json CreateToken(Service& service, const nlohmann::json& req) {
+  if (!req.is_object()) throw InvalidInput(request::kFile, 0, "", "the body must be a JSON object");
+  const std::string name = TokenName(req);
+  const std::string role_text = request::RequiredString(req, "role");
+  const auto role = ParseRole(role_text);
+  if (!role) {
+    throw InvalidInput(request::kFile, 0, "role",
+                       "'" + role_text + "' is none of viewer, operator, engineer, admin");
+  }
+  std::optional<std::string> expires_at;
+  if (req.contains("expires_in_s") && !req["expires_in_s"].is_null()) {
+    const auto s = request::WholeNumber(req, "expires_in_s", 1, kMaxExpiresInS);
+    expires_at = UtcIso8601FromSeconds(NowSeconds() + s);
+  }
+  for (const auto& [key, value] : req.items()) {
+    if (key != "name" && key != "role" && key != "expires_in_s") {
+      throw InvalidInput(request::kFile, 0, key, "is not a field of a token request");
+    }
+  }
+  const std::string secret = NewRandomToken();
+  const auto id = service.storage().AddToken(Sha256Hex(secret), RoleName(*role), name, expires_at);
+  return {{"id", id},
+          {"token", secret},
+          {"name", name},
+          {"role", RoleName(*role)},
+          {"expires_at", OptionalJson(expires_at)}};
+}
+
+nlohmann::json ListTokens(Service& service) {
+  const auto now = NowSeconds();
+  nlohmann::json items = nlohmann::json::array();
+  for (const auto& t : service.storage().ListTokens()) {
+    items.push_back({{"id", t.id},
+                     {"name", t.name},
+                     {"role", t.role},
+                     {"created_at", t.created_at},
+                     {"expires_at", OptionalJson(t.expires_at)},
+                     {"revoked_at", OptionalJson(t.revoked_at)},
+                     {"state", TokenState(t, now)}});
+  }
+  return {{"items", items}};
+}
+
+namespace {
+
+// Refuses to revoke an active admin token unless another active admin token without an expiry
+// remains: an expiring one would leave the service without an admin when it expires.
+void CheckAnAdminRemains(const std::vector<TokenRecord>& tokens, std::int64_t id) {
+  const auto now = NowSeconds();
+  const TokenRecord* target = nullptr;
+  int lasting_admins = 0;
+  for (const auto& t : tokens) {
+    if (t.id == id) {
+      target = &t;
+    } else if (t.role == "admin" && !t.expires_at && TokenState(t, now) == "active") {
+      ++lasting_admins;
+    }
+  }
+  if (!target) throw NotFound("there is no token " + std::to_string(id));
+  if (target->role == "admin" && TokenState(*target, now) == "active" && lasting_admins == 0) {
+    throw Conflict("token " + std::to_string(id) +
+                   " is the last active admin token without an expiry (an expiring admin token "
+                   "does not count): create another admin token without expires_in_s first, or "
+                   "recover with kinemetricd --reset-admin (docs/operations.md)");
+  }
+}
+
+}  // namespace
+
+nlohmann::json RevokeToken(Service& service, std::int64_t id) {
+  service.storage().RevokeToken(
+      id, [id](const std::vector<TokenRecord>& tokens) { CheckAnAdminRemains(tokens, id); });
+  ++g_revocations;
+  for (const auto& t : service.storage().ListTokens()) {
+    if (t.id == id) return {{"id", id}, {"revoked_at", OptionalJson(t.revoked_at)}};
+  }
+  return {{"id", id}, {"revoked_at", nullptr}};
+}
+
+void RecordAudit(Service& service, const AuditEntry& entry) {
+  service.storage().AppendAudit(entry);
+}
+
+nlohmann::json AuditLog(Service& service, std::int64_t limit, std::int64_t offset) {
+  const auto page = service.storage().ListAudit(limit, offset);
+  nlohmann::json items = nlohmann::json::array();
+  for (const auto& e : page.items) {
+    items.push_back({{"id", e.id},
+                     {"at", e.at},
+                     {"token_id", e.token_id > 0 ? nlohmann::json(e.token_id) : nullptr},
+                     {"token_name", e.token_name},
+                     {"role", e.role},
+                     {"method", e.method},
+                     {"path", e.path},
+                     {"status", e.status},
+                     {"subject", e.subject}});
+  }
+  return {{"items", items}, {"total", page.total}, {"limit", limit}, {"offset", offset}};
+}
+
+}  // namespace km::server

@@ -1,0 +1,56 @@
+// Access control in the service: who a token is (Authenticate), tokens made, listed and revoked
+// by an admin, and the audit log of state-changing requests. Tokens are 256-bit random secrets
+// shown once; only their SHA-256 is stored and looked up (docs/formats.md, API section).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "server/access/roles.h"
+#include "server/storage/storage.h"
+
+namespace km::server {
+
+class Service;
+
+// The holder of a valid token.
+struct Caller {
+  std::int64_t token_id = 0;
+  std::string name;
+  Role role = Role::kViewer;
+  std::optional<std::int64_t> expires_unix;  // seconds since the epoch; none: never
+};
+
+// The caller of a token hash; km::Unauthorized when the hash is unknown, or the token was
+// revoked or has expired (the message says which), or its stored role is not a role.
+Caller Authenticate(Storage& storage, const std::string& token_sha256);
+
+// Counts the revocations made in this process: a cache of accepted tokens forgets them all
+// when the count changes.
+std::uint64_t TokenRevocations();
+
+// POST /api/v1/tokens: {"name", "role", "expires_in_s"?} → {"id", "token", "role", "name",
+// "created_at", "expires_at"}; the secret appears only in this answer. InvalidInput names the
+// bad field.
+nlohmann::json CreateToken(Service& service, const nlohmann::json& request);
+// Every token: {"items": [{"id", "name", "role", "created_at", "expires_at", "revoked_at",
+// "state": "active" | "expired" | "revoked"}]}; never a secret or a hash.
+nlohmann::json ListTokens(Service& service);
+// Revokes a token at once (NotFound for an unknown id; Conflict for the last active admin
+// token, so that the service is never left without one): {"id", "revoked_at"}.
+nlohmann::json RevokeToken(Service& service, std::int64_t id);
+
+// Appends one entry to the audit log (the storage's errors go to the caller).
+void RecordAudit(Service& service, const AuditEntry& entry);
+// {"items": [{"id", "at", "token_id", "token_name", "role", "method", "path", "status",
+// "subject"}], "total", "limit", "offset"}, newest first.
+nlohmann::json AuditLog(Service& service, std::int64_t limit, std::int64_t offset);
+
+// Seconds since the epoch as "YYYY-MM-DDTHH:MM:SSZ", and back (nullopt for other text).
+std::string UtcIso8601FromSeconds(std::int64_t unix_seconds);
+std::optional<std::int64_t> SecondsFromUtcIso8601(const std::string& text);
+
+}  // namespace km::server

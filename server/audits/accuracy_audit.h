@@ -1,0 +1,85 @@
+// Accuracy audits: per machine, rules over the newest results of each kind of measurement (and
+// of the machine's hexapod calibrations, kind "calibration"), evaluated into a verdict of level 1
+// (normal), 2 (warn: still compensable) or 3 (stop). Not to be confused with the audit log of
+// state-changing requests (server/access/access.h).
+//
+// This file holds the pure parts: the table of metrics an audit can read from stored results
+// (the same table validates rules, answers GET /api/v1/audit-metrics and is documented in
+// docs/http.md), the rules, and the evaluation of rules over the values found. Gathering the
+// values from storage is server/audits/audit_service.cpp.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace km::server {
+
+// One metric: where it is read and what it means. Every metric is "bigger is worse" (a
+// magnitude: a signed figure is taken as its absolute value).
+struct AuditMetric {
+  std::string kind;  // measurement kind: dbb, straightness, flatness, parallelism, tracker, servo;
+                     // "calibration": the machine's done hexapod_calibration jobs
+  std::string metric;    // the name rules use
+  std::string analysis;  // the result read: "" the measurement's own result; "servo-joints" the
+                         // joint-health estimate kept with servo records; "dbb-pair" the CW/CCW
+                         // pair analysis of a DBB test with its partner; "hexapod_calibration"
+                         // a calibration job's result; "hexapod_calibration-pair" the object
+                         // {"newest": result, "previous": the calibration before's result}
+  std::string unit;
+  std::string description;
+  std::string source;  // JSON pointer or rule of the value in that result, for the docs
+};
+
+// Every metric with a fixed name, in the order documented. DBB diagnosis values are named
+// "diagnosis.<effect>" (docs/formats.md §4, e.g. "diagnosis.backlash_x"), listed here once as
+// "diagnosis.<effect>".
+const std::vector<AuditMetric>& AuditMetrics();
+// The metric of a kind and name (diagnosis.<effect> included); nullopt when there is none.
+std::optional<AuditMetric> FindAuditMetric(const std::string& kind, const std::string& metric);
+// The metric's value in a result of its analysis; nullopt when the result does not hold it.
+std::optional<double> ExtractAuditMetric(const AuditMetric& metric, const nlohmann::json& result);
+
+// A rule: a finding of level 2 when the compared value exceeds warn, 3 when it exceeds stop.
+// Absolute rules compare the newest value; trend rules compare its increase over the value at
+// the previous audit (kPreviousAudit) or over the newest result at or before now − days (kDays).
+struct AuditRule {
+  std::string kind, metric;
+  std::optional<double> warn, stop;
+  enum class Change { kNone, kPreviousAudit, kDays } change = Change::kNone;
+  std::int64_t days = 0;
+};
+
+inline constexpr std::size_t kMaxAuditRules = 200;
+
+// The rules of a request body's "rules" array; km::InvalidInput naming "rules[i].field".
+std::vector<AuditRule> ParseAuditRules(const nlohmann::json& rules);
+nlohmann::json AuditRuleJson(const AuditRule& rule);
+
+// A value found for a rule, with its evidence: a measurement, or (kind "calibration") a job.
+struct AuditValue {
+  double value = 0.0;
+  std::int64_t measurement_id = 0;  // 0 when the evidence is a job
+  std::string measured_at;          // measurement time, else upload time; a job's finish time
+  std::int64_t job_id = 0;          // the calibration job; 0 for a measurement
+};
+
+// What was found for one rule: the newest value and, for a trend rule, the reference value.
+// `missing` says why a rule cannot be evaluated (empty: it can).
+struct AuditEvidence {
+  std::optional<AuditValue> newest, reference;
+  std::string missing;
+};
+
+// The verdict over rules and their evidence (same order): {"level", "findings": [{"rule",
+// "kind", "metric", "level", "value", "limit", "measurement_id" (or "job_id" when the evidence is
+// a job), "measured_at", "message", …}], "checked": [{"rule", "kind", "metric", "status": "ok" |
+// "finding" | "not evaluated", …}]}.
+// Level = the worst finding, 1 without any.
+nlohmann::json EvaluateAudit(const std::vector<AuditRule>& rules,
+                             const std::vector<AuditEvidence>& evidence);
+
+}  // namespace km::server

@@ -1,0 +1,188 @@
+#include "server/audits/webhook.h"
+
+#include <charconv>
+#include <iostream>
+
+#include "analysis/core/errors.h"
+#include "server/base/net_ranges.h"
+#include "server/base/sha256.h"
+
+namespace km::server {
+namespace {
+
+std::string Quoted(const std::string& url) {
+  return "'" + url.substr(0, 80) + "'";
+}
+
+// "HOST[:PORT]" or "[IPV6][:PORT]" of an http:// URL.
+void ParseAuthority(const std::string& authority, const std::string& url, const std::string& field,
+                    WebhookTarget& out) {
+  std::string port;
+  bool has_port = false;
+  if (!authority.empty() && authority.front() == '[') {
+    const auto close = authority.find(']');
+    if (close == std::string::npos) throw InvalidInput("", 0, field, Quoted(url) + " has no host");
+    out.host = authority.substr(1, close - 1);
+    const std::string rest = authority.substr(close + 1);
+    if (!rest.empty() && rest.front() != ':') {
+      throw InvalidInput("", 0, field, Quoted(url) + " has no valid port");
+    }
+    has_port = !rest.empty();
+    if (has_port) port = rest.substr(1);
+  } else {
+    const auto colon = authority.rfind(':');
+    out.host = authority.substr(0, colon);
+    has_port = colon != std::string::npos;
+    if (has_port) port = authority.substr(colon + 1);
+  }
+  if (has_port) {
+    const auto [ptr, ec] = std::from_chars(port.data(), port.data() + port.size(), out.port);
+    if (ec != std::errc() || ptr != port.data() + port.size() || out.port < 1 || out.port > 65535) {
+      throw InvalidInput("", 0, field, Quoted(url) + " has no valid port");
+    }
+  }
+  if (out.host.empty()) throw InvalidInput("", 0, field, Quoted(url) + " has no host");
+}
+
+WebhookTarget ParseUrl(const std::string& url, const std::string& field) {
+  const std::string scheme = "http://";
+  if (url.rfind(scheme, 0) != 0 || url.size() > 2048) {
+    throw InvalidInput("", 0, field, Quoted(url) + " is not an http:// URL");
+  }
+  for (const char c : url) {
+    if (static_cast<unsigned char>(c) <= 0x20 || c == 0x7F) {
+      throw InvalidInput("", 0, field, Quoted(url) + " has a space or a control character");
+    }
+  }
+  const std::string rest = url.substr(scheme.size());
+  const auto slash = rest.find('/');
+  WebhookTarget out;
+  out.path = slash == std::string::npos ? "/" : rest.substr(slash);
+  ParseAuthority(rest.substr(0, slash), url, field, out);
+  return out;
+}
+
+}  // namespace
+
+void CheckWebhookUrl(const std::string& url, const std::string& field) {
+  ParseUrl(url, field);
+}
+
+void CheckWebhookTarget(const std::string& url, bool allow_private, const std::string& file,
+                        const std::string& field) {
+  const WebhookTarget t = ParseUrl(url, field);
+  const auto address = ParseIpAddress(t.host);
+  if (allow_private || !address || !IsPrivateAddress(*address)) return;
+  throw InvalidInput(file, 0, field,
+                     Quoted(url) +
+                         " is a loopback or private address; webhooks go there only with "
+                         "audit_webhook_allow_private: true in the config file "
+                         "(--audit-webhook-allow-private)");
+}
+
+void CheckWebhookSecret(const std::string& secret, const std::string& field) {
+  if (secret.size() < 16 || secret.size() > 1024) {
+    throw InvalidInput("", 0, field,
+                       "a webhook secret must have 16 to 1024 bytes (it has " +
+                           std::to_string(secret.size()) + ")");
+  }
+}
+
+std::vector<std::pair<std::string, std::string>> WebhookHeaders(const WebhookOptions& options,
+                                                                std::int64_t id, int attempt,
+                                                                std::int64_t unix_s,
+                                                                const std::string& body) {
+  const std::string ts = std::to_string(unix_s);
+  std::vector<std::pair<std::string, std::string>> h{
+      {"X-Kinemetric-Delivery", "audit-" + std::to_string(id)},
+      {"X-Kinemetric-Attempt", std::to_string(attempt)},
+      {"X-Kinemetric-Timestamp", ts}};
+  if (!options.secret.empty()) {
+    h.emplace_back("X-Kinemetric-Signature",
+                   "sha256=" + HmacSha256Hex(options.secret, ts + "." + body));
+  }
+  return h;
+}
+
+WebhookSender::WebhookSender(WebhookOptions options, StatusFn status)
+    : options_(std::move(options)),
+      status_(std::move(status)),
+      target_(ParseUrl(options_.url, "audit_webhook_url")) {}
+
+WebhookSender::~WebhookSender() {
+  Stop();
+}
+
+void WebhookSender::Start() {
+  std::lock_guard lock(mu_);
+  if (thread_.joinable() || stop_) return;
+  thread_ = std::thread([this] { Loop(); });
+}
+
+void WebhookSender::Stop() {
+  {
+    std::lock_guard lock(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  client_.Abort();
+  if (thread_.joinable()) thread_.join();
+}
+
+void WebhookSender::Enqueue(std::int64_t id, std::string body) {
+  {
+    std::lock_guard lock(mu_);
+    queue_.push_back({id, std::move(body)});
+  }
+  cv_.notify_all();
+}
+
+WebhookSender::Outcome WebhookSender::Deliver(const Item& item, int attempt) {
+  const auto unix_s = std::chrono::duration_cast<std::chrono::seconds>(
+                          std::chrono::system_clock::now().time_since_epoch())
+                          .count();
+  const auto deadline = WebhookClient::Clock::now() + options_.timeout;
+  const auto res =
+      client_.Post(target_, WebhookHeaders(options_, item.id, attempt, unix_s, item.body),
+                   item.body, deadline, options_.allow_private);
+  if (res.aborted) return Outcome::kStopped;
+  if (res.status >= 200 && res.status < 300) return Outcome::kDelivered;
+  std::cerr << "kinemetricd: audit " << item.id << " webhook attempt " << attempt << " of "
+            << options_.attempts << ": "
+            << (res.status != 0 ? "answered " + std::to_string(res.status) : res.error)
+            << std::endl;
+  return Outcome::kFailed;
+}
+
+bool WebhookSender::Send(const Item& item, std::unique_lock<std::mutex>& lock) {
+  auto delay = options_.first_delay;
+  for (int attempt = 1; attempt <= options_.attempts; ++attempt) {
+    lock.unlock();
+    const Outcome outcome = Deliver(item, attempt);
+    if (outcome == Outcome::kStopped) {
+      lock.lock();
+      return false;  // stays "pending", sent again at the next start
+    }
+    const bool ok = outcome == Outcome::kDelivered;
+    const bool last = ok || attempt == options_.attempts;
+    status_(item.id, ok ? "delivered" : last ? "failed" : "pending", attempt);
+    lock.lock();
+    if (last) return true;
+    if (cv_.wait_for(lock, delay, [this] { return stop_; })) return false;
+    delay *= 2;
+  }
+  return true;
+}
+
+void WebhookSender::Loop() {
+  std::unique_lock lock(mu_);
+  while (true) {
+    cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+    if (stop_) return;
+    const Item item = std::move(queue_.front());
+    queue_.pop_front();
+    if (!Send(item, lock)) return;
+  }
+}
+
+}  // namespace km::server

@@ -1,0 +1,296 @@
+// Hexapod calibration studies submitted through the API run as background jobs. A request is
+// checked completely before it is queued, from the stored records alone (no measurement file is
+// read): the number of tests and of their samples is bounded, every id is listed once and names
+// a stored DBB test with a tool length. The queued job keeps the ids, not the tests: it reads
+// each test once, when it runs.
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <memory>
+
+#include "analysis/core/errors.h"
+#include "analysis/hexapod/effects/registry.h"
+#include "ingest/dbb_parser.h"
+#include "ingest/json_text.h"
+#include "ingest/machine_json.h"
+#include "report/calibration_study.h"
+#include "server/base/request_json.h"
+#include "server/service.h"
+
+namespace km::server {
+
+namespace req = km::server::request;
+
+// What a calibration job needs to run: the request, checked, with ids instead of tests.
+struct CalibrationPlan {
+  ingest::MachineDefinition machine;
+  std::vector<std::int64_t> ids;
+  std::optional<hexapod::CalibrationMethod> method;
+  int max_samples_per_test = 0;
+  int reduction_min_tests = 0;
+  std::vector<std::string> effects;  // fitted with the kinematics (docs/hexapod-effects.md)
+};
+
+namespace {
+
+// `effects`: a list of hexapod effect names, each once.
+std::vector<std::string> EffectNames(const nlohmann::json& request) {
+  std::vector<std::string> names;
+  if (!request.contains("effects")) return names;
+  const auto& list = request["effects"];
+  if (!list.is_array() || list.size() > 16)
+    throw InvalidInput("request", 0, "effects", "a list of hexapod effect names");
+  for (const auto& v : list) {
+    if (!v.is_string() || !hexapod::FindHexapodEffect(v.get<std::string>())) {
+      throw InvalidInput("request", 0, "effects",
+                         "each entry must be one of " + hexapod::HexapodEffectNames());
+    }
+    if (std::find(names.begin(), names.end(), v.get<std::string>()) != names.end())
+      throw InvalidInput("request", 0, "effects", v.get<std::string>() + " is listed twice");
+    names.push_back(v.get<std::string>());
+  }
+  return names;
+}
+
+std::string TestName(std::int64_t id) {
+  return "measurement " + std::to_string(id);
+}
+
+// The measurement ids of the request: whole numbers ≥ 1, each listed once, at most `max_tests`.
+std::vector<std::int64_t> MeasurementIds(const nlohmann::json& request, std::size_t max_tests,
+                                         const std::string& study) {
+  if (!request.contains("measurement_ids") || !request["measurement_ids"].is_array() ||
+      request["measurement_ids"].empty()) {
+    throw InvalidInput("request", 0, "measurement_ids", "a non-empty list of DBB measurement ids");
+  }
+  const auto& list = request["measurement_ids"];
+  if (list.size() > max_tests) {
+    throw InvalidInput("request", 0, "measurement_ids",
+                       std::to_string(list.size()) + " ids; a " + study + " takes at most " +
+                           std::to_string(max_tests) + " DBB tests");
+  }
+  std::vector<std::int64_t> ids;
+  ids.reserve(list.size());
+  std::map<std::int64_t, std::size_t> position;  // id -> 1-based position in the list
+  for (const auto& v : list) {
+    const bool whole = v.is_number_integer() &&
+                       !(v.is_number_unsigned() &&
+                         v.get<std::uint64_t>() >
+                             static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max()));
+    if (!whole || v.get<std::int64_t>() < 1) {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "ids must be whole numbers from 1 (entry " +
+                             std::to_string(ids.size() + 1) + " is " +
+                             v.dump(-1, ' ', true).substr(0, 40) + ")");
+    }
+    const std::int64_t id = v.get<std::int64_t>();
+    const auto [it, fresh] = position.emplace(id, ids.size() + 1);
+    if (!fresh) {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "measurement " + std::to_string(id) + " is listed twice (entries " +
+                             std::to_string(it->second) + " and " + std::to_string(ids.size() + 1) +
+                             "); list each DBB test once (duplicates are refused, not merged)");
+    }
+    ids.push_back(id);
+  }
+  return ids;
+}
+
+// The tests of a study are of one machine: a model is calibrated (or its gaps found) from the
+// tests of the machine it describes, not from another machine's.
+void RequireOneMachine(const std::vector<std::int64_t>& ids,
+                       const std::vector<std::string>& machines, const std::string& study) {
+  for (std::size_t i = 1; i < machines.size(); ++i) {
+    if (machines[i] != machines[0]) {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "measurement " + std::to_string(ids[0]) + " is of machine '" +
+                             machines[0] + "', measurement " + std::to_string(ids[i]) + " of '" +
+                             machines[i] + "'; a " + study + " takes the DBB tests of one machine");
+    }
+  }
+}
+
+// Effects fitted with the kinematics (named, or the stored model's own) leave no room for the
+// reduction study, which recalibrates the plain kinematics only.
+void RequireReductionWithoutEffects(const CalibrationPlan& plan) {
+  if (plan.reduction_min_tests == 0) return;
+  if (!plan.effects.empty()) {
+    throw InvalidInput("request", 0, "reduction_study_min_tests",
+                       "the reduction study is available for the plain calibration only; the "
+                       "request names effects to fit");
+  }
+  if (!plan.machine.effects.empty()) {
+    throw InvalidInput(
+        "request", 0, "reduction_study_min_tests",
+        "the reduction study is available for the plain calibration only; machine '" +
+            plan.machine.machine_id + "' has effects of its own");
+  }
+}
+
+}  // namespace
+
+std::vector<std::int64_t> Service::CheckedDbbIds(const nlohmann::json& request,
+                                                 const std::string& study, bool need_tool_length,
+                                                 bool need_fixed_ball) {
+  const std::vector<std::int64_t> ids =
+      MeasurementIds(request, options_.max_calibration_tests, study);
+  // Every test from its stored record (no file is read now): it exists, is a DBB test, and has
+  // what the study needs without a solve (tool length; the fixed ball when the method is
+  // absolute). The samples of all tests together are bounded: the job holds them all.
+  std::size_t samples = 0;
+  std::vector<std::string> machines;
+  for (const std::int64_t id : ids) {
+    const auto rec = storage_->GetMeasurement(id);
+    if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+    if (rec->kind != "dbb") {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "measurement " + std::to_string(id) + " is not a DBB test");
+    }
+    const auto meta = ingest::ParseJsonTextOrDiscarded(rec->metadata_json);
+    const auto has = [&](const char* key) { return meta.is_object() && meta.contains(key); };
+    if (need_tool_length && !has("tool_length_mm")) {
+      throw InvalidInput(TestName(id), 0, "tool_length_mm",
+                         "hexapod calibration needs the tool length");
+    }
+    if (need_fixed_ball && !has("fixed_ball_mm")) {
+      throw InvalidInput(TestName(id), 0, "fixed_ball_mm",
+                         "absolute calibration needs the measured fixed-ball position");
+    }
+    samples += static_cast<std::size_t>(std::max<std::int64_t>(rec->sample_count, 0));
+    machines.push_back(rec->machine_id);
+  }
+  RequireOneMachine(ids, machines, study);
+  if (samples > options_.max_calibration_samples) {
+    throw InvalidInput("request", 0, "measurement_ids",
+                       "the " + std::to_string(ids.size()) + " DBB tests hold " +
+                           std::to_string(samples) + " samples in all; a " + study +
+                           " takes at most " + std::to_string(options_.max_calibration_samples));
+  }
+  return ids;
+}
+
+std::shared_ptr<CalibrationPlan> Service::CheckCalibration(const nlohmann::json& request,
+                                                           std::int64_t& stored_version) {
+  if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
+  auto plan = std::make_shared<CalibrationPlan>();
+  stored_version = 0;
+  if (request.contains("machine")) {
+    if (!request["machine"].is_object()) {
+      throw InvalidInput("request", 0, "machine",
+                         "the hexapod machine definition (docs/formats.md §2) must be an object");
+    }
+    if (request.contains("machine_id") || request.contains("machine_version")) {
+      throw InvalidInput("request", 0, "machine_id",
+                         "give either the machine definition (machine) or a stored model "
+                         "(machine_id, machine_version), not both");
+    }
+    plan->machine = ingest::ParseHexapodMachineJson(request["machine"].dump(), "request.machine");
+  } else if (request.contains("machine_id")) {
+    plan->machine = RequestedMachine(request, stored_version);
+    if (plan->machine.kind != "hexapod") {
+      throw InvalidInput("request", 0, "machine_id",
+                         "stored model '" + plan->machine.machine_id + "' version " +
+                             std::to_string(stored_version) + " is not a hexapod");
+    }
+  } else {
+    throw InvalidInput(
+        "request", 0, "machine",
+        "the hexapod machine definition (docs/formats.md §2) is required as an object, "
+        "or machine_id naming a stored model");
+  }
+  if (request.contains("method")) {
+    if (!request["method"].is_string()) {
+      throw InvalidInput("request", 0, "method", "absolute or centre-corrected");
+    }
+    plan->method = ParseCalibrationMethod(request["method"].get<std::string>(), "method");
+  }
+  plan->reduction_min_tests =
+      static_cast<int>(req::WholeNumber(request, "reduction_study_min_tests", 1, 1000, 0));
+  plan->effects = EffectNames(request);
+  plan->max_samples_per_test =
+      static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
+  RequireReductionWithoutEffects(*plan);
+  plan->ids = CheckedDbbIds(request, "calibration study", true,
+                            plan->method == hexapod::CalibrationMethod::kAbsolute);
+
+  return plan;
+}
+
+std::int64_t Service::SubmitCalibration(const nlohmann::json& request,
+                                        std::int64_t owner_token_id) {
+  std::int64_t stored_version = 0;
+  const auto plan = CheckCalibration(request, stored_version);
+  nlohmann::json shown = request;
+  shown.erase("machine");
+  shown["machine_id"] = plan->machine.machine_id;
+  // The plan any instance runs: the request, with the stored model's version it was checked
+  // against (versions are never changed).
+  nlohmann::json run = request;
+  if (stored_version > 0) {
+    shown["machine_version"] = stored_version;
+    run["machine_version"] = stored_version;
+  }
+  return jobs_->Submit("hexapod_calibration", shown, run, owner_token_id);
+}
+
+// The job reads the tests when it runs, checked again from the plan.
+nlohmann::json Service::RunCalibrationJob(const nlohmann::json& plan_json,
+                                          const JobQueue::Progress& p) {
+  std::int64_t version = 0;
+  const auto plan = CheckCalibration(plan_json, version);
+  CalibrationStudy study;
+  study.machine = plan->machine;
+  study.method = plan->method;
+  study.max_samples_per_test = plan->max_samples_per_test;
+  study.reduction_min_tests = plan->reduction_min_tests;
+  study.effects = plan->effects;
+  if (p) p(0.0, "reading the DBB tests");
+  study.tests.reserve(plan->ids.size());
+  study.names.reserve(plan->ids.size());
+  for (const std::int64_t id : plan->ids) {
+    study.tests.push_back(LoadDbb(id));
+    study.names.push_back(TestName(id));
+  }
+  auto outcome = RunCalibrationStudy(study, p);
+  // The calibrated machine document, as `POST /api/v1/jobs/{id}/save-machine` stores it.
+  outcome.report["calibrated_machine"] =
+      nlohmann::json::parse(ingest::WriteMachineJson(outcome.calibrated));
+  return outcome.report;
+}
+
+nlohmann::json Service::Job(std::int64_t id) {
+  const auto job = storage_->GetJob(id);
+  if (!job) throw NotFound("job " + std::to_string(id) + " does not exist");
+  return JobJson(*job);
+}
+
+nlohmann::json Service::CancelJob(std::int64_t id, const JobCanceller& by) {
+  const auto job = storage_->GetJob(id);
+  const std::string name = "job " + std::to_string(id);
+  if (!job) throw NotFound(name + " does not exist");
+  if (!by.admin && (job->owner_token_id == 0 || job->owner_token_id != by.token_id)) {
+    throw Forbidden(name + " was submitted by another token; only its owner or an admin may " +
+                    "cancel it");
+  }
+  const std::string reason =
+      "cancelled by token '" + by.token_name + "' (id " + std::to_string(by.token_id) + ")";
+  if (!jobs_->Cancel(id, reason)) {
+    const auto now = storage_->GetJob(id);
+    throw Conflict(name + " is " + (now ? now->status : std::string("gone")) +
+                   " already; only a queued or running job can be cancelled");
+  }
+  return Job(id);
+}
+
+nlohmann::json Service::Jobs(std::int64_t limit) {
+  nlohmann::json items = nlohmann::json::array();
+  for (const auto& j : storage_->ListJobs(limit)) {
+    nlohmann::json x = JobJson(j);
+    x.erase("result");  // the list stays small; GET /api/v1/jobs/{id} has the result
+    items.push_back(x);
+  }
+  return {{"items", items}};
+}
+
+}  // namespace km::server

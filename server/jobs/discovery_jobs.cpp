@@ -1,0 +1,86 @@
+// Model-gap discovery studies submitted through the API run as background jobs, on the same
+// queue and with the same request checks as calibration studies (calibration_jobs.cpp): the
+// request is checked from the stored records alone, and the queued job keeps the ids and reads
+// each test once when it runs.
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include "analysis/core/errors.h"
+#include "ingest/dbb_parser.h"
+#include "ingest/machine_json.h"
+#include "report/discovery_report.h"
+#include "server/base/request_json.h"
+#include "server/service.h"
+
+namespace km::server {
+
+namespace req = km::server::request;
+
+// What a discovery job needs to run: the request, checked, with ids instead of tests.
+struct DiscoveryPlan {
+  std::optional<ingest::MachineDefinition> machine;  // none: the serial study
+  std::vector<std::int64_t> ids;
+  int max_samples_per_test = 0;
+};
+
+std::shared_ptr<DiscoveryPlan> Service::CheckDiscovery(const nlohmann::json& request,
+                                                       std::int64_t& version) {
+  if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
+  if (request.contains("machine")) {
+    throw InvalidInput("request", 0, "machine",
+                       "a discovery study takes a stored model: store the machine definition "
+                       "(POST /api/v1/machines) and name it with machine_id");
+  }
+  auto plan = std::make_shared<DiscoveryPlan>();
+  version = 0;
+  if (request.contains("machine_id")) {
+    plan->machine = RequestedMachine(request, version);
+  } else if (request.contains("machine_version")) {
+    throw InvalidInput("request", 0, "machine_version", "needs machine_id (the stored model)");
+  }
+  plan->max_samples_per_test =
+      static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
+  const bool hexapod = plan->machine && plan->machine->kind == "hexapod";
+  plan->ids = CheckedDbbIds(request, "discovery study", hexapod, false);
+
+  return plan;
+}
+
+std::int64_t Service::SubmitDiscovery(const nlohmann::json& request, std::int64_t owner_token_id) {
+  std::int64_t version = 0;
+  const auto plan = CheckDiscovery(request, version);
+  // Shown and run: the request with the stored model's version it was checked against.
+  nlohmann::json stored = request;
+  if (plan->machine) stored["machine_version"] = version;
+  return jobs_->Submit("discovery", stored, stored, owner_token_id);
+}
+
+// The job reads the tests when it runs, checked again from the plan.
+nlohmann::json Service::RunDiscoveryJob(const nlohmann::json& plan_json,
+                                        const JobQueue::Progress& p) {
+  std::int64_t version = 0;
+  const auto plan = CheckDiscovery(plan_json, version);
+  DiscoveryStudy study;
+  study.machine = plan->machine;
+  study.max_samples_per_test = plan->max_samples_per_test;
+  if (p) p(0.0, "reading the DBB tests");
+  study.tests.reserve(plan->ids.size());
+  study.names.reserve(plan->ids.size());
+  for (const std::int64_t id : plan->ids) {
+    study.tests.push_back(LoadDbb(id));
+    study.names.push_back("measurement " + std::to_string(id));
+  }
+  DiscoveryOutcome outcome = RunDiscoveryStudy(study, p);
+  nlohmann::json result = outcome.report.is_object()
+                              ? std::move(outcome.report)
+                              : nlohmann::json{{"report", std::move(outcome.report)}};
+  // The updated machine document, as `POST /api/v1/jobs/{id}/save-machine` stores it.
+  if (outcome.updated_machine) {
+    result["updated_machine"] =
+        nlohmann::json::parse(ingest::WriteMachineJson(*outcome.updated_machine));
+  }
+  return result;
+}
+
+}  // namespace km::server

@@ -1,0 +1,431 @@
+#include "server/jobs/jobs.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <optional>
+#include <random>
+
+#include "analysis/core/errors.h"
+#include "ingest/json_text.h"
+
+namespace km::server {
+namespace {
+
+// A running job stops at its next progress report: the instance stops, or lost its lease.
+struct JobInterrupted {};
+
+std::int64_t NowMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// host:pid:random — unique among the instances sharing a database.
+std::string InstanceName() {
+  char host[256] = {};
+  if (gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
+  std::random_device rd;
+  char tail[16];
+  std::snprintf(tail, sizeof tail, "%08x", static_cast<unsigned>(rd()));
+  return std::string(host[0] ? host : "host") + ":" + std::to_string(getpid()) + ":" + tail;
+}
+
+// The worker's storage calls must not end the process (a full disk, a locked or unreachable
+// database): a failure is reported on stderr with the job id.
+void LogJob(std::int64_t id, const std::string& message) {
+  try {
+    std::cerr << "kinemetricd: job " << id << ": " << message << std::endl;
+  } catch (...) {  // NOLINT(bugprone-empty-catch): nothing is left to report to
+  }
+}
+
+void LogStoreFailure(std::int64_t id, const char* what, const std::string& error) {
+  LogJob(id, std::string("could not store ") + what + ": " + error);
+}
+
+template <class F>
+std::optional<std::string> Guarded(F&& call) {
+  try {
+    call();
+    return std::nullopt;
+  } catch (const std::exception& e) {
+    return std::string(e.what());
+  } catch (...) {
+    return std::string("unknown storage error");
+  }
+}
+
+}  // namespace
+
+JobQueue::JobQueue(Storage& storage, JobQueueOptions options)
+    : storage_(storage), options_(std::move(options)) {
+  if (options_.instance.empty()) options_.instance = InstanceName();
+  options_.workers = std::max(options_.workers, 0);
+  options_.lease_ms = std::max<std::int64_t>(options_.lease_ms, 100);
+  options_.poll_ms = std::max<std::int64_t>(options_.poll_ms, 10);
+  options_.max_attempts = std::max(options_.max_attempts, 1);
+}
+
+JobQueue::~JobQueue() {
+  Stop();
+}
+
+void JobQueue::Register(const std::string& kind, Runner runner) {
+  runners_[kind] = std::move(runner);
+}
+
+void JobQueue::Start() {
+  std::lock_guard lock(mu_);
+  if (started_) return;
+  started_ = true;
+  if (options_.workers == 0) return;  // an instance that runs no jobs
+  for (int i = 0; i < options_.workers; ++i) workers_.emplace_back([this] { Work(); });
+  heartbeat_ = std::thread([this] { Heartbeat(); });
+}
+
+void JobQueue::Stop() {
+  {
+    std::lock_guard lock(mu_);
+    if (!started_ || stop_) return;
+    stop_ = true;
+  }
+  cv_.notify_all();
+  for (auto& w : workers_) w.join();
+  if (heartbeat_.joinable()) heartbeat_.join();
+  // The jobs interrupted above wait in the queue for the next instance.
+  if (const auto error = Guarded([&] { storage_.ReleaseJobs(options_.instance); })) {
+    LogStoreFailure(0, "that this instance's jobs are free to run again", *error);
+  }
+}
+
+std::int64_t JobQueue::Submit(const std::string& kind, const nlohmann::json& request,
+                              const nlohmann::json& plan, std::int64_t owner_token_id) {
+  if (storage_.CountJobsWithStatus("queued") >= static_cast<std::int64_t>(options_.max_queued)) {
+    throw Unavailable("the job queue is full (" + std::to_string(options_.max_queued) +
+                      " jobs waiting); try again later");
+  }
+  const std::int64_t id =
+      storage_.QueueJob(NewJob{kind, request.dump(), plan.dump(), owner_token_id});
+  {
+    std::lock_guard lock(mu_);
+    ++pending_;
+  }
+  cv_.notify_all();  // the heartbeat waits on it too
+  return id;
+}
+
+bool JobQueue::Cancel(std::int64_t id, const std::string& reason) {
+  if (!storage_.CancelJob(id, reason)) return false;
+  std::lock_guard lock(mu_);
+  if (const auto it = running_.find(id); it != running_.end()) it->second.lost = true;
+  return true;
+}
+
+void JobQueue::Work() {
+  std::unique_lock lock(mu_);
+  while (!stop_) {
+    if (pending_ > 0) --pending_;
+    lock.unlock();
+    auto job = TryClaim();
+    if (job) RunJob(std::move(*job));
+    lock.lock();
+    if (!job) {
+      cv_.wait_for(lock, std::chrono::milliseconds(options_.poll_ms),
+                   [this] { return stop_ || pending_ > 0; });
+    }
+  }
+}
+
+std::optional<JobRecord> JobQueue::TryClaim() {
+  // Said of a job that was started max_attempts times and never finished: each time its
+  // instance stopped (killed, or crashed — possibly by this job) while running it.
+  const std::string abandoned = "the job was started " + std::to_string(options_.max_attempts) +
+                                " times and each time the server running it stopped before it "
+                                "finished (killed, or crashed while running it: see that "
+                                "server's log); it is not started again";
+  std::optional<JobRecord> job;
+  if (const auto error = Guarded([&] {
+        job = storage_.ClaimJob(options_.instance, NowMs(), options_.lease_ms,
+                                options_.max_attempts, abandoned);
+      })) {
+    LogStoreFailure(0, "the claim of a queued job", *error);
+    return std::nullopt;
+  }
+  return job;
+}
+
+std::int64_t JobQueue::LeaseEnd() const {
+  return NowMs() + options_.lease_ms;
+}
+
+void JobQueue::Heartbeat() {
+  std::unique_lock lock(mu_);
+  const auto period = std::chrono::milliseconds(std::max<std::int64_t>(options_.lease_ms / 3, 10));
+  while (!cv_.wait_for(lock, period, [this] { return stop_; })) {
+    const auto running = running_;
+    lock.unlock();
+    for (const auto& entry : running) {
+      const std::int64_t id = entry.first;
+      const Running& r = entry.second;
+      if (r.lost) continue;
+      bool held = true;
+      if (const auto error = Guarded([&] {
+            held = storage_.RenewJob(id, options_.instance, r.progress, r.stage, LeaseEnd());
+          })) {
+        LogStoreFailure(id, "its lease", *error);
+      }
+      if (!held) {
+        std::lock_guard relock(mu_);
+        if (auto it = running_.find(id); it != running_.end()) it->second.lost = true;
+      }
+    }
+    lock.lock();
+  }
+}
+
+void JobQueue::Report(std::int64_t id, double progress, const std::string& stage) {
+  {
+    std::lock_guard lock(mu_);
+    auto& r = running_[id];
+    if (stop_ || r.lost) throw JobInterrupted{};
+    r.progress = progress;
+    r.stage = stage;
+  }
+  bool held = true;
+  if (const auto error = Guarded(
+          [&] { held = storage_.RenewJob(id, options_.instance, progress, stage, LeaseEnd()); })) {
+    LogStoreFailure(id, "its progress", *error);
+  }
+  if (!held) {
+    std::lock_guard lock(mu_);
+    running_[id].lost = true;
+    throw JobInterrupted{};
+  }
+}
+
+nlohmann::json JobQueue::RunPlan(const JobRecord& job) {
+  const auto runner = runners_.find(job.kind);
+  if (runner == runners_.end()) {
+    throw Error("this server does not run jobs of kind '" + job.kind + "'");
+  }
+  if (job.plan_json.empty()) {
+    throw Error(
+        "the job was queued by an earlier version of the server, without its plan; "
+        "submit it again");
+  }
+  const auto plan = ingest::ParseJsonText(job.plan_json, "stored document");
+  return runner->second(plan,
+                        [&](double f, const std::string& stage) { Report(job.id, f, stage); });
+}
+
+void JobQueue::RunJob(JobRecord job) {
+  {
+    std::lock_guard lock(mu_);
+    running_[job.id] = Running{0.0, job.stage, false};
+  }
+  bool interrupted = false;
+  try {
+    job.result_json = RunPlan(job).dump();
+    job.status = "done";
+    job.progress = 1.0;
+    job.stage = "done";
+  } catch (const JobInterrupted&) {
+    interrupted = true;
+  } catch (const Error& e) {  // the product's own errors are written for the user
+    job.status = "failed";
+    job.error = e.what();
+  } catch (const std::exception& e) {  // anything else is ours to look at, not the user's
+    job.status = "failed";
+    job.error = "the job failed with an internal error (logged by the server as job " +
+                std::to_string(job.id) + ")";
+    LogJob(job.id, std::string("failed: ") + e.what());
+  } catch (...) {
+    job.status = "failed";
+    job.error = "the job failed with an unknown error";
+  }
+  bool lost = false;
+  {
+    std::lock_guard lock(mu_);
+    lost = running_[job.id].lost;
+    running_.erase(job.id);
+  }
+  // Interrupted: given back to the queue when the instance stops, or run by another instance.
+  if (!interrupted && !lost) Finish(std::move(job));
+}
+
+void JobQueue::Finish(JobRecord job) {
+  bool held = true;
+  auto error = Guarded([&] { held = storage_.FinishJob(job, options_.instance); });
+  if (error && job.status == "done") {
+    LogStoreFailure(job.id, "its result", *error);
+    // The result could not be written (too large, disk full): record at least the failure.
+    job.status = "failed";
+    job.stage = "storing the result";
+    job.result_json.clear();
+    job.error = "the result could not be stored: " + *error;
+    error = Guarded([&] { held = storage_.FinishJob(job, options_.instance); });
+  }
+  if (error) LogStoreFailure(job.id, "its outcome", *error);
+  if (!held) {
+    LogJob(job.id,
+           "its outcome is dropped: the job was cancelled, or its lease ran out and another "
+           "instance runs it");
+  }
+}
+
+nlohmann::json JobJson(const JobRecord& job) {
+  nlohmann::json j;
+  j["id"] = job.id;
+  j["kind"] = job.kind;
+  j["status"] = job.status;
+  j["progress"] = job.progress;
+  j["stage"] = job.stage;
+  j["created_at"] = job.created_at;
+  j["updated_at"] = job.updated_at;
+  j["request"] = job.request_json.empty()
+                     ? nlohmann::json(nullptr)
+                     : ingest::ParseJsonText(job.request_json, "stored document");
+  if (!job.result_json.empty())
+    j["result"] = ingest::ParseJsonText(job.result_json, "stored document");
+  if (!job.error.empty()) j["error"] = job.error;
+  // The instance running the job, or the one that finished it; how often it was started.
+  j["instance"] =
+      job.lease_owner.empty() ? nlohmann::json(nullptr) : nlohmann::json(job.lease_owner);
+  j["attempts"] = job.attempts;
+  j["owner_token_id"] =
+      job.owner_token_id > 0 ? nlohmann::json(job.owner_token_id) : nlohmann::json(nullptr);
+  const JobVerdict v =
+      JudgeJob(job.kind, job.status, j.value("result", nlohmann::json()), job.error);
+  j["verdict"] = v.verdict.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.verdict);
+  j["verdict_reasons"] = v.reasons;
+  return j;
+}
+
+namespace {
+
+// A figure in a sentence: whole numbers from 100 up, else three significant digits.
+std::string Num(double v) {
+  char buf[64];
+  if (std::fabs(v) >= 100.0) {
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+  } else {
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+  }
+  return buf;
+}
+
+// The largest value of a nested array of numbers (parameter_uncertainty_um's groups);
+// NaN when a value is missing or not finite (null in the JSON).
+void LargestOf(const nlohmann::json& j, double& largest, bool& bad) {
+  if (j.is_number()) {
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) bad = true;
+    if (v > largest) largest = v;
+  } else if (j.is_array() || j.is_object()) {
+    for (const auto& x : j) LargestOf(x, largest, bad);
+  } else if (j.is_null()) {
+    bad = true;
+  }
+}
+
+struct Judgement {
+  bool failed = false;
+  std::vector<std::string> reasons;
+  void Warn(const std::string& why) { reasons.push_back(why); }
+  void Fail(const std::string& why) {
+    failed = true;
+    reasons.push_back(why);
+  }
+};
+
+// bound: the condition number above which the study is ill-conditioned (0: only a number that
+// is not finite counts).
+void JudgeConditioning(const nlohmann::json& r, double bound, Judgement& out) {
+  if (!r.contains("condition_number")) return;
+  const auto& c = r["condition_number"];
+  if (!c.is_number() || !std::isfinite(c.get<double>())) {
+    out.Fail(
+        "ill-conditioned: the condition number is not finite (the tests do not determine "
+        "every parameter)");
+    return;
+  }
+  const double cond = c.get<double>();
+  if (bound > 0 && cond > bound) {
+    out.Warn("ill-conditioned: condition number " + Num(cond) + " (above " + Num(bound) +
+             "): the tests do not tell the parameters apart");
+  }
+}
+
+void JudgeCalibration(const nlohmann::json& r, Judgement& out) {
+  if (r.contains("converged") && r["converged"].is_boolean() && !r["converged"].get<bool>()) {
+    const std::string it =
+        r.contains("iterations") && r["iterations"].is_number_integer()
+            ? " after " + std::to_string(r["iterations"].get<long long>()) + " iterations"
+            : "";
+    out.Warn("not converged: the solver stopped" + it + " before the parameters settled");
+  }
+  JudgeConditioning(r, kIllConditionedAbove, out);
+  if (r.contains("parameter_uncertainty_um")) {
+    double largest = 0.0;
+    bool bad = false;
+    LargestOf(r["parameter_uncertainty_um"], largest, bad);
+    if (bad) {
+      out.Fail("under-determined: a parameter uncertainty is not finite");
+    } else if (largest > kUndeterminedAboveUm) {
+      out.Warn("under-determined: parameter uncertainty up to ±" + Num(largest) + " µm (above ±" +
+               Num(kUndeterminedAboveUm) +
+               " µm): the tests do not determine the parameters; add tests in other poses");
+    }
+  }
+  // Parameters fixed beyond the method's gauge (none for absolute; the 6 rigid motions of the
+  // base for centre-corrected, [PM-600 report] §2.3) are ones these tests cannot identify.
+  const auto fixed = r.value("fixed_parameters", nlohmann::json::array());
+  const std::size_t gauge = r.value("method", std::string()) == "centre_corrected" ? 6 : 0;
+  if (fixed.is_array() && fixed.size() > gauge) {
+    out.Warn("under-determined: " + std::to_string(fixed.size()) +
+             " parameters cannot be identified from these tests and were fixed (" +
+             (gauge == 0 ? std::string("an absolute calibration fixes none")
+                         : "a centre-corrected one fixes the " + std::to_string(gauge) +
+                               " rigid motions of the base") +
+             ")");
+  }
+}
+
+void JudgeDiscovery(const nlohmann::json& r, Judgement& out) {
+  const std::string verdict = r.value("verdict", std::string());
+  const std::string stop = r.value("stop_reason", std::string());
+  if (verdict == "model misfit") {
+    out.Warn("model misfit: the tests show an error no candidate effect describes" +
+             (stop.empty() ? std::string() : " (stopped because " + stop + ")"));
+  } else if (verdict != "complete") {
+    out.Warn("no clear verdict from the study" +
+             (verdict.empty() ? std::string() : " ('" + verdict + "')"));
+  }
+  // The final fit's condition number mixes parameters of different units (kinematic µm, effect
+  // coefficients): no bound applies to it, but it must be a number.
+  JudgeConditioning(r, 0.0, out);
+}
+
+}  // namespace
+
+JobVerdict JudgeJob(const std::string& kind, const std::string& status,
+                    const nlohmann::json& result, const std::string& error) {
+  if (status == "failed") return {"failed", {error.empty() ? "the job failed" : error}};
+  if (status != "done") return {};
+  Judgement j;
+  if (!result.is_object()) {
+    j.Fail("the job stored no result");
+  } else if (kind == "hexapod_calibration") {
+    JudgeCalibration(result, j);
+  } else if (kind == "discovery") {
+    JudgeDiscovery(result, j);
+  }
+  if (j.reasons.empty()) return {"ok", {}};
+  return {j.failed ? "failed" : "warning", j.reasons};
+}
+
+}  // namespace km::server

@@ -1,0 +1,114 @@
+// Background jobs (calibration and discovery studies), queued in the database: every instance
+// on the database takes jobs from the same queue under a lease it renews while the job runs
+// (its progress reports and a heartbeat), so adding an instance adds capacity, and a job whose
+// instance died is taken over by another when the lease runs out. A stopping instance gives its
+// running jobs back to the queue; queued jobs wait for the next instance. A job is stored with
+// its plan (the checked request, the machine resolved), from which any instance runs it.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "server/storage/storage.h"
+
+namespace km::server {
+
+struct JobQueueOptions {
+  std::size_t max_queued = 16;  // queued jobs (of every instance) beyond which Submit refuses
+  int workers = 1;              // jobs this instance runs at once (0: it queues jobs but runs none)
+  std::int64_t lease_ms = 30'000;  // a job not renewed for this long is another's to take
+  std::int64_t poll_ms = 1'000;    // how often an idle worker looks for other instances' jobs
+  int max_attempts = 3;            // starts of a job before its lapsed lease fails it
+  std::string instance;            // the lease owner's name; empty: host:pid:random
+};
+
+class JobQueue {
+ public:
+  using Progress = std::function<void(double, const std::string&)>;
+  // Runs a job of one kind from its plan; the answer is stored as the job's result.
+  using Runner = std::function<nlohmann::json(const nlohmann::json& plan, const Progress&)>;
+
+  explicit JobQueue(Storage& storage, JobQueueOptions options = {});
+  ~JobQueue();  // Stop()
+  JobQueue(const JobQueue&) = delete;
+  JobQueue& operator=(const JobQueue&) = delete;
+
+  // The runner of a kind (before Start).
+  void Register(const std::string& kind, Runner runner);
+  void Start();
+  // Stops taking jobs. A running job stops at its next progress report and goes back to the
+  // queue, to be run again by this or another instance; the workers are joined.
+  void Stop();
+
+  // Stores the job as queued (request: what the API shows; plan: what a worker runs) and wakes
+  // a worker. Throws Unavailable when max_queued jobs are waiting.
+  std::int64_t Submit(const std::string& kind, const nlohmann::json& request,
+                      const nlohmann::json& plan, std::int64_t owner_token_id = 0);
+  // Cancels a queued or running job (reason: its error); false when it is neither. A job
+  // running here stops at its next progress report, its worker free for the next job; one
+  // running on another instance stops there when its next report is refused by the storage.
+  bool Cancel(std::int64_t id, const std::string& reason);
+  const std::string& instance() const { return options_.instance; }
+
+ private:
+  struct Running {
+    double progress = 0.0;
+    std::string stage;
+    bool lost = false;  // the job is no longer ours: cancelled, or another instance runs it
+  };
+  void Work();
+  void Heartbeat();
+  std::optional<JobRecord> TryClaim();
+  void RunJob(JobRecord job);
+  nlohmann::json RunPlan(const JobRecord& job);
+  void Report(std::int64_t id, double progress, const std::string& stage);
+  void Finish(JobRecord job);
+  std::int64_t LeaseEnd() const;
+
+  Storage& storage_;
+  JobQueueOptions options_;
+  std::map<std::string, Runner> runners_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool started_ = false, stop_ = false;
+  std::size_t pending_ = 0;  // submissions not yet looked for by a worker
+  std::map<std::int64_t, Running> running_;
+  std::vector<std::thread> workers_;
+  std::thread heartbeat_;
+};
+
+// The job as the API serves it: id, kind, status, progress, stage, times, request, result,
+// error, owner_token_id (null when not known), and the verdict on its outcome (JudgeJob) as
+// "verdict" and "verdict_reasons".
+nlohmann::json JobJson(const JobRecord& job);
+
+// The verdict on a background job's outcome (docs/formats.md §5): can its figures be trusted?
+// A calibration or discovery that finished may still be ill-conditioned, not converged or
+// under-determined: its numbers are then not a result, and the verdict says why.
+// Above this condition number (of the Jacobian over the free parameters) the tests do not tell
+// the parameters apart: small changes of the readings move them a lot.
+inline constexpr double kIllConditionedAbove = 1e4;
+// Above this standard uncertainty of an identified parameter (µm) the tests do not determine it:
+// the errors a calibration corrects are tens of µm.
+inline constexpr double kUndeterminedAboveUm = 25.0;
+
+struct JobVerdict {
+  std::string verdict;  // "ok", "warning", "failed"; empty while the job is queued or running
+  std::vector<std::string> reasons;  // empty when "ok"
+};
+
+// kind: "hexapod_calibration" or "discovery" (other kinds: "ok" when done); status: queued,
+// running, done, failed, cancelled (no verdict: there are no figures to judge); result: the
+// stored result (null when none); error: when failed.
+JobVerdict JudgeJob(const std::string& kind, const std::string& status,
+                    const nlohmann::json& result, const std::string& error);
+
+}  // namespace km::server

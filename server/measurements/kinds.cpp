@@ -1,0 +1,348 @@
+// The measurement kinds the server accepts, one handler per format (docs/formats.md §1), and the
+// DBB-specific queries (trace, pair analysis, plot).
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "analysis/core/errors.h"
+#include "analysis/dbb/circular_test.h"
+#include "analysis/dbb/full_analysis.h"
+#include "ingest/dbb_parser.h"
+#include "ingest/form_parsers.h"
+#include "ingest/iso8601.h"
+#include "ingest/tracker_parser.h"
+#include "report/dbb_json.h"
+#include "report/dbb_report.h"
+#include "report/form_report.h"
+#include "report/tracker_report.h"
+#include "server/base/finite_result.h"
+#include "server/measurements/servo_kinds.h"
+#include "server/service.h"
+
+namespace km::server {
+namespace {
+
+// Magnitudes beyond these are not measurements of a machine tool; they would only make the
+// analysis overflow. Checked after parsing, before the analysis (the DBB parser checks its own).
+constexpr double kMaxPositionMm = 1e6;        // 1 km from the machine origin
+constexpr double kMaxDeviationUm = 1e6;       // 1 m off a line or a plane
+constexpr double kMaxTrackerReadingUm = 1e9;  // 1 km of interferometer travel
+
+std::string Number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+void RequireAtMost(const std::string& file, std::size_t line, const std::string& field, double v,
+                   double limit, const std::string& what) {
+  if (std::abs(v) > limit) {
+    throw InvalidInput(
+        file, line, field,
+        Number(v) + " is too large to analyse: " + what + " must be within ±" + Number(limit));
+  }
+}
+
+template <typename Lines>
+std::size_t LineOf(const Lines& lines, std::size_t i) {
+  return i < lines.size() ? lines[i] : 0;
+}
+
+template <typename Lines>
+void CheckProfile(const std::string& file, const form::Profile& p, const Lines& lines) {
+  for (std::size_t i = 0; i < p.position_mm.size(); ++i) {
+    RequireAtMost(file, LineOf(lines, i), "position_mm", p.position_mm[i], kMaxPositionMm,
+                  "a position in mm");
+  }
+  for (std::size_t i = 0; i < p.deviation_um.size(); ++i) {
+    RequireAtMost(file, LineOf(lines, i), "deviation_um", p.deviation_um[i], kMaxDeviationUm,
+                  "a deviation in µm");
+  }
+}
+
+template <typename Lines>
+void CheckGrid(const std::string& file, const form::Grid& g, const Lines& lines) {
+  for (std::size_t i = 0; i < g.x_mm.size(); ++i) {
+    const std::size_t line = LineOf(lines, i);
+    RequireAtMost(file, line, "x_mm", g.x_mm[i], kMaxPositionMm, "a position in mm");
+    if (i < g.y_mm.size()) {
+      RequireAtMost(file, line, "y_mm", g.y_mm[i], kMaxPositionMm, "a position in mm");
+    }
+    if (i < g.z_um.size()) {
+      RequireAtMost(file, line, "z_um", g.z_um[i], kMaxDeviationUm, "a deviation in µm");
+    }
+  }
+}
+
+// The tracker file keeps no line per point: the point id names the row.
+void CheckTracker(const std::string& file, const tracker::TrackerReadings& r) {
+  const char* axes[] = {"x_mm", "y_mm", "z_mm"};
+  for (std::size_t i = 0; i < r.commanded_mm.size(); ++i) {
+    const std::string point =
+        "point " + std::to_string(i < r.point_ids.size() ? r.point_ids[i] : 0) + ": ";
+    for (int k = 0; k < 3; ++k) {
+      RequireAtMost(file, 0, axes[k], r.commanded_mm[i](k), kMaxPositionMm,
+                    point + "a position in mm");
+    }
+    for (Eigen::Index j = 0; j < r.displacement_um.cols(); ++j) {
+      if (static_cast<Eigen::Index>(i) >= r.displacement_um.rows()) break;
+      const double d = r.displacement_um(static_cast<Eigen::Index>(i), j);
+      if (!std::isfinite(d)) continue;  // a missing reading
+      RequireAtMost(file, 0, "d" + std::to_string(j + 1) + "_um", d, kMaxTrackerReadingUm,
+                    point + "a reading in µm");
+    }
+  }
+}
+
+Ingested IngestDbb(std::string_view bytes, const std::string& file) {
+  const dbb::DbbTest test = ingest::ParseDbb(bytes, file);
+  nlohmann::json result;
+  try {
+    result = DbbTestJson(test);
+  } catch (const InvalidInput& e) {
+    // Analysis-level problems name the file too.
+    throw InvalidInput(file, e.line(), e.field(), e.reason());
+  }
+  RequireFiniteResult(result, file);
+  Ingested in;
+  in.kind = "dbb";
+  in.machine_id = test.machine_id;
+  in.test_id = test.test_id;
+  in.direction = dbb::ToString(test.direction);
+  in.measured_at = test.timestamp;
+  for (const auto& [k, v] : test.metadata) in.metadata[k] = v;
+  in.samples.columns = {"angle_deg", "dr_um"};
+  in.samples.values.reserve(2 * test.angle_deg.size());
+  for (std::size_t i = 0; i < test.angle_deg.size(); ++i) {
+    in.samples.values.push_back(test.angle_deg[i]);
+    in.samples.values.push_back(test.dr_um[i]);
+  }
+  in.results.push_back(NewResult{"dbb", kDbbAnalysisVersion, result.dump()});
+  return in;
+}
+
+template <typename File>
+Ingested Common(const File& f, const std::string& kind) {
+  Ingested in;
+  in.kind = kind;
+  in.machine_id = f.machine_id;
+  for (const auto& [k, v] : f.metadata) in.metadata[k] = v;
+  if (auto it = f.metadata.find("timestamp"); it != f.metadata.end()) in.measured_at = it->second;
+  return in;
+}
+
+SampleBlock ProfileSamples(const form::Profile& p) {
+  SampleBlock b;
+  b.columns = {"position_mm", "deviation_um"};
+  for (std::size_t i = 0; i < p.position_mm.size(); ++i) {
+    b.values.push_back(p.position_mm[i]);
+    b.values.push_back(p.deviation_um[i]);
+  }
+  return b;
+}
+
+constexpr const char* kFormAnalysisVersion = "form/1";
+
+Ingested IngestStraightness(std::string_view bytes, const std::string& file) {
+  const auto f = ingest::ParseStraightnessFile(bytes, file);
+  CheckProfile(file, f.profile, f.row_lines);
+  Ingested in = Common(f, "straightness");
+  in.test_id = f.pair_id;
+  in.direction = f.reversal;
+  in.samples = ProfileSamples(f.profile);
+  const nlohmann::json result = StraightnessFilesToJson({f});
+  RequireFiniteResult(result, file);
+  in.results.push_back({"straightness", kFormAnalysisVersion, result.dump()});
+  return in;
+}
+
+Ingested IngestFlatness(std::string_view bytes, const std::string& file) {
+  const auto f = ingest::ParseFlatnessFile(bytes, file);
+  CheckGrid(file, f.grid, f.row_lines);
+  Ingested in = Common(f, "flatness");
+  in.samples.columns = {"x_mm", "y_mm", "z_um"};
+  for (std::size_t i = 0; i < f.grid.x_mm.size(); ++i) {
+    in.samples.values.insert(in.samples.values.end(),
+                             {f.grid.x_mm[i], f.grid.y_mm[i], f.grid.z_um[i]});
+  }
+  const nlohmann::json result = FlatnessFileToJson(f);
+  RequireFiniteResult(result, file);
+  in.results.push_back({"flatness", kFormAnalysisVersion, result.dump()});
+  return in;
+}
+
+Ingested IngestParallelism(std::string_view bytes, const std::string& file) {
+  const auto f = ingest::ParseParallelismFile(bytes, file);
+  CheckProfile(file, f.profile, f.row_lines);
+  Ingested in = Common(f, "parallelism");
+  in.test_id = f.axis;
+  in.samples = ProfileSamples(f.profile);
+  const nlohmann::json result = ParallelismFileToJson(f);
+  RequireFiniteResult(result, file);
+  in.results.push_back({"parallelism", kFormAnalysisVersion, result.dump()});
+  return in;
+}
+
+constexpr const char* kTrackerAnalysisVersion = "tracker/1";
+
+// Self-calibration runs at upload (≈ 0.1 s for 1 000 points, ≈ 1 s for 10 000); an
+// unobservable set-up is refused (NotObservable → 422) and nothing is stored.
+Ingested IngestTracker(std::string_view bytes, const std::string& file) {
+  const auto f = ingest::ParseTrackerFile(bytes, file);
+  CheckTracker(file, f.readings);
+  Ingested in;
+  in.kind = "tracker";
+  in.machine_id = f.readings.machine_id;
+  // The mode (simultaneous / sequential) stays in the metadata; direction is for DBB tests.
+  for (const auto& [k, v] : f.metadata) in.metadata[k] = v;
+  if (auto it = f.metadata.find("timestamp"); it != f.metadata.end()) in.measured_at = it->second;
+  const int n = f.readings.NumTrackers();
+  in.samples.columns = {"point", "x_mm", "y_mm", "z_mm"};
+  for (int j = 0; j < n; ++j) in.samples.columns.push_back("d" + std::to_string(j + 1) + "_um");
+  for (int i = 0; i < f.readings.NumPoints(); ++i) {
+    in.samples.values.push_back(f.readings.point_ids[static_cast<std::size_t>(i)]);
+    for (int k = 0; k < 3; ++k) {
+      in.samples.values.push_back(f.readings.commanded_mm[static_cast<std::size_t>(i)](k));
+    }
+    for (int j = 0; j < n; ++j) in.samples.values.push_back(f.readings.displacement_um(i, j));
+  }
+  nlohmann::json result;
+  try {
+    result = AnalyzeTracker(f);
+  } catch (const InvalidInput& e) {
+    if (!e.file().empty()) throw;
+    throw InvalidInput(file, e.line(), e.field(), e.reason());  // name the file
+  }
+  RequireFiniteResult(result, file);
+  in.results.push_back({"tracker", kTrackerAnalysisVersion, result.dump()});
+  return in;
+}
+
+}  // namespace
+
+void RegisterBuiltinKinds(Service& service) {
+  service.RegisterKind(std::string(ingest::kTrackerFormat), IngestTracker);
+  service.RegisterKind(ingest::kDbbFormat, IngestDbb);
+  service.RegisterKind(std::string(ingest::kStraightnessFormat), IngestStraightness);
+  service.RegisterKind(std::string(ingest::kFlatnessFormat), IngestFlatness);
+  service.RegisterKind(std::string(ingest::kParallelismFormat), IngestParallelism);
+  RegisterServoKind(service);
+}
+
+dbb::DbbTest Service::LoadDbb(std::int64_t id, MeasurementRecord* record) {
+  const auto rec = storage_->GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (rec->kind != "dbb") {
+    throw InvalidInput("", 0, "id", "measurement " + std::to_string(id) + " is not a DBB test");
+  }
+  if (record) *record = *rec;
+  return ingest::ParseDbb(storage_->GetRaw(id), rec->filename);
+}
+
+std::optional<std::int64_t> Service::DbbPartner(const MeasurementRecord& rec) {
+  return NearestPartner(rec, rec.direction == "ccw" ? "cw" : "ccw");
+}
+
+std::optional<std::int64_t> Service::NearestPartner(const MeasurementRecord& rec,
+                                                    const std::string& other_direction) {
+  // The other-direction measurement (the opposite DBB direction, the other set-up of a
+  // reversal) of the same machine, kind and test_id measured nearest in time to this one
+  // (measurement time, else upload time): a pair is run minutes apart, a repeat days or months
+  // later. On equal distance the one stored nearest, then the later.
+  const std::string when = rec.measured_at.value_or(rec.uploaded_at);
+  const auto t = ingest::Iso8601EpochSeconds(when);
+  MeasurementFilter f;
+  f.machine_id = rec.machine_id;
+  f.kind = rec.kind;
+  f.test_id = rec.test_id;
+  f.direction = other_direction;
+  f.limit = 2;
+  std::vector<MeasurementRecord> candidates;
+  f.from = when;  // the nearest at or after it
+  f.order = MeasurementFilter::Order::kOldest;
+  for (auto& m : storage_->ListMeasurements(f).items) candidates.push_back(std::move(m));
+  f.from.reset();
+  f.to = when;  // the nearest before it
+  f.order = MeasurementFilter::Order::kNewest;
+  for (auto& m : storage_->ListMeasurements(f).items) candidates.push_back(std::move(m));
+  std::optional<std::int64_t> best;
+  double best_dt = 0.0;
+  for (const auto& m : candidates) {
+    const auto tm = ingest::Iso8601EpochSeconds(m.measured_at.value_or(m.uploaded_at));
+    const double dt = t && tm ? std::fabs(*tm - *t) : 0.0;
+    const bool nearer =
+        !best || dt < best_dt ||
+        (dt == best_dt && (std::abs(m.id - rec.id) < std::abs(*best - rec.id) ||
+                           (std::abs(m.id - rec.id) == std::abs(*best - rec.id) && m.id > *best)));
+    if (nearer) {
+      best = m.id;
+      best_dt = dt;
+    }
+  }
+  return best;
+}
+
+nlohmann::json Service::DbbTrace(std::int64_t id) {
+  const dbb::DbbTest test = LoadDbb(id);
+  return DbbTraceJson(test, dbb::AnalyzeCircularTest(test, dbb::DeviationUnits::kToolPath));
+}
+
+nlohmann::json Service::DbbPairJson(std::int64_t id) {
+  MeasurementRecord rec;
+  const dbb::DbbTest test = LoadDbb(id, &rec);
+  const auto partner = DbbPartner(rec);
+  if (!partner) return nullptr;
+  const dbb::DbbTest other = LoadDbb(*partner);
+  const std::vector<dbb::DbbTest> both{test, other};
+  const dbb::DbbReport report = dbb::AnalyzeDbbSet(both);
+  const nlohmann::json j = DbbReportJson(both, report);
+  nlohmann::json out;
+  out["partner_id"] = *partner;
+  if (!j["pairs"].empty()) {
+    out["pair"] = j["pairs"][0];
+  }
+  out["joint_diagnosis"] = j["tests"][0]["diagnosis"];
+  out["joint_not_identifiable"] = j["tests"][0]["not_identifiable"];
+  out["partner_joint_diagnosis"] = j["tests"][1]["diagnosis"];
+  return out;
+}
+
+std::string Service::DbbPlotPng(std::int64_t id, const dbb::PolarPlotOptions& options) {
+  MeasurementRecord rec;
+  std::vector<dbb::DbbTest> tests{LoadDbb(id, &rec)};
+  if (const auto partner = DbbPartner(rec)) tests.push_back(LoadDbb(*partner));
+  const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
+  const auto png = dbb::PolarPlotPng(report, 0, options);
+  return std::string(png.begin(), png.end());
+}
+
+nlohmann::json Service::StraightnessReversalJson(std::int64_t id) {
+  const auto rec = storage_->GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (rec->kind != "straightness") {
+    throw InvalidInput("", 0, "id",
+                       "measurement " + std::to_string(id) + " is not a straightness profile");
+  }
+  if (rec->direction != "a" && rec->direction != "b") {
+    throw InvalidInput(
+        "", 0, "reversal",
+        "measurement " + std::to_string(id) +
+            " is not one set-up of a reversal pair (its file has no `reversal` key)");
+  }
+  const auto partner = NearestPartner(*rec, rec->direction == "a" ? "b" : "a");
+  if (!partner) return nullptr;
+  const auto other = storage_->GetMeasurement(*partner);
+  std::vector<ingest::StraightnessFile> files;
+  for (const auto& [mid, name] :
+       {std::pair{id, rec->filename}, std::pair{*partner, other->filename}})
+    files.push_back(ingest::ParseStraightnessFile(storage_->GetRaw(mid), name));
+  if (files[0].reversal == "b") std::swap(files[0], files[1]);
+  const nlohmann::json j = StraightnessFilesToJson(files);
+  nlohmann::json out;
+  out["partner_id"] = *partner;
+  out["reversal"] = j.value("reversal", nlohmann::json(nullptr));
+  out["profiles"] = j["profiles"];
+  return out;
+}
+
+}  // namespace km::server

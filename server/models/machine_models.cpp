@@ -1,0 +1,136 @@
+// Machine definitions kept by the server, versioned: an uploaded document, a calibration's
+// calibrated machine or a discovery's updated machine becomes the next version of its machine's
+// model; nothing is overwritten. Studies name a stored model by machine_id (and version).
+#include <cstdint>
+#include <limits>
+
+#include "analysis/core/errors.h"
+#include "ingest/json_text.h"
+#include "ingest/machine_json.h"
+#include "server/base/request_json.h"
+#include "server/base/sha256.h"
+#include "server/service.h"
+
+namespace km::server {
+
+namespace req = km::server::request;
+
+namespace {
+
+constexpr std::size_t kMaxMachineIdBytes = 256;
+constexpr std::size_t kMaxNoteBytes = 4096;
+
+// A stored machine is addressed as /api/v1/machines/{machine_id}/…: its id must fit one path
+// segment (no '/', not "." or "..") and be printable.
+void CheckMachineId(const std::string& id, const std::string& file) {
+  const auto refuse = [&](const std::string& why) {
+    throw InvalidInput(file, 0, "machine_id", "'" + id.substr(0, 80) + "' " + why);
+  };
+  if (id.size() > kMaxMachineIdBytes) {
+    refuse("is longer than " + std::to_string(kMaxMachineIdBytes) + " bytes");
+  }
+  if (id == "." || id == "..") refuse("is not a machine name");
+  for (const char c : id) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '/') refuse("holds a '/' (it must fit one segment of a URL path)");
+    if (u < 0x20 || u == 0x7F) refuse("holds a control character");
+  }
+}
+
+std::string VersionText(const std::string& machine_id, std::int64_t version) {
+  return "machine '" + machine_id + "' version " + std::to_string(version);
+}
+
+}  // namespace
+
+MachineModelStored Service::StoreMachineModel(std::string_view bytes, const std::string& source,
+                                              const std::string& note, const std::string& file) {
+  if (bytes.size() > kMaxMachineModelBytes) {
+    throw TooLarge(file, 0, "",
+                   "the machine definition is " + std::to_string(bytes.size()) +
+                       " bytes; the limit is " + std::to_string(kMaxMachineModelBytes));
+  }
+  if (note.size() > kMaxNoteBytes) {
+    throw InvalidInput(file, 0, "note",
+                       "the note is longer than " + std::to_string(kMaxNoteBytes) + " bytes");
+  }
+  const ingest::MachineDefinition machine = ingest::ParseMachineJson(bytes, file);
+  CheckMachineId(machine.machine_id, file);
+  NewMachineModel m;
+  m.machine_id = machine.machine_id;
+  m.source = source;
+  m.note = note;
+  m.document.assign(bytes);
+  m.sha256 = Sha256Hex(bytes);
+  const MachineModelPut put = storage_->PutMachineModel(m);
+  return MachineModelStored{put.record.machine_id, put.record.version, put.record.created_at,
+                            put.created};
+}
+
+MachineModelRecord Service::GetMachineModel(const std::string& machine_id,
+                                            std::optional<std::int64_t> version) {
+  auto rec = storage_->GetMachineModel(machine_id, version);
+  if (rec) return std::move(*rec);
+  if (!version) throw NotFound("machine '" + machine_id + "' has no stored model");
+  const auto newest = storage_->GetMachineModel(machine_id, std::nullopt);
+  if (!newest) throw NotFound("machine '" + machine_id + "' has no stored model");
+  throw NotFound("machine '" + machine_id + "' has no model version " + std::to_string(*version) +
+                 " (the newest is version " + std::to_string(newest->version) + ")");
+}
+
+nlohmann::json Service::ListMachineModels(const std::string& machine_id) {
+  const auto versions = storage_->ListMachineModels(machine_id);
+  if (versions.empty()) throw NotFound("machine '" + machine_id + "' has no stored model");
+  nlohmann::json items = nlohmann::json::array();
+  for (const auto& v : versions) {
+    items.push_back({{"version", v.version},
+                     {"created_at", v.created_at},
+                     {"source", v.source},
+                     {"note", v.note},
+                     {"sha256", v.sha256}});
+  }
+  return {{"machine_id", machine_id}, {"versions", items}};
+}
+
+ingest::MachineDefinition Service::RequestedMachine(const nlohmann::json& request,
+                                                    std::int64_t& version) {
+  const std::string machine_id = req::RequiredString(request, "machine_id");
+  std::optional<std::int64_t> wanted;
+  if (request.contains("machine_version")) {
+    wanted =
+        req::WholeNumber(request, "machine_version", 1, std::numeric_limits<std::int64_t>::max());
+  }
+  const MachineModelRecord rec = GetMachineModel(machine_id, wanted);
+  version = rec.version;
+  // Stored documents were validated when they were stored; parsed again for this study.
+  return ingest::ParseMachineJson(rec.document, VersionText(rec.machine_id, rec.version));
+}
+
+MachineModelStored Service::SaveJobMachine(std::int64_t job_id, const std::string& note) {
+  const auto job = storage_->GetJob(job_id);
+  if (!job) throw NotFound("job " + std::to_string(job_id) + " does not exist");
+  const std::string name = "job " + std::to_string(job_id);
+  std::string key, source;
+  if (job->kind == "hexapod_calibration") {
+    key = "calibrated_machine";
+    source = "calibration " + name;
+  } else if (job->kind == "discovery") {
+    key = "updated_machine";
+    source = "discovery " + name;
+  } else {
+    throw Conflict(name + " (" + job->kind + ") does not produce a machine definition");
+  }
+  if (job->status != "done") {
+    throw Conflict(name + " is " + job->status +
+                   (job->status == "failed" ? "; it has no machine to save"
+                                            : "; its machine can be saved once it is done"));
+  }
+  const auto result = ingest::ParseJsonTextOrDiscarded(job->result_json);
+  if (!result.is_object() || !result.contains(key) || !result[key].is_object()) {
+    throw Conflict(name + " produced no machine to save (its result has no " + key + ")");
+  }
+  // The document as the job wrote it (ingest::WriteMachineJson: indent 2, closing newline).
+  return StoreMachineModel(result[key].dump(2) + "\n", source, note, name + " " + key);
+}
+
+}  // namespace km::server
