@@ -186,34 +186,6 @@ std::string SerialFamily::Name(EffectId id) const {
   return effects::EffectName(id, a, b);
 }
 
-double SerialFamily::LowerBound(EffectId id, int j) const {
-  if (j != 0) return -std::numeric_limits<double>::infinity();
-  switch (id) {
-    case EffectId::kBacklashU:
-    case EffectId::kBacklashV:
-      return opt_.uncompensated_backlash ? 0.0 : -std::numeric_limits<double>::infinity();
-    case EffectId::kReversalSpikeU:
-    case EffectId::kReversalSpikeV:
-    case EffectId::kLateralPlayU:
-    case EffectId::kLateralPlayV:
-    case EffectId::kStickSlip:
-      return 0.0;
-    default:
-      return -std::numeric_limits<double>::infinity();
-  }
-}
-
-std::string SerialFamily::VariantOf(const dbb::EffectColumns& sig) const {
-  const auto& info = effects::Info(sig.id);
-  std::string v;
-  for (std::size_t k = 0; k < sig.shape.size(); ++k) {
-    if (!v.empty()) v += ", ";
-    v += info.param_names[static_cast<std::size_t>(info.num_linear) + k] + " = " +
-         Format("%.4g", sig.shape[k]);
-  }
-  return v;
-}
-
 // Least squares of e0 on the terms' columns with the physical lower bounds (active set: a
 // bounded value below its bound is held at the bound; held values whose gradient points back
 // inside are released).

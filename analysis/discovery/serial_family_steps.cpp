@@ -1,4 +1,5 @@
-// The per-step parts of the serial family (serial_family.h): refinement of the shape
+// The per-step parts of the serial family (serial_family.h): physical bounds and variant names,
+// refinement of the shape
 // parameters (spike width, cyclic period) when an effect is accepted, the evidence of a step
 // for people, and the search around the greedy ladder (DiscoverSerial).
 #include "analysis/discovery/serial_family.h"
@@ -6,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 
 namespace km::discovery {
@@ -34,6 +36,34 @@ double Rms(const VectorXd& v) {
 }
 
 }  // namespace
+
+double SerialFamily::LowerBound(EffectId id, int j) const {
+  if (j != 0) return -std::numeric_limits<double>::infinity();
+  switch (id) {
+    case EffectId::kBacklashU:
+    case EffectId::kBacklashV:
+      return opt_.uncompensated_backlash ? 0.0 : -std::numeric_limits<double>::infinity();
+    case EffectId::kReversalSpikeU:
+    case EffectId::kReversalSpikeV:
+    case EffectId::kLateralPlayU:
+    case EffectId::kLateralPlayV:
+    case EffectId::kStickSlip:
+      return 0.0;
+    default:
+      return -std::numeric_limits<double>::infinity();
+  }
+}
+
+std::string SerialFamily::VariantOf(const dbb::EffectColumns& sig) const {
+  const auto& info = effects::Info(sig.id);
+  std::string v;
+  for (std::size_t k = 0; k < sig.shape.size(); ++k) {
+    if (!v.empty()) v += ", ";
+    v += info.param_names[static_cast<std::size_t>(info.num_linear) + k] + " = " +
+         Format("%.4g", sig.shape[k]);
+  }
+  return v;
+}
 
 // Golden-section refinement of the shape parameter of every spike and cyclic term from
 // `first` on, then of the earlier ones, on the bounded joint residual.
