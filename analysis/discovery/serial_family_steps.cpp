@@ -1,7 +1,7 @@
-// The per-step parts of the serial family (serial_family.h): physical bounds and variant names,
-// refinement of the shape
-// parameters (spike width, cyclic period) when an effect is accepted, the evidence of a step
-// for people, and the search around the greedy ladder (DiscoverSerial).
+// The per-step parts of the serial family (serial_family.h): physical bounds and variant
+// names, refinement of the shape parameters (spike width, cyclic period) when an effect is
+// accepted, the evidence of a step for people, and the search around the greedy ladder
+// (DiscoverSerial).
 #include "analysis/discovery/serial_family.h"
 
 #include <algorithm>
