@@ -18,7 +18,7 @@ from ops_server import Checks, Server  # noqa: E402
 
 def code_keys(repo):
     """The config-file keys of server/base/config.cpp: the whole-number table and the named keys."""
-    src = open(os.path.join(repo, "server", "config.cpp"), encoding="utf-8").read()
+    src = open(os.path.join(repo, "server", "base", "config.cpp"), encoding="utf-8").read()
     table = src[src.index("kNumberOptions[]"):]
     table = table[:table.index("};")]
     keys = set(re.findall(r'\{"([a-z_0-9]+)",\s*k[A-Za-z]+,', table))
