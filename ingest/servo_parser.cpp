@@ -110,12 +110,15 @@ void CheckNoJump(const TextTable& t, std::size_t column, const std::vector<doubl
     if (!(d >= kJumpMinMm)) continue;
     steps.clear();
     speeds.clear();
+    std::size_t small = 0;  // steps around a tenth of this one or less: half of them for a jump
     for (std::size_t k = i > kJumpAround ? i - kJumpAround : 1;
          k < std::min(n, i + kJumpAround + 1); ++k) {
       if (k == i) continue;
       steps.push_back(step(k));
       speeds.push_back(step(k) / (ts[k] - ts[k - 1]));
+      small += kJumpRatio * steps.back() < d;
     }
+    if (2 * small < steps.size()) continue;
     const double d_ref = MedianOf(steps), v_ref = MedianOf(speeds);
     const double v = d / dt, accel = 4.0 * (d - v_ref * dt) / (dt * dt);
     if (d > kJumpRatio * d_ref && v > kJumpRatio * v_ref && accel > kJumpAccelMmS2) {
