@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <set>
 
 #include "analysis/core/errors.h"
@@ -75,6 +76,63 @@ void CheckTimes(const TextTable& t, std::size_t it) {
   }
 }
 
+// A position that moves between two samples at least this far (mm)…
+constexpr double kJumpMinMm = 0.01;
+// …this many times as far and as fast as the samples around it usually do (the median of the
+// five steps either side)…
+constexpr double kJumpRatio = 10.0;
+constexpr std::size_t kJumpAround = 5;
+// …with an acceleration above this from their speed (mm/s², 50 m/s² ≈ 5 g, beyond a
+// machine-tool drive), is no motion of the machine: two recordings joined, or a glitch.
+constexpr double kJumpAccelMmS2 = 5e4;
+
+std::string Fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+double MedianOf(std::vector<double>& v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// Refuses a jump of the position column between consecutive samples (see the constants above),
+// naming the line after the jump, its size and the time it took.
+void CheckNoJump(const TextTable& t, std::size_t column, const std::vector<double>& ts) {
+  const auto& x = t.Column(column);
+  const std::size_t n = x.size();
+  const auto step = [&](std::size_t i) { return std::abs(x[i] - x[i - 1]); };  // i >= 1
+  std::vector<double> steps, speeds;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double d = step(i), dt = ts[i] - ts[i - 1];
+    if (!(d >= kJumpMinMm)) continue;
+    steps.clear();
+    speeds.clear();
+    std::size_t small = 0;  // steps around a tenth of this one or less: half of them for a jump
+    for (std::size_t k = i > kJumpAround ? i - kJumpAround : 1;
+         k < std::min(n, i + kJumpAround + 1); ++k) {
+      if (k == i) continue;
+      steps.push_back(step(k));
+      speeds.push_back(step(k) / (ts[k] - ts[k - 1]));
+      small += kJumpRatio * steps.back() < d;
+    }
+    if (2 * small < steps.size()) continue;
+    const double d_ref = MedianOf(steps), v_ref = MedianOf(speeds);
+    const double v = d / dt, accel = 4.0 * (d - v_ref * dt) / (dt * dt);
+    if (d > kJumpRatio * d_ref && v > kJumpRatio * v_ref && accel > kJumpAccelMmS2) {
+      throw InvalidInput(
+          t.file, t.row_lines[i], t.columns[column],
+          "the position jumps by " + Fixed(d, 3) + " mm in " + Fixed(1e3 * dt, 3) +
+              " ms from line " + std::to_string(t.row_lines[i - 1]) + " (" + Fixed(v, 0) +
+              " mm/s, where the samples around move at " + Fixed(v_ref, 1) +
+              " mm/s): no machine moves so; two recordings joined, or a glitch of the position "
+              "signal? Give each recording as its own file");
+    }
+  }
+}
+
 // Force constants (N/A), one per force column, when the file gives currents; ones otherwise.
 std::vector<double> ForceScale(const TextTable& t, std::size_t count, const std::string& unit) {
   if (unit == "n") {
@@ -112,6 +170,7 @@ void ReadHexapod(const TextTable& t, servo::ServoFile& f, const std::string& uni
     pc[k] = RequireColumn(t, kPose[k]);
     CheckRange(t, pc[k], k < 3 ? kMaxPositionMm : kMaxAngleDeg,
                k < 3 ? "a position in mm" : "an angle in degrees (|angle| <= 360)");
+    if (k < 3) CheckNoJump(t, pc[k], f.t_s);
     fc[k] = RequireColumn(t, "f" + std::to_string(k + 1));
   }
   const auto scale = ForceScale(t, 6, unit);
@@ -154,6 +213,7 @@ void ReadSerial(const TextTable& t, servo::ServoFile& f, const std::string& unit
   const auto scale = ForceScale(t, cols.size(), unit);
   for (std::size_t a = 0; a < cols.size(); ++a) {
     CheckRange(t, cols[a].first, kMaxPositionMm, "a position in mm");
+    CheckNoJump(t, cols[a].first, f.t_s);
     CheckRange(t, cols[a].second, kMaxForceN / scale[a], "a drive force");
     servo::AxisTrace tr;
     tr.axis = names[a];

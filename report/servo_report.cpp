@@ -289,6 +289,20 @@ json FeedDriveAxisJson(const servo::FeedDriveResult& r) {
   };
   j["lugre"] = r.lugre ? lugre(*r.lugre) : json(nullptr);
   j["lugre_sigma"] = r.lugre_sigma ? lugre(*r.lugre_sigma) : json(nullptr);
+  j["lugre_identifiable"] = nullptr;
+  if (r.lugre) {  // a parameter the records do not determine: null value and σ
+    const auto& f = r.lugre_identifiable;
+    const std::pair<const char*, bool> flags[] = {{"Fc_N", f.Fc_N},
+                                                  {"Fs_N", f.Fs_N},
+                                                  {"vs_mm_s", f.vs_mm_s},
+                                                  {"sigma0_N_per_um", f.sigma0_N_per_um},
+                                                  {"sigma1_N_s_per_mm", f.sigma1_N_s_per_mm},
+                                                  {"sigma2_N_s_per_mm", f.sigma2_N_s_per_mm}};
+    for (const auto& [key, ok] : flags) {
+      j["lugre_identifiable"][key] = ok;
+      if (!ok) j["lugre"][key] = j["lugre_sigma"][key] = nullptr;
+    }
+  }
   j["lugre_residual_rms_N"] = r.lugre ? Number(r.lugre_residual_rms_N) : json(nullptr);
   if (!r.lugre_note.empty()) j["lugre_note"] = r.lugre_note;
   j["stick_motion_um"] = r.stick_motion_um ? Number(*r.stick_motion_um) : json(nullptr);
@@ -328,7 +342,8 @@ json DbbStickComparisonJson(const std::vector<dbb::DbbTest>& tests,
       }
     }
     json predicted = nullptr;
-    if (drive.lugre && kp_per_s && t.radius_mm > 0.0 && t.feed_mm_min > 0.0) {
+    if (drive.lugre && drive.lugre_identifiable.Fc_N && drive.lugre_identifiable.sigma0_N_per_um &&
+        kp_per_s && t.radius_mm > 0.0 && t.feed_mm_min > 0.0) {
       predicted = Number(servo::StickMotionUm(*drive.lugre, t.radius_mm, t.feed_mm_min, *kp_per_s));
     }
     out.push_back({{"file", i < names.size() ? names[i] : t.test_id},

@@ -57,7 +57,9 @@ nlohmann::json ServoJointsJson(const std::string& machine_id, const servo::Joint
 std::array<double, 6> PreviousResistances(const std::string& text, const std::string& file);
 
 // {machine_id, axes[] {axis, coulomb_N, …}, coulomb_N, viscous_N_s_per_mm, ripple[],
-//  lugre{}, stick_motion_um} — the first axis's values also at the top level.
+//  lugre{}, lugre_sigma{}, lugre_identifiable{} (a parameter not identifiable is null in lugre
+//  and lugre_sigma), lugre_note, stick_motion_um} — the first axis's values also at the top
+//  level (docs/formats.md §3.13).
 nlohmann::json ServoFeedDriveJson(const std::string& machine_id,
                                   const std::vector<servo::FeedDriveResult>& axes);
 

@@ -83,17 +83,60 @@ FeedDriveResult AnalyzeFeedDrive(const std::vector<double>& t_s, const AxisTrace
   return AnalyzeFeedDrive({&f}, axis.axis, options);
 }
 
+namespace {
+
+// Widens the σ of Coulomb and viscous friction of a fit with the Stribeck rise `p` taken out
+// by how they move when F_s or v_s moves by its σ.
+void WidenForStribeck(const detail::Strokes& s, const LugreParameters& p,
+                      const LugreParameters& sigma, FeedDriveResult& r) {
+  Eigen::Vector2d spread = Eigen::Vector2d::Zero();
+  for (int k = 0; k < 2; ++k) {
+    LugreParameters q = p;
+    if (k == 0) {
+      q.Fs_N += sigma.Fs_N;
+    } else {
+      q.vs_mm_s += sigma.vs_mm_s;
+    }
+    std::vector<double> delta(s.x.size());
+    for (std::size_t i = 0; i < s.x.size(); ++i)
+      delta[i] = detail::StribeckRise(q, s.v[i]) - s.Known(i);
+    spread += detail::SteadyShift(s, delta).cwiseAbs2();
+  }
+  r.coulomb_sigma_N = std::hypot(r.coulomb_sigma_N, std::sqrt(spread[0]));
+  r.viscous_sigma_N_s_per_mm = std::hypot(r.viscous_sigma_N_s_per_mm, std::sqrt(spread[1]));
+}
+
+}  // namespace
+
 FeedDriveResult AnalyzeFeedDrive(const std::vector<const ServoFile*>& files,
                                  const std::string& axis, const FeedDriveOptions& options) {
   options.Check();
   detail::Strokes s = detail::CollectStrokes(files, axis, options);
-  FeedDriveResult r;
-  r.axis = axis;
-  r.samples = s.x.size();
-  r.reversals = s.reversals.size();
-  detail::FitSteady(s, options, r);
-  if (options.fit_lugre) detail::FitLugre(s, options, r);
-  if (r.lugre && options.radius_mm && options.feed_mm_min && options.kp_per_s) {
+  // `first`: the LuGre fit of a first pass, whose Stribeck rise has been taken out.
+  const auto analyse = [&](const FeedDriveResult* first) {
+    FeedDriveResult r;
+    r.axis = axis;
+    r.samples = s.x.size();
+    r.reversals = s.reversals.size();
+    detail::FitSteady(s, options, r);
+    if (first) WidenForStribeck(s, *first->lugre, *first->lugre_sigma, r);
+    if (options.fit_lugre) detail::FitLugre(s, options, r, first ? &*first->lugre : nullptr);
+    return r;
+  };
+  FeedDriveResult r = analyse(nullptr);
+  // Steady samples slow enough to feel the Stribeck rise (speeds of a few v_s): the rise is
+  // taken out and everything fitted once more — when the fit determines F_s and v_s to a third
+  // (even if the reversals' samples leave them short of identifiable).
+  const auto rise_known = [](const FeedDriveResult& q) {
+    return q.lugre && 3.0 * q.lugre_sigma->Fs_N < q.lugre->Fs_N &&
+           3.0 * q.lugre_sigma->vs_mm_s < q.lugre->vs_mm_s;
+  };
+  if (rise_known(r) && detail::SetStribeck(s, *r.lugre)) {
+    const FeedDriveResult first = r;
+    r = analyse(&first);
+  }
+  if (r.lugre && r.lugre_identifiable.Fc_N && r.lugre_identifiable.sigma0_N_per_um &&
+      options.radius_mm && options.feed_mm_min && options.kp_per_s) {
     r.stick_motion_um =
         StickMotionUm(*r.lugre, *options.radius_mm, *options.feed_mm_min, *options.kp_per_s);
   }

@@ -1,16 +1,20 @@
 // Friction of a serial feed drive from its motor force over strokes in both directions
 // ([Fujita thesis] ch. 4, eqs. 4.1–4.2, 4.8; docs/methods.md §14).
 //
-// 1. Steady motion (away from reversals): F = c0 + c1·x + f_rg(x) + F_c sign(v) + c_v v + m a,
-//    with the position-dependent part f_rg(x) = (f₊ + f₋)/2 of eq. 4.8 (guide and screw waviness)
-//    written as sinusoids whose periods are found from the periodogram of the even part of the
-//    binned residual and refined by a line search, and the direction-dependent part
-//    (f₊ − f₋)/2 = F_c + c_v |v| (Coulomb + viscous). Linear least squares with uncertainties.
+// 1. Steady motion (the cruise of each stroke: at least half its own top speed, 2 mm past its
+//    reversal): F = c0 + c1·x + f_rg(x) + F_c sign(v) + c_v v + m a, with the position-dependent
+//    part f_rg(x) = (f₊ + f₋)/2 of eq. 4.8 (guide and screw waviness) written as sinusoids whose
+//    periods are found from the periodogram of the binned residual and refined by Gauss–Newton
+//    steps, and the direction-dependent part (f₊ − f₋)/2 = F_c + c_v |v| (Coulomb + viscous).
+//    Weighted linear least squares (samples where the acceleration changes weigh less), σ from
+//    the covariance widened by the strokes' disagreement and the slowest feed's pull.
 // 2. Reversals: the LuGre model (eqs. 4.1–4.2), dz/dt = v − σ0 |v| z / g(v),
-//    g(v) = F_c + (F_s − F_c) exp(−(v/v_s)²), F = σ0 z + σ1 dz/dt + σ2 v, integrated exactly
-//    over each sample interval (constant v) along the measured motion and fitted to the force
-//    less its position-dependent part around every reversal (Levenberg–Marquardt on the
-//    logarithms of the six parameters, covariance from the Jacobian).
+//    g(v) = F_c + (F_s − F_c) exp(−(v/v_s)²), F = σ0 z + σ1 dz/dt + σ2 v, with F_c and σ2 from
+//    step 1, integrated along the measured motion and fitted to the force less its
+//    position-dependent part and inertia around every reversal; each parameter's σ includes the
+//    ambiguity of the motion between samples, and a parameter the records do not determine is
+//    declared so (LugreIdentifiable, lugre_note). Steady samples that feel the fitted Stribeck
+//    rise get it taken out, and step 1 and 2 run once more.
 // 3. Stick motion (quadrant glitch) on a circle of radius R at feed V with a position loop of
 //    gain K_p: the presliding lost motion d = 2 F_c/σ0 is taken up by the loop while the
 //    commanded axis moves d after its reversal, in t_d = √(2 d R)/V; the glitch is
@@ -26,12 +30,12 @@
 namespace km::servo {
 
 struct FeedDriveOptions {
-  double min_speed_fraction = 0.5;  // steady: |v| >= this × the record's top speed (cruise)…
+  double min_speed_fraction = 0.5;  // steady: |v| >= this × its stroke's top speed (cruise)…
   double reversal_skip_mm = 2.0;    // …and this far from the last reversal
   double bin_mm = 0.5;              // bins of the position-dependent part
   int max_ripple_components = 3;
   double min_period_mm = 2.0;    // 0: four bins
-  double max_period_mm = 0.0;    // 0: a third of the stroke (three periods at least)
+  double max_period_mm = 0.0;    // 0: half the steady samples' travel (two periods at least)
   double lugre_window_mm = 1.0;  // travel either side of a reversal fitted by LuGre
   bool fit_lugre = true;
   // Stick-motion prediction, when all three are given.
@@ -50,6 +54,14 @@ struct LugreParameters {
   double sigma0_N_per_um = 0.0, sigma1_N_s_per_mm = 0.0, sigma2_N_s_per_mm = 0.0;
 };
 
+// Which LuGre parameters the records determine (a σ below a third of the value, or of a
+// scale for values near zero: 10 % of the critical damping 2√(σ0 m) for σ1, a viscous force
+// of 5 % of F_c at the top speed for σ2).
+struct LugreIdentifiable {
+  bool Fc_N = true, Fs_N = true, vs_mm_s = true;
+  bool sigma0_N_per_um = true, sigma1_N_s_per_mm = true, sigma2_N_s_per_mm = true;
+};
+
 struct FeedDriveResult {
   std::string axis;
   std::size_t samples = 0, steady_samples = 0, reversals = 0;
@@ -60,8 +72,11 @@ struct FeedDriveResult {
   double residual_rms_N = 0.0;
   std::vector<Ripple> ripple;
   std::optional<LugreParameters> lugre, lugre_sigma;
+  LugreIdentifiable lugre_identifiable;  // with `lugre`
   double lugre_residual_rms_N = 0.0;
-  std::string lugre_note;  // why LuGre was not fitted, when it was not
+  // Why LuGre was not fitted, when it was not; which parameters it leaves undetermined, why,
+  // and the test that would determine them, when it was.
+  std::string lugre_note;
   std::optional<double> stick_motion_um;
 };
 

@@ -6,22 +6,58 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "analysis/servo/feed_drive.h"
 
 namespace km::servo::detail {
 
 struct Strokes {
   std::vector<double> t, x, v, a, f;     // every record, one after the other (a in mm/s²)
+  std::vector<double> a_change;          // spread of a over the sample and its neighbours
   std::vector<std::size_t> segment_end;  // one past the last sample of each record
   std::vector<bool> steady;              // used by the steady-motion fit
+  std::vector<std::size_t> stroke;       // the stroke of each sample, counted over the records
+  std::vector<double> stroke_top;        // the top speed of each stroke (mm/s), 0 if standing
   std::vector<std::size_t> reversals;    // first sample after each change of direction
   std::vector<double> position_part;     // c0 + c1 x + ripple(x), after FitSteady
+  std::vector<double> known;             // force explained beforehand (Stribeck), or empty
+  double noise_N = 0.0;                  // force noise of one sample, after FitSteady
+  double steady_mass_kg = 0.0;           // the moving mass of FitSteady (weights)
+  std::vector<double> ripple_periods;    // every component FitSteady kept in the fit
   std::size_t SegmentOf(std::size_t i) const;
+  // Weight of sample i in the fits: 1 / (1 + (uncertainty of its inertia / noise)²), the
+  // inertia uncertain by half the change of the acceleration around it (where a speed ramp
+  // starts or ends between samples the second difference mixes both sides).
+  double Weight(std::size_t i, double mass_kg) const;
+  double Known(std::size_t i) const { return known.empty() ? 0.0 : known[i]; }
 };
 
 Strokes CollectStrokes(const std::vector<const ServoFile*>& files, const std::string& axis,
                        const FeedDriveOptions& o);
+// Steady fit; `r` gets Coulomb, viscous, mass, offset, slope, ripple; `s` the position part,
+// the noise and (through the mass) the weights.
 void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r);
-void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r);
+// The samples of one reversal fitted by LuGre (inclusive).
+struct Window {
+  std::size_t first = 0, last = 0;
+};
+// Flags the parameters of r.lugre that the windows leave undetermined and says in r.lugre_note
+// why and which test would determine them; y is the windows' bristle force (the force less
+// everything else), top_speed the strokes' top speed.
+void JudgeLugre(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
+                double top_speed, FeedDriveResult& r);
+
+// LuGre at the reversals, from `start` (a fit of the same reversals) or from several starts.
+void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
+              const LugreParameters* start = nullptr);
+// How Coulomb and viscous friction of FitSteady change when the known part of every sample
+// grows by `delta` (the fit's columns held, its ripple periods fixed).
+Eigen::Vector2d SteadyShift(const Strokes& s, const std::vector<double>& delta);
+// The Stribeck rise sign(v) (F_s − F_c) exp(−(v/v_s)²) at speed v.
+double StribeckRise(const LugreParameters& p, double v);
+// Sets s.known to the Stribeck rise sign(v) (F_s − F_c) exp(−(v/v_s)²) of every sample; true
+// when it exceeds a thousandth of the noise at some steady sample.
+bool SetStribeck(Strokes& s, const LugreParameters& p);
 
 }  // namespace km::servo::detail

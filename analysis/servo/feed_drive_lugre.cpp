@@ -1,18 +1,35 @@
 // The LuGre fit at the reversals of the feed-drive analysis (feed_drive.h, step 2).
+//
+// Around every reversal (1 mm either side) the force less its position-dependent part, its
+// viscous part σ2 v and its inertia m a is the bristle force σ0 z + σ1 dz/dt of eqs. 4.1–4.2,
+// with F_c and σ2 those of the steady sliding (F = ±g(v) + σ2 v, g → F_c above a few v_s) and m
+// the steady fit's. z is integrated along the measured motion: the speed at each sample by
+// central differences (zero next to a standstill), linear between samples with the measured
+// travel, exact exponential steps of eq. 4.1 on sub-intervals of constant speed. Samples where
+// the acceleration changes weigh less (their inertia is uncertain) and a standstill counts as
+// one sample. Levenberg–Marquardt on ln F_s, ln v_s, ln σ0 and σ1 itself (the force is linear in
+// σ1, which may be zero), from six starts. The σ of each parameter is the statistical one (the
+// residual's own scatter; infinite along directions the data leave flat) and, added in
+// quadrature, its change when the motion between samples is read at constant speed: where a
+// reversal passes between few samples that second term dominates. feed_drive_lugre_judge.cpp
+// then decides which parameters are determined.
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 
 #include "analysis/servo/feed_drive_detail.h"
 
 namespace km::servo::detail {
 namespace {
 
-struct Window {
-  std::size_t first = 0, last = 0;  // inclusive
-};
+constexpr int kParams = 4;  // ln F_s, ln v_s, ln σ0, σ1
+using Vec = Eigen::Matrix<double, kParams, 1>;
+using Mat = Eigen::Matrix<double, kParams, kParams>;
+constexpr int kSubsteps = 8;  // of one sample interval, for linear speed
 
 std::vector<Window> Windows(const Strokes& s, double window_mm) {
   std::vector<Window> out;
@@ -24,152 +41,275 @@ std::vector<Window> Windows(const Strokes& s, double window_mm) {
     Window w{r, r};
     while (w.first > seg_first && std::abs(s.x[w.first - 1] - xr) <= window_mm) --w.first;
     while (w.last < seg_last && std::abs(s.x[w.last + 1] - xr) <= window_mm) ++w.last;
-    if (w.last > w.first + 4) out.push_back(w);
+    if (w.last > w.first + 4 && s.v[w.first] != 0.0) out.push_back(w);
   }
   return out;
 }
 
-LugreParameters FromLog(const Eigen::Matrix<double, 6, 1>& q) {
+// F_c and σ2 come from the steady sliding (F = ±g(v) + σ2 v, g → F_c well above v_s).
+struct Sliding {
+  double Fc_N = 0.0, sigma2_N_s_per_mm = 0.0;
+};
+
+LugreParameters FromVec(const Vec& q, const Sliding& sliding) {
   LugreParameters p;
-  p.Fc_N = std::exp(q[0]);
-  p.Fs_N = std::exp(q[1]);
-  p.vs_mm_s = std::exp(q[2]);
-  p.sigma0_N_per_um = std::exp(q[3]);
-  p.sigma1_N_s_per_mm = std::exp(q[4]);
-  p.sigma2_N_s_per_mm = std::exp(q[5]);
+  p.Fc_N = sliding.Fc_N;
+  p.Fs_N = std::exp(q[0]);
+  p.vs_mm_s = std::exp(q[1]);
+  p.sigma0_N_per_um = std::exp(q[2]);
+  p.sigma1_N_s_per_mm = q[3];
+  p.sigma2_N_s_per_mm = sliding.sigma2_N_s_per_mm;
   return p;
 }
 
-// Model force in every window, starting each from steady sliding at its first sample.
-void Predict(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
-             std::vector<double>& out) {
+double Stribeck(const LugreParameters& p, double v) {
+  return p.Fc_N + (p.Fs_N - p.Fc_N) * std::exp(-(v / p.vs_mm_s) * (v / p.vs_mm_s));
+}
+
+// One exact step of eq. 4.1 at constant speed v (mm/s) over h seconds; z in µm.
+double Step(const LugreParameters& p, double z, double v, double h) {
+  if (v == 0.0) return z;  // standing: the bristles hold
+  const double vu = 1e3 * v;
+  const double rate = p.sigma0_N_per_um * std::abs(vu) / Stribeck(p, v);  // 1/s
+  if (!(rate > 0.0)) return z;
+  const double z_ss = vu / rate;
+  return z_ss + (z - z_ss) * std::exp(-rate * h);
+}
+
+// How the speed runs between two samples, of which the data give the positions and (by central
+// differences) the speeds: linear, parallel to the line through both speeds and with the
+// measured travel, the sample's speed its central difference; or constant at the interval's
+// mean, also at the sample that ends it. The model is fitted with the first; the change under
+// the second is part of the uncertainty (they differ where the reversal passes between few
+// samples, or a speed ramp starts or ends between them).
+enum class Reading { kLinear, kConstant };
+
+// σ0 z + σ1 dz/dt at every sample of the windows (one after the other), each window starting in
+// steady sliding; z integrated in exact steps over sub-intervals of constant speed.
+void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
+                  Reading reading, std::vector<double>& out) {
   out.clear();
-  std::vector<double> t, x;
   for (const auto& w : ws) {
-    // A short lead-in at the speed of the first interval puts the bristles in steady state.
-    const double dt = s.t[w.first + 1] - s.t[w.first];
-    const double dx = s.x[w.first + 1] - s.x[w.first];
-    t.assign(1, s.t[w.first] - 200.0 * dt);
-    x.assign(1, s.x[w.first] - 200.0 * dx);
+    const double v0 = s.v[w.first];
+    double z = (v0 > 0.0 ? 1.0 : -1.0) * Stribeck(p, v0) / p.sigma0_N_per_um;
     for (std::size_t i = w.first; i <= w.last; ++i) {
-      t.push_back(s.t[i]);
-      x.push_back(s.x[i]);
+      double v = s.v[i];
+      if (i > w.first) {
+        const double dt = s.t[i] - s.t[i - 1], mean = (s.x[i] - s.x[i - 1]) / dt;
+        if (reading == Reading::kLinear) {
+          const double shift = mean - 0.5 * (s.v[i - 1] + s.v[i]);
+          for (int k = 0; k < kSubsteps; ++k) {
+            const double u = (k + 0.5) / kSubsteps;
+            z = Step(p, z, (1.0 - u) * s.v[i - 1] + u * s.v[i] + shift, dt / kSubsteps);
+          }
+        } else {
+          v = mean;
+          z = Step(p, z, v, dt);
+        }
+      }
+      const double vu = 1e3 * v;
+      const double zdot =
+          v == 0.0 ? 0.0 : vu - p.sigma0_N_per_um * std::abs(vu) * z / Stribeck(p, v);  // µm/s
+      out.push_back(p.sigma0_N_per_um * z + p.sigma1_N_s_per_mm * 1e-3 * zdot);
     }
-    const std::vector<double> f = LugreForce(p, t, x);
-    out.insert(out.end(), f.begin() + 1, f.end());
   }
 }
 
 // Travel (µm) from each reversal until the friction crosses zero: σ0 ≈ F_c ln 2 / travel.
-double SigmaZeroGuess(const Strokes& s, const std::vector<Window>& ws, double coulomb) {
+double SigmaZeroGuess(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
+                      double coulomb) {
   std::vector<double> guesses;
+  std::size_t offset = 0;
   for (const auto& w : ws) {
+    const double side = s.v[w.last] > 0.0 ? 1.0 : -1.0;  // the new direction
     std::size_t r = w.first;
-    while (r <= w.last && std::abs(s.v[r]) > 0.0 &&
-           (r == w.first || (s.v[r] > 0) == (s.v[w.first] > 0))) {
-      ++r;
-    }
-    if (r > w.last) continue;
-    const double side = s.v[r] > 0.0 ? 1.0 : -1.0;
+    while (r <= w.last && side * s.v[r] <= 0.0) ++r;  // first sample moving the new way
     for (std::size_t i = r; i <= w.last; ++i) {
-      if (side * (s.f[i] - s.position_part[i]) >= 0.0) {
-        const double travel = 1e3 * std::abs(s.x[i] - s.x[r]);
+      if (side * y[offset + i - w.first] >= 0.0) {
+        const double travel = 1e3 * std::abs(s.x[i] - s.x[r > w.first ? r - 1 : r]);
         if (travel > 0.0) guesses.push_back(coulomb * std::log(2.0) / travel);
         break;
       }
     }
+    offset += w.last - w.first + 1;
   }
   if (guesses.empty()) return 1.0;
-  std::nth_element(guesses.begin(), guesses.begin() + guesses.size() / 2, guesses.end());
+  std::nth_element(guesses.begin(),
+                   guesses.begin() + static_cast<std::ptrdiff_t>(guesses.size() / 2),
+                   guesses.end());
   return guesses[guesses.size() / 2];
+}
+
+struct Fit {
+  Vec q = Vec::Zero();
+  Mat jtj = Mat::Zero();
+  double rss = INFINITY;
+};
+
+// Levenberg–Marquardt from q0 on the windows' target force y.
+Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
+          const std::vector<double>& w, const Sliding& sliding, Reading reading, const Vec& q0,
+          int iterations = 60) {
+  const std::size_t n = y.size();
+  std::vector<double> model, shifted;
+  const auto residual = [&](const Vec& q, std::vector<double>& m) {
+    BristleForce(s, ws, FromVec(q, sliding), reading, m);
+    double ss = 0.0;
+    for (std::size_t i = 0; i < n; ++i) ss += w[i] * (y[i] - m[i]) * (y[i] - m[i]);
+    return ss;
+  };
+  Fit fit;
+  fit.q = q0;
+  fit.rss = residual(fit.q, model);
+  double lambda = 1e-2;
+  Eigen::MatrixXd jac(static_cast<Eigen::Index>(n), kParams);
+  for (int it = 0; it < iterations; ++it) {
+    residual(fit.q, model);
+    for (int k = 0; k < kParams; ++k) {
+      const double h = k < 3 ? 1e-5 : 1.0;  // the force is linear in σ1
+      Vec qk = fit.q;
+      qk[k] += h;
+      residual(qk, shifted);
+      for (std::size_t i = 0; i < n; ++i)
+        jac(static_cast<Eigen::Index>(i), k) = std::sqrt(w[i]) * (shifted[i] - model[i]) / h;
+    }
+    Eigen::VectorXd e(static_cast<Eigen::Index>(n));
+    for (std::size_t i = 0; i < n; ++i)
+      e[static_cast<Eigen::Index>(i)] = std::sqrt(w[i]) * (y[i] - model[i]);
+    fit.jtj = jac.transpose() * jac;
+    const Vec g = jac.transpose() * e;
+    bool improved = false, small = false;
+    for (int tries = 0; tries < 12 && !improved; ++tries) {
+      Mat a = fit.jtj;
+      a.diagonal() += lambda * fit.jtj.diagonal().cwiseMax(1e-12);
+      Vec step = a.ldlt().solve(g);
+      step.head<3>() = step.head<3>().cwiseMax(-2.0).cwiseMin(2.0);
+      const Vec qn = fit.q + step;
+      const double rn = residual(qn, shifted);
+      if (std::isfinite(rn) && rn < fit.rss) {
+        improved = true;
+        small = fit.rss - rn < 1e-10 * fit.rss;
+        fit.q = qn;
+        fit.rss = rn;
+        lambda = std::max(lambda / 3.0, 1e-9);
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!improved || small) break;
+  }
+  return fit;
+}
+
+// σ of ln F_s, ln v_s, ln σ0 and of σ1: the statistical one (the weighted residual's own scatter; a
+// direction the data leave flat has an infinite σ) and the change under the other reading of
+// the motion, added in quadrature.
+Vec Uncertainty(const Fit& fit, const Fit& other, double n) {
+  const double s2 = fit.rss / std::max(n - kParams, 1.0);
+  Vec scale;
+  for (int k = 0; k < kParams; ++k)
+    scale[k] = fit.jtj(k, k) > 0.0 ? 1.0 / std::sqrt(fit.jtj(k, k)) : 0.0;
+  const Mat c = scale.asDiagonal() * fit.jtj * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Mat> eig(c);
+  const double top = eig.eigenvalues().maxCoeff();
+  Vec sd;
+  for (int k = 0; k < kParams; ++k) {
+    double var = 0.0;
+    for (int j = 0; j < kParams; ++j) {
+      const double vkj = eig.eigenvectors()(k, j), lambda = eig.eigenvalues()[j];
+      if (lambda > 1e-12 * top) {
+        var += vkj * vkj / lambda;
+      } else if (std::abs(vkj) > 1e-6) {
+        var = INFINITY;
+      }
+    }
+    if (!(scale[k] > 0.0)) var = INFINITY;
+    const double d = std::isfinite(other.rss) ? other.q[k] - fit.q[k] : 0.0;
+    sd[k] = std::sqrt(s2 * var * scale[k] * scale[k] + d * d);
+    if (!std::isfinite(var)) sd[k] = INFINITY;
+  }
+  return sd;
+}
+
+// The windows' force less everything but the bristles (position part, viscous part, inertia)
+// and the weight of each sample; `independent` the samples counted as independent.
+void Targets(const Strokes& s, const std::vector<Window>& ws, const FeedDriveResult& r,
+             double top_speed, std::vector<double>& y, std::vector<double>& wt,
+             double& independent) {
+  for (const auto& w : ws) {
+    for (std::size_t i = w.first; i <= w.last; ++i) {
+      y.push_back(s.f[i] - s.position_part[i] - r.viscous_N_s_per_mm * s.v[i] -
+                  r.moving_mass_kg * 1e-3 * s.a[i]);
+      wt.push_back(s.Weight(i, r.moving_mass_kg));
+    }
+  }
+  // A standstill counts as one sample: its samples repeat one frozen bristle state, whose
+  // error (it depends on the last instants of the motion, between samples) is common to them.
+  std::size_t k = 0;
+  independent = 0.0;
+  for (const auto& w : ws) {
+    for (std::size_t i = w.first; i <= w.last;) {
+      std::size_t j = i;
+      while (j <= w.last && std::abs(s.v[j]) < 1e-3 * top_speed) ++j;
+      for (std::size_t q = i; q < j; ++q) wt[k + q - w.first] /= static_cast<double>(j - i);
+      independent += 1.0;
+      i = j > i ? j : i + 1;
+    }
+    k += w.last - w.first + 1;
+  }
 }
 
 }  // namespace
 
-void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
+void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
+              const LugreParameters* start) {
   const auto ws = Windows(s, o.lugre_window_mm);
   if (ws.empty() || !(r.coulomb_N > 0.0)) {
     r.lugre_note = ws.empty() ? "no reversal with samples either side" : "no positive Coulomb";
     return;
   }
-  std::vector<double> y;
-  for (const auto& w : ws)
-    for (std::size_t i = w.first; i <= w.last; ++i) y.push_back(s.f[i] - s.position_part[i]);
-  const std::size_t n = y.size();
-  Eigen::Matrix<double, 6, 1> q;
-  q << std::log(r.coulomb_N), std::log(1.2 * r.coulomb_N), std::log(1.0),
-      std::log(SigmaZeroGuess(s, ws, r.coulomb_N)), std::log(0.01),
-      std::log(std::max(r.viscous_N_s_per_mm, 1e-4));
-  std::vector<double> model, shifted;
-  const auto rss_of = [&](const Eigen::Matrix<double, 6, 1>& qq) {
-    Predict(s, ws, FromLog(qq), model);
-    double ss = 0.0;
-    for (std::size_t i = 0; i < n; ++i) ss += (y[i] - model[i]) * (y[i] - model[i]);
-    return ss;
-  };
-  double rss = rss_of(q), lambda = 1e-2;
-  Eigen::MatrixXd jac(n, 6);
-  Eigen::Matrix<double, 6, 6> jtj;
-  for (int it = 0; it < 40; ++it) {
-    Predict(s, ws, FromLog(q), model);
-    const std::vector<double> base = model;
-    for (int k = 0; k < 6; ++k) {
-      Eigen::Matrix<double, 6, 1> qk = q;
-      qk[k] += 1e-5;
-      Predict(s, ws, FromLog(qk), shifted);
-      for (std::size_t i = 0; i < n; ++i)
-        jac(static_cast<Eigen::Index>(i), k) = (shifted[i] - base[i]) / 1e-5;
-    }
-    Eigen::VectorXd e(n);
-    for (std::size_t i = 0; i < n; ++i) e[static_cast<Eigen::Index>(i)] = y[i] - base[i];
-    jtj = jac.transpose() * jac;
-    const Eigen::Matrix<double, 6, 1> g = jac.transpose() * e;
-    bool improved = false;
-    for (int tries = 0; tries < 10 && !improved; ++tries) {
-      Eigen::Matrix<double, 6, 6> a = jtj;
-      a.diagonal() += lambda * jtj.diagonal().cwiseMax(1e-12);
-      const Eigen::Matrix<double, 6, 1> step = a.ldlt().solve(g);
-      const Eigen::Matrix<double, 6, 1> qn = q + step.cwiseMax(-2.0).cwiseMin(2.0);
-      const double rn = rss_of(qn);
-      if (std::isfinite(rn) && rn < rss) {
-        improved = true;
-        const bool small = rss - rn < 1e-10 * rss;
-        q = qn;
-        rss = rn;
-        lambda = std::max(lambda / 3.0, 1e-9);
-        if (small) it = 1000;
-      } else {
-        lambda *= 10.0;
+  double top_speed = 0.0;
+  for (std::size_t i = 0; i < s.v.size(); ++i)
+    if (s.steady[i]) top_speed = std::max(top_speed, std::abs(s.v[i]));
+  std::vector<double> y, wt;
+  double independent = 0.0;
+  Targets(s, ws, r, top_speed, y, wt, independent);
+  const Sliding sliding{r.coulomb_N, r.viscous_N_s_per_mm};
+  const double sigma0 = SigmaZeroGuess(s, ws, y, r.coulomb_N);
+  const double critical = 2.0 * std::sqrt(sigma0 * 1e6 * std::abs(r.moving_mass_kg)) * 1e-3;
+  Fit best;
+  if (start) {  // a fit of the same reversals before
+    Vec q0;
+    q0 << std::log(start->Fs_N), std::log(start->vs_mm_s), std::log(start->sigma0_N_per_um),
+        start->sigma1_N_s_per_mm;
+    best = Solve(s, ws, y, wt, sliding, Reading::kLinear, q0);
+  } else {  // the Stribeck speed and the damping from six starts, the best carried on
+    for (double vs : {0.3, 1.0, 3.0}) {
+      for (double damping : {0.0, 0.5 * critical}) {
+        Vec q0;
+        q0 << std::log(1.2 * r.coulomb_N), std::log(vs), std::log(sigma0), damping;
+        Fit f = Solve(s, ws, y, wt, sliding, Reading::kLinear, q0, 12);
+        if (f.rss < best.rss) best = f;
       }
     }
-    if (!improved) break;
+    best = Solve(s, ws, y, wt, sliding, Reading::kLinear, best.q);
   }
-  const LugreParameters p = FromLog(q);
-  r.lugre = p;
-  r.lugre_residual_rms_N = std::sqrt(rss / static_cast<double>(n));
-  // Covariance of the logarithms → σ of each parameter (relative σ × value).
-  const double s2 = rss / static_cast<double>(n > 6 ? n - 6 : 1);
-  const Eigen::Matrix<double, 6, 6> cov =
-      s2 * jtj.ldlt().solve(Eigen::Matrix<double, 6, 6>::Identity());
-  const auto sd = [&](int k, double v) { return std::sqrt(std::max(0.0, cov(k, k))) * v; };
+  const Fit other = Solve(s, ws, y, wt, sliding, Reading::kConstant, best.q);
+  const Vec sd = Uncertainty(best, other, independent);
+  const LugreParameters p = FromVec(best.q, sliding);
+  double weights = 0.0;
+  for (double w : wt) weights += w;
+  r.lugre_residual_rms_N = std::sqrt(best.rss / std::max(weights, 1e-300));
   LugreParameters ps;
-  ps.Fc_N = sd(0, p.Fc_N);
-  ps.Fs_N = sd(1, p.Fs_N);
-  ps.vs_mm_s = sd(2, p.vs_mm_s);
-  ps.sigma0_N_per_um = sd(3, p.sigma0_N_per_um);
-  ps.sigma1_N_s_per_mm = sd(4, p.sigma1_N_s_per_mm);
-  ps.sigma2_N_s_per_mm = sd(5, p.sigma2_N_s_per_mm);
+  ps.Fc_N = r.coulomb_sigma_N;
+  ps.Fs_N = sd[0] * p.Fs_N;
+  ps.vs_mm_s = sd[1] * p.vs_mm_s;
+  ps.sigma0_N_per_um = sd[2] * p.sigma0_N_per_um;
+  ps.sigma1_N_s_per_mm = sd[3];
+  ps.sigma2_N_s_per_mm = r.viscous_sigma_N_s_per_mm;
+  r.lugre = p;
   r.lugre_sigma = ps;
-  // The fit stands only when it agrees with the steady-motion Coulomb friction and the
-  // presliding stiffness is determined (the reversals sampled finely enough).
-  if (!(p.Fc_N > 0.5 * r.coulomb_N && p.Fc_N < 1.5 * r.coulomb_N) ||
-      !(ps.sigma0_N_per_um < 0.5 * p.sigma0_N_per_um)) {
-    r.lugre.reset();
-    r.lugre_sigma.reset();
-    r.lugre_note =
-        "the reversals do not determine the LuGre parameters (too few samples within the "
-        "presliding travel, or no steady friction either side)";
-  }
+  JudgeLugre(s, ws, y, top_speed, r);
 }
 
 }  // namespace km::servo::detail

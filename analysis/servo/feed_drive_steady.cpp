@@ -1,4 +1,5 @@
-// Strokes and the steady-motion fit of the feed-drive analysis (feed_drive.h, steps 1).
+// The steady-motion fit of the feed-drive analysis (feed_drive.h, step 1): Coulomb, viscous,
+// moving mass and the position-dependent ripple.
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -15,37 +16,113 @@ namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // Columns of the steady fit before the ripple: offset, slope, Coulomb, viscous, moving mass.
 constexpr int kBase = 5;
+// A column of the fit: at most the base and three per ripple component (no heap per sample).
+using Column = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kBase + 3 * 20, 1>;
 
 struct Component {
   double period = 0.0, a = 0.0, b = 0.0;
 };
 
-// Least squares of the columns `cols(i)` (a vector) over the steady samples; returns the
-// coefficients and their covariance.
+// Weighted least squares (Strokes::Weight with the moving mass `mass`) of the columns
+// `cols(i)` (a vector) over the steady samples; returns the coefficients, their covariance and
+// the residual's (weighted) RMS.
 template <typename Cols>
-Eigen::VectorXd Solve(const Strokes& s, int p, Cols cols, Eigen::MatrixXd* cov, double* rms) {
+Eigen::VectorXd Solve(const Strokes& s, int p, double mass, Cols cols, Eigen::MatrixXd* cov,
+                      double* rms) {
   Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
   Eigen::VectorXd atb = Eigen::VectorXd::Zero(p);
-  std::size_t n = 0;
+  double n = 0.0, weights = 0.0, btb = 0.0;
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     if (!s.steady[i]) continue;
-    const Eigen::VectorXd c = cols(i);
-    ata.noalias() += c * c.transpose();
-    atb.noalias() += c * s.f[i];
-    ++n;
+    const Column c = cols(i);
+    const double w = s.Weight(i, mass), b = s.f[i] - s.Known(i);
+    ata.noalias() += w * c * c.transpose();
+    atb.noalias() += (w * b) * c;
+    btb += w * b * b;
+    weights += w;
+    n += 1.0;
   }
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(ata);
   const Eigen::VectorXd x = ldlt.solve(atb);
-  double ss = 0.0;
+  const double wss = std::max(0.0, btb - x.dot(atb));  // Σ w e², as A x = b in the mean
+  if (rms) *rms = std::sqrt(wss / std::max(weights, 1e-300));
+  if (cov) *cov = (wss / std::max(n - p, 1.0)) * ldlt.solve(Eigen::MatrixXd::Identity(p, p));
+  return x;
+}
+
+// Noise of one sample: the spread of the differences of consecutive residuals (robust: the
+// median absolute difference; slow parts such as the ripple cancel).
+double NoiseOf(const Strokes& s, const std::vector<double>& e) {
+  std::vector<double> d;
+  for (std::size_t i = 0; i + 1 < s.x.size(); ++i) {
+    if (s.steady[i] && s.steady[i + 1]) d.push_back(std::abs(e[i + 1] - e[i]));
+  }
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return 1.4826 * d[d.size() / 2] / std::sqrt(2.0);
+}
+
+// Whether the strokes agree with the friction law: the mean residual of each stroke against
+// its noise, χ² over the strokes less the offset, Coulomb and viscous terms that fit them. The
+// ratio √(χ²/dof) (at least 1) scales the σ of Coulomb and viscous friction: strokes that
+// disagree (a Stribeck rise left at the slowest feed, a drift) widen them, as they should.
+template <typename Residual>
+double StrokeBirgeRatio(const Strokes& s, double mass, Residual residual) {
+  std::vector<double> sum, weight;
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     if (!s.steady[i]) continue;
-    const double e = s.f[i] - cols(i).dot(x);
-    ss += e * e;
+    const std::size_t k = s.stroke[i];
+    if (k >= sum.size()) {
+      sum.resize(k + 1, 0.0);
+      weight.resize(k + 1, 0.0);
+    }
+    const double w = s.Weight(i, mass);
+    sum[k] += w * residual(i);
+    weight[k] += w;
   }
-  const double dof = static_cast<double>(n > static_cast<std::size_t>(p) ? n - p : 1);
-  if (rms) *rms = std::sqrt(ss / static_cast<double>(std::max<std::size_t>(n, 1)));
-  if (cov) *cov = (ss / dof) * ldlt.solve(Eigen::MatrixXd::Identity(p, p));
-  return x;
+  double chi2 = 0.0;
+  int strokes = 0;
+  for (std::size_t k = 0; k < sum.size(); ++k) {
+    if (!(weight[k] > 0.0)) continue;
+    const double mean = sum[k] / weight[k], sd = s.noise_N / std::sqrt(weight[k]);
+    if (sd > 0.0) chi2 += (mean / sd) * (mean / sd);
+    ++strokes;
+  }
+  const int dof = strokes - 3;
+  return dof >= 1 ? std::max(1.0, std::sqrt(chi2 / dof)) : 1.0;
+}
+
+// How Coulomb and viscous friction move when the strokes at the slowest feed are left out
+// (the Stribeck rise reaches the slowest feed first): the shifts larger than twice their own
+// σ, else zero. Needs two feeds at least 1.5 × apart besides the slowest.
+template <typename Cols>
+Eigen::Vector2d SlowestFeedShift(Strokes& s, int p, double mass, Cols cols,
+                                 const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+  double slowest = INFINITY;
+  for (std::size_t i = 0; i < s.x.size(); ++i)
+    if (s.steady[i]) slowest = std::min(slowest, s.stroke_top[s.stroke[i]]);
+  double lo = INFINITY, hi = 0.0;  // the other feeds
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    const double top = s.stroke_top[s.stroke[i]];
+    if (s.steady[i] && top >= 1.5 * slowest) {
+      lo = std::min(lo, top);
+      hi = std::max(hi, top);
+    }
+  }
+  if (!(hi >= 1.5 * lo)) return Eigen::Vector2d::Zero();
+  const std::vector<bool> all = s.steady;
+  for (std::size_t i = 0; i < s.x.size(); ++i)
+    if (s.steady[i] && s.stroke_top[s.stroke[i]] < 1.5 * slowest) s.steady[i] = false;
+  Eigen::MatrixXd cov2;
+  const Eigen::VectorXd x2 = Solve(s, p, mass, cols, &cov2, nullptr);
+  s.steady = all;
+  Eigen::Vector2d out;
+  for (int k = 0; k < 2; ++k) {
+    const double d = x2[2 + k] - x[2 + k];
+    const double sd = std::sqrt(std::max(0.0, cov2(2 + k, 2 + k) - cov(2 + k, 2 + k)));
+    out[k] = std::abs(d) > 2.0 * sd ? d : 0.0;
+  }
+  return out;
 }
 
 double Sign(double v) {
@@ -115,72 +192,20 @@ std::vector<Component> FindPeriods(const std::vector<double>& xc, std::vector<do
 
 }  // namespace
 
-std::size_t Strokes::SegmentOf(std::size_t i) const {
-  return static_cast<std::size_t>(std::upper_bound(segment_end.begin(), segment_end.end(), i) -
-                                  segment_end.begin());
-}
-
-Strokes CollectStrokes(const std::vector<const ServoFile*>& files, const std::string& axis,
-                       const FeedDriveOptions& o) {
-  Strokes s;
-  std::size_t forward = 0, backward = 0;
-  for (const ServoFile* file : files) {
-    const AxisTrace* tr = nullptr;
-    for (const auto& a : file->axes)
-      if (a.axis == axis) tr = &a;
-    if (!tr) throw InvalidInput(file->file, 0, "axis", "the record has no axis " + axis);
-    const std::size_t n = tr->pos_mm.size(), first = s.x.size();
-    double vmax = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t a = i ? i - 1 : 0, b = i + 1 < n ? i + 1 : n - 1;
-      const double dt = file->t_s[b] - file->t_s[a];
-      const double v = dt > 0.0 ? (tr->pos_mm[b] - tr->pos_mm[a]) / dt : 0.0;
-      s.t.push_back(file->t_s[i]);
-      s.x.push_back(tr->pos_mm[i]);
-      s.v.push_back(v);
-      s.f.push_back(tr->force_N[i]);
-      vmax = std::max(vmax, std::abs(v));
-    }
-    double last_sign = 0.0, reversal_x = 0.0;
-    for (std::size_t i = first; i < s.x.size(); ++i) {
-      const double sg = std::abs(s.v[i]) > 1e-9 * vmax ? Sign(s.v[i]) : 0.0;
-      if (sg != 0.0 && sg != last_sign) {
-        if (last_sign != 0.0) s.reversals.push_back(i);
-        last_sign = sg;
-        reversal_x = s.x[i];
-      }
-      const bool st = last_sign != 0.0 && std::abs(s.v[i]) >= o.min_speed_fraction * vmax &&
-                      std::abs(s.x[i] - reversal_x) >= o.reversal_skip_mm;
-      s.steady.push_back(st);
-      if (st) (s.v[i] > 0.0 ? forward : backward)++;
-    }
-    for (std::size_t i = first; i < s.x.size(); ++i) {  // second differences, mm/s²
-      const std::size_t c = std::clamp(i, first + 1, std::max(first + 1, s.x.size() - 2));
-      const double h1 = s.t[c] - s.t[c - 1], h2 = s.t[c + 1] - s.t[c];
-      s.a.push_back(h1 > 0.0 && h2 > 0.0
-                        ? 2.0 * ((s.x[c + 1] - s.x[c]) / h2 - (s.x[c] - s.x[c - 1]) / h1) /
-                              (h1 + h2)
-                        : 0.0);
-    }
-    s.segment_end.push_back(s.x.size());
-  }
-  if (forward < 10 || backward < 10) {
-    throw InvalidInput(files.empty() ? "" : files.front()->file, 0, "pos_mm",
-                       "the strokes need steady motion in both directions (found " +
-                           std::to_string(forward) + " forward and " + std::to_string(backward) +
-                           " backward samples)");
-  }
-  return s;
-}
-
 void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   // 1. Without the ripple: offset, slope, Coulomb, viscous.
   const auto base = [&](std::size_t i) {
-    Eigen::VectorXd c(kBase);
+    Column c(kBase);
     c << 1.0, s.x[i], Sign(s.v[i]), s.v[i], 1e-3 * s.a[i];
     return c;
   };
-  const Eigen::VectorXd b0 = Solve(s, kBase, base, nullptr, nullptr);
+  s.noise_N = 0.0;  // unweighted first
+  const Eigen::VectorXd b0 = Solve(s, kBase, 0.0, base, nullptr, nullptr);
+  const double mass = b0[4];
+  std::vector<double> e0(s.x.size(), 0.0);
+  for (std::size_t i = 0; i < s.x.size(); ++i)
+    if (s.steady[i]) e0[i] = s.f[i] - s.Known(i) - base(i).dot(b0);
+  s.noise_N = NoiseOf(s, e0);
   // 2. The position-dependent part binned (eq. 4.8: the direction-dependent part is removed).
   double xmin = INFINITY, xmax = -INFINITY;
   for (std::size_t i = 0; i < s.x.size(); ++i) {
@@ -193,12 +218,13 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     if (!s.steady[i]) continue;
     const auto b = static_cast<std::size_t>((s.x[i] - xmin) / o.bin_mm);
-    sum[b] += s.f[i] - base(i).dot(b0);
-    cnt[b] += 1.0;
+    const double w = s.Weight(i, mass);
+    sum[b] += w * e0[i];
+    cnt[b] += w;
   }
   std::vector<double> xc, y;
   for (std::size_t b = 0; b < nb; ++b) {
-    if (cnt[b] == 0.0) continue;
+    if (!(cnt[b] > 0.0)) continue;
     xc.push_back(xmin + (static_cast<double>(b) + 0.5) * o.bin_mm);
     y.push_back(sum[b] / cnt[b]);
   }
@@ -211,21 +237,21 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   Eigen::VectorXd x;
   Eigen::MatrixXd cov;
   double rms = 0.0;
+  const auto cols = [&](std::size_t i) {
+    Column c(p);
+    c.head<kBase>() = base(i);
+    for (int k = 0; k < nc; ++k) {
+      const double w = kTwoPi * s.x[i] / comps[k].period;
+      c[kBase + 3 * k] = std::cos(w);
+      c[kBase + 1 + 3 * k] = std::sin(w);
+      // ∂/∂P of a cos w + b sin w, w = 2πx/P.
+      c[kBase + 2 + 3 * k] =
+          (w / comps[k].period) * (comps[k].a * std::sin(w) - comps[k].b * std::cos(w));
+    }
+    return c;
+  };
   for (int it = 0; it < 4; ++it) {
-    const auto cols = [&](std::size_t i) {
-      Eigen::VectorXd c(p);
-      c.head<kBase>() = base(i);
-      for (int k = 0; k < nc; ++k) {
-        const double w = kTwoPi * s.x[i] / comps[k].period;
-        c[kBase + 3 * k] = std::cos(w);
-        c[kBase + 1 + 3 * k] = std::sin(w);
-        // ∂/∂P of a cos w + b sin w, w = 2πx/P.
-        c[kBase + 2 + 3 * k] =
-            (w / comps[k].period) * (comps[k].a * std::sin(w) - comps[k].b * std::cos(w));
-      }
-      return c;
-    };
-    x = Solve(s, p, cols, &cov, &rms);
+    x = Solve(s, p, mass, cols, &cov, &rms);
     for (int k = 0; k < nc; ++k) {
       comps[k].a = x[kBase + 3 * k];
       comps[k].b = x[kBase + 1 + 3 * k];
@@ -234,12 +260,21 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
       comps[k].period += std::clamp(step, -limit, limit);
     }
   }
+  const double birge = StrokeBirgeRatio(s, mass, [&](std::size_t i) {
+    double v = base(i).dot(x.head<kBase>());
+    for (int k = 0; k < nc; ++k) {
+      const double w = kTwoPi * s.x[i] / comps[k].period;
+      v += comps[k].a * std::cos(w) + comps[k].b * std::sin(w);
+    }
+    return s.f[i] - s.Known(i) - v;
+  });
+  const Eigen::Vector2d shift = SlowestFeedShift(s, p, mass, cols, x, cov);
   r.offset_N = x[0];
   r.slope_N_per_mm = x[1];
   r.coulomb_N = x[2];
-  r.coulomb_sigma_N = std::sqrt(cov(2, 2));
+  r.coulomb_sigma_N = std::hypot(birge * std::sqrt(cov(2, 2)), shift[0]);
   r.viscous_N_s_per_mm = x[3];
-  r.viscous_sigma_N_s_per_mm = std::sqrt(cov(3, 3));
+  r.viscous_sigma_N_s_per_mm = std::hypot(birge * std::sqrt(cov(3, 3)), shift[1]);
   r.moving_mass_kg = x[4];
   r.residual_rms_N = rms;
   for (std::size_t i = 0; i < s.x.size(); ++i) r.steady_samples += s.steady[i];
@@ -264,6 +299,9 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   std::erase_if(r.ripple, [&](const Ripple& q) {
     return !(q.amplitude_N > 4.0 * q.amplitude_sigma_N && q.amplitude_N >= 0.05 * largest);
   });
+  s.steady_mass_kg = mass;
+  s.ripple_periods.clear();
+  for (const auto& c : comps) s.ripple_periods.push_back(c.period);
   s.position_part.resize(s.x.size());
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     double v = x[0] + x[1] * s.x[i];
@@ -273,6 +311,27 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
     }
     s.position_part[i] = v;
   }
+}
+
+Eigen::Vector2d SteadyShift(const Strokes& s, const std::vector<double>& delta) {
+  const int nc = static_cast<int>(s.ripple_periods.size()), p = kBase + 2 * nc;
+  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
+  Eigen::VectorXd atd = Eigen::VectorXd::Zero(p);
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    if (!s.steady[i]) continue;
+    Column c(p);
+    c.head<kBase>() << 1.0, s.x[i], Sign(s.v[i]), s.v[i], 1e-3 * s.a[i];
+    for (int k = 0; k < nc; ++k) {
+      const double w = kTwoPi * s.x[i] / s.ripple_periods[static_cast<std::size_t>(k)];
+      c[kBase + 2 * k] = std::cos(w);
+      c[kBase + 2 * k + 1] = std::sin(w);
+    }
+    const double w = s.Weight(i, s.steady_mass_kg);
+    ata.noalias() += w * c * c.transpose();
+    atd.noalias() += (w * delta[i]) * c;
+  }
+  const Eigen::VectorXd d = ata.ldlt().solve(atd);
+  return Eigen::Vector2d(-d[2], -d[3]);  // the known part grew: the fit's part shrinks
 }
 
 }  // namespace km::servo::detail

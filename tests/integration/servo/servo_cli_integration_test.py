@@ -69,6 +69,31 @@ def main():
         rc, out, err = run(km, ["servo", "joints", "--machine", "data/machines/pm600-like.json",
                                 "data/examples/servo_pm600-like_a_ccw.txt"], a.repo)
         check(rc == 2 and "direction" in err, "joints without a CW/CCW pair: %d %s" % (rc, err))
+        # Two feed-drive recordings joined: the second 100 mm further, 10 ms after the first's
+        # last sample. Exit 2 naming the line after the jump, pos_mm and the jump.
+        lines = open(os.path.join(a.repo, "data/examples/servo_x-strokes.txt")).read().splitlines()
+        head = [l for l in lines if l.startswith("#") or l.startswith("t_s")]
+        rows = [l.split(",") for l in lines[len(head):]]
+        t_end = float(rows[-1][0])
+        joined = os.path.join(tmp, "joined.txt")
+        second = ["%.3f,%.5f,%s" % (t_end + 0.01 + float(t), float(x) + 100.0, f)
+                  for t, x, f in rows]
+        open(joined, "w").write("\n".join(lines + second) + "\n")
+        rc, out, err = run(km, ["servo", "feed-drive", joined, "--json"], a.repo)
+        line_after = len(lines) + 1
+        check(rc == 2, "joined recordings exit %d" % rc)
+        check("joined.txt:%d" % line_after in err and "pos_mm" in err and "jumps by" in err
+              and "two recordings joined" in err, "joined recordings message: " + err)
+        check("steady motion in both directions" not in err, "joined: misleading reason " + err)
+        # The feed drive's LuGre keys: every parameter identifiable or null with the note.
+        rc, out, err = run(km, ["servo", "feed-drive", "data/examples/servo_x-strokes.txt",
+                                "--json"], a.repo)
+        if rc == 0:
+            f = json.loads(out)
+            for k, ok in (f.get("lugre_identifiable") or {}).items():
+                check(ok == (f["lugre"][k] is not None), "lugre %s null exactly when not "
+                      "identifiable" % k)
+                check(ok or k in f.get("lugre_note", ""), "lugre_note names " + k)
     for f in failures:
         print("FAIL:", f)
     print("ok" if not failures else "%d failure(s)" % len(failures))

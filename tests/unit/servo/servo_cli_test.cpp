@@ -1,7 +1,9 @@
 // `kinemetric servo identify | force | joints | feed-drive --json` run in-process on files of the
 // independent simulator: the documented keys (docs/formats.md §3.10–3.13), the values, the
 // machine written back, and bad input named.
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <sstream>
 
@@ -12,6 +14,7 @@
 #include "cli/command.h"
 #include "ingest/machine_json.h"
 #include "tests/unit/cli_test_fixture.h"
+#include "tests/unit/servo/feed_truth.h"
 #include "tests/unit/servo/servo_truth.h"
 
 namespace km::cli {
@@ -136,6 +139,62 @@ TEST_F(ServoCli, FeedDriveWithTheDbbTestsOfTheMachine) {
   EXPECT_EQ(j["dbb_comparison"][1]["direction"], "cw");
   EXPECT_GT(j["dbb_comparison"][0]["predicted_stick_motion_um"].get<double>(), 0.0);
   EXPECT_TRUE(j["dbb_comparison"][0]["measured"].is_array());
+}
+
+// Strokes at 10, 20 and 40 mm/s of the independent feed-drive simulator; `joined`: a second
+// recording appended whose positions are 100 mm further, 2 ms after the first's last sample.
+std::string FeedDriveText(bool joined) {
+  namespace ft = servo::feed_truth;
+  ft::Motion m = ft::BackAndForth(200.0, {10.0, 20.0, 40.0});
+  m.accel_mm_s2 = 300.0;
+  m.dwell_s = 0.5;
+  const auto first = ft::Simulate(ft::Drive{}, m, 3);
+  std::string text = ft::ServoText(first);
+  if (!joined) return text;
+  const auto second = ft::Simulate(ft::Drive{}, m, 4);
+  char buf[96];
+  for (std::size_t i = 0; i < second.t_s.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%.4f,%.7f,%.4f\n", first.t_s.back() + 2e-3 + second.t_s[i],
+                  second.x_mm[i] + 100.0, second.force_N[i]);
+    text += buf;
+  }
+  return text;
+}
+
+TEST_F(ServoCli, FeedDriveNamesTheLugreParametersItDetermines) {
+  const auto j = Run("servo feed-drive", {Write("x.txt", FeedDriveText(false))});
+  ASSERT_TRUE(j["lugre"].is_object()) << j.dump();
+  ASSERT_TRUE(j["lugre_identifiable"].is_object()) << j.dump();
+  for (const char* k :
+       {"Fc_N", "Fs_N", "vs_mm_s", "sigma0_N_per_um", "sigma1_N_s_per_mm", "sigma2_N_s_per_mm"}) {
+    ASSERT_TRUE(j["lugre_identifiable"][k].is_boolean()) << k;
+    // A parameter is given with its σ exactly when it is identifiable.
+    const bool ok = j["lugre_identifiable"][k].get<bool>();
+    EXPECT_EQ(j["lugre"][k].is_number(), ok) << k;
+    EXPECT_EQ(j["lugre_sigma"][k].is_number(), ok) << k;
+    if (!ok) {
+      EXPECT_NE(j["lugre_note"].get<std::string>().find(k), std::string::npos) << k;
+    }
+  }
+  EXPECT_NEAR(j["lugre"]["sigma2_N_s_per_mm"].get<double>(), 0.05,
+              3.0 * j["lugre_sigma"]["sigma2_N_s_per_mm"].get<double>());
+  EXPECT_GT(j["steady_samples"].get<double>(), 0.8 * j["samples"].get<double>());
+}
+
+TEST_F(ServoCli, FeedDriveRefusesJoinedRecordingsNamingTheJump) {
+  const std::string file = Write("joined.txt", FeedDriveText(true));
+  const std::string single = FeedDriveText(false);
+  const auto rows = static_cast<std::size_t>(std::count(single.begin(), single.end(), '\n'));
+  try {
+    Run("servo feed-drive", {file});
+    ADD_FAILURE() << "accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.file(), file);
+    EXPECT_EQ(e.line(), rows + 1);  // the first row of the second recording
+    EXPECT_EQ(e.field(), "pos_mm");
+    EXPECT_NE(std::string(e.what()).find("jumps by 100.000 mm in 2.000 ms"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST_F(ServoCli, BadInputIsNamed) {

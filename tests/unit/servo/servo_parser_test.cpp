@@ -3,7 +3,11 @@
 // and field.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "analysis/core/errors.h"
 #include "ingest/servo_parser.h"
@@ -130,6 +134,70 @@ TEST(ServoParser, RefusesBadFeedDriveInput) {
   ExpectBad(Edit(kSerial, "# force_constant_N_per_A: 50, 40", "# force_constant_N_per_A: 50"), 7,
             "force_constant_N_per_A");
   ExpectBad(Edit(kSerial, "0.2,2,1,5,2", "0.2,2,1,5,"), 11, "force_y");
+}
+
+// A feed-drive record of `n` samples every `dt` s moving at `speed` mm/s from 0; `jump_mm` added
+// to every position from sample `at` on (two recordings joined).
+std::string Stroke(int n, double dt, double speed, int at = -1, double jump_mm = 0.0,
+                   const std::vector<double>& times = {}) {
+  std::string s =
+      "# format: kinemetric-servo/1\n# machine_id: vmc\n# test_id: x\n# motion: path\n"
+      "# axis: X\n# force_unit: N\nt_s,pos_mm,force\n";  // rows from line 8
+  char buf[96];
+  for (int i = 0; i < n; ++i) {
+    const double t = times.empty() ? i * dt : times[static_cast<std::size_t>(i)];
+    const double x = speed * t + (at >= 0 && i >= at ? jump_mm : 0.0);
+    std::snprintf(buf, sizeof buf, "%.6f,%.6f,%.3f\n", t, x, 30.0);
+    s += buf;
+  }
+  return s;
+}
+
+TEST(ServoParser, RefusesJoinedRecordingsNamingTheJump) {
+  // 40 mm/s sampled every 2 ms; the position jumps 100 mm between the rows on lines 27 and 28.
+  const std::string joined = Stroke(50, 0.002, 40.0, 20, 100.0);
+  ExpectBad(joined, 28, "pos_mm");
+  try {
+    ParseServoFile(joined, "joined.txt");
+  } catch (const InvalidInput& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("joined.txt:28: field 'pos_mm'"), std::string::npos) << what;
+    EXPECT_NE(what.find("jumps by 100.080 mm in 2.000 ms from line 27"), std::string::npos) << what;
+    EXPECT_NE(what.find("two recordings joined"), std::string::npos) << what;
+  }
+  // Backwards too, and a glitch of one sample (the first jump is named).
+  ExpectBad(Stroke(50, 0.002, 40.0, 30, -55.5), 38, "pos_mm");
+  ExpectBad(Edit(Stroke(50, 0.002, 40.0), "0.020000,0.800000", "0.020000,1.800000"), 18, "pos_mm");
+  // A hexapod's tool-tip position: the same.
+  ExpectBad(Edit(kHexapod, "0.3,149.2,5.1", "0.3,149.2,305.1"), 12, "y_mm");
+}
+
+TEST(ServoParser, KeepsMotionThatOnlyLooksUneven) {
+  // A start from rest, a fast stroke at 1 kHz, a pause of the logger (one long interval at the
+  // same speed), time stamps rounded to the millisecond at 1.7 ms, a short move at 10 Hz.
+  EXPECT_NO_THROW(ParseServoFile(Stroke(40, 0.001, 500.0), "fast.txt"));
+  std::vector<double> paused;
+  for (int i = 0; i < 40; ++i) paused.push_back(i < 20 ? 0.002 * i : 0.002 * i + 1.5);
+  EXPECT_NO_THROW(ParseServoFile(Stroke(40, 0.002, 40.0, -1, 0.0, paused), "paused.txt"));
+  std::vector<double> rounded;
+  for (int i = 0; i < 40; ++i) rounded.push_back(std::round(1.7 * i) * 1e-3);
+  std::string jitter = Stroke(40, 0.0017, 40.0);  // positions at the true times…
+  std::string stamped = Stroke(40, 0.0017, 40.0, -1, 0.0, rounded);  // …times rounded
+  const auto rows = [](const std::string& s) { return s.substr(s.find("t_s,")); };
+  std::string mixed = stamped.substr(0, stamped.find("t_s,")) + "t_s,pos_mm,force\n";
+  {
+    std::istringstream a(rows(jitter)), b(rows(stamped));
+    std::string la, lb;
+    std::getline(a, la);
+    std::getline(b, lb);
+    while (std::getline(a, la) && std::getline(b, lb))
+      mixed += lb.substr(0, lb.find(',')) + la.substr(la.find(',')) + "\n";
+  }
+  EXPECT_NO_THROW(ParseServoFile(mixed, "rounded.txt"));
+  std::string rest_then_move = Stroke(10, 0.1, 0.0);
+  rest_then_move = Edit(rest_then_move, "0.500000,0.000000", "0.500000,0.100000");
+  rest_then_move = Edit(rest_then_move, "0.600000,0.000000", "0.600000,0.100000");
+  EXPECT_NO_THROW(ParseServoFile(rest_then_move, "short-move.txt"));
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // holding the pm600-like model and the servo records of the jig plan: identify (and save as the
 // next model version), joints with health levels, the force of one record; bad requests named.
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -217,6 +218,36 @@ TEST_F(ServoRoutes, BadRequestsAreNamed) {
   EXPECT_EQ(r.status, 400) << r.body;  // no CW/CCW pair
   r = Call("GET", "/api/v1/measurements/999999/servo/force", "");
   EXPECT_EQ(r.status, 404) << r.body;
+}
+
+// An upload of a feed-drive record whose position jumps 100 mm within 2 ms (two recordings
+// joined) is refused with 400, naming the file, the line after the jump and the jump; nothing
+// is stored.
+TEST_F(ServoRoutes, AJoinedFeedDriveUploadIsRefusedNamingTheJump) {
+  std::string text =
+      "# format: kinemetric-servo/1\n# machine_id: vmc\n# test_id: joined\n# motion: path\n"
+      "# axis: X\n# force_unit: N\nt_s,pos_mm,force\n";  // rows from line 8
+  char buf[96];
+  for (int i = 0; i < 60; ++i) {
+    std::snprintf(buf, sizeof buf, "%.3f,%.4f,31.5\n", 0.002 * i,
+                  0.08 * i + (i >= 30 ? 100.0 : 0.0));
+    text += buf;
+  }
+  Request req;
+  req.method = "POST";
+  req.path = "/api/v1/measurements";
+  req.headers["x-filename"] = "joined.txt";
+  req.body = text;
+  const Response r = router_.Dispatch(req);
+  EXPECT_EQ(r.status, 400) << r.body;
+  const json problem = json::parse(r.body);
+  EXPECT_EQ(problem["file"], "joined.txt") << r.body;
+  EXPECT_EQ(problem["line"], 38) << r.body;
+  EXPECT_EQ(problem["field"], "pos_mm") << r.body;
+  EXPECT_NE(problem["reason"].get<std::string>().find("jumps by 100.080 mm in 2.000 ms"),
+            std::string::npos)
+      << r.body;
+  EXPECT_EQ(Call("GET", "/api/v1/measurements", "").body.find("joined"), std::string::npos);
 }
 
 }  // namespace
