@@ -1,6 +1,7 @@
 #include "analysis/dbb/diagnosis_search.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iterator>
 #include <numbers>
@@ -110,9 +111,10 @@ double SpikeReach(double w, double exponent) {
   return std::pow(7.0 * exponent, 1.0 / exponent) * w;
 }
 
-// Gain (diagnosis_fit.h Gain) of the unit-height spike of width w (rad) and exponent k.
+// Gain (diagnosis_fit.h Gain) of the unit-height spike of width w (rad) and exponent k, and
+// the spike's height in the fit of base + spike (when wanted).
 double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w, double exponent,
-                 VectorXd& v) {
+                 VectorXd& v, double* height = nullptr) {
   const double phimax = SpikeReach(w, exponent);
   const Eigen::Index len =
       std::upper_bound(f.phi.data(), f.phi.data() + f.phi.size(), phimax) - f.phi.data();
@@ -137,6 +139,9 @@ double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w,
   }
   if (b.m > 0) den -= h.head(b.m).dot(b.ninv * h.head(b.m));
   if (!(den > 1e-9 * raw)) return 0.0;
+  // The residual is orthogonal to the base and the set-up: rs is the projection on the part of
+  // the spike they leave, whose squared norm is den.
+  if (height) *height = rs / den;
   return rs * rs / den;
 }
 
@@ -169,15 +174,16 @@ std::pair<double, double> GoldenMax(F&& f, double lo, double hi, int iterations)
 // Width (and decay shape) of the spike that most reduces the residual of the base:
 // log-spaced scan of `grid` widths over [lo, hi] for each decay shape, then golden section
 // between the neighbours of the best.
-SpikeShape SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo,
-                       double hi, int grid) {
-  SpikeShape best;
+SpikeFit SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo, double hi,
+                     int grid) {
+  std::array<SpikeShape, 2> best;
   const int kGrid = std::max(grid, 3);
   const double llo = std::log(lo), lhi = std::log(hi);
   const SpikeFrame frame =
       MakeSpikeFrame(p, o, b, std::max(SpikeReach(hi * kDeg, 1.0), SpikeReach(hi * kDeg, 2.0)));
   VectorXd v;
-  for (double k : {1.0, 2.0}) {
+  for (std::size_t shape = 0; shape < 2; ++shape) {
+    const double k = shape == 0 ? 1.0 : 2.0;
     auto gain = [&](double lw) { return SpikeGain(p, b, frame, std::exp(lw) * kDeg, k, v); };
     std::vector<double> lw(kGrid), g(kGrid);
     int jb = 0;
@@ -193,9 +199,19 @@ SpikeShape SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, 
       xb = x;
       gb = val;
     }
-    if (gb > best.gain) best = {std::exp(xb), k, gb};
+    best[shape] = {std::exp(xb), k, gb, 0.0};
+    SpikeGain(p, b, frame, best[shape].width * kDeg, k, v, &best[shape].height);
   }
-  return best;
+  // The exponential decay wins a tie (the former model).
+  return best[1].gain > best[0].gain ? SpikeFit{best[1], best[0]} : SpikeFit{best[0], best[1]};
+}
+
+double ShapeDoubtVariance(const SpikeFit& f, double s2) {
+  if (!(s2 > 0.0) || !(f.other.gain > 0.0)) return 0.0;
+  const double x = (f.best.gain - f.other.gain) / (2.0 * s2);
+  const double p_other = x > 700.0 ? 0.0 : 1.0 / (1.0 + std::exp(x));
+  const double d = f.best.height - f.other.height;
+  return p_other * d * d;
 }
 
 StickZones MakeStickZones(const Problem& p) {

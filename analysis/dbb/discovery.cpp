@@ -306,7 +306,7 @@ DiscoveryRun::DiscoveryRun(const std::vector<DiagnosisTrace>& traces, Plane plan
   const auto axes = AxisLetters(plane);
   first_ = axes.first;
   second_ = axes.second;
-  p_ = StackTraces(traces);
+  p_ = StackTraces(traces, /*leave_out_reversals=*/true);
   e0_ = p_.y;
   p_.RemoveSetup(e0_, &setup_);
   BuildFixedVariants();

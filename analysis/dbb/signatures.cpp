@@ -35,13 +35,15 @@ void StackedTraces::RemoveSetup(VectorXd& col, std::vector<Eigen::Vector3d>* coe
   }
 }
 
-StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
+StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_out_reversals) {
   StackedTraces p;
   p.traces = static_cast<int>(traces.size());
   p.begin.push_back(0);
   std::size_t total = 0;
   for (const auto& tr : traces) total += tr.angle_rad.size();
   p.samples.reserve(total);
+  std::vector<double> y;
+  y.reserve(total);
   for (const auto& tr : traces) {
     if (tr.angle_rad.size() != tr.dev_um.size() || tr.angle_rad.size() < 16) {
       throw InvalidInput("", 0, "dr_um", "diagnosis needs at least 16 samples per trace");
@@ -58,12 +60,14 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
         tr.cos_angle.size() == tr.angle_rad.size() && tr.sin_angle.size() == tr.angle_rad.size();
     for (std::size_t i = 0; i < tr.angle_rad.size(); ++i) {
       const double th = tr.angle_rad[i];
+      if (leave_out_reversals && effects::internal::AtAxisReversal(th)) continue;
       SignatureSample s{cached ? effects::Angle<double>{th, tr.cos_angle[i], tr.sin_angle[i]}
                                : effects::MakeAngle(th),
                         t};
       const Eigen::Vector3d v(s.a.c, s.a.s, 1.0);
       g += v * v.transpose();
       p.samples.push_back(s);
+      y.push_back(tr.dev_um[i]);
     }
     if (std::abs(g.determinant()) < 1e-9 * std::pow(static_cast<double>(tr.angle_rad.size()), 3)) {
       throw InvalidInput("", 0, "angle_deg", "the trace does not go around the circle");
@@ -78,12 +82,7 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
     p.cos_a[i] = p.samples[static_cast<std::size_t>(i)].a.c;
     p.sin_a[i] = p.samples[static_cast<std::size_t>(i)].a.s;
   }
-  p.y.resize(p.n);
-  {
-    int i = 0;
-    for (const auto& tr : traces)
-      for (double d : tr.dev_um) p.y[i++] = d;
-  }
+  p.y = Eigen::Map<const VectorXd>(y.data(), p.n);
   return p;
 }
 

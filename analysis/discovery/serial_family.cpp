@@ -168,7 +168,7 @@ SerialFamily::SerialFamily(const std::vector<dbb::DiagnosisTrace>& traces,
       fold_key_.push_back(ids.at(key_names[t]));
     }
   }
-  p_ = dbb::StackTraces(groups);
+  p_ = dbb::StackTraces(groups, /*leave_out_reversals=*/true);
   e0_ = p_.y;
   p_.RemoveSetup(e0_, &setup_y_);
   // The signatures are first order in e/R: below the second-order term of the bar length
