@@ -65,6 +65,12 @@ void AddSpikeFigures(const Problem& p, const Candidate& c, DiagnosisEntry& en) {
   }
 }
 
+// The best width of each decay shape of a search (exponential first).
+std::array<double, 2> SpikeWidths(const SpikeFit& s) {
+  return s.best.exponent == 1.0 ? std::array<double, 2>{s.best.width, s.other.width}
+                                : std::array<double, 2>{s.other.width, s.best.width};
+}
+
 // Entry of a fitted candidate: value, uncertainty, contributions.
 DiagnosisEntry MakeEntry(const Problem& p, const Candidate& c, const FitResult& f, std::size_t j,
                          char first, char second) {
@@ -180,11 +186,12 @@ class DiagnosisRun {
   void RefineCyclicPeriods(FitResult& f3);
   void RefineShapes(FitResult& f3);
   struct Refined {
-    std::optional<std::vector<double>> shape;  // none: unchanged
-    double shape_doubt_var = 0.0;              // spikes: Candidate::shape_doubt_var
+    std::optional<std::vector<double>> shape;      // none: unchanged
+    double shape_doubt_var = 0.0;                  // spikes: Candidate::shape_doubt_var
+    std::array<double, 2> spike_widths{0.0, 0.0};  // spikes: Candidate::spike_widths
   };
-  Refined RefinedShape(const FitContext& ctx, const std::vector<Candidate>& cands,
-                       std::size_t q) const;
+  Refined RefinedShape(const FitContext& ctx, const std::vector<Candidate>& cands, std::size_t q,
+                       bool near_known = false) const;
   void RefineNamedSpikes(std::vector<Candidate>& chosen);
   std::vector<Candidate> Screen(const FitResult& f3, DiagnosisResult& res);
   bool SpikeResolved(const Candidate& c) const;
@@ -281,19 +288,25 @@ void DiagnosisRun::AddSpikes(const FitResult& f1) {
     return;
   }
   const Base b1 = MakeBase(f1);
-  std::array<SpikeShape, 2> shape;
+  std::array<SpikeFit, 2> shape;
   ParallelFor(
       2,
       [&](std::size_t axis) {
-        shape[axis] = SearchSpike(p_, order_[axis], b1, spike_lo_, spike_hi_, 10).best;
+        shape[axis] = SearchSpike(p_, order_[axis], b1, spike_lo_, spike_hi_, 10);
       },
       threads_);
   std::vector<CandidateSpec> found;
+  std::vector<std::array<double, 2>> widths;
   for (std::size_t axis = 0; axis < 2; ++axis) {
+    const SpikeFit& s = shape[axis];
     const EffectId id = axis == 0 ? EffectId::kReversalSpikeU : EffectId::kReversalSpikeV;
-    if (shape[axis].gain > 0.0) found.push_back({id, {shape[axis].width, shape[axis].exponent}});
+    if (!(s.best.gain > 0.0)) continue;
+    found.push_back({id, {s.best.width, s.best.exponent}});
+    widths.push_back(SpikeWidths(s));
   }
   for (auto& c : MakeCandidates(p_, found, threads_)) cands_.push_back(std::move(c));
+  for (std::size_t k = 0; k < widths.size(); ++k)
+    cands_[cands_.size() - widths.size() + k].spike_widths = widths[k];
 }
 
 // Stick-slip, then cyclic errors, each searched on the residual of the model so far. The two
@@ -461,26 +474,34 @@ void DiagnosisRun::RefineShapes(FitResult& f3) {
   }
   std::vector<Candidate> refined = MakeCandidates(p_, specs, threads_);
   for (std::size_t k = 0; k < changed.size(); ++k) cands_[changed[k]] = std::move(refined[k]);
-  for (std::size_t k = 0; k < todo.size(); ++k)
+  for (std::size_t k = 0; k < todo.size(); ++k) {
     cands_[todo[k]].shape_doubt_var = shape[k].shape_doubt_var;
+    if (shape[k].spike_widths[0] > 0.0) cands_[todo[k]].spike_widths = shape[k].spike_widths;
+  }
   if (!changed.empty()) f3 = FitAll(cands_);
 }
 
 // The shape of candidate q refitted against every other candidate (none when the search finds
 // nothing or the shape is exact), and for a spike the doubt about its decay shape: the noise
-// variance is that of the base with the spike, one height and one width more.
+// variance is that of the base with the spike, one height and one width more. A spike's width is
+// searched over the whole range, or with `near_known` near the widths found before
+// (RefineSpike: the named effects' refit, where a width moves little).
 DiagnosisRun::Refined DiagnosisRun::RefinedShape(const FitContext& ctx,
-                                                 const std::vector<Candidate>& cands,
-                                                 std::size_t q) const {
+                                                 const std::vector<Candidate>& cands, std::size_t q,
+                                                 bool near_known) const {
   const EffectId id = cands[q].id;
   const Base b = MakeBase(Fit(ctx, Pointers(cands, q)));
   if (IsSpike(id)) {
     const auto axis = static_cast<std::size_t>(id == EffectId::kReversalSpikeU ? 0 : 1);
-    const SpikeFit s = SearchSpike(p_, order_[axis], b, spike_lo_, spike_hi_, 8);
+    const auto& known = cands[q].spike_widths;
+    const SpikeFit s = near_known && known[0] > 0.0 && known[1] > 0.0
+                           ? RefineSpike(p_, order_[axis], b, known, spike_lo_, spike_hi_)
+                           : SearchSpike(p_, order_[axis], b, spike_lo_, spike_hi_, 8);
     if (!(s.best.gain > 0.0)) return {};
     const int dof = p_.n - 3 * p_.traces - b.m - 2;
     const double s2 = dof > 0 ? std::max(0.0, b.r.squaredNorm() - s.best.gain) / dof : 0.0;
-    return {std::vector<double>{s.best.width, s.best.exponent}, ShapeDoubtVariance(s, s2)};
+    return {std::vector<double>{s.best.width, s.best.exponent}, ShapeDoubtVariance(s, s2),
+            SpikeWidths(s)};
   }
   const double period = cands[q].shape[0];
   const double tol = period * 1e-6;
@@ -505,11 +526,13 @@ void DiagnosisRun::RefineNamedSpikes(std::vector<Candidate>& chosen) {
   ctx.threads = 1;
   std::vector<Refined> shape(todo.size());
   ParallelFor(
-      todo.size(), [&](std::size_t k) { shape[k] = RefinedShape(ctx, chosen, todo[k]); }, threads_);
+      todo.size(), [&](std::size_t k) { shape[k] = RefinedShape(ctx, chosen, todo[k], true); },
+      threads_);
   for (std::size_t k = 0; k < todo.size(); ++k) {
     Candidate& c = chosen[todo[k]];
     if (shape[k].shape && *shape[k].shape != c.shape) c = MakeCandidate(p_, c.id, *shape[k].shape);
     c.shape_doubt_var = shape[k].shape_doubt_var;
+    c.spike_widths = shape[k].spike_widths;
   }
 }
 

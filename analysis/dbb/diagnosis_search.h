@@ -3,6 +3,7 @@
 // its signature conditional on a fixed base fit (diagnosis_fit.h). Internal to analysis/dbb.
 #pragma once
 
+#include <array>
 #include <utility>
 #include <vector>
 
@@ -48,6 +49,15 @@ struct SpikeFit {
 // reduction is the larger likelihood.
 SpikeFit SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo, double hi,
                      int grid);
+
+// The same refined near known widths: for each decay shape a golden section over [w/f, w·f]
+// (f = kSpikeRefineFactor) about its width `widths[shape]` (shape 0 exponential, 1 Gaussian-like),
+// within [lo, hi] degrees, the start kept when nothing near it is better. After the search over
+// the whole range, a spike's width moves by much less than that when other effects join or
+// leave the model, and only the samples near the reversals are then read.
+inline constexpr double kSpikeRefineFactor = 1.8;
+SpikeFit RefineSpike(const Problem& p, const ReversalOrder& o, const Base& b,
+                     const std::array<double, 2>& widths, double lo, double hi);
 
 // Variance to add to the height of `f.best` for the doubt about its decay shape: the other
 // shape's probability (likelihood ratio exp(−Δ/2σ²), Δ the difference of the reductions, equal

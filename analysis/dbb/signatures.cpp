@@ -78,9 +78,11 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_
   p.n = static_cast<int>(p.samples.size());
   p.cos_a.resize(p.n);
   p.sin_a.resize(p.n);
+  p.theta.resize(p.n);
   for (int i = 0; i < p.n; ++i) {
     p.cos_a[i] = p.samples[static_cast<std::size_t>(i)].a.c;
     p.sin_a[i] = p.samples[static_cast<std::size_t>(i)].a.s;
+    p.theta[i] = p.samples[static_cast<std::size_t>(i)].a.theta;
   }
   p.y = Eigen::Map<const VectorXd>(y.data(), p.n);
   return p;
@@ -119,12 +121,19 @@ void SignatureRows(const StackedTraces& p, effects::EffectId id, int from, int t
       const auto q = static_cast<std::size_t>(k - 1);
       params[k] = q < shape.size() ? shape[q] : 1.0;
     }
-    VectorXd& col = cols[0];
+    // The rows are one trace's: its context is read once, the angles from contiguous arrays
+    // (simple models then compile to vector instructions).
+    const auto& ctx =
+        p.ctx[static_cast<std::size_t>(p.samples[static_cast<std::size_t>(from)].trace)];
+    const double* cs = p.cos_a.data();
+    const double* sn = p.sin_a.data();
+    const double* th = p.theta.data();
+    double* col = cols[0].data();
     for (int i = from; i < to; ++i) {
-      const auto& s = p.samples[static_cast<std::size_t>(i)];
+      const effects::Angle<double> a{th[i], cs[i], sn[i]};
       double e[2];
-      M::template PositionError<double>(p.ctx[static_cast<std::size_t>(s.trace)], s.a, params, e);
-      col[i] = e[0] * s.a.c + e[1] * s.a.s;
+      M::template PositionError<double>(ctx, a, params, e);
+      col[i] = e[0] * a.c + e[1] * a.s;
     }
   } else {
     // Several linear parameters: all columns in one evaluation (effects::RadialBasis, its

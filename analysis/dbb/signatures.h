@@ -44,7 +44,7 @@ struct StackedTraces {
   std::vector<std::size_t> begin;  // first sample of each trace (plus end)
   std::vector<effects::EffectContext> ctx;
   std::vector<Eigen::Matrix3d> setup_inv;  // (S_tᵀ S_t)⁻¹
-  Eigen::VectorXd cos_a, sin_a;            // cos θ, sin θ of the samples (contiguous)
+  Eigen::VectorXd cos_a, sin_a, theta;     // cos θ, sin θ, θ of the samples (contiguous)
   Eigen::VectorXd y;
   int n = 0;
   int traces = 0;

@@ -106,7 +106,7 @@ inline ReversalPhase<T> PhaseSinceReversal(const T& theta, double theta0, int s)
     phi = phi - kPi;
   }
   if (ScalarPart(phi) < 0.0) phi = T(0.0);
-  return {phi, std::fmod(k, 2.0) == 0.0 ? 1.0 : -1.0};
+  return {phi, (static_cast<long long>(k) & 1) == 0 ? 1.0 : -1.0};
 }
 
 // Whether θ (rad) is at a reversal of either axis of the plane (a multiple of 90°, within

@@ -49,22 +49,23 @@ struct ReversalSpike {
   // Phi = the angle travelled since the axis reversed (rad). A sample at the reversal itself
   // (within internal::kAtReversalRad) is the spike's peak, on the side the axis moves to.
   template <typename T>
+  static internal::ReversalPhase<T> Phase(const EffectContext& c, const Angle<T>& a) {
+    return internal::PhaseSinceReversal(a.theta, internal::AxisReversalAngle(Axis), c.direction);
+  }
+  template <typename T>
   static double Side(const EffectContext& c, const Angle<T>& a) {
-    return internal::PhaseSinceReversal(a.theta, internal::AxisReversalAngle(Axis), c.direction)
-        .side;
+    return Phase(c, a).side;
   }
   template <typename T>
   static T Phi(const EffectContext& c, const Angle<T>& a) {
-    return internal::PhaseSinceReversal(a.theta, internal::AxisReversalAngle(Axis), c.direction)
-        .phi;
+    return Phase(c, a).phi;
   }
 
   template <typename T>
   static void PositionError(const EffectContext& c, const Angle<T>& a, const T* p, T* e) {
     const T w = p[1] * (std::numbers::pi / 180.0);
     e[1 - Axis] = T(0.0);
-    const auto ph =
-        internal::PhaseSinceReversal(a.theta, internal::AxisReversalAngle(Axis), c.direction);
+    const auto ph = Phase(c, a);
     e[Axis] = T(ph.side * p[0] * Decay(ph.phi, w, internal::ScalarPart(p[2])));
   }
   static std::vector<double> Value(const EffectContext&, const double* p) { return {p[0]}; }
