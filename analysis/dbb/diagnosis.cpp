@@ -27,6 +27,10 @@ using effects::EffectId;
 using Eigen::VectorXd;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
+// Sample steps a spike must cover above e⁻² of its height to be named (DiagnosisRun::Screen).
+constexpr double kSpikeMinSamples = 3.0;
+constexpr const char* kUnresolvedSpike =
+    " (narrower than the samples resolve: its height is not determined)";
 
 // |value| / σ, finite also for noise-free data (σ = 0).
 double ZScore(double value, double sigma) {
@@ -41,6 +45,30 @@ double Range(const VectorXd& v, std::size_t b, std::size_t e) {
     mx = std::max(mx, v[static_cast<Eigen::Index>(i)]);
   }
   return mx - mn;
+}
+
+// A reversal spike's decay shape, its width in time (the decay constant τ of an exponential
+// decay; the standard width of a Gaussian-like one): width_deg · π/180 · R / V, with R and V the
+// first trace's radius and feed (a pair runs both at one feed), and the doubt about the decay
+// shape added to the height's uncertainty.
+void AddSpikeFigures(const Problem& p, const Candidate& c, DiagnosisEntry& en) {
+  en.shape_kind = c.shape.size() > 1 && c.shape[1] == 2.0 ? "gaussian" : "exponential";
+  if (p.ctx[0].SpeedMmPerS() > 0.0) {
+    const double s_per_deg = kDeg * p.ctx[0].radius_mm / p.ctx[0].SpeedMmPerS();
+    en.shape["width_s"] = en.shape.at("width_deg") * s_per_deg;
+    const auto u = en.shape_uncertainty.find("width_deg");
+    if (u != en.shape_uncertainty.end()) en.shape_uncertainty["width_s"] = u->second * s_per_deg;
+  }
+  if (c.shape_doubt_var > 0.0) {
+    en.uncertainty[0] = std::sqrt(en.uncertainty[0] * en.uncertainty[0] + c.shape_doubt_var);
+    en.significance = ZScore(en.value[0], en.uncertainty[0]);
+  }
+}
+
+// The best width of each decay shape of a search (exponential first).
+std::array<double, 2> SpikeWidths(const SpikeFit& s) {
+  return s.best.exponent == 1.0 ? std::array<double, 2>{s.best.width, s.other.width}
+                                : std::array<double, 2>{s.other.width, s.best.width};
 }
 
 // Entry of a fitted candidate: value, uncertainty, contributions.
@@ -60,13 +88,11 @@ DiagnosisEntry MakeEntry(const Problem& p, const Candidate& c, const FitResult& 
   en.significance = est.z;
   for (std::size_t k = 0; k < c.shape.size(); ++k)
     en.shape[info.param_names[static_cast<std::size_t>(nl) + k]] = c.shape[k];
-  if (IsSpike(c.id)) {
-    en.shape_kind = c.shape.size() > 1 && c.shape[1] == 2.0 ? "gaussian" : "exponential";
-  }
   const auto sh = f.shape_sigma.find(static_cast<int>(j));
   if (sh != f.shape_sigma.end()) {
     en.shape_uncertainty[info.param_names[static_cast<std::size_t>(nl)]] = sh->second;
   }
+  if (IsSpike(c.id)) AddSpikeFigures(p, c, en);
   const VectorXd sig = f.Combine(off, nl, p.n);
   for (int t = 0; t < p.traces; ++t)
     en.peak_to_valley_um.push_back(Range(sig, p.begin[t], p.begin[t + 1]));
@@ -159,8 +185,16 @@ class DiagnosisRun {
   void AddCyclicErrors(const std::array<double, 2>& found);
   void RefineCyclicPeriods(FitResult& f3);
   void RefineShapes(FitResult& f3);
-  std::optional<std::vector<double>> RefinedShape(const FitContext& ctx, std::size_t q) const;
+  struct Refined {
+    std::optional<std::vector<double>> shape;      // none: unchanged
+    double shape_doubt_var = 0.0;                  // spikes: Candidate::shape_doubt_var
+    std::array<double, 2> spike_widths{0.0, 0.0};  // spikes: Candidate::spike_widths
+  };
+  Refined RefinedShape(const FitContext& ctx, const std::vector<Candidate>& cands, std::size_t q,
+                       bool near_known = false) const;
+  void RefineNamedSpikes(std::vector<Candidate>& chosen);
   std::vector<Candidate> Screen(const FitResult& f3, DiagnosisResult& res);
+  bool SpikeResolved(const Candidate& c) const;
   VectorXd NameEffects(const std::vector<Candidate>& chosen, const FitResult& f4,
                        DiagnosisResult& res);
   DiagnosisEntry SetupEntry(EffectId id, std::vector<double> value,
@@ -194,7 +228,7 @@ DiagnosisRun::DiagnosisRun(const std::vector<DiagnosisTrace>& traces, Plane plan
   const auto axes = AxisLetters(plane);
   first_ = axes.first;
   second_ = axes.second;
-  static_cast<StackedTraces&>(p_) = StackTraces(traces);
+  static_cast<StackedTraces&>(p_) = StackTraces(traces, /*leave_out_reversals=*/true);
   // Set-up fit (centre, radius per trace) and the residual about it.
   e0_ = p_.y;
   p_.RemoveSetup(e0_, &setup_);
@@ -233,7 +267,8 @@ DiagnosisResult DiagnosisRun::Run() {
   res.not_identifiable = f3.dropped;
   res.not_identifiable.insert(res.not_identifiable.end(), not_assessed_.begin(),
                               not_assessed_.end());
-  const std::vector<Candidate> chosen = Screen(f3, res);
+  std::vector<Candidate> chosen = Screen(f3, res);
+  RefineNamedSpikes(chosen);
   // Refit with the named form effects only; uncertainties with the fitted shapes.
   FitResult f4 = FitAll(chosen);
   AugmentShapes(p_, chosen, f4, threads_);
@@ -253,7 +288,7 @@ void DiagnosisRun::AddSpikes(const FitResult& f1) {
     return;
   }
   const Base b1 = MakeBase(f1);
-  std::array<SpikeShape, 2> shape;
+  std::array<SpikeFit, 2> shape;
   ParallelFor(
       2,
       [&](std::size_t axis) {
@@ -261,11 +296,17 @@ void DiagnosisRun::AddSpikes(const FitResult& f1) {
       },
       threads_);
   std::vector<CandidateSpec> found;
+  std::vector<std::array<double, 2>> widths;
   for (std::size_t axis = 0; axis < 2; ++axis) {
+    const SpikeFit& s = shape[axis];
     const EffectId id = axis == 0 ? EffectId::kReversalSpikeU : EffectId::kReversalSpikeV;
-    if (shape[axis].gain > 0.0) found.push_back({id, {shape[axis].width, shape[axis].exponent}});
+    if (!(s.best.gain > 0.0)) continue;
+    found.push_back({id, {s.best.width, s.best.exponent}});
+    widths.push_back(SpikeWidths(s));
   }
   for (auto& c : MakeCandidates(p_, found, threads_)) cands_.push_back(std::move(c));
+  for (std::size_t k = 0; k < widths.size(); ++k)
+    cands_[cands_.size() - widths.size() + k].spike_widths = widths[k];
 }
 
 // Stick-slip, then cyclic errors, each searched on the residual of the model so far. The two
@@ -418,46 +459,81 @@ void DiagnosisRun::RefineShapes(FitResult& f3) {
   for (std::size_t q = 0; q < cands_.size(); ++q)
     if (HasFittedShape(cands_[q].id) && z[q] >= 2.0) todo.push_back(q);
   if (todo.empty()) return;
-  std::vector<std::optional<std::vector<double>>> shape(todo.size());
+  std::vector<Refined> shape(todo.size());
   FitContext ctx = ctx_;
   ctx.read_only_cache = true;
   ctx.threads = 1;
   ParallelFor(
-      todo.size(), [&](std::size_t k) { shape[k] = RefinedShape(ctx, todo[k]); }, threads_);
+      todo.size(), [&](std::size_t k) { shape[k] = RefinedShape(ctx, cands_, todo[k]); }, threads_);
   std::vector<std::size_t> changed;
   std::vector<CandidateSpec> specs;
   for (std::size_t k = 0; k < todo.size(); ++k) {
-    if (!shape[k]) continue;
+    if (!shape[k].shape) continue;
     changed.push_back(todo[k]);
-    specs.push_back({cands_[todo[k]].id, std::move(*shape[k])});
+    specs.push_back({cands_[todo[k]].id, std::move(*shape[k].shape)});
   }
-  if (changed.empty()) return;
   std::vector<Candidate> refined = MakeCandidates(p_, specs, threads_);
   for (std::size_t k = 0; k < changed.size(); ++k) cands_[changed[k]] = std::move(refined[k]);
-  f3 = FitAll(cands_);
+  for (std::size_t k = 0; k < todo.size(); ++k) {
+    cands_[todo[k]].shape_doubt_var = shape[k].shape_doubt_var;
+    if (shape[k].spike_widths[0] > 0.0) cands_[todo[k]].spike_widths = shape[k].spike_widths;
+  }
+  if (!changed.empty()) f3 = FitAll(cands_);
 }
 
-// The shape of candidate q refitted against every other candidate; none when the search finds
-// nothing or the shape is exact.
-std::optional<std::vector<double>> DiagnosisRun::RefinedShape(const FitContext& ctx,
-                                                              std::size_t q) const {
-  const EffectId id = cands_[q].id;
-  const Base b = MakeBase(Fit(ctx, Pointers(cands_, q)));
+// The shape of candidate q refitted against every other candidate (none when the search finds
+// nothing or the shape is exact), and for a spike the doubt about its decay shape: the noise
+// variance is that of the base with the spike, one height and one width more. A spike's width is
+// searched over the whole range, or with `near_known` near the widths found before
+// (RefineSpike: the named effects' refit, where a width moves little).
+DiagnosisRun::Refined DiagnosisRun::RefinedShape(const FitContext& ctx,
+                                                 const std::vector<Candidate>& cands, std::size_t q,
+                                                 bool near_known) const {
+  const EffectId id = cands[q].id;
+  const Base b = MakeBase(Fit(ctx, Pointers(cands, q)));
   if (IsSpike(id)) {
     const auto axis = static_cast<std::size_t>(id == EffectId::kReversalSpikeU ? 0 : 1);
-    const SpikeShape s = SearchSpike(p_, order_[axis], b, spike_lo_, spike_hi_, 8);
-    if (s.gain > 0.0) return std::vector<double>{s.width, s.exponent};
-    return std::nullopt;
+    const auto& known = cands[q].spike_widths;
+    const SpikeFit s = near_known && known[0] > 0.0 && known[1] > 0.0
+                           ? RefineSpike(p_, order_[axis], b, known, spike_lo_, spike_hi_)
+                           : SearchSpike(p_, order_[axis], b, spike_lo_, spike_hi_, 8);
+    if (!(s.best.gain > 0.0)) return {};
+    const int dof = p_.n - 3 * p_.traces - b.m - 2;
+    const double s2 = dof > 0 ? std::max(0.0, b.r.squaredNorm() - s.best.gain) / dof : 0.0;
+    return {std::vector<double>{s.best.width, s.best.exponent}, ShapeDoubtVariance(s, s2),
+            SpikeWidths(s)};
   }
-  const double period = cands_[q].shape[0];
+  const double period = cands[q].shape[0];
   const double tol = period * 1e-6;
   // The teeth fall on the samples: the period is exact.
-  if (!CommensuratePeriods(period - tol, period + tol, median_step_).empty()) return std::nullopt;
+  if (!CommensuratePeriods(period - tol, period + tol, median_step_).empty()) return {};
   Sparse buf;
   const auto r =
       RefineStickPeriod(p_, zones_, b, period, period * period / 180.0 / 32.0, median_step_, buf);
-  if (r.second > 0.0) return std::vector<double>{r.first};
-  return std::nullopt;
+  if (r.second > 0.0) return {std::vector<double>{r.first}};
+  return {};
+}
+
+// The widths and decay shapes of the chosen spikes once more, against the chosen effects only:
+// the final fit's covariance is that of the final model, and the shapes are then its own.
+void DiagnosisRun::RefineNamedSpikes(std::vector<Candidate>& chosen) {
+  std::vector<std::size_t> todo;
+  for (std::size_t q = 0; q < chosen.size(); ++q)
+    if (IsSpike(chosen[q].id)) todo.push_back(q);
+  if (todo.empty()) return;
+  FitContext ctx = ctx_;
+  ctx.read_only_cache = true;
+  ctx.threads = 1;
+  std::vector<Refined> shape(todo.size());
+  ParallelFor(
+      todo.size(), [&](std::size_t k) { shape[k] = RefinedShape(ctx, chosen, todo[k], true); },
+      threads_);
+  for (std::size_t k = 0; k < todo.size(); ++k) {
+    Candidate& c = chosen[todo[k]];
+    if (shape[k].shape && *shape[k].shape != c.shape) c = MakeCandidate(p_, c.id, *shape[k].shape);
+    c.shape_doubt_var = shape[k].shape_doubt_var;
+    c.spike_widths = shape[k].spike_widths;
+  }
 }
 
 // Every estimated effect becomes a candidate entry; the significant ones with enough
@@ -476,12 +552,25 @@ std::vector<Candidate> DiagnosisRun::Screen(const FitResult& f3, DiagnosisResult
   Normalise(p_, ptrs, f3.residual);
   std::vector<Candidate> chosen;
   for (std::size_t j = 0; j < stage3.size(); ++j) {
+    Candidate& c = cands_[static_cast<std::size_t>(f3.kept[j])];
     if (Significant(stage3[j], opt_) && stage3[j].MaxContribution() >= opt_.min_contribution_pct) {
-      chosen.push_back(std::move(cands_[static_cast<std::size_t>(f3.kept[j])]));
+      if (IsSpike(c.id) && !SpikeResolved(c)) {
+        res.not_identifiable.push_back(stage3[j].effect + kUnresolvedSpike);
+      } else {
+        chosen.push_back(std::move(c));
+      }
     }
     res.candidates.push_back(std::move(stage3[j]));
   }
   return chosen;
+}
+
+// A spike of width w is above e⁻² of its height for φ ≤ 2w, whichever its decay shape: its
+// height and width are told apart by at least kSpikeMinSamples sample steps there. A narrower
+// one shows on a sample or two after each reversal, whose values any height fits with a width to
+// match: its height is not determined by the samples.
+bool DiagnosisRun::SpikeResolved(const Candidate& c) const {
+  return 2.0 * c.shape[0] >= kSpikeMinSamples * median_step_;
 }
 
 // Named effects of the final fit, their summed model per trace, and the set-up terms net of

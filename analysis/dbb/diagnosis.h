@@ -15,8 +15,13 @@
 //    residual sum of squares is profiled over w (variable projection: every linear parameter
 //    refitted at each w; a log-spaced scan over [spike_min_width_deg, spike_max_width_deg],
 //    the lower end raised to half the median sample step, then golden section), for both decay
-//    shapes; the shape with the smaller residual is reported (spike_shape). Widths are
-//    refitted jointly with everything else once the model is complete;
+//    shapes; the shape of larger likelihood (the smaller residual: both have one height and one
+//    width) is reported (spike_shape), and the doubt about it is added to the height's variance
+//    (diagnosis_search.h ShapeDoubtVariance). Widths are refitted jointly with everything else
+//    once the model is complete, and once more against the named effects before the final fit.
+//    A spike narrower than 1.5 median sample steps is not named (its height is not determined
+//    by the samples) but listed as not identifiable. Samples ON an axis reversal are left out
+//    (signatures.h StackTraces): which side of the jump they show is a matter of rounding;
 //  * a cyclic period is the peak of a periodogram of the residual over the axis position
 //    (binned, zero-padded DFT, parabolic peak interpolation), accepted when its projection
 //    energy exceeds χ² = 40 noise variances, then refined by one backfitting step (golden
@@ -116,7 +121,8 @@ struct DiagnosisEntry {
   std::vector<double> contribution_pct;   // per trace, input order
   std::vector<double> peak_to_valley_um;  // per trace: range of the effect's own signature
   double significance = 0.0;              // |value| / uncertainty (norm for two values)
-  std::map<std::string, double> shape;    // shape parameters, e.g. period_mm, width_deg
+  std::map<std::string, double> shape;    // shape parameters, e.g. period_mm, width_deg (and
+                                          // for spikes width_s, the width in seconds)
   std::map<std::string, double> shape_uncertainty;  // of the fitted shape parameters
   std::string shape_kind;                           // reversal spikes: "exponential" or "gaussian"
   std::vector<double> params;                       // all model parameters
@@ -125,12 +131,14 @@ struct DiagnosisEntry {
 };
 
 struct DiagnosisResult {
-  std::vector<DiagnosisEntry> named;               // significant effects, ranked
-  std::vector<DiagnosisEntry> candidates;          // every estimated effect (named or not)
-  std::vector<std::string> not_identifiable;       // "effect (confounded with other)"
-  double residual_rms_um = 0.0;                    // after the final model
-  double noise_um = 0.0;                           // σ from successive differences of the residual
-  std::vector<std::vector<double>> form_model_um;  // per trace: fitted form signature sum
+  std::vector<DiagnosisEntry> named;          // significant effects, ranked
+  std::vector<DiagnosisEntry> candidates;     // every estimated effect (named or not)
+  std::vector<std::string> not_identifiable;  // "effect (confounded with other)"
+  double residual_rms_um = 0.0;               // after the final model
+  double noise_um = 0.0;                      // σ from successive differences of the residual
+  // Per trace: fitted form signature sum at the samples the diagnosis used (those on an axis
+  // reversal are left out).
+  std::vector<std::vector<double>> form_model_um;
 };
 
 DiagnosisResult DiagnoseSerialDbb(const std::vector<DiagnosisTrace>& traces, Plane plane,

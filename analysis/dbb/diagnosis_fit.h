@@ -5,6 +5,7 @@
 // Internal to analysis/dbb.
 #pragma once
 
+#include <array>
 #include <map>
 #include <string>
 #include <utility>
@@ -33,6 +34,12 @@ struct Candidate {
   // Set-up part (cos θ, sin θ, 1 coefficients per trace) removed from each signature.
   std::vector<std::vector<Eigen::Vector3d>> setup_part;
   std::vector<double> raw_norm2;  // squared norm of each signature before the set-up removal
+  // Reversal spikes: variance added to the height's for the doubt about the decay shape
+  // (diagnosis_search.h ShapeDoubtVariance).
+  double shape_doubt_var = 0.0;
+  // Reversal spikes: the best width (degrees) of each decay shape (exponential, Gaussian-like)
+  // found so far; 0 before a search over the whole range.
+  std::array<double, 2> spike_widths{0.0, 0.0};
 };
 
 Candidate MakeCandidate(const Problem& p, effects::EffectId id, std::vector<double> shape);

@@ -1,6 +1,7 @@
 #include "analysis/dbb/diagnosis_search.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iterator>
 #include <numbers>
@@ -32,9 +33,8 @@ std::vector<ReversalOrder::Entry> SpikeFactors(const Problem& p) {
   std::vector<ReversalOrder::Entry> e(static_cast<std::size_t>(p.n));
   for (int i = 0; i < p.n; ++i) {
     const auto& s = p.samples[static_cast<std::size_t>(i)];
-    const auto& ctx = p.ctx[static_cast<std::size_t>(s.trace)];
-    e[static_cast<std::size_t>(i)] = {Spike::Phi(ctx, s.a), i,
-                                      Spike::Side(ctx, s.a) * (Axis == 0 ? s.a.c : s.a.s)};
+    const auto ph = Spike::Phase(p.ctx[static_cast<std::size_t>(s.trace)], s.a);
+    e[static_cast<std::size_t>(i)] = {ph.phi, i, ph.side * (Axis == 0 ? s.a.c : s.a.s)};
   }
   return e;
 }
@@ -45,15 +45,17 @@ ReversalOrder MakeReversalOrder(const Problem& p, EffectId id) {
   const std::vector<ReversalOrder::Entry> e =
       id == EffectId::kReversalSpikeU ? SpikeFactors<0>(p) : SpikeFactors<1>(p);
   std::vector<int> count(ReversalOrder::kBuckets + 1, 0);
-  for (const auto& x : e) ++count[static_cast<std::size_t>(ReversalOrder::Bucket(x.phi)) + 1];
+  std::vector<int> bucket(e.size());
+  for (std::size_t i = 0; i < e.size(); ++i) {
+    bucket[i] = ReversalOrder::Bucket(e[i].phi);
+    ++count[static_cast<std::size_t>(bucket[i]) + 1];
+  }
   for (int k = 0; k < ReversalOrder::kBuckets; ++k)
     count[static_cast<std::size_t>(k) + 1] += count[static_cast<std::size_t>(k)];
   ReversalOrder o;
   o.by_phi.resize(e.size());
-  for (const auto& x : e) {
-    o.by_phi[static_cast<std::size_t>(
-        count[static_cast<std::size_t>(ReversalOrder::Bucket(x.phi))]++)] = x;
-  }
+  for (std::size_t i = 0; i < e.size(); ++i)
+    o.by_phi[static_cast<std::size_t>(count[static_cast<std::size_t>(bucket[i])]++)] = e[i];
   return o;
 }
 
@@ -85,22 +87,28 @@ SpikeFrame MakeSpikeFrame(const Problem& p, const ReversalOrder& o, const Base& 
   SpikeFrame f;
   const auto n = static_cast<Eigen::Index>(rows.size());
   f.a.resize(n, b.m + 3 * p.traces + 1);
+  f.a.middleCols(b.m, 3 * p.traces).setZero();
   f.factor.resize(n);
   f.phi.resize(n);
+  std::vector<int> sample(static_cast<std::size_t>(n));
   for (Eigen::Index k = 0; k < n; ++k) {
     const auto& e = *rows[static_cast<std::size_t>(k)];
+    sample[static_cast<std::size_t>(k)] = e.sample;
     const auto& smp = p.samples[static_cast<std::size_t>(e.sample)];
-    for (int j = 0; j < b.m; ++j) f.a(k, j) = (*b.a[static_cast<std::size_t>(j)])[e.sample];
-    for (int t = 0; t < p.traces; ++t) {
-      const bool own = t == smp.trace;
-      f.a(k, b.m + 3 * t) = own ? smp.a.c : 0.0;
-      f.a(k, b.m + 3 * t + 1) = own ? smp.a.s : 0.0;
-      f.a(k, b.m + 3 * t + 2) = own ? 1.0 : 0.0;
-    }
-    f.a(k, b.m + 3 * p.traces) = b.r[e.sample];
+    const Eigen::Index setup = b.m + 3 * smp.trace;
+    f.a(k, setup) = smp.a.c;
+    f.a(k, setup + 1) = smp.a.s;
+    f.a(k, setup + 2) = 1.0;
     f.factor[k] = e.factor;
     f.phi[k] = e.phi;
   }
+  // Column by column: the frame is column-major (the stores are then contiguous).
+  auto gather = [&](Eigen::Index j, const VectorXd& col) {
+    double* out = f.a.col(j).data();
+    for (Eigen::Index k = 0; k < n; ++k) out[k] = col[sample[static_cast<std::size_t>(k)]];
+  };
+  for (int j = 0; j < b.m; ++j) gather(j, *b.a[static_cast<std::size_t>(j)]);
+  gather(b.m + 3 * p.traces, b.r);
   return f;
 }
 
@@ -110,9 +118,10 @@ double SpikeReach(double w, double exponent) {
   return std::pow(7.0 * exponent, 1.0 / exponent) * w;
 }
 
-// Gain (diagnosis_fit.h Gain) of the unit-height spike of width w (rad) and exponent k.
+// Gain (diagnosis_fit.h Gain) of the unit-height spike of width w (rad) and exponent k, and
+// the spike's height in the fit of base + spike (when wanted).
 double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w, double exponent,
-                 VectorXd& v) {
+                 VectorXd& v, double* height = nullptr) {
   const double phimax = SpikeReach(w, exponent);
   const Eigen::Index len =
       std::upper_bound(f.phi.data(), f.phi.data() + f.phi.size(), phimax) - f.phi.data();
@@ -137,6 +146,9 @@ double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w,
   }
   if (b.m > 0) den -= h.head(b.m).dot(b.ninv * h.head(b.m));
   if (!(den > 1e-9 * raw)) return 0.0;
+  // The residual is orthogonal to the base and the set-up: rs is the projection on the part of
+  // the spike they leave, whose squared norm is den.
+  if (height) *height = rs / den;
   return rs * rs / den;
 }
 
@@ -169,16 +181,24 @@ std::pair<double, double> GoldenMax(F&& f, double lo, double hi, int iterations)
 // Width (and decay shape) of the spike that most reduces the residual of the base:
 // log-spaced scan of `grid` widths over [lo, hi] for each decay shape, then golden section
 // between the neighbours of the best.
-SpikeShape SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo,
-                       double hi, int grid) {
-  SpikeShape best;
+SpikeFit SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo, double hi,
+                     int grid) {
+  std::array<SpikeShape, 2> best;
   const int kGrid = std::max(grid, 3);
   const double llo = std::log(lo), lhi = std::log(hi);
   const SpikeFrame frame =
       MakeSpikeFrame(p, o, b, std::max(SpikeReach(hi * kDeg, 1.0), SpikeReach(hi * kDeg, 2.0)));
   VectorXd v;
-  for (double k : {1.0, 2.0}) {
-    auto gain = [&](double lw) { return SpikeGain(p, b, frame, std::exp(lw) * kDeg, k, v); };
+  for (std::size_t shape = 0; shape < 2; ++shape) {
+    const double k = shape == 0 ? 1.0 : 2.0;
+    // Every evaluation keeps its height; the best one's is reported.
+    std::vector<std::pair<double, double>> height;  // (log width, height)
+    auto gain = [&](double lw) {
+      double h = 0.0;
+      const double g = SpikeGain(p, b, frame, std::exp(lw) * kDeg, k, v, &h);
+      height.emplace_back(lw, h);
+      return g;
+    };
     std::vector<double> lw(kGrid), g(kGrid);
     int jb = 0;
     for (int j = 0; j < kGrid; ++j) {
@@ -193,9 +213,57 @@ SpikeShape SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, 
       xb = x;
       gb = val;
     }
-    if (gb > best.gain) best = {std::exp(xb), k, gb};
+    best[shape] = {std::exp(xb), k, gb, 0.0};
+    for (const auto& [l, h] : height)
+      if (l == xb) best[shape].height = h;
   }
-  return best;
+  // The exponential decay wins a tie (the former model).
+  return best[1].gain > best[0].gain ? SpikeFit{best[1], best[0]} : SpikeFit{best[0], best[1]};
+}
+
+SpikeFit RefineSpike(const Problem& p, const ReversalOrder& o, const Base& b,
+                     const std::array<double, 2>& widths, double lo, double hi) {
+  std::array<SpikeShape, 2> best;
+  const double lf = std::log(kSpikeRefineFactor);
+  const double llo = std::log(lo), lhi = std::log(hi);
+  std::array<std::pair<double, double>, 2> range;  // log width bracket of each shape
+  double reach = 0.0;
+  for (std::size_t shape = 0; shape < 2; ++shape) {
+    const double lw = std::clamp(std::log(widths[shape]), llo, lhi);
+    range[shape] = {std::max(llo, lw - lf), std::min(lhi, lw + lf)};
+    reach = std::max(reach, SpikeReach(std::exp(range[shape].second) * kDeg, shape + 1.0));
+  }
+  const SpikeFrame frame = MakeSpikeFrame(p, o, b, reach);
+  VectorXd v;
+  for (std::size_t shape = 0; shape < 2; ++shape) {
+    const double k = shape == 0 ? 1.0 : 2.0;
+    std::vector<std::pair<double, double>> height;  // (log width, height)
+    auto gain = [&](double lw) {
+      double h = 0.0;
+      const double g = SpikeGain(p, b, frame, std::exp(lw) * kDeg, k, v, &h);
+      height.emplace_back(lw, h);
+      return g;
+    };
+    const double start = std::clamp(std::log(widths[shape]), llo, lhi);
+    double xb = start, gb = gain(start);
+    const auto [x, val] = GoldenMax(gain, range[shape].first, range[shape].second, 12);
+    if (val > gb) {
+      xb = x;
+      gb = val;
+    }
+    best[shape] = {std::exp(xb), k, gb, 0.0};
+    for (const auto& [l, h] : height)
+      if (l == xb) best[shape].height = h;
+  }
+  return best[1].gain > best[0].gain ? SpikeFit{best[1], best[0]} : SpikeFit{best[0], best[1]};
+}
+
+double ShapeDoubtVariance(const SpikeFit& f, double s2) {
+  if (!(s2 > 0.0) || !(f.other.gain > 0.0)) return 0.0;
+  const double x = (f.best.gain - f.other.gain) / (2.0 * s2);
+  const double p_other = x > 700.0 ? 0.0 : 1.0 / (1.0 + std::exp(x));
+  const double d = f.best.height - f.other.height;
+  return p_other * d * d;
 }
 
 StickZones MakeStickZones(const Problem& p) {

@@ -3,6 +3,7 @@
 // its signature conditional on a fixed base fit (diagnosis_fit.h). Internal to analysis/dbb.
 #pragma once
 
+#include <array>
 #include <utility>
 #include <vector>
 
@@ -28,17 +29,40 @@ struct ReversalOrder {
 };
 ReversalOrder MakeReversalOrder(const Problem& p, effects::EffectId id);
 
+// A spike shape with its residual-sum-of-squares reduction against the base and its height
+// there (the spike's coefficient in the fit of base + spike, µm).
 struct SpikeShape {
   double width = 0.0;
   double exponent = 1.0;
   double gain = -1.0;
+  double height = 0.0;
+};
+// The better decay shape and the best of the other one.
+struct SpikeFit {
+  SpikeShape best;
+  SpikeShape other;
 };
 
 // Width (and decay shape) of the spike that most reduces the residual of the base:
 // log-spaced scan of `grid` widths over [lo, hi] for each decay shape, then golden section
-// between the neighbours of the best.
-SpikeShape SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo,
-                       double hi, int grid);
+// between the neighbours of the best. Both shapes have one height and one width, so the larger
+// reduction is the larger likelihood.
+SpikeFit SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, double lo, double hi,
+                     int grid);
+
+// The same refined near known widths: for each decay shape a golden section over [w/f, w·f]
+// (f = kSpikeRefineFactor) about its width `widths[shape]` (shape 0 exponential, 1 Gaussian-like),
+// within [lo, hi] degrees, the start kept when nothing near it is better. After the search over
+// the whole range, a spike's width moves by much less than that when other effects join or
+// leave the model, and only the samples near the reversals are then read.
+inline constexpr double kSpikeRefineFactor = 1.8;
+SpikeFit RefineSpike(const Problem& p, const ReversalOrder& o, const Base& b,
+                     const std::array<double, 2>& widths, double lo, double hi);
+
+// Variance to add to the height of `f.best` for the doubt about its decay shape: the other
+// shape's probability (likelihood ratio exp(−Δ/2σ²), Δ the difference of the reductions, equal
+// priors) times the squared difference of the two heights. `s2` is the noise variance.
+double ShapeDoubtVariance(const SpikeFit& f, double s2);
 
 // Samples in the low-speed zones of stick_slip.h with the angle since their axis reversed
 // (degrees) and the sign and radial factor of the sawtooth there, −sign(v_a)·n_a.

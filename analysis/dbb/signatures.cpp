@@ -35,13 +35,15 @@ void StackedTraces::RemoveSetup(VectorXd& col, std::vector<Eigen::Vector3d>* coe
   }
 }
 
-StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
+StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_out_reversals) {
   StackedTraces p;
   p.traces = static_cast<int>(traces.size());
   p.begin.push_back(0);
   std::size_t total = 0;
   for (const auto& tr : traces) total += tr.angle_rad.size();
   p.samples.reserve(total);
+  std::vector<double> y;
+  y.reserve(total);
   for (const auto& tr : traces) {
     if (tr.angle_rad.size() != tr.dev_um.size() || tr.angle_rad.size() < 16) {
       throw InvalidInput("", 0, "dr_um", "diagnosis needs at least 16 samples per trace");
@@ -58,12 +60,14 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
         tr.cos_angle.size() == tr.angle_rad.size() && tr.sin_angle.size() == tr.angle_rad.size();
     for (std::size_t i = 0; i < tr.angle_rad.size(); ++i) {
       const double th = tr.angle_rad[i];
+      if (leave_out_reversals && effects::internal::AtAxisReversal(th)) continue;
       SignatureSample s{cached ? effects::Angle<double>{th, tr.cos_angle[i], tr.sin_angle[i]}
                                : effects::MakeAngle(th),
                         t};
       const Eigen::Vector3d v(s.a.c, s.a.s, 1.0);
       g += v * v.transpose();
       p.samples.push_back(s);
+      y.push_back(tr.dev_um[i]);
     }
     if (std::abs(g.determinant()) < 1e-9 * std::pow(static_cast<double>(tr.angle_rad.size()), 3)) {
       throw InvalidInput("", 0, "angle_deg", "the trace does not go around the circle");
@@ -74,16 +78,13 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces) {
   p.n = static_cast<int>(p.samples.size());
   p.cos_a.resize(p.n);
   p.sin_a.resize(p.n);
+  p.theta.resize(p.n);
   for (int i = 0; i < p.n; ++i) {
     p.cos_a[i] = p.samples[static_cast<std::size_t>(i)].a.c;
     p.sin_a[i] = p.samples[static_cast<std::size_t>(i)].a.s;
+    p.theta[i] = p.samples[static_cast<std::size_t>(i)].a.theta;
   }
-  p.y.resize(p.n);
-  {
-    int i = 0;
-    for (const auto& tr : traces)
-      for (double d : tr.dev_um) p.y[i++] = d;
-  }
+  p.y = Eigen::Map<const VectorXd>(y.data(), p.n);
   return p;
 }
 
@@ -120,12 +121,19 @@ void SignatureRows(const StackedTraces& p, effects::EffectId id, int from, int t
       const auto q = static_cast<std::size_t>(k - 1);
       params[k] = q < shape.size() ? shape[q] : 1.0;
     }
-    VectorXd& col = cols[0];
+    // The rows are one trace's: its context is read once, the angles from contiguous arrays
+    // (simple models then compile to vector instructions).
+    const auto& ctx =
+        p.ctx[static_cast<std::size_t>(p.samples[static_cast<std::size_t>(from)].trace)];
+    const double* cs = p.cos_a.data();
+    const double* sn = p.sin_a.data();
+    const double* th = p.theta.data();
+    double* col = cols[0].data();
     for (int i = from; i < to; ++i) {
-      const auto& s = p.samples[static_cast<std::size_t>(i)];
+      const effects::Angle<double> a{th[i], cs[i], sn[i]};
       double e[2];
-      M::template PositionError<double>(p.ctx[static_cast<std::size_t>(s.trace)], s.a, params, e);
-      col[i] = e[0] * s.a.c + e[1] * s.a.s;
+      M::template PositionError<double>(ctx, a, params, e);
+      col[i] = e[0] * a.c + e[1] * a.s;
     }
   } else {
     // Several linear parameters: all columns in one evaluation (effects::RadialBasis, its

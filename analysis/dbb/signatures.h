@@ -44,7 +44,7 @@ struct StackedTraces {
   std::vector<std::size_t> begin;  // first sample of each trace (plus end)
   std::vector<effects::EffectContext> ctx;
   std::vector<Eigen::Matrix3d> setup_inv;  // (S_tᵀ S_t)⁻¹
-  Eigen::VectorXd cos_a, sin_a;            // cos θ, sin θ of the samples (contiguous)
+  Eigen::VectorXd cos_a, sin_a, theta;     // cos θ, sin θ, θ of the samples (contiguous)
   Eigen::VectorXd y;
   int n = 0;
   int traces = 0;
@@ -57,8 +57,13 @@ struct StackedTraces {
 };
 
 // Validates and stacks the traces (≥ 16 samples each, positive radius, going around the
-// circle); throws km::InvalidInput otherwise.
-StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces);
+// circle); throws km::InvalidInput otherwise. With `leave_out_reversals`, samples at an axis
+// reversal itself (effects::internal::AtAxisReversal) are not stacked: there a reversal spike
+// jumps from nothing to its height and a backlash from one side to the other, and which value
+// such a sample shows depends on how the instant of the reversal was rounded (by the control's
+// interpolation, the logger, a simulation), not on the machine.
+StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces,
+                          bool leave_out_reversals = false);
 
 // Set-up-free radial signature columns of one effect with fixed shape parameters (missing
 // trailing ones: the registry defaults, also in the returned shape) and the set-up part removed

@@ -168,8 +168,8 @@ SerialFamily::SerialFamily(const std::vector<dbb::DiagnosisTrace>& traces,
       fold_key_.push_back(ids.at(key_names[t]));
     }
   }
-  groups_ = groups;
-  p_ = dbb::StackTraces(groups);
+  groups_ = OffReversals(std::move(groups));
+  p_ = dbb::StackTraces(groups_);
   e0_ = p_.y;
   p_.RemoveSetup(e0_, &setup_y_);
   // The signatures are first order in e/R: below the second-order term of the bar length

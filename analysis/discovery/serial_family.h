@@ -163,7 +163,11 @@ class SerialFamily final : public ModelFamily {
   // axes are, `delay_ms` behind the command along the path; the bounded refit of the model's
   // terms there; the change of the model per ms of delay at fixed values (a secant from
   // `from_ms` to `to_ms`, or a derivative when they straddle the delay).
-  static constexpr double kMaxDelayMs = 500.0;  // beyond half a second it is no position loop
+  static constexpr double kMaxDelayMs = 500.0;
+  // The traces without their samples at an axis reversal itself (dbb::StackTraces), decided
+  // at the commanded angles so that every servo-lag shift (StackAt) keeps the same rows.
+  static std::vector<dbb::DiagnosisTrace> OffReversals(
+      std::vector<dbb::DiagnosisTrace> groups);  // beyond half a second it is no position loop
   dbb::StackedTraces StackAt(double delay_ms) const;
   double DelayRss(double delay_ms) const;
   Eigen::VectorXd DelayColumn(double from_ms, double to_ms) const;

@@ -30,6 +30,23 @@ double SignedOmega(const dbb::DiagnosisTrace& t) {
 
 }  // namespace
 
+std::vector<dbb::DiagnosisTrace> SerialFamily::OffReversals(
+    std::vector<dbb::DiagnosisTrace> groups) {
+  for (auto& g : groups) {
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < g.angle_rad.size(); ++i) {
+      if (effects::internal::AtAxisReversal(g.angle_rad[i])) continue;
+      g.angle_rad[kept] = g.angle_rad[i];
+      g.dev_um[kept++] = g.dev_um[i];
+    }
+    g.angle_rad.resize(kept);
+    g.dev_um.resize(kept);
+    g.cos_angle.clear();
+    g.sin_angle.clear();
+  }
+  return groups;
+}
+
 dbb::StackedTraces SerialFamily::StackAt(double delay_ms) const {
   if (delay_ms == 0.0) return dbb::StackTraces(groups_);
   std::vector<dbb::DiagnosisTrace> shifted = groups_;

@@ -80,6 +80,43 @@ inline T AngleSinceReversal(const T& theta, double theta0, int s) {
   return prog - k * std::numbers::pi;
 }
 
+// A sample this close to an axis reversal (rad) is AT the reversal: angles that went through
+// degrees and radians, or were computed from times, land a rounding error on either side of it.
+inline constexpr double kAtReversalRad = 1e-6;
+
+// Where an angle lies relative to the reversals θ0 + kπ of an axis, for direction s: the angle
+// φ travelled since the last reversal along the motion, in [0, π), and (−1)^k of that reversal,
+// the side the axis moves to after it: −sign(v_a) = (−1)^k for every angle after the reversal
+// and before the next one. An angle within kAtReversalRad of a reversal is at it (φ = 0, the
+// side after it) rather than at φ ≈ π with the side before it, or with the side of a velocity
+// that is zero but for rounding. T may be a Jet.
+template <typename T>
+struct ReversalPhase {
+  T phi;
+  double side;
+};
+template <typename T>
+inline ReversalPhase<T> PhaseSinceReversal(const T& theta, double theta0, int s) {
+  constexpr double kPi = std::numbers::pi;
+  const T prog = static_cast<double>(s) * (theta - theta0);
+  double k = std::floor(ScalarPart(prog) / kPi);
+  T phi = prog - k * kPi;
+  if (ScalarPart(phi) > kPi - kAtReversalRad) {
+    k += 1.0;
+    phi = phi - kPi;
+  }
+  if (ScalarPart(phi) < 0.0) phi = T(0.0);
+  return {phi, (static_cast<long long>(k) & 1) == 0 ? 1.0 : -1.0};
+}
+
+// Whether θ (rad) is at a reversal of either axis of the plane (a multiple of 90°, within
+// kAtReversalRad).
+inline bool AtAxisReversal(double theta) {
+  constexpr double kQuarter = std::numbers::pi / 2.0;
+  const double q = theta / kQuarter;
+  return std::abs(q - std::round(q)) * kQuarter < kAtReversalRad;
+}
+
 // Unit velocity component of axis `axis` (0 = u, 1 = v) along the circle for direction s:
 // v_u / V = −s sin θ, v_v / V = s cos θ.
 template <typename T>

@@ -31,7 +31,13 @@ function uncertaintyText(v) {
 function shapeText(d) {
   const parts = [];
   if (typeof d.period_mm === 'number') parts.push(`period ${formatNumber(d.period_mm, '_um')} mm`);
-  if (typeof d.width_deg === 'number') parts.push(`width ${formatNumber(d.width_deg, '_deg')}°`);
+  if (typeof d.width_deg === 'number') {
+    // A reversal spike's width also in time: the decay constant of an exponential decay.
+    const time = typeof d.width_s === 'number' ? ` = ${formatNumber(d.width_s)} s` : '';
+    parts.push(`width ${formatNumber(d.width_deg, '_deg')}°${time}`);
+  }
+  if (d.spike_shape === 'exponential') parts.push('exponential decay');
+  if (d.spike_shape === 'gaussian') parts.push('Gaussian-like decay');
   if (typeof d.period_deg === 'number') parts.push(`period ${formatNumber(d.period_deg, '_deg')}°`);
   return parts.join(', ');
 }

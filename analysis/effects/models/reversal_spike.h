@@ -45,22 +45,28 @@ struct ReversalSpike {
     return exp(-(k == 1.0 ? x : (k == 2.0 ? T(0.5 * x * x) : T(pow(x, k) / k))));
   }
 
-  // The spike is e_a = Side(c, a)·h·Decay(Phi(c, a), w, k): Side = −sign(v_a), Phi = the angle
-  // travelled since the axis reversed (rad).
+  // The spike is e_a = Side(c, a)·h·Decay(Phi(c, a), w, k): Side = −sign(v_a) after the reversal,
+  // Phi = the angle travelled since the axis reversed (rad). A sample at the reversal itself
+  // (within internal::kAtReversalRad) is the spike's peak, on the side the axis moves to.
+  template <typename T>
+  static internal::ReversalPhase<T> Phase(const EffectContext& c, const Angle<T>& a) {
+    return internal::PhaseSinceReversal(a.theta, internal::AxisReversalAngle(Axis), c.direction);
+  }
   template <typename T>
   static double Side(const EffectContext& c, const Angle<T>& a) {
-    return -internal::SignOf(internal::AxisUnitVelocity(Axis, c.direction, a));
+    return Phase(c, a).side;
   }
   template <typename T>
   static T Phi(const EffectContext& c, const Angle<T>& a) {
-    return internal::AngleSinceReversal(a.theta, internal::AxisReversalAngle(Axis), c.direction);
+    return Phase(c, a).phi;
   }
 
   template <typename T>
   static void PositionError(const EffectContext& c, const Angle<T>& a, const T* p, T* e) {
     const T w = p[1] * (std::numbers::pi / 180.0);
     e[1 - Axis] = T(0.0);
-    e[Axis] = T(Side(c, a) * p[0] * Decay(Phi(c, a), w, internal::ScalarPart(p[2])));
+    const auto ph = Phase(c, a);
+    e[Axis] = T(ph.side * p[0] * Decay(ph.phi, w, internal::ScalarPart(p[2])));
   }
   static std::vector<double> Value(const EffectContext&, const double* p) { return {p[0]}; }
   static Eigen::MatrixXd ValueJacobian(const EffectContext&, const double*) {

@@ -131,6 +131,40 @@ TEST(EffectRegistry, RadialSignaturesMatchClosedForms) {
   EXPECT_NEAR(RadialSignature(EffectId::kReversalSpikeU, ctx, -1e-9, sp.data()), 5.0, 1e-6);
 }
 
+// The spike's radial signature is h·d(φ)·cos φ (φ the angle since the axis reversed, in
+// degrees on the sample grid): outward right after every reversal of the axis, in both
+// directions, and at a sample ON the reversal (to within the rounding of degrees → radians) its
+// full height, whatever the sign of the velocity's rounding there.
+TEST(EffectRegistry, ReversalSpikeIsOutwardAfterEveryReversal) {
+  EffectContext ctx;
+  for (int axis = 0; axis < 2; ++axis) {
+    const EffectId id = axis == 0 ? EffectId::kReversalSpikeU : EffectId::kReversalSpikeV;
+    for (double k : {1.0, 2.0}) {
+      const std::vector<double> p = {3.5, 1.3, k};
+      for (int s : {1, -1}) {
+        ctx.direction = s;
+        for (int i = -3600; i <= 3600; i += 7) {
+          const double deg = 0.1 * i;
+          double since = std::fmod(s * (deg - 90.0 * axis), 180.0);
+          if (since < 0.0) since += 180.0;
+          if (since > 180.0 - 1e-9) since = 0.0;
+          const double d = k == 1.0 ? std::exp(-since / 1.3) : std::exp(-since * since / 3.38);
+          const double expect = 3.5 * d * std::cos(since * std::numbers::pi / 180.0);
+          EXPECT_NEAR(RadialSignature(id, ctx, deg * std::numbers::pi / 180.0, p.data()), expect,
+                      1e-9)
+              << "axis " << axis << " s " << s << " deg " << deg << " k " << k;
+        }
+        for (int r = -8; r <= 8; ++r) {
+          if ((r + axis) % 2 != 0) continue;
+          EXPECT_NEAR(RadialSignature(id, ctx, 90.0 * r * std::numbers::pi / 180.0, p.data()), 3.5,
+                      1e-9)
+              << "axis " << axis << " s " << s << " reversal at " << 90 * r << "°";
+        }
+      }
+    }
+  }
+}
+
 TEST(EffectRegistry, ServoMismatchMatchesExactAxisDelays) {
   // Independent forward model: each axis reproduces its command τ_a later, u(t) = u_cmd(t − τ_u),
   // v(t) = v_cmd(t − τ_v), on a circle run at ω = V / R in direction s. The radial error of the
