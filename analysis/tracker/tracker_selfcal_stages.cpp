@@ -247,6 +247,32 @@ bool RejectRound(SelfCalProblem& problem, const TrackerReadings& readings,
   throw NotObservable(os.str());
 }
 
+// Trackers within 1 mm per metre of one plane (the initial positions): refused. At coplanar
+// trackers the Jacobian of eq. (1) loses rank (the trackers can tilt out of their plane, the
+// points following, to first order), and a solve drifts along that valley, far from the truth,
+// to a meaningless optimum. Initial positions of coplanar trackers lie within ~1e-5 of a plane;
+// 10 mm out of the plane of trackers a metre apart (1e-2) solves.
+constexpr double kCoplanarTrackers = 1e-3;
+void RefuseCoplanarTrackers(const std::vector<Eigen::Vector3d>& U) {
+  const auto n = static_cast<double>(U.size());
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& u : U) mean += u;
+  mean /= n;
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& u : U) scatter += (u - mean) * (u - mean).transpose();
+  const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();
+  const double out_mm = std::sqrt(std::max(ev(0), 0.0) / n);
+  const double in_mm = std::sqrt(std::max(ev(2), 0.0) / n);
+  if (!(out_mm < kCoplanarTrackers * in_mm)) return;
+  std::ostringstream os;
+  os << "laser-tracker self-calibration is not observable: the trackers lie within " << out_mm
+     << " mm (rms) of one plane while they spread " << in_mm
+     << " mm (rms) in it: trackers (nearly) coplanar make the self-calibration singular "
+        "([Tracker paper] eq. 1 cannot fix their tilt out of the plane); raise or lower at least "
+        "one tracker well out of the plane of the others";
+  throw NotObservable(os.str());
+}
+
 // Warnings for weak or ambiguous geometry that still solves.
 void WarnWeakGeometry(const SelfCalProblem& problem, const SelfCalState& state,
                       SelfCalResult& res) {
@@ -309,6 +335,7 @@ SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& re
   std::vector<Eigen::Vector3d> U0(static_cast<std::size_t>(n));
   SelfCalState state;
   state.offsets_mm.assign(static_cast<std::size_t>(problem.NumSegments()), 0.0);
+  res.warnings.insert(res.warnings.end(), problem.notes.begin(), problem.notes.end());
   for (int j = 0; j < n; ++j) {
     const Eigen::Vector3d* guess = nullptr;
     for (const auto& g : readings.guesses) {
@@ -322,7 +349,7 @@ SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& re
     res.initial_rms_um.push_back(init.rms_um);
     std::size_t local = 0;
     for (int s = 0; s < problem.NumSegments(); ++s) {
-      if (problem.segment_tracker[static_cast<std::size_t>(s)] == j) {
+      if (problem.segments[static_cast<std::size_t>(s)].tracker == j) {
         if (local >= init.offsets_mm.size()) {
           throw DidNotConverge("laser-tracker self-calibration: the initial fit of tracker " +
                                std::to_string(j + 1) + " gave no dead path for every segment");
@@ -331,6 +358,7 @@ SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& re
       }
     }
   }
+  RefuseCoplanarTrackers(U0);
   // 2. Into the gauge frame.
   const RigidTransform T = GaugeTransform(U0);
   for (const auto& u : U0) state.trackers_mm.push_back(T.Apply(u));
@@ -338,51 +366,50 @@ SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& re
   state.trackers_mm[1].tail<2>().setZero();
   state.trackers_mm[2].z() = 0.0;
   for (const auto& c : readings.commanded_mm) state.points_mm.push_back(T.Apply(c));
+  problem.UpdateZeroLengths(state);
   return state;
 }
 
 SolveProgress LeastSquaresPass(const SelfCalProblem& problem, const SelfCalOptions& options,
                                SelfCalState& state, SelfCalResult& res) {
   SolveProgress solve;
-  CeresSolveOptions& copt = solve.options;
-  copt.max_iterations = options.max_iterations;
-  copt.num_threads = options.num_threads;
-  copt.sparse_schur = options.sparse_schur;
+  SolveOptions& sopt = solve.options;
+  sopt.max_iterations = options.max_iterations;
   // Plain least squares from the initial values first (fast, close even with gross errors),
   // then the robust (Cauchy) pass from there.
-  copt.cauchy_scale_um = 0.0;
-  solve.report = SolveSelfCalCeres(problem, copt, state);
+  sopt.cauchy_scale_um = 0.0;
+  solve.report = SolveSelfCal(problem, sopt, state);
   res.iterations += solve.report.iterations;
   solve.last_was_plain = true;
-  copt.initial_trust_region_radius = 1e8;
+  sopt.initial_trust_region_radius = 1e8;
   return solve;
 }
 
 void RobustPass(const SelfCalProblem& problem, const SelfCalOptions& options, SelfCalState& state,
                 SolveProgress& solve, SelfCalResult& res) {
   if (!(options.reject_outliers && options.robust_scale_um > 0)) return;
-  CeresSolveOptions& copt = solve.options;
+  SolveOptions& sopt = solve.options;
   // Only to expose the gross errors: a few iterations suffice, the rejection rounds re-solve.
-  copt.cauchy_scale_um = options.robust_scale_um;
-  copt.max_iterations = std::min(options.max_iterations, 10);
-  solve.report = SolveSelfCalCeres(problem, copt, state);
+  sopt.cauchy_scale_um = options.robust_scale_um;
+  sopt.max_iterations = std::min(options.max_iterations, 10);
+  solve.report = SolveSelfCal(problem, sopt, state);
   res.iterations += solve.report.iterations;
   solve.last_was_plain = false;
-  copt.cauchy_scale_um = 0.0;
-  copt.max_iterations = options.max_iterations;
+  sopt.cauchy_scale_um = 0.0;
+  sopt.max_iterations = options.max_iterations;
 }
 
 void RejectionRounds(SelfCalProblem& problem, const TrackerReadings& readings,
                      const SelfCalOptions& options, SelfCalState& state, SolveProgress& solve,
                      SelfCalResult& res) {
-  const CeresSolveOptions& copt = solve.options;
-  CeresSolveReport& rep = solve.report;
+  const SolveOptions& sopt = solve.options;
+  SolveReport& rep = solve.report;
   for (int round = 0; round <= options.max_rejection_rounds; ++round) {
     const bool changed = options.reject_outliers && round < options.max_rejection_rounds &&
                          RejectRound(problem, readings, options, state, solve.last_was_plain, res);
     if (!changed && solve.last_was_plain) break;
     if (changed) problem.CheckCounting();
-    rep = SolveSelfCalCeres(problem, copt, state);
+    rep = SolveSelfCal(problem, sopt, state);
     res.iterations += rep.iterations;
     res.rounds = round + 1;
     solve.last_was_plain = true;
@@ -393,7 +420,7 @@ void RejectionRounds(SelfCalProblem& problem, const TrackerReadings& readings,
   // The answer is the least-squares optimum of the readings in use: a solve stopped by its
   // iteration limit (far trackers make the problem ill-conditioned) is continued.
   for (int extra = 0; extra < 4 && !rep.converged; ++extra) {
-    rep = SolveSelfCalCeres(problem, copt, state);
+    rep = SolveSelfCal(problem, sopt, state);
     res.iterations += rep.iterations;
   }
   if (!rep.converged) {
@@ -449,8 +476,12 @@ void AssembleResult(const SelfCalProblem& problem, const TrackerReadings& readin
   for (const auto& C : cov.tracker_um2) {
     res.tracker_uncertainty_um.push_back(C.diagonal().cwiseMax(0.0).cwiseSqrt());
   }
-  res.dead_path_mm = state.offsets_mm;
-  res.dead_path_tracker = problem.segment_tracker;
+  res.dead_path_mm = problem.ZeroLengthsMm(state);
+  for (const Segment& s : problem.segments) {
+    res.dead_path_tracker.push_back(s.tracker);
+    res.dead_path_from_row.push_back(s.start_row);
+    res.dead_path_zero_row.push_back(s.zero_point);
+  }
   res.gauge_to_commanded = FitRigid(state.points_mm, readings.commanded_mm, &use);
   const Eigen::Matrix3d& R = res.gauge_to_commanded.rotation;
   const Eigen::Vector3d nan3 = Eigen::Vector3d::Constant(kNaN);

@@ -7,8 +7,8 @@
 
 #include <Eigen/Core>
 
-#include "analysis/tracker/selfcal_ceres.h"
 #include "analysis/tracker/selfcal_problem.h"
+#include "analysis/tracker/selfcal_solver.h"
 #include "analysis/tracker/tracker_selfcal.h"
 
 namespace km::tracker::selfcal_stages {
@@ -17,16 +17,17 @@ namespace km::tracker::selfcal_stages {
 // machine origin (InvalidInput otherwise).
 void CheckReadings(const TrackerReadings& readings);
 
-// 1. Each tracker and its dead paths initialised in the machine frame, one tracker at a time
-// (initial_rms_um), then 2. everything moved into the gauge frame.
+// 1. Each tracker initialised in the machine frame, one tracker at a time (initial_rms_um), then
+// 2. everything moved into the gauge frame; the notes of the readings (beam breaks taken as
+// re-zeroed elsewhere) become warnings.
 SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& readings,
                         SelfCalResult& res);
 
-// The solve carried from pass to pass: the Ceres options, the last report, and whether the last
+// The solve carried from pass to pass: the solver options, the last report, and whether the last
 // solve was plain least squares.
 struct SolveProgress {
-  CeresSolveOptions options;
-  CeresSolveReport report;
+  SolveOptions options;
+  SolveReport report;
   bool last_was_plain = true;
 };
 
