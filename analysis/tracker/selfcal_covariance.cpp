@@ -54,7 +54,7 @@ void PointCovariances(const SelfCalState& state, const std::vector<char>& use,
     if (!use[i]) continue;
     const auto g = G(i);
     GtG += g.transpose() * g;
-    GB += g.transpose() * out.coupling[i];
+    GB.noalias() += g.transpose() * out.coupling[i];
     GCG += g.transpose() * D[i] * g;
   }
   GCG += GB * Sinv * GB.transpose();
@@ -63,12 +63,14 @@ void PointCovariances(const SelfCalState& state, const std::vector<char>& use,
   out.point_gauge_um2.assign(m,
                              Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   out.point_free_um2 = out.point_gauge_um2;
+  Eigen::MatrixXd BS;  // B·S⁻¹, kept from point to point
   for (std::size_t i = 0; i < m; ++i) {
     if (!use[i]) continue;
     const Eigen::MatrixXd& B = out.coupling[i];
-    const Eigen::Matrix3d Cii = D[i] + B * Sinv * B.transpose();
+    BS.noalias() = B * Sinv;
+    const Eigen::Matrix3d Cii = D[i] + BS.lazyProduct(B.transpose());
     const auto g = G(i);
-    const Eigen::Matrix<double, 6, 3> GtCi = g.transpose() * D[i] + GBS * B.transpose();
+    const Eigen::Matrix<double, 6, 3> GtCi = g.transpose() * D[i] + GBS.lazyProduct(B.transpose());
     const Eigen::Matrix3d P1 = g * M * GtCi;
     const Eigen::Matrix3d free = Cii - P1 - P1.transpose() + g * M * GCG * M * g.transpose();
     out.point_gauge_um2[i] = s2 * Cii;
@@ -122,6 +124,8 @@ Reduced Reduce(const SelfCalProblem& problem, const selfcal_normal::ColumnLayout
   Ainv.resize(static_cast<std::size_t>(ne_count));
   std::vector<int> local(static_cast<std::size_t>(c), -1);
   std::vector<int> cols;
+  // Buffers of one point, kept from point to point (most points have the same sizes).
+  Eigen::MatrixXd Jp, Jc, JtJc, Be, P, Se;
   for (int e = 0; e < ne_count; ++e) {
     const auto& ks = of[static_cast<std::size_t>(e)];
     cols.clear();
@@ -136,7 +140,8 @@ Reduced Reduce(const SelfCalProblem& problem, const selfcal_normal::ColumnLayout
     }
     const auto k = static_cast<Eigen::Index>(ks.size());
     const auto t = static_cast<Eigen::Index>(cols.size());
-    Eigen::MatrixXd Jp(k, 3), Jc = Eigen::MatrixXd::Zero(k, t);
+    Jp.resize(k, 3);
+    Jc.setZero(k, t);
     for (Eigen::Index q = 0; q < k; ++q) {
       const JacobianRow& r = rows[ks[static_cast<std::size_t>(q)]];
       Jp.row(q) = r.point.transpose();
@@ -153,9 +158,11 @@ Reduced Reduce(const SelfCalProblem& problem, const selfcal_normal::ColumnLayout
           " are coplanar (rank-deficient Jacobian)");
     }
     Ainv[static_cast<std::size_t>(e)] = lu.inverse();
-    const Eigen::MatrixXd Be = Ainv[static_cast<std::size_t>(e)] * (Jp.transpose() * Jc);
-    const Eigen::MatrixXd P = Jc - Jp * Be;
-    const Eigen::MatrixXd Se = P.transpose() * P;
+    JtJc.noalias() = Jp.transpose() * Jc;
+    Be.noalias() = Ainv[static_cast<std::size_t>(e)] * JtJc;
+    P = Jc;
+    P.noalias() -= Jp * Be;
+    Se.noalias() = P.transpose() * P;
     for (Eigen::Index a = 0; a < t; ++a) {
       B.block<3, 1>(3 * e, cols[static_cast<std::size_t>(a)]) = Be.col(a);
       for (Eigen::Index b = 0; b < t; ++b) {

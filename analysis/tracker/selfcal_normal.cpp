@@ -50,6 +50,71 @@ ColumnLayout MakeLayout(const SelfCalProblem& problem, const Gauge& gauge) {
   return L;
 }
 
+namespace {
+
+// Sums over the readings of one segment whose points are eliminated. A reading's global row is
+// a = n_zj − n for the tracker and −n_zj for the zero point (a = −n and −1000 for a dead path),
+// n_zj the same for the whole segment: its share of F and g follows from Σw, Σw·a, Σw·a·aᵀ,
+// Σw·r and Σw·r·a (a formed per reading: far trackers make it a small difference).
+struct SegmentSums {
+  double w = 0, wr = 0;
+  Eigen::Vector3d wa = Eigen::Vector3d::Zero(), wra = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d waa = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+};
+
+// F(rows, cols) += block, g(rows) += v, skipping held columns (−1).
+template <int R, int C>
+void AddBlock(Eigen::MatrixXd& F, const int* rows, const int* cols,
+              const Eigen::Matrix<double, R, C>& block) {
+  for (int a = 0; a < R; ++a) {
+    if (rows[a] < 0) continue;
+    for (int b = 0; b < C; ++b) {
+      if (cols[b] >= 0) F(rows[a], cols[b]) += block(a, b);
+    }
+  }
+}
+
+template <int R>
+void AddVector(Eigen::VectorXd& g, const int* rows, const Eigen::Matrix<double, R, 1>& v) {
+  for (int a = 0; a < R; ++a) {
+    if (rows[a] >= 0) g(rows[a]) += v(a);
+  }
+}
+
+// The segments' shares of F and g, from their sums (F symmetric: both triangles).
+void AddSegments(const SelfCalProblem& problem, const ColumnLayout& layout,
+                 const std::vector<SegmentSums>& sums, NormalEquations& ne) {
+  for (std::size_t s = 0; s < sums.size(); ++s) {
+    const SegmentSums& q = sums[s];
+    if (q.w == 0.0) continue;
+    const Segment& seg = problem.segments[s];
+    const int* t = layout.tracker_column[static_cast<std::size_t>(seg.tracker)].data();
+    if (seg.FreeDeadPath()) {
+      const int o[1] = {layout.offset_column[s]};
+      AddBlock<3, 3>(ne.F, t, t, q.waa);
+      const Eigen::Vector3d to = -1e3 * q.wa;
+      AddBlock<3, 1>(ne.F, t, o, to);
+      AddBlock<1, 3>(ne.F, o, t, to.transpose());
+      AddBlock<1, 1>(ne.F, o, o, Eigen::Matrix<double, 1, 1>(1e6 * q.w));
+      AddVector<3>(ne.g, t, q.wra);
+      AddVector<1>(ne.g, o, Eigen::Matrix<double, 1, 1>(-1e3 * q.wr));
+      continue;
+    }
+    const int* zc = layout.point_column[static_cast<std::size_t>(seg.zero_point)].data();
+    const Eigen::Vector3d& z = q.zero;
+    const Eigen::Matrix3d tz = -q.wa * z.transpose();
+    AddBlock<3, 3>(ne.F, t, t, q.waa);
+    AddBlock<3, 3>(ne.F, t, zc, tz);
+    AddBlock<3, 3>(ne.F, zc, t, Eigen::Matrix3d(tz.transpose()));
+    AddBlock<3, 3>(ne.F, zc, zc, Eigen::Matrix3d(q.w * z * z.transpose()));
+    AddVector<3>(ne.g, t, q.wra);
+    AddVector<3>(ne.g, zc, Eigen::Vector3d(-q.wr * z));
+  }
+}
+
+}  // namespace
+
 void Build(const SelfCalProblem& problem, const ColumnLayout& layout, const SelfCalState& state,
            const std::vector<double>* weights, NormalEquations& ne) {
   const int ne_count = layout.NumEliminated();
@@ -59,32 +124,52 @@ void Build(const SelfCalProblem& problem, const ColumnLayout& layout, const Self
   ne.g_points.setZero(3 * ne_count);
   ne.F.setZero(c, c);
   ne.g.setZero(c);
+  std::vector<SegmentSums> sums(problem.segments.size());
+  // A point's coordinates held by the gauge: no gradient, nothing in E.
+  std::vector<Eigen::Vector3d> free(static_cast<std::size_t>(ne_count), Eigen::Vector3d::Ones());
+  for (int e = 0; e < ne_count; ++e) {
+    for (int a = 0; a < 3; ++a) {
+      if (layout.held[static_cast<std::size_t>(e)][static_cast<std::size_t>(a)]) {
+        free[static_cast<std::size_t>(e)](a) = 0.0;
+      }
+    }
+  }
   VisitRows(problem, layout, state, [&](const JacobianRow& row) {
     const double w = weights ? (*weights)[row.observation] : 1.0;
     const double r = row.residual_um;
     const GlobalRow& gr = row.global;
-    for (int a = 0; a < gr.size; ++a) {
-      const auto ua = static_cast<std::size_t>(a);
-      ne.g(gr.col[ua]) += w * gr.val[ua] * r;
-      for (int b = 0; b < gr.size; ++b) {
-        const auto ub = static_cast<std::size_t>(b);
-        if (gr.col[ub] <= gr.col[ua]) ne.F(gr.col[ua], gr.col[ub]) += w * gr.val[ua] * gr.val[ub];
-      }
-    }
     const int e = row.eliminated;
-    if (e < 0) return;
-    const auto& held = layout.held[static_cast<std::size_t>(e)];
-    Eigen::Vector3d nw = w * row.point;
-    for (int a = 0; a < 3; ++a) {
-      if (held[static_cast<std::size_t>(a)]) nw(a) = 0.0;
+    if (e < 0) {
+      // A zero point read by another tracker: every column is global.
+      for (int a = 0; a < gr.size; ++a) {
+        const auto ua = static_cast<std::size_t>(a);
+        ne.g(gr.col[ua]) += w * gr.val[ua] * r;
+        for (int b = 0; b < gr.size; ++b) {
+          const auto ub = static_cast<std::size_t>(b);
+          ne.F(gr.col[ua], gr.col[ub]) += w * gr.val[ua] * gr.val[ub];
+        }
+      }
+      return;
     }
-    ne.A[static_cast<std::size_t>(e)].noalias() += nw * row.point.transpose();
-    ne.g_points.segment<3>(3 * e) += nw * r;
+    const Eigen::Vector3d& n = row.point;
+    SegmentSums& q = sums[static_cast<std::size_t>(row.segment)];
+    const Eigen::Vector3d a = row.zero - n;
+    const Eigen::Vector3d wa = w * a;
+    q.w += w;
+    q.wr += w * r;
+    q.wa += wa;
+    q.wra += r * wa;
+    q.waa.noalias() += wa * a.transpose();
+    q.zero = row.zero;
+    const Eigen::Vector3d nw = (w * n).cwiseProduct(free[static_cast<std::size_t>(e)]);
+    ne.A[static_cast<std::size_t>(e)].noalias() += nw * n.transpose();
+    ne.g_points.segment<3>(3 * e) += r * nw;
     for (int b = 0; b < gr.size; ++b) {
       const auto ub = static_cast<std::size_t>(b);
-      for (int a = 0; a < 3; ++a) ne.E(3 * e + a, gr.col[ub]) += nw(a) * gr.val[ub];
+      ne.E.block<3, 1>(3 * e, gr.col[ub]) += gr.val[ub] * nw;
     }
   });
+  AddSegments(problem, layout, sums, ne);
   // Held coordinates: identity rows and columns.
   for (int e = 0; e < ne_count; ++e) {
     Eigen::Matrix3d& A = ne.A[static_cast<std::size_t>(e)];

@@ -69,9 +69,12 @@ struct GlobalRow {
 // columns.
 struct JacobianRow {
   std::size_t observation = 0;
+  int segment = 0;
   int eliminated = -1;
   double residual_um = 0.0;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  // n_zj (µm per mm) of a segment zeroed at a point (∂r/∂u_z = −n_zj), 0 for a dead path.
+  Eigen::Vector3d zero = Eigen::Vector3d::Zero();
   GlobalRow global;
 };
 
@@ -105,17 +108,19 @@ void VisitRows(const SelfCalProblem& problem, const ColumnLayout& layout, const 
     const Eigen::Vector3d v = state.points_mm[i] - state.trackers_mm[j];
     const double rho = v.norm();
     row.observation = k;
+    row.segment = o.segment;
     row.residual_um = 1e3 * (rho - zlen[s] - o.d_mm);
     row.point = (1e3 / rho) * v;
     row.global.size = 0;
     const Segment& seg = problem.segments[s];
     if (seg.FreeDeadPath()) {
+      row.zero.setZero();
       row.global.Add3(layout.tracker_column[j], -row.point);
       row.global.Add(layout.offset_column[s], -1e3);
     } else {
-      const Eigen::Vector3d nzj = 1e3 * nz[s];
-      row.global.Add3(layout.tracker_column[j], nzj - row.point);
-      row.global.Add3(layout.point_column[static_cast<std::size_t>(seg.zero_point)], -nzj);
+      row.zero = 1e3 * nz[s];
+      row.global.Add3(layout.tracker_column[j], row.zero - row.point);
+      row.global.Add3(layout.point_column[static_cast<std::size_t>(seg.zero_point)], -row.zero);
     }
     row.eliminated = layout.eliminated[i];
     if (row.eliminated < 0) {
@@ -130,7 +135,7 @@ struct NormalEquations {
   std::vector<Eigen::Matrix3d> A;  // per eliminated point
   RowMajorMatrix E;                // 3·eliminated × count
   Eigen::VectorXd g_points;        // 3·eliminated: Jᵀr of the eliminated points
-  Eigen::MatrixXd F;               // count × count (lower triangle and diagonal filled)
+  Eigen::MatrixXd F;               // count × count, symmetric
   Eigen::VectorXd g;               // count: Jᵀr of the global columns
 };
 

@@ -125,6 +125,35 @@ struct Factorisation {
   Eigen::LDLT<Eigen::MatrixXd> reduced;
 };
 
+using Row = Eigen::Map<Eigen::RowVectorXd>;
+using ConstRow = Eigen::Map<const Eigen::RowVectorXd>;
+
+// The damped point block of eliminated point e.
+Eigen::Matrix3d Damped(const NormalEquations& ne, std::size_t e, double radius) {
+  Eigen::Matrix3d Ad = ne.A[e];
+  for (int a = 0; a < 3; ++a) Ad(a, a) += Scaling(Ad(a, a)) / radius;
+  return Ad;
+}
+
+// L with L·Lᵀ = A (3×3, written out: it runs once a point and step); false unless A is
+// positive definite.
+bool Cholesky3(const Eigen::Matrix3d& A, Eigen::Matrix3d& L) {
+  L.setZero();
+  const double d0 = A(0, 0);
+  if (!(d0 > 0)) return false;
+  L(0, 0) = std::sqrt(d0);
+  L(1, 0) = A(1, 0) / L(0, 0);
+  L(2, 0) = A(2, 0) / L(0, 0);
+  const double d1 = A(1, 1) - L(1, 0) * L(1, 0);
+  if (!(d1 > 0)) return false;
+  L(1, 1) = std::sqrt(d1);
+  L(2, 1) = (A(2, 1) - L(2, 0) * L(1, 0)) / L(1, 1);
+  const double d2 = A(2, 2) - L(2, 0) * L(2, 0) - L(2, 1) * L(2, 1);
+  if (!(d2 > 0)) return false;
+  L(2, 2) = std::sqrt(d2);
+  return true;
+}
+
 bool Factorise(const NormalEquations& ne, double radius, Factorisation& f) {
   const auto ne_count = static_cast<Eigen::Index>(ne.A.size());
   const Eigen::Index c = ne.F.rows();
@@ -132,14 +161,14 @@ bool Factorise(const NormalEquations& ne, double radius, Factorisation& f) {
   f.L.resize(ne.A.size());
   f.W.resize(3 * ne_count, c);
   for (Eigen::Index e = 0; e < ne_count; ++e) {
-    Eigen::Matrix3d Ad = ne.A[static_cast<std::size_t>(e)];
-    for (int a = 0; a < 3; ++a) Ad(a, a) += Scaling(Ad(a, a)) / radius;
-    const Eigen::LLT<Eigen::Matrix3d> llt(Ad);
-    if (llt.info() != Eigen::Success) return false;
-    f.L[static_cast<std::size_t>(e)] = llt.matrixL();
-    f.W.middleRows<3>(3 * e) =
-        f.L[static_cast<std::size_t>(e)].triangularView<Eigen::Lower>().solve(
-            ne.E.middleRows<3>(3 * e));
+    Eigen::Matrix3d& L = f.L[static_cast<std::size_t>(e)];
+    if (!Cholesky3(Damped(ne, static_cast<std::size_t>(e), radius), L)) return false;
+    // W_e = L⁻¹E_e, row by row (forward substitution on the rows of E_e).
+    ConstRow e0(ne.E.data() + 3 * e * c, c), e1(e0.data() + c, c), e2(e0.data() + 2 * c, c);
+    Row w0(f.W.data() + 3 * e * c, c), w1(w0.data() + c, c), w2(w0.data() + 2 * c, c);
+    w0 = e0 / L(0, 0);
+    w1 = (e1 - L(1, 0) * w0) / L(1, 1);
+    w2 = (e2 - L(2, 0) * w0 - L(2, 1) * w1) / L(2, 2);
   }
   Eigen::MatrixXd S = ne.F;
   for (Eigen::Index a = 0; a < c; ++a) S(a, a) += Scaling(S(a, a)) / radius;
@@ -148,40 +177,60 @@ bool Factorise(const NormalEquations& ne, double radius, Factorisation& f) {
   return f.reduced.info() == Eigen::Success;
 }
 
-// δ with (JᵀJ + D/radius)·δ = −g: the reduced system (F − WᵀW)·δ_c = −(g_c − Wᵀw),
-// w_e = L_e⁻¹g_e, then δ_e = −L_e⁻ᵀ(w_e + W_e δ_c).
+// δ with (JᵀJ + D/radius)·δ = −g: w_e = L_e⁻¹g_e, the reduced system
+// (F − WᵀW)·δ_c = −(g_c − Wᵀw), then δ_e = −L_e⁻ᵀ(w_e + W_e δ_c). Two passes over W.
 void Solve(const Factorisation& f, const Eigen::VectorXd& g_points, const Eigen::VectorXd& g,
            Step& step) {
   const auto ne_count = static_cast<Eigen::Index>(f.L.size());
+  const Eigen::Index c = f.W.cols();
   Eigen::VectorXd w(3 * ne_count);
+  Eigen::RowVectorXd Wtw = Eigen::RowVectorXd::Zero(c);
   for (Eigen::Index e = 0; e < ne_count; ++e) {
-    w.segment<3>(3 * e) = f.L[static_cast<std::size_t>(e)].triangularView<Eigen::Lower>().solve(
-        g_points.segment<3>(3 * e));
+    const Eigen::Matrix3d& L = f.L[static_cast<std::size_t>(e)];
+    const auto ge = g_points.segment<3>(3 * e);
+    const double x0 = ge(0) / L(0, 0);
+    const double x1 = (ge(1) - L(1, 0) * x0) / L(1, 1);
+    const double x2 = (ge(2) - L(2, 0) * x0 - L(2, 1) * x1) / L(2, 2);
+    w.segment<3>(3 * e) << x0, x1, x2;
+    ConstRow w0(f.W.data() + 3 * e * c, c), w1(w0.data() + c, c), w2(w0.data() + 2 * c, c);
+    Wtw += x0 * w0 + x1 * w1 + x2 * w2;
   }
-  step.global = -f.reduced.solve(g - f.W.transpose() * w);
-  const Eigen::VectorXd back = w + f.W * step.global;
+  step.global = -f.reduced.solve(g - Wtw.transpose());
   step.points.resize(3 * ne_count);
   for (Eigen::Index e = 0; e < ne_count; ++e) {
-    step.points.segment<3>(3 * e) =
-        -f.L[static_cast<std::size_t>(e)].triangularView<Eigen::Lower>().transpose().solve(
-            back.segment<3>(3 * e));
+    const Eigen::Matrix3d& L = f.L[static_cast<std::size_t>(e)];
+    ConstRow w0(f.W.data() + 3 * e * c, c), w1(w0.data() + c, c), w2(w0.data() + 2 * c, c);
+    const double b0 = w(3 * e) + w0.dot(step.global.transpose());
+    const double b1 = w(3 * e + 1) + w1.dot(step.global.transpose());
+    const double b2 = w(3 * e + 2) + w2.dot(step.global.transpose());
+    // δ_e = −L⁻ᵀb (back substitution).
+    const double y2 = b2 / L(2, 2);
+    const double y1 = (b1 - L(2, 1) * y2) / L(1, 1);
+    const double y0 = (b0 - L(1, 0) * y1 - L(2, 0) * y2) / L(0, 0);
+    step.points.segment<3>(3 * e) << -y0, -y1, -y2;
   }
 }
 
-// (JᵀJ + D/radius)·δ from the blocks (sums of the rows: exact where F − WᵀW cancels).
+// (JᵀJ + D/radius)·δ from the blocks (sums of the rows: exact where F − WᵀW cancels), in one
+// pass over E.
 Step Product(const NormalEquations& ne, double radius, const Step& d) {
+  const auto ne_count = static_cast<Eigen::Index>(ne.A.size());
+  const Eigen::Index c = ne.F.cols();
   Step out;
-  out.points = ne.E * d.global;
-  out.global = ne.F.selfadjointView<Eigen::Lower>() * d.global;
-  out.global.noalias() += ne.E.transpose() * d.points;
-  for (Eigen::Index a = 0; a < d.global.size(); ++a) {
-    out.global(a) += Scaling(ne.F(a, a)) / radius * d.global(a);
+  out.points.resize(3 * ne_count);
+  Eigen::RowVectorXd Etd = Eigen::RowVectorXd::Zero(c);
+  for (Eigen::Index e = 0; e < ne_count; ++e) {
+    const auto de = d.points.segment<3>(3 * e);
+    out.points.segment<3>(3 * e) = Damped(ne, static_cast<std::size_t>(e), radius) * de;
+    for (int a = 0; a < 3; ++a) {
+      ConstRow row(ne.E.data() + (3 * e + a) * c, c);
+      out.points(3 * e + a) += row.dot(d.global.transpose());
+      Etd += de(a) * row;
+    }
   }
-  for (std::size_t e = 0; e < ne.A.size(); ++e) {
-    const auto k = 3 * static_cast<Eigen::Index>(e);
-    Eigen::Matrix3d Ad = ne.A[e];
-    for (int a = 0; a < 3; ++a) Ad(a, a) += Scaling(Ad(a, a)) / radius;
-    out.points.segment<3>(k) += Ad * d.points.segment<3>(k);
+  out.global = ne.F * d.global + Etd.transpose();
+  for (Eigen::Index a = 0; a < c; ++a) {
+    out.global(a) += Scaling(ne.F(a, a)) / radius * d.global(a);
   }
   return out;
 }
@@ -199,16 +248,20 @@ bool SolveDamped(const NormalEquations& ne, double radius, Factorisation& f, Ste
   return step.points.allFinite() && step.global.allFinite();
 }
 
-// Decrease of the quadratic model: −(gᵀδ + ½ δᵀ JᵀJ δ).
-double ModelDecrease(const NormalEquations& ne, const Step& step) {
-  const Eigen::VectorXd Ed = ne.E * step.global;
-  double quad = step.global.dot(ne.F.selfadjointView<Eigen::Lower>() * step.global) +
-                2.0 * step.points.dot(Ed);
+// Decrease of the quadratic model, −(gᵀδ + ½ δᵀJᵀJδ): with (JᵀJ + D/radius)·δ = −g (the refined
+// step) it is ½(−gᵀδ + δᵀDδ/radius).
+double ModelDecrease(const NormalEquations& ne, double radius, const Step& step) {
+  double dd = 0;
   for (std::size_t e = 0; e < ne.A.size(); ++e) {
-    const auto d = step.points.segment<3>(3 * static_cast<Eigen::Index>(e));
-    quad += d.dot(ne.A[e] * d);
+    for (int a = 0; a < 3; ++a) {
+      const double x = step.points(3 * static_cast<Eigen::Index>(e) + a);
+      dd += Scaling(ne.A[e](a, a)) * x * x;
+    }
   }
-  return -(ne.g.dot(step.global) + ne.g_points.dot(step.points) + 0.5 * quad);
+  for (Eigen::Index a = 0; a < step.global.size(); ++a) {
+    dd += Scaling(ne.F(a, a)) * step.global(a) * step.global(a);
+  }
+  return 0.5 * (-ne.g.dot(step.global) - ne.g_points.dot(step.points) + dd / radius);
 }
 
 void ApplyStep(const ColumnLayout& L, const Step& step, SelfCalState& s) {
@@ -230,14 +283,17 @@ void ApplyStep(const ColumnLayout& L, const Step& step, SelfCalState& s) {
   }
 }
 
-double ParameterNorm(const ColumnLayout& L, const SelfCalState& s) {
-  double n2 = 0;
-  for (int p : L.eliminated_point) n2 += s.points_mm[static_cast<std::size_t>(p)].squaredNorm();
-  for (const auto& u : s.trackers_mm) n2 += u.squaredNorm();
-  for (std::size_t q = 0; q < L.offset_column.size(); ++q) {
-    if (L.offset_column[q] >= 0) n2 += s.offsets_mm[q] * s.offsets_mm[q];
+// The largest coordinate of the unknowns (mm).
+double ParameterMax(const ColumnLayout& L, const SelfCalState& s) {
+  double x = 0;
+  for (int p : L.eliminated_point) {
+    x = std::max(x, s.points_mm[static_cast<std::size_t>(p)].lpNorm<Eigen::Infinity>());
   }
-  return std::sqrt(n2);
+  for (const auto& u : s.trackers_mm) x = std::max(x, u.lpNorm<Eigen::Infinity>());
+  for (std::size_t q = 0; q < L.offset_column.size(); ++q) {
+    if (L.offset_column[q] >= 0) x = std::max(x, std::abs(s.offsets_mm[q]));
+  }
+  return x;
 }
 
 double GradientMax(const NormalEquations& ne) {
@@ -268,35 +324,48 @@ SolveReport Minimise(const SelfCalProblem& problem, const SolveOptions& o, const
   SelfCalState trial = state;
   while (!rep.converged && rep.iterations < o.max_iterations) {
     ++rep.iterations;
-    double ratio = -1.0, new_cost = cost;
+    double ratio = -1.0, new_cost = cost, model = 0.0;
+    // Steps, not the cost, tell convergence along the weakly determined directions (far
+    // trackers): there a step of 0.1 µm changes the cost by less than its rounding.
+    bool small_step = false;
     if (SolveDamped(ne, radius, factorisation, step)) {
-      const double model = ModelDecrease(ne, step);
+      model = ModelDecrease(ne, radius, step);
+      const double step_max =
+          std::max(step.points.lpNorm<Eigen::Infinity>(), step.global.lpNorm<Eigen::Infinity>());
+      small_step =
+          step_max <= o.parameter_tolerance * (ParameterMax(L, state) + o.parameter_tolerance);
       trial = state;
       ApplyStep(L, step, trial);
       new_cost = Cost(problem, trial, b, nullptr);
       if (model > 0 && std::isfinite(new_cost)) ratio = (cost - new_cost) / model;
     }
+    // At the optimum the model promises less than the rounding of the cost: no step could be
+    // told successful.
+    if (model >= 0 && model <= o.function_tolerance * cost && radius >= 1e4) {
+      if (ratio > 0) std::swap(state, trial);
+      if (ratio > 0 && b == 0) cost = new_cost;
+      rep.converged = true;
+      rep.message = "predicted decrease below the function tolerance (the rounding of the cost)";
+      break;
+    }
     if (ratio <= 1e-3) {
       radius /= nu;
       nu *= 2.0;
-      if (radius < 1e-32) {
+      if (small_step) {
+        rep.converged = true;
+        rep.message = "parameter tolerance reached (no decrease left)";
+      } else if (radius < 1e-32) {
         rep.converged = true;
         rep.message = "no further decrease (damping radius below 1e-32)";
       }
       continue;
     }
-    const double step_norm = std::sqrt(step.points.squaredNorm() + step.global.squaredNorm());
-    const double x_norm = ParameterNorm(L, state);
     std::swap(state, trial);
-    const double decrease = cost - new_cost;
     cost = wp ? Cost(problem, state, b, wp) : new_cost;
     selfcal_normal::Build(problem, L, state, wp, ne);
     radius = std::min(1e16, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * ratio - 1.0, 3)));
     nu = 2.0;
-    if (decrease <= o.function_tolerance * (cost + decrease)) {
-      rep.converged = true;
-      rep.message = "function tolerance reached";
-    } else if (step_norm <= o.parameter_tolerance * (x_norm + o.parameter_tolerance)) {
+    if (small_step) {
       rep.converged = true;
       rep.message = "parameter tolerance reached";
     } else if (GradientMax(ne) <= o.gradient_tolerance) {

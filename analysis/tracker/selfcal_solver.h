@@ -27,10 +27,14 @@ struct SolveOptions {
   int max_iterations = 100;
   // Marquardt's damping is diag(JᵀJ)/radius: large = close to a Gauss–Newton step (warm starts).
   double initial_trust_region_radius = 1e4;
-  // Lengths are ~1e3 mm and readings good to ~1e-4 mm: 1e-10 relative is far below the noise.
-  double function_tolerance = 1e-10;   // |Δcost| ≤ tol·cost after a step
-  double gradient_tolerance = 1e-12;   // max |Jᵀr| (µm²/mm)
-  double parameter_tolerance = 1e-10;  // |Δp| ≤ tol·(|p| + tol)
+  // Converged when the quadratic model promises less than tol·cost (the cost's own rounding:
+  // along the weak directions of far trackers a decrease of 1e-10·cost is still 0.1 µm away),
+  double function_tolerance = 1e-13;
+  // or a successful step moves no coordinate by more than tol·(largest coordinate + tol)
+  // (lengths ~1e3 mm: 0.1 nm),
+  double parameter_tolerance = 1e-10;
+  // or max |Jᵀr| (µm²/mm) is below this.
+  double gradient_tolerance = 1e-12;
 
   // Throws km::InvalidInput naming the bad option (analysis/core/option_check.h).
   void Check() const;
