@@ -11,9 +11,9 @@
 //
 // over every reading but the zeros themselves, in the machine frame, started from the true
 // configuration, with the six rigid-motion directions removed by inner constraints
-// (minimum-norm steps) instead of the gauge of contract §3, and its own best-fit rigid transform
-// (proper rotation, Kabsch by SVD) to the commanded points. Volumetric errors are gauge-free, so
-// both must agree to 0.02 µm.
+// (minimum-norm steps) instead of the gauge of docs/formats.md §3, and its own best-fit rigid
+// transform (proper rotation, Kabsch by SVD) to the commanded points. Volumetric errors are
+// gauge-free, so both must agree to 0.02 µm.
 #include <gtest/gtest.h>
 
 #include <algorithm>
