@@ -17,24 +17,34 @@ const char* ModeName(TrackerMode mode) {
 
 namespace {
 
-// A reading that is 0 to 1 nm (files carry 0.1 nm) is the zero of its interferometer.
+// The reading where an interferometer was zeroed is 0. One that is 0 to 1 nm (files carry
+// 0.1 nm) or missing says nothing more; one within 10 µm of 0 is a zero whose reading carries
+// noise (not used: eq. 1 has it 0); one farther from 0 cannot have been read where the
+// interferometer was zeroed: its zero was elsewhere (a dead path).
 constexpr double kZeroReadingUm = 1e-3;
+constexpr double kNotZeroedThereUm = 10.0;
 
-// A break's zero: the point of its row when its reading there is 0 (or missing), else
-// elsewhere (a note says why); `elsewhere` in the file makes it elsewhere in any case.
-int BreakZero(const TrackerReadings& readings, const BeamBreak& b,
-              std::vector<std::string>& notes) {
-  const int row = static_cast<int>(b.row);
-  if (b.elsewhere) return -1;
-  const double d = readings.displacement_um(row, b.tracker);
-  if (!std::isfinite(d) || std::abs(d) <= kZeroReadingUm) return row;
+// The zero of the segment of `tracker` starting at `row` (0, or a beam break without
+// `elsewhere`): that row, or −1 (elsewhere); a note when the reading there is not 0.
+int ZeroOf(const TrackerReadings& readings, int tracker, std::size_t row,
+           std::vector<std::string>& notes) {
+  const double d = readings.displacement_um(static_cast<long>(row), tracker);
+  if (!std::isfinite(d) || std::abs(d) <= kZeroReadingUm) return static_cast<int>(row);
+  const int id = readings.point_ids[row];
   std::ostringstream os;
-  os << "tracker " << b.tracker + 1 << " reads " << d << " um at point "
-     << readings.point_ids[b.row]
-     << ", where its beam break says it was re-zeroed: a reading there would be 0, so it was "
-        "taken as re-zeroed elsewhere (an unknown dead path from that point on); write "
-        "'# beam_break: "
-     << b.tracker + 1 << ", " << readings.point_ids[b.row] << ", elsewhere' to say so";
+  os << "tracker " << tracker + 1 << " reads " << d << " um at point " << id << ", where "
+     << (row == 0 ? "its readings start (the first point)"
+                  : "its beam break says it was re-zeroed");
+  if (std::abs(d) <= kNotZeroedThereUm) {
+    os << ": eq. (1) has that reading 0, and it is not used";
+    notes.push_back(os.str());
+    return static_cast<int>(row);
+  }
+  os << ": a reading there would be 0, so it was taken as zeroed elsewhere (an unknown dead "
+        "path for its readings from that point on)";
+  if (row > 0) {
+    os << "; write '# beam_break: " << tracker + 1 << ", " << id << ", elsewhere' to say so";
+  }
   notes.push_back(os.str());
   return -1;
 }
@@ -54,6 +64,7 @@ SelfCalProblem SelfCalProblem::FromReadings(const TrackerReadings& readings) {
   // beam break, in row order.
   std::vector<std::vector<Segment>> per(static_cast<std::size_t>(p.num_trackers));
   for (int j = 0; j < p.num_trackers; ++j) per[static_cast<std::size_t>(j)].push_back({j, 0, 0});
+  std::vector<char> first_elsewhere(static_cast<std::size_t>(p.num_trackers), 0);
   for (const auto& b : readings.beam_breaks) {
     if (b.tracker < 0 || b.tracker >= p.num_trackers) {
       throw InvalidInput("", 0, "beam_break",
@@ -67,22 +78,17 @@ SelfCalProblem SelfCalProblem::FromReadings(const TrackerReadings& readings) {
     const auto same = std::find_if(segs.begin(), segs.end(),
                                    [&](const Segment& s) { return s.start_row == row; });
     if (same == segs.end()) {
-      segs.push_back({b.tracker, row, BreakZero(readings, b, p.notes)});
+      segs.push_back(
+          {b.tracker, row, b.elsewhere ? -1 : ZeroOf(readings, b.tracker, b.row, p.notes)});
     } else if (b.elsewhere) {
       same->zero_point = -1;  // a break at the first row: zeroed elsewhere from the start
+      if (row == 0) first_elsewhere[static_cast<std::size_t>(b.tracker)] = 1;
     }
   }
-  // A reading at the first point other than 0: eq. (1) has every tracker zeroed there, and
-  // the reading is not used (only said).
+  // Point 1: every tracker's zero ([Tracker paper] eq. 1), unless its reading there says not.
   for (int j = 0; j < p.num_trackers && p.num_points > 0; ++j) {
-    const double d = readings.displacement_um(0, j);
-    if (!std::isfinite(d) || std::abs(d) <= kZeroReadingUm) continue;
-    if (per[static_cast<std::size_t>(j)].front().zero_point < 0) continue;  // zeroed elsewhere
-    std::ostringstream os;
-    os << "tracker " << j + 1 << " reads " << d << " um at point " << readings.point_ids[0]
-       << ", the first point, where its readings start from 0 ([Tracker paper] eq. 1): that "
-          "reading is not used";
-    p.notes.push_back(os.str());
+    if (first_elsewhere[static_cast<std::size_t>(j)]) continue;
+    per[static_cast<std::size_t>(j)].front().zero_point = ZeroOf(readings, j, 0, p.notes);
   }
   std::vector<std::vector<int>> ids(per.size());
   for (auto& segs : per) {

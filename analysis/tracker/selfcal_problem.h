@@ -70,7 +70,8 @@ struct SelfCalProblem {
   std::vector<Observation> observations;
   std::vector<Segment> segments;
   std::vector<char> active;  // per observation (rejected readings = 0)
-  // What the readings made of a beam break whose reading at its point is not 0 (a warning).
+  // What the readings made of a zero whose reading is not 0 (warnings): within 10 µm of 0 not
+  // used, farther taken as a zero elsewhere (a dead path).
   std::vector<std::string> notes;
 
   // Builds the observation list from the readings: missing (non-finite) readings and the zero

@@ -415,6 +415,27 @@ TEST(TrackerEqOne, AReadingThatIsNotZeroWhereTheFileSaysZero) {
   for (std::size_t i = 0; i < marked.volumetric_error_um.size(); ++i) {
     EXPECT_LT((taken.volumetric_error_um[i] - marked.volumetric_error_um[i]).norm(), 1e-6);
   }
+  // A noisy zero at the break's point (0.4 µm, within 10 µm of 0): re-zeroed at the point, the
+  // reading not used (said in a warning).
+  auto at_point = sim.readings;
+  at_point.beam_breaks[0].elsewhere = false;
+  at_point.displacement_um(70, 2) = 0.4;
+  for (int i = 71; i < at_point.NumPoints(); ++i) {
+    at_point.displacement_um(i, 2) =
+        sim.readings.displacement_um(i, 2) - sim.readings.displacement_um(70, 2);
+  }
+  const SelfCalResult noisy = SelfCalibrate(at_point);
+  ASSERT_EQ(noisy.warnings.size(), 1u);
+  EXPECT_NE(noisy.warnings[0].find("tracker 3 reads 0.4 um at point 71"), std::string::npos)
+      << noisy.warnings[0];
+  EXPECT_NE(noisy.warnings[0].find("not used"), std::string::npos) << noisy.warnings[0];
+  EXPECT_EQ(noisy.dead_path_zero_row, (std::vector<int>{0, 0, 0, 70, 0}));
+  at_point.displacement_um(70, 2) = 0.0;
+  const SelfCalResult exact = SelfCalibrate(at_point);
+  EXPECT_TRUE(exact.warnings.empty());
+  for (std::size_t i = 0; i < exact.volumetric_error_um.size(); ++i) {
+    EXPECT_LT((noisy.volumetric_error_um[i] - exact.volumetric_error_um[i]).norm(), 1e-6);
+  }
   // A reading other than 0 at the first point: eq. (1) does not use it (said in a warning).
   auto first = sim.readings;
   first.displacement_um(0, 1) = 3.5;
@@ -425,6 +446,34 @@ TEST(TrackerEqOne, AReadingThatIsNotZeroWhereTheFileSaysZero) {
   for (std::size_t i = 0; i < marked.volumetric_error_um.size(); ++i) {
     EXPECT_LT((f.volumetric_error_um[i] - marked.volumetric_error_um[i]).norm(), 1e-6);
   }
+}
+
+TEST(TrackerEqOne, ReadingsNotFromPointOneHaveADeadPath) {
+  // Tracker 4's readings 25 mm off from the start (its interferometer zeroed somewhere else than
+  // at point 1): its first segment is taken as zeroed elsewhere, with a warning, and the answer
+  // is the optimum with that dead path (the reference given a break at row 0 `elsewhere`).
+  auto o = SurveyOf({"", TrackerMode::kSimultaneous, 400.0, 6, 550.0, 800.0, 351});
+  auto sim = SimulateTrackerSurvey(o);
+  for (int i = 0; i < sim.readings.NumPoints(); ++i) sim.readings.displacement_um(i, 3) += 25e3;
+  const SelfCalResult r = SelfCalibrate(sim.readings);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("tracker 4 reads 25000 um at point 1"), std::string::npos)
+      << r.warnings[0];
+  EXPECT_NE(r.warnings[0].find("zeroed elsewhere"), std::string::npos) << r.warnings[0];
+  EXPECT_EQ(r.dead_path_zero_row, (std::vector<int>{0, 0, 0, -1}));
+  const auto m = static_cast<std::size_t>(sim.readings.NumPoints());
+  EXPECT_EQ(r.readings_used, 3 * (m - 1) + m);
+  EXPECT_EQ(r.unknowns, 3 * m + 6 + 1);
+  auto declared = sim;
+  declared.readings.beam_breaks = {{3, 0, true}};
+  const Optimum ref = ReferenceFor(o, declared);
+  const Agreement a = Compare(r, ref, o);
+  EXPECT_LT(a.volumetric_um, 0.05);
+  EXPECT_LT(a.trackers_um, 0.05);
+  ASSERT_EQ(ref.dead_paths_mm.size(), 1u);
+  EXPECT_NEAR(r.dead_path_mm[3], ref.dead_paths_mm[0], 5e-5);
+  const test::Accuracy acc = test::Evaluate(o, sim, r);
+  EXPECT_LT(acc.volumetric_rms_um, 2.0 * acc.predicted_rms_um);
 }
 
 }  // namespace
