@@ -68,19 +68,16 @@ std::vector<double> StandardisedResiduals(const SelfCalProblem& problem, const S
 
 namespace {
 
-// Of a point's active readings (≥ 5), those the other trackers' view of the point disagrees
-// with: the point is re-estimated from all its readings but one (trackers and dead paths held),
+// Of a point's active readings `ks` (≥ 5), those the other trackers' view of the point disagrees
+// with: the point is re-estimated from all its readings but one (trackers and zero lengths held),
 // for each reading in turn, and the reading whose omission leaves the others most consistent
 // (sum of squared residuals within (redundancy)·tau²) is returned; pairs as below. The largest
 // standardised residual alone may point at a good reading when a robust pass has settled the
 // point in the wrong place.
 std::vector<std::size_t> LeastConsistentReadings(const SelfCalProblem& problem,
                                                  const SelfCalState& state, int point,
+                                                 const std::vector<std::size_t>& ks,
                                                  double tau_um) {
-  std::vector<std::size_t> ks;
-  for (std::size_t k = 0; k < problem.observations.size(); ++k) {
-    if (problem.active[k] && problem.observations[k].point == point) ks.push_back(k);
-  }
   auto residual = [&](std::size_t k, const Eigen::Vector3d& u, Eigen::Vector3d* grad) {
     const auto& o = problem.observations[k];
     const Eigen::Vector3d v = u - state.trackers_mm[static_cast<std::size_t>(o.tracker)];
@@ -182,19 +179,20 @@ bool RejectRound(SelfCalProblem& problem, const TrackerReadings& readings,
       flagged[problem.observations[k].point].push_back(k);
     }
   }
-  std::vector<int> active_count(static_cast<std::size_t>(m), 0);
+  // The active readings of each point (in observation order).
+  std::vector<std::vector<std::size_t>> of_point(static_cast<std::size_t>(m));
   for (std::size_t k = 0; k < r.size(); ++k) {
-    if (problem.active[k]) ++active_count[static_cast<std::size_t>(problem.observations[k].point)];
+    if (problem.active[k])
+      of_point[static_cast<std::size_t>(problem.observations[k].point)].push_back(k);
   }
   for (const auto& [point, ks] : flagged) {
+    const std::vector<std::size_t>& readings_of = of_point[static_cast<std::size_t>(point)];
     std::vector<std::size_t> drop;
-    if (active_count[static_cast<std::size_t>(point)] >= 5) {
+    if (readings_of.size() >= 5) {
       // The point is re-estimated for each omission: the unscaled threshold applies.
-      drop = LeastConsistentReadings(problem, state, point, tau_base);
+      drop = LeastConsistentReadings(problem, state, point, readings_of, tau_base);
     } else {
-      for (std::size_t k = 0; k < r.size(); ++k) {
-        if (problem.active[k] && problem.observations[k].point == point) drop.push_back(k);
-      }
+      drop = readings_of;
     }
     for (std::size_t k : drop) {
       problem.active[k] = 0;
