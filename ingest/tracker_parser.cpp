@@ -111,7 +111,8 @@ ReadingColumns FindReadingColumns(const TextTable& t, const std::string& file, l
   return col;
 }
 
-// The `# beam_break: tracker, point` lines among the data; `by_id` holds (id, row) sorted.
+// The `# beam_break: tracker, point[, at_point|elsewhere]` lines among the data; `by_id` holds
+// (id, row) sorted. Without the third field the tracker was re-zeroed at the point (at_point).
 std::vector<tracker::BeamBreak> BeamBreaks(
     const TextTable& t, const std::string& file, long long n,
     const std::vector<std::pair<double, std::size_t>>& by_id) {
@@ -123,10 +124,28 @@ std::vector<tracker::BeamBreak> BeamBreaks(
                              "' line among the data rows (only "
                              "'# beam_break: tracker, point' is allowed there)");
     }
-    const auto v = ParseNumberList(m.value);
+    std::string_view numbers = m.value;
+    bool elsewhere = false;
+    const auto second_comma = numbers.find(',', numbers.find(',') + 1);
+    if (numbers.find(',') != std::string_view::npos && second_comma != std::string_view::npos) {
+      const std::string_view zero = Trim(numbers.substr(second_comma + 1));
+      if (zero == "elsewhere") {
+        elsewhere = true;
+      } else if (zero != "at_point") {
+        throw InvalidInput(file, m.line, "beam_break",
+                           "the third field says where the tracker was re-zeroed: 'at_point' (at "
+                           "the point named, the default) or 'elsewhere' (not at a surveyed "
+                           "point), not " +
+                               Quote(zero));
+      }
+      numbers = numbers.substr(0, second_comma);
+    }
+    const auto v = ParseNumberList(numbers);
     long long j = 0, id = 0;
     if (!v || v->size() != 2 || !AsInt((*v)[0], j) || !AsInt((*v)[1], id)) {
-      throw InvalidInput(file, m.line, "beam_break", "expected 'tracker, point' (two integers)");
+      throw InvalidInput(file, m.line, "beam_break",
+                         "expected 'tracker, point' (two integers), optionally followed by "
+                         "', at_point' or ', elsewhere'");
     }
     if (j < 1 || j > n) {
       throw InvalidInput(file, m.line, "beam_break",
@@ -142,7 +161,7 @@ std::vector<tracker::BeamBreak> BeamBreaks(
       throw InvalidInput(file, m.line, "beam_break",
                          "a beam break at the first point is meaningless (readings start there)");
     }
-    out.push_back({static_cast<int>(j - 1), it->second});
+    out.push_back({static_cast<int>(j - 1), it->second, elsewhere});
   }
   return out;
 }
@@ -270,7 +289,8 @@ std::string WriteTrackerFile(const tracker::TrackerReadings& r) {
     for (const auto& b : r.beam_breaks) {
       if (static_cast<int>(b.row) == i) {
         s += "# beam_break: " + std::to_string(b.tracker + 1) + ", " +
-             std::to_string(r.point_ids[static_cast<std::size_t>(i)]) + "\n";
+             std::to_string(r.point_ids[static_cast<std::size_t>(i)]) +
+             (b.elsewhere ? ", elsewhere" : "") + "\n";
       }
     }
     const auto& c = r.commanded_mm[static_cast<std::size_t>(i)];

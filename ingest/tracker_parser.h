@@ -1,9 +1,10 @@
 // Parser of laser-tracker multilateration files, `# format: kinemetric-tracker/1` (contract
 // §1.2; [Tracker paper] eq. 1): header `machine_id`, `trackers` (n ≥ 4), `mode` (`simultaneous` or
 // `sequential`), any number of `tracker_guess_mm: j, x, y, z` lines (machine frame); columns
-// `point,x_mm,y_mm,z_mm,d1_um,…,dn_um`; `# beam_break: tracker, point` lines among the data
-// rows start a new dead path for that tracker from that point on. Validation is strict: every
-// error names the file, the line and the field.
+// `point,x_mm,y_mm,z_mm,d1_um,…,dn_um`; `# beam_break: tracker, point[, at_point|elsewhere]`
+// lines among the data rows say the tracker was re-zeroed from that point on: at that point
+// (default; its reading there is 0) or at a place that is not a surveyed point (an unknown dead
+// path). Validation is strict: every error names the file, the line and the field.
 #pragma once
 
 #include <map>

@@ -83,25 +83,17 @@ json TrackerResultToJson(const tracker::TrackerReadings& readings, const tracker
   out["readings_used"] = r.readings_used;
   out["unknowns"] = r.unknowns;
   out["iterations"] = r.iterations;
+  // One entry a interferometer segment: from row 0 (zeroed at point 1) or from a beam break.
   json dead = json::array();
   for (std::size_t s = 0; s < r.dead_path_mm.size(); ++s) {
-    const int j = r.dead_path_tracker[s];
-    std::size_t from = 0;
-    int seen = 0;
-    // Segment k of a tracker starts at its k-th beam break (in row order).
-    for (std::size_t q = 0; q < s; ++q) seen += r.dead_path_tracker[q] == j;
-    if (seen > 0) {
-      std::vector<std::size_t> rows;
-      for (const auto& b : readings.beam_breaks) {
-        if (b.tracker == j) rows.push_back(b.row);
-      }
-      std::sort(rows.begin(), rows.end());
-      rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
-      from = rows[static_cast<std::size_t>(seen - 1)];
-    }
-    dead.push_back({{"tracker", j + 1},
-                    {"from_point", readings.point_ids[from]},
-                    {"dead_path_mm", r.dead_path_mm[s]}});
+    const int zero = r.dead_path_zero_row[s];
+    dead.push_back(
+        {{"tracker", r.dead_path_tracker[s] + 1},
+         {"from_point", readings.point_ids[static_cast<std::size_t>(r.dead_path_from_row[s])]},
+         {"zero", zero >= 0 ? "point" : "elsewhere"},
+         {"zero_point",
+          zero >= 0 ? json(readings.point_ids[static_cast<std::size_t>(zero)]) : json(nullptr)},
+         {"dead_path_mm", Num(r.dead_path_mm[s])}});
   }
   out["dead_paths"] = dead;
   json rej = json::array();

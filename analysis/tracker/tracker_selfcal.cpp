@@ -14,7 +14,6 @@ void SelfCalOptions::Check() const {
   KM_OPTION_GE(max_iterations, 1);
   KM_OPTION_GT(max_condition_number, 1.0);
   KM_OPTION_GT(prior_sigma_um, 0.0);
-  KM_OPTION_GE(num_threads, 1);
 }
 
 // The pipeline of [Tracker paper] §4 as named stages (tracker_selfcal_stages.cpp).

@@ -1,22 +1,27 @@
 // Laser-tracker multilateration self-calibration ([Tracker paper] §4, methods §8).
 //
 // Given each tracker's displacement readings d_ij relative to point 1 ([Tracker paper] eq. 1) and
-// the commanded target positions c_i, estimate the tracker positions U_j, the true target positions
-// u_i and one dead path per interferometer segment by least squares on
+// the commanded target positions c_i, estimate the tracker positions U_j and the true target
+// positions u_i by least squares on
 //
-//   r_ij = |u_i − U_j| − L_s(i,j) − d_ij        ([Tracker paper] eqs. 1–4; see selfcal_problem.h)
+//   r_ij = |u_i − U_j| − |u_z − U_j| − d_ij        ([Tracker paper] eqs. 1–4; selfcal_problem.h)
 //
-// in the gauge of docs/formats.md §3 (U_1 = 0, U_2 on +x, U_3 in the xy-plane with y > 0, z of
-// U_4 > 0). `simultaneous` (n trackers at once) and `sequential` (one tracker at n stations,
-// the same points repeated per station) have the same unknowns; each station has its own dead
-// path. The solve: per-tracker initialisation (selfcal_problem.h), a least-squares pass, a
-// short robust (Cauchy) pass that exposes gross errors (only readings beyond 3× the threshold
-// are taken out from it), then rounds of rejection (|z| > k·σ_robust on residuals standardised
-// by their leverage, σ_robust = 1.4826·median|z|) with least-squares re-solves until the last
-// one has converged: on clean data the result is the least-squares optimum of all readings. A
-// point seen by only 4 trackers has one redundant reading, so a gross error cannot be pinned on
-// one tracker: all its readings are rejected (the point is dropped); with ≥ 5 readings only the
-// worst reading is rejected per round.
+// z the point the tracker's interferometer was zeroed at: point 1, or the point of a beam break
+// after which it was re-zeroed there. The zero is exact — the reading at z is 0 by definition,
+// not an observation, and no dead path is estimated; only a tracker re-zeroed at a place that is
+// not a surveyed point (a beam break marked `elsewhere`, docs/formats.md §1.2) reads relative to
+// an unknown dead path L_s, estimated with the rest. The gauge is that of docs/formats.md §3
+// (U_1 = 0, U_2 on +x, U_3 in the xy-plane with y > 0, z of U_4 > 0). `simultaneous` (n trackers
+// at once) and `sequential` (one tracker at n stations, the same points repeated per station,
+// each station zeroed at point 1) have the same unknowns. The solve: per-tracker initialisation
+// (selfcal_problem.h), a least-squares pass (selfcal_solver.h), a short robust (Cauchy) pass that
+// exposes gross errors (only readings beyond 3× the threshold are taken out from it), then rounds
+// of rejection (|z| > k·σ_robust on residuals standardised by their leverage, σ_robust =
+// 1.4826·median|z|) with least-squares re-solves until the last one has converged: on clean data
+// the result is the least-squares optimum of eq. (1) over all readings. A point seen by only 4
+// trackers has one redundant reading, so a gross error cannot be pinned on one tracker: all its
+// readings are rejected (the point is dropped); with ≥ 5 readings only the worst reading is
+// rejected per round.
 //
 // Readings are rejected only on the evidence of the readings themselves (their residuals and
 // leverage: the other trackers' view of the same point), never because the machine's error
@@ -52,8 +57,6 @@ struct SelfCalOptions {
   int max_iterations = 100;
   double max_condition_number = 1e8;  // of the reduced Jacobian; larger = NotObservable
   double prior_sigma_um = 0.2;        // reading σ used when there is no redundancy
-  int num_threads = 1;
-  bool sparse_schur = false;
   // Warning (never a rejection) for points whose volumetric error, after a quadratic trend,
   // departs from the median of its 6 nearest neighbours by more than outlier_k times the map's
   // robust local scatter and the point's own precision (SelfCalResult::spatial_outliers).
@@ -87,11 +90,16 @@ struct SelfCalResult {
   TrackerMode mode = TrackerMode::kSimultaneous;
   std::vector<Eigen::Vector3d> trackers_mm;             // gauge frame
   std::vector<Eigen::Vector3d> tracker_uncertainty_um;  // 1σ per axis, gauge frame
-  std::vector<double> dead_path_mm;                     // per segment
-  std::vector<int> dead_path_tracker;                   // 0-based tracker of each segment
-  std::vector<Eigen::Vector3d> points_mm;               // gauge frame (NaN when dropped)
-  std::vector<char> point_valid;                        // 0 = all readings rejected
-  std::vector<Eigen::Vector3d> volumetric_error_um;     // commanded frame (NaN when dropped)
+  // Per interferometer segment (a tracker's readings from row 0 or from a beam break on): the
+  // tracker's distance to its zero, |u_z − U_j| when zeroed at point z (derived), the estimated
+  // dead path when zeroed elsewhere.
+  std::vector<double> dead_path_mm;
+  std::vector<int> dead_path_tracker;      // 0-based tracker of each segment
+  std::vector<int> dead_path_from_row;     // 0-based first row of each segment
+  std::vector<int> dead_path_zero_row;     // 0-based row of its zero point; −1: zeroed elsewhere
+  std::vector<Eigen::Vector3d> points_mm;  // gauge frame (NaN when dropped)
+  std::vector<char> point_valid;           // 0 = all readings rejected
+  std::vector<Eigen::Vector3d> volumetric_error_um;  // commanded frame (NaN when dropped)
   // 1σ per axis of the volumetric error (commanded frame, rigid motion removed: gauge-free).
   std::vector<Eigen::Vector3d> position_uncertainty_um;
   // 1σ per axis of points_mm in the gauge frame (includes the uncertainty of the gauge itself).

@@ -20,131 +20,6 @@ namespace {
 
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-double MedianAbs(const std::vector<double>& r) {
-  std::vector<double> a;
-  a.reserve(r.size());
-  for (double x : r) {
-    if (std::isfinite(x)) a.push_back(std::abs(x));
-  }
-  if (a.empty()) return 0.0;
-  std::nth_element(a.begin(), a.begin() + static_cast<long>(a.size() / 2), a.end());
-  return a[a.size() / 2];
-}
-
-// Residuals divided by √(1 − h), h the leverage of the reading within its point block
-// (h = nᵀ A⁻¹ n, A = Σ n nᵀ over the point's active readings; the shared tracker parameters
-// add little). Readings without redundancy (1 − h ≈ 0) get 0: they cannot be tested, and are
-// marked in `testable` (when given) so that they do not enter the robust σ. (Far trackers can
-// leave half the readings of every point without redundancy: counting their zeros would shrink
-// the σ and reject clean readings.)
-std::vector<double> StandardisedResiduals(const SelfCalProblem& problem, const SelfCalState& state,
-                                          const std::vector<double>& r,
-                                          std::vector<char>* testable = nullptr) {
-  const auto m = static_cast<std::size_t>(problem.num_points);
-  std::vector<Eigen::Matrix3d> A(m, Eigen::Matrix3d::Zero());
-  std::vector<Eigen::Vector3d> dir(problem.observations.size(), Eigen::Vector3d::Zero());
-  for (std::size_t k = 0; k < problem.observations.size(); ++k) {
-    if (!problem.active[k]) continue;
-    const auto& o = problem.observations[k];
-    dir[k] = (state.points_mm[static_cast<std::size_t>(o.point)] -
-              state.trackers_mm[static_cast<std::size_t>(o.tracker)])
-                 .normalized();
-    A[static_cast<std::size_t>(o.point)] += dir[k] * dir[k].transpose();
-  }
-  std::vector<Eigen::Matrix3d> Ainv(m);
-  for (std::size_t i = 0; i < m; ++i) {
-    Eigen::FullPivLU<Eigen::Matrix3d> lu(A[i]);
-    Ainv[i] = lu.isInvertible() ? Eigen::Matrix3d(lu.inverse()) : Eigen::Matrix3d::Zero();
-  }
-  std::vector<double> z(r.size(), kNaN);
-  if (testable) testable->assign(r.size(), 0);
-  for (std::size_t k = 0; k < r.size(); ++k) {
-    if (!problem.active[k]) continue;
-    const double h =
-        dir[k].dot(Ainv[static_cast<std::size_t>(problem.observations[k].point)] * dir[k]);
-    z[k] = 1.0 - h > 1e-3 ? r[k] / std::sqrt(1.0 - h) : 0.0;
-    if (testable) (*testable)[k] = 1.0 - h > 1e-3;
-  }
-  return z;
-}
-
-// Of a point's active readings (≥ 5), those the other trackers' view of the point disagrees
-// with: the point is re-estimated from all its readings but one (trackers and dead paths held),
-// for each reading in turn, and the reading whose omission leaves the others most consistent
-// (sum of squared residuals within (redundancy)·tau²) is returned; pairs as below. The largest
-// standardised residual alone may point at a good reading when a robust pass has settled the
-// point in the wrong place.
-std::vector<std::size_t> LeastConsistentReadings(const SelfCalProblem& problem,
-                                                 const SelfCalState& state, int point,
-                                                 double tau_um) {
-  std::vector<std::size_t> ks;
-  for (std::size_t k = 0; k < problem.observations.size(); ++k) {
-    if (problem.active[k] && problem.observations[k].point == point) ks.push_back(k);
-  }
-  auto residual = [&](std::size_t k, const Eigen::Vector3d& u, Eigen::Vector3d* grad) {
-    const auto& o = problem.observations[k];
-    const Eigen::Vector3d v = u - state.trackers_mm[static_cast<std::size_t>(o.tracker)];
-    const double rho = v.norm();
-    if (grad) *grad = v / rho;
-    return 1e3 * (rho - state.offsets_mm[static_cast<std::size_t>(o.segment)] - o.d_mm);
-  };
-  // Sum of squared residuals (µm²) of the point re-estimated without the readings in `out`.
-  auto ssr_without = [&](const std::vector<std::size_t>& out) {
-    auto kept = [&](std::size_t k) { return std::find(out.begin(), out.end(), k) == out.end(); };
-    Eigen::Vector3d u = state.points_mm[static_cast<std::size_t>(point)];
-    for (int it = 0; it < 20; ++it) {
-      Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d g = Eigen::Vector3d::Zero(), n;
-      for (std::size_t k : ks) {
-        if (!kept(k)) continue;
-        const double r = 1e-3 * residual(k, u, &n);
-        N += n * n.transpose();
-        g += n * r;
-      }
-      const Eigen::Vector3d step = -N.ldlt().solve(g);
-      if (!step.allFinite()) return std::numeric_limits<double>::infinity();
-      u += step;
-      if (step.norm() < 1e-10) break;
-    }
-    double ssr = 0;
-    for (std::size_t k : ks) {
-      if (kept(k)) ssr += std::pow(residual(k, u, nullptr), 2);
-    }
-    return ssr;
-  };
-  // Omissions of one reading: the best one when it leaves the rest consistent (should a second
-  // one do so too, the next round tests what is left). Otherwise, with ≥ 6 readings, pairs: one
-  // consistent pair is rejected; two different ones mean the readings cannot tell which are
-  // wrong (two gross errors on 6 readings can cancel in 4 of them), and all are returned.
-  const double n = static_cast<double>(ks.size());
-  std::vector<std::size_t> best;
-  double best_ssr = std::numeric_limits<double>::infinity();
-  for (std::size_t k : ks) {
-    const double ssr = ssr_without({k});
-    if (ssr < best_ssr) {
-      best_ssr = ssr;
-      best = {k};
-    }
-  }
-  if (ks.size() < 6 || best_ssr <= (n - 4) * tau_um * tau_um) return best;
-  int consistent = 0;
-  std::vector<std::size_t> pair;
-  double pair_ssr = std::numeric_limits<double>::infinity();
-  for (std::size_t a = 0; a < ks.size(); ++a) {
-    for (std::size_t b = a + 1; b < ks.size(); ++b) {
-      const double ssr = ssr_without({ks[a], ks[b]});
-      consistent += ssr <= (n - 5) * tau_um * tau_um;
-      if (ssr < pair_ssr) {
-        pair_ssr = ssr;
-        pair = {ks[a], ks[b]};
-      }
-    }
-  }
-  if (consistent == 1) return pair;
-  if (consistent > 1) return ks;
-  return best;  // nothing consistent: the best single omission; the next round goes on
-}
-
 double PointSpreadMm(const SelfCalState& state, const SelfCalProblem& problem) {
   const auto use = problem.PointsInUse();
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
@@ -162,56 +37,6 @@ double PointSpreadMm(const SelfCalState& state, const SelfCalProblem& problem) {
     if (use[i]) s += (state.points_mm[i] - mean).squaredNorm();
   }
   return std::sqrt(s / cnt);
-}
-
-// One round of rejection on the current solution; true when a reading was taken out.
-bool RejectRound(SelfCalProblem& problem, const TrackerReadings& readings,
-                 const SelfCalOptions& options, const SelfCalState& state, bool last_was_plain,
-                 SelfCalResult& res) {
-  const int m = readings.NumPoints();
-  bool changed = false;
-  const auto r = problem.ResidualsUm(state);
-  std::vector<char> testable;
-  const auto z = StandardisedResiduals(problem, state, r, &testable);
-  std::vector<double> tested;
-  for (std::size_t k = 0; k < z.size(); ++k) {
-    if (testable[k]) tested.push_back(z[k]);
-  }
-  const double sigma_rob = 1.4826 * MedianAbs(tested);
-  // The robust pass is stopped early: from it, only clearly gross readings are taken out;
-  // the finer cuts are made on converged least-squares solutions.
-  const double factor = last_was_plain ? 1.0 : 3.0;
-  const double tau_base = std::max(options.outlier_k * sigma_rob, options.outlier_floor_um);
-  const double tau = factor * tau_base;
-  std::map<int, std::vector<std::size_t>> flagged;  // point → readings over threshold
-  for (std::size_t k = 0; k < r.size(); ++k) {
-    if (problem.active[k] && std::abs(z[k]) > tau) {
-      flagged[problem.observations[k].point].push_back(k);
-    }
-  }
-  std::vector<int> active_count(static_cast<std::size_t>(m), 0);
-  for (std::size_t k = 0; k < r.size(); ++k) {
-    if (problem.active[k]) ++active_count[static_cast<std::size_t>(problem.observations[k].point)];
-  }
-  for (const auto& [point, ks] : flagged) {
-    std::vector<std::size_t> drop;
-    if (active_count[static_cast<std::size_t>(point)] >= 5) {
-      // The point is re-estimated for each omission: the unscaled threshold applies.
-      drop = LeastConsistentReadings(problem, state, point, tau_base);
-    } else {
-      for (std::size_t k = 0; k < r.size(); ++k) {
-        if (problem.active[k] && problem.observations[k].point == point) drop.push_back(k);
-      }
-    }
-    for (std::size_t k : drop) {
-      problem.active[k] = 0;
-      const auto& o = problem.observations[k];
-      res.rejected.push_back({o.point, readings.point_ids[static_cast<std::size_t>(o.point)],
-                              o.tracker, r[k], z[k], "residual"});
-    }
-    changed = true;
-  }
-  return changed;
 }
 
 // The NotObservable error of a rank-deficient or ill-conditioned solution, naming the usual
@@ -244,6 +69,32 @@ bool RejectRound(SelfCalProblem& problem, const TrackerReadings& readings,
     os << ": trackers (nearly) coplanar make the self-calibration singular; raise or lower "
           "at least one tracker well out of the plane of the others";
   }
+  throw NotObservable(os.str());
+}
+
+// Trackers within 1 mm per metre of one plane (the initial positions): refused. At coplanar
+// trackers the Jacobian of eq. (1) loses rank (the trackers can tilt out of their plane, the
+// points following, to first order), and a solve drifts along that valley, far from the truth,
+// to a meaningless optimum. Initial positions of coplanar trackers lie within ~1e-5 of a plane;
+// 10 mm out of the plane of trackers a metre apart (1e-2) solves.
+constexpr double kCoplanarTrackers = 1e-3;
+void RefuseCoplanarTrackers(const std::vector<Eigen::Vector3d>& U) {
+  const auto n = static_cast<double>(U.size());
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& u : U) mean += u;
+  mean /= n;
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& u : U) scatter += (u - mean) * (u - mean).transpose();
+  const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();
+  const double out_mm = std::sqrt(std::max(ev(0), 0.0) / n);
+  const double in_mm = std::sqrt(std::max(ev(2), 0.0) / n);
+  if (!(out_mm < kCoplanarTrackers * in_mm)) return;
+  std::ostringstream os;
+  os << "laser-tracker self-calibration is not observable: the trackers lie within " << out_mm
+     << " mm (rms) of one plane while they spread " << in_mm
+     << " mm (rms) in it: trackers (nearly) coplanar make the self-calibration singular "
+        "([Tracker paper] eq. 1 cannot fix their tilt out of the plane); raise or lower at least "
+        "one tracker well out of the plane of the others";
   throw NotObservable(os.str());
 }
 
@@ -309,6 +160,7 @@ SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& re
   std::vector<Eigen::Vector3d> U0(static_cast<std::size_t>(n));
   SelfCalState state;
   state.offsets_mm.assign(static_cast<std::size_t>(problem.NumSegments()), 0.0);
+  res.warnings.insert(res.warnings.end(), problem.notes.begin(), problem.notes.end());
   for (int j = 0; j < n; ++j) {
     const Eigen::Vector3d* guess = nullptr;
     for (const auto& g : readings.guesses) {
@@ -322,7 +174,7 @@ SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& re
     res.initial_rms_um.push_back(init.rms_um);
     std::size_t local = 0;
     for (int s = 0; s < problem.NumSegments(); ++s) {
-      if (problem.segment_tracker[static_cast<std::size_t>(s)] == j) {
+      if (problem.segments[static_cast<std::size_t>(s)].tracker == j) {
         if (local >= init.offsets_mm.size()) {
           throw DidNotConverge("laser-tracker self-calibration: the initial fit of tracker " +
                                std::to_string(j + 1) + " gave no dead path for every segment");
@@ -331,6 +183,7 @@ SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& re
       }
     }
   }
+  RefuseCoplanarTrackers(U0);
   // 2. Into the gauge frame.
   const RigidTransform T = GaugeTransform(U0);
   for (const auto& u : U0) state.trackers_mm.push_back(T.Apply(u));
@@ -338,51 +191,59 @@ SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& re
   state.trackers_mm[1].tail<2>().setZero();
   state.trackers_mm[2].z() = 0.0;
   for (const auto& c : readings.commanded_mm) state.points_mm.push_back(T.Apply(c));
+  problem.UpdateZeroLengths(state);
   return state;
 }
 
 SolveProgress LeastSquaresPass(const SelfCalProblem& problem, const SelfCalOptions& options,
                                SelfCalState& state, SelfCalResult& res) {
   SolveProgress solve;
-  CeresSolveOptions& copt = solve.options;
-  copt.max_iterations = options.max_iterations;
-  copt.num_threads = options.num_threads;
-  copt.sparse_schur = options.sparse_schur;
+  SolveOptions& sopt = solve.options;
+  sopt.max_iterations = options.max_iterations;
   // Plain least squares from the initial values first (fast, close even with gross errors),
   // then the robust (Cauchy) pass from there.
-  copt.cauchy_scale_um = 0.0;
-  solve.report = SolveSelfCalCeres(problem, copt, state);
+  sopt.cauchy_scale_um = 0.0;
+  solve.report = SolveSelfCal(problem, sopt, state);
   res.iterations += solve.report.iterations;
   solve.last_was_plain = true;
-  copt.initial_trust_region_radius = 1e8;
+  sopt.initial_trust_region_radius = 1e8;
   return solve;
 }
 
 void RobustPass(const SelfCalProblem& problem, const SelfCalOptions& options, SelfCalState& state,
                 SolveProgress& solve, SelfCalResult& res) {
   if (!(options.reject_outliers && options.robust_scale_um > 0)) return;
-  CeresSolveOptions& copt = solve.options;
+  // Nothing to expose when no reading of the least-squares solution is beyond the threshold:
+  // the first rejection round would take nothing out either, and the least-squares solution
+  // stands (a clean survey: two solves fewer).
+  const Screening sc = Screen(problem, state, options);
+  bool beyond = false;
+  for (std::size_t k = 0; k < sc.z.size() && !beyond; ++k) {
+    beyond = problem.active[k] && std::abs(sc.z[k]) > sc.tau;
+  }
+  if (!beyond) return;
+  SolveOptions& sopt = solve.options;
   // Only to expose the gross errors: a few iterations suffice, the rejection rounds re-solve.
-  copt.cauchy_scale_um = options.robust_scale_um;
-  copt.max_iterations = std::min(options.max_iterations, 10);
-  solve.report = SolveSelfCalCeres(problem, copt, state);
+  sopt.cauchy_scale_um = options.robust_scale_um;
+  sopt.max_iterations = std::min(options.max_iterations, 10);
+  solve.report = SolveSelfCal(problem, sopt, state);
   res.iterations += solve.report.iterations;
   solve.last_was_plain = false;
-  copt.cauchy_scale_um = 0.0;
-  copt.max_iterations = options.max_iterations;
+  sopt.cauchy_scale_um = 0.0;
+  sopt.max_iterations = options.max_iterations;
 }
 
 void RejectionRounds(SelfCalProblem& problem, const TrackerReadings& readings,
                      const SelfCalOptions& options, SelfCalState& state, SolveProgress& solve,
                      SelfCalResult& res) {
-  const CeresSolveOptions& copt = solve.options;
-  CeresSolveReport& rep = solve.report;
+  const SolveOptions& sopt = solve.options;
+  SolveReport& rep = solve.report;
   for (int round = 0; round <= options.max_rejection_rounds; ++round) {
     const bool changed = options.reject_outliers && round < options.max_rejection_rounds &&
                          RejectRound(problem, readings, options, state, solve.last_was_plain, res);
     if (!changed && solve.last_was_plain) break;
     if (changed) problem.CheckCounting();
-    rep = SolveSelfCalCeres(problem, copt, state);
+    rep = SolveSelfCal(problem, sopt, state);
     res.iterations += rep.iterations;
     res.rounds = round + 1;
     solve.last_was_plain = true;
@@ -393,7 +254,7 @@ void RejectionRounds(SelfCalProblem& problem, const TrackerReadings& readings,
   // The answer is the least-squares optimum of the readings in use: a solve stopped by its
   // iteration limit (far trackers make the problem ill-conditioned) is continued.
   for (int extra = 0; extra < 4 && !rep.converged; ++extra) {
-    rep = SolveSelfCalCeres(problem, copt, state);
+    rep = SolveSelfCal(problem, sopt, state);
     res.iterations += rep.iterations;
   }
   if (!rep.converged) {
@@ -449,8 +310,12 @@ void AssembleResult(const SelfCalProblem& problem, const TrackerReadings& readin
   for (const auto& C : cov.tracker_um2) {
     res.tracker_uncertainty_um.push_back(C.diagonal().cwiseMax(0.0).cwiseSqrt());
   }
-  res.dead_path_mm = state.offsets_mm;
-  res.dead_path_tracker = problem.segment_tracker;
+  res.dead_path_mm = problem.ZeroLengthsMm(state);
+  for (const Segment& s : problem.segments) {
+    res.dead_path_tracker.push_back(s.tracker);
+    res.dead_path_from_row.push_back(s.start_row);
+    res.dead_path_zero_row.push_back(s.zero_point);
+  }
   res.gauge_to_commanded = FitRigid(state.points_mm, readings.commanded_mm, &use);
   const Eigen::Matrix3d& R = res.gauge_to_commanded.rotation;
   const Eigen::Vector3d nan3 = Eigen::Vector3d::Constant(kNaN);

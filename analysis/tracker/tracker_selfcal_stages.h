@@ -7,8 +7,8 @@
 
 #include <Eigen/Core>
 
-#include "analysis/tracker/selfcal_ceres.h"
 #include "analysis/tracker/selfcal_problem.h"
+#include "analysis/tracker/selfcal_solver.h"
 #include "analysis/tracker/tracker_selfcal.h"
 
 namespace km::tracker::selfcal_stages {
@@ -17,23 +17,25 @@ namespace km::tracker::selfcal_stages {
 // machine origin (InvalidInput otherwise).
 void CheckReadings(const TrackerReadings& readings);
 
-// 1. Each tracker and its dead paths initialised in the machine frame, one tracker at a time
-// (initial_rms_um), then 2. everything moved into the gauge frame.
+// 1. Each tracker initialised in the machine frame, one tracker at a time (initial_rms_um), then
+// 2. everything moved into the gauge frame; the notes of the readings (beam breaks taken as
+// re-zeroed elsewhere) become warnings.
 SelfCalState Initialise(const SelfCalProblem& problem, const TrackerReadings& readings,
                         SelfCalResult& res);
 
-// The solve carried from pass to pass: the Ceres options, the last report, and whether the last
+// The solve carried from pass to pass: the solver options, the last report, and whether the last
 // solve was plain least squares.
 struct SolveProgress {
-  CeresSolveOptions options;
-  CeresSolveReport report;
+  SolveOptions options;
+  SolveReport report;
   bool last_was_plain = true;
 };
 
 // 3a. Plain least squares from the initial values (fast, close even with gross errors).
 SolveProgress LeastSquaresPass(const SelfCalProblem& problem, const SelfCalOptions& options,
                                SelfCalState& state, SelfCalResult& res);
-// 3b. A short robust (Cauchy) pass, only to expose the gross errors (when rejecting).
+// 3b. A short robust (Cauchy) pass, only to expose the gross errors (when rejecting, and only
+// when a reading of the least-squares solution is beyond the rejection threshold).
 void RobustPass(const SelfCalProblem& problem, const SelfCalOptions& options, SelfCalState& state,
                 SolveProgress& solve, SelfCalResult& res);
 // 3c. Rejection rounds with least-squares re-solves until the last solve was plain and nothing
@@ -54,6 +56,26 @@ void AssembleResult(const SelfCalProblem& problem, const TrackerReadings& readin
 // 7. Spatial consistency of the map: a warning naming the points; nothing is discarded.
 void SpatialWarning(const SelfCalProblem& problem, const TrackerReadings& readings,
                     const SelfCalState& state, const SelfCalOptions& options, SelfCalResult& res);
+
+// Rejection (tracker_rejection.cpp). Residuals divided by √(1 − h), h the leverage of the reading
+// within its point block; readings without redundancy (1 − h < 1e-3) get 0 and are marked not
+// `testable`.
+std::vector<double> StandardisedResiduals(const SelfCalProblem& problem, const SelfCalState& state,
+                                          const std::vector<double>& r,
+                                          std::vector<char>* testable = nullptr);
+// The residuals of the readings, standardised by their leverage, and the rejection threshold:
+// outlier_k robust σ of the testable ones, at least outlier_floor_um.
+struct Screening {
+  std::vector<double> r, z;
+  double tau = 0.0;
+};
+Screening Screen(const SelfCalProblem& problem, const SelfCalState& state,
+                 const SelfCalOptions& options);
+// One round of rejection on the current solution (threshold ×3 after the robust pass, whose
+// solve is stopped early); true when a reading was taken out, each listed in res.rejected.
+bool RejectRound(SelfCalProblem& problem, const TrackerReadings& readings,
+                 const SelfCalOptions& options, const SelfCalState& state, bool last_was_plain,
+                 SelfCalResult& res);
 
 // Spatial consistency of the volumetric error map, a WARNING only: nothing is discarded, because
 // a machine's error field need not be smooth (ball-screw and guide waviness, steps, local wear)

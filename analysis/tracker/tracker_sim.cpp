@@ -41,6 +41,7 @@ TrackerSimResult SimulateTrackerSurvey(const TrackerSimOptions& o) {
   if (m < 1 || n < 1) throw InvalidInput("", 0, "trackers_mm", "need points and trackers");
   std::mt19937 rng(o.seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
+  std::bernoulli_distribution sign_of_shift(0.5);
   TrackerSimResult out;
   auto& r = out.readings;
   r.machine_id = "sim";
@@ -60,19 +61,32 @@ TrackerSimResult SimulateTrackerSurvey(const TrackerSimOptions& o) {
       if (b.tracker == j) starts.push_back(b.row);
     }
     std::sort(starts.begin(), starts.end());
-    std::vector<double> raw(static_cast<std::size_t>(m));
+    // A break re-zeroed elsewhere: the new zero is a place 20–100 mm nearer or farther than the
+    // break's point (its reading there is not 0).
+    std::vector<double> shift_um(static_cast<std::size_t>(m), 0.0);
+    for (const auto& b : o.beam_breaks) {
+      if (b.tracker != j || !b.elsewhere || b.row >= static_cast<std::size_t>(m)) continue;
+      std::uniform_real_distribution<double> mm(20.0, 100.0);
+      shift_um[b.row] = 1e3 * mm(rng) * (sign_of_shift(rng) ? 1.0 : -1.0);
+    }
+    // Distances (µm) to where the target stands at each visit, and the noise of each reading.
+    std::vector<double> dist(static_cast<std::size_t>(m)), noise(static_cast<std::size_t>(m));
     for (int i = 0; i < m; ++i) {
       Eigen::Vector3d u = out.true_points_mm[static_cast<std::size_t>(i)];
       if (o.mode == TrackerMode::kSequential && o.repeatability_um > 0) {
         u += 1e-3 * o.repeatability_um * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng));
       }
-      raw[static_cast<std::size_t>(i)] =
-          1e3 * (u - o.trackers_mm[static_cast<std::size_t>(j)]).norm() + o.noise_um * gauss(rng);
+      dist[static_cast<std::size_t>(i)] =
+          1e3 * (u - o.trackers_mm[static_cast<std::size_t>(j)]).norm();
+      noise[static_cast<std::size_t>(i)] = o.noise_um * gauss(rng);
     }
     for (int i = 0; i < m; ++i) {
-      const auto it = std::upper_bound(starts.begin(), starts.end(), static_cast<std::size_t>(i));
+      const auto ui = static_cast<std::size_t>(i);
+      const auto it = std::upper_bound(starts.begin(), starts.end(), ui);
       const std::size_t ref = *(it - 1);
-      r.displacement_um(i, j) = raw[static_cast<std::size_t>(i)] - raw[ref];
+      // The zero is exact: the counter is reset where the target stands (shift_um: elsewhere).
+      const bool zero = ui == ref && shift_um[ref] == 0.0;
+      r.displacement_um(i, j) = zero ? 0.0 : dist[ui] + noise[ui] - dist[ref] - shift_um[ref];
     }
   }
   const int count = static_cast<int>(std::lround(o.outlier_fraction * m * n));

@@ -4,9 +4,13 @@
 // The machine places the target at u_i = c_i + e(c_i) with the geometric error model of
 // volumetric_decomposition.h eq. (1) (scales, squareness, polynomial positioning/straightness)
 // plus periodic terms (ball-screw or guide waviness), which no low-order polynomial describes.
-// Tracker j reads d_ij = (|u_i − U_j| + n_ij) − (|u_r − U_j| + n_rj), r the first row of the
-// reading's segment (row 0, or the row of the last beam break), n ~ N(0, σ²): the zeroing noise
-// is common to the segment, as with a real interferometer.
+// Tracker j reads d_ij = |u_i − U_j| + n_ij − |u_r − U_j|, r the first row of the reading's
+// segment (row 0, or the row of the last beam break), n ~ N(0, σ²), and exactly 0 at r: the zero
+// is exact ([Tracker paper] eq. 1) — the interferometer's counter is reset where the target
+// stands, and u_r is that place. In sequential mode the target scatters by the machine's
+// repeatability at every visit, the zero's visit of each station included (the one part of the
+// noise common to a station's readings). A break re-zeroed elsewhere (BeamBreak::elsewhere)
+// reads relative to a place 20–100 mm nearer or farther along the beam than its point.
 #pragma once
 
 #include <array>

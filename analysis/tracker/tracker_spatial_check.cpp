@@ -55,8 +55,10 @@ std::vector<std::vector<std::size_t>> NearestNeighbours(const std::vector<Eigen:
     for (int ring = 0; ring <= max_ring; ++ring) {
       for (int dz = -ring; dz <= ring; ++dz) {
         for (int dy = -ring; dy <= ring; ++dy) {
-          for (int dx = -ring; dx <= ring; ++dx) {
-            if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != ring) continue;
+          // The cells of the ring's shell only: inside it, the two faces of dx = ±ring.
+          const bool face = std::abs(dz) == ring || std::abs(dy) == ring;
+          const int step = face || ring == 0 ? 1 : 2 * ring;
+          for (int dx = -ring; dx <= ring; dx += step) {
             const Eigen::Vector3i nb = home + Eigen::Vector3i(dx, dy, dz);
             if ((nb.array() < 0).any() || (nb.array() >= dims.array()).any()) continue;
             for (std::size_t other : bins[flat(nb)]) {
@@ -81,6 +83,13 @@ std::vector<std::vector<std::size_t>> NearestNeighbours(const std::vector<Eigen:
     for (const auto& [d2, other] : best) out[q].push_back(other);
   }
   return out;
+}
+
+// x^k for the small powers of the trend (as std::pow gives them: x·x is exactly rounded).
+double Power(double x, int k) {
+  double y = 1.0;
+  for (int q = 0; q < k; ++q) y *= x;
+  return y;
 }
 
 }  // namespace
@@ -117,8 +126,7 @@ std::vector<SpatialDeparture> SpatialDepartures(const std::vector<Eigen::Vector3
     const Eigen::Vector3d t = (commanded[i] - mid).cwiseQuotient(half);
     for (std::size_t q = 0; q < powers.size(); ++q) {
       const auto& p = powers[q];
-      X(r, static_cast<long>(q)) =
-          std::pow(t.x(), p[0]) * std::pow(t.y(), p[1]) * std::pow(t.z(), p[2]);
+      X(r, static_cast<long>(q)) = Power(t.x(), p[0]) * Power(t.y(), p[1]) * Power(t.z(), p[2]);
     }
     E.row(r) = error_um[i].transpose();
   }

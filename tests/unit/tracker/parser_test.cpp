@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "analysis/core/errors.h"
 #include "analysis/tracker/tracker_selfcal.h"
@@ -118,6 +120,12 @@ TEST(TrackerParser, RefusesBadInput) {
   ExpectBad(Replace(g, "# beam_break: 2, 3", "# beam_break: 2, 1"), 11, "beam_break",
             "first point");
   ExpectBad(Replace(g, "# beam_break: 2, 3", "# beam_break: 2"), 11, "beam_break", "two");
+  ExpectBad(Replace(g, "# beam_break: 2, 3", "# beam_break: 2, 3, somewhere"), 11, "beam_break",
+            "'elsewhere'");
+  ExpectBad(Replace(g, "# beam_break: 2, 3", "# beam_break: 2, 3, 4"), 11, "beam_break",
+            "'at_point'");
+  ExpectBad(Replace(g, "# beam_break: 2, 3", "# beam_break: 2, x, elsewhere"), 11, "beam_break",
+            "two integers");
   ExpectBad(Replace(g, "# beam_break: 2, 3", "# note: hello"), 11, "note", "unexpected");
   ExpectBad(
       Replace(g,
@@ -126,6 +134,26 @@ TEST(TrackerParser, RefusesBadInput) {
       8, "", "no data rows");
   ExpectBad(Replace(g, "# trackers: 4\n", "# trackers: 4\n# trackers: 5\n"), 4, "trackers",
             "duplicated");
+}
+
+TEST(TrackerParser, WhereABeamBreakWasReZeroed) {
+  // Two fields: re-zeroed at the point named (what a beam_break line always said: a new zero
+  // from that point on); 'at_point' says the same; 'elsewhere': not at a surveyed point.
+  for (const auto& [line, elsewhere] :
+       std::vector<std::pair<std::string, bool>>{{"# beam_break: 2, 3", false},
+                                                 {"# beam_break: 2, 3, at_point", false},
+                                                 {"# beam_break: 2,3 ,  elsewhere ", true}}) {
+    SCOPED_TRACE(line);
+    const auto r = ParseTrackerFile(Replace(kGood, "# beam_break: 2, 3", line), "b.csv").readings;
+    ASSERT_EQ(r.beam_breaks.size(), 1u);
+    EXPECT_EQ(r.beam_breaks[0].tracker, 1);
+    EXPECT_EQ(r.beam_breaks[0].row, 2u);
+    EXPECT_EQ(r.beam_breaks[0].elsewhere, elsewhere);
+    // Written back as read.
+    const auto again = ParseTrackerFile(WriteTrackerFile(r), "again.csv").readings;
+    ASSERT_EQ(again.beam_breaks.size(), 1u);
+    EXPECT_EQ(again.beam_breaks[0].elsewhere, elsewhere);
+  }
 }
 
 }  // namespace

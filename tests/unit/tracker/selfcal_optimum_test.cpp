@@ -1,17 +1,19 @@
 // Clean surveys of machines with real, non-smooth errors: periodic straightness and positioning
 // errors (ball-screw and guide waviness, 70–250 mm periods, ≈ 3 µm) on top of scale and
 // squareness. A volumetric survey exists to find such errors: nothing may be rejected, and the
-// volumetric errors must be the least-squares optimum of the readings.
+// volumetric errors must be the least-squares optimum of the readings under [Tracker paper]
+// eq. (1).
 //
-// The optimum is computed here independently of the tracker solver (no Ceres, no code of
+// The optimum is computed here independently of the tracker solver (no code of
 // analysis/tracker/selfcal_*): a plain Gauss–Newton iteration on the full normal equations of
 //
-//   r_ij = |u_i − U_j| − L_s(i,j) − d_ij
+//   r_ij = |u_i − U_j| − |u_z − U_j| − d_ij      (z: the point tracker j was zeroed at)
 //
-// in the machine frame, started from the true configuration, with the six rigid-motion
-// directions removed by inner constraints (minimum-norm steps) instead of the gauge of contract
-// §3, and its own best-fit rigid transform (proper rotation, Kabsch by SVD) to the commanded
-// points. Volumetric errors are gauge-free, so both must agree to 0.02 µm.
+// over every reading but the zeros themselves, in the machine frame, started from the true
+// configuration, with the six rigid-motion directions removed by inner constraints
+// (minimum-norm steps) instead of the gauge of docs/formats.md §3, and its own best-fit rigid
+// transform (proper rotation, Kabsch by SVD) to the commanded points. Volumetric errors are
+// gauge-free, so both must agree to 0.02 µm.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -43,32 +45,43 @@ struct Reference {
   int iterations = 0;
 };
 
-// Segment (dead path) of each reading: a tracker's readings from row 0 and from each of its
-// beam breaks on share one unknown offset.
-std::vector<std::vector<int>> SegmentsOf(const TrackerReadings& rd, int* count) {
+// Segments: a tracker's readings from row 0 and from each of its beam breaks on. Zeroed at the
+// segment's first row (its reading there is 0 and no observation), or, for a break marked
+// `elsewhere`, at an unknown dead path (an unknown of its own).
+struct Segments {
+  std::vector<std::vector<int>> of;  // [row][tracker] → segment
+  std::vector<int> zero_row;         // per segment; −1: zeroed elsewhere
+  std::vector<int> tracker;          // per segment
+  std::vector<int> offset;           // per segment: index among the dead paths, or −1
+  int dead_paths = 0;
+};
+
+Segments SegmentsOf(const TrackerReadings& rd) {
   const int m = rd.NumPoints(), n = rd.NumTrackers();
-  std::vector<std::vector<int>> seg(static_cast<std::size_t>(m),
-                                    std::vector<int>(static_cast<std::size_t>(n), 0));
-  int next = 0;
+  Segments sg;
+  sg.of.assign(static_cast<std::size_t>(m), std::vector<int>(static_cast<std::size_t>(n), 0));
   for (int j = 0; j < n; ++j) {
-    std::vector<std::size_t> starts{0};
+    std::vector<std::pair<std::size_t, bool>> starts{{0, false}};
     for (const auto& b : rd.beam_breaks) {
-      if (b.tracker == j) starts.push_back(b.row);
+      if (b.tracker == j) starts.push_back({b.row, b.elsewhere});
     }
     std::sort(starts.begin(), starts.end());
-    starts.erase(std::unique(starts.begin(), starts.end()), starts.end());
+    const int first = static_cast<int>(sg.zero_row.size());
+    for (const auto& [row, elsewhere] : starts) {
+      sg.zero_row.push_back(elsewhere ? -1 : static_cast<int>(row));
+      sg.tracker.push_back(j);
+      sg.offset.push_back(elsewhere ? sg.dead_paths++ : -1);
+    }
     for (int i = 0; i < m; ++i) {
       int k = 0;
       while (k + 1 < static_cast<int>(starts.size()) &&
-             starts[static_cast<std::size_t>(k + 1)] <= static_cast<std::size_t>(i)) {
+             starts[static_cast<std::size_t>(k + 1)].first <= static_cast<std::size_t>(i)) {
         ++k;
       }
-      seg[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = next + k;
+      sg.of[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = first + k;
     }
-    next += static_cast<int>(starts.size());
   }
-  *count = next;
-  return seg;
+  return sg;
 }
 
 // Best proper rigid motion of `from` onto `to` (Kabsch); returns the mapped `from`.
@@ -96,64 +109,72 @@ Reference IndependentLeastSquares(const TrackerReadings& rd,
                                   const std::vector<Eigen::Vector3d>& start_points_mm,
                                   const std::vector<Eigen::Vector3d>& start_trackers_mm) {
   const int m = rd.NumPoints(), n = rd.NumTrackers();
-  int ns = 0;
-  const auto seg = SegmentsOf(rd, &ns);
-  const int np = 3 * m + 3 * n + ns;
+  const Segments sg = SegmentsOf(rd);
+  const int np = 3 * m + 3 * n + sg.dead_paths;
   Eigen::VectorXd x(np);
   for (int i = 0; i < m; ++i) x.segment<3>(3 * i) = start_points_mm[static_cast<std::size_t>(i)];
   for (int j = 0; j < n; ++j) {
     x.segment<3>(3 * m + 3 * j) = start_trackers_mm[static_cast<std::size_t>(j)];
   }
-  // Offsets: mean of |u − U| − d over each segment.
-  {
-    Eigen::VectorXd sum = Eigen::VectorXd::Zero(ns), cnt = Eigen::VectorXd::Zero(ns);
+  // Dead paths (zeroed elsewhere only): mean of |u − U| − d over the segment.
+  if (sg.dead_paths > 0) {
+    Eigen::VectorXd sum = Eigen::VectorXd::Zero(sg.dead_paths);
+    Eigen::VectorXd cnt = Eigen::VectorXd::Zero(sg.dead_paths);
     for (int i = 0; i < m; ++i) {
       for (int j = 0; j < n; ++j) {
-        const int s = seg[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
-        sum(s) += (x.segment<3>(3 * i) - x.segment<3>(3 * m + 3 * j)).norm() -
+        const int q = sg.offset[static_cast<std::size_t>(
+            sg.of[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)])];
+        if (q < 0) continue;
+        sum(q) += (x.segment<3>(3 * i) - x.segment<3>(3 * m + 3 * j)).norm() -
                   1e-3 * rd.displacement_um(i, j);
-        cnt(s) += 1;
+        cnt(q) += 1;
       }
     }
-    x.tail(ns) = sum.cwiseQuotient(cnt);
+    x.tail(sg.dead_paths) = sum.cwiseQuotient(cnt);
   }
   // Residuals (µm) and, when asked, the normal matrix JᵀJ and gradient Jᵀr, accumulated row
-  // by row (each row has 7 non-zeros: the point, the tracker, the dead path).
+  // by row (each row has at most 9 non-zeros: the point, the tracker, the zero point).
   auto residuals = [&](const Eigen::VectorXd& p, Eigen::MatrixXd* N, Eigen::VectorXd* g) {
-    Eigen::VectorXd r(m * n);
+    std::vector<double> r;
     if (N) {
       N->setZero(np, np);
       g->setZero(np);
     }
     for (int i = 0; i < m; ++i) {
       for (int j = 0; j < n; ++j) {
-        const int s = seg[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
-        const Eigen::Vector3d v = p.segment<3>(3 * i) - p.segment<3>(3 * m + 3 * j);
+        const int s = sg.of[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+        const int z = sg.zero_row[static_cast<std::size_t>(s)];
+        if (z == i) continue;  // the zero itself
+        const Eigen::Vector3d U = p.segment<3>(3 * m + 3 * j);
+        const Eigen::Vector3d v = p.segment<3>(3 * i) - U;
         const double rho = v.norm();
-        const int row = i * n + j;
-        r(row) = 1e3 * (rho - p(3 * m + 3 * n + s)) - rd.displacement_um(i, j);
+        const Eigen::Vector3d a = 1e3 * v / rho;
+        Eigen::Vector3d b = Eigen::Vector3d::Zero();
+        double zero_mm = 0;
+        if (z >= 0) {
+          const Eigen::Vector3d w = p.segment<3>(3 * z) - U;
+          zero_mm = w.norm();
+          b = 1e3 * w / zero_mm;
+        } else {
+          zero_mm = p(3 * m + 3 * n + sg.offset[static_cast<std::size_t>(s)]);
+        }
+        const double res = 1e3 * (rho - zero_mm) - rd.displacement_um(i, j);
+        r.push_back(res);
         if (!N) continue;
-        const int col[7] = {3 * i,
-                            3 * i + 1,
-                            3 * i + 2,
-                            3 * m + 3 * j,
-                            3 * m + 3 * j + 1,
-                            3 * m + 3 * j + 2,
-                            3 * m + 3 * n + s};
-        const double val[7] = {1e3 * v.x() / rho,
-                               1e3 * v.y() / rho,
-                               1e3 * v.z() / rho,
-                               -1e3 * v.x() / rho,
-                               -1e3 * v.y() / rho,
-                               -1e3 * v.z() / rho,
-                               -1e3};
-        for (int a = 0; a < 7; ++a) {
-          (*g)(col[a]) += val[a] * r(row);
-          for (int b = 0; b < 7; ++b) (*N)(col[a], col[b]) += val[a] * val[b];
+        std::vector<std::pair<int, double>> row;
+        for (int k = 0; k < 3; ++k) {
+          row.push_back({3 * i + k, a(k)});
+          row.push_back({3 * m + 3 * j + k, b(k) - a(k)});
+          if (z >= 0) row.push_back({3 * z + k, -b(k)});
+        }
+        if (z < 0) row.push_back({3 * m + 3 * n + sg.offset[static_cast<std::size_t>(s)], -1e3});
+        for (const auto& [ca, va] : row) {
+          (*g)(ca) += va * res;
+          for (const auto& [cb, vb] : row) (*N)(ca, cb) += va * vb;
         }
       }
     }
-    return r;
+    return Eigen::Map<const Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size())).eval();
   };
   // Inner constraints: the six rigid motions of all positions (translations; rotations about
   // the centroid, scaled per metre), along which the residuals do not change.
@@ -207,18 +228,20 @@ Reference IndependentLeastSquares(const TrackerReadings& rd,
   return ref;
 }
 
-// Σ r² of the solver's own solution, evaluated here.
+// Σ r² of the solver's own solution, evaluated here (eq. 1; the solver's dead paths only for
+// segments zeroed elsewhere).
 double CostOf(const TrackerReadings& rd, const SelfCalResult& res) {
-  int ns = 0;
-  const auto seg = SegmentsOf(rd, &ns);
+  const Segments sg = SegmentsOf(rd);
   double s = 0;
   for (int i = 0; i < rd.NumPoints(); ++i) {
     for (int j = 0; j < rd.NumTrackers(); ++j) {
-      const double r = 1e3 * ((res.points_mm[static_cast<std::size_t>(i)] -
-                               res.trackers_mm[static_cast<std::size_t>(j)])
-                                  .norm() -
-                              res.dead_path_mm[static_cast<std::size_t>(
-                                  seg[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)])]) -
+      const int q = sg.of[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+      const int z = sg.zero_row[static_cast<std::size_t>(q)];
+      if (z == i) continue;
+      const Eigen::Vector3d& U = res.trackers_mm[static_cast<std::size_t>(j)];
+      const double zero_mm = z >= 0 ? (res.points_mm[static_cast<std::size_t>(z)] - U).norm()
+                                    : res.dead_path_mm[static_cast<std::size_t>(q)];
+      const double r = 1e3 * ((res.points_mm[static_cast<std::size_t>(i)] - U).norm() - zero_mm) -
                        rd.displacement_um(i, j);
       s += r * r;
     }
@@ -368,7 +391,8 @@ void ExpectCleanOptimum(const Simulated& sm) {
   const SelfCalResult r = SelfCalibrate(rd);
   EXPECT_TRUE(r.rejected.empty()) << r.rejected.size() << " readings rejected";
   EXPECT_EQ(std::count(r.point_valid.begin(), r.point_valid.end(), 1), rd.NumPoints());
-  EXPECT_EQ(r.readings_used, static_cast<std::size_t>(rd.NumPoints() * rd.NumTrackers()));
+  // Every reading but the zeros at point 1.
+  EXPECT_EQ(r.readings_used, static_cast<std::size_t>((rd.NumPoints() - 1) * rd.NumTrackers()));
   EXPECT_TRUE(r.spatial_outliers.empty()) << r.spatial_outliers.size() << " spatial outliers";
   EXPECT_TRUE(r.warnings.empty()) << r.warnings.front();
   const Reference ref = IndependentLeastSquares(rd, sm.sim.true_points_mm, sm.options.trackers_mm);

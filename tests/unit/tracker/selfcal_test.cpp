@@ -17,8 +17,7 @@
 #include <Eigen/Dense>
 
 #include "analysis/core/errors.h"
-#include "analysis/tracker/selfcal_ceres.h"
-#include "analysis/tracker/selfcal_cost_ceres.h"
+#include "analysis/tracker/selfcal_normal.h"
 #include "analysis/tracker/tracker_selfcal.h"
 #include "analysis/tracker/tracker_sim.h"
 #include "tests/unit/tracker/tracker_test_util.h"
@@ -40,12 +39,13 @@ using test::MakeSetup;
 //    100 mm cube and 3–15 µm for the 400 mm volume at 0.6–1.2 m; the volumetric errors do
 //    not suffer from it.
 
-// Condition number of the tracker and dead-path parameters with the points eliminated, computed
-// here independently of ComputeCovariance: the Jacobian of every reading |u_i - U_j| - L_j at the
-// solution (columns: the tracker components free in the gauge of docs/formats.md §3 — tracker 2:
-// x, tracker 3: x, y, the others x, y, z — and one dead path a tracker), projected point by point
-// onto the orthogonal complement of the point's own columns (QR), then the ratio of extreme
-// singular values (SVD). This equals sqrt(lambda_max / lambda_min) of the Schur complement.
+// Condition number of the tracker parameters and point 1 (the zero of every tracker) with the
+// other points eliminated, computed here independently of ComputeCovariance: the Jacobian of
+// every reading |u_i − U_j| − |u_1 − U_j| (i > 1) at the solution (columns: the tracker
+// components free in the gauge of docs/formats.md §3 — tracker 2: x, tracker 3: x, y, the others
+// x, y, z — and the three coordinates of point 1), projected point by point onto the orthogonal
+// complement of the point's own columns (QR), then the ratio of extreme singular values (SVD).
+// This equals sqrt(lambda_max / lambda_min) of the Schur complement.
 double IndependentConditionNumber(const SelfCalResult& r, const TrackerReadings& readings) {
   const int n = readings.NumTrackers();
   std::vector<std::array<int, 3>> col(static_cast<std::size_t>(n), {-1, -1, -1});
@@ -53,11 +53,12 @@ double IndependentConditionNumber(const SelfCalResult& r, const TrackerReadings&
   for (int j = 1; j < n; ++j) {
     for (int a = 0; a < std::min(j, 3); ++a) col[static_cast<std::size_t>(j)][a] = c++;
   }
-  const int first_dead_path = c;
-  c += n;
+  const int first_point = c;
+  c += 3;
   std::vector<Eigen::MatrixXd> blocks;
   Eigen::Index rows = 0;
-  for (int i = 0; i < readings.NumPoints(); ++i) {
+  const Eigen::Vector3d& u1 = r.points_mm[0];
+  for (int i = 1; i < readings.NumPoints(); ++i) {
     std::vector<int> seen;
     for (int j = 0; j < n; ++j)
       if (std::isfinite(readings.displacement_um(i, j))) seen.push_back(j);
@@ -67,10 +68,12 @@ double IndependentConditionNumber(const SelfCalResult& r, const TrackerReadings&
       const auto j = static_cast<std::size_t>(seen[static_cast<std::size_t>(q)]);
       const Eigen::Vector3d u =
           (r.points_mm[static_cast<std::size_t>(i)] - r.trackers_mm[j]).normalized();
+      const Eigen::Vector3d z = (u1 - r.trackers_mm[j]).normalized();
       jp.row(q) = u.transpose();
-      for (int a = 0; a < 3; ++a)
-        if (col[j][a] >= 0) jc(q, col[j][a]) = -u(a);
-      jc(q, first_dead_path + static_cast<int>(j)) = -1.0;
+      for (int a = 0; a < 3; ++a) {
+        if (col[j][a] >= 0) jc(q, col[j][a]) = z(a) - u(a);
+        jc(q, first_point + a) = -z(a);
+      }
     }
     blocks.push_back(jc - jp * jp.colPivHouseholderQr().solve(jc));
     rows += k;
@@ -109,7 +112,8 @@ TEST(TrackerSelfCal, Cube100mmSimultaneous) {
     EXPECT_EQ(r.trackers_mm[2].z(), 0.0);
     EXPECT_GT(r.trackers_mm[2].y(), 0.0);
     EXPECT_GT(r.trackers_mm[3].z(), 0.0);
-    ASSERT_EQ(r.dead_path_mm.size(), 4u);  // one dead path a tracker (no beam break)
+    ASSERT_EQ(r.dead_path_mm.size(), 4u);  // one segment a tracker (no beam break), zeroed at
+    EXPECT_EQ(r.dead_path_zero_row, std::vector<int>(4, 0));  // point 1
     EXPECT_NEAR(r.condition_number, IndependentConditionNumber(r, sim.readings),
                 1e-6 * r.condition_number);
   }
@@ -146,7 +150,7 @@ TEST(TrackerSelfCal, NearTrackersMeetFiveMicrons) {
 
 TEST(TrackerSelfCal, SequentialStations) {
   // One tracker moved to 4 and to 6 stations; the machine repeats the points per station with
-  // 0.1 µm repeatability; each station has its own dead path.
+  // 0.1 µm repeatability; each station is zeroed at point 1.
   for (int stations : {4, 6}) {
     for (unsigned seed : {7u, 8u}) {
       SCOPED_TRACE(std::to_string(stations) + " stations, seed " + std::to_string(seed));
@@ -272,12 +276,14 @@ TEST(TrackerSelfCal, SixTrackersTwoGrossErrorsOnOnePoint) {
   }
 }
 
-TEST(TrackerSelfCal, BeamBreakAddsADeadPath) {
+TEST(TrackerSelfCal, BeamBreakStartsANewSegment) {
+  // Tracker 2 re-zeroed at point row 40, tracker 4 elsewhere from row 90 (a dead path).
   auto o = MakeSetup(400.0, 5, 4, 31);
-  o.beam_breaks = {{1, 40}, {3, 90}};
+  o.beam_breaks = {{1, 40, false}, {3, 90, true}};
   const auto sim = SimulateTrackerSurvey(o);
   const auto r = SelfCalibrate(sim.readings);
   EXPECT_EQ(r.dead_path_mm.size(), 6u);
+  EXPECT_EQ(r.dead_path_zero_row, (std::vector<int>{0, 0, 40, 0, 0, -1}));
   const Accuracy a = Evaluate(o, sim, r);
   EXPECT_LT(a.volumetric_rms_um, 0.5);
   // Ignoring the breaks must fit far worse (the readings jump by the new zero).
@@ -327,33 +333,37 @@ TEST(TrackerSelfCal, RefusesThreeTrackers) {
     FAIL() << "expected NotObservable";
   } catch (const NotObservable& e) {
     const std::string msg = e.what();
-    EXPECT_NE(msg.find("m·n ≥ 3m + 4n − 6"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("n·(m − 1) ≥ 3m + 3n − 6"), std::string::npos) << msg;
     EXPECT_NE(msg.find("m = 125, n = 3"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("375 readings < 381 unknowns"), std::string::npos) << msg;
+    // 3 · 124 readings (the zeros at point 1 are none), 375 + 9 − 6 unknowns.
+    EXPECT_NE(msg.find("372 readings < 378 unknowns"), std::string::npos) << msg;
   }
 }
 
 TEST(TrackerSelfCal, RefusesTooFewPoints) {
-  // The 8 corners of [Tracker paper]'s cube with 4 trackers: 32 readings, 24 + 16 − 6 = 34
-  // unknowns.
+  // The 8 corners of [Tracker paper]'s cube with 4 trackers: 4 · 7 = 28 readings (point 1 is
+  // every tracker's zero), 24 + 12 − 6 = 30 unknowns.
   auto o = MakeSetup(100.0, 2, 4, 52);
   const auto sim = SimulateTrackerSurvey(o);
   try {
     SelfCalibrate(sim.readings);
     FAIL() << "expected NotObservable";
   } catch (const NotObservable& e) {
-    EXPECT_NE(std::string(e.what()).find("32 readings < 34 unknowns"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("28 readings < 30 unknowns"), std::string::npos)
         << e.what();
   }
-  // 10 points are the minimum for 4 trackers (40 = 40): accepted by the counting rule.
+  // 10 points are the minimum for 4 trackers (36 = 36): accepted by the counting rule, 9 are not.
   auto ten = MakeSetup(100.0, 3, 4, 52);
   ten.commanded_mm.resize(10);
   EXPECT_NO_THROW(
       SelfCalProblem::FromReadings(SimulateTrackerSurvey(ten).readings).CheckCounting());
+  ten.commanded_mm.resize(9);
+  EXPECT_THROW(SelfCalProblem::FromReadings(SimulateTrackerSurvey(ten).readings).CheckCounting(),
+               NotObservable);
 }
 
 TEST(TrackerSelfCal, RefusesRankDeficientCollinearPoints) {
-  // Points on one line: each tracker may turn about the line; the count is fine (80 ≥ 70).
+  // Points on one line: each tracker may turn about the line; the count is fine (76 ≥ 66).
   auto o = MakeSetup(100.0, 5, 4, 53);
   o.commanded_mm.clear();
   for (int i = 0; i < 20; ++i) o.commanded_mm.push_back({250.0 + 10.0 * i, 200.0, 250.0});
@@ -385,84 +395,135 @@ TEST(TrackerSelfCal, RefusesCoplanarTrackers) {
   EXPECT_LT(a.volumetric_rms_um, 2.5 * a.predicted_rms_um);
 }
 
+// One reading of [Tracker paper] eq. (1) for ceres::Covariance: |u_i − U_j| − |u_1 − U_j| − d_ij.
+struct EqOneReading {
+  explicit EqOneReading(double d_mm) : d_mm_(d_mm) {}
+  template <typename T>
+  bool operator()(const T* const u, const T* const U, const T* const u1, T* residual) const {
+    using std::sqrt;
+    const T a = sqrt((u[0] - U[0]) * (u[0] - U[0]) + (u[1] - U[1]) * (u[1] - U[1]) +
+                     (u[2] - U[2]) * (u[2] - U[2]));
+    const T b = sqrt((u1[0] - U[0]) * (u1[0] - U[0]) + (u1[1] - U[1]) * (u1[1] - U[1]) +
+                     (u1[2] - U[2]) * (u1[2] - U[2]));
+    residual[0] = a - b - T(d_mm_);
+    return true;
+  }
+  double d_mm_;
+};
+
 TEST(TrackerSelfCal, CovarianceMatchesCeres) {
-  // Independent computation: ceres::Covariance on the same gauge-fixed problem.
+  // Independent computation: ceres::Covariance on eq. (1) written here from the readings (the
+  // readings of point 1 are its zeros and no residual), gauge of docs/formats.md §3 by manifolds.
   auto o = MakeSetup(400.0, 3, 4, 61);
   const auto sim = SimulateTrackerSurvey(o);
   SelfCalOptions opt;
   opt.reject_outliers = false;
   const auto r = SelfCalibrate(sim.readings, opt);
-  SelfCalProblem problem = SelfCalProblem::FromReadings(sim.readings);
-  SelfCalState state;
-  state.trackers_mm = r.trackers_mm;
-  state.points_mm = r.points_mm;
-  state.offsets_mm = r.dead_path_mm;
+  auto points = r.points_mm;
+  auto trackers = r.trackers_mm;
   ceres::Problem cp;
-  for (const auto& ob : problem.observations) {
-    cp.AddResidualBlock(DistanceReadingCost::Create(ob.d_mm, 1.0), nullptr,
-                        state.points_mm[static_cast<std::size_t>(ob.point)].data(),
-                        state.trackers_mm[static_cast<std::size_t>(ob.tracker)].data(),
-                        &state.offsets_mm[static_cast<std::size_t>(ob.segment)]);
+  for (int i = 1; i < sim.readings.NumPoints(); ++i) {
+    for (int j = 0; j < 4; ++j) {
+      cp.AddResidualBlock(new ceres::AutoDiffCostFunction<EqOneReading, 1, 3, 3, 3>(
+                              new EqOneReading(1e-3 * sim.readings.displacement_um(i, j))),
+                          nullptr, points[static_cast<std::size_t>(i)].data(),
+                          trackers[static_cast<std::size_t>(j)].data(), points[0].data());
+    }
   }
-  cp.SetParameterBlockConstant(state.trackers_mm[0].data());
-  cp.SetManifold(state.trackers_mm[1].data(), new ceres::SubsetManifold(3, {1, 2}));
-  cp.SetManifold(state.trackers_mm[2].data(), new ceres::SubsetManifold(3, {2}));
+  cp.SetParameterBlockConstant(trackers[0].data());
+  cp.SetManifold(trackers[1].data(), new ceres::SubsetManifold(3, {1, 2}));
+  cp.SetManifold(trackers[2].data(), new ceres::SubsetManifold(3, {2}));
   ceres::Covariance::Options copt;
   copt.algorithm_type = ceres::SPARSE_QR;  // full rank: the gauge is fixed by manifolds
   ceres::Covariance cov(copt);
   std::vector<std::pair<const double*, const double*>> blocks;
-  for (const auto& p : state.points_mm) blocks.push_back({p.data(), p.data()});
-  blocks.push_back({state.trackers_mm[3].data(), state.trackers_mm[3].data()});
+  for (const auto& p : points) blocks.push_back({p.data(), p.data()});
+  blocks.push_back({trackers[3].data(), trackers[3].data()});
   ASSERT_TRUE(cov.Compute(blocks, &cp));
   const double s2 = r.sigma_um * r.sigma_um;
-  for (std::size_t i = 0; i < state.points_mm.size(); ++i) {
+  for (std::size_t i = 0; i < points.size(); ++i) {
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> C;
-    cov.GetCovarianceBlock(state.points_mm[i].data(), state.points_mm[i].data(), C.data());
+    cov.GetCovarianceBlock(points[i].data(), points[i].data(), C.data());
     for (int k = 0; k < 3; ++k) {
       EXPECT_NEAR(r.gauge_uncertainty_um[i](k), std::sqrt(s2 * C(k, k)),
-                  1e-6 * std::sqrt(s2 * C(k, k)));
+                  1e-6 * std::sqrt(s2 * C(k, k)))
+          << "point row " << i;
     }
   }
   Eigen::Matrix<double, 3, 3, Eigen::RowMajor> C4;
-  cov.GetCovarianceBlock(state.trackers_mm[3].data(), state.trackers_mm[3].data(), C4.data());
+  cov.GetCovarianceBlock(trackers[3].data(), trackers[3].data(), C4.data());
   for (int k = 0; k < 3; ++k) {
     EXPECT_NEAR(r.tracker_uncertainty_um[3](k), std::sqrt(s2 * C4(k, k)),
                 1e-6 * std::sqrt(s2 * C4(k, k)));
   }
 }
 
-TEST(TrackerSelfCal, CostFunctorGradient) {
-  // The hand-written Jacobian (used by the solver), automatic differentiation and central
-  // differences agree. (Own finite differences rather than ceres::GradientChecker, whose
-  // Eigen-typed results cross the libceres boundary and trip AddressSanitizer.)
-  const double d = 12.345;
-  std::unique_ptr<ceres::CostFunction> autodiff(DistanceReadingCost::Create(d));
-  std::unique_ptr<ceres::CostFunction> analytic(DistanceReadingAnalyticCost::Create(d));
-  double u[3] = {310.0, 190.0, 260.0}, U[3] = {-500.0, 300.0, -200.0}, L[1] = {800.0};
-  double* params[3] = {u, U, L};
-  double ra = 0, rb = 0, ja[3][3], jb[3][3];
-  double* jpa[3] = {ja[0], ja[1], ja[2]};
-  double* jpb[3] = {jb[0], jb[1], jb[2]};
-  ASSERT_TRUE(autodiff->Evaluate(params, &ra, jpa));
-  ASSERT_TRUE(analytic->Evaluate(params, &rb, jpb));
-  const double rho = std::sqrt(810.0 * 810.0 + 110.0 * 110.0 + 460.0 * 460.0);
-  EXPECT_NEAR(ra, 1e3 * (rho - 800.0 - d), 1e-6);
-  EXPECT_NEAR(ra, rb, 1e-9);
-  const double h = 1e-4;
-  for (int b = 0; b < 3; ++b) {
-    for (int k = 0; k < (b == 2 ? 1 : 3); ++k) {
-      const double keep = params[b][k];
-      double rp = 0, rm = 0;
-      params[b][k] = keep + h;
-      analytic->Evaluate(params, &rp, nullptr);
-      params[b][k] = keep - h;
-      analytic->Evaluate(params, &rm, nullptr);
-      params[b][k] = keep;
-      const double numeric = (rp - rm) / (2 * h);
-      EXPECT_NEAR(ja[b][k], jb[b][k], 1e-9) << b << "," << k;
-      EXPECT_NEAR(jb[b][k], numeric, 1e-5 * std::max(1.0, std::abs(numeric))) << b << "," << k;
+TEST(TrackerSelfCal, JacobianOfTheSolveMatchesCentralDifferences) {
+  // The hand-written Jacobian of the solve (selfcal_normal.h): its gradient Jᵀr and the diagonal
+  // of JᵀJ against central differences of the residuals, at a state off the optimum, with a
+  // re-zeroing at a point (a zero point among the global columns, also read by other trackers)
+  // and one elsewhere (a dead path).
+  auto o = MakeSetup(400.0, 3, 4, 62);
+  o.beam_breaks = {{1, 9, false}, {2, 14, true}};
+  const auto sim = SimulateTrackerSurvey(o);
+  const SelfCalProblem problem = SelfCalProblem::FromReadings(sim.readings);
+  SelfCalState state;
+  for (const auto& u : o.trackers_mm)
+    state.trackers_mm.push_back(u + Eigen::Vector3d(0.1, -0.2, 0.05));
+  for (const auto& p : sim.true_points_mm)
+    state.points_mm.push_back(p + Eigen::Vector3d(0.02, 0.01, -0.03));
+  state.offsets_mm.assign(problem.segments.size(), 0.0);
+  state.offsets_mm[4] = (state.points_mm[14] - state.trackers_mm[2]).norm() + 30.0;
+  selfcal_normal::Gauge gauge;  // the tracker gauge
+  const auto layout = selfcal_normal::MakeLayout(problem, gauge);
+  ASSERT_EQ(layout.count, 6 + 3 + 3 + 1);  // trackers, points 1 and 10, one dead path
+  selfcal_normal::NormalEquations ne;
+  selfcal_normal::Build(problem, layout, state, nullptr, ne);
+  // Every parameter of the layout: gradient Jᵀr and diagonal Σ(∂r/∂x)² against central
+  // differences of the residuals.
+  auto check = [&](double* x, double g, double diag, const std::string& what) {
+    const double h = 1e-5, keep = *x;
+    *x = keep + h;
+    const auto rp = problem.ResidualsUm(state);
+    *x = keep - h;
+    const auto rm = problem.ResidualsUm(state);
+    *x = keep;
+    const auto r0 = problem.ResidualsUm(state);
+    double g_fd = 0, diag_fd = 0;
+    for (std::size_t k = 0; k < r0.size(); ++k) {
+      if (!std::isfinite(r0[k])) continue;
+      const double d = (rp[k] - rm[k]) / (2 * h);
+      g_fd += d * r0[k];
+      diag_fd += d * d;
+    }
+    EXPECT_NEAR(g, g_fd, 1e-6 * std::max(1.0, std::abs(g))) << what;
+    EXPECT_NEAR(diag, diag_fd, 1e-6 * diag) << what;
+  };
+  for (int j = 0; j < 4; ++j) {
+    for (int a = 0; a < 3; ++a) {
+      const int col =
+          layout.tracker_column[static_cast<std::size_t>(j)][static_cast<std::size_t>(a)];
+      if (col >= 0)
+        check(&state.trackers_mm[static_cast<std::size_t>(j)](a), ne.g(col), ne.F(col, col),
+              "tracker " + std::to_string(j));
     }
   }
+  for (std::size_t i = 0; i < state.points_mm.size(); ++i) {
+    for (int a = 0; a < 3; ++a) {
+      const int e = layout.eliminated[i];
+      const int col = layout.point_column[i][static_cast<std::size_t>(a)];
+      if (e >= 0) {
+        check(&state.points_mm[i](a), ne.g_points(3 * e + a),
+              ne.A[static_cast<std::size_t>(e)](a, a), "point " + std::to_string(i));
+      } else {
+        ASSERT_GE(col, 0);
+        check(&state.points_mm[i](a), ne.g(col), ne.F(col, col), "zero point " + std::to_string(i));
+      }
+    }
+  }
+  const int col = layout.offset_column[4];
+  ASSERT_GE(col, 0);
+  check(&state.offsets_mm[4], ne.g(col), ne.F(col, col), "dead path");
 }
 
 TEST(TrackerSelfCal, OptionsAreChecked) {
