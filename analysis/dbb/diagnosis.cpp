@@ -14,6 +14,7 @@
 #include "analysis/core/errors.h"
 #include "analysis/core/parallel.h"
 #include "analysis/dbb/diagnosis_fit.h"
+#include "analysis/dbb/diagnosis_run.h"
 #include "analysis/dbb/diagnosis_search.h"
 #include "analysis/dbb/iso230.h"
 #include "analysis/dbb/signatures.h"
@@ -150,77 +151,9 @@ std::vector<EffectId> FixedShapeEffects() {
   return ids;
 }
 
-// Smallest radius (mm) and largest angular step (rad) of the traces.
-struct Spacing {
-  double rmin = 1e300;
-  double max_step = 0.0;
-};
-Spacing TraceSpacing(const std::vector<DiagnosisTrace>& traces) {
-  Spacing s;
-  for (const auto& tr : traces) {
-    s.rmin = std::min(s.rmin, tr.radius_mm);
-    for (std::size_t i = 1; i < tr.angle_rad.size(); ++i)
-      s.max_step = std::max(s.max_step, std::abs(tr.angle_rad[i] - tr.angle_rad[i - 1]));
-  }
-  return s;
-}
+}  // namespace
 
-// One diagnosis: the set-up fit, then the stages in order, each adding candidates or refining
-// their shapes against the fit of the others (see diagnosis.h for the model).
-class DiagnosisRun {
- public:
-  DiagnosisRun(const std::vector<DiagnosisTrace>& traces, Plane plane, const DiagnosisOptions& opt);
-  DiagnosisRun(const DiagnosisRun&) = delete;
-  DiagnosisRun& operator=(const DiagnosisRun&) = delete;
-  DiagnosisResult Run();
-
- private:
-  FitResult FitAll(const std::vector<Candidate>& c) const { return Fit(ctx_, Pointers(c)); }
-  void AddSpikes(const FitResult& f1);
-  void AddStickSlipAndCyclicErrors(FitResult& f2);
-  bool StickSlipAssessed();
-  double StickSlipPeak(const FitResult& f2, double* chi2) const;
-  bool AddStickSlip(FitResult& f2, double peak, double chi2);
-  double CyclicPeriod(const FitResult& f2, int axis) const;
-  void AddCyclicErrors(const std::array<double, 2>& found);
-  void RefineCyclicPeriods(FitResult& f3);
-  void RefineShapes(FitResult& f3);
-  struct Refined {
-    std::optional<std::vector<double>> shape;      // none: unchanged
-    double shape_doubt_var = 0.0;                  // spikes: Candidate::shape_doubt_var
-    std::array<double, 2> spike_widths{0.0, 0.0};  // spikes: Candidate::spike_widths
-  };
-  Refined RefinedShape(const FitContext& ctx, const std::vector<Candidate>& cands, std::size_t q,
-                       bool near_known = false) const;
-  void RefineNamedSpikes(std::vector<Candidate>& chosen);
-  std::vector<Candidate> Screen(const FitResult& f3, DiagnosisResult& res);
-  bool SpikeResolved(const Candidate& c) const;
-  VectorXd NameEffects(const std::vector<Candidate>& chosen, const FitResult& f4,
-                       DiagnosisResult& res);
-  DiagnosisEntry SetupEntry(EffectId id, std::vector<double> value,
-                            std::vector<double> sigma) const;
-  void AddSetupEntries(const FitResult& f4, DiagnosisResult& res) const;
-  void RankNamed(const VectorXd& final_res, DiagnosisResult& res) const;
-
-  const std::vector<DiagnosisTrace>& traces_;
-  const DiagnosisOptions& opt_;
-  char first_ = 'x';
-  char second_ = 'y';
-  Problem p_;
-  VectorXd e0_;                         // data without the set-up terms
-  std::vector<Eigen::Vector3d> setup_;  // set-up terms per trace (centre u, v, radius)
-  GramCache cache_;
-  FitContext ctx_;
-  double median_step_ = 0.0;
-  unsigned threads_ = 1;
-  double spike_lo_ = 0.0;
-  double spike_hi_ = 0.0;
-  std::vector<ReversalOrder> order_;  // per axis, when spikes are assessed
-  StickZones zones_;
-  Sparse buf_;
-  std::vector<Candidate> cands_;
-  std::vector<std::string> not_assessed_;
-};
+namespace diag {
 
 DiagnosisRun::DiagnosisRun(const std::vector<DiagnosisTrace>& traces, Plane plane,
                            const DiagnosisOptions& opt)
@@ -312,140 +245,6 @@ void DiagnosisRun::AddSpikes(const FitResult& f1) {
 // Stick-slip, then cyclic errors, each searched on the residual of the model so far. The two
 // period searches read the same residual and run at once; the cyclic one is repeated when a
 // stick-slip sawtooth joins the model (its residual changes).
-void DiagnosisRun::AddStickSlipAndCyclicErrors(FitResult& f2) {
-  const bool stick = StickSlipAssessed();
-  double peak = 0.0, chi2 = 0.0;
-  std::array<double, 2> cyclic{0.0, 0.0};  // period of each axis, 0 when not detected
-  ParallelFor(
-      3,
-      [&](std::size_t k) {
-        if (k == 2) {
-          if (stick) peak = StickSlipPeak(f2, &chi2);
-        } else {
-          cyclic[k] = CyclicPeriod(f2, static_cast<int>(k));
-        }
-      },
-      threads_);
-  if (stick && AddStickSlip(f2, peak, chi2)) {
-    ParallelFor(
-        2, [&](std::size_t k) { cyclic[k] = CyclicPeriod(f2, static_cast<int>(k)); }, threads_);
-  }
-  AddCyclicErrors(cyclic);
-}
-
-// Stick-slip teeth shorter than three samples alias into longer, reversed ones: with steps
-// above stick_slip_max_step_deg the sawtooth is not assessed at all.
-bool DiagnosisRun::StickSlipAssessed() {
-  const double lo = std::max(opt_.stick_slip_min_period_deg, 3.0 * median_step_);
-  const double hi = opt_.stick_slip_max_period_deg;
-  if (!(hi > lo && median_step_ <= opt_.stick_slip_max_step_deg)) {
-    not_assessed_.push_back(effects::EffectName(EffectId::kStickSlip, first_, second_) +
-                            " (samples too far apart to resolve its teeth)");
-    return false;
-  }
-  return zones_.idx.size() > 10;
-}
-
-// Stick-slip, a sawtooth in the low-speed zones; period from a periodogram over the angle since
-// the reversal (0 when none; `chi2` its peak's strength).
-double DiagnosisRun::StickSlipPeak(const FitResult& f2, double* chi2) const {
-  const double lo = std::max(opt_.stick_slip_min_period_deg, 3.0 * median_step_);
-  const double hi = opt_.stick_slip_max_period_deg;
-  const double s2 =
-      std::max(std::pow(DiffNoiseUm(p_, f2.residual), 2), f2.residual.squaredNorm() / f2.dof);
-  return StickPeriodPeak(zones_, f2.residual, lo, hi, s2, chi2);
-}
-
-// The periodogram's peak refined on the exact signature and tried when it stands out; true
-// when the sawtooth joins the model (f2 is then refitted).
-bool DiagnosisRun::AddStickSlip(FitResult& f2, double peak, double chi2) {
-  // The transform's peak must stand out before the fine scan is worth its cost: ~500
-  // independent frequencies of exponentially distributed power (mean 1) exceed 15 by chance
-  // with probability ~1e-4.
-  if (!(peak > 0.0 && chi2 > 15.0)) return false;
-  const double s2 =
-      std::max(std::pow(DiffNoiseUm(p_, f2.residual), 2), f2.residual.squaredNorm() / f2.dof);
-  const Base b2 = MakeBase(f2);
-  std::pair<double, double> best{0.0, -1.0};  // period, gain
-  const double fringe = peak * peak / 180.0;
-  for (double fine : FineStickPeriods(zones_, f2.residual, peak)) {
-    const auto r = RefineStickPeriod(p_, zones_, b2, fine, fringe / 16.0, median_step_, buf_);
-    if (r.second > best.second) best = r;
-  }
-  best = PreferCommensurate(p_, zones_, b2, best, 4.0 * fringe, median_step_, buf_);
-  if (!(best.second / s2 > opt_.stick_slip_detection_chi2)) return false;
-  cands_.push_back(MakeCandidate(p_, EffectId::kStickSlip, {best.first}));
-  f2 = FitAll(cands_);
-  return true;
-}
-
-// Cyclic error of one axis: period search on the residual of the model so far; 0 when none is
-// detected. Searched only when the residual is not white: a smooth periodic error raises its
-// variance above the successive-difference estimate of the noise variance.
-double DiagnosisRun::CyclicPeriod(const FitResult& f2, int axis) const {
-  if (!opt_.search_cyclic) return 0.0;
-  const Spacing sp = TraceSpacing(traces_);
-  const double pmin = std::max(opt_.cyclic_min_period_mm, 4.0 * sp.rmin * sp.max_step);
-  const double pmax = opt_.cyclic_max_period_fraction * sp.rmin;
-  const double s2 = std::pow(DiffNoiseUm(p_, f2.residual), 2);
-  const double var = f2.residual.squaredNorm() / p_.n;
-  const bool structured = var > s2 * (1.0 + 4.0 * std::sqrt(2.0 / p_.n));
-  if (!(structured && pmax > pmin && s2 > 0.0)) return 0.0;
-  const double period = CyclicPeriodPeak(p_, f2.residual, axis, pmin, pmax);
-  if (!(period > 0.0)) return 0.0;
-  // Projection energy of the residual (on a subsample that keeps ≥ 4 samples a period),
-  // scaled to the full sample count, against the noise variance.
-  const int stride = std::max(1, static_cast<int>(period / (4.0 * sp.rmin * sp.max_step)));
-  const double energy = stride * CyclicEnergy(p_, f2.residual, axis, period, stride);
-  return energy / s2 > opt_.cyclic_detection_chi2 ? period : 0.0;
-}
-
-void DiagnosisRun::AddCyclicErrors(const std::array<double, 2>& found) {
-  std::vector<CandidateSpec> specs;
-  for (std::size_t axis = 0; axis < 2; ++axis) {
-    if (found[axis] > 0.0) {
-      specs.push_back(
-          {axis == 0 ? EffectId::kCyclicErrorU : EffectId::kCyclicErrorV, {found[axis]}});
-    }
-  }
-  for (auto& c : MakeCandidates(p_, specs, threads_)) cands_.push_back(std::move(c));
-}
-
-// Cyclic periods refined by one backfitting step: maximise the projection energy of the partial
-// residual (data minus every other jointly fitted effect) within ±2 periodogram bins.
-void DiagnosisRun::RefineCyclicPeriods(FitResult& f3) {
-  const Spacing sp = TraceSpacing(traces_);
-  std::vector<std::size_t> kept;  // indices into f3.kept of the cyclic errors
-  for (std::size_t j = 0; j < f3.kept.size(); ++j) {
-    const EffectId id = cands_[static_cast<std::size_t>(f3.kept[j])].id;
-    if (id == EffectId::kCyclicErrorU || id == EffectId::kCyclicErrorV) kept.push_back(j);
-  }
-  if (kept.empty()) return;
-  std::vector<CandidateSpec> specs(kept.size());
-  ParallelFor(
-      kept.size(),
-      [&](std::size_t k) {
-        const std::size_t j = kept[k];
-        const Candidate& c = cands_[static_cast<std::size_t>(f3.kept[j])];
-        const int axis = c.id == EffectId::kCyclicErrorU ? 0 : 1;
-        const VectorXd partial = f3.residual + f3.Combine(f3.first_col[j], 2, p_.n);
-        const double period = c.shape[0];
-        const double bin_rel = 2.0 * period * kCyclicBins / (2.0 * kCyclicFft * sp.rmin);
-        specs[k] = {c.id,
-                    {RefinePeriod(p_, partial, axis, period, std::min(0.2, bin_rel),
-                                  sp.rmin * sp.max_step)}};
-      },
-      threads_);
-  std::vector<Candidate> refined = MakeCandidates(p_, specs, threads_);
-  for (std::size_t k = 0; k < kept.size(); ++k)
-    cands_[static_cast<std::size_t>(f3.kept[kept[k]])] = std::move(refined[k]);
-  f3 = FitAll(cands_);
-}
-
-// Fitted shapes, jointly: each spike's width and decay shape and the stick-slip period again,
-// against the model of every other effect (one backfitting pass). The candidates are refined in
-// parallel: each fit leaves one column out of the last full fit, whose inner products are all
-// cached, so the cache is only read.
 void DiagnosisRun::RefineShapes(FitResult& f3) {
   std::vector<double> z(cands_.size(), 0.0);  // |value| / σ of the kept candidates in f3
   for (std::size_t j = 0; j < f3.kept.size(); ++j) {
@@ -660,7 +459,7 @@ void DiagnosisRun::RankNamed(const VectorXd& final_res, DiagnosisResult& res) co
                    });
 }
 
-}  // namespace
+}  // namespace diag
 
 DiagnosisResult DiagnoseSerialDbb(const std::vector<DiagnosisTrace>& traces, Plane plane,
                                   const DiagnosisOptions& opt) {
