@@ -237,9 +237,11 @@ Step Product(const NormalEquations& ne, double radius, const Step& d) {
 
 // The damped step, with one round of iterative refinement: with far trackers F − WᵀW loses
 // digits to cancellation, and the step along the weakly determined directions with them.
-bool SolveDamped(const NormalEquations& ne, double radius, Factorisation& f, Step& step) {
+bool SolveDamped(const NormalEquations& ne, double radius, bool refine, Factorisation& f,
+                 Step& step) {
   if (!Factorise(ne, radius, f)) return false;
   Solve(f, ne.g_points, ne.g, step);
+  if (!refine) return step.points.allFinite() && step.global.allFinite();
   const Step hd = Product(ne, radius, step);
   Step correction;
   Solve(f, ne.g_points + hd.points, ne.g + hd.global, correction);
@@ -307,7 +309,7 @@ SolveReport Minimise(const SelfCalProblem& problem, const SolveOptions& o, const
                      SelfCalState& state) {
   SolveReport rep;
   const double b = o.cauchy_scale_um;
-  std::vector<double> weights;
+  std::vector<double> weights, trial_weights;
   std::vector<double>* wp = b > 0 ? &weights : nullptr;
   double cost = Cost(problem, state, b, wp);
   NormalEquations ne;
@@ -328,7 +330,7 @@ SolveReport Minimise(const SelfCalProblem& problem, const SolveOptions& o, const
     // Steps, not the cost, tell convergence along the weakly determined directions (far
     // trackers): there a step of 0.1 µm changes the cost by less than its rounding.
     bool small_step = false;
-    if (SolveDamped(ne, radius, factorisation, step)) {
+    if (SolveDamped(ne, radius, o.refine_steps, factorisation, step)) {
       model = ModelDecrease(ne, radius, step);
       const double step_max =
           std::max(step.points.lpNorm<Eigen::Infinity>(), step.global.lpNorm<Eigen::Infinity>());
@@ -336,7 +338,7 @@ SolveReport Minimise(const SelfCalProblem& problem, const SolveOptions& o, const
           step_max <= o.parameter_tolerance * (ParameterMax(L, state) + o.parameter_tolerance);
       trial = state;
       ApplyStep(L, step, trial);
-      new_cost = Cost(problem, trial, b, nullptr);
+      new_cost = Cost(problem, trial, b, wp ? &trial_weights : nullptr);
       if (model > 0 && std::isfinite(new_cost)) ratio = (cost - new_cost) / model;
     }
     // At the optimum the model promises less than the rounding of the cost: no step could be
@@ -361,7 +363,8 @@ SolveReport Minimise(const SelfCalProblem& problem, const SolveOptions& o, const
       continue;
     }
     std::swap(state, trial);
-    cost = wp ? Cost(problem, state, b, wp) : new_cost;
+    std::swap(weights, trial_weights);
+    cost = new_cost;
     selfcal_normal::Build(problem, L, state, wp, ne);
     radius = std::min(1e16, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * ratio - 1.0, 3)));
     nu = 2.0;

@@ -35,6 +35,9 @@ struct SolveOptions {
   double parameter_tolerance = 1e-10;
   // or max |Jᵀr| (µm²/mm) is below this.
   double gradient_tolerance = 1e-12;
+  // One round of iterative refinement of each step (the reduced matrix loses digits where far
+  // trackers make it ill-conditioned); a robust pass that only exposes gross errors needs none.
+  bool refine_steps = true;
 
   // Throws km::InvalidInput naming the bad option (analysis/core/option_check.h).
   void Check() const;

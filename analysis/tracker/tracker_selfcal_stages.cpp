@@ -226,11 +226,13 @@ void RobustPass(const SelfCalProblem& problem, const SelfCalOptions& options, Se
   // Only to expose the gross errors: a few iterations suffice, the rejection rounds re-solve.
   sopt.cauchy_scale_um = options.robust_scale_um;
   sopt.max_iterations = std::min(options.max_iterations, 10);
+  sopt.refine_steps = false;
   solve.report = SolveSelfCal(problem, sopt, state);
   res.iterations += solve.report.iterations;
   solve.last_was_plain = false;
   sopt.cauchy_scale_um = 0.0;
   sopt.max_iterations = options.max_iterations;
+  sopt.refine_steps = true;
 }
 
 void RejectionRounds(SelfCalProblem& problem, const TrackerReadings& readings,
