@@ -135,6 +135,15 @@ void SignatureRows(const StackedTraces& p, effects::EffectId id, int from, int t
       M::template PositionError<double>(ctx, a, params, e);
       col[i] = e[0] * a.c + e[1] * a.s;
     }
+  } else if constexpr (requires { &M::LinearBasisRows; }) {
+    // The model's rows at once (cyclic errors: one vectorised sine and cosine for the lot).
+    const auto& ctx =
+        p.ctx[static_cast<std::size_t>(p.samples[static_cast<std::size_t>(from)].trace)];
+    const int len = to - from;
+    std::vector<double> work(3 * static_cast<std::size_t>(len));
+    M::LinearBasisRows(ctx, p.cos_a.data() + from, p.sin_a.data() + from, len, shape.data(),
+                       work.data(), work.data() + len, work.data() + 2 * len, cols[0].data() + from,
+                       cols[1].data() + from);
   } else {
     // Several linear parameters: all columns in one evaluation (effects::RadialBasis, its
     // closed form inlined when the model has one).
@@ -248,17 +257,27 @@ double CyclicEnergy(const StackedTraces& p, const VectorXd& r, int axis, double 
                     int stride) {
   Eigen::Matrix2d g = Eigen::Matrix2d::Zero();
   Eigen::Vector2d b = Eigen::Vector2d::Zero();
-  for (int i = 0; i < p.n; i += stride) {
-    const auto& s = p.samples[static_cast<std::size_t>(i)];
+  // The arguments first, their sines and cosines at once (SinCosArray), then the sums in
+  // sample order.
+  const std::size_t m = static_cast<std::size_t>((p.n + stride - 1) / stride);
+  std::vector<double> work(3 * m);
+  double* arg = work.data();
+  double* sa = arg + m;
+  double* ca = sa + m;
+  for (std::size_t k = 0; k < m; ++k) {
+    const auto& s = p.samples[k * static_cast<std::size_t>(stride)];
     const double rad = p.ctx[static_cast<std::size_t>(s.trace)].radius_mm;
     const double pos = axis == 0 ? rad * s.a.c : rad * s.a.s;
+    arg[k] = 2.0 * std::numbers::pi * pos / period;
+  }
+  SinCosArray(arg, sa, ca, m);
+  for (std::size_t k = 0; k < m; ++k) {
+    const std::size_t i = k * static_cast<std::size_t>(stride);
+    const auto& s = p.samples[i];
     const double w = axis == 0 ? s.a.c : s.a.s;
-    const double arg = 2.0 * std::numbers::pi * pos / period;
-    double sa = 0.0, ca = 0.0;
-    SinCos(arg, &sa, &ca);
-    const Eigen::Vector2d v(w * ca, w * sa);
+    const Eigen::Vector2d v(w * ca[k], w * sa[k]);
     g += v * v.transpose();
-    b += v * r[i];
+    b += v * r[static_cast<Eigen::Index>(i)];
   }
   if (!(std::abs(g.determinant()) > 0.0)) return 0.0;
   return b.dot(g.inverse() * b);
