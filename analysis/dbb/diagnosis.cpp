@@ -128,13 +128,15 @@ double MedianStepDeg(const std::vector<DiagnosisTrace>& traces) {
   std::vector<double> steps;
   for (const auto& t : traces)
     for (std::size_t i = 1; i < t.angle_rad.size(); ++i)
-      steps.push_back(std::abs(t.angle_rad[i] - t.angle_rad[i - 1]) / kDeg);
+      steps.push_back(std::abs(t.angle_rad[i] - t.angle_rad[i - 1]));
   if (steps.empty()) return 0.0;
   auto mid = steps.begin() + static_cast<long>(steps.size() / 2);
   std::nth_element(steps.begin(), mid, steps.end());
+  // In degrees after the selection (a division by a positive constant keeps the order).
+  const double median = *mid / kDeg;
   // Files write round steps (0.1°); undo the rounding of the degree → radian conversion.
-  const double scale = std::pow(10.0, 6 - std::ceil(std::log10(*mid)));
-  return std::round(*mid * scale) / scale;
+  const double scale = std::pow(10.0, 6 - std::ceil(std::log10(median)));
+  return std::round(median * scale) / scale;
 }
 
 // Effects fitted first, with a fixed shape: every linear form effect of the registry without
@@ -245,7 +247,8 @@ DiagnosisRun::DiagnosisRun(const std::vector<DiagnosisTrace>& traces, Plane plan
           zones_ = MakeStickZones(p_);
         } else if (!order_.empty()) {
           order_[k] =
-              MakeReversalOrder(p_, k == 0 ? EffectId::kReversalSpikeU : EffectId::kReversalSpikeV);
+              MakeReversalOrder(p_, k == 0 ? EffectId::kReversalSpikeU : EffectId::kReversalSpikeV,
+                                SpikeMaxReach(spike_hi_));
         }
       },
       threads_);

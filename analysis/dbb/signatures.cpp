@@ -55,20 +55,27 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_
     c.direction = tr.direction == Direction::kCcw ? 1 : -1;
     const int t = static_cast<int>(p.ctx.size());
     p.ctx.push_back(c);
-    Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
+    // SᵀS of the set-up columns {cos θ, sin θ, 1}, summed in sample order.
+    double cc = 0.0, cs = 0.0, c1 = 0.0, ss = 0.0, s1 = 0.0, n1 = 0.0;
     const bool cached =
         tr.cos_angle.size() == tr.angle_rad.size() && tr.sin_angle.size() == tr.angle_rad.size();
     for (std::size_t i = 0; i < tr.angle_rad.size(); ++i) {
       const double th = tr.angle_rad[i];
       if (leave_out_reversals && effects::internal::AtAxisReversal(th)) continue;
-      SignatureSample s{cached ? effects::Angle<double>{th, tr.cos_angle[i], tr.sin_angle[i]}
-                               : effects::MakeAngle(th),
-                        t};
-      const Eigen::Vector3d v(s.a.c, s.a.s, 1.0);
-      g += v * v.transpose();
-      p.samples.push_back(s);
+      const effects::Angle<double> a =
+          cached ? effects::Angle<double>{th, tr.cos_angle[i], tr.sin_angle[i]}
+                 : effects::MakeAngle(th);
+      cc += a.c * a.c;
+      cs += a.c * a.s;
+      c1 += a.c;
+      ss += a.s * a.s;
+      s1 += a.s;
+      n1 += 1.0;
+      p.samples.push_back({a, t});
       y.push_back(tr.dev_um[i]);
     }
+    Eigen::Matrix3d g;
+    g << cc, cs, c1, cs, ss, s1, c1, s1, n1;
     if (std::abs(g.determinant()) < 1e-9 * std::pow(static_cast<double>(tr.angle_rad.size()), 3)) {
       throw InvalidInput("", 0, "angle_deg", "the trace does not go around the circle");
     }
