@@ -147,7 +147,7 @@ void SignatureRows(const StackedTraces& p, effects::EffectId id, int from, int t
     const auto& ctx =
         p.ctx[static_cast<std::size_t>(p.samples[static_cast<std::size_t>(from)].trace)];
     const int len = to - from;
-    std::vector<double> work(3 * static_cast<std::size_t>(len));
+    VectorXd work(3 * static_cast<Eigen::Index>(len));  // work space, not initialised
     M::LinearBasisRows(ctx, p.cos_a.data() + from, p.sin_a.data() + from, len, shape.data(),
                        work.data(), work.data() + len, work.data() + 2 * len, cols[0].data() + from,
                        cols[1].data() + from);
@@ -267,7 +267,7 @@ double CyclicEnergy(const StackedTraces& p, const VectorXd& r, int axis, double 
   // The arguments first, their sines and cosines at once (SinCosArray), then the sums in
   // sample order.
   const std::size_t m = static_cast<std::size_t>((p.n + stride - 1) / stride);
-  std::vector<double> work(3 * m);
+  VectorXd work(3 * static_cast<Eigen::Index>(m));  // work space, not initialised
   double* arg = work.data();
   double* sa = arg + m;
   double* ca = sa + m;
