@@ -26,24 +26,26 @@ int ReversalOrder::Bucket(double phi) {
 
 namespace {
 
-// Angle since the reversal and radial factor Side·n_a of every sample (reversal_spike.h).
+// Angle since the reversal and radial factor Side·n_a of the samples within max_phi of the
+// reversal (reversal_spike.h).
 template <int Axis>
-std::vector<ReversalOrder::Entry> SpikeFactors(const Problem& p) {
+std::vector<ReversalOrder::Entry> SpikeFactors(const Problem& p, double max_phi) {
   using Spike = effects::ReversalSpike<Axis>;
-  std::vector<ReversalOrder::Entry> e(static_cast<std::size_t>(p.n));
+  std::vector<ReversalOrder::Entry> e;
+  e.reserve(static_cast<std::size_t>(p.n));
   for (int i = 0; i < p.n; ++i) {
     const auto& s = p.samples[static_cast<std::size_t>(i)];
     const auto ph = Spike::Phase(p.ctx[static_cast<std::size_t>(s.trace)], s.a);
-    e[static_cast<std::size_t>(i)] = {ph.phi, i, ph.side * (Axis == 0 ? s.a.c : s.a.s)};
+    if (ph.phi <= max_phi) e.push_back({ph.phi, i, ph.side * (Axis == 0 ? s.a.c : s.a.s)});
   }
   return e;
 }
 
 }  // namespace
 
-ReversalOrder MakeReversalOrder(const Problem& p, EffectId id) {
+ReversalOrder MakeReversalOrder(const Problem& p, EffectId id, double max_phi) {
   const std::vector<ReversalOrder::Entry> e =
-      id == EffectId::kReversalSpikeU ? SpikeFactors<0>(p) : SpikeFactors<1>(p);
+      id == EffectId::kReversalSpikeU ? SpikeFactors<0>(p, max_phi) : SpikeFactors<1>(p, max_phi);
   std::vector<int> count(ReversalOrder::kBuckets + 1, 0);
   std::vector<int> bucket(e.size());
   for (std::size_t i = 0; i < e.size(); ++i) {
@@ -118,6 +120,14 @@ double SpikeReach(double w, double exponent) {
   return std::pow(7.0 * exponent, 1.0 / exponent) * w;
 }
 
+}  // namespace
+
+double SpikeMaxReach(double hi_deg) {
+  return std::max(SpikeReach(hi_deg * kDeg, 1.0), SpikeReach(hi_deg * kDeg, 2.0));
+}
+
+namespace {
+
 // Gain (diagnosis_fit.h Gain) of the unit-height spike of width w (rad) and exponent k, and
 // the spike's height in the fit of base + spike (when wanted).
 double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w, double exponent,
@@ -186,8 +196,7 @@ SpikeFit SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, do
   std::array<SpikeShape, 2> best;
   const int kGrid = std::max(grid, 3);
   const double llo = std::log(lo), lhi = std::log(hi);
-  const SpikeFrame frame =
-      MakeSpikeFrame(p, o, b, std::max(SpikeReach(hi * kDeg, 1.0), SpikeReach(hi * kDeg, 2.0)));
+  const SpikeFrame frame = MakeSpikeFrame(p, o, b, SpikeMaxReach(hi));
   VectorXd v;
   for (std::size_t shape = 0; shape < 2; ++shape) {
     const double k = shape == 0 ? 1.0 : 2.0;

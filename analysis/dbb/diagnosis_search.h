@@ -27,7 +27,10 @@ struct ReversalOrder {
   std::vector<Entry> by_phi;
   static int Bucket(double phi);
 };
-ReversalOrder MakeReversalOrder(const Problem& p, effects::EffectId id);
+// Only the samples within max_phi (rad) of the reversal are kept: a spike search over widths up
+// to hi degrees reads those within SpikeMaxReach(hi).
+ReversalOrder MakeReversalOrder(const Problem& p, effects::EffectId id, double max_phi);
+double SpikeMaxReach(double hi_deg);
 
 // A spike shape with its residual-sum-of-squares reduction against the base and its height
 // there (the spike's coefficient in the fit of base + spike, µm).

@@ -55,20 +55,27 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_
     c.direction = tr.direction == Direction::kCcw ? 1 : -1;
     const int t = static_cast<int>(p.ctx.size());
     p.ctx.push_back(c);
-    Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
+    // SᵀS of the set-up columns {cos θ, sin θ, 1}, summed in sample order.
+    double cc = 0.0, cs = 0.0, c1 = 0.0, ss = 0.0, s1 = 0.0, n1 = 0.0;
     const bool cached =
         tr.cos_angle.size() == tr.angle_rad.size() && tr.sin_angle.size() == tr.angle_rad.size();
     for (std::size_t i = 0; i < tr.angle_rad.size(); ++i) {
       const double th = tr.angle_rad[i];
       if (leave_out_reversals && effects::internal::AtAxisReversal(th)) continue;
-      SignatureSample s{cached ? effects::Angle<double>{th, tr.cos_angle[i], tr.sin_angle[i]}
-                               : effects::MakeAngle(th),
-                        t};
-      const Eigen::Vector3d v(s.a.c, s.a.s, 1.0);
-      g += v * v.transpose();
-      p.samples.push_back(s);
+      const effects::Angle<double> a =
+          cached ? effects::Angle<double>{th, tr.cos_angle[i], tr.sin_angle[i]}
+                 : effects::MakeAngle(th);
+      cc += a.c * a.c;
+      cs += a.c * a.s;
+      c1 += a.c;
+      ss += a.s * a.s;
+      s1 += a.s;
+      n1 += 1.0;
+      p.samples.push_back({a, t});
       y.push_back(tr.dev_um[i]);
     }
+    Eigen::Matrix3d g;
+    g << cc, cs, c1, cs, ss, s1, c1, s1, n1;
     if (std::abs(g.determinant()) < 1e-9 * std::pow(static_cast<double>(tr.angle_rad.size()), 3)) {
       throw InvalidInput("", 0, "angle_deg", "the trace does not go around the circle");
     }
@@ -135,6 +142,15 @@ void SignatureRows(const StackedTraces& p, effects::EffectId id, int from, int t
       M::template PositionError<double>(ctx, a, params, e);
       col[i] = e[0] * a.c + e[1] * a.s;
     }
+  } else if constexpr (requires { &M::LinearBasisRows; }) {
+    // The model's rows at once (cyclic errors: one vectorised sine and cosine for the lot).
+    const auto& ctx =
+        p.ctx[static_cast<std::size_t>(p.samples[static_cast<std::size_t>(from)].trace)];
+    const int len = to - from;
+    VectorXd work(3 * static_cast<Eigen::Index>(len));  // work space, not initialised
+    M::LinearBasisRows(ctx, p.cos_a.data() + from, p.sin_a.data() + from, len, shape.data(),
+                       work.data(), work.data() + len, work.data() + 2 * len, cols[0].data() + from,
+                       cols[1].data() + from);
   } else {
     // Several linear parameters: all columns in one evaluation (effects::RadialBasis, its
     // closed form inlined when the model has one).
@@ -248,17 +264,27 @@ double CyclicEnergy(const StackedTraces& p, const VectorXd& r, int axis, double 
                     int stride) {
   Eigen::Matrix2d g = Eigen::Matrix2d::Zero();
   Eigen::Vector2d b = Eigen::Vector2d::Zero();
-  for (int i = 0; i < p.n; i += stride) {
-    const auto& s = p.samples[static_cast<std::size_t>(i)];
+  // The arguments first, their sines and cosines at once (SinCosArray), then the sums in
+  // sample order.
+  const std::size_t m = static_cast<std::size_t>((p.n + stride - 1) / stride);
+  VectorXd work(3 * static_cast<Eigen::Index>(m));  // work space, not initialised
+  double* arg = work.data();
+  double* sa = arg + m;
+  double* ca = sa + m;
+  for (std::size_t k = 0; k < m; ++k) {
+    const auto& s = p.samples[k * static_cast<std::size_t>(stride)];
     const double rad = p.ctx[static_cast<std::size_t>(s.trace)].radius_mm;
     const double pos = axis == 0 ? rad * s.a.c : rad * s.a.s;
+    arg[k] = 2.0 * std::numbers::pi * pos / period;
+  }
+  SinCosArray(arg, sa, ca, m);
+  for (std::size_t k = 0; k < m; ++k) {
+    const std::size_t i = k * static_cast<std::size_t>(stride);
+    const auto& s = p.samples[i];
     const double w = axis == 0 ? s.a.c : s.a.s;
-    const double arg = 2.0 * std::numbers::pi * pos / period;
-    double sa = 0.0, ca = 0.0;
-    SinCos(arg, &sa, &ca);
-    const Eigen::Vector2d v(w * ca, w * sa);
+    const Eigen::Vector2d v(w * ca[k], w * sa[k]);
     g += v * v.transpose();
-    b += v * r[i];
+    b += v * r[static_cast<Eigen::Index>(i)];
   }
   if (!(std::abs(g.determinant()) > 0.0)) return 0.0;
   return b.dot(g.inverse() * b);

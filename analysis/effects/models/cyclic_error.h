@@ -40,6 +40,25 @@ struct CyclicError {
     e[0][1 - Axis] = 0.0;
     e[1][1 - Axis] = 0.0;
   }
+  // The radial projections of LinearBasis for n samples of one trace at once (cos θ, sin θ in
+  // cs, sn; one SinCosArray for the lot): col0 = ∂Δr/∂c, col1 = ∂Δr/∂d, bit for bit what
+  // ClosedFormBasis gives sample by sample. `arg` and `sn_arg`, `cs_arg` are work space of n.
+  static void LinearBasisRows(const EffectContext& c, const double* cs, const double* sn, int n,
+                              const double* shape, double* arg, double* sn_arg, double* cs_arg,
+                              double* col0, double* col1) {
+    const double* q = Axis == 0 ? cs : sn;
+    for (int i = 0; i < n; ++i) arg[i] = (2.0 * std::numbers::pi) * (c.radius_mm * q[i]) / shape[0];
+    SinCosArray(arg, sn_arg, cs_arg, static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+      if constexpr (Axis == 0) {
+        col0[i] = cs_arg[i] * cs[i] + 0.0 * sn[i];
+        col1[i] = sn_arg[i] * cs[i] + 0.0 * sn[i];
+      } else {
+        col0[i] = 0.0 * cs[i] + cs_arg[i] * sn[i];
+        col1[i] = 0.0 * cs[i] + sn_arg[i] * sn[i];
+      }
+    }
+  }
   static std::vector<double> Value(const EffectContext&, const double* p) {
     return {std::hypot(p[0], p[1])};
   }

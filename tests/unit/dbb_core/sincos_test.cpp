@@ -7,6 +7,7 @@
 #include <limits>
 #include <numbers>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -61,6 +62,33 @@ TEST(SinCos, LargeAndNonFiniteArgumentsGoToTheLibrary) {
   EXPECT_TRUE(std::isnan(s) && std::isnan(c));
   SinCos(std::numeric_limits<double>::quiet_NaN(), &s, &c);
   EXPECT_TRUE(std::isnan(s) && std::isnan(c));
+}
+
+// SinCosArray (two lanes at a time) is bit for bit SinCos, odd lengths, large and non-finite
+// arguments included.
+TEST(SinCos, ArrayIsBitForBitTheScalarOne) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1e5, 1e5);
+  std::vector<double> x;
+  for (double v = -20.0; v <= 20.0; v += 1.37e-3) x.push_back(v);
+  for (int k = -4000; k <= 4000; k += 3) x.push_back(k * (std::numbers::pi / 2.0));
+  for (int i = 0; i < 100001; ++i) x.push_back(u(rng));
+  for (double v : {1e6, -2e5, std::numeric_limits<double>::infinity(),
+                   std::numeric_limits<double>::quiet_NaN(), 0.0, -0.0, 1e-300})
+    x.push_back(v);
+  std::vector<double> s(x.size()), c(x.size());
+  SinCosArray(x.data(), s.data(), c.data(), x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    double es = 0.0, ec = 0.0;
+    SinCos(x[i], &es, &ec);
+    if (std::isnan(es)) {
+      EXPECT_TRUE(std::isnan(s[i]) && std::isnan(c[i])) << x[i];
+      continue;
+    }
+    EXPECT_EQ(std::signbit(s[i]), std::signbit(es)) << x[i];
+    EXPECT_EQ(s[i], es) << x[i];
+    EXPECT_EQ(c[i], ec) << x[i];
+  }
 }
 
 }  // namespace
