@@ -9,7 +9,7 @@
 
 #include <Eigen/Core>
 
-#include "analysis/dbb/diagnosis.h"
+#include "analysis/dbb/diagnosis_types.h"
 #include "analysis/dbb/diagnosis_fit.h"
 
 namespace km::dbb::diag {

@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "analysis/dbb/diagnosis.h"
+#include "analysis/dbb/diagnosis_types.h"
 #include "analysis/dbb/diagnosis_fit.h"
 #include "analysis/dbb/diagnosis_search.h"
 

@@ -25,7 +25,7 @@
 
 #include <Eigen/Core>
 
-#include "analysis/dbb/diagnosis.h"
+#include "analysis/dbb/diagnosis_types.h"
 #include "analysis/effects/registry.h"
 
 namespace km::dbb {
