@@ -9,7 +9,7 @@
 #include <boost/asio/ip/tcp.hpp>
 
 #include "api/http.h"
-#include "api/http_server.h"
+#include "api/http_options.h"
 #include "api/worker_pool.h"
 
 namespace km::api {

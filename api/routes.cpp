@@ -184,7 +184,7 @@ void AddDbbRoutes(Router& router, server::Service& service) {
             "DBB: polar plot (both directions when the partner test is stored)",
             true,
             [svc](const Request& req) {
-              dbb::PolarPlotOptions o;
+              render::PolarPlotOptions o;
               o.um_per_div = static_cast<double>(QueryInt(req, "um_per_div", 0, 0, 10000));
               o.divisions = static_cast<int>(QueryInt(req, "divisions", 0, 0, 50));
               if ((o.um_per_div > 0.0) != (o.divisions > 0)) {

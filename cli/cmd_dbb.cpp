@@ -8,7 +8,8 @@
 #include "analysis/dbb/full_analysis.h"
 #include "cli/command.h"
 #include "ingest/dbb_parser.h"
-#include "report/dbb_report.h"
+#include "render/dbb_plot.h"
+#include "usecases/dbb_report.h"
 
 namespace km::cli {
 namespace {
@@ -24,7 +25,7 @@ void WritePlots(const std::string& out_path, const std::vector<dbb::DbbTest>& te
       p = base.parent_path() / (base.stem().string() + "-" + tests[i].test_id + "-" +
                                 dbb::ToString(tests[i].direction) + base.extension().string());
     }
-    const auto png = dbb::PolarPlotPng(report, i);
+    const auto png = render::DbbPolarPlotPng(report, i);
     std::ofstream f(p, std::ios::binary);
     f.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
     if (!f) throw Error("cannot write the plot to " + p.string());
@@ -46,7 +47,7 @@ int RunDbbAnalyze(const Args& args, std::ostream& out) {
     }
   }
   const dbb::DbbReport analysis = dbb::AnalyzeDbbSet(tests);
-  const nlohmann::json report = server::DbbReportJson(tests, analysis);
+  const nlohmann::json report = usecases::DbbReportJson(tests, analysis);
   if (const auto plot = args.Get("--plot")) WritePlots(*plot, tests, analysis);
   if (args.json) {
     out << report.dump(2) << "\n";

@@ -14,11 +14,11 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/errors.h"
-#include "analysis/dbb/polar_plot.h"
 #include "cli/command.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
-#include "report/discovery_report.h"
+#include "render/polar_plot.h"
+#include "usecases/discovery_report.h"
 
 namespace km::cli {
 namespace {
@@ -71,7 +71,7 @@ void WritePlots(const nlohmann::json& r, const std::string& dir) {
     ++i;
     if (!s.contains("worst_test")) continue;
     const auto& w = s["worst_test"];
-    std::vector<dbb::PolarPlotTrace> traces(3);
+    std::vector<render::PolarPlotTrace> traces(3);
     const char* keys[] = {"measured_um", "model_before_um", "model_after_um"};
     const char* labels[] = {"measured", "model before", "model after"};
     const std::array<unsigned char, 3> colours[] = {{200, 60, 20}, {150, 150, 150}, {30, 30, 220}};
@@ -84,11 +84,11 @@ void WritePlots(const nlohmann::json& r, const std::string& dir) {
         traces[k].dev_um.push_back(w[keys[k]][n].get<double>());
       }
     }
-    dbb::PolarPlotOptions opt;
+    render::PolarPlotOptions opt;
     opt.title = "step " + std::to_string(i) + ": " + s["added_effect"].get<std::string>() +
                 " - test " + w["test_id"].get<std::string>() + " " +
                 w["direction"].get<std::string>();
-    const auto png = dbb::RenderPolarPlot(traces, std::nullopt, opt);
+    const auto png = render::RenderPolarPlot(traces, std::nullopt, opt);
     const auto path = std::filesystem::path(dir) / ("step" + std::to_string(i) + "_" +
                                                     s["added_effect"].get<std::string>() + ".png");
     std::ofstream f(path, std::ios::binary);
@@ -98,7 +98,7 @@ void WritePlots(const nlohmann::json& r, const std::string& dir) {
 }
 
 int RunDiscover(const Args& args, std::ostream& out) {
-  server::DiscoveryStudy study;
+  usecases::DiscoveryStudy study;
   if (const auto machine = args.Get("--machine")) {
     study.machine = ingest::ParseMachineJson(ReadFileBytes(*machine), *machine);
   }
@@ -111,7 +111,7 @@ int RunDiscover(const Args& args, std::ostream& out) {
     study.tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
     study.names.push_back(path);
   }
-  const auto outcome = server::RunDiscoveryStudy(study);
+  const auto outcome = usecases::RunDiscoveryStudy(study);
   if (const auto w = args.Get("--write-machine")) {
     if (!outcome.updated_machine)
       throw InvalidInput("", 0, "--write-machine", "only a hexapod discovery produces a machine");

@@ -8,13 +8,13 @@
 
 #include "analysis/core/errors.h"
 #include "cli/command.h"
-#include "report/form_report.h"
+#include "usecases/form_report.h"
 
 namespace km::cli {
-using server::FlatnessFileToJson;
-using server::FormResultToJson;
-using server::ParallelismFileToJson;
-using server::StraightnessFilesToJson;
+using usecases::FlatnessFileToJson;
+using usecases::FormResultToJson;
+using usecases::ParallelismFileToJson;
+using usecases::StraightnessFilesToJson;
 
 namespace {
 

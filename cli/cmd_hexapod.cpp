@@ -19,7 +19,7 @@
 #include "cli/command.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
-#include "report/calibration_study.h"
+#include "usecases/calibration_study.h"
 
 namespace km::cli {
 namespace {
@@ -31,14 +31,14 @@ int RunHexapodCalibrate(const Args& args, std::ostream& out) {
   }
   if (args.positional.empty()) throw InvalidInput("", 0, "FILE", "no DBB file given");
   const auto machine = ingest::ParseHexapodMachineJson(ReadFileBytes(*machine_path), *machine_path);
-  server::CalibrationStudy study;
+  usecases::CalibrationStudy study;
   study.machine = machine;
   for (const auto& path : args.positional) {
     study.tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
     study.names.push_back(path);
   }
   if (const auto m = args.Get("--method"))
-    study.method = server::ParseCalibrationMethod(*m, "--method");
+    study.method = usecases::ParseCalibrationMethod(*m, "--method");
   const double max_samples = args.GetNumber("--max-samples-per-test", 0);
   if (!(max_samples >= 0 && max_samples <= 1e7) || max_samples != std::floor(max_samples)) {
     throw InvalidInput("", 0, "--max-samples-per-test", "must be a non-negative integer");
@@ -57,7 +57,7 @@ int RunHexapodCalibrate(const Args& args, std::ostream& out) {
     while (std::getline(ss, name, ','))
       if (!name.empty()) study.effects.push_back(name);
   }
-  const auto outcome = server::RunCalibrationStudy(study);
+  const auto outcome = usecases::RunCalibrationStudy(study);
   const auto& report = outcome.report;
   if (const auto w = args.Get("--write-machine")) {
     std::ofstream f(*w, std::ios::binary);

@@ -14,7 +14,7 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
 #include "ingest/servo_parser.h"
-#include "report/servo_report.h"
+#include "usecases/servo_report.h"
 
 namespace km::cli {
 namespace {
@@ -66,10 +66,10 @@ int RunIdentify(const Args& args, std::ostream& out) {
   o.reversal_skip_mm = args.GetNumber("--reversal-skip-mm", o.reversal_skip_mm);
   o.inertia = !args.Has("--no-inertia");
   const auto r = servo::IdentifyLoads(machine.geometry, PhysicsOrDefault(machine), files, o);
-  const json j = server::ServoIdentifyJson(machine.machine_id, files, r);
+  const json j = usecases::ServoIdentifyJson(machine.machine_id, files, r);
   if (const auto w = args.Get("--write-machine")) {
     std::ofstream f(*w, std::ios::binary);
-    f << server::MachineWithIdentified(machine, r);
+    f << usecases::MachineWithIdentified(machine, r);
     if (!f) throw InvalidInput(*w, 0, "--write-machine", "cannot write the file");
   }
   std::ostringstream t;
@@ -98,7 +98,7 @@ int RunForce(const Args& args, std::ostream& out) {
   }
   if (args.positional.size() != 1) throw InvalidInput("", 0, "FILE", "give exactly one file");
   const auto files = Files(args, machine.machine_id, true);
-  servo::ForceOptions o = server::ForceOptionsOf(machine);
+  servo::ForceOptions o = usecases::ForceOptionsOf(machine);
   if (args.Has("--joint-ramp-mm")) o.joint_ramp_mm = args.GetNumber("--joint-ramp-mm", 0.0);
   if (args.Has("--screw-ramp-mm")) o.screw_ramp_mm = args.GetNumber("--screw-ramp-mm", 0.0);
   if (args.Has("--noise-N")) {
@@ -107,7 +107,7 @@ int RunForce(const Args& args, std::ostream& out) {
     o.strut_noise_N = n;
   }
   const auto f = servo::EstimateExternalForce(machine.geometry, *machine.physics, files[0], o);
-  const json j = server::ServoForceJson(machine.machine_id, files[0], f);
+  const json j = usecases::ServoForceJson(machine.machine_id, files[0], f);
   std::ostringstream t;
   t << files[0].file << ": " << f.t_s.size() << " samples, mean external force "
     << j["mean_force_N"] << " +- " << j["mean_sigma_N"] << " N\n";
@@ -136,11 +136,11 @@ int RunJoints(const Args& args, std::ostream& out) {
   o.separate_platform_joints = !args.Has("--no-split");
   if (const auto r = args.Get("--reference-Nm")) o.reference_Nm = SixNumbers(*r, "--reference-Nm");
   if (const auto p = args.Get("--previous")) {
-    o.previous_Nm = server::PreviousResistances(ReadFileBytes(*p), *p);
+    o.previous_Nm = usecases::PreviousResistances(ReadFileBytes(*p), *p);
   }
   const auto r =
       servo::EstimateJointResistance(machine.geometry, PhysicsOrDefault(machine), files, o);
-  const json j = server::ServoJointsJson(machine.machine_id, r, o);
+  const json j = usecases::ServoJointsJson(machine.machine_id, r, o);
   std::ostringstream t;
   for (const auto& leg : r.legs) t << "level " << leg.level << "  " << leg.evidence << "\n";
   t << "worst level " << r.level << " (reference: " << r.reference_source << ")\n";
@@ -163,7 +163,7 @@ int RunFeedDrive(const Args& args, std::ostream& out) {
   for (const auto& f : files) ptr.push_back(&f);
   std::vector<servo::FeedDriveResult> results;
   for (const auto& a : axes) results.push_back(servo::AnalyzeFeedDrive(ptr, a, o));
-  json j = server::ServoFeedDriveJson(files.front().machine_id, results);
+  json j = usecases::ServoFeedDriveJson(files.front().machine_id, results);
   if (const auto dbb = args.Get("--dbb")) {  // DBB tests of the machine, comma-separated
     std::vector<dbb::DbbTest> tests;
     std::vector<std::string> names;
@@ -173,7 +173,8 @@ int RunFeedDrive(const Args& args, std::ostream& out) {
       tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
       names.push_back(path);
     }
-    j["dbb_comparison"] = server::DbbStickComparisonJson(tests, names, results.front(), o.kp_per_s);
+    j["dbb_comparison"] =
+        usecases::DbbStickComparisonJson(tests, names, results.front(), o.kp_per_s);
   }
   std::ostringstream t;
   for (const auto& a : j["axes"]) {

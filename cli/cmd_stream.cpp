@@ -12,8 +12,8 @@
 #include "ingest/form_parsers.h"
 #include "ingest/stream_counters.h"
 #include "ingest/stream_frames.h"
-#include "report/form_report.h"
-#include "report/stream_profile.h"
+#include "usecases/form_report.h"
+#include "usecases/stream_profile.h"
 
 namespace km::cli {
 namespace {
@@ -47,7 +47,7 @@ int RunStreamProfile(const Args& args, std::ostream& out) {
   if (args.Has("--encoder-channel")) {
     encoder = static_cast<std::uint32_t>(args.GetNumber("--encoder-channel", 0));
   }
-  server::ProfileSpec spec;
+  usecases::ProfileSpec spec;
   spec.machine_id = args.Get("--machine-id").value_or("stream");
   spec.axis = args.Get("--axis").value_or("");
   spec.error_direction = args.Get("--error-direction").value_or("");
@@ -90,7 +90,7 @@ int RunStreamProfile(const Args& args, std::ostream& out) {
   }
   std::string text;
   try {
-    text = server::StraightnessFileFromStream(spec, sensor.samples, enc);
+    text = usecases::StraightnessFileFromStream(spec, sensor.samples, enc);
   } catch (const InvalidInput& e) {
     const std::map<std::string, std::string> option_of{
         {"channel", "--channel"},
@@ -107,7 +107,7 @@ int RunStreamProfile(const Args& args, std::ostream& out) {
     if (!f) throw InvalidInput(*w, 0, "--write-profile", "cannot write the profile file");
   }
   const auto file = ingest::ParseStraightnessFile(text, path + " (profile)");
-  json j = server::StraightnessFilesToJson({file});
+  json j = usecases::StraightnessFilesToJson({file});
   json gaps = json::array();
   for (const auto& [id, c] : channels) {
     for (const auto& g : c.gaps) {

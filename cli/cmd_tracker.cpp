@@ -10,12 +10,12 @@
 #include "analysis/tracker/volumetric_decomposition.h"
 #include "cli/command.h"
 #include "ingest/tracker_parser.h"
-#include "report/tracker_report.h"
+#include "usecases/tracker_report.h"
 
 namespace km::cli {
 using json = nlohmann::json;
-using server::AnalyzeTrackerFile;
-using server::TrackerResultToJson;
+using usecases::AnalyzeTrackerFile;
+using usecases::TrackerResultToJson;
 namespace {
 
 int RunSelfcal(const Args& args, std::ostream& out) {

@@ -13,9 +13,9 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/dbb/dbb_types.h"
-#include "analysis/dbb/polar_plot.h"
 #include "ingest/machine_json.h"
 #include "ingest/text_format.h"
+#include "render/polar_plot.h"
 #include "server/audits/audit_scheduler.h"
 #include "server/audits/audit_source.h"
 #include "server/jobs/jobs.h"
@@ -139,7 +139,7 @@ class Service : public AuditSource {
   // (null when there is none); the polar plot PNG (both directions when the partner exists).
   nlohmann::json DbbTrace(std::int64_t id);
   nlohmann::json DbbPairJson(std::int64_t id) override;
-  std::string DbbPlotPng(std::int64_t id, const dbb::PolarPlotOptions& options = {});
+  std::string DbbPlotPng(std::int64_t id, const render::PolarPlotOptions& options = {});
   // Straightness reversal of a stored profile with the other set-up of its pair (same machine
   // and pair_id, measured nearest in time): {partner_id, reversal{...}, profiles[]}; null when
   // the other set-up is not stored.
@@ -261,8 +261,8 @@ class Service : public AuditSource {
                                                     std::int64_t& stored_version);
   std::shared_ptr<DiscoveryPlan> CheckDiscovery(const nlohmann::json& request,
                                                 std::int64_t& version);
-  nlohmann::json RunCalibrationJob(const nlohmann::json& plan, const JobQueue::Progress& p);
-  nlohmann::json RunDiscoveryJob(const nlohmann::json& plan, const JobQueue::Progress& p);
+  nlohmann::json RunCalibrationJob(const nlohmann::json& plan, const ProgressFn& p);
+  nlohmann::json RunDiscoveryJob(const nlohmann::json& plan, const ProgressFn& p);
   std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
   std::optional<std::int64_t> NearestPartner(const MeasurementRecord& rec,
                                              const std::string& other_direction);

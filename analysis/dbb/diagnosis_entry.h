@@ -9,8 +9,8 @@
 
 #include <Eigen/Core>
 
-#include "analysis/dbb/diagnosis_types.h"
 #include "analysis/dbb/diagnosis_fit.h"
+#include "analysis/dbb/diagnosis_types.h"
 
 namespace km::dbb::diag {
 

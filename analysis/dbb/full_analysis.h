@@ -33,7 +33,6 @@
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/dbb/harmonics.h"
 #include "analysis/dbb/iso230.h"
-#include "analysis/dbb/polar_plot.h"
 #include "analysis/geometry/min_zone_circle.h"
 
 namespace km::dbb {
@@ -74,10 +73,5 @@ struct DbbAnalysisOptions {
 
 // Throws km::InvalidInput for unusable tests (the message names the test_id).
 DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOptions& options = {});
-
-// Polar plot (PNG bytes) of one test together with its pair partner, if any: deviations about
-// the test's least-squares centre, its minimum-zone circles.
-std::vector<unsigned char> PolarPlotPng(const DbbReport& report, std::size_t test_index,
-                                        const PolarPlotOptions& options = {});
 
 }  // namespace km::dbb

@@ -14,9 +14,9 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/json_text.h"
 #include "ingest/machine_json.h"
-#include "report/calibration_study.h"
 #include "server/base/request_json.h"
 #include "server/service.h"
+#include "usecases/calibration_study.h"
 
 namespace km::server {
 
@@ -203,7 +203,7 @@ std::shared_ptr<CalibrationPlan> Service::CheckCalibration(const nlohmann::json&
     if (!request["method"].is_string()) {
       throw InvalidInput("request", 0, "method", "absolute or centre-corrected");
     }
-    plan->method = ParseCalibrationMethod(request["method"].get<std::string>(), "method");
+    plan->method = usecases::ParseCalibrationMethod(request["method"].get<std::string>(), "method");
   }
   plan->reduction_min_tests =
       static_cast<int>(req::WholeNumber(request, "reduction_study_min_tests", 1, 1000, 0));
@@ -235,11 +235,10 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request,
 }
 
 // The job reads the tests when it runs, checked again from the plan.
-nlohmann::json Service::RunCalibrationJob(const nlohmann::json& plan_json,
-                                          const JobQueue::Progress& p) {
+nlohmann::json Service::RunCalibrationJob(const nlohmann::json& plan_json, const ProgressFn& p) {
   std::int64_t version = 0;
   const auto plan = CheckCalibration(plan_json, version);
-  CalibrationStudy study;
+  usecases::CalibrationStudy study;
   study.machine = plan->machine;
   study.method = plan->method;
   study.max_samples_per_test = plan->max_samples_per_test;
@@ -252,7 +251,7 @@ nlohmann::json Service::RunCalibrationJob(const nlohmann::json& plan_json,
     study.tests.push_back(LoadDbb(id));
     study.names.push_back(TestName(id));
   }
-  auto outcome = RunCalibrationStudy(study, p);
+  auto outcome = usecases::RunCalibrationStudy(study, p);
   // The calibrated machine document, as `POST /api/v1/jobs/{id}/save-machine` stores it.
   outcome.report["calibrated_machine"] =
       nlohmann::json::parse(ingest::WriteMachineJson(outcome.calibrated));

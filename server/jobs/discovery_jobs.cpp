@@ -9,9 +9,9 @@
 #include "analysis/core/errors.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
-#include "report/discovery_report.h"
 #include "server/base/request_json.h"
 #include "server/service.h"
+#include "usecases/discovery_report.h"
 
 namespace km::server {
 
@@ -57,11 +57,10 @@ std::int64_t Service::SubmitDiscovery(const nlohmann::json& request, std::int64_
 }
 
 // The job reads the tests when it runs, checked again from the plan.
-nlohmann::json Service::RunDiscoveryJob(const nlohmann::json& plan_json,
-                                        const JobQueue::Progress& p) {
+nlohmann::json Service::RunDiscoveryJob(const nlohmann::json& plan_json, const ProgressFn& p) {
   std::int64_t version = 0;
   const auto plan = CheckDiscovery(plan_json, version);
-  DiscoveryStudy study;
+  usecases::DiscoveryStudy study;
   study.machine = plan->machine;
   study.max_samples_per_test = plan->max_samples_per_test;
   if (p) p(0.0, "reading the DBB tests");
@@ -71,7 +70,7 @@ nlohmann::json Service::RunDiscoveryJob(const nlohmann::json& plan_json,
     study.tests.push_back(LoadDbb(id));
     study.names.push_back("measurement " + std::to_string(id));
   }
-  DiscoveryOutcome outcome = RunDiscoveryStudy(study, p);
+  usecases::DiscoveryOutcome outcome = usecases::RunDiscoveryStudy(study, p);
   nlohmann::json result = outcome.report.is_object()
                               ? std::move(outcome.report)
                               : nlohmann::json{{"report", std::move(outcome.report)}};

@@ -17,6 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/core/progress.h"
 #include "server/storage/storage.h"
 
 namespace km::server {
@@ -32,9 +33,8 @@ struct JobQueueOptions {
 
 class JobQueue {
  public:
-  using Progress = std::function<void(double, const std::string&)>;
   // Runs a job of one kind from its plan; the answer is stored as the job's result.
-  using Runner = std::function<nlohmann::json(const nlohmann::json& plan, const Progress&)>;
+  using Runner = std::function<nlohmann::json(const nlohmann::json& plan, const ProgressFn&)>;
 
   explicit JobQueue(Storage& storage, JobQueueOptions options = {});
   ~JobQueue();  // Stop()

@@ -11,13 +11,14 @@
 #include "ingest/form_parsers.h"
 #include "ingest/iso8601.h"
 #include "ingest/tracker_parser.h"
-#include "report/dbb_json.h"
-#include "report/dbb_report.h"
-#include "report/form_report.h"
-#include "report/tracker_report.h"
+#include "render/dbb_plot.h"
 #include "server/base/finite_result.h"
 #include "server/measurements/servo_kinds.h"
 #include "server/service.h"
+#include "usecases/dbb_json.h"
+#include "usecases/dbb_report.h"
+#include "usecases/form_report.h"
+#include "usecases/tracker_report.h"
 
 namespace km::server {
 namespace {
@@ -98,7 +99,7 @@ Ingested IngestDbb(std::string_view bytes, const std::string& file) {
   const dbb::DbbTest test = ingest::ParseDbb(bytes, file);
   nlohmann::json result;
   try {
-    result = DbbTestJson(test);
+    result = usecases::DbbTestJson(test);
   } catch (const InvalidInput& e) {
     // Analysis-level problems name the file too.
     throw InvalidInput(file, e.line(), e.field(), e.reason());
@@ -117,7 +118,7 @@ Ingested IngestDbb(std::string_view bytes, const std::string& file) {
     in.samples.values.push_back(test.angle_deg[i]);
     in.samples.values.push_back(test.dr_um[i]);
   }
-  in.results.push_back(NewResult{"dbb", kDbbAnalysisVersion, result.dump()});
+  in.results.push_back(NewResult{"dbb", usecases::kDbbAnalysisVersion, result.dump()});
   return in;
 }
 
@@ -150,7 +151,7 @@ Ingested IngestStraightness(std::string_view bytes, const std::string& file) {
   in.test_id = f.pair_id;
   in.direction = f.reversal;
   in.samples = ProfileSamples(f.profile);
-  const nlohmann::json result = StraightnessFilesToJson({f});
+  const nlohmann::json result = usecases::StraightnessFilesToJson({f});
   RequireFiniteResult(result, file);
   in.results.push_back({"straightness", kFormAnalysisVersion, result.dump()});
   return in;
@@ -165,7 +166,7 @@ Ingested IngestFlatness(std::string_view bytes, const std::string& file) {
     in.samples.values.insert(in.samples.values.end(),
                              {f.grid.x_mm[i], f.grid.y_mm[i], f.grid.z_um[i]});
   }
-  const nlohmann::json result = FlatnessFileToJson(f);
+  const nlohmann::json result = usecases::FlatnessFileToJson(f);
   RequireFiniteResult(result, file);
   in.results.push_back({"flatness", kFormAnalysisVersion, result.dump()});
   return in;
@@ -177,7 +178,7 @@ Ingested IngestParallelism(std::string_view bytes, const std::string& file) {
   Ingested in = Common(f, "parallelism");
   in.test_id = f.axis;
   in.samples = ProfileSamples(f.profile);
-  const nlohmann::json result = ParallelismFileToJson(f);
+  const nlohmann::json result = usecases::ParallelismFileToJson(f);
   RequireFiniteResult(result, file);
   in.results.push_back({"parallelism", kFormAnalysisVersion, result.dump()});
   return in;
@@ -208,7 +209,7 @@ Ingested IngestTracker(std::string_view bytes, const std::string& file) {
   }
   nlohmann::json result;
   try {
-    result = AnalyzeTracker(f);
+    result = usecases::AnalyzeTracker(f);
   } catch (const InvalidInput& e) {
     if (!e.file().empty()) throw;
     throw InvalidInput(file, e.line(), e.field(), e.reason());  // name the file
@@ -284,7 +285,8 @@ std::optional<std::int64_t> Service::NearestPartner(const MeasurementRecord& rec
 
 nlohmann::json Service::DbbTrace(std::int64_t id) {
   const dbb::DbbTest test = LoadDbb(id);
-  return DbbTraceJson(test, dbb::AnalyzeCircularTest(test, dbb::DeviationUnits::kToolPath));
+  return usecases::DbbTraceJson(test,
+                                dbb::AnalyzeCircularTest(test, dbb::DeviationUnits::kToolPath));
 }
 
 nlohmann::json Service::DbbPairJson(std::int64_t id) {
@@ -295,7 +297,7 @@ nlohmann::json Service::DbbPairJson(std::int64_t id) {
   const dbb::DbbTest other = LoadDbb(*partner);
   const std::vector<dbb::DbbTest> both{test, other};
   const dbb::DbbReport report = dbb::AnalyzeDbbSet(both);
-  const nlohmann::json j = DbbReportJson(both, report);
+  const nlohmann::json j = usecases::DbbReportJson(both, report);
   nlohmann::json out;
   out["partner_id"] = *partner;
   if (!j["pairs"].empty()) {
@@ -307,12 +309,12 @@ nlohmann::json Service::DbbPairJson(std::int64_t id) {
   return out;
 }
 
-std::string Service::DbbPlotPng(std::int64_t id, const dbb::PolarPlotOptions& options) {
+std::string Service::DbbPlotPng(std::int64_t id, const render::PolarPlotOptions& options) {
   MeasurementRecord rec;
   std::vector<dbb::DbbTest> tests{LoadDbb(id, &rec)};
   if (const auto partner = DbbPartner(rec)) tests.push_back(LoadDbb(*partner));
   const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
-  const auto png = dbb::PolarPlotPng(report, 0, options);
+  const auto png = render::DbbPolarPlotPng(report, 0, options);
   return std::string(png.begin(), png.end());
 }
 
@@ -337,7 +339,7 @@ nlohmann::json Service::StraightnessReversalJson(std::int64_t id) {
        {std::pair{id, rec->filename}, std::pair{*partner, other->filename}})
     files.push_back(ingest::ParseStraightnessFile(storage_->GetRaw(mid), name));
   if (files[0].reversal == "b") std::swap(files[0], files[1]);
-  const nlohmann::json j = StraightnessFilesToJson(files);
+  const nlohmann::json j = usecases::StraightnessFilesToJson(files);
   nlohmann::json out;
   out["partner_id"] = *partner;
   out["reversal"] = j.value("reversal", nlohmann::json(nullptr));

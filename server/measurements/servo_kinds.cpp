@@ -2,8 +2,8 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/servo_parser.h"
-#include "report/servo_report.h"
 #include "server/base/finite_result.h"
+#include "usecases/servo_report.h"
 
 namespace km::server {
 
@@ -43,9 +43,9 @@ Ingested IngestServo(std::string_view bytes, const std::string& file) {
       }
     }
   }
-  const nlohmann::json result = ServoSummaryJson(f);
+  const nlohmann::json result = usecases::ServoSummaryJson(f);
   RequireFiniteResult(result, file);
-  in.results.push_back({"servo", kServoAnalysisVersion, result.dump()});
+  in.results.push_back({"servo", usecases::kServoAnalysisVersion, result.dump()});
   return in;
 }
 

@@ -13,10 +13,10 @@
 #include "ingest/json_text.h"
 #include "ingest/machine_json.h"
 #include "ingest/servo_parser.h"
-#include "report/servo_report.h"
 #include "server/base/request_json.h"
 #include "server/base/sha256.h"
 #include "server/streams/streams.h"
+#include "usecases/servo_report.h"
 
 namespace km::server {
 namespace {
@@ -105,9 +105,9 @@ Inputs Read(Service& svc, const nlohmann::json& request) {
 // The estimate kept as a result of each measurement it used (see kJointsAnalysis).
 void StoreJoints(Service& svc, const nlohmann::json& j) {
   const std::string text = j.dump();
-  const NewResult result{kJointsAnalysis,
-                         std::string(kServoAnalysisVersion) + " #" + Sha256Hex(text).substr(0, 16),
-                         text};
+  const NewResult result{
+      kJointsAnalysis,
+      std::string(usecases::kServoAnalysisVersion) + " #" + Sha256Hex(text).substr(0, 16), text};
   for (const auto& id : j["measurement_ids"])
     svc.storage().PutResult(id.get<std::int64_t>(), result);
 }
@@ -151,10 +151,10 @@ nlohmann::json ServoIdentify(Service& service, const nlohmann::json& request) {
   const std::string note = req::OptionalString(request, "note", "");
   const auto r = servo::IdentifyLoads(
       in.machine.geometry, in.machine.physics.value_or(hexapod::MachinePhysics{}), in.files);
-  nlohmann::json j = ServoIdentifyJson(in.machine.machine_id, in.files, r);
+  nlohmann::json j = usecases::ServoIdentifyJson(in.machine.machine_id, in.files, r);
   j["machine_version"] = in.version;
   if (save) {
-    const auto stored = service.StoreMachineModel(MachineWithIdentified(in.machine, r),
+    const auto stored = service.StoreMachineModel(usecases::MachineWithIdentified(in.machine, r),
                                                   "servo identification", note);
     j["saved"] = {{"machine_id", stored.machine_id},
                   {"version", stored.version},
@@ -171,7 +171,7 @@ nlohmann::json ServoJoints(Service& service, const nlohmann::json& request) {
   o.increase_warn = req::Number(request, "increase_warn", o.increase_warn);
   o.increase_stop = req::Number(request, "increase_stop", o.increase_stop);
   if (request.contains("previous")) {
-    o.previous_Nm = PreviousResistances(request["previous"].dump(), "request previous");
+    o.previous_Nm = usecases::PreviousResistances(request["previous"].dump(), "request previous");
   }
   try {
     o.Check();
@@ -180,7 +180,7 @@ nlohmann::json ServoJoints(Service& service, const nlohmann::json& request) {
   }
   const auto r = servo::EstimateJointResistance(
       in.machine.geometry, in.machine.physics.value_or(hexapod::MachinePhysics{}), in.files, o);
-  nlohmann::json j = ServoJointsJson(in.machine.machine_id, r, o);
+  nlohmann::json j = usecases::ServoJointsJson(in.machine.machine_id, r, o);
   j["machine_version"] = in.version;
   j["measurement_ids"] = request["measurement_ids"];
   StoreJoints(service, j);
@@ -245,8 +245,8 @@ nlohmann::json ServoForce(Service& service, std::int64_t measurement_id,
     throw InvalidInput("", 0, "id", "a feed-drive record has no tool-tip force");
   }
   const auto f = servo::EstimateExternalForce(machine.geometry, *machine.physics, file,
-                                              ForceOptionsOf(machine));
-  nlohmann::json j = ServoForceJson(machine.machine_id, file, f);
+                                              usecases::ForceOptionsOf(machine));
+  nlohmann::json j = usecases::ServoForceJson(machine.machine_id, file, f);
   j["machine_version"] = version;
   return j;
 }

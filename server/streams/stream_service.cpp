@@ -6,11 +6,11 @@
 #include "analysis/core/errors.h"
 #include "ingest/json_text.h"
 #include "ingest/stream_frames.h"
-#include "report/stream_profile.h"
 #include "server/base/request_json.h"
 #include "server/base/time_util.h"
 #include "server/service.h"
 #include "server/streams/stream_chunks.h"
+#include "usecases/stream_profile.h"
 
 namespace km::server {
 namespace {
@@ -250,7 +250,7 @@ UploadOutcome Service::StreamProfile(std::int64_t stream_id, const json& request
                        "\"start_mm\": X} is required");
   }
   const auto& pos = request["position"];
-  ProfileSpec spec;
+  usecases::ProfileSpec spec;
   spec.machine_id = rec->machine_id;
   spec.axis = axis;
   spec.error_direction = error_direction;
@@ -267,7 +267,8 @@ UploadOutcome Service::StreamProfile(std::int64_t stream_id, const json& request
     spec.feed_mm_min = req::Number(pos, "feed_mm_min", std::nullopt);
     spec.start_mm = req::Number(pos, "start_mm", 0.0);
   }
-  const std::string text = StraightnessFileFromStream(spec, sensor, encoder ? &*encoder : nullptr);
+  const std::string text =
+      usecases::StraightnessFileFromStream(spec, sensor, encoder ? &*encoder : nullptr);
   return Upload(text,
                 "stream-" + std::to_string(stream_id) + "-ch" + std::to_string(channel) + ".csv");
 }

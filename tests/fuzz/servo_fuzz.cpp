@@ -5,8 +5,8 @@
 #include <cmath>
 
 #include "ingest/servo_parser.h"
-#include "report/servo_report.h"
 #include "tests/fuzz/fuzz_util.h"
+#include "usecases/servo_report.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   km::fuzz::Guarded([&] {
@@ -31,7 +31,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         for (double v : a.force_N) km::fuzz::Check(std::isfinite(v), "finite force");
       }
     }
-    const auto j = km::server::ServoSummaryJson(f);
+    const auto j = km::usecases::ServoSummaryJson(f);
     km::fuzz::Check(j["samples"].get<std::size_t>() == n, "summary sample count");
   });
   return 0;

@@ -17,10 +17,11 @@ import unittest
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import hexapod_physics as hp  # noqa: E402
 import hexapod_truth as ht  # noqa: E402
 
-MACHINE = ht.load_machine(ht.DEFAULT_MACHINE)
-TOOL = ht.TOOLS_MM[0]
+MACHINE = hp.load_machine(hp.DEFAULT_MACHINE)
+TOOL = hp.TOOLS_MM[0]
 TABLE_3_2 = {"torque_Nm": 8.88, "torque_per_N_m": 0.0139, "ramp_mm": 0.0}
 
 
@@ -32,14 +33,14 @@ def session(effects=(), variants=(), perturb=(0.0, 0.0), noise=0.0, seed=1, samp
 
 def untilted_test(direction="ccw", level=1):
     """Row-b-like test at the jig centre: untilted, radius 150, fixed ball at the centre."""
-    return ht.DbbSpec("u", direction, ht.hole_centre(9, level), 150.0, 150.0, 0.0,
+    return hp.DbbSpec("u", direction, hp.hole_centre(9, level), 150.0, 150.0, 0.0,
                       (0.0, 0.0, 0.0), TOOL, 0.0)
 
 
 def state(spec, ses=None, samples=720):
-    path = ht.commanded_path(spec, samples)
+    path = hp.commanded_path(spec, samples)
     geom = MACHINE.model if ses is None else ses.truth
-    return path, ht.strut_state(path.x, path.ang, geom, spec.tool)
+    return path, hp.strut_state(path.x, path.ang, geom, spec.tool)
 
 
 def deflection(ses, spec):
@@ -50,8 +51,8 @@ def deflection(ses, spec):
 
 def tip_shift(ds, x, ang, tool=TOOL):
     """Tip displacement (N, 3), mm, when the struts of the model machine grow by ds at (x, ang)."""
-    d = ht.strut_lengths(x, ang, MACHINE.model, tool) + ds
-    tip, _ = ht.forward_kinematics(d, x, ang, MACHINE.model, tool)
+    d = hp.strut_lengths(x, ang, MACHINE.model, tool) + ds
+    tip, _ = hp.forward_kinematics(d, x, ang, MACHINE.model, tool)
     return tip - x
 
 
@@ -59,43 +60,43 @@ class Kinematics(unittest.TestCase):
     def test_rotation_derivatives_match_finite_differences(self):
         ang = np.radians(np.array([[12.0, -7.0, 30.0]]))
         h = 1e-7
-        for k, analytic in enumerate(ht.rotation_derivatives(ang)):
+        for k, analytic in enumerate(hp.rotation_derivatives(ang)):
             step = np.zeros(3)
             step[k] = h
-            numeric = (ht.rotation(ang + step) - ht.rotation(ang - step)) / (2 * h)
+            numeric = (hp.rotation(ang + step) - hp.rotation(ang - step)) / (2 * h)
             np.testing.assert_allclose(analytic, numeric, atol=1e-8)
 
     def test_rotation_order_is_rx_ry_rz(self):
         # [PM-600 report] eq. 1.4: a pure A tilt turns +y towards +z.
-        r = ht.rotation(np.radians(np.array([[90.0, 0.0, 0.0]])))[0]
+        r = hp.rotation(np.radians(np.array([[90.0, 0.0, 0.0]])))[0]
         np.testing.assert_allclose(r @ [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], atol=1e-15)
         a, b, c = np.radians([10.0, 20.0, 30.0])
-        expected = ht._rx(np.array(a)) @ ht._ry(np.array(b)) @ ht._rz(np.array(c))
-        np.testing.assert_allclose(ht.rotation(np.array([a, b, c])), expected, atol=1e-15)
+        expected = hp._rx(np.array(a)) @ hp._ry(np.array(b)) @ hp._rz(np.array(c))
+        np.testing.assert_allclose(hp.rotation(np.array([a, b, c])), expected, atol=1e-15)
 
     def test_ik_fk_round_trip(self):
         rng = np.random.default_rng(7)
-        geom = ht.perturbed_geometry(MACHINE.model, rng, 0.3, 0.1)
+        geom = hp.perturbed_geometry(MACHINE.model, rng, 0.3, 0.1)
         n = 500
         x = np.c_[rng.uniform(-200, 200, (n, 2)), rng.uniform(-1200, -900, n)]
         ang = np.radians(rng.uniform(-25, 25, (n, 3)))
-        d = ht.strut_lengths(x, ang, geom, TOOL)
+        d = hp.strut_lengths(x, ang, geom, TOOL)
         x0 = x + rng.uniform(-1, 1, (n, 3))
         ang0 = ang + rng.uniform(-0.01, 0.01, (n, 3))
-        xf, af = ht.forward_kinematics(d, x0, ang0, geom, TOOL)
+        xf, af = hp.forward_kinematics(d, x0, ang0, geom, TOOL)
         self.assertLess(np.max(np.abs(xf - x)), 1e-9)
         self.assertLess(np.max(np.abs(af - ang)) * 1000.0, 1e-9)  # 1 m lever
-        self.assertLess(np.max(np.abs(ht.strut_lengths(xf, af, geom, TOOL) - d)), 1e-12)
+        self.assertLess(np.max(np.abs(hp.strut_lengths(xf, af, geom, TOOL) - d)), 1e-12)
 
     def test_longer_real_tool_moves_tip_along_minus_spindle_axis(self):
         # tool_length_error: error = real − programmed; at a fixed platform pose the tip moves
         # by −error along the spindle axis R·e_z.
         x = np.array([[30.0, -40.0, -1050.0]])
         ang = np.radians(np.array([[15.0, -10.0, 5.0]]))
-        d = ht.strut_lengths(x, ang, MACHINE.model, TOOL)
+        d = hp.strut_lengths(x, ang, MACHINE.model, TOOL)
         error = 0.062
-        xf, af = ht.forward_kinematics(d, x, ang, MACHINE.model, TOOL + error)
-        axis = ht.rotation(ang)[0] @ [0.0, 0.0, 1.0]
+        xf, af = hp.forward_kinematics(d, x, ang, MACHINE.model, TOOL + error)
+        axis = hp.rotation(ang)[0] @ [0.0, 0.0, 1.0]
         np.testing.assert_allclose(xf[0], x[0] - error * axis, atol=1e-10)
         np.testing.assert_allclose(af, ang, atol=1e-14)
 
@@ -109,15 +110,15 @@ class Gravity(unittest.TestCase):
             self.assertGreater(dz_um, -200.0, variants)
 
     def test_hanging_platform_struts_in_tension_and_statics_balance(self):
-        gm = ht.gravity_model(MACHINE)
+        gm = hp.gravity_model(MACHINE)
         for level in (1, 2, 3):
-            x = ht.hole_centre(9, level)[None, :]
-            s = ht.strut_state(x, np.zeros((1, 3)), MACHINE.model, TOOL)
+            x = hp.hole_centre(9, level)[None, :]
+            s = hp.strut_state(x, np.zeros((1, 3)), MACHINE.model, TOOL)
             self.assertTrue(np.all(s.u[..., 2] < 0.0))  # the platform hangs below its joints
-            n_g, m_g = ht.gravity_load(s, gm, TOOL)
-            x_platform = ht.gamma_solve(s, n_g, m_g)
+            n_g, m_g = hp.gravity_load(s, gm, TOOL)
+            x_platform = hp.gamma_solve(s, n_g, m_g)
             self.assertTrue(np.all(x_platform > 0.0), x_platform)      # tension
-            tension = ht.gravity_tension(s, gm, TOOL)
+            tension = hp.gravity_tension(s, gm, TOOL)
             self.assertTrue(np.all(tension > 0.0), tension)
             # Γ(x) = [N_g; M_g] (eq. 3.4): forces and moments about the tool tip balance.
             np.testing.assert_allclose(np.sum(x_platform[0][:, None] * s.u[0], axis=0), n_g[0],
@@ -131,31 +132,31 @@ class Gravity(unittest.TestCase):
             # gravity_weight_adds adds it.
             g_s = gm.m_strut * (s.u @ gm.g)
             np.testing.assert_allclose(tension, x_platform - g_s, rtol=1e-12)
-            gm_adds = ht.gravity_model(MACHINE, weight_adds=True)
-            np.testing.assert_allclose(ht.gravity_tension(s, gm_adds, TOOL), x_platform + g_s,
+            gm_adds = hp.gravity_model(MACHINE, weight_adds=True)
+            np.testing.assert_allclose(hp.gravity_tension(s, gm_adds, TOOL), x_platform + g_s,
                                        rtol=1e-12)
 
     def test_deflection_is_compliance_times_tension(self):
-        gm = ht.gravity_model(MACHINE, {"K_stiff2_mm_per_N": 1.37e-5})
+        gm = hp.gravity_model(MACHINE, {"K_stiff2_mm_per_N": 1.37e-5})
         _, s = state(untilted_test())
         k = 9e-6 * (s.L - 150.0) / 1000.0 + 1.37e-5                       # eq. 4.3
-        np.testing.assert_allclose(ht.compliance(s, gm), k, rtol=1e-12)
-        np.testing.assert_allclose(ht.gravity_deflection(s, gm, TOOL),
-                                   k * ht.gravity_tension(s, gm, TOOL), rtol=1e-12)
-        centre = ht.strut_state(ht.hole_centre(9, 1)[None, :], np.zeros((1, 3)), MACHINE.model,
+        np.testing.assert_allclose(hp.compliance(s, gm), k, rtol=1e-12)
+        np.testing.assert_allclose(hp.gravity_deflection(s, gm, TOOL),
+                                   k * hp.gravity_tension(s, gm, TOOL), rtol=1e-12)
+        centre = hp.strut_state(hp.hole_centre(9, 1)[None, :], np.zeros((1, 3)), MACHINE.model,
                                 TOOL)
-        self.assertTrue(np.all(ht.gravity_deflection(centre, gm, TOOL) > 0.0))  # struts stretch
+        self.assertTrue(np.all(hp.gravity_deflection(centre, gm, TOOL) > 0.0))  # struts stretch
 
     def test_heavy_off_axis_platform(self):
         # A 275 kg platform sags more; its centre of gravity moved +x tilts the platform so that
         # the tip (below the joints) swings towards −x... whichever way, it must move in x.
-        x = ht.hole_centre(9, 1)[None, :]
+        x = hp.hole_centre(9, 1)[None, :]
         ang = np.zeros((1, 3))
-        s = ht.strut_state(x, ang, MACHINE.model, TOOL)
-        base = ht.gravity_deflection(s, ht.gravity_model(MACHINE), TOOL)
-        heavy = ht.gravity_deflection(s, ht.gravity_model(MACHINE, {"platform_mass_kg": 275.0}),
+        s = hp.strut_state(x, ang, MACHINE.model, TOOL)
+        base = hp.gravity_deflection(s, hp.gravity_model(MACHINE), TOOL)
+        heavy = hp.gravity_deflection(s, hp.gravity_model(MACHINE, {"platform_mass_kg": 275.0}),
                                       TOOL)
-        off = ht.gravity_deflection(s, ht.gravity_model(
+        off = hp.gravity_deflection(s, hp.gravity_model(
             MACHINE, {"platform_mass_kg": 275.0, "platform_cog_mm": [40.0, 0.0, 180.0]}), TOOL)
         dz = [tip_shift(d, x, ang)[0, 2] for d in (base, heavy)]
         self.assertLess(dz[1], dz[0])
@@ -166,9 +167,9 @@ class Gravity(unittest.TestCase):
 class Friction(unittest.TestCase):
     def friction_at(self, spec, literal=False, params=TABLE_3_2):
         path, s = state(spec)
-        gm = ht.gravity_model(MACHINE)
-        tension = ht.gravity_tension(s, gm, TOOL)
-        forces = ht.friction_forces(s, tension, params, ht.joint_travel(path), literal, True)
+        gm = hp.gravity_model(MACHINE)
+        tension = hp.gravity_tension(s, gm, TOOL)
+        forces = hp.friction_forces(s, tension, params, hp.joint_travel(path), literal, True)
         return path, s, tension, forces
 
     def test_force_opposes_the_swing_with_size_ft_over_L(self):
@@ -195,14 +196,14 @@ class Friction(unittest.TestCase):
         # Table 3.2's torques, the report's condition C (R 150 at Z −1215, untilted, table 3.3).
         results = {}
         for variants in ((), ("friction_literal",)):
-            for z in (-1215.0, ht.LEVEL_Z_MM[1]):
+            for z in (-1215.0, hp.LEVEL_Z_MM[1]):
                 along, radial = ht.friction_lag(MACHINE, TABLE_3_2, variants, z_mm=z)
                 results[(variants, z)] = along
                 self.assertLess(abs(radial), 0.01)
         along = results[((), -1215.0)]
         self.assertLess(along, -1.5)
         self.assertGreater(along, -2.5)
-        self.assertLess(results[((), ht.LEVEL_Z_MM[1])], -1.0)
+        self.assertLess(results[((), hp.LEVEL_Z_MM[1])], -1.0)
         if "-v" in sys.argv:
             print("\n  friction lag along the path, table 3.2 torques: %s" % ", ".join(
                 "%s Z=%g: %+.3f µm" % (v[0] if v else "default", z, a)
@@ -225,14 +226,14 @@ class Friction(unittest.TestCase):
         travel[50:, :, 0] = 0.1
         u = np.zeros((n, 6, 3))
         u[..., 2] = -1.0
-        r = ht.ramp_states(travel, u, 2.0, literal=False, closed=False)
+        r = hp.ramp_states(travel, u, 2.0, literal=False, closed=False)
         self.assertAlmostEqual(r[49, 0, 0], -1.0)
         self.assertAlmostEqual(r[59, 0, 0], 0.0, places=12)   # half the ramp: 1 mm
         self.assertAlmostEqual(r[64, 0, 0], 0.5, places=12)
         self.assertAlmostEqual(r[69, 0, 0], 1.0, places=12)   # whole ramp: 2 mm
         self.assertEqual(r[79, 0, 0], 1.0)
         self.assertTrue(np.all(np.linalg.norm(r, axis=-1) <= 1.0 + 1e-12))
-        np.testing.assert_allclose(ht.ramp_states(travel, u, 0.0, False, False),
+        np.testing.assert_allclose(hp.ramp_states(travel, u, 0.0, False, False),
                                    np.sign(travel), atol=0)
 
     def test_ramp_comes_from_the_commanded_motion_only(self):
@@ -247,12 +248,12 @@ class Friction(unittest.TestCase):
 
 class Drift(unittest.TestCase):
     def test_uniform_growth_lowers_the_tip(self):
-        x = ht.hole_centre(9, 1)[None, :]
+        x = hp.hole_centre(9, 1)[None, :]
         ang = np.zeros((1, 3))
         self.assertLess(tip_shift(np.full((1, 6), 0.01), x, ang)[0, 2], -0.01)
 
     def test_uniform_and_length_proportional_growth(self):
-        spec = ht.jig_plan()[9]   # e_cw, tilted: the struts differ in length
+        spec = hp.jig_plan()[9]   # e_cw, tilted: the struts differ in length
         uniform = deflection(session(["thermal_drift:rate_um_per_h=8.37"]), spec)
         path, s = state(spec)
         hours = path.t / 3600.0
@@ -273,7 +274,7 @@ class ServoLag(unittest.TestCase):
         c_ms2 = 1000.0
         ses = session(["servo_lag:lag_coefficient_ms2=%g" % c_ms2])
         _, dr = ht.simulate_dbb(ses, untilted_test())
-        v = ht.FEED_MM_MIN / 60.0
+        v = hp.FEED_MM_MIN / 60.0
         expected_um = -1000.0 * c_ms2 * 1e-6 * v ** 2 / (2.0 * 150.0)
         self.assertAlmostEqual(np.mean(dr), expected_um, delta=0.05 * abs(expected_um))
 
@@ -300,8 +301,8 @@ class Simulation(unittest.TestCase):
 
     def test_controller_with_the_true_geometry_reads_the_bar_length(self):
         ses = session(perturb=(0.3, 0.1))
-        ses.machine = ht.Machine(MACHINE.machine_id, ses.truth, MACHINE.gravity, MACHINE.friction)
-        for spec in ht.jig_plan()[::7]:
+        ses.machine = hp.Machine(MACHINE.machine_id, ses.truth, MACHINE.gravity, MACHINE.friction)
+        for spec in hp.jig_plan()[::7]:
             _, dr = ht.simulate_dbb(ses, spec)
             self.assertLess(np.max(np.abs(dr)), 1e-6)
 
@@ -324,7 +325,7 @@ class Simulation(unittest.TestCase):
                         0.5 * sizes["thermal_drift"]["rms_um"])
 
     def test_plan(self):
-        plan = ht.jig_plan()
+        plan = hp.jig_plan()
         self.assertEqual([f"{t.test_id}_{t.direction}" for t in plan[:3]],
                          ["a_ccw", "a_cw", "b_ccw"])
         self.assertEqual([t.start_s for t in plan[:3]], [0.0, 150.0, 300.0])

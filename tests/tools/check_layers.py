@@ -2,22 +2,27 @@
 """The layering of the sources, checked from their includes and imports (docs/architecture.md):
 
   * C++: a folder includes only its own layer and those below it,
-        analysis < ingest < report < server < api, cli (cli beside api, without server);
+        analysis < ingest, render < usecases < server < api, cli (cli beside api, without
+        server);
     and no circle between modules (a module = x.h, x.cpp and its parts x_<part>.h/.cpp in the
     same folder), so no include runs back up inside a layer either.
   * The web page (web/static/*.js): no circle of imports, static or dynamic (import('./x.js')).
-  * No source folder holds more than 40 source files.
+  * No source folder (tests included) holds more than 40 source files, and no tracked source
+    file (C++, JavaScript, Python, shell) is longer than 600 lines.
 Prints every violation and exits 1 if there is one."""
 import os
 import re
+import subprocess
 import sys
 from collections import defaultdict
 
-LAYERS = {"analysis": 0, "ingest": 1, "report": 2, "server": 3, "api": 4, "cli": 4}
-FORBIDDEN = {("cli", "server"), ("cli", "api"), ("api", "cli")}
+LAYERS = {"analysis": 0, "ingest": 1, "render": 1, "usecases": 2, "server": 3, "api": 4, "cli": 4}
+FORBIDDEN = {("cli", "server"), ("cli", "api"), ("api", "cli"), ("ingest", "render"),
+             ("render", "ingest")}
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
 IMPORT = re.compile(r"""(?:\bfrom\s+|\bimport\s*\(\s*|^\s*import\s+)['"]\./([\w./-]+\.js)['"]""", re.M)
 MAX_FILES = 40
+MAX_LINES = 600
 
 
 def sources(repo, exts):
@@ -132,15 +137,33 @@ def check_web(repo, problems):
         problems.append("import circle in web/static: " + " ↔ ".join(comp))
 
 
+SOURCE_EXTS = (".h", ".cpp", ".js", ".mjs", ".py", ".sh")
+
+
+def tracked_sources(repo):
+    """Tracked source files (git ls-files), or every file below the source folders outside git."""
+    try:
+        out = subprocess.run(["git", "-C", repo, "ls-files"], check=True, capture_output=True,
+                             text=True).stdout.split("\n")
+    except (OSError, subprocess.CalledProcessError):
+        out = [os.path.relpath(os.path.join(r, f), repo)
+               for top in list(LAYERS) + ["web", "tests", "deploy"]
+               for r, _, fs in os.walk(os.path.join(repo, top)) if "node_modules" not in r
+               for f in fs]
+    return [f for f in out if f.endswith(SOURCE_EXTS) and os.path.isfile(os.path.join(repo, f))]
+
+
 def check_folders(repo, problems):
-    for top in list(LAYERS) + ["web/static"]:
-        for root, _, files in os.walk(os.path.join(repo, top)):
-            if "node_modules" in root:
-                continue
-            n = sum(1 for f in files if f.endswith((".h", ".cpp", ".js")))
-            if n > MAX_FILES:
-                problems.append("%s holds %d source files (at most %d)" %
-                                (os.path.relpath(root, repo), n, MAX_FILES))
+    per_folder = defaultdict(int)
+    for f in tracked_sources(repo):
+        per_folder[os.path.dirname(f)] += 1
+        with open(os.path.join(repo, f), encoding="utf-8", errors="replace") as fh:
+            lines = sum(1 for _ in fh)
+        if lines > MAX_LINES:
+            problems.append("%s has %d lines (at most %d)" % (f, lines, MAX_LINES))
+    for folder, n in sorted(per_folder.items()):
+        if n > MAX_FILES:
+            problems.append("%s holds %d source files (at most %d)" % (folder, n, MAX_FILES))
 
 
 def main():

@@ -7,6 +7,7 @@
 #include "analysis/core/allocator.h"
 #include "analysis/dbb/full_analysis.h"
 #include "analysis/dbb/serial_sim.h"
+#include "render/dbb_plot.h"
 
 namespace km::dbb {
 namespace {
@@ -75,7 +76,7 @@ BENCHMARK(BM_AnalyzeDbbPairNoDiagnosis)->Unit(benchmark::kMillisecond);
 void BM_PolarPlotPng(benchmark::State& state) {
   const auto tests = Pair(Mixed());
   const auto rep = AnalyzeDbbSet(tests);
-  for (auto _ : state) benchmark::DoNotOptimize(PolarPlotPng(rep, 0));
+  for (auto _ : state) benchmark::DoNotOptimize(render::DbbPolarPlotPng(rep, 0));
 }
 BENCHMARK(BM_PolarPlotPng)->Unit(benchmark::kMillisecond);
 

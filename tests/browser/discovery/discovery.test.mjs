@@ -21,187 +21,19 @@
 // two planes) are shown for what they are, no console errors, no sideways scrolling at 1280 and
 // 390 px. Screenshots go to the output dir. Missing prerequisites make the test FAIL.
 
+// (session.mjs: the binaries, the server, the API calls.)
+
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { execFileSync, spawn } from 'node:child_process';
-import { randomBytes } from 'node:crypto';
-import { existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, rmSync } from 'node:fs';
-import { createRequire } from 'node:module';
-import { createServer } from 'node:net';
+import { execFileSync } from 'node:child_process';
+import { mkdirSync, mkdtempSync, readdirSync, readFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
-import { dirname, join, resolve } from 'node:path';
-import { fileURLToPath } from 'node:url';
-import { databaseArgs } from '../lib/harness.mjs';
-
-const here = dirname(fileURLToPath(import.meta.url));
-const repo = resolve(here, '../../..');
-const serverBin = process.argv[2] || process.env.KINEMETRICD || '';
-const cliBin = process.argv[3] || process.env.KINEMETRIC_CLI || (serverBin ? join(dirname(serverBin), 'kinemetric') : '');
-const webDir = process.env.KINEMETRIC_WEB_DIR || join(repo, 'web');
-const webRoot = process.env.KINEMETRIC_WEB_ROOT || join(repo, 'web/static');
-const outDir = process.env.KINEMETRIC_BROWSER_OUT || process.argv[4] || join(tmpdir(), 'kinemetric-browser');
-const chromiumPath = process.env.KINEMETRIC_CHROMIUM || '/usr/bin/chromium';
-const MACHINE_JSON = join(repo, 'tests/fixtures/pm600-like.json');
-const MACHINE = 'pm600-like';
-const SERIAL_FIXTURE = join(repo, 'tests/fixtures/browser/dbb_xy-r150_ccw.txt');
-const SERIAL_MACHINE = 'browser-test-vmc';
-// The hidden effects of the simulated machine ([PM-600 report] values: K_stiff2 1.52e-5 mm/N,
-// base-joint friction 8.88 N·m) and the two tool lengths of table 4.4.
-const SIM_ARGS = [
-  'simulate', 'dbb', '--machine', MACHINE_JSON, '--absolute', '--samples', '180', '--tools', '104.255,150',
-  '--effects', 'gravity_deflection:K_stiff2_mm_per_N=1.52e-5;joint_friction:torque_Nm=8.88,ramp_mm=2',
-];
-const CHROMIUM_ARGS = [
-  '--headless',
-  '--no-sandbox',
-  '--disable-gpu',
-  '--disable-quic',
-  '--no-first-run',
-  '--disable-background-networking',
-  '--disable-component-update',
-  '--disable-sync',
-];
-
-// ------------------------------------------------------------------ prerequisites
-
-function loadPlaywright() {
-  if (!existsSync(join(webDir, 'node_modules', 'playwright-core'))) {
-    throw new Error(
-      `playwright-core is not installed in ${join(webDir, 'node_modules')}. ` +
-        `Run \`npm ci\` in ${webDir} (deploy/install-deps.sh does this).`,
-    );
-  }
-  return createRequire(join(webDir, 'package.json'))('playwright-core');
-}
-
-function checkPrerequisites() {
-  const problems = [];
-  if (!serverBin) problems.push('no server binary given (first argument or KINEMETRICD)');
-  else if (!existsSync(serverBin)) problems.push(`server binary ${serverBin} does not exist (build target kinemetricd)`);
-  if (!cliBin || !existsSync(cliBin)) problems.push(`CLI binary '${cliBin}' does not exist (build target kinemetric; second argument or KINEMETRIC_CLI)`);
-  if (!existsSync(chromiumPath)) problems.push(`${chromiumPath} is missing: install Chromium (apt-get install -y chromium; deploy/install-deps.sh)`);
-  if (!existsSync(join(webRoot, 'index.html'))) problems.push(`no dashboard at ${webRoot}/index.html`);
-  for (const f of [MACHINE_JSON, SERIAL_FIXTURE]) if (!existsSync(f)) problems.push(`fixture ${f} is missing`);
-  if (problems.length) throw new Error(`browser_discovery cannot run:\n  - ${problems.join('\n  - ')}`);
-}
-
-// ------------------------------------------------------------------ server
-
-function freePort() {
-  return new Promise((res, rej) => {
-    const srv = createServer();
-    srv.unref();
-    srv.on('error', rej);
-    srv.listen(0, '127.0.0.1', () => {
-      const { port } = srv.address();
-      srv.close(() => res(port));
-    });
-  });
-}
-
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-async function startServer() {
-  const port = await freePort();
-  const dataDir = mkdtempSync(join(tmpdir(), 'kinemetric-discovery-data-'));
-  const token = `bt-${randomBytes(18).toString('hex')}`;
-  const log = [];
-  const child = spawn(serverBin, ['--listen', `127.0.0.1:${port}`, '--data-dir', dataDir, '--web-root', webRoot, ...databaseArgs(dataDir)], {
-    env: { ...process.env, KINEMETRIC_BOOTSTRAP_TOKEN: token },
-    stdio: ['ignore', 'pipe', 'pipe'],
-  });
-  let exited = null;
-  child.on('exit', (code, signal) => {
-    exited = { code, signal };
-  });
-  child.on('error', (err) => {
-    exited = { error: err };
-  });
-  child.stdout.on('data', (d) => log.push(String(d)));
-  child.stderr.on('data', (d) => log.push(String(d)));
-  const server = { child, port, dataDir, token, base: `http://127.0.0.1:${port}`, log: () => log.join('').slice(-4000) };
-  const deadline = Date.now() + 20_000;
-  let last = '';
-  while (Date.now() < deadline) {
-    if (exited) throw new Error(`kinemetricd exited before becoming healthy (${JSON.stringify(exited)}):\n${server.log()}`);
-    try {
-      const r = await fetch(`${server.base}/healthz`);
-      const body = await r.json();
-      if (r.status === 200 && body.status === 'ok') return server;
-      last = `HTTP ${r.status} ${JSON.stringify(body)}`;
-    } catch (err) {
-      last = err.message;
-    }
-    await sleep(100);
-  }
-  await stopServer(server);
-  throw new Error(`kinemetricd not healthy after 20 s (last: ${last}):\n${server.log()}`);
-}
-
-async function stopServer(server) {
-  if (!server) return;
-  const { child } = server;
-  if (child.exitCode === null && child.signalCode === null) {
-    const gone = new Promise((r) => child.once('exit', r));
-    child.kill('SIGTERM');
-    const ok = await Promise.race([gone.then(() => true), sleep(5000).then(() => false)]);
-    if (!ok) {
-      child.kill('SIGKILL');
-      await Promise.race([gone, sleep(2000)]);
-    }
-  }
-  rmSync(server.dataDir, { recursive: true, force: true });
-}
-
-// ------------------------------------------------------------------ helpers
-
-async function api(server, method, path, body, headers = {}) {
-  const send = () => fetch(`${server.base}${path}`, { method, body, headers: { Authorization: `Bearer ${server.token}`, ...headers } });
-  let r;
-  try {
-    r = await send();
-  } catch (err) {
-    // A pooled keep-alive connection the server closed just then (idle timeout): the request
-    // never reached it, so it is sent once more on a new connection.
-    if (err?.cause?.code !== 'UND_ERR_SOCKET') throw new Error(`${method} ${path}: ${err.message} (${err?.cause?.code}: ${err?.cause?.message})`);
-    r = await send();
-  }
-  const text = await r.text();
-  let json = null;
-  try {
-    json = text ? JSON.parse(text) : null;
-  } catch {
-    // not JSON
-  }
-  return { status: r.status, json, text };
-}
-
-async function apiGet(server, path) {
-  const r = await api(server, 'GET', path);
-  assert.equal(r.status, 200, `GET ${path} → ${r.status} ${r.text.slice(0, 300)}`);
-  return r.json;
-}
-
-async function upload(server, name, bytes) {
-  const r = await api(server, 'POST', '/api/v1/measurements', bytes, { 'Content-Type': 'text/plain', 'X-Filename': name });
-  assert.ok(r.status === 201 || r.status === 200, `upload ${name}: ${r.status} ${r.text.slice(0, 300)}`);
-  return r.json.id;
-}
-
-// The dashboard's µm format: 3 decimals, true minus sign, no "-0.000".
-function um3(v) {
-  let s = v.toFixed(3);
-  if (/^-0\.?0*$/.test(s)) s = s.slice(1);
-  return s.replace('-', '−');
-}
-
-// "−1.5" → -1.5
-function shown(text) {
-  return Number(String(text).replace(/\u2212/g, '-').replace(/[\s\u2009]/g, ''));
-}
-
-// Names of the analysis that must not be shown as such: snake_case words.
-const INTERNAL_NAME = /\b[A-Za-z]+[a-z0-9]*_[A-Za-z0-9_]+\b/;
+import { join } from 'node:path';
+import {
+  cliBin, outDir, chromiumPath, MACHINE_JSON, MACHINE, SERIAL_FIXTURE, SERIAL_MACHINE, SIM_ARGS,
+  CHROMIUM_ARGS, loadPlaywright, checkPrerequisites, sleep, startServer, stopServer, api,
+  apiGet, upload, um3, shown, INTERNAL_NAME,
+} from './session.mjs';
 
 // ------------------------------------------------------------------ the test
 

@@ -23,8 +23,8 @@
 
 #include "analysis/dbb/circular_test.h"
 #include "analysis/dbb/full_analysis.h"
-#include "report/dbb_json.h"
 #include "tests/unit/dbb/dbb_truth.h"
+#include "usecases/dbb_json.h"
 
 namespace km::dbb {
 namespace {
@@ -123,7 +123,7 @@ TEST(ConeUnits, FiguresOfAConeTestAreInPlaneValues) {
   EXPECT_NEAR(bar.circularity_um, 2.0 * a * 144.0 / 150.0, kTol);
   EXPECT_NEAR(bar.centre_offset_um[0], 3.0 * 144.0 / 150.0, kTol);
 
-  const nlohmann::json j = DbbTestToJson(r);
+  const nlohmann::json j = usecases::DbbTestToJson(r);
   EXPECT_EQ(j["deviation_units"], "tool path (in-plane)");
   EXPECT_NEAR(j["bar_to_tool_path_factor"].get<double>(), 150.0 / 144.0, 1e-12);
   EXPECT_EQ(j["iso230_4"]["deviation_units"], "tool path (in-plane)");
@@ -222,7 +222,7 @@ void CheckHysteresis(const std::vector<double>& deg_ccw, const std::vector<doubl
   EXPECT_NEAR(p.common_centre_um[0], both[0], kTol);
   EXPECT_NEAR(p.common_centre_um[1], both[1], kTol);
 
-  const nlohmann::json j = DbbPairToJson(rep.pairs[0]);
+  const nlohmann::json j = usecases::DbbPairToJson(rep.pairs[0]);
   EXPECT_EQ(j["deviation_units"], "tool path (in-plane)");
   EXPECT_EQ(j["circular_hysteresis_centre"], "common least-squares centre");
   EXPECT_EQ(j["circular_hysteresis_own_centres_centre"], "own least-squares centre of each trace");

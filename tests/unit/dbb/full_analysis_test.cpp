@@ -12,8 +12,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "analysis/core/errors.h"
-#include "report/dbb_json.h"
+#include "render/dbb_plot.h"
 #include "tests/unit/dbb/dbb_test_util.h"
+#include "usecases/dbb_json.h"
 
 namespace km::dbb {
 namespace {
@@ -41,7 +42,7 @@ TEST(FullAnalysis, JsonCarriesContractKeys) {
   ASSERT_EQ(rep.pairs.size(), 1u);
   EXPECT_EQ(rep.pairs[0].ccw, 0u);
   EXPECT_EQ(rep.pairs[0].cw, 1u);
-  const auto j = DbbReportToJson(rep);
+  const auto j = usecases::DbbReportToJson(rep);
   ASSERT_EQ(j["tests"].size(), 3u);
   for (const auto& t : j["tests"]) {
     for (const char* k :
@@ -114,7 +115,7 @@ TEST(FullAnalysis, JsonCarriesContractKeys) {
   // colours (ccw BGR 200,60,20; cw 30,30,210) along the reference circle of radius 0.27·800 px:
   // each colour covers at least half its circumference (the other trace and the zone lines
   // overlap it in places).
-  const auto png = PolarPlotPng(rep, 0);
+  const auto png = render::DbbPolarPlotPng(rep, 0);
   const cv::Mat img = cv::imdecode(png, cv::IMREAD_COLOR);
   ASSERT_EQ(img.rows, 800);
   ASSERT_EQ(img.cols, 800);
@@ -217,8 +218,8 @@ TEST(FullAnalysis, ParallelAnalysisEqualsAnalysisInOrder) {
   DbbAnalysisOptions in_order, threaded;
   in_order.threads = 1;
   threaded.threads = 4;
-  const auto a = DbbReportToJson(AnalyzeDbbSet(tests, in_order));
-  const auto b = DbbReportToJson(AnalyzeDbbSet(tests, threaded));
+  const auto a = usecases::DbbReportToJson(AnalyzeDbbSet(tests, in_order));
+  const auto b = usecases::DbbReportToJson(AnalyzeDbbSet(tests, threaded));
   EXPECT_EQ(a.dump(), b.dump());
   EXPECT_EQ(a["pairs"].size(), 2u);
 }

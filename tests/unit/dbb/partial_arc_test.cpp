@@ -16,8 +16,8 @@
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/dbb/full_analysis.h"
 #include "analysis/dbb/iso230.h"
-#include "report/dbb_json.h"
 #include "tests/unit/dbb/dbb_truth.h"
+#include "usecases/dbb_json.h"
 
 namespace km::dbb {
 namespace {
@@ -133,7 +133,7 @@ TEST(PartialArc, PairOnTheArcIsDiagnosedAndStatedAsAnArc) {
     tests[0].arc_deg = 220.0;  // one declared, one inferred
     const auto rep = AnalyzeDbbSet(tests);
     ASSERT_EQ(rep.pairs.size(), 1u);
-    const auto j = DbbReportToJson(rep);
+    const auto j = usecases::DbbReportToJson(rep);
     for (const auto& tj : j["tests"]) {
       EXPECT_EQ(tj["evaluated_over"], "partial_arc");
       EXPECT_NEAR(tj["evaluated_arc_deg"].get<double>(), 220.0, 1e-9);

@@ -23,7 +23,7 @@
 #include "analysis/dbb/circular_test.h"
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/dbb/full_analysis.h"
-#include "report/dbb_json.h"
+#include "usecases/dbb_json.h"
 
 namespace km::dbb {
 namespace {
@@ -189,7 +189,7 @@ TEST(SpikeShape, TheIssuesMachines) {
         const auto tests = Tests(m, Runs::kPair);
         SCOPED_TRACE("R " + std::to_string(m.radius_mm) + " seed " + std::to_string(seed));
         ExpectSpike(Diagnose(tests), m, "reversal_spike_y");
-        const auto j = DbbReportToJson(AnalyzeDbbSet(tests));
+        const auto j = usecases::DbbReportToJson(AnalyzeDbbSet(tests));
         bool found = false;
         for (const auto& d : j["tests"][0]["diagnosis"]) {
           if (d["effect"] != "reversal_spike_y") continue;

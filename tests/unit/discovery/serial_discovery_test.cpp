@@ -1,5 +1,5 @@
 // Serial discovery (analysis/discovery/serial_family.h on the shared engine, through
-// server::RunDiscoveryStudy as `kinemetric discover` runs it) on DBB files of the independent
+// usecases::RunDiscoveryStudy as `kinemetric discover` runs it) on DBB files of the independent
 // truth simulator (serial_truth.h): the three false discoveries verification found with the
 // former ladder (a greedy F-test ladder, since removed), a wrong first turn of the greedy ladder
 // undone, the JSON keys of the contract, noise-free data, a single trace, per-file test ids, and
@@ -23,8 +23,8 @@
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/discovery/serial_family.h"
 #include "ingest/dbb_parser.h"
-#include "report/discovery_report.h"
 #include "tests/unit/discovery/serial_truth.h"
+#include "usecases/discovery_report.h"
 
 namespace km {
 namespace {
@@ -54,8 +54,8 @@ Machine Pairs(double noise, std::vector<Effect> effects, int ids = 1, std::uint3
   return m;
 }
 
-server::DiscoveryStudy Study(const Machine& m) {
-  server::DiscoveryStudy study;
+usecases::DiscoveryStudy Study(const Machine& m) {
+  usecases::DiscoveryStudy study;
   for (const auto& t : m.tests) {
     const std::string name = m.machine_id + "_" + t.test_id + (t.direction > 0 ? "_ccw" : "_cw");
     study.tests.push_back(ingest::ParseDbb(test::truth::DbbFile(m, t), name));
@@ -65,7 +65,7 @@ server::DiscoveryStudy Study(const Machine& m) {
 }
 
 json Discover(const Machine& m) {
-  return server::RunDiscoveryStudy(Study(m)).report;
+  return usecases::RunDiscoveryStudy(Study(m)).report;
 }
 
 std::vector<std::string> Added(const json& j) {

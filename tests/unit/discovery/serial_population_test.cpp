@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "ingest/dbb_parser.h"
-#include "report/discovery_report.h"
 #include "tests/unit/discovery/serial_truth.h"
+#include "usecases/discovery_report.h"
 
 #ifndef KM_POPULATION_MACHINES
 #define KM_POPULATION_MACHINES 10
@@ -27,13 +27,13 @@ namespace km {
 namespace {
 
 nlohmann::json Discover(const test::truth::Machine& m) {
-  server::DiscoveryStudy study;
+  usecases::DiscoveryStudy study;
   for (const auto& t : m.tests) {
     const std::string name = m.machine_id + "_" + t.test_id + (t.direction > 0 ? "_ccw" : "_cw");
     study.tests.push_back(ingest::ParseDbb(test::truth::DbbFile(m, t), name));
     study.names.push_back(name);
   }
-  return server::RunDiscoveryStudy(study).report;
+  return usecases::RunDiscoveryStudy(study).report;
 }
 
 TEST(SerialDiscoveryPopulation, KM_POPULATION_NAME) {

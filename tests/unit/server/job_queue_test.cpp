@@ -52,7 +52,7 @@ class JobQueueTest : public test::TempDirTest {
     o.poll_ms = 20;
     o.max_queued = 1000;
     auto q = std::make_unique<JobQueue>(st, o);
-    q->Register("count", [this, name](const nlohmann::json& plan, const JobQueue::Progress& p) {
+    q->Register("count", [this, name](const nlohmann::json& plan, const ProgressFn& p) {
       if (plan.value("slow", false)) {
         while (!release_) {
           p(0.5, "waiting");

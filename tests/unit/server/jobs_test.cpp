@@ -36,7 +36,7 @@ class JobStorageErrors : public test::TempDirTest {
   // "throw" fails, one with "wait" waits until release is set.
   std::unique_ptr<JobQueue> Queue(Storage& st) {
     auto q = std::make_unique<JobQueue>(st);
-    q->Register("test", [this](const nlohmann::json& plan, const JobQueue::Progress& progress) {
+    q->Register("test", [this](const nlohmann::json& plan, const ProgressFn& progress) {
       if (plan.contains("throw")) throw std::runtime_error("the solve diverged");
       if (plan.contains("refuse")) throw InvalidInput("plan.json", 3, "tests", "no DBB test");
       if (plan.contains("wait")) {

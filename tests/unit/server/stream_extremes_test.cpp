@@ -5,11 +5,11 @@
 #include <cstdint>
 #include <limits>
 
-#include "report/stream_profile.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "server/streams/stream_chunks.h"
 #include "server/streams/streams.h"
 #include "tests/unit/server/temp_dir.h"
+#include "usecases/stream_profile.h"
 
 namespace km::server {
 namespace {
@@ -93,13 +93,13 @@ TEST_F(StreamExtremes, SamplesAtTheVeryEndsOfTheRange) {
 
 // Feed × time positions of samples at both ends of int64 (t − t_0 does not fit an int64).
 TEST(StreamProfileExtremes, FeedPositionsAcrossTheWholeInt64Range) {
-  const auto x = FeedPositionMm({kMax, 0, kMin, kMax - 5}, 1.0, 600.0);  // 1e-5 mm/µs
+  const auto x = usecases::FeedPositionMm({kMax, 0, kMin, kMax - 5}, 1.0, 600.0);  // 1e-5 mm/µs
   ASSERT_EQ(x.size(), 4u);
   EXPECT_DOUBLE_EQ(x[0], 1.0);
   EXPECT_NEAR(x[1], 1.0 - 1e-5 * 9.223372036854775807e18, 1e-9 * 9.3e13);
   EXPECT_NEAR(x[2], 1.0 - 1e-5 * 1.8446744073709551615e19, 1e-9 * 1.9e14);
   EXPECT_NEAR(x[3], 1.0 - 5e-5, 1e-12);
-  const auto y = FeedPositionMm({kMin, kMax}, 0.0, 600.0);
+  const auto y = usecases::FeedPositionMm({kMin, kMax}, 0.0, 600.0);
   EXPECT_NEAR(y[1], 1e-5 * 1.8446744073709551615e19, 1e-9 * 1.9e14);
 }
 

@@ -10,10 +10,10 @@
 #include <random>
 
 #include "analysis/core/errors.h"
-#include "report/stream_profile.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "server/streams/stream_chunks.h"
 #include "server/streams/streams.h"
+#include "usecases/stream_profile.h"
 
 namespace km::server {
 namespace {
@@ -354,9 +354,9 @@ TEST(StreamProfile, FeedTimesTimeAndEncoderPositionsBinToTheTrueProfile) {
     dev.push_back(f(x) + noise(rng));
     enc_um.push_back(x * 1000.0);
   }
-  const auto x_feed = FeedPositionMm(t, 10.0, 600.0);
+  const auto x_feed = usecases::FeedPositionMm(t, 10.0, 600.0);
   EXPECT_NEAR(x_feed.back(), 10.0 + 10.0 * (199999.0 / 200000.0) * 10.0, 1e-9);
-  const auto x_enc = InterpolatePositionMm(t, enc_um, t);
+  const auto x_enc = usecases::InterpolatePositionMm(t, enc_um, t);
   for (std::size_t i = 0; i < t.size(); i += 997) EXPECT_NEAR(x_enc[i], x_feed[i], 1e-9);
   // Encoder sampled at a quarter of the rate, offset in time: interpolation is exact for
   // linear motion, and samples outside its span are dropped (NaN).
@@ -366,11 +366,11 @@ TEST(StreamProfile, FeedTimesTimeAndEncoderPositionsBinToTheTrueProfile) {
     te.push_back(t[i] + 10);
     ve.push_back(enc_um[i] + 10 * 1e-6 * 10.0 * 1000.0);
   }
-  const auto x_sparse = InterpolatePositionMm(te, ve, t);
+  const auto x_sparse = usecases::InterpolatePositionMm(te, ve, t);
   EXPECT_TRUE(std::isnan(x_sparse[0]));
   for (std::size_t i = 4; i + 4 < t.size(); i += 1013) EXPECT_NEAR(x_sparse[i], x_feed[i], 1e-9);
 
-  const auto p = BinProfile(x_feed, dev, 500);
+  const auto p = usecases::BinProfile(x_feed, dev, 500);
   ASSERT_EQ(p.position_mm.size(), 500u);
   for (std::size_t i = 1; i < p.position_mm.size(); ++i) {
     ASSERT_GT(p.position_mm[i], p.position_mm[i - 1]);
@@ -381,11 +381,11 @@ TEST(StreamProfile, FeedTimesTimeAndEncoderPositionsBinToTheTrueProfile) {
     EXPECT_NEAR(p.deviation_um[i], f(p.position_mm[i]), 0.005);
   }
   // Reverse travel gives the same increasing profile.
-  auto x_rev = FeedPositionMm(t, 110.0, -600.0);
-  const auto q = BinProfile(x_rev, dev, 100);
+  auto x_rev = usecases::FeedPositionMm(t, 110.0, -600.0);
+  const auto q = usecases::BinProfile(x_rev, dev, 100);
   ASSERT_EQ(q.position_mm.size(), 100u);
   EXPECT_LT(q.position_mm.front(), q.position_mm.back());
-  EXPECT_THROW(BinProfile(std::vector<double>(10, 1.0), std::vector<double>(10, 0.0), 10),
+  EXPECT_THROW(usecases::BinProfile(std::vector<double>(10, 1.0), std::vector<double>(10, 0.0), 10),
                InvalidInput);
 }
 

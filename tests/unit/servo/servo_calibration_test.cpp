@@ -14,9 +14,9 @@
 #include "analysis/sim/hexapod_dbb_sim.h"
 #include "ingest/machine_json.h"
 #include "ingest/servo_parser.h"
-#include "report/calibration_study.h"
-#include "report/servo_report.h"
 #include "tests/unit/servo/servo_truth.h"
+#include "usecases/calibration_study.h"
+#include "usecases/servo_report.h"
 
 namespace km::servo {
 namespace {
@@ -55,7 +55,7 @@ std::pair<double, double> DirectionGap(const ingest::MachineDefinition& machine,
   double gap = 0.0, sigma = 0.0;
   nlohmann::json p[2];
   for (int d = 0; d < 2; ++d) {
-    server::CalibrationStudy study;
+    usecases::CalibrationStudy study;
     study.machine = machine;
     for (const auto& t : tests) {
       if ((t.direction == dbb::Direction::kCcw) == (d == 0)) {
@@ -63,7 +63,7 @@ std::pair<double, double> DirectionGap(const ingest::MachineDefinition& machine,
         study.names.push_back(t.test_id);
       }
     }
-    const auto out = server::RunCalibrationStudy(study);
+    const auto out = usecases::RunCalibrationStudy(study);
     p[d] = out.report["parameters"]["strut_offset_um"];
     for (const auto& u : out.report["parameter_uncertainty_um"]["strut_offset_um"])
       sigma = std::max(sigma, u.get<double>());
@@ -93,7 +93,7 @@ TEST(ServoCalibration, IdentifiedJointFrictionCancelsInTheDbbCalibration) {
   const IdentifyResult r = IdentifyLoads(base.geometry, *base.physics, servo_files);
   ASSERT_TRUE(r.joint_ramp.has_value());
   const auto identified =
-      ingest::ParseHexapodMachineJson(server::MachineWithIdentified(base, r), "identified.json");
+      ingest::ParseHexapodMachineJson(usecases::MachineWithIdentified(base, r), "identified.json");
   ASSERT_EQ(identified.effects.size(), 1u);
   // DBB tests of the same machine with that joint friction (t0 8.88 N·m, ramp 2 mm).
   const auto tests = DbbTests(base, 8.88, 2.0);

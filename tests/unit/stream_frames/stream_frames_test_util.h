@@ -3,6 +3,8 @@
 // and random runs.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -10,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/core/errors.h"
 #include "ingest/crc32.h"
 #include "ingest/stream_frames.h"
 
@@ -93,6 +96,48 @@ inline bool SameRun(const SampleRun& a, const SampleRun& b) {
     return false;
   }
   return std::memcmp(a.value_um.data(), b.value_um.data(), a.value_um.size() * sizeof(double)) == 0;
+}
+
+// Decodes `bytes` fed in pieces cut at `cuts`; checks the decoder's frame and byte counts.
+inline std::vector<SampleRun> DecodeAll(FrameFormat format, const std::string& bytes,
+                                        std::vector<std::size_t> cuts = {}) {
+  StreamFrameDecoder dec(format, "upload");
+  std::vector<SampleRun> runs;
+  auto sink = [&](SampleRun&& r) { runs.push_back(std::move(r)); };
+  std::size_t at = 0;
+  cuts.push_back(bytes.size());
+  for (std::size_t c : cuts) {
+    dec.Feed(std::string_view(bytes).substr(at, c - at), sink);
+    at = c;
+  }
+  dec.Finish();
+  EXPECT_EQ(dec.frames(), runs.size());
+  EXPECT_EQ(dec.bytes(), bytes.size());
+  return runs;
+}
+
+struct Failure {
+  InvalidInput error{""};
+  std::vector<SampleRun> delivered;
+};
+
+// Decodes and expects an InvalidInput; returns it with the runs delivered
+// before it.
+inline Failure DecodeExpectingError(FrameFormat format, const std::string& bytes,
+                                    std::size_t limit = kFrameMaxSamples, bool finish = true) {
+  StreamFrameDecoder dec(format, "upload", limit);
+  Failure f;
+  try {
+    dec.Feed(bytes, [&](SampleRun&& r) { f.delivered.push_back(std::move(r)); });
+    if (finish) dec.Finish();
+  } catch (const InvalidInput& e) {
+    f.error = e;
+    // The decoder is unusable afterwards.
+    EXPECT_THROW(dec.Feed("x", [](SampleRun&&) {}), InvalidInput);
+    return f;
+  }
+  ADD_FAILURE() << "no InvalidInput for input of " << bytes.size() << " bytes";
+  return f;
 }
 
 }  // namespace km::ingest::test

@@ -1,0 +1,306 @@
+// The dashboard browser test's session (tests/browser/dashboard/dashboard_*.test.mjs): the real
+// kinemetricd on a free port with a fresh data dir and a bootstrap token, headless Chromium on
+// the dashboard, the steps of one scenario run in order, and the checks every scenario ends with
+// (every /api/ call carried the bearer token, no script errors). Also the fixtures and the
+// dashboard's number formats the scenarios compare with.
+//
+// Environment (all optional except the server path, which may also come from KINEMETRICD):
+//   KINEMETRICD                  server binary (if not given as the first argument)
+//   KINEMETRIC_WEB_DIR           folder holding package.json + node_modules (default <repo>/web)
+//   KINEMETRIC_WEB_ROOT          static files served by the server (default <repo>/web/static)
+//   KINEMETRIC_BROWSER_OUT       where the screenshots go (default: second argument, else tmp)
+//   KINEMETRIC_CHROMIUM          browser binary (default /usr/bin/chromium)
+// Missing prerequisites make the test FAIL with the reason. Fixtures:
+// tests/fixtures/browser/make_{dbb,form,tracker}_fixture(s).mjs and hexapod/ (CLI simulator).
+
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn } from 'node:child_process';
+import { randomBytes } from 'node:crypto';
+import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
+import { createRequire } from 'node:module';
+import { createServer } from 'node:net';
+import { tmpdir } from 'node:os';
+import { dirname, join, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+export const here = dirname(fileURLToPath(import.meta.url));
+export const repo = resolve(here, '../../..');
+export const serverBin = process.argv[2] || process.env.KINEMETRICD || '';
+export const webDir = process.env.KINEMETRIC_WEB_DIR || join(repo, 'web');
+export const webRoot = process.env.KINEMETRIC_WEB_ROOT || join(repo, 'web/static');
+export const outDir = process.env.KINEMETRIC_BROWSER_OUT || process.argv[3] || join(tmpdir(), 'kinemetric-browser');
+export const chromiumPath = process.env.KINEMETRIC_CHROMIUM || '/usr/bin/chromium';
+export const fixtures = join(repo, 'tests/fixtures/browser');
+export const MACHINE = 'browser-test-vmc';
+export const TEST_ID = 'xy-r150';
+export const DBB_FIXTURES = ['dbb_xy-r150_ccw.txt', 'dbb_xy-r150_cw.txt', 'dbb_bad_value.txt'];
+export const FORM_FIXTURES = {
+  straightness: 'straightness_x_y.txt',
+  flatness: 'flatness_table.txt',
+  parallelism: 'parallelism_x_tslot.txt',
+};
+export const TRACKER_FIXTURE = 'tracker_browser-vmc.txt'; // make_tracker_fixture.mjs
+export const TRACKER_MACHINE = 'browser-vmc';
+// Hexapod DBB tests: kinemetric simulate dbb --machine tests/fixtures/pm600-like.json --absolute
+// --samples 180 --seed 5 --single-direction (tests a–j, CCW).
+export const HEXAPOD_FIXTURES = 'abcdefghij'.split('').map((t) => `hexapod/dbb_${t}_ccw.txt`);
+export const HEXAPOD_MACHINE_JSON = join(repo, 'tests/fixtures/pm600-like.json');
+export const HEXAPOD_MACHINE = 'pm600-like';
+export const CHROMIUM_ARGS = [
+  '--headless',
+  '--no-sandbox',
+  '--disable-gpu',
+  '--disable-quic',
+  '--no-first-run',
+  '--disable-background-networking',
+  '--disable-component-update',
+  '--disable-sync',
+];
+
+// ------------------------------------------------------------------ prerequisites
+
+export function loadPlaywright() {
+  const pkg = join(webDir, 'package.json');
+  if (!existsSync(join(webDir, 'node_modules', 'playwright-core'))) {
+    throw new Error(
+      `playwright-core is not installed in ${join(webDir, 'node_modules')}. ` +
+        `Run \`npm ci\` in ${webDir} (deploy/install-deps.sh does this).`,
+    );
+  }
+  return createRequire(pkg)('playwright-core');
+}
+
+export function checkPrerequisites() {
+  const problems = [];
+  if (!serverBin) problems.push('no server binary given (first argument or KINEMETRICD)');
+  else if (!existsSync(serverBin)) problems.push(`server binary ${serverBin} does not exist (build target kinemetricd)`);
+  if (!existsSync(chromiumPath)) {
+    problems.push(`${chromiumPath} is missing: install Chromium (apt-get install -y chromium; deploy/install-deps.sh)`);
+  }
+  if (!existsSync(join(webRoot, 'index.html'))) problems.push(`no dashboard at ${webRoot}/index.html`);
+  for (const f of [...DBB_FIXTURES, ...Object.values(FORM_FIXTURES), TRACKER_FIXTURE, ...HEXAPOD_FIXTURES]) {
+    if (!existsSync(join(fixtures, f))) problems.push(`fixture ${join(fixtures, f)} is missing`);
+  }
+  if (!existsSync(HEXAPOD_MACHINE_JSON)) problems.push(`machine definition ${HEXAPOD_MACHINE_JSON} is missing`);
+  if (problems.length) throw new Error(`browser_dashboard cannot run:\n  - ${problems.join('\n  - ')}`);
+}
+
+// ------------------------------------------------------------------ server
+
+export function freePort() {
+  return new Promise((res, rej) => {
+    const srv = createServer();
+    srv.unref();
+    srv.on('error', rej);
+    srv.listen(0, '127.0.0.1', () => {
+      const { port } = srv.address();
+      srv.close(() => res(port));
+    });
+  });
+}
+
+export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+export async function startServer() {
+  const port = await freePort();
+  const dataDir = mkdtempSync(join(tmpdir(), 'kinemetric-browser-data-'));
+  const token = `bt-${randomBytes(18).toString('hex')}`;
+  const log = [];
+  const child = spawn(
+    serverBin,
+    ['--listen', `127.0.0.1:${port}`, '--data-dir', dataDir, '--web-root', webRoot],
+    {
+      env: { ...process.env, KINEMETRIC_BOOTSTRAP_TOKEN: token },
+      stdio: ['ignore', 'pipe', 'pipe'],
+    },
+  );
+  let exited = null;
+  child.on('exit', (code, signal) => {
+    exited = { code, signal };
+  });
+  child.on('error', (err) => {
+    exited = { error: err };
+  });
+  child.stdout.on('data', (d) => log.push(String(d)));
+  child.stderr.on('data', (d) => log.push(String(d)));
+  const server = {
+    child,
+    port,
+    dataDir,
+    token,
+    base: `http://127.0.0.1:${port}`,
+    log: () => log.join('').slice(-4000),
+    exited: () => exited,
+  };
+  // Wait for /healthz (up to 20 s).
+  const deadline = Date.now() + 20_000;
+  let last = '';
+  while (Date.now() < deadline) {
+    if (exited) {
+      throw new Error(`kinemetricd exited before becoming healthy (${JSON.stringify(exited)}):\n${server.log()}`);
+    }
+    try {
+      const r = await fetch(`${server.base}/healthz`);
+      const body = await r.json();
+      if (r.status === 200 && body.status === 'ok') return server;
+      last = `HTTP ${r.status} ${JSON.stringify(body)}`;
+    } catch (err) {
+      last = err.message;
+    }
+    await sleep(100);
+  }
+  await stopServer(server);
+  throw new Error(`kinemetricd not healthy after 20 s (last: ${last}):\n${server.log()}`);
+}
+
+export async function stopServer(server) {
+  if (!server) return;
+  const { child } = server;
+  if (child.exitCode === null && child.signalCode === null) {
+    const gone = new Promise((r) => child.once('exit', r));
+    child.kill('SIGTERM');
+    const ok = await Promise.race([gone.then(() => true), sleep(5000).then(() => false)]);
+    if (!ok) {
+      child.kill('SIGKILL');
+      await Promise.race([gone, sleep(2000)]);
+    }
+  }
+  rmSync(server.dataDir, { recursive: true, force: true });
+}
+
+// ------------------------------------------------------------------ helpers
+
+export async function apiGet(server, path) {
+  const r = await fetch(`${server.base}${path}`, { headers: { Authorization: `Bearer ${server.token}` } });
+  assert.equal(r.status, 200, `GET ${path} → ${r.status}`);
+  return r.json();
+}
+
+// The dashboard's number format for µm: 3 decimals, true minus sign, no "-0.000".
+export function um3(v) {
+  let s = v.toFixed(3);
+  if (/^-0\.?0*$/.test(s)) s = s.slice(1);
+  return s.replace('-', '−');
+}
+
+// Parses "M x,y L x,y ... Z" into [[x, y], ...].
+export function pathPoints(d) {
+  return [...d.matchAll(/[ML](-?[\d.]+),(-?[\d.]+)/g)].map((m) => [Number(m[1]), Number(m[2])]);
+}
+
+// A number as the dashboard writes it ("−1.5", thin spaces removed) → Number.
+export function shown(text) {
+  return Number(String(text).replace(/\u2212/g, '-').replace(/[\s\u2009]/g, ''));
+}
+
+// The dashboard's percentage format: 1 decimal.
+export function fixed1(v) {
+  let s = v.toFixed(1);
+  if (/^-0\.?0*$/.test(s)) s = s.slice(1);
+  return s.replace('-', '−');
+}
+
+// A standard uncertainty as the dashboard writes it: two significant digits, plain notation.
+export function unc2(v) {
+  if (v === 0) return '0';
+  const r = Number(Math.abs(v).toPrecision(2));
+  const decimals = Math.min(12, Math.max(0, 1 - Math.floor(Math.log10(r))));
+  let s = (Math.sign(v) * r).toFixed(decimals);
+  if (/^-0\.?0*$/.test(s)) s = s.slice(1);
+  return s.replace('-', '−');
+}
+
+// Diagnosis value / uncertainty as the dashboard writes them: µm-style 3 decimals, [x, y] as "x, y".
+export function valueText(v) {
+  return Array.isArray(v) ? v.map(um3).join(', ') : um3(v);
+}
+
+export function badLineOf(text) {
+  const lines = text.split('\n');
+  const i = lines.findIndex((l) => /^-?[\d.]+,[^\d\s-]/.test(l));
+  assert.ok(i >= 0, 'bad fixture has no non-numeric dr_um');
+  return i + 1;
+}
+
+// ------------------------------------------------------------------ the test
+
+// ------------------------------------------------------------------ a scenario
+
+// Runs `body({ t, step, browser, page, server, pageErrors, apiRequests })` as the node:test `title`.
+export function runDashboard(title, body) {
+  test(`dashboard: ${title}`, { timeout: 180_000 }, async (t) => {
+    checkPrerequisites();
+    const { chromium } = loadPlaywright();
+    mkdirSync(outDir, { recursive: true });
+
+    let server = null;
+    let browser = null;
+    let page = null;
+    const killOnExit = () => server?.child.kill('SIGKILL');
+    process.once('exit', killOnExit);
+    let failed = false;
+    // The steps are sequential; after a failure the rest are skipped (they depend on earlier
+    // state).
+    const step = (name, fn) => {
+      return t.test(name, async (st) => {
+        if (failed) {
+          st.skip('an earlier step failed');
+          return;
+        }
+        try {
+          await fn(st);
+        } catch (err) {
+          failed = true;
+          throw err;
+        }
+      });
+    };
+
+    try {
+      server = await startServer();
+      browser = await chromium.launch({ executablePath: chromiumPath, args: CHROMIUM_ARGS });
+      const context = await browser.newContext({ viewport: { width: 1280, height: 800 } });
+      page = await context.newPage();
+      page.setDefaultTimeout(15_000);
+      const pageErrors = [];
+      const apiRequests = [];
+      page.on('pageerror', (err) => pageErrors.push(String(err)));
+      page.on('console', (msg) => {
+        // 4xx answers to fetch() are logged by Chromium as "Failed to load resource"; expected.
+        if (msg.type() === 'error' && !/Failed to load resource/.test(msg.text())) pageErrors.push(msg.text());
+      });
+      page.on('request', (req) => {
+        const url = new URL(req.url());
+        if (url.pathname.startsWith('/api/')) apiRequests.push({ path: url.pathname, auth: req.headers().authorization });
+      });
+
+      await step('server serves the dashboard and takes the token from #token=', async () => {
+        await page.goto(`${server.base}/#token=${encodeURIComponent(server.token)}`);
+        await page.waitForSelector('body[data-ready="true"]');
+        const stored = await page.evaluate(() => localStorage.getItem('kinemetric.token'));
+        assert.equal(stored, server.token, 'token stored in localStorage');
+        assert.ok(!page.url().includes(server.token), `token removed from the address bar: ${page.url()}`);
+        assert.equal(await page.textContent('#token-status'), 'Access token set');
+        assert.equal(await page.isHidden('#auth-message'), true, 'no auth message with a good token');
+        // The empty data dir lists no machine (demo data off).
+        await page.waitForSelector('#machines li.empty');
+      });
+      await body({ t, step, browser, page, server, pageErrors, apiRequests });
+      await step('every /api/ call carried the bearer token; no script errors', async () => {
+        assert.ok(apiRequests.length >= 3, `API calls seen: ${apiRequests.length}`);
+        for (const r of apiRequests) assert.equal(r.auth, `Bearer ${server.token}`, r.path);
+        assert.deepEqual(pageErrors, []);
+      });
+    } finally {
+      if (failed && page) {
+        const shot = join(outDir, 'dashboard-failure.png');
+        await page.screenshot({ path: shot }).then(() => console.error(`failure screenshot: ${shot}`), () => {});
+      }
+      if (browser) await browser.close().catch(() => {});
+      if (failed && server) console.error(`kinemetricd log (tail):\n${server.log()}`);
+      await stopServer(server);
+      process.removeListener('exit', killOnExit);
+    }
+  });
+}

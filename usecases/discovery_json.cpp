@@ -1,0 +1,317 @@
+#include "usecases/discovery_json.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+#include "analysis/hexapod/dbb_geometry.h"
+
+namespace km::usecases {
+using nlohmann::json;
+
+json KinematicJson(const hexapod::ParameterVector& k) {
+  json strut = json::array(), base = json::array();
+  for (int j = 0; j < 6; ++j) {
+    strut.push_back(k[j]);
+    base.push_back({k[6 + 3 * j], k[7 + 3 * j], k[8 + 3 * j]});
+  }
+  return {{"strut_offset_um", strut}, {"base_joint_offset_um", base}};
+}
+
+json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& sigma,
+                     const std::vector<bool>& at_bound) {
+  json p = json::object(), u = json::object(), fixed = json::array(), bound = json::array();
+  for (std::size_t i = 0; i < a.params.size(); ++i) {
+    p[a.params[i].name] = a.params[i].value;
+    // A parameter on its bound has no σ (null): it is held there, not estimated.
+    const double sd = i < sigma.size() ? sigma[i] : 0.0;
+    u[a.params[i].name] = std::isfinite(sd) ? json(sd) : json(nullptr);
+    if (!a.params[i].free) fixed.push_back(a.params[i].name);
+    if (i < at_bound.size() && at_bound[i]) bound.push_back(a.params[i].name);
+  }
+  json e = {{"effect", a.effect->Name()}, {"parameters", p}, {"uncertainty", u}};
+  if (!fixed.empty()) e["fixed_parameters"] = fixed;
+  if (!bound.empty()) e["at_bound"] = bound;
+  // The headline value: the first parameter, with its unit.
+  e["value"] = a.params.front().value;
+  e["sigma"] = sigma.empty() || !std::isfinite(sigma.front()) ? json(nullptr) : json(sigma.front());
+  e["unit"] = a.params.front().unit;
+  return e;
+}
+
+namespace {
+
+double Rms(const Eigen::VectorXd& v, int r0, int r1) {
+  return r1 > r0 ? std::sqrt(v.segment(r0, r1 - r0).squaredNorm() / (r1 - r0)) : 0.0;
+}
+
+json TestGaps(const hexapod::EffectFitData& d, const Eigen::VectorXd& before,
+              const Eigen::VectorXd* after, const std::vector<std::string>& names) {
+  json list = json::array();
+  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+    const auto& test = d.problem.tests[t];
+    json row = {{"test_id", test.test_id},
+                {"direction", dbb::ToString(test.direction)},
+                {"gap_rms_before_um", Rms(before, d.row_begin[t], d.row_begin[t + 1])}};
+    if (t < names.size()) row["file"] = names[t];
+    if (after) row["gap_rms_after_um"] = Rms(*after, d.row_begin[t], d.row_begin[t + 1]);
+    list.push_back(row);
+  }
+  return list;
+}
+
+const hexapod::ActiveEffect* FindEffect(const hexapod::EffectFitResult& f, const std::string& n,
+                                        std::vector<double>* sigma,
+                                        std::vector<bool>* at_bound = nullptr) {
+  for (std::size_t e = 0; e < f.effects.size(); ++e) {
+    if (f.effects[e].effect->Name() != n) continue;
+    if (sigma) *sigma = f.effect_sigma[e];
+    if (at_bound && e < f.effect_at_bound.size()) *at_bound = f.effect_at_bound[e];
+    return &f.effects[e];
+  }
+  return nullptr;
+}
+
+// Measured vs model trace of the test with the largest gap before a step (≤ 360 points): the
+// bar deviation measured, and as the model before and after the step predicts it
+// (measured + residual, the residual being model − measured).
+json WorstTestTraces(const hexapod::EffectFitData& d, const Eigen::VectorXd& before,
+                     const Eigen::VectorXd& after) {
+  std::size_t worst = 0;
+  double worst_rms = -1.0;
+  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+    const double r = Rms(before, d.row_begin[t], d.row_begin[t + 1]);
+    if (r > worst_rms) {
+      worst_rms = r;
+      worst = t;
+    }
+  }
+  const auto& test = d.problem.tests[worst];
+  const auto& path = d.prepared.paths[worst];
+  const Eigen::Vector3d& centre = test.fixed_ball_mm;
+  const std::size_t n = test.samples.size();
+  const std::size_t stride = std::max<std::size_t>(1, (n + 359) / 360);
+  // About the least-squares circle of the measured trace (its mean and first harmonic removed
+  // from all three), so that form differences of a µm show beside a large centre offset.
+  std::vector<double> th, m, mb, ma;
+  const double bar0 = (path.pose.front().tip_mm - centre).norm();
+  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d aty = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < n; i += stride) {
+    const int row = d.row_begin[worst] + static_cast<int>(i);
+    const Eigen::Vector3d v = path.pose[i].tip_mm - centre;
+    th.push_back(std::atan2(v.y(), v.x()));
+    m.push_back(1000.0 * (test.samples[i].measured_bar_mm - bar0));
+    mb.push_back(m.back() + before[row]);
+    ma.push_back(m.back() + after[row]);
+    const Eigen::Vector3d a(1.0, std::cos(th.back()), std::sin(th.back()));
+    ata += a * a.transpose();
+    aty += a * m.back();
+  }
+  const Eigen::Vector3d c = ata.ldlt().solve(aty);
+  json angle = json::array(), measured = json::array(), model_before = json::array(),
+       model_after = json::array();
+  for (std::size_t k = 0; k < th.size(); ++k) {
+    const double ref = c[0] + c[1] * std::cos(th[k]) + c[2] * std::sin(th[k]);
+    angle.push_back(th[k] * 180.0 / 3.14159265358979323846);
+    measured.push_back(m[k] - ref);
+    model_before.push_back(mb[k] - ref);
+    model_after.push_back(ma[k] - ref);
+  }
+  return {{"test_id", test.test_id},
+          {"direction", dbb::ToString(test.direction)},
+          {"angle_deg", angle},
+          {"measured_um", measured},
+          {"model_before_um", model_before},
+          {"model_after_um", model_after}};
+}
+
+// Change of every sample of test t (µm on the bar) caused by `effects`, to first order.
+std::vector<double> EffectsOnBar(const hexapod::EffectFitData& d,
+                                 const hexapod::EffectFitResult& fit,
+                                 const std::vector<hexapod::ActiveEffect>& effects, std::size_t t) {
+  hexapod::Perturbation pert;
+  hexapod::ApplyEffects(effects, d.prepared.paths[t], d.prepared.setup, pert);
+  std::vector<double> out;
+  for (std::size_t i = 0; i < pert.ds_mm.size(); ++i) {
+    hexapod::RowSensitivity delta;
+    delta.head<6>() = pert.ds_mm[i];
+    delta[6] = pert.dl_mm[i];
+    out.push_back(fit.sensitivity[static_cast<std::size_t>(d.row_begin[t]) + i].dot(delta));
+  }
+  return out;
+}
+
+// Compensation preview ([PM-600 report] eq. 4.5, table 4.5) for the calibrated machine: per
+// test, the trace predicted once the kinematic errors are calibrated out (residual + every
+// modelled effect), without and with the command corrected by the modelled gravity (and
+// friction) deflection; circularity of each (eq. 4.8) and of the measured trace.
+json CompensationPreview(const hexapod::EffectFitData& d, const hexapod::EffectFitResult& fit) {
+  std::vector<hexapod::ActiveEffect> comp;
+  for (const auto& a : fit.effects) {
+    const std::string n = a.effect->Name();
+    if (n == "gravity_deflection" || n == "joint_friction") comp.push_back(a);
+  }
+  if (comp.empty()) return nullptr;
+  json tests = json::array();
+  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
+    const auto& test = d.problem.tests[t];
+    const auto all = EffectsOnBar(d, fit, fit.effects, t);
+    const auto compensated = EffectsOnBar(d, fit, comp, t);
+    std::vector<double> angle, measured, without, with;
+    const auto& path = d.prepared.paths[t];
+    const double bar0 = test.samples.front().measured_bar_mm;
+    for (std::size_t i = 0; i < test.samples.size(); ++i) {
+      const int row = d.row_begin[t] + static_cast<int>(i);
+      const Eigen::Vector3d v = path.pose[i].tip_mm - fit.fixed_balls_mm[t];
+      angle.push_back(std::atan2(v.y(), v.x()) * 180.0 / 3.14159265358979323846);
+      measured.push_back(1000.0 * (test.samples[i].measured_bar_mm - bar0));
+      const double residual = -fit.residual_um[row];  // measured − model
+      without.push_back(residual + all[i]);
+      with.push_back(residual + all[i] - compensated[i]);
+    }
+    for (std::size_t i = 1; i < angle.size(); ++i) {  // one turn, unwrapped
+      while (angle[i] - angle[i - 1] > 180.0) angle[i] -= 360.0;
+      while (angle[i] - angle[i - 1] < -180.0) angle[i] += 360.0;
+    }
+    try {
+      tests.push_back({{"test_id", test.test_id},
+                       {"direction", dbb::ToString(test.direction)},
+                       {"circularity_measured_um",
+                        hexapod::TraceCircleFigures(angle, measured, bar0).circularity_um},
+                       {"circularity_without_compensation_um",
+                        hexapod::TraceCircleFigures(angle, without, bar0).circularity_um},
+                       {"predicted_circularity_with_compensation_um",
+                        hexapod::TraceCircleFigures(angle, with, bar0).circularity_um}});
+    } catch (const std::exception&) {
+      continue;  // fewer than 3 distinct samples: no figure for this test
+    }
+  }
+  json effects = json::array();
+  for (const auto& a : comp) effects.push_back(a.effect->Name());
+  return {{"compensated_effects", effects},
+          {"basis", "calibrated machine: kinematic errors corrected, every modelled effect kept"},
+          {"tests", tests}};
+}
+
+}  // namespace
+
+json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
+                          const hexapod::EffectFitData& data,
+                          const std::vector<hexapod::EffectFitResult>& history,
+                          const discovery::EngineResult& r, const std::vector<std::string>& names) {
+  json steps = json::array();
+  for (std::size_t i = 0; i < r.steps.size(); ++i) {
+    const auto& s = r.steps[i];
+    const auto& after = history[i + 1];
+    std::vector<double> sigma;
+    std::vector<bool> at_bound;
+    const auto* eff = FindEffect(after, s.added_effect, &sigma, &at_bound);
+    json ev = {{"sentence", s.evidence.sentence},
+               {"f_statistic", s.f_statistic},
+               {"df_numerator", s.df_numerator},
+               {"df_denominator", s.df_denominator},
+               {"log10_p_value", s.log10_p_value},
+               {"p_value", std::pow(10.0, s.log10_p_value)},
+               {"rss_before_um2", s.rss_before_um2},
+               {"rss_after_um2", s.rss_after_um2},
+               {"cv_press_before_um2", s.press_before_um2},
+               {"cv_press_after_um2", s.press_after_um2},
+               {"variant", s.variant}};
+    for (const auto& [k, v] : s.evidence.figures) ev[k] = v;
+    if (eff) {
+      const json entry = EffectModelJson(*eff, sigma, at_bound);
+      ev["parameters"] = entry["parameters"];
+      ev["uncertainty"] = entry["uncertainty"];
+      if (entry.contains("at_bound")) ev["at_bound"] = entry["at_bound"];
+    }
+    json cands = json::array();
+    for (const auto& c : s.candidates) {
+      cands.push_back({{"effect", c.effect},
+                       {"variant", c.variant},
+                       {"rss_after_um2", c.rss_after_um2},
+                       {"cv_press_um2", c.press_um2},
+                       {"log10_p_value", c.log10_p_value},
+                       {"log10_p_white", c.log10_p_white},
+                       {"log10_p_clustered", c.log10_p_clustered},
+                       {"qualified", c.rejected_because.empty()},
+                       {"rejected_because", c.rejected_because}});
+    }
+    ev["candidates"] = cands;
+    steps.push_back({{"added_effect", s.added_effect},
+                     {"evidence", ev},
+                     {"gap_rms_before_um", s.gap_rms_before_um},
+                     {"gap_rms_after_um", s.gap_rms_after_um},
+                     {"tests", TestGaps(data, s.before.residual, &s.after.residual, names)},
+                     {"worst_test", WorstTestTraces(data, s.before.residual, s.after.residual)}});
+  }
+  const auto& fin = history.back();
+  json model = json::array();
+  json kin = {
+      {"effect", "kinematic_parameters"},
+      {"parameters", KinematicJson(fin.k_um)},
+      {"uncertainty", KinematicJson(fin.k_sigma_um)},
+      {"fixed_parameters", data.problem.options.method == hexapod::CalibrationMethod::kAbsolute
+                               ? json::array()
+                               : json::array()}};
+  for (int i = 0; i < hexapod::kNumKinematicParameters; ++i)
+    if (data.problem.fixed[static_cast<std::size_t>(i)])
+      kin["fixed_parameters"].push_back(hexapod::ParameterName(i));
+  model.push_back(kin);
+  for (std::size_t e = 0; e < fin.effects.size(); ++e)
+    model.push_back(EffectModelJson(
+        fin.effects[e], fin.effect_sigma[e],
+        e < fin.effect_at_bound.size() ? fin.effect_at_bound[e] : std::vector<bool>{}));
+  json last = json::array();
+  for (const auto& c : r.last_candidates) {
+    last.push_back({{"effect", c.effect},
+                    {"variant", c.variant},
+                    {"rejected_because", c.rejected_because},
+                    {"log10_p_value", c.log10_p_value},
+                    {"log10_p_white", c.log10_p_white},
+                    {"log10_p_clustered", c.log10_p_clustered}});
+  }
+  return {{"kind", "hexapod"},
+          {"machine_id", machine.machine_id},
+          {"method", hexapod::ToString(data.problem.options.method)},
+          {"base",
+           {{"model", "kinematic_parameters"},
+            {"gap_rms_um", history.front().residual_rms_um},
+            {"tests", TestGaps(data, history.front().residual_um, nullptr, names)}}},
+          {"steps", steps},
+          {"final_model", model},
+          {"unexplained_rms_um", r.unexplained_rms_um},
+          {"noise_floor_um", r.noise_floor_um},
+          {"repeatability_floor_um", r.repeatability_floor_um},
+          {"verdict", r.verdict},
+          {"misfit", r.misfit.sentence.empty()
+                         ? json(nullptr)
+                         : json{{"sentence", r.misfit.sentence}, {"figures", r.misfit.figures}}},
+          {"fit",
+           {{"converged", fin.converged},
+            {"stop_reason", fin.stop_reason},
+            {"iterations", fin.iterations},
+            {"uncertainty_clusters", fin.clusters}}},
+          {"stop_reason", r.stop_reason},
+          {"candidates_at_stop", last},
+          {"final_tests", TestGaps(data, fin.residual_um, nullptr, names)},
+          {"condition_number", fin.condition_number},
+          {"compensation", CompensationPreview(data, fin)}};
+}
+
+ingest::MachineDefinition UpdatedMachine(const ingest::MachineDefinition& machine,
+                                         const hexapod::EffectFitResult& fit) {
+  ingest::MachineDefinition m = machine;
+  m.geometry = hexapod::ApplyParameters(machine.geometry, fit.k_um);
+  m.effects.clear();
+  for (const auto& a : fit.effects) {
+    ingest::MachineEffect me;
+    me.effect = a.effect->Name();
+    for (const auto& p : a.params) me.parameters.emplace_back(p.name, p.value);
+    m.effects.push_back(std::move(me));
+  }
+  return m;
+}
+
+}  // namespace km::usecases

@@ -1,0 +1,36 @@
+// JSON of `kinemetric discover` (docs/formats.md §3) for the hexapod family (the serial
+// family's is in discovery_report.cpp), and the machine model a hexapod discovery produces. Used by
+// report/discovery_report.cpp.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "analysis/discovery/engine.h"
+#include "analysis/hexapod/effect_fit.h"
+#include "ingest/machine_json.h"
+
+namespace km::usecases {
+
+nlohmann::json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
+                                    const hexapod::EffectFitData& data,
+                                    const std::vector<hexapod::EffectFitResult>& history,
+                                    const discovery::EngineResult& r,
+                                    const std::vector<std::string>& names);
+
+// {"strut_offset_um": [6], "base_joint_offset_um": [6][3]} of a kinematic parameter vector.
+nlohmann::json KinematicJson(const hexapod::ParameterVector& k);
+
+// One fitted effect: {effect, parameters {name: value}, uncertainty {name: σ}, value, sigma,
+// unit (of the first parameter), fixed_parameters}.
+nlohmann::json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& sigma,
+                               const std::vector<bool>& at_bound = {});
+
+// The machine with the calibrated geometry (nominal + fitted kinematic parameters) and the
+// fitted effects as its "effects" block.
+ingest::MachineDefinition UpdatedMachine(const ingest::MachineDefinition& machine,
+                                         const hexapod::EffectFitResult& fit);
+
+}  // namespace km::usecases

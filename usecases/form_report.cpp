@@ -1,0 +1,205 @@
+// JSON mapping of straightness, flatness and parallelism results (docs/formats.md §3).
+#include "usecases/form_report.h"
+
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include "analysis/core/errors.h"
+
+namespace km::usecases {
+namespace {
+
+// Analysis errors carry no file name; add it.
+template <typename F>
+auto InFile(const std::string& file, F&& f) {
+  try {
+    return f();
+  } catch (const InvalidInput& e) {
+    if (!e.file().empty()) throw;
+    throw InvalidInput(file, e.line(), e.field(), e.reason());
+  }
+}
+
+nlohmann::json Plane(const form::PlaneReport& p) {
+  return {{"slope_x_um_per_m", p.slope_x_um_per_m},
+          {"slope_y_um_per_m", p.slope_y_um_per_m},
+          {"offset_um", p.offset_um}};
+}
+
+nlohmann::json Measurement(const ingest::StraightnessFile& f) {
+  nlohmann::json m = {{"machine_id", f.machine_id},
+                      {"axis", f.axis},
+                      {"error_direction", f.error_direction},
+                      {"sensor", f.sensor},
+                      {"artefact", f.reference}};
+  if (!f.reversal.empty()) {
+    m["reversal"] = f.reversal;
+    m["pair_id"] = f.pair_id;
+    m["reversal_setup"] = f.reversal_setup;
+  }
+  return m;
+}
+
+// Where a file's set-up is stated: the reversal_setup line, else (default) the reversal line.
+std::string SetupSource(const ingest::StraightnessFile& f) {
+  if (f.reversal_setup_line > 0) return "line " + std::to_string(f.reversal_setup_line);
+  return "reversal_setup absent, default";
+}
+
+// Both profiles of a pair must come from one set-up; the later file (input order) is named.
+form::ReversalSetup PairSetup(const ingest::StraightnessFile& first,
+                              const ingest::StraightnessFile& second) {
+  if (first.reversal_setup != second.reversal_setup) {
+    const std::size_t line =
+        second.reversal_setup_line > 0 ? second.reversal_setup_line : second.reversal_line;
+    throw InvalidInput(second.file, line, "reversal_setup",
+                       "pair '" + second.pair_id + "' has set-up '" + second.reversal_setup +
+                           "' here (" + SetupSource(second) + ") but '" + first.reversal_setup +
+                           "' in " + first.file + " (" + SetupSource(first) +
+                           "); both profiles of a pair must state the same set-up");
+  }
+  return InFile(second.file, [&] { return form::ParseReversalSetup(second.reversal_setup); });
+}
+
+}  // namespace
+
+nlohmann::json FormResultToJson(const form::StraightnessResult& r) {
+  nlohmann::json periodic = nlohmann::json::array();
+  for (const auto& c : r.periodic) {
+    periodic.push_back({{"period_mm", c.period_mm},
+                        {"amplitude_um", c.amplitude_um},
+                        {"phase_deg", c.phase_rad * 180.0 / std::numbers::pi},
+                        {"false_alarm_probability", c.false_alarm_probability}});
+  }
+  return {{"straightness_lsq_um", r.straightness_lsq_um},
+          {"straightness_min_zone_um", r.straightness_min_zone_um},
+          {"straightness_end_point_um", r.straightness_end_point_um},
+          {"slope_um_per_m", r.slope_um_per_m},
+          {"periodic", periodic},
+          {"reference", r.reference},
+          {"references",
+           {{"straightness_lsq_um", "least_squares_line"},
+            {"straightness_min_zone_um", "minimum_zone_lines"},
+            {"straightness_end_point_um", "end_point_line"},
+            {"slope_um_per_m", "least_squares_line"},
+            {"periodic", "least_squares_line_residual"}}},
+          {"intercept_um", r.intercept_um},
+          {"min_zone_slope_um_per_m", r.min_zone_slope_um_per_m},
+          {"end_point_slope_um_per_m", r.end_point_slope_um_per_m},
+          {"slope_with_periodic_um_per_m", r.slope_with_periodic_um_per_m},
+          {"points", r.points},
+          {"length_mm", r.length_mm}};
+}
+
+nlohmann::json FormResultToJson(const form::ReversalResult& r, const std::string& pair_id) {
+  return {{"pair_id", pair_id},
+          {"positions_mm", r.positions_mm},
+          {"machine_um", r.machine_um},
+          {"artefact_um", r.artefact_um},
+          {"machine_straightness_lsq_um", r.machine_straightness_lsq_um},
+          {"artefact_straightness_lsq_um", r.artefact_straightness_lsq_um},
+          {"machine_slope_um_per_m", r.machine_slope_um_per_m},
+          {"artefact_slope_um_per_m", r.artefact_slope_um_per_m},
+          {"reference", "least_squares_line"},
+          {"reversal_setup", form::ReversalSetupName(r.setup)},
+          {"convention", r.convention}};
+}
+
+nlohmann::json FormResultToJson(const form::FlatnessResult& r) {
+  return {{"flatness_lsq_um", r.flatness_lsq_um},
+          {"flatness_min_zone_um", r.flatness_min_zone_um},
+          {"range_um", r.range_um},
+          {"plane", Plane(r.plane)},
+          {"min_zone_plane", Plane(r.min_zone_plane)},
+          {"reference", r.reference},
+          {"references",
+           {{"flatness_lsq_um", "least_squares_plane"},
+            {"flatness_min_zone_um", "minimum_zone_planes"},
+            {"range_um", r.range_reference},
+            {"plane", "least_squares_plane"}}},
+          {"points", r.points}};
+}
+
+nlohmann::json FormResultToJson(const form::ParallelismResult& r) {
+  return {{"parallelism_um", r.parallelism_um},
+          {"slope_um_per_m", r.slope_um_per_m},
+          {"length_mm", r.length_mm},
+          {"straightness_lsq_um", r.straightness_lsq_um},
+          {"reference", r.reference},
+          {"references",
+           {{"parallelism_um", "datum"},
+            {"slope_um_per_m", r.slope_reference},
+            {"straightness_lsq_um", "least_squares_line"}}},
+          {"points", r.points}};
+}
+
+nlohmann::json StraightnessFilesToJson(const std::vector<ingest::StraightnessFile>& files,
+                                       const form::StraightnessOptions& options) {
+  if (files.empty()) throw InvalidInput("", 0, "FILE", "no straightness file given");
+  std::vector<nlohmann::json> profiles;
+  for (const auto& f : files) {
+    nlohmann::json j = InFile(
+        f.file, [&] { return FormResultToJson(form::AnalyzeStraightness(f.profile, options)); });
+    j["measurement"] = Measurement(f);
+    profiles.push_back(std::move(j));
+  }
+  if (files.size() == 1) return profiles.front();
+
+  // Reversal pairs: one `a` and one `b` with the same pair_id, in input order of first sight.
+  std::vector<std::string> order;
+  std::map<std::string, std::pair<int, int>> pairs;  // pair_id -> (index of a, index of b)
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const auto& f = files[i];
+    if (f.reversal.empty()) continue;
+    auto [it, fresh] = pairs.emplace(f.pair_id, std::make_pair(-1, -1));
+    if (fresh) order.push_back(f.pair_id);
+    int& slot = f.reversal == "a" ? it->second.first : it->second.second;
+    if (slot >= 0) {
+      throw InvalidInput(f.file, f.reversal_line, "reversal",
+                         "pair '" + f.pair_id + "' already has a profile '" + f.reversal + "' (" +
+                             files[static_cast<std::size_t>(slot)].file + ")");
+    }
+    slot = static_cast<int>(i);
+  }
+  nlohmann::json reversals = nlohmann::json::array();
+  for (const auto& id : order) {
+    const auto [ia, ib] = pairs.at(id);
+    if (ia < 0 || ib < 0) continue;  // incomplete pair: the profile is reported on its own
+    const auto& fa = files[static_cast<std::size_t>(ia)];
+    const auto& fb = files[static_cast<std::size_t>(ib)];
+    const form::ReversalSetup setup = ia < ib ? PairSetup(fa, fb) : PairSetup(fb, fa);
+    const nlohmann::json rj = InFile(fb.file, [&] {
+      return FormResultToJson(form::SeparateReversal(fa.profile, fb.profile, setup), id);
+    });
+    profiles[static_cast<std::size_t>(ia)]["reversal"] = rj;
+    profiles[static_cast<std::size_t>(ib)]["reversal"] = rj;
+    reversals.push_back(rj);
+  }
+  nlohmann::json out;
+  out["profiles"] = nlohmann::json::array();
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    nlohmann::json p = {{"file", files[i].file}};
+    p.update(profiles[i]);
+    out["profiles"].push_back(std::move(p));
+  }
+  out["reversals"] = reversals;
+  if (reversals.size() == 1) out["reversal"] = reversals.front();
+  return out;
+}
+
+nlohmann::json FlatnessFileToJson(const ingest::FlatnessFile& file) {
+  nlohmann::json j =
+      InFile(file.file, [&] { return FormResultToJson(form::AnalyzeFlatness(file.grid)); });
+  j["measurement"] = {{"machine_id", file.machine_id}, {"datum", file.datum}};
+  return j;
+}
+
+nlohmann::json ParallelismFileToJson(const ingest::ParallelismFile& file) {
+  nlohmann::json j =
+      InFile(file.file, [&] { return FormResultToJson(form::AnalyzeParallelism(file.profile)); });
+  j["measurement"] = {{"machine_id", file.machine_id}, {"axis", file.axis}, {"datum", file.datum}};
+  return j;
+}
+
+}  // namespace km::usecases
