@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/sincos.h"
 #include "analysis/dbb/coverage.h"
 #include "analysis/geometry/circle_fit.h"
 
@@ -190,14 +191,11 @@ CircularTestResult AnalyzeCircularTest(const DbbTest& test, DeviationUnits units
   std::vector<Eigen::Vector2d> pts(n);
   r.cos_angle.resize(n);
   r.sin_angle.resize(n);
+  // The sines and cosines two at a time (sincos.h; every later stage reads these).
+  SinCosArray(turn.angle_rad.data(), r.sin_angle.data(), r.cos_angle.data(), n);
   for (std::size_t i = 0; i < n; ++i) {
     const double rho = r_um + dev[i];
-    // One angle for both calls (the compiler may then evaluate them together).
-    const double a = turn.angle_rad[i];
-    const double c = std::cos(a), s = std::sin(a);
-    r.cos_angle[i] = c;
-    r.sin_angle[i] = s;
-    pts[i] = Eigen::Vector2d(rho * c, rho * s);
+    pts[i] = Eigen::Vector2d(rho * r.cos_angle[i], rho * r.sin_angle[i]);
   }
   const auto fit = geometry::FitCircleLeastSquares(pts);
   r.centre_offset_um = {fit.circle.centre.x(), fit.circle.centre.y()};

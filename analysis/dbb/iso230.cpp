@@ -9,6 +9,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/core/parallel.h"
+#include "analysis/geometry/circle_fit.h"
 
 namespace km::dbb {
 
@@ -190,26 +191,19 @@ double Hysteresis(const CircularTestResult& cw, const CircularTestResult& ccw, c
   return std::max(MaxDifferenceOverlap(pccw, pcw), MaxDifferenceOverlap(pcw, pccw));
 }
 
-// Common least-squares circle (centre x, y, radius): Gauss–Newton on the orthogonal distances
-// started from the nominal circle (the traces are µm from it, so two or three steps reach
-// machine precision).
-Eigen::Vector3d CommonCircle(const std::vector<Eigen::Vector2d>& pts, double rn) {
-  Eigen::Vector3d x(0.0, 0.0, rn);
+// Common least-squares circle (centre x, y, radius) of the points (x, y): Gauss–Newton on the
+// orthogonal distances started from `start` (the traces' own circles, µm from the common one:
+// one or two steps reach machine precision).
+Eigen::Vector3d CommonCircle(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y,
+                             const Eigen::Vector3d& start) {
+  Eigen::Vector3d c = start;
   for (int it = 0; it < 8; ++it) {
-    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
-    for (const auto& p : pts) {
-      const Eigen::Vector2d d = p - x.head<2>();
-      const double n = d.norm();
-      const Eigen::Vector3d j(-d.x() / n, -d.y() / n, -1.0);
-      jtj += j * j.transpose();
-      jtr += j * (n - x[2]);
-    }
-    const Eigen::Vector3d step = -jtj.ldlt().solve(jtr);
-    x += step;
-    if (step.norm() < 1e-12 * x[2]) break;
+    const geometry::CircleNormalEquations ne = geometry::CircleGaussNewton(x, y, c.head<2>(), c[2]);
+    const Eigen::Vector3d step = -ne.jtj.ldlt().solve(ne.jtd);
+    c += step;
+    if (step.norm() < 1e-12 * c[2]) break;
   }
-  return x;
+  return c;
 }
 
 // Radial deviations of both traces (cw, then ccw) about their common least-squares circle; sets
@@ -217,24 +211,30 @@ Eigen::Vector3d CommonCircle(const std::vector<Eigen::Vector2d>& pts, double rn)
 std::vector<double> CommonResiduals(const CircularTestResult& cw, const CircularTestResult& ccw,
                                     const std::vector<double>& dcw, const std::vector<double>& dccw,
                                     Iso230PairFigures& f) {
-  std::vector<Eigen::Vector2d> pts;
-  pts.reserve(dcw.size() + dccw.size());
+  const auto n = static_cast<Eigen::Index>(dcw.size() + dccw.size());
+  Eigen::ArrayXd x(n), y(n);
   // Each trace in its planar representation (own nominal radius; equal for a proper pair).
+  Eigen::Index k = 0;
+  Eigen::Vector3d start = Eigen::Vector3d::Zero();
   auto add = [&](const CircularTestResult& r, const std::vector<double>& d) {
     const double rt = NominalRadiusUm(r);
-    for (std::size_t i = 0; i < d.size(); ++i) {
+    for (std::size_t i = 0; i < d.size(); ++i, ++k) {
       const double rho = rt + d[i];
-      pts.emplace_back(rho * CosAngle(r, i), rho * SinAngle(r, i));
+      x[k] = rho * CosAngle(r, i);
+      y[k] = rho * SinAngle(r, i);
     }
+    // The trace's own least-squares circle, weighted by its samples.
+    const double w = static_cast<double>(d.size()) / static_cast<double>(n);
+    start += w * Eigen::Vector3d(r.centre_offset_um[0], r.centre_offset_um[1],
+                                 r.fitted_radius_mm * 1000.0);
   };
   add(cw, dcw);
   add(ccw, dccw);
-  const Eigen::Vector3d x = CommonCircle(pts, NominalRadiusUm(ccw));  // centre x, y, radius
-  std::vector<double> res(pts.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) res[i] = (pts[i] - x.head<2>()).norm() - x[2];
-  f.common_centre_um = {x[0], x[1]};
-  const auto [mn, mx] = std::minmax_element(res.begin(), res.end());
-  f.bidirectional_circular_deviation_um = *mx - *mn;
+  const Eigen::Vector3d c = CommonCircle(x, y, start);  // centre x, y, radius
+  const Eigen::ArrayXd dist = ((x - c[0]).square() + (y - c[1]).square()).sqrt() - c[2];
+  std::vector<double> res(dist.data(), dist.data() + n);
+  f.common_centre_um = {c[0], c[1]};
+  f.bidirectional_circular_deviation_um = dist.maxCoeff() - dist.minCoeff();
   return res;
 }
 

@@ -33,6 +33,17 @@ Circle FitCircleAlgebraic(const std::vector<Eigen::Vector2d>& points);
 // km::DidNotConverge when the iteration fails to reach the tolerance.
 CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points);
 
+// Normal equations of one Gauss–Newton step of the orthogonal-distance fit, for points given
+// by coordinates x, y: residual d_i = |p_i − c| − r, jacobian row [−u_x, −u_y, −1] (u the unit
+// vector from c to p_i; points at c left out). Computed a packet at a time (the sums in any
+// order: they agree with point-order sums to rounding).
+struct CircleNormalEquations {
+  Eigen::Matrix3d jtj;
+  Eigen::Vector3d jtd;
+};
+CircleNormalEquations CircleGaussNewton(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y,
+                                        const Eigen::Vector2d& c, double r);
+
 // Orthogonal residuals |p − c| − r of each point.
 std::vector<double> CircleResiduals(const std::vector<Eigen::Vector2d>& points, const Circle& c);
 
