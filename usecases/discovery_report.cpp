@@ -193,8 +193,9 @@ json SerialDiscoveryJson(const discovery::SerialFamily& family, const discovery:
           {"final_model", model},
           {"unexplained_rms_um", r.unexplained_rms_um},
           {"noise_floor_um", r.noise_floor_um},
-          {"verdict", r.verdict},
-          {"stop_reason", r.stop_reason},
+          {"verdict", discovery::ToString(r.verdict)},
+          {"stop_reason", discovery::ToString(r.stop_reason)},
+          {"stop_code", discovery::StopCode(r.stop_reason)},
           {"rejected", rejected},
           {"not_identifiable", not_identifiable},
           {"candidates_at_stop", last}};

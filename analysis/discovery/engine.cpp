@@ -358,6 +358,45 @@ double NoiseFloor(const VectorXd& residual, const std::vector<int>& row_begin) {
   return RobustDiffNoiseUm(per);
 }
 
+const char* ToString(Verdict v) {
+  return v == Verdict::kComplete ? "complete" : "model misfit";
+}
+
+const char* ToString(StopReason r) {
+  switch (r) {
+    case StopReason::kAtNoiseFloor:
+      return "the gap is at the noise floor";
+    case StopReason::kMaxSteps:
+      return "maximum number of steps";
+    case StopReason::kNoCandidateLeft:
+      return "no candidate left";
+    case StopReason::kNoCandidateQualifies:
+      return "no candidate qualifies";
+  }
+  return "";
+}
+
+std::optional<Verdict> ParseVerdict(std::string_view text) {
+  for (Verdict v : {Verdict::kComplete, Verdict::kModelMisfit}) {
+    if (text == ToString(v)) return v;
+  }
+  return std::nullopt;
+}
+
+const char* StopCode(StopReason r) {
+  switch (r) {
+    case StopReason::kAtNoiseFloor:
+      return "noise_floor";
+    case StopReason::kMaxSteps:
+      return "max_steps";
+    case StopReason::kNoCandidateLeft:
+      return "no_candidate_left";
+    case StopReason::kNoCandidateQualifies:
+      return "no_candidate_qualifies";
+  }
+  return "";
+}
+
 EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
                           const EngineProgress& progress) {
   opt.Check();
@@ -369,7 +408,7 @@ EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
   res.base = family.FitBase();
   FitState fit = res.base;
   const std::vector<int> keys = family.FoldKeys();
-  res.verdict = "complete";
+  res.verdict = Verdict::kComplete;
   while (true) {
     const int step_no = static_cast<int>(res.steps.size()) + 1;
     const double gap_rms = Rms(fit.residual);
@@ -378,11 +417,11 @@ EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
     // are judged against it.
     const double repeat_floor = std::max(floor, family.RepeatabilityFloor(fit));
     if (gap_rms <= opt.noise_stop_ratio * floor) {
-      res.stop_reason = "the gap is at the noise floor";
+      res.stop_reason = StopReason::kAtNoiseFloor;
       break;
     }
     if (static_cast<int>(res.steps.size()) >= opt.max_steps) {
-      res.stop_reason = "maximum number of steps";
+      res.stop_reason = StopReason::kMaxSteps;
       break;
     }
     const LocalProjector proj(fit);
@@ -414,9 +453,10 @@ EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
     for (const auto& s : scored) all.push_back(s.score);
     if (!best) {
       res.last_candidates = all;
-      res.stop_reason = candidates.empty() ? "no candidate left" : "no candidate qualifies";
+      res.stop_reason =
+          candidates.empty() ? StopReason::kNoCandidateLeft : StopReason::kNoCandidateQualifies;
       if (gap_rms > opt.misfit_ratio * repeat_floor) {
-        res.verdict = "model misfit";
+        res.verdict = Verdict::kModelMisfit;
         res.misfit = family.DescribeGap(fit);
       }
       break;

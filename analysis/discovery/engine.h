@@ -26,7 +26,9 @@
 
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -140,6 +142,19 @@ struct Step {
   FitState after;
 };
 
+// The verdict of a discovery (docs/formats.md §3.7 `verdict`): complete — the gap is at the noise
+// floor or no candidate is needed; model misfit — what is left is above what repeat tests
+// explain and no candidate qualifies (a physical effect the family does not offer).
+enum class Verdict { kComplete, kModelMisfit };
+// Why the steps stopped (`stop_reason` in words, `stop_code` for programs).
+enum class StopReason { kAtNoiseFloor, kMaxSteps, kNoCandidateLeft, kNoCandidateQualifies };
+
+const char* ToString(Verdict v);     // "complete", "model misfit"
+const char* ToString(StopReason r);  // "the gap is at the noise floor", …
+const char* StopCode(StopReason r);  // "noise_floor", "max_steps", "no_candidate_left", …
+// The verdict of its spelling (ToString); nullopt for any other text.
+std::optional<Verdict> ParseVerdict(std::string_view text);
+
 struct EngineResult {
   FitState base;
   std::vector<Step> steps;
@@ -147,10 +162,10 @@ struct EngineResult {
   double unexplained_rms_um = 0.0;
   double noise_floor_um = 0.0;
   double repeatability_floor_um = 0.0;
-  std::string verdict;  // "complete" | "model misfit"
-  std::string stop_reason;
+  Verdict verdict = Verdict::kComplete;
+  StopReason stop_reason = StopReason::kAtNoiseFloor;
   std::vector<CandidateScore> last_candidates;  // at the stop
-  Evidence misfit;                              // when the verdict is "model misfit"
+  Evidence misfit;                              // when the verdict is kModelMisfit
 };
 
 using EngineProgress = std::function<void(int step, const std::string& what)>;

@@ -242,7 +242,7 @@ SerialRun DiscoverSerial(const std::vector<dbb::DiagnosisTrace>& traces,
     return r;
   };
   SerialRun best = run(options);
-  if (best.result.verdict != "model misfit") return best;
+  if (best.result.verdict != Verdict::kModelMisfit) return best;
   std::vector<std::string> taken;
   for (const auto& s : best.result.steps) taken.push_back(s.added_effect);
   int tried = 0;
@@ -251,8 +251,8 @@ SerialRun DiscoverSerial(const std::vector<dbb::DiagnosisTrace>& traces,
     o.withheld.emplace_back(static_cast<int>(i) + 1, taken[i]);
     SerialRun alt = run(o);
     ++tried;
-    if (alt.result.verdict != "complete") continue;
-    const bool better = best.result.verdict != "complete" ||
+    if (alt.result.verdict != Verdict::kComplete) continue;
+    const bool better = best.result.verdict != Verdict::kComplete ||
                         alt.result.steps.size() < best.result.steps.size() ||
                         (alt.result.steps.size() == best.result.steps.size() &&
                          alt.result.unexplained_rms_um < best.result.unexplained_rms_um);

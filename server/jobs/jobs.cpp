@@ -10,6 +10,7 @@
 #include <random>
 
 #include "analysis/core/errors.h"
+#include "analysis/discovery/engine.h"
 #include "ingest/json_text.h"
 
 namespace km::server {
@@ -398,10 +399,11 @@ void JudgeCalibration(const nlohmann::json& r, Judgement& out) {
 void JudgeDiscovery(const nlohmann::json& r, Judgement& out) {
   const std::string verdict = r.value("verdict", std::string());
   const std::string stop = r.value("stop_reason", std::string());
-  if (verdict == "model misfit") {
+  const auto parsed = discovery::ParseVerdict(verdict);
+  if (parsed == discovery::Verdict::kModelMisfit) {
     out.Warn("model misfit: the tests show an error no candidate effect describes" +
              (stop.empty() ? std::string() : " (stopped because " + stop + ")"));
-  } else if (verdict != "complete") {
+  } else if (parsed != discovery::Verdict::kComplete) {
     out.Warn("no clear verdict from the study" +
              (verdict.empty() ? std::string() : " ('" + verdict + "')"));
   }

@@ -5,6 +5,7 @@
 
 import { api, ApiError } from './api.js';
 import { handleAuth } from './auth.js';
+import { JOB_STATUS, JOB_VERDICT } from './contract.js';
 import { $, asProblem, downloadText, errorBox, h, keepFocus, problemContent, setMessage } from './dom.js';
 import { formatDirection, formatMode, formatNumber, formatTimestamp, formatUncertainty } from './format.js';
 import { cancelledContent, jobCancelControl } from './job_cancel.js';
@@ -197,7 +198,7 @@ export async function showJob(jobId) {
       return true;
     },
     ended: (job) => {
-      if (job.status === 'cancelled') {
+      if (job.status === JOB_STATUS.cancelled) {
         setMessage(status, 'info', ...cancelledContent(job));
       } else {
         view.dataset.jobVerdict = job.verdict || '';
@@ -238,12 +239,12 @@ const VERDICT_WORDS = {
 };
 
 function verdictBanner(job) {
-  const verdict = job.verdict || (job.status === 'failed' ? 'failed' : 'warning');
+  const verdict = job.verdict || (job.status === JOB_STATUS.failed ? JOB_VERDICT.failed : JOB_VERDICT.warning);
   const [title, say] = VERDICT_WORDS[verdict] || VERDICT_WORDS.warning;
   const reasons = job.verdict_reasons && job.verdict_reasons.length ? job.verdict_reasons : job.error ? [job.error] : [];
   return h(
     'div',
-    { class: `verdict verdict-${verdict}`, role: verdict === 'ok' ? 'status' : 'alert', 'data-testid': 'job-verdict', 'data-verdict': verdict },
+    { class: `verdict verdict-${verdict}`, role: verdict === JOB_VERDICT.ok ? 'status' : 'alert', 'data-testid': 'job-verdict', 'data-verdict': verdict },
     h('strong', { class: 'verdict-title' }, title),
     h('span', { class: 'verdict-detail' }, say),
     reasons.length ? h('ul', { class: 'verdict-reasons' }, ...reasons.map((r) => h('li', { 'data-testid': 'verdict-reason' }, r))) : '',
@@ -261,12 +262,12 @@ export function parameterName(name) {
 
 function renderJob(job) {
   const box = $('#job-result');
-  if (job.status === 'failed') {
+  if (job.status === JOB_STATUS.failed) {
     box.replaceChildren(verdictBanner(job));
     return;
   }
   const r = job.result || {};
-  const trusted = job.verdict === 'ok';
+  const trusted = job.verdict === JOB_VERDICT.ok;
   box.replaceChildren(verdictBanner(job), summaryList(r), testsTable(r, trusted), paramsTable(r), actions(job, r, trusted));
 }
 

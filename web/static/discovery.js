@@ -10,6 +10,7 @@
 // (report/discovery_json.cpp); the job is served by GET /api/v1/jobs/{id}. The result is drawn by
 // discovery_result.js, its words and numbers are discovery_words.js.
 
+import { JOB_STATUS } from './contract.js';
 import { api, ApiError } from './api.js';
 import { $, asProblem, errorBox, h, problemContent, setMessage } from './dom.js';
 import { ctx, newFormHash } from './discovery_ctx.js';
@@ -420,7 +421,7 @@ function jobStatusContent(job) {
       'span',
       { class: 'job-stage' },
       step ? h('span', { 'data-testid': 'disc-step', 'data-step': step }, `Step ${step}: `) : '',
-      h('span', { 'data-testid': 'disc-stage' }, stageWords(job.stage) || (job.status === 'queued' ? 'waiting for the worker' : '')),
+      h('span', { 'data-testid': 'disc-stage' }, stageWords(job.stage) || (job.status === JOB_STATUS.queued ? 'waiting for the worker' : '')),
     ),
     h('progress', { max: 100, value: pctDone, 'data-testid': 'disc-progress' }, `${pctDone} %`),
   ];
@@ -447,7 +448,7 @@ async function showJob(jobId, seq) {
   let highlighted = false;
   const shown = (job) => {
     setMessage(status, null);
-    if (job.status === 'done') renderResult(job);
+    if (job.status === JOB_STATUS.done) renderResult(job);
     else renderFailed(job);
     bringIntoView();
   };
@@ -471,7 +472,7 @@ async function showJob(jobId, seq) {
       return true;
     },
     ended: (job) => {
-      if (job.status === 'cancelled') setMessage(status, 'info', ...cancelledContent(job));
+      if (job.status === JOB_STATUS.cancelled) setMessage(status, 'info', ...cancelledContent(job));
       else shown(job);
       refreshDiscoveryList();
     },

@@ -1,10 +1,11 @@
 // The result of a model-gap discovery job (the JSON of `kinemetric discover --json`,
-// report/discovery_json.cpp): verdict, summary, the steps with their evidence, the gap shrinking
+// usecases/discovery_json.cpp): verdict, summary, the steps with their evidence, the gap shrinking
 // step by step down to the noise floor, the candidates, the gap of every test, the final model
 // with its uncertainties, the compensation preview ([PM-600 report] table 4.5), saving the
 // updated machine and the result JSON. A failed job: its reason and nothing else.
 
 import { api } from './api.js';
+import { DISCOVERY_VERDICT } from './contract.js';
 import { renderGapChart } from './discovery_chart.js';
 import { $, asProblem, h, problemContent, setMessage } from './dom.js';
 import { ctx, newFormHash } from './discovery_ctx.js';
@@ -27,8 +28,8 @@ export function renderFailed(job) {
 // ---------------------------------------------------------------- result
 
 function verdictBanner(r) {
-  const complete = r.verdict === 'complete';
-  const misfit = r.verdict === 'model misfit';
+  const complete = r.verdict === DISCOVERY_VERDICT.complete;
+  const misfit = r.verdict === DISCOVERY_VERDICT.misfit;
   const figures = `Unexplained gap ${um(r.unexplained_rms_um)} µm RMS; noise floor ${um(r.noise_floor_um)} µm.`;
   const title = complete ? 'Complete' : misfit ? 'Model misfit' : `Verdict: ${r.verdict || 'none'}`;
   const say = complete

@@ -4,11 +4,12 @@
 // (the title here, the server's reason below it).
 // The view's own polling then finds the job cancelled and shows it so.
 
+import { JOB_OPEN } from './contract.js';
 import { api, ApiError } from './api.js';
 import { handleAuth } from './auth.js';
 import { asProblem, h, problemContent, setMessage } from './dom.js';
 
-const OPEN = new Set(['queued', 'running']);
+const OPEN = new Set(JOB_OPEN);
 const TITLES = {
   403: 'Not cancelled: only the token that submitted the job, or an admin, may cancel it',
   409: 'Job already finished',

@@ -2,10 +2,10 @@
 // every JOB_POLL_MS until it is cancelled, done or failed, or the view has moved on.
 
 import { api } from './api.js';
+import { JOB_ENDS } from './contract.js';
 import { shell } from './shell.js';
 
 export const JOB_POLL_MS = 500;
-export const JOB_ENDS = ['cancelled', 'done', 'failed'];
 
 // view: { current() → false once another view took over, show(job) → false to stop polling,
 //         ended(job) for a job that ended, waiting(job) while it is queued or running,

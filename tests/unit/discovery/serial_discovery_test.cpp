@@ -412,7 +412,7 @@ TEST(SerialFamily, OverCompensatedBacklashIsANegativeBacklash) {
       EXPECT_GE(e.value[0], 0.0) << e.name;
     }
   }
-  EXPECT_EQ(run.result.verdict, "model misfit");
+  EXPECT_EQ(run.result.verdict, discovery::Verdict::kModelMisfit);
   EXPECT_GE(run.alternatives_tried, 0);
 }
 

@@ -43,7 +43,7 @@ TEST(HexapodDiscovery, NullControlAddsNothing) {
     const auto o = Discover(Simulate({}, true, 180, seed));
     EXPECT_TRUE(o.result.steps.empty())
         << "seed " << seed << ": added " << o.result.steps.front().added_effect;
-    EXPECT_EQ(o.result.verdict, "complete");
+    EXPECT_EQ(o.result.verdict, discovery::Verdict::kComplete);
     EXPECT_LT(o.result.unexplained_rms_um, 1.3 * 0.3);
   }
 }
@@ -69,7 +69,7 @@ TEST(HexapodDiscovery, ColouredNoiseOnAPerfectMachineIsNoMisfit) {
     const auto o = Discover(s);
     EXPECT_TRUE(o.result.steps.empty())
         << "seed " << seed << ": added " << o.result.steps.front().added_effect;
-    EXPECT_EQ(o.result.verdict, "complete") << "seed " << seed;
+    EXPECT_EQ(o.result.verdict, discovery::Verdict::kComplete) << "seed " << seed;
     // The white floor from successive differences misses coloured noise; the repeatability
     // floor of the CW/CCW pairs sees it.
     EXPECT_LT(o.result.noise_floor_um, 0.5 * o.result.repeatability_floor_um);
@@ -81,7 +81,7 @@ TEST(HexapodDiscovery, AnUnmodelledKinematicErrorIsAMisfitAndDescribed) {
   const auto o = Discover(Simulate({}, true, 180, 6, 0.15));
   EXPECT_TRUE(o.result.steps.empty())
       << "added " << o.result.steps.front().added_effect << ": " << o.result.steps.front().variant;
-  EXPECT_EQ(o.result.verdict, "model misfit");
+  EXPECT_EQ(o.result.verdict, discovery::Verdict::kModelMisfit);
   const auto& m = o.result.misfit;
   EXPECT_NE(m.sentence.find("No registered effect explains"), std::string::npos) << m.sentence;
   EXPECT_GT(m.figures.at("even_part_pct"), 80.0) << m.sentence;  // geometric: alike CW/CCW
@@ -110,7 +110,7 @@ TEST(HexapodDiscovery, GravityThenFrictionLargerFirst) {
   EXPECT_LT(o.result.unexplained_rms_um, 1.3 * 0.3);
   EXPECT_NEAR(Param(o.history.back(), "gravity_deflection", 0), 1.37e-5, 0.03 * 1.37e-5);
   EXPECT_NEAR(Param(o.history.back(), "joint_friction", 0), 10.2, 0.15 * 10.2);
-  EXPECT_EQ(o.result.verdict, "complete");
+  EXPECT_EQ(o.result.verdict, discovery::Verdict::kComplete);
   EXPECT_FALSE(o.result.steps[1].evidence.sentence.empty());
 }
 
