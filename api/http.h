@@ -1,7 +1,8 @@
-// The API's own HTTP types and route table. cpp-httplib stays behind http_server.cpp; routes
-// see only these types. One table lists every route (method, path pattern, summary, whether a
-// token is needed, handler, OpenAPI description), so the OpenAPI document is made from the same
-// table the server dispatches on.
+// The API's own HTTP types: a request, a response, a route and the router that dispatches on
+// them. Boost.Beast stays behind api/http_server.cpp and api/http_session.cpp; routes see only
+// these types. Each route carries its method, path pattern, summary, role, handler and OpenAPI
+// description, so the OpenAPI document is made from the same routes the server dispatches on.
+// The routes are added by capability (api/routes.h lists the files).
 #pragma once
 
 #include <exception>

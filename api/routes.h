@@ -1,4 +1,6 @@
-// Every route of the kinemetric API in one table (see http.h).
+// The routes of the kinemetric API, added by capability: one Add…Routes function a file (listed
+// below), each route with its method, path, role, handler and OpenAPI description (api/http.h
+// Route). GET /api/v1/openapi.json lists them all.
 #pragma once
 
 #include "api/http.h"

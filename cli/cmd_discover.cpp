@@ -1,6 +1,6 @@
 // kinemetric discover [--machine M.json] FILE… [--json] [--samples N] [--write-machine OUT.json]
 //   [--plot DIR]
-// Model-gap discovery (report/discovery_report.h): serial machines (no --machine, or a machine
+// Model-gap discovery (usecases/discovery_report.h): serial machines (no --machine, or a machine
 // of kind "serial") with the serial effect family, hexapods with the hexapod family whose base
 // model is the 24-parameter kinematic calibration.
 #include <array>

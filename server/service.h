@@ -174,7 +174,7 @@ class Service : public AuditSource {
   // effects (named, or the stored model's own). owner_token_id: the token submitting the job,
   // who may cancel it (CancelJob).
   std::int64_t SubmitCalibration(const nlohmann::json& request, std::int64_t owner_token_id = 0);
-  // Model-gap discovery study (report/discovery_report.h) as a background job. Request:
+  // Model-gap discovery study (usecases/discovery_report.h) as a background job. Request:
   // {"machine_id"?, "machine_version"?, "measurement_ids": [DBB ids], "max_samples_per_test"?}.
   // Checked like a calibration request (at most max_calibration_tests ids, each once, each a
   // DBB test, samples bounded), and the tests must be of one machine. Without machine_id: the

@@ -1,6 +1,6 @@
 // JSON of `kinemetric discover` (docs/formats.md §3) for the hexapod family (the serial
 // family's is in discovery_report.cpp), and the machine model a hexapod discovery produces. Used by
-// report/discovery_report.cpp.
+// usecases/discovery_report.cpp.
 #pragma once
 
 #include <string>

@@ -1,5 +1,5 @@
 // The `kinemetric-servo/1` measurement kind of the service (docs/formats.md §1.7): an upload is
-// parsed, summarised (report/servo_report.h ServoSummaryJson) and stored as kind "servo" with
+// parsed, summarised (usecases/servo_report.h ServoSummaryJson) and stored as kind "servo" with
 // its samples; the analyses that need the machine model or several files run from the CLI and
 // the servo routes.
 #pragma once

@@ -2,7 +2,7 @@
 // the service for the routes of api/servo_routes: the identification of a machine's masses and
 // friction (optionally stored as the next version of its model), the joint resistance and
 // health of its legs, and the external force of one record. The JSON is that of the CLI
-// (report/servo_report.h).
+// (usecases/servo_report.h).
 //
 // Requests: {"machine_id", "machine_version"?, "measurement_ids": [ids of servo measurements of
 // that machine]} and for identify "save"?: bool, "note"?; for joints "previous"?: an earlier

@@ -1,5 +1,5 @@
 // kinemetric-servo/1 parser (ingest/servo_parser.h) and the upload summary
-// (report/servo_report.h). Invariants: an accepted record has at least kMinServoRows rows with
+// (usecases/servo_report.h). Invariants: an accepted record has at least kMinServoRows rows with
 // strictly increasing finite times, finite poses and forces, six forces a hexapod row, equal
 // lengths per feed-drive axis; its summary is finite.
 #include <cmath>

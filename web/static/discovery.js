@@ -7,7 +7,7 @@
 //
 // Addresses: #/discoveries?machine=ID (the start form) and #/discoveries/JOB_ID (one job), so a
 // reload keeps the page. The result is the JSON of `kinemetric discover --json`
-// (report/discovery_json.cpp); the job is served by GET /api/v1/jobs/{id}. The result is drawn by
+// (usecases/discovery_json.cpp); the job is served by GET /api/v1/jobs/{id}. The result is drawn by
 // discovery_result.js, its words and numbers are discovery_words.js.
 
 import { JOB_STATUS } from './contract.js';
