@@ -180,8 +180,8 @@ RequestHook TokenHook(server::Service& service) {
       [svc](const std::string& sha) { return server::Authenticate(svc->storage(), sha); });
 }
 
-RequestHook TokenHook(server::Storage& storage) {
-  server::Storage* st = &storage;
+RequestHook TokenHook(server::AccessStore& storage) {
+  server::AccessStore* st = &storage;
   return TokenHookOver([st](const std::string& sha) { return server::Authenticate(*st, sha); });
 }
 

@@ -467,7 +467,7 @@ void AddMachineModelRoutes(Router& router, server::Service& service) {
   AddStudyRoutes(router, service);
 }
 
-std::string EnsureAdminToken(server::Storage& storage, const std::string& bootstrap) {
+std::string EnsureAdminToken(server::AccessStore& storage, const std::string& bootstrap) {
   return server::EnsureAdminToken(storage, bootstrap);
 }
 

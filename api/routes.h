@@ -38,7 +38,7 @@ void AddAccessRoutes(Router& router, server::Service& service);
 // and tools): 401 without a valid (known, unexpired, unrevoked) token, 403 when the token's role
 // is below RequiredRole(route). The caller is noted in the request.
 RequestHook TokenHook(server::Service& service);
-RequestHook TokenHook(server::Storage& storage);
+RequestHook TokenHook(server::AccessStore& storage);
 
 // Records every state-changing request (not GET) with its caller, status and subject in the
 // audit log; set with Router::SetObserver.
@@ -48,6 +48,6 @@ ResponseHook AuditHook(server::Service& service);
 // KINEMETRIC_BOOTSTRAP_TOKEN), else generates one; returns the new token text when one was
 // created by generation (to be printed once), empty otherwise. The server calls
 // Service::EnsureAdminToken; this form serves tests and tools holding a storage.
-std::string EnsureAdminToken(server::Storage& storage, const std::string& bootstrap);
+std::string EnsureAdminToken(server::AccessStore& storage, const std::string& bootstrap);
 
 }  // namespace km::api

@@ -252,7 +252,7 @@ std::string Service::EnsureAdminToken(const std::string& bootstrap) {
   return server::EnsureAdminToken(*storage_, bootstrap);
 }
 
-std::string EnsureAdminToken(Storage& storage, const std::string& bootstrap) {
+std::string EnsureAdminToken(AccessStore& storage, const std::string& bootstrap) {
   if (storage.CountTokens() > 0) return {};
   if (!bootstrap.empty()) {
     storage.PutToken(Sha256Hex(bootstrap), "admin", "bootstrap");

@@ -277,7 +277,7 @@ class Service : public AuditSource {
 };
 
 // The admin token of a database without tokens (Service::EnsureAdminToken).
-std::string EnsureAdminToken(Storage& storage, const std::string& bootstrap);
+std::string EnsureAdminToken(AccessStore& storage, const std::string& bootstrap);
 
 // The handlers of every measurement kind the product knows; call once at start-up.
 void RegisterBuiltinKinds(Service& service);

@@ -85,7 +85,7 @@ std::uint64_t TokenRevocations() {
   return g_revocations.load();
 }
 
-Caller Authenticate(Storage& storage, const std::string& token_sha256) {
+Caller Authenticate(AccessStore& storage, const std::string& token_sha256) {
   const auto t = storage.FindToken(token_sha256);
   if (!t) throw Unauthorized("the token is not valid");
   if (t->revoked_at) throw Unauthorized("the token was revoked at " + *t->revoked_at);

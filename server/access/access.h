@@ -26,7 +26,7 @@ struct Caller {
 
 // The caller of a token hash; km::Unauthorized when the hash is unknown, or the token was
 // revoked or has expired (the message says which), or its stored role is not a role.
-Caller Authenticate(Storage& storage, const std::string& token_sha256);
+Caller Authenticate(AccessStore& storage, const std::string& token_sha256);
 
 // Counts the revocations made in this process: a cache of accepted tokens forgets them all
 // when the count changes.

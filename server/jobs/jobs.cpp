@@ -62,7 +62,7 @@ std::optional<std::string> Guarded(F&& call) {
 
 }  // namespace
 
-JobQueue::JobQueue(Storage& storage, JobQueueOptions options)
+JobQueue::JobQueue(JobStore& storage, JobQueueOptions options)
     : storage_(storage), options_(std::move(options)) {
   if (options_.instance.empty()) options_.instance = InstanceName();
   options_.workers = std::max(options_.workers, 0);

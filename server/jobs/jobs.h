@@ -36,7 +36,7 @@ class JobQueue {
   // Runs a job of one kind from its plan; the answer is stored as the job's result.
   using Runner = std::function<nlohmann::json(const nlohmann::json& plan, const ProgressFn&)>;
 
-  explicit JobQueue(Storage& storage, JobQueueOptions options = {});
+  explicit JobQueue(JobStore& storage, JobQueueOptions options = {});
   ~JobQueue();  // Stop()
   JobQueue(const JobQueue&) = delete;
   JobQueue& operator=(const JobQueue&) = delete;
@@ -73,7 +73,7 @@ class JobQueue {
   void Finish(JobRecord job);
   std::int64_t LeaseEnd() const;
 
-  Storage& storage_;
+  JobStore& storage_;
   JobQueueOptions options_;
   std::map<std::string, Runner> runners_;
   std::mutex mu_;

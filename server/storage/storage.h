@@ -273,9 +273,14 @@ struct AuditVerdictFilter {
   std::int64_t limit = 100;
 };
 
-class Storage {
+// The storage of the service, one role a group of tables; each back-end (sqlite/, pg/)
+// implements every role in one class (Storage). A part of the service that needs one role takes
+// that role only (the job queue a JobStore, the audit scheduler an AuditStore, …).
+
+// Measurements (immutable, keyed by the SHA-256 of their bytes), their samples and results.
+class MeasurementStore {
  public:
-  virtual ~Storage() = default;
+  virtual ~MeasurementStore() = default;
 
   // Stores the measurement and its results atomically; the same bytes stored before give the
   // existing id and created = false (nothing is written then).
@@ -290,6 +295,12 @@ class Storage {
   virtual void PutResult(std::int64_t id, const NewResult& r) = 0;
   // Machines with stored measurements or a stored model.
   virtual std::vector<MachineSummary> ListMachines() = 0;
+};
+
+// Machine definitions (models), versioned.
+class ModelStore {
+ public:
+  virtual ~ModelStore() = default;
 
   // Machine definitions, versioned. PutMachineModel appends the next version of the machine
   // atomically; when the newest version holds the same bytes (same sha256), that version is
@@ -300,6 +311,12 @@ class Storage {
   virtual std::optional<MachineModelRecord> GetMachineModel(
       const std::string& machine_id, std::optional<std::int64_t> version) = 0;
   virtual std::vector<MachineModelRecord> ListMachineModels(const std::string& machine_id) = 0;
+};
+
+// Background jobs and the job queue shared by every instance on the database.
+class JobStore {
+ public:
+  virtual ~JobStore() = default;
 
   // Background jobs.
   virtual std::int64_t CreateJob(const std::string& kind, const std::string& request_json) = 0;
@@ -341,6 +358,12 @@ class Storage {
   // no instance claims it again, and the instance running it has its next RenewJob and
   // FinishJob refused. false (nothing written) when the job is not queued or running.
   virtual bool CancelJob(std::int64_t id, const std::string& reason) = 0;
+};
+
+// Capacitance-sensor streams: chunks of samples and gaps.
+class StreamStore {
+ public:
+  virtual ~StreamStore() = default;
 
   // Streams. AppendStream writes chunks and gaps in one transaction; a chunk whose
   // (stream, channel, first_counter) is stored already is refused (InvalidInput).
@@ -360,6 +383,12 @@ class Storage {
   virtual std::string ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
                                           std::int64_t first_counter) = 0;
   virtual std::vector<StreamGap> StreamGaps(std::int64_t stream_id, std::int64_t limit) = 0;
+};
+
+// Access: tokens (as hashes) and the audit log of state-changing requests.
+class AccessStore {
+ public:
+  virtual ~AccessStore() = default;
 
   // Access tokens are stored only as SHA-256 hashes.
   virtual std::int64_t CountTokens() = 0;
@@ -381,6 +410,12 @@ class Storage {
   // The audit log of state-changing requests, appended only; listed newest first.
   virtual void AppendAudit(const AuditEntry& entry) = 0;
   virtual AuditPage ListAudit(std::int64_t limit, std::int64_t offset) = 0;
+};
+
+// Accuracy audits: each machine's rules and schedule, and the verdicts of the runs.
+class AuditStore {
+ public:
+  virtual ~AuditStore() = default;
 
   // Accuracy audits. PutAuditConfig stores (or replaces) a machine's rules and schedule;
   // ListAuditConfigs: every machine's, by machine_id. SetAuditRun records a run's time and the
@@ -401,5 +436,13 @@ class Storage {
   virtual void SetAuditWebhook(std::int64_t id, const std::string& status,
                                std::int64_t attempts) = 0;
 };
+
+// Every role, as one back-end implements them.
+class Storage : public MeasurementStore,
+                public ModelStore,
+                public JobStore,
+                public StreamStore,
+                public AccessStore,
+                public AuditStore {};
 
 }  // namespace km::server

@@ -12,7 +12,7 @@
 
 namespace km::server {
 
-StreamHub::StreamHub(Storage& storage, StreamOptions options)
+StreamHub::StreamHub(StreamStore& storage, StreamOptions options)
     : storage_(storage), options_(options) {
   if (options_.chunk_samples == 0) options_.chunk_samples = 1;
   flusher_ = std::thread([this] { FlusherLoop(); });
@@ -299,8 +299,8 @@ void ChannelSamples::AppendInRange(const ingest::SampleRun& run, std::int64_t fr
   }
 }
 
-ChannelSamples ReadChannelSamples(Storage& storage, std::int64_t stream_id, std::int64_t channel,
-                                  std::int64_t from_us, std::int64_t to_us) {
+ChannelSamples ReadChannelSamples(StreamStore& storage, std::int64_t stream_id,
+                                  std::int64_t channel, std::int64_t from_us, std::int64_t to_us) {
   ChannelSamples out;
   for (const auto& c : storage.ReadStreamChunks(stream_id, channel, from_us, to_us, true)) {
     out.AppendInRange(DecodeStreamChunk(c), from_us, to_us);
@@ -308,7 +308,7 @@ ChannelSamples ReadChannelSamples(Storage& storage, std::int64_t stream_id, std:
   return out;
 }
 
-nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::int64_t channel,
+nlohmann::json StreamSamplesJson(StreamStore& storage, std::int64_t stream_id, std::int64_t channel,
                                  std::int64_t from_us, std::int64_t to_us, std::size_t max_points) {
   using nlohmann::json;
   if (!storage.GetStream(stream_id)) {

@@ -50,7 +50,7 @@ struct IngestCounts {
 
 class StreamHub {
  public:
-  StreamHub(Storage& storage, StreamOptions options);
+  StreamHub(StreamStore& storage, StreamOptions options);
   ~StreamHub();  // stops the background flusher and writes what is buffered
   StreamHub(const StreamHub&) = delete;
   StreamHub& operator=(const StreamHub&) = delete;
@@ -92,7 +92,7 @@ class StreamHub {
   void FlushLocked(std::int64_t stream_id, State& s);
   void FlusherLoop();
 
-  Storage& storage_;
+  StreamStore& storage_;
   StreamOptions options_;
   std::mutex mu_;
   std::map<std::int64_t, std::unique_ptr<State>> states_;
@@ -111,12 +111,12 @@ struct ChannelSamples {
   // Appends the samples of a decoded chunk that fall in [from_us, to_us).
   void AppendInRange(const ingest::SampleRun& run, std::int64_t from_us, std::int64_t to_us);
 };
-ChannelSamples ReadChannelSamples(Storage& storage, std::int64_t stream_id, std::int64_t channel,
-                                  std::int64_t from_us, std::int64_t to_us);
+ChannelSamples ReadChannelSamples(StreamStore& storage, std::int64_t stream_id,
+                                  std::int64_t channel, std::int64_t from_us, std::int64_t to_us);
 
 // Samples of one channel in [from_us, to_us) for plots: the samples themselves when there are
 // at most max_points, else max_points time buckets with min, max, mean and count.
-nlohmann::json StreamSamplesJson(Storage& storage, std::int64_t stream_id, std::int64_t channel,
+nlohmann::json StreamSamplesJson(StreamStore& storage, std::int64_t stream_id, std::int64_t channel,
                                  std::int64_t from_us, std::int64_t to_us, std::size_t max_points);
 
 }  // namespace km::server

@@ -56,10 +56,11 @@ test('multi-file and dropped uploads with per-file outcomes; report; token messa
     await page.waitForSelector(`#detail[data-measurement-id="${cwId}"] [data-testid="conditions-table"]`);
     // The pair's table is complete once both traces' temperatures are in it (a slow page may
     // still be showing the table of the view before).
-    // The table may be redrawn once more after it first shows both: read until it holds still.
+    // The table may be redrawn once more after it first shows both: read until it holds still
+    // (45 s: a full parallel test run keeps both cores busy).
     const readTemps = () => page.$$eval('[data-testid="conditions-table"] tr[data-key="temperature_c"] td.text', (tds) => tds.map((td) => td.textContent));
     let temps = await readTemps();
-    for (const end = Date.now() + 20_000; temps.join() !== '20.4,20.5' && Date.now() < end;) {
+    for (const end = Date.now() + 45_000; temps.join() !== '20.4,20.5' && Date.now() < end;) {
       await page.waitForTimeout(50);
       temps = await readTemps();
     }
