@@ -15,28 +15,8 @@
 namespace km::server {
 
 std::map<std::string, ingest::TextLimits> DefaultUploadLimits() {
-  const auto limits = [](std::size_t rows, std::size_t columns) {
-    ingest::TextLimits l;
-    l.max_rows = rows;
-    l.max_columns = columns;
-    l.max_line_bytes = 4096;
-    l.max_header_lines = 1000;
-    l.max_markers = 1000;
-    return l;
-  };
   std::map<std::string, ingest::TextLimits> out;
-  out[ingest::kDbbFormat] = limits(500'000, 16);
-  out[std::string(ingest::kStraightnessFormat)] = limits(100'000, 16);
-  out[std::string(ingest::kParallelismFormat)] = limits(1'000'000, 16);
-  out[std::string(ingest::kFlatnessFormat)] = limits(1'000'000, 16);
-  // point, x, y, z, d1..d16 and a few more; 80 000 values: 10 000 points of 4 trackers, 4 000 of
-  // 16.
-  ingest::TextLimits tracker = limits(10'000, 24);
-  tracker.max_cells = 80'000;
-  out[ingest::kTrackerFormat] = tracker;
-  // Servo loads: t_s, pose and six forces (or positions and forces of a few axes); the upload
-  // only summarises them (parsing holds about 300 bytes a row).
-  out[ingest::kServoFormat] = limits(500'000, 32);
+  for (const auto& f : BuiltinFormats()) out[f.format] = f.limits;
   return out;
 }
 

@@ -19,24 +19,12 @@
 #include "server/audits/audit_scheduler.h"
 #include "server/audits/audit_source.h"
 #include "server/jobs/jobs.h"
+#include "server/measurements/formats.h"
 #include "server/storage/storage.h"
 #include "server/streams/acquisition.h"
 #include "server/streams/streams.h"
 
 namespace km::server {
-
-// What one kind of measurement file turns into before it is stored.
-struct Ingested {
-  std::string kind;
-  std::string machine_id, test_id, direction;
-  std::optional<std::string> measured_at;  // as written in the file
-  nlohmann::json metadata = nlohmann::json::object();
-  SampleBlock samples;
-  std::vector<NewResult> results;  // computed at upload, stored in the same transaction
-};
-
-// Parses and analyses one file of a format; throws km::InvalidInput naming file/line/field.
-using KindHandler = std::function<Ingested(std::string_view bytes, const std::string& file)>;
 
 // What an upload of each format may hold, by format name (e.g. "kinemetric-dbb/1"): data rows,
 // line length, columns, values, header and marker lines (ingest/text_format.h). The defaults

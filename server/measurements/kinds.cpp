@@ -10,6 +10,7 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/form_parsers.h"
 #include "ingest/iso8601.h"
+#include "ingest/servo_parser.h"
 #include "ingest/tracker_parser.h"
 #include "render/dbb_plot.h"
 #include "server/base/finite_result.h"
@@ -219,15 +220,37 @@ Ingested IngestTracker(std::string_view bytes, const std::string& file) {
   return in;
 }
 
+// Upload limits: data rows and columns, lines of at most 4 KiB, 1 000 header lines and 1 000
+// '#' lines among the data (what each format's analysis costs: service.h DefaultUploadLimits).
+ingest::TextLimits Limits(std::size_t rows, std::size_t columns, std::size_t cells = 0) {
+  ingest::TextLimits l;
+  l.max_rows = rows;
+  l.max_columns = columns;
+  l.max_line_bytes = 4096;
+  l.max_header_lines = 1000;
+  l.max_markers = 1000;
+  if (cells > 0) l.max_cells = cells;
+  return l;
+}
+
 }  // namespace
 
+std::vector<FormatRegistration> BuiltinFormats() {
+  // Tracker: point, x, y, z, d1..d16 and a few more; 80 000 values: 10 000 points of 4
+  // trackers, 4 000 of 16. Servo loads: t_s, pose and six forces (or positions and forces of a
+  // few axes); the upload only summarises them (parsing holds about 300 bytes a row).
+  return {
+      {std::string(ingest::kTrackerFormat), Limits(10'000, 24, 80'000), IngestTracker},
+      {ingest::kDbbFormat, Limits(500'000, 16), IngestDbb},
+      {std::string(ingest::kStraightnessFormat), Limits(100'000, 16), IngestStraightness},
+      {std::string(ingest::kFlatnessFormat), Limits(1'000'000, 16), IngestFlatness},
+      {std::string(ingest::kParallelismFormat), Limits(1'000'000, 16), IngestParallelism},
+      {ingest::kServoFormat, Limits(500'000, 32), IngestServo},
+  };
+}
+
 void RegisterBuiltinKinds(Service& service) {
-  service.RegisterKind(std::string(ingest::kTrackerFormat), IngestTracker);
-  service.RegisterKind(ingest::kDbbFormat, IngestDbb);
-  service.RegisterKind(std::string(ingest::kStraightnessFormat), IngestStraightness);
-  service.RegisterKind(std::string(ingest::kFlatnessFormat), IngestFlatness);
-  service.RegisterKind(std::string(ingest::kParallelismFormat), IngestParallelism);
-  RegisterServoKind(service);
+  for (auto& f : BuiltinFormats()) service.RegisterKind(f.format, std::move(f.handler));
 }
 
 dbb::DbbTest Service::LoadDbb(std::int64_t id, MeasurementRecord* record) {

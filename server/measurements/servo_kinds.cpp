@@ -49,8 +49,4 @@ Ingested IngestServo(std::string_view bytes, const std::string& file) {
   return in;
 }
 
-void RegisterServoKind(Service& service) {
-  service.RegisterKind(ingest::kServoFormat, IngestServo);
-}
-
 }  // namespace km::server

@@ -7,12 +7,11 @@
 #include <string>
 #include <string_view>
 
-#include "server/service.h"
+#include "server/measurements/formats.h"
 
 namespace km::server {
 
+// The handler of the format (server/measurements/formats.h BuiltinFormats).
 Ingested IngestServo(std::string_view bytes, const std::string& file);
-
-void RegisterServoKind(Service& service);
 
 }  // namespace km::server
