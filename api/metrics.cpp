@@ -195,8 +195,10 @@ std::string Metrics::Exposition(server::Service* service) const {
   if (service) {
     Family(out, "kinemetric_jobs", "gauge", "Background jobs by status");
     auto counts = service->storage().CountJobsByStatus();
-    for (const char* s : {"queued", "running", "done", "failed", "cancelled"}) {
-      counts.try_emplace(s, 0);
+    for (auto s :
+         {server::JobStatus::kQueued, server::JobStatus::kRunning, server::JobStatus::kDone,
+          server::JobStatus::kFailed, server::JobStatus::kCancelled}) {
+      counts.try_emplace(ToString(s), 0);
     }
     for (const auto& [status, n] : counts) {
       Sample(out, "kinemetric_jobs", "status=\"" + LabelValue(status) + "\"",

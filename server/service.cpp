@@ -29,10 +29,10 @@ Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
                             const std::string& source) { return CreateStream(request, source); })),
       jobs_(std::make_unique<JobQueue>(*storage_, options.jobs)),
       audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {
-  jobs_->Register("hexapod_calibration", [this](const nlohmann::json& plan, const ProgressFn& p) {
+  jobs_->Register(kCalibrationJob, [this](const nlohmann::json& plan, const ProgressFn& p) {
     return RunCalibrationJob(plan, p);
   });
-  jobs_->Register("discovery", [this](const nlohmann::json& plan, const ProgressFn& p) {
+  jobs_->Register(kDiscoveryJob, [this](const nlohmann::json& plan, const ProgressFn& p) {
     return RunDiscoveryJob(plan, p);
   });
   jobs_->Start();

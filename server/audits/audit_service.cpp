@@ -314,7 +314,7 @@ std::vector<CalibrationRun> MachineCalibrations(AuditSource& service,
                                                 const std::string& machine_id) {
   std::vector<CalibrationRun> runs;
   for (const auto& j : service.storage().ListJobs(kCalibrationJobScan)) {
-    if (j.kind != "hexapod_calibration" || j.status != "done") continue;
+    if (j.kind != kCalibrationJob || j.status != JobStatus::kDone) continue;
     const json request = ingest::ParseJsonTextOrDiscarded(j.request_json);
     if (!request.is_object() || !request.contains("machine_id") ||
         request["machine_id"] != machine_id) {

@@ -61,7 +61,7 @@ void RequireMachine(AuditSource& service, const std::string& machine_id) {
 std::map<std::string, std::int64_t> OpenJobs(AuditSource& service) {
   std::map<std::string, std::int64_t> open;
   for (const auto& j : service.storage().ListJobs(kFleetJobScan)) {
-    if (j.status != "queued" && j.status != "running") continue;
+    if (j.status != JobStatus::kQueued && j.status != JobStatus::kRunning) continue;
     const auto req = ingest::ParseJsonTextOrDiscarded(j.request_json);
     if (!req.is_object()) continue;
     std::string machine = req.value("machine_id", std::string());

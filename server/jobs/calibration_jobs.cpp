@@ -231,7 +231,7 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request,
     shown["machine_version"] = stored_version;
     run["machine_version"] = stored_version;
   }
-  return jobs_->Submit("hexapod_calibration", shown, run, owner_token_id);
+  return jobs_->Submit(kCalibrationJob, shown, run, owner_token_id);
 }
 
 // The job reads the tests when it runs, checked again from the plan.
@@ -276,7 +276,8 @@ nlohmann::json Service::CancelJob(std::int64_t id, const JobCanceller& by) {
       "cancelled by token '" + by.token_name + "' (id " + std::to_string(by.token_id) + ")";
   if (!jobs_->Cancel(id, reason)) {
     const auto now = storage_->GetJob(id);
-    throw Conflict(name + " is " + (now ? now->status : std::string("gone")) +
+    throw Conflict(name + " is " +
+                   (now ? std::string(ToString(now->status)) : std::string("gone")) +
                    " already; only a queued or running job can be cancelled");
   }
   return Job(id);

@@ -53,7 +53,7 @@ std::int64_t Service::SubmitDiscovery(const nlohmann::json& request, std::int64_
   // Shown and run: the request with the stored model's version it was checked against.
   nlohmann::json stored = request;
   if (plan->machine) stored["machine_version"] = version;
-  return jobs_->Submit("discovery", stored, stored, owner_token_id);
+  return jobs_->Submit(kDiscoveryJob, stored, stored, owner_token_id);
 }
 
 // The job reads the tests when it runs, checked again from the plan.

@@ -105,7 +105,8 @@ void JobQueue::Stop() {
 
 std::int64_t JobQueue::Submit(const std::string& kind, const nlohmann::json& request,
                               const nlohmann::json& plan, std::int64_t owner_token_id) {
-  if (storage_.CountJobsWithStatus("queued") >= static_cast<std::int64_t>(options_.max_queued)) {
+  if (storage_.CountJobsWithStatus(JobStatus::kQueued) >=
+      static_cast<std::int64_t>(options_.max_queued)) {
     throw Unavailable("the job queue is full (" + std::to_string(options_.max_queued) +
                       " jobs waiting); try again later");
   }
@@ -231,21 +232,21 @@ void JobQueue::RunJob(JobRecord job) {
   bool interrupted = false;
   try {
     job.result_json = RunPlan(job).dump();
-    job.status = "done";
+    job.status = JobStatus::kDone;
     job.progress = 1.0;
     job.stage = "done";
   } catch (const JobInterrupted&) {
     interrupted = true;
   } catch (const Error& e) {  // the product's own errors are written for the user
-    job.status = "failed";
+    job.status = JobStatus::kFailed;
     job.error = e.what();
   } catch (const std::exception& e) {  // anything else is ours to look at, not the user's
-    job.status = "failed";
+    job.status = JobStatus::kFailed;
     job.error = "the job failed with an internal error (logged by the server as job " +
                 std::to_string(job.id) + ")";
     LogJob(job.id, std::string("failed: ") + e.what());
   } catch (...) {
-    job.status = "failed";
+    job.status = JobStatus::kFailed;
     job.error = "the job failed with an unknown error";
   }
   bool lost = false;
@@ -261,10 +262,10 @@ void JobQueue::RunJob(JobRecord job) {
 void JobQueue::Finish(JobRecord job) {
   bool held = true;
   auto error = Guarded([&] { held = storage_.FinishJob(job, options_.instance); });
-  if (error && job.status == "done") {
+  if (error && job.status == JobStatus::kDone) {
     LogStoreFailure(job.id, "its result", *error);
     // The result could not be written (too large, disk full): record at least the failure.
-    job.status = "failed";
+    job.status = JobStatus::kFailed;
     job.stage = "storing the result";
     job.result_json.clear();
     job.error = "the result could not be stored: " + *error;
@@ -282,7 +283,7 @@ nlohmann::json JobJson(const JobRecord& job) {
   nlohmann::json j;
   j["id"] = job.id;
   j["kind"] = job.kind;
-  j["status"] = job.status;
+  j["status"] = ToString(job.status);
   j["progress"] = job.progress;
   j["stage"] = job.stage;
   j["created_at"] = job.created_at;
@@ -414,16 +415,16 @@ void JudgeDiscovery(const nlohmann::json& r, Judgement& out) {
 
 }  // namespace
 
-JobVerdict JudgeJob(const std::string& kind, const std::string& status,
-                    const nlohmann::json& result, const std::string& error) {
-  if (status == "failed") return {"failed", {error.empty() ? "the job failed" : error}};
-  if (status != "done") return {};
+JobVerdict JudgeJob(const std::string& kind, JobStatus status, const nlohmann::json& result,
+                    const std::string& error) {
+  if (status == JobStatus::kFailed) return {"failed", {error.empty() ? "the job failed" : error}};
+  if (status != JobStatus::kDone) return {};
   Judgement j;
   if (!result.is_object()) {
     j.Fail("the job stored no result");
-  } else if (kind == "hexapod_calibration") {
+  } else if (kind == kCalibrationJob) {
     JudgeCalibration(result, j);
-  } else if (kind == "discovery") {
+  } else if (kind == kDiscoveryJob) {
     JudgeDiscovery(result, j);
   }
   if (j.reasons.empty()) return {"ok", {}};

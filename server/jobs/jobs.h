@@ -22,6 +22,11 @@
 
 namespace km::server {
 
+// The kinds of job the service registers (Service's constructor); a queue takes any registered
+// name.
+inline constexpr const char* kCalibrationJob = "hexapod_calibration";
+inline constexpr const char* kDiscoveryJob = "discovery";
+
 struct JobQueueOptions {
   std::size_t max_queued = 16;  // queued jobs (of every instance) beyond which Submit refuses
   int workers = 1;              // jobs this instance runs at once (0: it queues jobs but runs none)
@@ -108,7 +113,7 @@ struct JobVerdict {
 // kind: "hexapod_calibration" or "discovery" (other kinds: "ok" when done); status: queued,
 // running, done, failed, cancelled (no verdict: there are no figures to judge); result: the
 // stored result (null when none); error: when failed.
-JobVerdict JudgeJob(const std::string& kind, const std::string& status,
-                    const nlohmann::json& result, const std::string& error);
+JobVerdict JudgeJob(const std::string& kind, JobStatus status, const nlohmann::json& result,
+                    const std::string& error);
 
 }  // namespace km::server

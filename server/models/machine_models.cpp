@@ -111,19 +111,20 @@ MachineModelStored Service::SaveJobMachine(std::int64_t job_id, const std::strin
   if (!job) throw NotFound("job " + std::to_string(job_id) + " does not exist");
   const std::string name = "job " + std::to_string(job_id);
   std::string key, source;
-  if (job->kind == "hexapod_calibration") {
+  if (job->kind == kCalibrationJob) {
     key = "calibrated_machine";
     source = "calibration " + name;
-  } else if (job->kind == "discovery") {
+  } else if (job->kind == kDiscoveryJob) {
     key = "updated_machine";
     source = "discovery " + name;
   } else {
     throw Conflict(name + " (" + job->kind + ") does not produce a machine definition");
   }
-  if (job->status != "done") {
-    throw Conflict(name + " is " + job->status +
-                   (job->status == "failed" ? "; it has no machine to save"
-                                            : "; its machine can be saved once it is done"));
+  if (job->status != JobStatus::kDone) {
+    throw Conflict(name + " is " + ToString(job->status) +
+                   (job->status == JobStatus::kFailed
+                        ? "; it has no machine to save"
+                        : "; its machine can be saved once it is done"));
   }
   const auto result = ingest::ParseJsonTextOrDiscarded(job->result_json);
   if (!result.is_object() || !result.contains(key) || !result[key].is_object()) {

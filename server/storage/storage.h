@@ -12,7 +12,9 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <ostream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "analysis/core/errors.h"
@@ -140,11 +142,50 @@ struct PutOutcome {
   bool created = false;
 };
 
+// Where a job is: waiting for a worker, running, or ended (done, failed, cancelled). Stored and
+// shown (GET /api/v1/jobs/{id} `status`, web/static/contract.js JOB_STATUS) as its ToString.
+enum class JobStatus { kQueued, kRunning, kDone, kFailed, kCancelled };
+
+inline const char* ToString(JobStatus s) {
+  switch (s) {
+    case JobStatus::kQueued:
+      return "queued";
+    case JobStatus::kRunning:
+      return "running";
+    case JobStatus::kDone:
+      return "done";
+    case JobStatus::kFailed:
+      return "failed";
+    case JobStatus::kCancelled:
+      return "cancelled";
+  }
+  return "";
+}
+
+inline std::ostream& operator<<(std::ostream& os, JobStatus s) {
+  return os << ToString(s);
+}
+
+// The status of its spelling; nullopt for any other text.
+inline std::optional<JobStatus> ParseJobStatus(std::string_view text) {
+  for (JobStatus s : {JobStatus::kQueued, JobStatus::kRunning, JobStatus::kDone, JobStatus::kFailed,
+                      JobStatus::kCancelled}) {
+    if (text == ToString(s)) return s;
+  }
+  return std::nullopt;
+}
+
+// The status of a stored row; a text no status spells is a damaged database (StorageError).
+inline JobStatus StoredJobStatus(std::string_view text) {
+  if (const auto s = ParseJobStatus(text)) return *s;
+  throw StorageError("a stored job has the unknown status '" + std::string(text) + "'", 0, false);
+}
+
 // A background job (e.g. a hexapod calibration study) and its stored outcome.
 struct JobRecord {
   std::int64_t id = 0;
-  std::string kind;
-  std::string status;  // queued, running, done, failed, cancelled
+  std::string kind;  // as registered with the job queue (server/jobs/jobs.h kCalibrationJob, …)
+  JobStatus status = JobStatus::kQueued;
   double progress = 0.0;
   std::string stage;
   std::string request_json;
@@ -330,7 +371,7 @@ class JobStore {
   virtual std::map<std::string, std::int64_t> CountJobsByStatus() = 0;
   // How many jobs have one status (read from the status index: the cost follows that count,
   // not the years of finished jobs).
-  virtual std::int64_t CountJobsWithStatus(const std::string& status) = 0;
+  virtual std::int64_t CountJobsWithStatus(JobStatus status) = 0;
 
   // The job queue shared by every instance on the database. QueueJob stores a job as queued
   // (the new id). ClaimJob takes the oldest job to run — queued, or running under a lease that

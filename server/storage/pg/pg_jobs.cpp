@@ -19,7 +19,7 @@ JobRecord ReadJob(const Result& s, int row) {
   JobRecord j;
   j.id = s.Int(row, 0);
   j.kind = s.Text(row, 1);
-  j.status = s.Text(row, 2);
+  j.status = StoredJobStatus(s.Text(row, 2));
   j.progress = s.Real(row, 3);
   j.stage = s.Text(row, 4);
   j.request_json = s.Text(row, 5);
@@ -44,7 +44,7 @@ std::int64_t PgStorage::CreateJob(const std::string& kind, const std::string& re
 void PgStorage::UpdateJob(const JobRecord& job) {
   auto c = pool_->Acquire();
   Params p;
-  p.Text(job.status, "status").Real(job.progress).Text(job.stage, "stage");
+  p.Text(std::string(ToString(job.status)), "status").Real(job.progress).Text(job.stage, "stage");
   p.Text(job.result_json, "result").Text(job.error, "error").Text(NowUtcIso8601(), "updated_at");
   p.Int(job.id);
   c->Query(
@@ -99,10 +99,10 @@ std::map<std::string, std::int64_t> PgStorage::CountJobsByStatus() {
   return out;
 }
 
-std::int64_t PgStorage::CountJobsWithStatus(const std::string& status) {
+std::int64_t PgStorage::CountJobsWithStatus(JobStatus status) {
   auto c = pool_->Acquire();
   Params p;
-  p.Text(status, "status");
+  p.Text(std::string(ToString(status)), "status");
   return c->Query("SELECT COUNT(*) FROM jobs WHERE status = $1", p, "count jobs").Int(0, 0);
 }
 
@@ -143,7 +143,7 @@ std::optional<JobRecord> PgStorage::ClaimJob(const std::string& owner, std::int6
   std::optional<JobRecord> job;
   if (r.Rows() > 0) {
     job = ReadJob(r, 0);
-    job->status = "running";
+    job->status = JobStatus::kRunning;
     job->progress = 0.0;
     job->stage = "started";
     job->lease_owner = owner;
@@ -177,7 +177,7 @@ bool PgStorage::RenewJob(std::int64_t id, const std::string& owner, double progr
 bool PgStorage::FinishJob(const JobRecord& job, const std::string& owner) {
   auto c = pool_->Acquire();
   Params p;
-  p.Text(job.status, "status").Real(job.progress).Text(job.stage, "stage");
+  p.Text(std::string(ToString(job.status)), "status").Real(job.progress).Text(job.stage, "stage");
   p.Text(job.result_json, "result").Text(job.error, "error").Text(NowUtcIso8601(), "updated_at");
   p.Int(job.id).Text(owner, "owner");
   return c->Query(

@@ -20,7 +20,7 @@ JobRecord ReadJob(const Statement& s) {
   JobRecord j;
   j.id = s.Int(0);
   j.kind = s.Text(1);
-  j.status = s.Text(2);
+  j.status = StoredJobStatus(s.Text(2));
   j.progress = s.Real(3);
   j.stage = s.Text(4);
   j.request_json = s.Text(5);
@@ -59,7 +59,10 @@ void SqliteStorage::UpdateJob(const JobRecord& job) {
   auto s = Prepared(
       "UPDATE jobs SET status = ?, progress = ?, stage = ?, result_json = ?, error = ?, "
       "updated_at = ? WHERE id = ?");
-  s->Bind(1, job.status).BindReal(2, job.progress).Bind(3, job.stage).Bind(4, job.result_json);
+  s->Bind(1, std::string(ToString(job.status)))
+      .BindReal(2, job.progress)
+      .Bind(3, job.stage)
+      .Bind(4, job.result_json);
   s->Bind(5, job.error).Bind(6, NowUtcIso8601()).Bind(7, job.id);
   s->Step();
 }
@@ -99,10 +102,10 @@ std::map<std::string, std::int64_t> SqliteStorage::CountJobsByStatus() {
   return out;
 }
 
-std::int64_t SqliteStorage::CountJobsWithStatus(const std::string& status) {
+std::int64_t SqliteStorage::CountJobsWithStatus(JobStatus status) {
   std::lock_guard lock(mu_);
   auto s = Prepared("SELECT COUNT(*) FROM jobs WHERE status = ?");
-  s->Bind(1, status);
+  s->Bind(1, std::string(ToString(status)));
   s->Step();
   return s->Int(0);
 }
@@ -129,7 +132,7 @@ std::optional<JobRecord> SqliteStorage::ClaimJob(const std::string& owner, std::
     if (s->Step()) job = ReadJob(*s);
   }
   if (job) {
-    job->status = "running";
+    job->status = JobStatus::kRunning;
     job->progress = 0.0;
     job->stage = "started";
     job->lease_owner = owner;
@@ -163,7 +166,10 @@ bool SqliteStorage::FinishJob(const JobRecord& job, const std::string& owner) {
   auto s = Prepared(
       "UPDATE jobs SET status = ?, progress = ?, stage = ?, result_json = ?, error = ?, "
       "lease_until_ms = 0, updated_at = ? WHERE id = ? AND status = 'running' AND lease_owner = ?");
-  s->Bind(1, job.status).BindReal(2, job.progress).Bind(3, job.stage).Bind(4, job.result_json);
+  s->Bind(1, std::string(ToString(job.status)))
+      .BindReal(2, job.progress)
+      .Bind(3, job.stage)
+      .Bind(4, job.result_json);
   s->Bind(5, job.error).Bind(6, NowUtcIso8601()).Bind(7, job.id).Bind(8, owner);
   s->Step();
   return sqlite3_changes(db_) == 1;

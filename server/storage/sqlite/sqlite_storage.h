@@ -60,7 +60,7 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::vector<JobRecord> ListJobs(std::int64_t limit) override;
   int FailInterruptedJobs(const std::string& reason) override;
   std::map<std::string, std::int64_t> CountJobsByStatus() override;
-  std::int64_t CountJobsWithStatus(const std::string& status) override;
+  std::int64_t CountJobsWithStatus(JobStatus status) override;
   // The shared job queue: sqlite_jobs.cpp (with the job calls above).
   std::int64_t QueueJob(const NewJob& job) override;
   std::optional<JobRecord> ClaimJob(const std::string& owner, std::int64_t now_ms,

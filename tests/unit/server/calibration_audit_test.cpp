@@ -34,21 +34,21 @@ class CalibrationAudits : public TempDirTest {
   }
   // A hexapod calibration job of the machine, stored with that status and strut offsets (µm);
   // `extra` is merged into the result. Its id.
-  std::int64_t Calibration(const std::string& machine, const std::string& status,
-                           const json& offsets, const json& extra = json::object(),
+  std::int64_t Calibration(const std::string& machine, JobStatus status, const json& offsets,
+                           const json& extra = json::object(),
                            const std::string& kind = "hexapod_calibration") {
     const json request = {{"machine_id", machine}, {"measurement_ids", {1, 2, 3}}};
     JobRecord job;
     job.id = svc_->storage().CreateJob(kind, request.dump());
     job.status = status;
-    job.progress = status == "done" ? 1.0 : 0.0;
+    job.progress = status == JobStatus::kDone ? 1.0 : 0.0;
     json result = {{"method", "absolute"},
                    {"converged", true},
                    {"condition_number", 120.0},
                    {"parameters", {{"strut_offset_um", offsets}}}};
     result.update(extra);
-    if (status == "done") job.result_json = result.dump();
-    if (status == "failed") job.error = "the solver failed";
+    if (status == JobStatus::kDone) job.result_json = result.dump();
+    if (status == JobStatus::kFailed) job.error = "the solver failed";
     svc_->storage().UpdateJob(job);
     return job.id;
   }
@@ -65,15 +65,15 @@ class CalibrationAudits : public TempDirTest {
 };
 
 TEST_F(CalibrationAudits, TheNewestCalibrationOfTheMachineGivesLevelValueLimitAndJob) {
-  const auto older = Calibration(kMachine, "done", {1, -2, 3, -4, 5, -6});
-  const auto newest = Calibration(kMachine, "done", {2, -3, 1, 0.5, -7.5, 4});
+  const auto older = Calibration(kMachine, JobStatus::kDone, {1, -2, 3, -4, 5, -6});
+  const auto newest = Calibration(kMachine, JobStatus::kDone, {2, -3, 1, 0.5, -7.5, 4});
   // None of these is evidence: another machine's, failed, still running, a study the job
   // verdict rejects (condition number not finite), another kind of job.
-  Calibration("hexa-8", "done", {100, 0, 0, 0, 0, 0});
-  Calibration(kMachine, "failed", {200, 0, 0, 0, 0, 0});
-  Calibration(kMachine, "running", {250, 0, 0, 0, 0, 0});
-  Calibration(kMachine, "done", {300, 0, 0, 0, 0, 0}, {{"condition_number", nullptr}});
-  Calibration(kMachine, "done", {400, 0, 0, 0, 0, 0}, json::object(), "discovery");
+  Calibration("hexa-8", JobStatus::kDone, {100, 0, 0, 0, 0, 0});
+  Calibration(kMachine, JobStatus::kFailed, {200, 0, 0, 0, 0, 0});
+  Calibration(kMachine, JobStatus::kRunning, {250, 0, 0, 0, 0, 0});
+  Calibration(kMachine, JobStatus::kDone, {300, 0, 0, 0, 0, 0}, {{"condition_number", nullptr}});
+  Calibration(kMachine, JobStatus::kDone, {400, 0, 0, 0, 0, 0}, json::object(), "discovery");
   ASSERT_EQ(JobJson(*svc_->storage().GetJob(newest + 4))["verdict"], "failed");
 
   const json v = Audit(
@@ -126,8 +126,8 @@ TEST_F(CalibrationAudits, TheNewestCalibrationOfTheMachineGivesLevelValueLimitAn
 }
 
 TEST_F(CalibrationAudits, WithoutCalibrationsTheRulesFindNoValue) {
-  Calibration("hexa-8", "done", {100, 0, 0, 0, 0, 0});
-  Calibration(kMachine, "failed", {200, 0, 0, 0, 0, 0});
+  Calibration("hexa-8", JobStatus::kDone, {100, 0, 0, 0, 0, 0});
+  Calibration(kMachine, JobStatus::kFailed, {200, 0, 0, 0, 0, 0});
   const json none = Audit(kMachine, json::array({Rule("strut_offset_max_um", 5, 10),
                                                  Rule("strut_offset_change_max_um", 5, 10)}));
   EXPECT_EQ(none["level"], 1);
@@ -137,7 +137,7 @@ TEST_F(CalibrationAudits, WithoutCalibrationsTheRulesFindNoValue) {
     EXPECT_EQ(c["reason"], "no result of this metric yet");
   }
   // One calibration: its offsets, but no change (nothing before it).
-  const auto only = Calibration(kMachine, "done", {0, 0, -11, 0, 0, 0});
+  const auto only = Calibration(kMachine, JobStatus::kDone, {0, 0, -11, 0, 0, 0});
   const json one = Audit(kMachine, json::array({Rule("strut_offset_max_um", 5, 10),
                                                 Rule("strut_offset_change_max_um", 5, 10)}));
   EXPECT_EQ(one["level"], 3);
@@ -148,7 +148,7 @@ TEST_F(CalibrationAudits, WithoutCalibrationsTheRulesFindNoValue) {
 }
 
 TEST_F(CalibrationAudits, TrendRulesCompareWithTheCalibrationThePreviousAuditSaw) {
-  const auto first = Calibration(kMachine, "done", {1, 2, 3, 4, 5, -7.5});
+  const auto first = Calibration(kMachine, JobStatus::kDone, {1, 2, 3, 4, 5, -7.5});
   const json rules = json::array({{{"kind", "calibration"},
                                    {"metric", "strut_offset_max_um"},
                                    {"change", "previous_audit"},
@@ -157,7 +157,7 @@ TEST_F(CalibrationAudits, TrendRulesCompareWithTheCalibrationThePreviousAuditSaw
   EXPECT_EQ(a["checked"][0]["status"], "not evaluated");
   EXPECT_EQ(a["checked"][0]["value"], 7.5);
   EXPECT_EQ(a["checked"][0]["job_id"], first);
-  const auto second = Calibration(kMachine, "done", {9, 2, 3, 4, 5, -7.5});
+  const auto second = Calibration(kMachine, JobStatus::kDone, {9, 2, 3, 4, 5, -7.5});
   const json b = RunAccuracyAudit(*svc_, kMachine, "manual", 1795749180);
   EXPECT_EQ(b["level"], 2);
   const json& f = b["findings"][0];
@@ -190,9 +190,9 @@ TEST_F(CalibrationAudits, TheTrendOfACalibrationMetricListsItsJobs) {
   // A machine the fleet knows (it has a measurement) with two calibrations.
   const auto f = DemoDbbFiles().at(0);
   const auto machine = svc_->storage().GetMeasurement(svc_->Upload(f.bytes, f.name).id)->machine_id;
-  const auto a = Calibration(machine, "done", {1, -2, 3, -4, 5, -6});
-  Calibration(machine, "failed", {200, 0, 0, 0, 0, 0});
-  const auto b = Calibration(machine, "done", {2, -3, 1, 0.5, -7.5, 4});
+  const auto a = Calibration(machine, JobStatus::kDone, {1, -2, 3, -4, 5, -6});
+  Calibration(machine, JobStatus::kFailed, {200, 0, 0, 0, 0, 0});
+  const auto b = Calibration(machine, JobStatus::kDone, {2, -3, 1, 0.5, -7.5, 4});
   const json t = Trends(*svc_, machine, "strut_offset_max_um");
   EXPECT_EQ(t["kind"], "calibration");
   EXPECT_EQ(t["unit"], "µm");

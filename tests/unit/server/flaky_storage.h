@@ -33,7 +33,7 @@ class FlakyStorage final : public SqliteStorage {
                 const std::string& stage, std::int64_t lease_until_ms) override {
     JobRecord j;
     j.id = id;
-    j.status = "running";
+    j.status = JobStatus::kRunning;
     j.progress = progress;
     j.stage = stage;
     MaybeFail(j);

@@ -31,7 +31,7 @@ std::int64_t NowMs() {
 class JobQueueTest : public test::TempDirTest {
  protected:
   // Waits (up to 20 s) until the job's status is `status`.
-  static JobRecord WaitStatus(Storage& st, std::int64_t id, const std::string& status) {
+  static JobRecord WaitStatus(Storage& st, std::int64_t id, JobStatus status) {
     const auto until = std::chrono::steady_clock::now() + 20s;
     while (std::chrono::steady_clock::now() < until) {
       const auto j = st.GetJob(id);
@@ -80,7 +80,7 @@ TEST_F(JobQueueTest, TwoInstancesOnOneDatabaseRunEveryJobOnceAndShareTheWork) {
   for (int n = 0; n < 40; ++n) ids.push_back(a->Submit("count", {}, {{"n", n}, {"ms", 10}}));
   a->Start();
   b->Start();
-  for (const auto id : ids) EXPECT_EQ(WaitStatus(db_a, id, "done").attempts, 1);
+  for (const auto id : ids) EXPECT_EQ(WaitStatus(db_a, id, JobStatus::kDone).attempts, 1);
   std::set<std::string> instances;
   for (int n = 0; n < 40; ++n) {
     ASSERT_EQ(runs_[n].size(), 1u) << "job " << n << " ran " << runs_[n].size() << " times";
@@ -94,17 +94,17 @@ TEST_F(JobQueueTest, AStoppingInstanceGivesItsRunningJobBackAndAnotherFinishesIt
   auto a = Queue(db_a, "instance-a");
   a->Start();
   const auto id = a->Submit("count", {}, {{"n", 1}, {"slow", true}});
-  const auto running = WaitStatus(db_a, id, "running");
+  const auto running = WaitStatus(db_a, id, JobStatus::kRunning);
   EXPECT_EQ(running.lease_owner, "instance-a");
   a->Stop();
   const auto back = db_a.GetJob(id);
-  EXPECT_EQ(back->status, "queued");
+  EXPECT_EQ(back->status, JobStatus::kQueued);
   EXPECT_EQ(back->lease_owner, "");
   EXPECT_EQ(back->attempts, 1);
   release_ = true;
   auto b = Queue(db_b, "instance-b");
   b->Start();
-  const auto done = WaitStatus(db_b, id, "done");
+  const auto done = WaitStatus(db_b, id, JobStatus::kDone);
   EXPECT_EQ(done.attempts, 2);
   EXPECT_EQ(done.lease_owner, "instance-b");  // the instance that ran it
   EXPECT_EQ(nlohmann::json::parse(done.result_json)["by"], "instance-b");
@@ -120,7 +120,7 @@ TEST_F(JobQueueTest, AJobOfAnInstanceThatDiedIsTakenOverWhenItsLeaseLapses) {
   EXPECT_EQ(claimed->id, id);
   const auto t0 = std::chrono::steady_clock::now();
   b->Start();
-  const auto done = WaitStatus(db, id, "done");
+  const auto done = WaitStatus(db, id, JobStatus::kDone);
   EXPECT_GE(std::chrono::steady_clock::now() - t0, 200ms) << "taken before the lease lapsed";
   EXPECT_EQ(done.attempts, 2);
   EXPECT_EQ(nlohmann::json::parse(done.result_json)["by"], "instance-b");
@@ -131,12 +131,12 @@ TEST_F(JobQueueTest, ALeaseRenewedByTheHeartbeatIsNotTakenOver) {
   auto a = Queue(db_a, "instance-a", 1, 300);
   a->Start();
   const auto id = a->Submit("count", {}, {{"n", 2}, {"slow", true}});
-  WaitStatus(db_a, id, "running");
+  WaitStatus(db_a, id, JobStatus::kRunning);
   auto b = Queue(db_b, "instance-b", 1, 300);
   b->Start();
   std::this_thread::sleep_for(1200ms);  // four leases
   release_ = true;
-  const auto done = WaitStatus(db_a, id, "done");
+  const auto done = WaitStatus(db_a, id, JobStatus::kDone);
   EXPECT_EQ(done.attempts, 1);
   EXPECT_EQ(nlohmann::json::parse(done.result_json)["by"], "instance-a");
 }
@@ -146,7 +146,7 @@ TEST_F(JobQueueTest, AnInstanceThatLostItsLeaseDropsItsOutcome) {
   auto a = Queue(db, "instance-a");
   a->Start();
   const auto id = a->Submit("count", {}, {{"n", 3}, {"slow", true}});
-  WaitStatus(db, id, "running");
+  WaitStatus(db, id, JobStatus::kRunning);
   // Another instance takes the job over, as when instance-a's lease lapsed (its clock two
   // minutes ahead).
   const auto other = db.ClaimJob("instance-other", NowMs() + 120'000, 600'000, 3, "abandoned");
@@ -156,7 +156,7 @@ TEST_F(JobQueueTest, AnInstanceThatLostItsLeaseDropsItsOutcome) {
   release_ = true;
   a->Stop();
   const auto j = db.GetJob(id);
-  EXPECT_EQ(j->status, "running");
+  EXPECT_EQ(j->status, JobStatus::kRunning);
   EXPECT_EQ(j->lease_owner, "instance-other");
   EXPECT_EQ(j->result_json, "");
   EXPECT_FALSE(db.FinishJob(*j, "instance-a"));
@@ -175,7 +175,7 @@ TEST_F(JobQueueTest, AJobWhoseInstancesKeepDyingFailsAfterTheLastAttempt) {
   }
   EXPECT_FALSE(db.ClaimJob("instance-4", now, 100, 3, "gave up"));
   const auto j = db.GetJob(id);
-  EXPECT_EQ(j->status, "failed");
+  EXPECT_EQ(j->status, JobStatus::kFailed);
   EXPECT_EQ(j->error, "gave up");
 }
 
@@ -196,8 +196,10 @@ TEST_F(JobQueueTest, AJobOfAnUnknownKindOrWithoutPlanFailsWithTheReason) {
   const auto other = db.QueueJob(NewJob{"telepathy", "{}", "{}"});
   const auto old = db.CreateJob("count", "");  // as an earlier version stored it
   a->Start();
-  EXPECT_NE(WaitStatus(db, other, "failed").error.find("kind 'telepathy'"), std::string::npos);
-  EXPECT_NE(WaitStatus(db, old, "failed").error.find("submit it again"), std::string::npos);
+  EXPECT_NE(WaitStatus(db, other, JobStatus::kFailed).error.find("kind 'telepathy'"),
+            std::string::npos);
+  EXPECT_NE(WaitStatus(db, old, JobStatus::kFailed).error.find("submit it again"),
+            std::string::npos);
 }
 
 TEST_F(JobQueueTest, ACancelledRunningJobStopsAtItsNextReportAndFreesTheWorker) {
@@ -205,22 +207,22 @@ TEST_F(JobQueueTest, ACancelledRunningJobStopsAtItsNextReportAndFreesTheWorker) 
   auto a = Queue(db, "instance-a");  // one worker
   a->Start();
   const auto slow = a->Submit("count", {}, {{"n", 1}, {"slow", true}}, 7);
-  EXPECT_EQ(WaitStatus(db, slow, "running").owner_token_id, 7);
+  EXPECT_EQ(WaitStatus(db, slow, JobStatus::kRunning).owner_token_id, 7);
   const auto next = a->Submit("count", {}, {{"n", 2}});
   const auto t0 = std::chrono::steady_clock::now();
   ASSERT_TRUE(a->Cancel(slow, "cancelled by the test"));
   const auto cancelled = *db.GetJob(slow);
-  EXPECT_EQ(cancelled.status, "cancelled");
+  EXPECT_EQ(cancelled.status, JobStatus::kCancelled);
   EXPECT_EQ(cancelled.stage, "cancelled");
   EXPECT_EQ(cancelled.error, "cancelled by the test");
   // The worker is free: the next job runs at once.
-  WaitStatus(db, next, "done");
+  WaitStatus(db, next, JobStatus::kDone);
   EXPECT_LT(std::chrono::steady_clock::now() - t0, 5s);
-  EXPECT_EQ(db.GetJob(slow)->status, "cancelled");  // never finished afterwards
+  EXPECT_EQ(db.GetJob(slow)->status, JobStatus::kCancelled);  // never finished afterwards
   EXPECT_TRUE(runs_[1].empty());
   EXPECT_FALSE(a->Cancel(slow, "again"));     // cancelled already
   EXPECT_FALSE(a->Cancel(next, "too late"));  // done
-  EXPECT_EQ(db.GetJob(next)->status, "done");
+  EXPECT_EQ(db.GetJob(next)->status, JobStatus::kDone);
 }
 
 TEST_F(JobQueueTest, AJobCancelledThroughAnotherInstanceStopsWhereItRuns) {
@@ -230,11 +232,12 @@ TEST_F(JobQueueTest, AJobCancelledThroughAnotherInstanceStopsWhereItRuns) {
   a->Start();
   b->Start();
   const auto slow = b->Submit("count", {}, {{"n", 1}, {"slow", true}});
-  WaitStatus(db_b, slow, "running");
+  WaitStatus(db_b, slow, JobStatus::kRunning);
   ASSERT_TRUE(b->Cancel(slow, "cancelled elsewhere"));
   const auto next = b->Submit("count", {}, {{"n", 2}});
-  EXPECT_EQ(nlohmann::json::parse(WaitStatus(db_b, next, "done").result_json)["by"], "instance-a");
-  EXPECT_EQ(db_a.GetJob(slow)->status, "cancelled");
+  EXPECT_EQ(nlohmann::json::parse(WaitStatus(db_b, next, JobStatus::kDone).result_json)["by"],
+            "instance-a");
+  EXPECT_EQ(db_a.GetJob(slow)->status, JobStatus::kCancelled);
   EXPECT_TRUE(runs_[1].empty());
 }
 
@@ -245,8 +248,8 @@ TEST_F(JobQueueTest, AQueuedJobCancelledIsNeverRun) {
   ASSERT_TRUE(a->Cancel(id, "not wanted"));
   const auto after = a->Submit("count", {}, {{"n", 4}});
   a->Start();
-  WaitStatus(db, after, "done");
-  EXPECT_EQ(db.GetJob(id)->status, "cancelled");
+  WaitStatus(db, after, JobStatus::kDone);
+  EXPECT_EQ(db.GetJob(id)->status, JobStatus::kCancelled);
   EXPECT_TRUE(runs_[3].empty());
 }
 

@@ -26,7 +26,7 @@ class JobStorageErrors : public test::TempDirTest {
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
     while (std::chrono::steady_clock::now() < until) {
       const auto j = st.GetJob(id);
-      if (j && (j->status == "done" || j->status == "failed")) return *j;
+      if (j && (j->status == JobStatus::kDone || j->status == JobStatus::kFailed)) return *j;
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     ADD_FAILURE() << "job " << id << " did not finish";
@@ -64,46 +64,47 @@ TEST_F(JobStorageErrors, EveryUpdateOfAJobFailingLeavesTheWorkerAlive) {
   ASSERT_EQ(first, 1);
   const auto second = Submit(*q, {{"v", 2}});
   const auto j2 = WaitFinished(st, second);
-  EXPECT_EQ(j2.status, "done");
+  EXPECT_EQ(j2.status, JobStatus::kDone);
   EXPECT_NE(j2.result_json.find("\"answer\":2"), std::string::npos) << j2.result_json;
   EXPECT_EQ(ran_.load(), 2);
   EXPECT_GE(st.failed_updates(), 2);  // progress, done
   // Nothing could be written for job 1 after its claim: it stays running under a lease that
   // lapses (then another start runs it), and the process goes on.
-  EXPECT_EQ(st.GetJob(first)->status, "running");
+  EXPECT_EQ(st.GetJob(first)->status, JobStatus::kRunning);
 }
 
 TEST_F(JobStorageErrors, AResultThatCannotBeStoredMarksTheJobFailed) {
   FlakyStorage st(Path("jobs.db"));
-  st.FailUpdatesWhen([](const JobRecord& j) { return j.status == "done"; });
+  st.FailUpdatesWhen([](const JobRecord& j) { return j.status == JobStatus::kDone; });
   auto q = Queue(st);
   const auto id = Submit(*q, {{"v", 7}});
   const auto j = WaitFinished(st, id);
-  EXPECT_EQ(j.status, "failed");
+  EXPECT_EQ(j.status, JobStatus::kFailed);
   EXPECT_NE(j.error.find("could not be stored"), std::string::npos) << j.error;
   EXPECT_NE(j.error.find("disk I/O error"), std::string::npos) << j.error;
   st.FailUpdatesWhen(nullptr);
-  EXPECT_EQ(WaitFinished(st, Submit(*q, {{"v", 8}})).status, "done");
+  EXPECT_EQ(WaitFinished(st, Submit(*q, {{"v", 8}})).status, JobStatus::kDone);
 }
 
 TEST_F(JobStorageErrors, StatusAndProgressUpdatesFailingDoNotStopTheWork) {
   FlakyStorage st(Path("jobs.db"));
-  st.FailUpdatesWhen([](const JobRecord& j) { return j.status == "running"; });
+  st.FailUpdatesWhen([](const JobRecord& j) { return j.status == JobStatus::kRunning; });
   auto q = Queue(st);
   const auto j = WaitFinished(st, Submit(*q, {{"v", 3}}));
-  EXPECT_EQ(j.status, "done");
+  EXPECT_EQ(j.status, JobStatus::kDone);
   EXPECT_NE(j.result_json.find("\"answer\":3"), std::string::npos);
   EXPECT_GE(st.failed_updates(), 1);
 }
 
 TEST_F(JobStorageErrors, AJobThatThrowsWhileItsFailureCannotBeStoredLeavesTheWorkerAlive) {
   FlakyStorage st(Path("jobs.db"));
-  st.FailUpdatesWhen([](const JobRecord& j) { return j.id == 1 && j.status == "failed"; });
+  st.FailUpdatesWhen(
+      [](const JobRecord& j) { return j.id == 1 && j.status == JobStatus::kFailed; });
   auto q = Queue(st);
   const auto bad = Submit(*q, {{"throw", true}});
   const auto good = Submit(*q, {{"v", 4}});
-  EXPECT_EQ(WaitFinished(st, good).status, "done");
-  EXPECT_EQ(st.GetJob(bad)->status, "running");
+  EXPECT_EQ(WaitFinished(st, good).status, JobStatus::kDone);
+  EXPECT_EQ(st.GetJob(bad)->status, JobStatus::kRunning);
 }
 
 // A job's error is for its user: the product's own errors (bad input, not observable, not
@@ -112,11 +113,11 @@ TEST_F(JobStorageErrors, AJobFailsWithTheUsersMessageOrAsAnInternalError) {
   SqliteStorage st(Path("jobs.db"));
   auto q = Queue(st);
   const auto refused = WaitFinished(st, Submit(*q, {{"refuse", true}}));
-  EXPECT_EQ(refused.status, "failed");
+  EXPECT_EQ(refused.status, JobStatus::kFailed);
   EXPECT_EQ(refused.error, InvalidInput("plan.json", 3, "tests", "no DBB test").what());
   const auto id = Submit(*q, {{"throw", true}});
   const auto internal = WaitFinished(st, id);
-  EXPECT_EQ(internal.status, "failed");
+  EXPECT_EQ(internal.status, JobStatus::kFailed);
   EXPECT_EQ(internal.error, "the job failed with an internal error (logged by the server as job " +
                                 std::to_string(id) + ")");
 }
@@ -137,7 +138,8 @@ TEST_F(JobStorageErrors, StoppingWithQueuedJobsAndAFailingStorageDoesNotTerminat
   releaser.join();
   EXPECT_GE(st.failed_updates(), 0);
   // Nothing is lost: the interrupted job and the queued ones wait for the next start.
-  for (std::int64_t id = 1; id <= 4; ++id) EXPECT_EQ(st.GetJob(id)->status, "queued") << id;
+  for (std::int64_t id = 1; id <= 4; ++id)
+    EXPECT_EQ(st.GetJob(id)->status, JobStatus::kQueued) << id;
 }
 
 // The verdict on a finished job: a calibration that is ill-conditioned, not converged or
@@ -155,14 +157,14 @@ nlohmann::json GoodCalibration() {
 }
 
 TEST(JobVerdict, AWellDeterminedCalibrationIsOk) {
-  const auto v = JudgeJob("hexapod_calibration", "done", GoodCalibration(), "");
+  const auto v = JudgeJob("hexapod_calibration", JobStatus::kDone, GoodCalibration(), "");
   EXPECT_EQ(v.verdict, "ok");
   EXPECT_TRUE(v.reasons.empty());
   // Centre-corrected fixes the 6 rigid motions of the base: that alone is no warning.
   auto cc = GoodCalibration();
   cc["method"] = "centre_corrected";
   cc["fixed_parameters"] = {"a", "b", "c", "d", "e", "f"};
-  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", cc, "").verdict, "ok");
+  EXPECT_EQ(JudgeJob("hexapod_calibration", JobStatus::kDone, cc, "").verdict, "ok");
 }
 
 TEST(JobVerdict, OneTestCalibrationIsAWarningWithEveryReason) {
@@ -175,7 +177,7 @@ TEST(JobVerdict, OneTestCalibrationIsAWarningWithEveryReason) {
   r["parameter_uncertainty_um"]["strut_offset_um"] = {1576.3, 853.3,  2677.5,
                                                       1698.6, 1073.2, 1766.4};
   r["fixed_parameters"] = nlohmann::json(std::vector<std::string>(15, "p"));
-  const auto v = JudgeJob("hexapod_calibration", "done", r, "");
+  const auto v = JudgeJob("hexapod_calibration", JobStatus::kDone, r, "");
   EXPECT_EQ(v.verdict, "warning");
   ASSERT_EQ(v.reasons.size(), 4u);
   EXPECT_NE(v.reasons[0].find("not converged"), std::string::npos) << v.reasons[0];
@@ -188,50 +190,52 @@ TEST(JobVerdict, OneTestCalibrationIsAWarningWithEveryReason) {
 TEST(JobVerdict, EachConditionAloneIsEnough) {
   auto r = GoodCalibration();
   r["condition_number"] = 2 * kIllConditionedAbove;
-  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "warning");
+  EXPECT_EQ(JudgeJob("hexapod_calibration", JobStatus::kDone, r, "").verdict, "warning");
   r = GoodCalibration();
   r["converged"] = false;
-  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "warning");
+  EXPECT_EQ(JudgeJob("hexapod_calibration", JobStatus::kDone, r, "").verdict, "warning");
   r = GoodCalibration();
   r["parameter_uncertainty_um"]["strut_offset_um"][3] = 1.5 * kUndeterminedAboveUm;
-  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "warning");
+  EXPECT_EQ(JudgeJob("hexapod_calibration", JobStatus::kDone, r, "").verdict, "warning");
   r = GoodCalibration();
   r["fixed_parameters"] = {"base_joint_offset_um[0][0]"};
-  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "warning");
+  EXPECT_EQ(JudgeJob("hexapod_calibration", JobStatus::kDone, r, "").verdict, "warning");
   // Numbers that are not numbers fail it (NaN is stored as null).
   r = GoodCalibration();
   r["condition_number"] = nullptr;
-  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "failed");
+  EXPECT_EQ(JudgeJob("hexapod_calibration", JobStatus::kDone, r, "").verdict, "failed");
   r = GoodCalibration();
   r["parameter_uncertainty_um"]["strut_offset_um"][0] = nullptr;
-  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", r, "").verdict, "failed");
+  EXPECT_EQ(JudgeJob("hexapod_calibration", JobStatus::kDone, r, "").verdict, "failed");
 }
 
 TEST(JobVerdict, DiscoveriesFailedAndRunningJobs) {
-  EXPECT_EQ(JudgeJob("discovery", "done", {{"verdict", "complete"}, {"condition_number", 3e7}}, "")
+  EXPECT_EQ(JudgeJob("discovery", JobStatus::kDone,
+                     {{"verdict", "complete"}, {"condition_number", 3e7}}, "")
                 .verdict,
             "ok");
-  const auto misfit = JudgeJob("discovery", "done",
+  const auto misfit = JudgeJob("discovery", JobStatus::kDone,
                                {{"verdict", "model misfit"}, {"stop_reason", "no candidate"}}, "");
   EXPECT_EQ(misfit.verdict, "warning");
   ASSERT_EQ(misfit.reasons.size(), 1u);
   EXPECT_NE(misfit.reasons[0].find("no candidate"), std::string::npos);
-  const auto failed = JudgeJob("hexapod_calibration", "failed", nullptr, "did not converge");
+  const auto failed =
+      JudgeJob("hexapod_calibration", JobStatus::kFailed, nullptr, "did not converge");
   EXPECT_EQ(failed.verdict, "failed");
   EXPECT_EQ(failed.reasons, std::vector<std::string>{"did not converge"});
-  EXPECT_EQ(JudgeJob("discovery", "running", nullptr, "").verdict, "");
-  EXPECT_EQ(JudgeJob("hexapod_calibration", "done", nullptr, "").verdict, "failed");
+  EXPECT_EQ(JudgeJob("discovery", JobStatus::kRunning, nullptr, "").verdict, "");
+  EXPECT_EQ(JudgeJob("hexapod_calibration", JobStatus::kDone, nullptr, "").verdict, "failed");
   // The job JSON carries the verdict and its reasons.
   JobRecord job;
   job.id = 3;
   job.kind = "hexapod_calibration";
-  job.status = "done";
+  job.status = JobStatus::kDone;
   job.request_json = "{}";
   job.result_json = GoodCalibration().dump();
   const auto j = JobJson(job);
   EXPECT_EQ(j["verdict"], "ok");
   EXPECT_TRUE(j["verdict_reasons"].empty());
-  job.status = "running";
+  job.status = JobStatus::kRunning;
   job.result_json.clear();
   EXPECT_TRUE(JobJson(job)["verdict"].is_null());
 }

@@ -53,7 +53,7 @@ NewMachineModel Model(const std::string& machine, const std::string& document) {
   return m;
 }
 
-JobRecord Job(std::int64_t id, const std::string& status, double progress, const std::string& stage,
+JobRecord Job(std::int64_t id, JobStatus status, double progress, const std::string& stage,
               const std::string& result, const std::string& error) {
   JobRecord j;
   j.id = id;
@@ -329,15 +329,15 @@ TEST_F(MachineModels, SavingTheMachineOfAJobWithoutOneIsAConflict) {
   const auto c1 = Expect<Conflict>([&] { service_->SaveJobMachine(queued, ""); });
   EXPECT_TRUE(Contains(c1.what(), "is queued")) << c1.what();
   const auto failed = st.CreateJob("hexapod_calibration", "{}");
-  st.UpdateJob(Job(failed, "failed", 0.0, "", "", "no convergence"));
+  st.UpdateJob(Job(failed, JobStatus::kFailed, 0.0, "", "", "no convergence"));
   const auto c2 = Expect<Conflict>([&] { service_->SaveJobMachine(failed, ""); });
   EXPECT_TRUE(Contains(c2.what(), "is failed")) << c2.what();
   const auto serial = st.CreateJob("discovery", "{}");
-  st.UpdateJob(Job(serial, "done", 1.0, "done", R"({"verdict":"ok"})", ""));
+  st.UpdateJob(Job(serial, JobStatus::kDone, 1.0, "done", R"({"verdict":"ok"})", ""));
   const auto c3 = Expect<Conflict>([&] { service_->SaveJobMachine(serial, ""); });
   EXPECT_TRUE(Contains(c3.what(), "updated_machine")) << c3.what();
   const auto other = st.CreateJob("something_else", "{}");
-  st.UpdateJob(Job(other, "done", 1.0, "done", "{}", ""));
+  st.UpdateJob(Job(other, JobStatus::kDone, 1.0, "done", "{}", ""));
   EXPECT_THROW(service_->SaveJobMachine(other, ""), Conflict);
   EXPECT_TRUE(st.ListMachines().empty());
 }

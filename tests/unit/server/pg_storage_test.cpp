@@ -157,7 +157,7 @@ TEST_F(PgStorageTest, ADatabaseOfVersion7GainsTheJobQueueWithNothingLost) {
   EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"),
             std::to_string(pg::SchemaVersion()));
   const auto j = *s.GetJob(1);
-  EXPECT_EQ(j.status, "done");
+  EXPECT_EQ(j.status, JobStatus::kDone);
   EXPECT_EQ(j.request_json, R"({"a":1})");
   EXPECT_EQ(j.result_json, R"({"r":2})");
   EXPECT_EQ(j.updated_at, "2026-01-01T00:00:01Z");
@@ -327,7 +327,7 @@ TEST_F(PgStorageTest, ALockHeldLongerThanTheBusyTimeoutIsBusy) {
     EXPECT_EQ(e.code(), pg::SqlStateCode("57014")) << e.what();
   }
   lock.Release();
-  EXPECT_EQ(s.GetJob(job)->status, "queued");
+  EXPECT_EQ(s.GetJob(job)->status, JobStatus::kQueued);
 }
 
 TEST_F(PgStorageTest, ErrorsAreBusyForTheSqlStatesARetryMayOutlast) {

@@ -295,17 +295,17 @@ TEST_P(Backends, JobsAreStoredUpdatedListedAndCounted) {
   EXPECT_EQ(s->CreateJob("calibration", "{}"), 3);
   auto j = *s->GetJob(1);
   EXPECT_EQ(j.kind, "calibration");
-  EXPECT_EQ(j.status, "queued");
+  EXPECT_EQ(j.status, JobStatus::kQueued);
   EXPECT_EQ(j.progress, 0.0);
   EXPECT_EQ(j.request_json, R"({"a":1})");
   EXPECT_EQ(j.created_at.size(), 20u);
-  j.status = "done";
+  j.status = JobStatus::kDone;
   j.progress = 0.1 + 0.2;  // not a round decimal: stored exactly
   j.stage = "fit";
   j.result_json = R"({"r":2})";
   s->UpdateJob(j);
   const auto back = *s->GetJob(1);
-  EXPECT_EQ(back.status, "done");
+  EXPECT_EQ(back.status, JobStatus::kDone);
   EXPECT_EQ(back.progress, 0.1 + 0.2);
   EXPECT_EQ(back.stage, "fit");
   EXPECT_EQ(back.result_json, R"({"r":2})");
@@ -316,9 +316,9 @@ TEST_P(Backends, JobsAreStoredUpdatedListedAndCounted) {
   EXPECT_EQ(list[1].id, 2);
   EXPECT_EQ(s->CountJobsByStatus(),
             (std::map<std::string, std::int64_t>{{"done", 1}, {"queued", 2}}));
-  EXPECT_EQ(s->CountJobsWithStatus("queued"), 2);
-  EXPECT_EQ(s->CountJobsWithStatus("done"), 1);
-  EXPECT_EQ(s->CountJobsWithStatus("running"), 0);
+  EXPECT_EQ(s->CountJobsWithStatus(JobStatus::kQueued), 2);
+  EXPECT_EQ(s->CountJobsWithStatus(JobStatus::kDone), 1);
+  EXPECT_EQ(s->CountJobsWithStatus(JobStatus::kRunning), 0);
   EXPECT_EQ(s->FailInterruptedJobs("stopped"), 2);
   EXPECT_EQ(s->GetJob(2)->error, "stopped");
   EXPECT_EQ(s->GetJob(1)->error, "");

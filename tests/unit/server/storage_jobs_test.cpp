@@ -31,7 +31,7 @@ TEST_P(Backends, JobsAreClaimedOldestFirstWithTheirPlan) {
   const auto j = s->ClaimJob("a", 1000, 500, 3, kAbandoned);
   ASSERT_TRUE(j);
   EXPECT_EQ(j->id, 1);
-  EXPECT_EQ(j->status, "running");
+  EXPECT_EQ(j->status, JobStatus::kRunning);
   EXPECT_EQ(j->stage, "started");
   EXPECT_EQ(j->progress, 0.0);
   EXPECT_EQ(j->plan_json, R"({"plan":1})");
@@ -40,7 +40,7 @@ TEST_P(Backends, JobsAreClaimedOldestFirstWithTheirPlan) {
   EXPECT_EQ(j->lease_until_ms, 1500);
   EXPECT_EQ(j->attempts, 1);
   const auto stored = *s->GetJob(1);
-  EXPECT_EQ(stored.status, "running");
+  EXPECT_EQ(stored.status, JobStatus::kRunning);
   EXPECT_EQ(stored.lease_owner, "a");
   EXPECT_EQ(stored.lease_until_ms, 1500);
   EXPECT_EQ(stored.attempts, 1);
@@ -51,7 +51,7 @@ TEST_P(Backends, JobsAreClaimedOldestFirstWithTheirPlan) {
   // CreateJob queues a job whose plan is its request.
   const auto id = s->CreateJob("discovery", R"({"x":1})");
   EXPECT_EQ(s->GetJob(id)->plan_json, R"({"x":1})");
-  EXPECT_EQ(s->GetJob(id)->status, "queued");
+  EXPECT_EQ(s->GetJob(id)->status, JobStatus::kQueued);
 }
 
 TEST_P(Backends, ALapsedLeaseIsTakenOverAndTheLastAttemptFails) {
@@ -68,7 +68,7 @@ TEST_P(Backends, ALapsedLeaseIsTakenOverAndTheLastAttemptFails) {
   // a lost it: its progress and its outcome are refused, nothing written.
   EXPECT_FALSE(s->RenewJob(1, "a", 0.9, "late", 9000));
   JobRecord done = *b;
-  done.status = "done";
+  done.status = JobStatus::kDone;
   done.progress = 1.0;
   done.result_json = R"({"from":"a"})";
   EXPECT_FALSE(s->FinishJob(done, "a"));
@@ -84,7 +84,7 @@ TEST_P(Backends, ALapsedLeaseIsTakenOverAndTheLastAttemptFails) {
   // The third start lapsed too: failed, not started a fourth time.
   EXPECT_FALSE(s->ClaimJob("d", 9000, 1000, 3, kAbandoned));
   now = *s->GetJob(1);
-  EXPECT_EQ(now.status, "failed");
+  EXPECT_EQ(now.status, JobStatus::kFailed);
   EXPECT_EQ(now.error, kAbandoned);
   EXPECT_EQ(now.lease_owner, "");
   EXPECT_EQ(now.lease_until_ms, 0);
@@ -96,13 +96,13 @@ TEST_P(Backends, TheOwnerFinishesItsJobOnce) {
   auto s = Open();
   s->QueueJob(Job(1));
   JobRecord j = *s->ClaimJob("a", 0, 100, 3, kAbandoned);
-  j.status = "done";
+  j.status = JobStatus::kDone;
   j.progress = 1.0;
   j.stage = "done";
   j.result_json = R"({"r":1})";
   EXPECT_TRUE(s->FinishJob(j, "a"));
   const auto stored = *s->GetJob(1);
-  EXPECT_EQ(stored.status, "done");
+  EXPECT_EQ(stored.status, JobStatus::kDone);
   EXPECT_EQ(stored.result_json, R"({"r":1})");
   EXPECT_EQ(stored.progress, 1.0);
   EXPECT_EQ(stored.lease_owner, "a");  // the instance that ran it
@@ -120,7 +120,7 @@ TEST_P(Backends, AStoppingInstanceGivesItsJobsBack) {
   EXPECT_EQ(s->ReleaseJobs("a"), 2);
   EXPECT_EQ(s->ReleaseJobs("a"), 0);
   const auto one = *s->GetJob(1);
-  EXPECT_EQ(one.status, "queued");
+  EXPECT_EQ(one.status, JobStatus::kQueued);
   EXPECT_EQ(one.stage, "waiting for an instance");
   EXPECT_EQ(one.lease_owner, "");
   EXPECT_EQ(one.lease_until_ms, 0);
@@ -148,21 +148,21 @@ TEST_P(Backends, QueuedAndRunningJobsAreCancelledAndNeverTakenAgain) {
   EXPECT_TRUE(s->CancelJob(1, "cancelled by token 'x' (id 42)"));
   EXPECT_TRUE(s->CancelJob(2, "not wanted"));
   const auto one = *s->GetJob(1);
-  EXPECT_EQ(one.status, "cancelled");
+  EXPECT_EQ(one.status, JobStatus::kCancelled);
   EXPECT_EQ(one.stage, "cancelled");
   EXPECT_EQ(one.error, "cancelled by token 'x' (id 42)");
   EXPECT_EQ(one.lease_until_ms, 0);
   EXPECT_EQ(one.owner_token_id, 42);
   // The instance running it learns at its next report; its outcome is refused.
   EXPECT_FALSE(s->RenewJob(1, "a", 0.5, "x", 1000));
-  running.status = "done";
+  running.status = JobStatus::kDone;
   EXPECT_FALSE(s->FinishJob(running, "a"));
-  EXPECT_EQ(s->GetJob(1)->status, "cancelled");
+  EXPECT_EQ(s->GetJob(1)->status, JobStatus::kCancelled);
   EXPECT_EQ(s->ReleaseJobs("a"), 0);
   // Never claimed again, also long after any lease; a second cancel changes nothing.
   JobRecord three = *s->ClaimJob("b", 1'000'000, 100, 3, kAbandoned);
   EXPECT_EQ(three.id, 3);
-  three.status = "done";
+  three.status = JobStatus::kDone;
   EXPECT_TRUE(s->FinishJob(three, "b"));
   EXPECT_FALSE(s->ClaimJob("b", 2'000'000, 100, 3, kAbandoned));
   EXPECT_FALSE(s->CancelJob(1, "again"));
@@ -191,7 +191,7 @@ TEST_P(Backends, TwoInstancesClaimingFromManyThreadsTakeEveryJobOnce) {
           std::lock_guard lock(mu);
           taken.push_back(j->id);
         }
-        j->status = "done";
+        j->status = JobStatus::kDone;
         j->result_json = "{}";
         EXPECT_TRUE(s.FinishJob(*j, owner)) << j->id;
       }

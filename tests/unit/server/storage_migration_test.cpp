@@ -151,7 +151,7 @@ void ExpectVersion2Rows(SqliteStorage& s) {
   EXPECT_EQ(jobs.back().id, 1);
   const auto done = s.GetJob(1);
   ASSERT_TRUE(done);
-  EXPECT_EQ(done->status, "done");
+  EXPECT_EQ(done->status, JobStatus::kDone);
   EXPECT_EQ(done->progress, 1.0);
   EXPECT_EQ(done->stage, "finished");
   EXPECT_EQ(done->request_json, R"({"measurement_ids":[1]})");
@@ -159,7 +159,7 @@ void ExpectVersion2Rows(SqliteStorage& s) {
   EXPECT_EQ(done->created_at, "2025-04-01T10:00:00Z");
   const auto failed = s.GetJob(2);
   ASSERT_TRUE(failed);
-  EXPECT_EQ(failed->status, "failed");
+  EXPECT_EQ(failed->status, JobStatus::kFailed);
   EXPECT_EQ(failed->progress, 0.25);
   EXPECT_EQ(failed->error, "not observable");
 }
@@ -248,7 +248,7 @@ void ExpectVersion7Rows(SqliteStorage& s) {
 void ExpectVersion8Rows(SqliteStorage& s) {
   const auto j = s.GetJob(3);
   ASSERT_TRUE(j);
-  EXPECT_EQ(j->status, "done");
+  EXPECT_EQ(j->status, JobStatus::kDone);
   EXPECT_EQ(j->plan_json, R"({"measurement_ids":[1]})");
   EXPECT_EQ(j->lease_owner, "old-host:41:0badcafe");
   EXPECT_EQ(j->attempts, 2);
@@ -260,7 +260,7 @@ void ExpectJobOwnersKept(SqliteStorage& s) {
   const auto id = s.QueueJob(NewJob{"discovery", "{}", "{}", 1});
   EXPECT_EQ(s.GetJob(id)->owner_token_id, 1);
   EXPECT_TRUE(s.CancelJob(id, "not wanted"));
-  EXPECT_EQ(s.GetJob(id)->status, "cancelled");
+  EXPECT_EQ(s.GetJob(id)->status, JobStatus::kCancelled);
 }
 
 // Jobs of earlier versions carry no plan and no lease (version 8): finished ones keep their
@@ -268,7 +268,7 @@ void ExpectJobOwnersKept(SqliteStorage& s) {
 void ExpectJobsWithoutPlan(SqliteStorage& s) {
   const auto j = s.GetJob(1);
   ASSERT_TRUE(j);
-  EXPECT_EQ(j->status, "done");
+  EXPECT_EQ(j->status, JobStatus::kDone);
   EXPECT_EQ(j->result_json, R"({"rms_um":0.5})");
   EXPECT_EQ(j->plan_json, "");
   EXPECT_EQ(j->lease_owner, "");
