@@ -15,22 +15,19 @@
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
-import { randomBytes } from 'node:crypto';
-import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
-import { createRequire } from 'node:module';
-import { createServer } from 'node:net';
+import { existsSync, mkdirSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
+import {
+  CHROMIUM_ARGS, chromiumPath, loadPlaywright, serverBin, sleep, startServer, stopServer, webDir, webRoot,
+} from '../lib/harness.mjs';
+
+export { CHROMIUM_ARGS, chromiumPath, loadPlaywright, serverBin, sleep, startServer, stopServer, webDir, webRoot };
 
 export const here = dirname(fileURLToPath(import.meta.url));
 export const repo = resolve(here, '../../..');
-export const serverBin = process.argv[2] || process.env.KINEMETRICD || '';
-export const webDir = process.env.KINEMETRIC_WEB_DIR || join(repo, 'web');
-export const webRoot = process.env.KINEMETRIC_WEB_ROOT || join(repo, 'web/static');
 export const outDir = process.env.KINEMETRIC_BROWSER_OUT || process.argv[3] || join(tmpdir(), 'kinemetric-browser');
-export const chromiumPath = process.env.KINEMETRIC_CHROMIUM || '/usr/bin/chromium';
 export const fixtures = join(repo, 'tests/fixtures/browser');
 export const MACHINE = 'browser-test-vmc';
 export const TEST_ID = 'xy-r150';
@@ -47,29 +44,8 @@ export const TRACKER_MACHINE = 'browser-vmc';
 export const HEXAPOD_FIXTURES = 'abcdefghij'.split('').map((t) => `hexapod/dbb_${t}_ccw.txt`);
 export const HEXAPOD_MACHINE_JSON = join(repo, 'tests/fixtures/pm600-like.json');
 export const HEXAPOD_MACHINE = 'pm600-like';
-export const CHROMIUM_ARGS = [
-  '--headless',
-  '--no-sandbox',
-  '--disable-gpu',
-  '--disable-quic',
-  '--no-first-run',
-  '--disable-background-networking',
-  '--disable-component-update',
-  '--disable-sync',
-];
 
 // ------------------------------------------------------------------ prerequisites
-
-export function loadPlaywright() {
-  const pkg = join(webDir, 'package.json');
-  if (!existsSync(join(webDir, 'node_modules', 'playwright-core'))) {
-    throw new Error(
-      `playwright-core is not installed in ${join(webDir, 'node_modules')}. ` +
-        `Run \`npm ci\` in ${webDir} (deploy/install-deps.sh does this).`,
-    );
-  }
-  return createRequire(pkg)('playwright-core');
-}
 
 export function checkPrerequisites() {
   const problems = [];
@@ -84,89 +60,6 @@ export function checkPrerequisites() {
   }
   if (!existsSync(HEXAPOD_MACHINE_JSON)) problems.push(`machine definition ${HEXAPOD_MACHINE_JSON} is missing`);
   if (problems.length) throw new Error(`browser_dashboard cannot run:\n  - ${problems.join('\n  - ')}`);
-}
-
-// ------------------------------------------------------------------ server
-
-export function freePort() {
-  return new Promise((res, rej) => {
-    const srv = createServer();
-    srv.unref();
-    srv.on('error', rej);
-    srv.listen(0, '127.0.0.1', () => {
-      const { port } = srv.address();
-      srv.close(() => res(port));
-    });
-  });
-}
-
-export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-export async function startServer() {
-  const port = await freePort();
-  const dataDir = mkdtempSync(join(tmpdir(), 'kinemetric-browser-data-'));
-  const token = `bt-${randomBytes(18).toString('hex')}`;
-  const log = [];
-  const child = spawn(
-    serverBin,
-    ['--listen', `127.0.0.1:${port}`, '--data-dir', dataDir, '--web-root', webRoot],
-    {
-      env: { ...process.env, KINEMETRIC_BOOTSTRAP_TOKEN: token },
-      stdio: ['ignore', 'pipe', 'pipe'],
-    },
-  );
-  let exited = null;
-  child.on('exit', (code, signal) => {
-    exited = { code, signal };
-  });
-  child.on('error', (err) => {
-    exited = { error: err };
-  });
-  child.stdout.on('data', (d) => log.push(String(d)));
-  child.stderr.on('data', (d) => log.push(String(d)));
-  const server = {
-    child,
-    port,
-    dataDir,
-    token,
-    base: `http://127.0.0.1:${port}`,
-    log: () => log.join('').slice(-4000),
-    exited: () => exited,
-  };
-  // Wait for /healthz (up to 20 s).
-  const deadline = Date.now() + 20_000;
-  let last = '';
-  while (Date.now() < deadline) {
-    if (exited) {
-      throw new Error(`kinemetricd exited before becoming healthy (${JSON.stringify(exited)}):\n${server.log()}`);
-    }
-    try {
-      const r = await fetch(`${server.base}/healthz`);
-      const body = await r.json();
-      if (r.status === 200 && body.status === 'ok') return server;
-      last = `HTTP ${r.status} ${JSON.stringify(body)}`;
-    } catch (err) {
-      last = err.message;
-    }
-    await sleep(100);
-  }
-  await stopServer(server);
-  throw new Error(`kinemetricd not healthy after 20 s (last: ${last}):\n${server.log()}`);
-}
-
-export async function stopServer(server) {
-  if (!server) return;
-  const { child } = server;
-  if (child.exitCode === null && child.signalCode === null) {
-    const gone = new Promise((r) => child.once('exit', r));
-    child.kill('SIGTERM');
-    const ok = await Promise.race([gone.then(() => true), sleep(5000).then(() => false)]);
-    if (!ok) {
-      child.kill('SIGKILL');
-      await Promise.race([gone, sleep(2000)]);
-    }
-  }
-  rmSync(server.dataDir, { recursive: true, force: true });
 }
 
 // ------------------------------------------------------------------ helpers
@@ -222,8 +115,6 @@ export function badLineOf(text) {
   assert.ok(i >= 0, 'bad fixture has no non-numeric dr_um');
   return i + 1;
 }
-
-// ------------------------------------------------------------------ the test
 
 // ------------------------------------------------------------------ a scenario
 

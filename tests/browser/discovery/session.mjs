@@ -3,24 +3,20 @@
 // token, the API calls and the dashboard's number formats.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { execFileSync, spawn } from 'node:child_process';
-import { randomBytes } from 'node:crypto';
-import { existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, rmSync } from 'node:fs';
-import { createRequire } from 'node:module';
-import { createServer } from 'node:net';
+import { existsSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { databaseArgs } from '../lib/harness.mjs';
+import {
+  CHROMIUM_ARGS, chromiumPath, loadPlaywright, serverBin, sleep, startServer, stopServer, webDir, webRoot,
+} from '../lib/harness.mjs';
+
+export { CHROMIUM_ARGS, chromiumPath, loadPlaywright, serverBin, sleep, startServer, stopServer, webDir, webRoot };
 
 export const here = dirname(fileURLToPath(import.meta.url));
 export const repo = resolve(here, '../../..');
-export const serverBin = process.argv[2] || process.env.KINEMETRICD || '';
 export const cliBin = process.argv[3] || process.env.KINEMETRIC_CLI || (serverBin ? join(dirname(serverBin), 'kinemetric') : '');
-export const webDir = process.env.KINEMETRIC_WEB_DIR || join(repo, 'web');
-export const webRoot = process.env.KINEMETRIC_WEB_ROOT || join(repo, 'web/static');
 export const outDir = process.env.KINEMETRIC_BROWSER_OUT || process.argv[4] || join(tmpdir(), 'kinemetric-browser');
-export const chromiumPath = process.env.KINEMETRIC_CHROMIUM || '/usr/bin/chromium';
 export const MACHINE_JSON = join(repo, 'tests/fixtures/pm600-like.json');
 export const MACHINE = 'pm600-like';
 export const SERIAL_FIXTURE = join(repo, 'tests/fixtures/browser/dbb_xy-r150_ccw.txt');
@@ -31,28 +27,8 @@ export const SIM_ARGS = [
   'simulate', 'dbb', '--machine', MACHINE_JSON, '--absolute', '--samples', '180', '--tools', '104.255,150',
   '--effects', 'gravity_deflection:K_stiff2_mm_per_N=1.52e-5;joint_friction:torque_Nm=8.88,ramp_mm=2',
 ];
-export const CHROMIUM_ARGS = [
-  '--headless',
-  '--no-sandbox',
-  '--disable-gpu',
-  '--disable-quic',
-  '--no-first-run',
-  '--disable-background-networking',
-  '--disable-component-update',
-  '--disable-sync',
-];
 
 // ------------------------------------------------------------------ prerequisites
-
-export function loadPlaywright() {
-  if (!existsSync(join(webDir, 'node_modules', 'playwright-core'))) {
-    throw new Error(
-      `playwright-core is not installed in ${join(webDir, 'node_modules')}. ` +
-        `Run \`npm ci\` in ${webDir} (deploy/install-deps.sh does this).`,
-    );
-  }
-  return createRequire(join(webDir, 'package.json'))('playwright-core');
-}
 
 export function checkPrerequisites() {
   const problems = [];
@@ -63,74 +39,6 @@ export function checkPrerequisites() {
   if (!existsSync(join(webRoot, 'index.html'))) problems.push(`no dashboard at ${webRoot}/index.html`);
   for (const f of [MACHINE_JSON, SERIAL_FIXTURE]) if (!existsSync(f)) problems.push(`fixture ${f} is missing`);
   if (problems.length) throw new Error(`browser_discovery cannot run:\n  - ${problems.join('\n  - ')}`);
-}
-
-// ------------------------------------------------------------------ server
-
-export function freePort() {
-  return new Promise((res, rej) => {
-    const srv = createServer();
-    srv.unref();
-    srv.on('error', rej);
-    srv.listen(0, '127.0.0.1', () => {
-      const { port } = srv.address();
-      srv.close(() => res(port));
-    });
-  });
-}
-
-export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-export async function startServer() {
-  const port = await freePort();
-  const dataDir = mkdtempSync(join(tmpdir(), 'kinemetric-discovery-data-'));
-  const token = `bt-${randomBytes(18).toString('hex')}`;
-  const log = [];
-  const child = spawn(serverBin, ['--listen', `127.0.0.1:${port}`, '--data-dir', dataDir, '--web-root', webRoot, ...databaseArgs(dataDir)], {
-    env: { ...process.env, KINEMETRIC_BOOTSTRAP_TOKEN: token },
-    stdio: ['ignore', 'pipe', 'pipe'],
-  });
-  let exited = null;
-  child.on('exit', (code, signal) => {
-    exited = { code, signal };
-  });
-  child.on('error', (err) => {
-    exited = { error: err };
-  });
-  child.stdout.on('data', (d) => log.push(String(d)));
-  child.stderr.on('data', (d) => log.push(String(d)));
-  const server = { child, port, dataDir, token, base: `http://127.0.0.1:${port}`, log: () => log.join('').slice(-4000) };
-  const deadline = Date.now() + 20_000;
-  let last = '';
-  while (Date.now() < deadline) {
-    if (exited) throw new Error(`kinemetricd exited before becoming healthy (${JSON.stringify(exited)}):\n${server.log()}`);
-    try {
-      const r = await fetch(`${server.base}/healthz`);
-      const body = await r.json();
-      if (r.status === 200 && body.status === 'ok') return server;
-      last = `HTTP ${r.status} ${JSON.stringify(body)}`;
-    } catch (err) {
-      last = err.message;
-    }
-    await sleep(100);
-  }
-  await stopServer(server);
-  throw new Error(`kinemetricd not healthy after 20 s (last: ${last}):\n${server.log()}`);
-}
-
-export async function stopServer(server) {
-  if (!server) return;
-  const { child } = server;
-  if (child.exitCode === null && child.signalCode === null) {
-    const gone = new Promise((r) => child.once('exit', r));
-    child.kill('SIGTERM');
-    const ok = await Promise.race([gone.then(() => true), sleep(5000).then(() => false)]);
-    if (!ok) {
-      child.kill('SIGKILL');
-      await Promise.race([gone, sleep(2000)]);
-    }
-  }
-  rmSync(server.dataDir, { recursive: true, force: true });
 }
 
 // ------------------------------------------------------------------ helpers

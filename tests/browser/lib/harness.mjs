@@ -22,16 +22,16 @@ import { fileURLToPath } from 'node:url';
 const here = dirname(fileURLToPath(import.meta.url));
 export const repo = resolve(here, '../../..');
 export const fixtures = join(repo, 'tests/fixtures/browser');
-const serverBin = process.argv[2] || process.env.KINEMETRICD || '';
-const webDir = process.env.KINEMETRIC_WEB_DIR || join(repo, 'web');
-const webRoot = process.env.KINEMETRIC_WEB_ROOT || join(repo, 'web/static');
+export const serverBin = process.argv[2] || process.env.KINEMETRICD || '';
+export const webDir = process.env.KINEMETRIC_WEB_DIR || join(repo, 'web');
+export const webRoot = process.env.KINEMETRIC_WEB_ROOT || join(repo, 'web/static');
 export const outDir = process.env.KINEMETRIC_BROWSER_OUT || process.argv[3] || join(tmpdir(), 'kinemetric-browser');
-const chromiumPath = process.env.KINEMETRIC_CHROMIUM || '/usr/bin/chromium';
-const CHROMIUM_ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking', '--disable-component-update', '--disable-sync'];
+export const chromiumPath = process.env.KINEMETRIC_CHROMIUM || '/usr/bin/chromium';
+export const CHROMIUM_ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking', '--disable-component-update', '--disable-sync'];
 
 export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
-function loadPlaywright() {
+export function loadPlaywright() {
   if (!existsSync(join(webDir, 'node_modules', 'playwright-core'))) {
     throw new Error(`playwright-core is not installed in ${join(webDir, 'node_modules')}. Run \`npm ci\` in ${webDir} (deploy/install-deps.sh does this).`);
   }
@@ -47,7 +47,7 @@ function checkPrerequisites() {
   if (problems.length) throw new Error(`browser scenario cannot run:\n  - ${problems.join('\n  - ')}`);
 }
 
-function freePort() {
+export function freePort() {
   return new Promise((res, rej) => {
     const srv = createServer();
     srv.unref();
@@ -67,7 +67,7 @@ export function databaseArgs(dataDir) {
   return ['--database', execFileSync(script, [dataDir], { encoding: 'utf8' }).trim()];
 }
 
-async function startServer(extraArgs = []) {
+export async function startServer(extraArgs = []) {
   const port = await freePort();
   const dataDir = mkdtempSync(join(tmpdir(), 'kinemetric-browser-data-'));
   const token = `bt-${randomBytes(18).toString('hex')}`;
@@ -97,7 +97,7 @@ async function startServer(extraArgs = []) {
   throw new Error(`kinemetricd not healthy after 20 s:\n${server.log()}`);
 }
 
-async function stopServer(server) {
+export async function stopServer(server) {
   if (!server) return;
   const { child } = server;
   if (child.exitCode === null && child.signalCode === null) {
