@@ -228,15 +228,10 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
     }
     json cands = json::array();
     for (const auto& c : s.candidates) {
-      cands.push_back({{"effect", c.effect},
-                       {"variant", c.variant},
-                       {"rss_after_um2", c.rss_after_um2},
-                       {"cv_press_um2", c.press_um2},
-                       {"log10_p_value", c.log10_p_value},
-                       {"log10_p_white", c.log10_p_white},
-                       {"log10_p_clustered", c.log10_p_clustered},
-                       {"qualified", c.rejected_because.empty()},
-                       {"rejected_because", c.rejected_because}});
+      json cj = CandidateJson(c);
+      cj["log10_p_white"] = c.log10_p_white;
+      cj["log10_p_clustered"] = c.log10_p_clustered;
+      cands.push_back(std::move(cj));
     }
     ev["candidates"] = cands;
     steps.push_back({{"added_effect", s.added_effect},
@@ -299,6 +294,16 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
           {"final_tests", TestGaps(data, fin.residual_um, nullptr, names)},
           {"condition_number", fin.condition_number},
           {"compensation", CompensationPreview(data, fin)}};
+}
+
+nlohmann::json CandidateJson(const discovery::CandidateScore& c) {
+  return {{"effect", c.effect},
+          {"variant", c.variant},
+          {"rss_after_um2", c.rss_after_um2},
+          {"cv_press_um2", c.press_um2},
+          {"log10_p_value", c.log10_p_value},
+          {"qualified", c.rejected_because.empty()},
+          {"rejected_because", c.rejected_because}};
 }
 
 ingest::MachineDefinition UpdatedMachine(const ingest::MachineDefinition& machine,

@@ -30,6 +30,10 @@ nlohmann::json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector
 
 // The machine with the calibrated geometry (nominal + fitted kinematic parameters) and the
 // fitted effects as its "effects" block.
+// One candidate of a discovery step: effect, variant, the fit with it, the held-out prediction,
+// its p-value and whether it qualified (or why not).
+nlohmann::json CandidateJson(const discovery::CandidateScore& c);
+
 ingest::MachineDefinition UpdatedMachine(const ingest::MachineDefinition& machine,
                                          const hexapod::EffectFitResult& fit);
 

@@ -117,13 +117,7 @@ json SerialDiscoveryJson(const discovery::SerialFamily& family, const discovery:
     const discovery::CandidateScore* runner = nullptr;
     json cands = json::array();
     for (const auto& c : s.candidates) {
-      cands.push_back({{"effect", c.effect},
-                       {"variant", c.variant},
-                       {"rss_after_um2", c.rss_after_um2},
-                       {"cv_press_um2", c.press_um2},
-                       {"log10_p_value", c.log10_p_value},
-                       {"qualified", c.rejected_because.empty()},
-                       {"rejected_because", c.rejected_because}});
+      cands.push_back(CandidateJson(c));
       if (c.effect == s.added_effect || !c.identifiable) continue;
       if (!runner || c.rss_after_um2 < runner->rss_after_um2) runner = &c;
     }
