@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 
+#include "analysis/hexapod/compensation.h"
 #include "analysis/hexapod/dbb_geometry.h"
 
 namespace km::usecases {
@@ -127,70 +128,20 @@ json WorstTestTraces(const hexapod::EffectFitData& d, const Eigen::VectorXd& bef
           {"model_after_um", model_after}};
 }
 
-// Change of every sample of test t (µm on the bar) caused by `effects`, to first order.
-std::vector<double> EffectsOnBar(const hexapod::EffectFitData& d,
-                                 const hexapod::EffectFitResult& fit,
-                                 const std::vector<hexapod::ActiveEffect>& effects, std::size_t t) {
-  hexapod::Perturbation pert;
-  hexapod::ApplyEffects(effects, d.prepared.paths[t], d.prepared.setup, pert);
-  std::vector<double> out;
-  for (std::size_t i = 0; i < pert.ds_mm.size(); ++i) {
-    hexapod::RowSensitivity delta;
-    delta.head<6>() = pert.ds_mm[i];
-    delta[6] = pert.dl_mm[i];
-    out.push_back(fit.sensitivity[static_cast<std::size_t>(d.row_begin[t]) + i].dot(delta));
-  }
-  return out;
-}
-
-// Compensation preview ([PM-600 report] eq. 4.5, table 4.5) for the calibrated machine: per
-// test, the trace predicted once the kinematic errors are calibrated out (residual + every
-// modelled effect), without and with the command corrected by the modelled gravity (and
-// friction) deflection; circularity of each (eq. 4.8) and of the measured trace.
-json CompensationPreview(const hexapod::EffectFitData& d, const hexapod::EffectFitResult& fit) {
-  std::vector<hexapod::ActiveEffect> comp;
-  for (const auto& a : fit.effects) {
-    const std::string n = a.effect->Name();
-    if (n == "gravity_deflection" || n == "joint_friction") comp.push_back(a);
-  }
-  if (comp.empty()) return nullptr;
+// The compensation preview (analysis/hexapod/compensation.h) as JSON; null without one.
+json CompensationPreviewJson(const hexapod::EffectFitData& d, const hexapod::EffectFitResult& fit) {
+  const auto preview = hexapod::PreviewCompensation(d, fit);
+  if (!preview) return nullptr;
   json tests = json::array();
-  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
-    const auto& test = d.problem.tests[t];
-    const auto all = EffectsOnBar(d, fit, fit.effects, t);
-    const auto compensated = EffectsOnBar(d, fit, comp, t);
-    std::vector<double> angle, measured, without, with;
-    const auto& path = d.prepared.paths[t];
-    const double bar0 = test.samples.front().measured_bar_mm;
-    for (std::size_t i = 0; i < test.samples.size(); ++i) {
-      const int row = d.row_begin[t] + static_cast<int>(i);
-      const Eigen::Vector3d v = path.pose[i].tip_mm - fit.fixed_balls_mm[t];
-      angle.push_back(std::atan2(v.y(), v.x()) * 180.0 / 3.14159265358979323846);
-      measured.push_back(1000.0 * (test.samples[i].measured_bar_mm - bar0));
-      const double residual = -fit.residual_um[row];  // measured − model
-      without.push_back(residual + all[i]);
-      with.push_back(residual + all[i] - compensated[i]);
-    }
-    for (std::size_t i = 1; i < angle.size(); ++i) {  // one turn, unwrapped
-      while (angle[i] - angle[i - 1] > 180.0) angle[i] -= 360.0;
-      while (angle[i] - angle[i - 1] < -180.0) angle[i] += 360.0;
-    }
-    try {
-      tests.push_back({{"test_id", test.test_id},
-                       {"direction", dbb::ToString(test.direction)},
-                       {"circularity_measured_um",
-                        hexapod::TraceCircleFigures(angle, measured, bar0).circularity_um},
-                       {"circularity_without_compensation_um",
-                        hexapod::TraceCircleFigures(angle, without, bar0).circularity_um},
-                       {"predicted_circularity_with_compensation_um",
-                        hexapod::TraceCircleFigures(angle, with, bar0).circularity_um}});
-    } catch (const std::exception&) {
-      continue;  // fewer than 3 distinct samples: no figure for this test
-    }
+  for (const auto& t : preview->tests) {
+    tests.push_back({{"test_id", t.test_id},
+                     {"direction", dbb::ToString(t.direction)},
+                     {"circularity_measured_um", t.circularity_measured_um},
+                     {"circularity_without_compensation_um", t.circularity_without_compensation_um},
+                     {"predicted_circularity_with_compensation_um",
+                      t.predicted_circularity_with_compensation_um}});
   }
-  json effects = json::array();
-  for (const auto& a : comp) effects.push_back(a.effect->Name());
-  return {{"compensated_effects", effects},
+  return {{"compensated_effects", preview->compensated_effects},
           {"basis", "calibrated machine: kinematic errors corrected, every modelled effect kept"},
           {"tests", tests}};
 }
@@ -293,7 +244,7 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
           {"candidates_at_stop", last},
           {"final_tests", TestGaps(data, fin.residual_um, nullptr, names)},
           {"condition_number", fin.condition_number},
-          {"compensation", CompensationPreview(data, fin)}};
+          {"compensation", CompensationPreviewJson(data, fin)}};
 }
 
 nlohmann::json CandidateJson(const discovery::CandidateScore& c) {

@@ -5,10 +5,13 @@
 #include <cmath>
 #include <random>
 #include <set>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "analysis/discovery/hexapod_family.h"
+#include "analysis/hexapod/compensation.h"
 #include "tests/unit/hexapod/effects_fixture.h"
 
 namespace km::discovery {
@@ -112,6 +115,29 @@ TEST(HexapodDiscovery, GravityThenFrictionLargerFirst) {
   EXPECT_NEAR(Param(o.history.back(), "joint_friction", 0), 10.2, 0.15 * 10.2);
   EXPECT_EQ(o.result.verdict, discovery::Verdict::kComplete);
   EXPECT_FALSE(o.result.steps[1].evidence.sentence.empty());
+}
+
+// [PM-600 report] table 4.5: correcting the command by the found gravity deflection leaves the
+// predicted traces rounder than without; the preview lists gravity only and every test.
+TEST(HexapodDiscovery, CompensatingTheFoundGravityRoundsThePredictedTraces) {
+  const auto s = Simulate({{"gravity_deflection", {{0, 1.37e-5}}}});
+  const auto data = hexapod::PrepareEffectFit(s.nominal, &s.phys, s.tests, s.starts,
+                                              hexapod::CalibrationMethod::kAbsolute, 0);
+  HexapodFamily family(data, {});
+  const auto result = RunDiscovery(family, HexapodEngineOptions());
+  ASSERT_EQ(result.steps.size(), 1u);
+  const auto preview = hexapod::PreviewCompensation(data, family.History().back());
+  ASSERT_TRUE(preview.has_value());
+  EXPECT_EQ(preview->compensated_effects, std::vector<std::string>{"gravity_deflection"});
+  ASSERT_EQ(preview->tests.size(), s.tests.size());
+  double without = 0.0, with = 0.0;
+  for (const auto& t : preview->tests) {
+    without += t.circularity_without_compensation_um;
+    with += t.predicted_circularity_with_compensation_um;
+  }
+  EXPECT_LT(with, 0.7 * without) << "with " << with << " µm, without " << without << " µm";
+  // A machine without gravity or friction in its model has no preview.
+  EXPECT_FALSE(hexapod::PreviewCompensation(data, hexapod::EffectFitResult{}).has_value());
 }
 
 TEST(HexapodDiscovery, ToolLengthErrorOfOneToolAndDrift) {
