@@ -20,7 +20,8 @@ import { tmpdir } from 'node:os';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import {
-  CHROMIUM_ARGS, chromiumPath, loadPlaywright, serverBin, sleep, startServer, stopServer, webDir, webRoot,
+  CHROMIUM_ARGS, chromiumPath, loadPlaywright, sequentialSteps, serverBin, sleep, startServer, stopServer, webDir,
+  webRoot,
 } from '../lib/harness.mjs';
 
 export { CHROMIUM_ARGS, chromiumPath, loadPlaywright, serverBin, sleep, startServer, stopServer, webDir, webRoot };
@@ -130,23 +131,9 @@ export function runDashboard(title, body) {
     let page = null;
     const killOnExit = () => server?.child.kill('SIGKILL');
     process.once('exit', killOnExit);
-    let failed = false;
     // The steps are sequential; after a failure the rest are skipped (they depend on earlier
     // state).
-    const step = (name, fn) => {
-      return t.test(name, async (st) => {
-        if (failed) {
-          st.skip('an earlier step failed');
-          return;
-        }
-        try {
-          await fn(st);
-        } catch (err) {
-          failed = true;
-          throw err;
-        }
-      });
-    };
+    const { step, failed } = sequentialSteps(t);
 
     try {
       server = await startServer();
@@ -184,12 +171,12 @@ export function runDashboard(title, body) {
         assert.deepEqual(pageErrors, []);
       });
     } finally {
-      if (failed && page) {
+      if (failed() && page) {
         const shot = join(outDir, 'dashboard-failure.png');
         await page.screenshot({ path: shot }).then(() => console.error(`failure screenshot: ${shot}`), () => {});
       }
       if (browser) await browser.close().catch(() => {});
-      if (failed && server) console.error(`kinemetricd log (tail):\n${server.log()}`);
+      if (failed() && server) console.error(`kinemetricd log (tail):\n${server.log()}`);
       await stopServer(server);
       process.removeListener('exit', killOnExit);
     }

@@ -34,6 +34,7 @@ import {
   CHROMIUM_ARGS, loadPlaywright, checkPrerequisites, sleep, startServer, stopServer, api,
   apiGet, upload, um3, shown, INTERNAL_NAME,
 } from './session.mjs';
+import { sequentialSteps } from '../lib/harness.mjs';
 
 // ------------------------------------------------------------------ the test
 
@@ -48,20 +49,7 @@ test('discovery page: hexapod gravity + friction found step by step, saved as ve
   const simDir = mkdtempSync(join(tmpdir(), 'kinemetric-discovery-sim-'));
   const killOnExit = () => server?.child.kill('SIGKILL');
   process.once('exit', killOnExit);
-  let failed = false;
-  const step = (name, fn) =>
-    t.test(name, async (st) => {
-      if (failed) {
-        st.skip('an earlier step failed');
-        return;
-      }
-      try {
-        await fn(st);
-      } catch (err) {
-        failed = true;
-        throw err;
-      }
-    });
+  const { step, failed } = sequentialSteps(t);
 
   try {
     // The simulated tests first: the server is then busy from its start.
@@ -481,12 +469,12 @@ test('discovery page: hexapod gravity + friction found step by step, saved as ve
       assert.deepEqual(pageErrors, []);
     });
   } finally {
-    if (failed && page) {
+    if (failed() && page) {
       const shot = join(outDir, 'discovery-failure.png');
       await page.screenshot({ path: shot, fullPage: true }).then(() => console.error(`failure screenshot: ${shot}`), () => {});
     }
     if (browser) await browser.close().catch(() => {});
-    if (failed && server) console.error(`kinemetricd log (tail):\n${server.log()}`);
+    if (failed() && server) console.error(`kinemetricd log (tail):\n${server.log()}`);
     await stopServer(server);
     rmSync(simDir, { recursive: true, force: true });
     process.removeListener('exit', killOnExit);

@@ -136,6 +136,26 @@ export function apiClient(server) {
   };
 }
 
+// The steps of a scenario that build on each other (t.test each): after a failure the rest are
+// skipped. failed() says whether one failed (for the failure screenshot and the server's log).
+export function sequentialSteps(t) {
+  let failed = false;
+  const step = (name, fn) =>
+    t.test(name, async (st) => {
+      if (failed) {
+        st.skip('an earlier step failed');
+        return;
+      }
+      try {
+        await fn(st);
+      } catch (err) {
+        failed = true;
+        throw err;
+      }
+    });
+  return { step, failed: () => failed };
+}
+
 // Runs fn({server, api, page, browser, errors, open}) with a fresh server and browser; fails on
 // any page error or console error (4xx answers to fetch() are logged by Chromium as "Failed to
 // load resource" and are expected). open(hash) loads the dashboard with the token at that address.
