@@ -22,7 +22,6 @@ namespace km::dbb {
 
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 // A diagnosis unit: one test, or a cw + ccw pair (same test_id, same plane).
 struct Unit {
