@@ -22,7 +22,6 @@ namespace km::dbb {
 
 namespace {
 
-
 // A diagnosis unit: one test, or a cw + ccw pair (same test_id, same plane).
 struct Unit {
   std::vector<std::size_t> tests;
