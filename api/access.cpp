@@ -11,6 +11,7 @@
 #include "api/route_util.h"
 #include "api/routes.h"
 #include "server/access/access.h"
+#include "server/base/conflict.h"
 #include "server/base/sha256.h"
 
 namespace km::api {
@@ -36,7 +37,7 @@ constexpr PolicyEntry kPolicy[] = {
     {"POST", "/api/v1/calibrations", Role::kEngineer},
     {"POST", "/api/v1/discoveries", Role::kEngineer},
     {"POST", "/api/v1/jobs/{id}/save-machine", Role::kEngineer},
-    // Beyond the role, only the job's owner or an admin (Service::CancelJob).
+    // Beyond the role, only the job's owner or an admin (StudyService::CancelJob).
     {"DELETE", "/api/v1/jobs/{id}", Role::kEngineer},
     {"POST", "/api/v1/machines", Role::kEngineer},
     {"POST", "/api/v1/servo/identify", Role::kEngineer},
@@ -198,7 +199,7 @@ ResponseHook AuditHook(server::Service& service) {
     e.path = req.path;
     e.status = res.status;
     e.subject = AuditSubject(route, req, res);
-    server::RecordAudit(*svc, e);
+    svc->access().RecordAudit(e);
   };
 }
 
@@ -221,7 +222,7 @@ void AddAccessRoutes(Router& router, server::Service& service) {
       "Create an access token (the secret is shown only in this answer)",
       true,
       [svc](const Request& req) {
-        Response r = Response::Json(server::CreateToken(*svc, JsonBody(req)), 201);
+        Response r = Response::Json(svc->access().CreateToken(JsonBody(req)), 201);
         r.headers["Cache-Control"] = "no-store";
         return r;
       },
@@ -243,7 +244,7 @@ void AddAccessRoutes(Router& router, server::Service& service) {
              "/api/v1/tokens",
              "Access tokens (never their secrets)",
              true,
-             [svc](const Request&) { return Response::Json(server::ListTokens(*svc)); },
+             [svc](const Request&) { return Response::Json(svc->access().ListTokens()); },
              {{"responses",
                {{"200", JsonResponse("{items[{id, name, role, created_at, expires_at, "
                                      "revoked_at, state}]}")}}}}};
@@ -256,7 +257,7 @@ void AddAccessRoutes(Router& router, server::Service& service) {
                true,
                [svc](const Request& req) {
                  try {
-                   return Response::Json(server::RevokeToken(*svc, req.PathId("id")));
+                   return Response::Json(svc->access().RevokeToken(req.PathId("id")));
                  } catch (const server::Conflict& e) {
                    return Problem(409, "Conflict", e.what());
                  }
@@ -273,8 +274,8 @@ void AddAccessRoutes(Router& router, server::Service& service) {
               true,
               [svc](const Request& req) {
                 return Response::Json(
-                    server::AuditLog(*svc, QueryInt(req, "limit", 100, 1, 1000),
-                                     QueryInt(req, "offset", 0, 0, std::int64_t{1} << 40)));
+                    svc->access().AuditLog(QueryInt(req, "limit", 100, 1, 1000),
+                                           QueryInt(req, "offset", 0, 0, std::int64_t{1} << 40)));
               },
               {{"parameters", json::array({Param("limit", "integer", "1 to 1000 (default 100)"),
                                            Param("offset", "integer", "entries to skip")})},

@@ -17,7 +17,7 @@
 #include "server/base/config.h"
 #include "server/base/data_dir.h"
 #include "server/base/sha256.h"
-#include "server/measurements/demo_data.h"
+#include "server/demo/demo_data.h"
 #include "server/service.h"
 #include "server/storage/open_storage.h"
 
@@ -70,6 +70,28 @@ int ResetAdmin(km::server::Storage& storage) {
 
 }  // namespace
 
+// Demo data on a fresh database (when configured), and the Modbus devices of the configuration.
+static void LoadDemoDataAndDevices(km::server::Service& service,
+                                   const km::server::ServerConfig& cfg) {
+  if (cfg.demo_data && service.measurements().Machines().empty()) {
+    int n = 0;
+    for (const auto& f : km::server::DemoDbbFiles()) {
+      service.measurements().Upload(f.bytes, f.name);
+      ++n;
+    }
+    const auto stream = km::server::LoadDemoStream(service.streams());
+    std::cout << "kinemetricd: loaded " << n + 1 << " demo measurements and demo stream " << stream
+              << std::endl;
+  }
+
+  service.streams().acquisition().SetLimits({cfg.max_devices, cfg.device_networks});
+  if (!cfg.modbus_config.empty()) {
+    service.streams().acquisition().StartFromFile(cfg.modbus_config);
+    std::cout << "kinemetricd: acquiring from " << service.streams().acquisition().Devices().size()
+              << " Modbus devices" << std::endl;
+  }
+}
+
 int main(int argc, char** argv) {
   km::RetainFreedMemory();
   km::server::ServerConfig cfg;
@@ -113,35 +135,19 @@ int main(int argc, char** argv) {
     so.jobs.lease_ms = std::int64_t{cfg.job_lease_s} * 1000;
     so.jobs.max_queued = cfg.max_queued_jobs;
     km::server::Service service(std::move(storage), so);
-    km::server::RegisterBuiltinKinds(service);
+    km::server::RegisterBuiltinKinds(service.measurements());
 
     const char* bootstrap = std::getenv("KINEMETRIC_BOOTSTRAP_TOKEN");
-    const std::string generated = service.EnsureAdminToken(bootstrap ? bootstrap : "");
+    const std::string generated = service.access().EnsureAdminToken(bootstrap ? bootstrap : "");
     if (!generated.empty()) {
       std::cout << "kinemetricd: first start; admin token (shown once): " << generated << std::endl;
     }
-    if (bootstrap && *bootstrap && !service.TokenKnown(km::server::Sha256Hex(bootstrap))) {
+    if (bootstrap && *bootstrap && !service.access().TokenKnown(km::server::Sha256Hex(bootstrap))) {
       std::cout << "kinemetricd: KINEMETRIC_BOOTSTRAP_TOKEN is ignored: the database already has "
                    "tokens and this is not one of them (it is used only on the first start)"
                 << std::endl;
     }
-    if (cfg.demo_data && service.Machines().empty()) {
-      int n = 0;
-      for (const auto& f : km::server::DemoDbbFiles()) {
-        service.Upload(f.bytes, f.name);
-        ++n;
-      }
-      const auto stream = km::server::LoadDemoStream(service);
-      std::cout << "kinemetricd: loaded " << n + 1 << " demo measurements and demo stream "
-                << stream << std::endl;
-    }
-
-    service.acquisition().SetLimits({cfg.max_devices, cfg.device_networks});
-    if (!cfg.modbus_config.empty()) {
-      service.acquisition().StartFromFile(cfg.modbus_config);
-      std::cout << "kinemetricd: acquiring from " << service.acquisition().Devices().size()
-                << " Modbus devices" << std::endl;
-    }
+    LoadDemoDataAndDevices(service, cfg);
 
     km::api::Router router;
     km::api::AddRoutes(router, service);

@@ -204,7 +204,7 @@ std::string Metrics::Exposition(server::Service* service) const {
       Sample(out, "kinemetric_jobs", "status=\"" + LabelValue(status) + "\"",
              static_cast<double>(n));
     }
-    ModbusFamilies(out, service->acquisition().Devices());
+    ModbusFamilies(out, service->streams().acquisition().Devices());
   }
   const std::pair<const char*, const std::atomic<std::uint64_t>*> counters[] = {
       {"kinemetric_measurements_stored_total", &measurements_},

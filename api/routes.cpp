@@ -6,6 +6,7 @@
 #include "api/http_target.h"
 #include "api/metrics.h"
 #include "api/route_util.h"
+#include "server/base/conflict.h"
 #include "server/base/request_json.h"
 #include "server/base/time_util.h"
 
@@ -57,7 +58,7 @@ void AddMeasurementRoutes(Router& router, server::Service& service) {
       true,
       [svc](const Request& req) {
         const std::string name = UploadFilename(req);
-        const auto out = svc->Upload(req.body, name);
+        const auto out = svc->measurements().Upload(req.body, name);
         return Response::Json(
             {{"id", out.id}, {"sha256", out.sha256}, {"kind", out.kind}, {"created", out.created}},
             out.created ? 201 : 200);
@@ -91,7 +92,7 @@ void AddMeasurementRoutes(Router& router, server::Service& service) {
         f.order = MeasurementOrder(req);
         f.limit = QueryInt(req, "limit", 50, 1, 1000);
         f.offset = QueryInt(req, "offset", 0, 0, std::int64_t{1} << 40);
-        json page = svc->ListMeasurements(f);
+        json page = svc->measurements().ListMeasurements(f);
         page["limit"] = f.limit;
         page["offset"] = f.offset;
         return Response::Json(page);
@@ -118,7 +119,7 @@ void AddMeasurementRoutes(Router& router, server::Service& service) {
       "One measurement: metadata and samples",
       true,
       [svc](const Request& req) {
-        return Response::Json(svc->MeasurementWithSamples(req.PathId("id")));
+        return Response::Json(svc->measurements().MeasurementWithSamples(req.PathId("id")));
       },
       {{"responses", {{"200", JsonResponse("metadata and samples (one array per column)")}}}}});
 
@@ -127,7 +128,9 @@ void AddMeasurementRoutes(Router& router, server::Service& service) {
             "/api/v1/measurements/{id}/results",
             "Analysis results (the same object the CLI prints for the file)",
             true,
-            [svc](const Request& req) { return Response::Json(svc->Results(req.PathId("id"))); },
+            [svc](const Request& req) {
+              return Response::Json(svc->measurements().Results(req.PathId("id")));
+            },
             {{"responses", {{"200", JsonResponse("results of the newest analysis version")}}}}});
 }
 
@@ -140,7 +143,9 @@ void AddDbbRoutes(Router& router, server::Service& service) {
       "/api/v1/measurements/{id}/trace",
       "DBB trace of the evaluated turn for plotting (deviation about the least-squares circle)",
       true,
-      [svc](const Request& req) { return Response::Json(svc->DbbTrace(req.PathId("id"))); },
+      [svc](const Request& req) {
+        return Response::Json(svc->measurements().DbbTrace(req.PathId("id")));
+      },
       {{"responses", {{"200", JsonResponse("{angle_deg[], radial_error_um[], ...}")}}}}});
 
   router.Add(Route{
@@ -167,7 +172,7 @@ void AddDbbRoutes(Router& router, server::Service& service) {
             true,
             [svc](const Request& req) {
               const std::int64_t id = req.PathId("id");
-              auto j = svc->StraightnessReversalJson(id);
+              auto j = svc->measurements().StraightnessReversalJson(id);
               if (j.is_null()) {
                 throw NotFound("measurement " + std::to_string(id) +
                                " has no stored profile of the other set-up of its reversal pair");
@@ -193,7 +198,7 @@ void AddDbbRoutes(Router& router, server::Service& service) {
               }
               Response r;
               r.content_type = "image/png";
-              r.body = svc->DbbPlotPng(req.PathId("id"), o);
+              r.body = svc->measurements().DbbPlotPng(req.PathId("id"), o);
               return r;
             },
             {{"parameters",
@@ -229,7 +234,7 @@ void AddJobRoutes(Router& router, server::Service& service) {
           "mode) as a background job",
           true,
           [svc](const Request& req) {
-            const auto id = svc->SubmitCalibration(JsonBody(req), req.token_id);
+            const auto id = svc->studies().SubmitCalibration(JsonBody(req), req.token_id);
             return JobAccepted(id);
           },
           {{"requestBody",
@@ -248,14 +253,14 @@ void AddJobRoutes(Router& router, server::Service& service) {
            {"responses", {{"202", JsonResponse("{job_id, status_url}")}}}}},
       server::kMaxMachineModelBytes + kStudyRequestBytes));
 
-  router.Add(
-      Route{"GET",
-            "/api/v1/jobs/{id}",
-            "A background job: status, progress, result",
-            true,
-            [svc](const Request& req) { return Response::Json(svc->Job(req.PathId("id"))); },
-            {{"responses",
-              {{"200", JsonResponse("{id, kind, status, progress, stage, result?, error?}")}}}}});
+  router.Add(Route{
+      "GET",
+      "/api/v1/jobs/{id}",
+      "A background job: status, progress, result",
+      true,
+      [svc](const Request& req) { return Response::Json(svc->studies().Job(req.PathId("id"))); },
+      {{"responses",
+        {{"200", JsonResponse("{id, kind, status, progress, stage, result?, error?}")}}}}});
 
   router.Add(Route{
       "DELETE",
@@ -265,7 +270,7 @@ void AddJobRoutes(Router& router, server::Service& service) {
       [svc](const Request& req) {
         const server::JobCanceller by{req.token_id, req.token_name, req.token_role == "admin"};
         try {
-          return Response::Json(svc->CancelJob(req.PathId("id"), by));
+          return Response::Json(svc->studies().CancelJob(req.PathId("id"), by));
         } catch (const server::Conflict& e) {
           return Problem(409, "Conflict", e.what());
         }
@@ -284,9 +289,9 @@ void AddJobRoutes(Router& router, server::Service& service) {
       [svc](const Request& req) {
         const auto limit = QueryInt(req, "limit", 50, 1, 1000);
         if (const auto machine = req.Query("machine_id")) {
-          return Response::Json(svc->JobsOfMachine(*machine, limit));
+          return Response::Json(svc->studies().JobsOfMachine(*machine, limit));
         }
-        return Response::Json(svc->Jobs(limit));
+        return Response::Json(svc->studies().Jobs(limit));
       },
       {{"parameters", json::array({Param("limit", "integer", "at most this many (default 50)"),
                                    Param("machine_id", "string",
@@ -303,7 +308,7 @@ void AddJobRoutes(Router& router, server::Service& service) {
       true,
       [svc](const Request&) {
         json items = json::array();
-        for (const auto& m : svc->Machines()) {
+        for (const auto& m : svc->measurements().Machines()) {
           items.push_back({{"machine_id", m.machine_id},
                            {"measurement_count", m.measurement_count},
                            {"last_timestamp", m.last_time ? json(*m.last_time) : json(nullptr)},
@@ -327,7 +332,7 @@ void AddStudyRoutes(Router& router, server::Service& service) {
             "background job",
             true,
             [svc](const Request& req) {
-              const auto id = svc->SubmitDiscovery(JsonBody(req), req.token_id);
+              const auto id = svc->studies().SubmitDiscovery(JsonBody(req), req.token_id);
               return JobAccepted(id);
             },
             {{"requestBody",
@@ -358,7 +363,7 @@ void AddStudyRoutes(Router& router, server::Service& service) {
           note = server::request::OptionalString(body, "note", "");
         }
         try {
-          const auto out = svc->SaveJobMachine(req.PathId("id"), note);
+          const auto out = svc->studies().SaveJobMachine(req.PathId("id"), note);
           return Response::Json(StoredJson(out), out.created ? 201 : 200);
         } catch (const server::Conflict& e) {
           return Problem(409, "Conflict", e.what());
@@ -419,8 +424,8 @@ void AddMachineModelRoutes(Router& router, server::Service& service) {
                [svc](const Request& req) {
                  const std::string file =
                      req.Header("x-filename") ? UploadFilename(req) : "machine";
-                 const auto out = svc->StoreMachineModel(req.body, "upload",
-                                                         req.Query("note").value_or(""), file);
+                 const auto out = svc->models().StoreMachineModel(
+                     req.body, "upload", req.Query("note").value_or(""), file);
                  return Response::Json(StoredJson(out), out.created ? 201 : 200);
                },
                {{"requestBody", JsonRequestBody({{"type", "object"}})},
@@ -431,26 +436,26 @@ void AddMachineModelRoutes(Router& router, server::Service& service) {
   upload.max_body_bytes = server::kMaxMachineModelBytes;
   router.Add(std::move(upload));
 
-  router.Add(
-      Route{"GET",
-            "/api/v1/machines/{machine_id}/definition",
-            "A stored machine definition (the newest version, or ?version=N)",
-            true,
-            [svc](const Request& req) {
-              std::optional<std::int64_t> version;
-              if (req.Query("version")) {
-                version = QueryInt(req, "version", 1, 1, std::numeric_limits<std::int64_t>::max());
-              }
-              const auto rec = svc->GetMachineModel(req.path_params.at("machine_id"), version);
-              Response r;
-              r.body = rec.document;
-              r.headers["X-Machine-Version"] = std::to_string(rec.version);
-              r.headers["ETag"] = "\"" + rec.sha256 + "\"";
-              return r;
-            },
-            {{"parameters",
-              json::array({Param("version", "integer", "a stored version (default: the newest)")})},
-             {"responses", {{"200", JsonResponse("the document exactly as stored")}}}}});
+  router.Add(Route{
+      "GET",
+      "/api/v1/machines/{machine_id}/definition",
+      "A stored machine definition (the newest version, or ?version=N)",
+      true,
+      [svc](const Request& req) {
+        std::optional<std::int64_t> version;
+        if (req.Query("version")) {
+          version = QueryInt(req, "version", 1, 1, std::numeric_limits<std::int64_t>::max());
+        }
+        const auto rec = svc->models().GetMachineModel(req.path_params.at("machine_id"), version);
+        Response r;
+        r.body = rec.document;
+        r.headers["X-Machine-Version"] = std::to_string(rec.version);
+        r.headers["ETag"] = "\"" + rec.sha256 + "\"";
+        return r;
+      },
+      {{"parameters",
+        json::array({Param("version", "integer", "a stored version (default: the newest)")})},
+       {"responses", {{"200", JsonResponse("the document exactly as stored")}}}}});
 
   router.Add(Route{
       "GET",
@@ -458,7 +463,7 @@ void AddMachineModelRoutes(Router& router, server::Service& service) {
       "Every stored version of a machine definition",
       true,
       [svc](const Request& req) {
-        return Response::Json(svc->ListMachineModels(req.path_params.at("machine_id")));
+        return Response::Json(svc->models().ListMachineModels(req.path_params.at("machine_id")));
       },
       {{"responses",
         {{"200",

@@ -47,7 +47,7 @@ ResponseHook AuditHook(server::Service& service);
 // First start: make sure an admin token exists. Uses `bootstrap` when given (the value of
 // KINEMETRIC_BOOTSTRAP_TOKEN), else generates one; returns the new token text when one was
 // created by generation (to be printed once), empty otherwise. The server calls
-// Service::EnsureAdminToken; this form serves tests and tools holding a storage.
+// AccessService::EnsureAdminToken; this form serves tests and tools holding a storage.
 std::string EnsureAdminToken(server::AccessStore& storage, const std::string& bootstrap);
 
 }  // namespace km::api

@@ -1,12 +1,12 @@
 // Routes of the servo-load analyses (docs/formats.md §5): identification of a hexapod's masses
 // and friction from stored servo measurements (optionally saved as the next version of its
 // model), joint resistance and health, and the external force of one stored record. The work
-// is done by the service (server/measurements/servo_service.h).
+// is done by the service (server/servo/servo_service.h).
 #include <limits>
 
 #include "api/route_util.h"
 #include "api/routes.h"
-#include "server/measurements/servo_service.h"
+#include "server/servo/servo_service.h"
 
 namespace km::api {
 namespace {
@@ -40,7 +40,7 @@ void AddServoRoutes(Router& router, server::Service& service) {
             "\"save\": true stores them as the next version of the machine's model",
             true,
             [svc](const Request& req) {
-              return Response::Json(server::ServoIdentify(*svc, JsonBody(req)));
+              return Response::Json(svc->servo().Identify(JsonBody(req)));
             },
             {{"requestBody", ServoRequestBody(true)},
              {"responses",
@@ -48,18 +48,17 @@ void AddServoRoutes(Router& router, server::Service& service) {
                                     "condition_number, fixed[], saved?}")}}}}},
       kStudyRequestBytes));
   router.Add(WithBodyLimit(
-      Route{"POST",
-            "/api/v1/servo/joints",
-            "Joint resistance per leg and health levels 1/2/3 from stored CW and CCW servo "
-            "measurements (docs/formats.md §3.12)",
-            true,
-            [svc](const Request& req) {
-              return Response::Json(server::ServoJoints(*svc, JsonBody(req)));
-            },
-            {{"requestBody", ServoRequestBody(false)},
-             {"responses",
-              {{"200", JsonResponse("{legs[{leg, resistance_Nm, sigma_Nm, level, "
-                                    "evidence}], level}")}}}}},
+      Route{
+          "POST",
+          "/api/v1/servo/joints",
+          "Joint resistance per leg and health levels 1/2/3 from stored CW and CCW servo "
+          "measurements (docs/formats.md §3.12)",
+          true,
+          [svc](const Request& req) { return Response::Json(svc->servo().Joints(JsonBody(req))); },
+          {{"requestBody", ServoRequestBody(false)},
+           {"responses",
+            {{"200", JsonResponse("{legs[{leg, resistance_Nm, sigma_Nm, level, "
+                                  "evidence}], level}")}}}}},
       kStudyRequestBytes));
   router.Add(
       Route{"GET",
@@ -68,7 +67,7 @@ void AddServoRoutes(Router& router, server::Service& service) {
             "the newest (docs/formats.md §5)",
             true,
             [svc](const Request& req) {
-              return Response::Json(server::JointHealth(*svc, req.path_params.at("machine_id")));
+              return Response::Json(svc->servo().JointHealth(req.path_params.at("machine_id")));
             },
             {{"responses",
               {{"200", JsonResponse("{machine_id, limits, estimates[{result_id, "
@@ -80,7 +79,7 @@ void AddServoRoutes(Router& router, server::Service& service) {
             "kinemetric-servo/1 measurement (docs/formats.md §5)",
             true,
             [svc](const Request& req) {
-              const auto out = server::ServoFromStream(*svc, req.PathId("id"), JsonBody(req));
+              const auto out = svc->servo().FromStream(req.PathId("id"), JsonBody(req));
               return Response::Json({{"id", out.id}, {"kind", out.kind}, {"created", out.created}},
                                     out.created ? 201 : 200);
             },
@@ -101,7 +100,7 @@ void AddServoRoutes(Router& router, server::Service& service) {
           version =
               QueryInt(req, "machine_version", 1, 1, std::numeric_limits<std::int64_t>::max());
         }
-        return Response::Json(server::ServoForce(*svc, req.PathId("id"), version));
+        return Response::Json(svc->servo().Force(req.PathId("id"), version));
       },
       {{"parameters", json::array({Param("machine_version", "integer",
                                          "a stored version of the model (default: the newest)")})},

@@ -25,7 +25,7 @@ using server::FrameIngestion;
 class FrameSink : public BodySink {
  public:
   FrameSink(server::Service& svc, std::int64_t id, const std::string& content_type)
-      : ingestion_(svc, id, content_type) {}
+      : ingestion_(svc.streams(), id, content_type) {}
   void Feed(std::string_view piece) override { ingestion_.Feed(piece); }
   Response Finish(bool complete) override { return Response::Json(ingestion_.Finish(complete)); }
 
@@ -42,21 +42,22 @@ void AddStreamReadRoutes(Router& router, server::Service& service) {
                    "Streams (newest first), with per-channel sample and gap counts",
                    true,
                    [svc](const Request& req) {
-                     return Response::Json(svc->ListStreams(req.Query("machine_id"),
-                                                            QueryInt(req, "limit", 50, 1, 1000)));
+                     return Response::Json(svc->streams().ListStreams(
+                         req.Query("machine_id"), QueryInt(req, "limit", 50, 1, 1000)));
                    },
                    {{"parameters", json::array({Param("machine_id", "string", "only this machine"),
                                                 Param("limit", "integer", "1 to 1000")})},
                     {"responses", {{"200", JsonResponse("{items[]}")}}}}});
 
-  router.Add(
-      Route{"GET",
-            "/api/v1/streams/{id}",
-            "One stream: channels, samples, gaps, buffered samples",
-            true,
-            [svc](const Request& req) { return Response::Json(svc->StreamJson(req.PathId("id"))); },
-            {{"parameters", json::array({PathParam("stream id")})},
-             {"responses", {{"200", JsonResponse("the stream")}}}}});
+  router.Add(Route{"GET",
+                   "/api/v1/streams/{id}",
+                   "One stream: channels, samples, gaps, buffered samples",
+                   true,
+                   [svc](const Request& req) {
+                     return Response::Json(svc->streams().StreamJson(req.PathId("id")));
+                   },
+                   {{"parameters", json::array({PathParam("stream id")})},
+                    {"responses", {{"200", JsonResponse("the stream")}}}}});
 
   router.Add(
       Route{"GET",
@@ -68,7 +69,7 @@ void AddStreamReadRoutes(Router& router, server::Service& service) {
               std::optional<std::int64_t> from, to;
               if (req.Query("from_us")) from = QueryInt(req, "from_us", 0, kMinI64, kMaxI64);
               if (req.Query("to_us")) to = QueryInt(req, "to_us", 0, kMinI64, kMaxI64);
-              return Response::Json(svc->StreamSamples(
+              return Response::Json(svc->streams().StreamSamples(
                   req.PathId("id"), QueryInt(req, "channel", 0, 0, 65535), from, to,
                   static_cast<std::size_t>(QueryInt(req, "max_points", 2000, 2, 1000000))));
             },
@@ -86,7 +87,7 @@ void AddStreamReadRoutes(Router& router, server::Service& service) {
                    "Recorded gaps (counter jumps) of a stream",
                    true,
                    [svc](const Request& req) {
-                     return Response::Json(svc->StreamGapsJson(
+                     return Response::Json(svc->streams().StreamGapsJson(
                          req.PathId("id"), QueryInt(req, "limit", 1000, 1, 100000)));
                    },
                    {{"parameters", json::array({PathParam("stream id")})},
@@ -99,11 +100,11 @@ void AddStreamReadRoutes(Router& router, server::Service& service) {
             "measurement",
             true,
             [svc](const Request& req) {
-              const auto out = svc->StreamProfile(req.PathId("id"), JsonBody(req));
+              const auto out = svc->streams().StreamProfile(req.PathId("id"), JsonBody(req));
               return Response::Json({{"id", out.id},
                                      {"created", out.created},
                                      {"kind", out.kind},
-                                     {"results", svc->Results(out.id)}},
+                                     {"results", svc->measurements().Results(out.id)}},
                                     out.created ? 201 : 200);
             },
             {{"parameters", json::array({PathParam("stream id")})},
@@ -137,7 +138,7 @@ void AddDeviceRoutes(Router& router, server::Service& service) {
                    "error counts)",
                    true,
                    [svc](const Request&) {
-                     return Response::Json({{"items", svc->acquisition().Devices()}});
+                     return Response::Json({{"items", svc->streams().acquisition().Devices()}});
                    },
                    {{"responses", {{"200", JsonResponse("{items[]}")}}}}});
 
@@ -148,7 +149,7 @@ void AddDeviceRoutes(Router& router, server::Service& service) {
             "runs until the server stops",
             true,
             [svc](const Request& req) {
-              return Response::Json(svc->acquisition().Add(JsonBody(req)), 201);
+              return Response::Json(svc->streams().acquisition().Add(JsonBody(req)), 201);
             },
             {{"requestBody", JsonRequestBody({{"type", "object"}})},
              {"responses", {{"201", JsonResponse("the device entry")}}}}},
@@ -160,7 +161,7 @@ void AddDeviceRoutes(Router& router, server::Service& service) {
                    true,
                    [svc](const Request& req) {
                      const std::string name = req.path_params.at("name");
-                     svc->acquisition().Remove(name);
+                     svc->streams().acquisition().Remove(name);
                      return Response::Json({{"stopped", name}});
                    },
                    {{"responses", {{"200", JsonResponse("{stopped}")}}}}});
@@ -176,8 +177,8 @@ void AddStreamRoutes(Router& router, server::Service& service) {
             "Open a capacitance-sensor stream (machine, channels)",
             true,
             [svc](const Request& req) {
-              const auto id = svc->CreateStream(JsonBody(req));
-              Response r = Response::Json(svc->StreamJson(id), 201);
+              const auto id = svc->streams().CreateStream(JsonBody(req));
+              Response r = Response::Json(svc->streams().StreamJson(id), 201);
               r.headers["Location"] = "/api/v1/streams/" + std::to_string(id);
               return r;
             },
@@ -201,7 +202,8 @@ void AddStreamRoutes(Router& router, server::Service& service) {
       true,
       [svc](const Request& req) {
         // Callers that hold the whole body (tests, tools); the HTTP server uses open_body.
-        FrameIngestion ingestion(*svc, req.PathId("id"), req.Header("content-type").value_or(""));
+        FrameIngestion ingestion(svc->streams(), req.PathId("id"),
+                                 req.Header("content-type").value_or(""));
         ingestion.Feed(req.body);
         return Response::Json(ingestion.Finish(true));
       },

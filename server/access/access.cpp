@@ -6,10 +6,10 @@
 #include <ctime>
 
 #include "analysis/core/errors.h"
+#include "server/base/conflict.h"
 #include "server/base/request_json.h"
 #include "server/base/sha256.h"
 #include "server/base/utf8.h"
-#include "server/service.h"
 
 namespace km::server {
 namespace {
@@ -104,7 +104,7 @@ Caller Authenticate(AccessStore& storage, const std::string& token_sha256) {
   return c;
 }
 
-nlohmann::json CreateToken(Service& service, const nlohmann::json& req) {
+nlohmann::json AccessService::CreateToken(const nlohmann::json& req) {
   if (!req.is_object()) throw InvalidInput(request::kFile, 0, "", "the body must be a JSON object");
   const std::string name = TokenName(req);
   const std::string role_text = request::RequiredString(req, "role");
@@ -124,7 +124,7 @@ nlohmann::json CreateToken(Service& service, const nlohmann::json& req) {
     }
   }
   const std::string secret = NewRandomToken();
-  const auto id = service.storage().AddToken(Sha256Hex(secret), RoleName(*role), name, expires_at);
+  const auto id = store_.AddToken(Sha256Hex(secret), RoleName(*role), name, expires_at);
   return {{"id", id},
           {"token", secret},
           {"name", name},
@@ -132,10 +132,10 @@ nlohmann::json CreateToken(Service& service, const nlohmann::json& req) {
           {"expires_at", OptionalJson(expires_at)}};
 }
 
-nlohmann::json ListTokens(Service& service) {
+nlohmann::json AccessService::ListTokens() {
   const auto now = NowSeconds();
   nlohmann::json items = nlohmann::json::array();
-  for (const auto& t : service.storage().ListTokens()) {
+  for (const auto& t : store_.ListTokens()) {
     items.push_back({{"id", t.id},
                      {"name", t.name},
                      {"role", t.role},
@@ -173,22 +173,22 @@ void CheckAnAdminRemains(const std::vector<TokenRecord>& tokens, std::int64_t id
 
 }  // namespace
 
-nlohmann::json RevokeToken(Service& service, std::int64_t id) {
-  service.storage().RevokeToken(
+nlohmann::json AccessService::RevokeToken(std::int64_t id) {
+  store_.RevokeToken(
       id, [id](const std::vector<TokenRecord>& tokens) { CheckAnAdminRemains(tokens, id); });
   ++g_revocations;
-  for (const auto& t : service.storage().ListTokens()) {
+  for (const auto& t : store_.ListTokens()) {
     if (t.id == id) return {{"id", id}, {"revoked_at", OptionalJson(t.revoked_at)}};
   }
   return {{"id", id}, {"revoked_at", nullptr}};
 }
 
-void RecordAudit(Service& service, const AuditEntry& entry) {
-  service.storage().AppendAudit(entry);
+void AccessService::RecordAudit(const AuditEntry& entry) {
+  store_.AppendAudit(entry);
 }
 
-nlohmann::json AuditLog(Service& service, std::int64_t limit, std::int64_t offset) {
-  const auto page = service.storage().ListAudit(limit, offset);
+nlohmann::json AccessService::AuditLog(std::int64_t limit, std::int64_t offset) {
+  const auto page = store_.ListAudit(limit, offset);
   nlohmann::json items = nlohmann::json::array();
   for (const auto& e : page.items) {
     items.push_back({{"id", e.id},
@@ -202,6 +202,25 @@ nlohmann::json AuditLog(Service& service, std::int64_t limit, std::int64_t offse
                      {"subject", e.subject}});
   }
   return {{"items", items}, {"total", page.total}, {"limit", limit}, {"offset", offset}};
+}
+
+bool AccessService::TokenKnown(const std::string& token_sha256) {
+  return store_.FindTokenRole(token_sha256).has_value();
+}
+
+std::string AccessService::EnsureAdminToken(const std::string& bootstrap) {
+  return server::EnsureAdminToken(store_, bootstrap);
+}
+
+std::string EnsureAdminToken(AccessStore& storage, const std::string& bootstrap) {
+  if (storage.CountTokens() > 0) return {};
+  if (!bootstrap.empty()) {
+    storage.PutToken(Sha256Hex(bootstrap), "admin", "bootstrap");
+    return {};
+  }
+  const std::string token = NewRandomToken();
+  storage.PutToken(Sha256Hex(token), "admin", "generated at first start");
+  return token;
 }
 
 }  // namespace km::server

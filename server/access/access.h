@@ -14,8 +14,6 @@
 
 namespace km::server {
 
-class Service;
-
 // The holder of a valid token.
 struct Caller {
   std::int64_t token_id = 0;
@@ -32,22 +30,41 @@ Caller Authenticate(AccessStore& storage, const std::string& token_sha256);
 // when the count changes.
 std::uint64_t TokenRevocations();
 
-// POST /api/v1/tokens: {"name", "role", "expires_in_s"?} → {"id", "token", "role", "name",
-// "created_at", "expires_at"}; the secret appears only in this answer. InvalidInput names the
-// bad field.
-nlohmann::json CreateToken(Service& service, const nlohmann::json& request);
-// Every token: {"items": [{"id", "name", "role", "created_at", "expires_at", "revoked_at",
-// "state": "active" | "expired" | "revoked"}]}; never a secret or a hash.
-nlohmann::json ListTokens(Service& service);
-// Revokes a token at once (NotFound for an unknown id; Conflict for the last active admin
-// token, so that the service is never left without one): {"id", "revoked_at"}.
-nlohmann::json RevokeToken(Service& service, std::int64_t id);
+// Tokens and the audit log, for an admin (api/access.cpp).
+class AccessService {
+ public:
+  explicit AccessService(AccessStore& store) : store_(store) {}
 
-// Appends one entry to the audit log (the storage's errors go to the caller).
-void RecordAudit(Service& service, const AuditEntry& entry);
-// {"items": [{"id", "at", "token_id", "token_name", "role", "method", "path", "status",
-// "subject"}], "total", "limit", "offset"}, newest first.
-nlohmann::json AuditLog(Service& service, std::int64_t limit, std::int64_t offset);
+  // POST /api/v1/tokens: {"name", "role", "expires_in_s"?} → {"id", "token", "role", "name",
+  // "created_at", "expires_at"}; the secret appears only in this answer. InvalidInput names the
+  // bad field.
+  nlohmann::json CreateToken(const nlohmann::json& request);
+  // Every token: {"items": [{"id", "name", "role", "created_at", "expires_at", "revoked_at",
+  // "state": "active" | "expired" | "revoked"}]}; never a secret or a hash.
+  nlohmann::json ListTokens();
+  // Revokes a token at once (NotFound for an unknown id; Conflict for the last active admin
+  // token, so that the service is never left without one): {"id", "revoked_at"}.
+  nlohmann::json RevokeToken(std::int64_t id);
+
+  // Appends one entry to the audit log (the storage's errors go to the caller).
+  void RecordAudit(const AuditEntry& entry);
+  // {"items": [{"id", "at", "token_id", "token_name", "role", "method", "path", "status",
+  // "subject"}], "total", "limit", "offset"}, newest first.
+  nlohmann::json AuditLog(std::int64_t limit, std::int64_t offset);
+
+  // Is this hash a stored token?
+  bool TokenKnown(const std::string& token_sha256);
+  // On a database without tokens, stores the bootstrap token (when given) or a new random one,
+  // which is returned (to be shown once); otherwise returns "".
+  std::string EnsureAdminToken(const std::string& bootstrap);
+  AccessStore& store() { return store_; }
+
+ private:
+  AccessStore& store_;
+};
+
+// The admin token of a database without tokens (AccessService::EnsureAdminToken).
+std::string EnsureAdminToken(AccessStore& storage, const std::string& bootstrap);
 
 // Seconds since the epoch as "YYYY-MM-DDTHH:MM:SSZ", and back (nullopt for other text).
 std::string UtcIso8601FromSeconds(std::int64_t unix_seconds);

@@ -16,7 +16,7 @@ class AuditSource {
   virtual ~AuditSource() = default;
   virtual Storage& storage() = 0;
   // The pair analysis of a stored DBB test, recomputed from its stored bytes; null when the
-  // test has no partner (Service::DbbPairJson).
+  // test has no partner (MeasurementService::DbbPairJson).
   virtual nlohmann::json DbbPairJson(std::int64_t id) = 0;
 };
 

@@ -14,8 +14,9 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/json_text.h"
 #include "ingest/machine_json.h"
+#include "server/base/conflict.h"
 #include "server/base/request_json.h"
-#include "server/service.h"
+#include "server/jobs/study_service.h"
 #include "usecases/calibration_study.h"
 
 namespace km::server {
@@ -130,9 +131,9 @@ void RequireReductionWithoutEffects(const CalibrationPlan& plan) {
 
 }  // namespace
 
-std::vector<std::int64_t> Service::CheckedDbbIds(const nlohmann::json& request,
-                                                 const std::string& study, bool need_tool_length,
-                                                 bool need_fixed_ball) {
+std::vector<std::int64_t> StudyService::CheckedDbbIds(const nlohmann::json& request,
+                                                      const std::string& study,
+                                                      bool need_tool_length, bool need_fixed_ball) {
   const std::vector<std::int64_t> ids =
       MeasurementIds(request, options_.max_calibration_tests, study);
   // Every test from its stored record (no file is read now): it exists, is a DBB test, and has
@@ -141,7 +142,7 @@ std::vector<std::int64_t> Service::CheckedDbbIds(const nlohmann::json& request,
   std::size_t samples = 0;
   std::vector<std::string> machines;
   for (const std::int64_t id : ids) {
-    const auto rec = storage_->GetMeasurement(id);
+    const auto rec = measurement_store_.GetMeasurement(id);
     if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
     if (rec->kind != "dbb") {
       throw InvalidInput("request", 0, "measurement_ids",
@@ -170,8 +171,8 @@ std::vector<std::int64_t> Service::CheckedDbbIds(const nlohmann::json& request,
   return ids;
 }
 
-std::shared_ptr<CalibrationPlan> Service::CheckCalibration(const nlohmann::json& request,
-                                                           std::int64_t& stored_version) {
+std::shared_ptr<CalibrationPlan> StudyService::CheckCalibration(const nlohmann::json& request,
+                                                                std::int64_t& stored_version) {
   if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
   auto plan = std::make_shared<CalibrationPlan>();
   stored_version = 0;
@@ -187,7 +188,7 @@ std::shared_ptr<CalibrationPlan> Service::CheckCalibration(const nlohmann::json&
     }
     plan->machine = ingest::ParseHexapodMachineJson(request["machine"].dump(), "request.machine");
   } else if (request.contains("machine_id")) {
-    plan->machine = RequestedMachine(request, stored_version);
+    plan->machine = models_.RequestedMachine(request, stored_version);
     if (plan->machine.kind != "hexapod") {
       throw InvalidInput("request", 0, "machine_id",
                          "stored model '" + plan->machine.machine_id + "' version " +
@@ -217,8 +218,8 @@ std::shared_ptr<CalibrationPlan> Service::CheckCalibration(const nlohmann::json&
   return plan;
 }
 
-std::int64_t Service::SubmitCalibration(const nlohmann::json& request,
-                                        std::int64_t owner_token_id) {
+std::int64_t StudyService::SubmitCalibration(const nlohmann::json& request,
+                                             std::int64_t owner_token_id) {
   std::int64_t stored_version = 0;
   const auto plan = CheckCalibration(request, stored_version);
   nlohmann::json shown = request;
@@ -231,11 +232,12 @@ std::int64_t Service::SubmitCalibration(const nlohmann::json& request,
     shown["machine_version"] = stored_version;
     run["machine_version"] = stored_version;
   }
-  return jobs_->Submit(kCalibrationJob, shown, run, owner_token_id);
+  return queue_.Submit(kCalibrationJob, shown, run, owner_token_id);
 }
 
 // The job reads the tests when it runs, checked again from the plan.
-nlohmann::json Service::RunCalibrationJob(const nlohmann::json& plan_json, const ProgressFn& p) {
+nlohmann::json StudyService::RunCalibrationJob(const nlohmann::json& plan_json,
+                                               const ProgressFn& p) {
   std::int64_t version = 0;
   const auto plan = CheckCalibration(plan_json, version);
   usecases::CalibrationStudy study;
@@ -248,7 +250,7 @@ nlohmann::json Service::RunCalibrationJob(const nlohmann::json& plan_json, const
   study.tests.reserve(plan->ids.size());
   study.names.reserve(plan->ids.size());
   for (const std::int64_t id : plan->ids) {
-    study.tests.push_back(LoadDbb(id));
+    study.tests.push_back(measurements_.LoadDbb(id));
     study.names.push_back(TestName(id));
   }
   auto outcome = usecases::RunCalibrationStudy(study, p);
@@ -258,14 +260,14 @@ nlohmann::json Service::RunCalibrationJob(const nlohmann::json& plan_json, const
   return outcome.report;
 }
 
-nlohmann::json Service::Job(std::int64_t id) {
-  const auto job = storage_->GetJob(id);
+nlohmann::json StudyService::Job(std::int64_t id) {
+  const auto job = job_store_.GetJob(id);
   if (!job) throw NotFound("job " + std::to_string(id) + " does not exist");
   return JobJson(*job);
 }
 
-nlohmann::json Service::CancelJob(std::int64_t id, const JobCanceller& by) {
-  const auto job = storage_->GetJob(id);
+nlohmann::json StudyService::CancelJob(std::int64_t id, const JobCanceller& by) {
+  const auto job = job_store_.GetJob(id);
   const std::string name = "job " + std::to_string(id);
   if (!job) throw NotFound(name + " does not exist");
   if (!by.admin && (job->owner_token_id == 0 || job->owner_token_id != by.token_id)) {
@@ -274,8 +276,8 @@ nlohmann::json Service::CancelJob(std::int64_t id, const JobCanceller& by) {
   }
   const std::string reason =
       "cancelled by token '" + by.token_name + "' (id " + std::to_string(by.token_id) + ")";
-  if (!jobs_->Cancel(id, reason)) {
-    const auto now = storage_->GetJob(id);
+  if (!queue_.Cancel(id, reason)) {
+    const auto now = job_store_.GetJob(id);
     throw Conflict(name + " is " +
                    (now ? std::string(ToString(now->status)) : std::string("gone")) +
                    " already; only a queued or running job can be cancelled");
@@ -283,9 +285,9 @@ nlohmann::json Service::CancelJob(std::int64_t id, const JobCanceller& by) {
   return Job(id);
 }
 
-nlohmann::json Service::Jobs(std::int64_t limit) {
+nlohmann::json StudyService::Jobs(std::int64_t limit) {
   nlohmann::json items = nlohmann::json::array();
-  for (const auto& j : storage_->ListJobs(limit)) {
+  for (const auto& j : job_store_.ListJobs(limit)) {
     nlohmann::json x = JobJson(j);
     x.erase("result");  // the list stays small; GET /api/v1/jobs/{id} has the result
     items.push_back(x);

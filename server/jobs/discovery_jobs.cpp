@@ -9,8 +9,9 @@
 #include "analysis/core/errors.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
+#include "server/base/conflict.h"
 #include "server/base/request_json.h"
-#include "server/service.h"
+#include "server/jobs/study_service.h"
 #include "usecases/discovery_report.h"
 
 namespace km::server {
@@ -24,8 +25,8 @@ struct DiscoveryPlan {
   int max_samples_per_test = 0;
 };
 
-std::shared_ptr<DiscoveryPlan> Service::CheckDiscovery(const nlohmann::json& request,
-                                                       std::int64_t& version) {
+std::shared_ptr<DiscoveryPlan> StudyService::CheckDiscovery(const nlohmann::json& request,
+                                                            std::int64_t& version) {
   if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
   if (request.contains("machine")) {
     throw InvalidInput("request", 0, "machine",
@@ -35,7 +36,7 @@ std::shared_ptr<DiscoveryPlan> Service::CheckDiscovery(const nlohmann::json& req
   auto plan = std::make_shared<DiscoveryPlan>();
   version = 0;
   if (request.contains("machine_id")) {
-    plan->machine = RequestedMachine(request, version);
+    plan->machine = models_.RequestedMachine(request, version);
   } else if (request.contains("machine_version")) {
     throw InvalidInput("request", 0, "machine_version", "needs machine_id (the stored model)");
   }
@@ -47,17 +48,18 @@ std::shared_ptr<DiscoveryPlan> Service::CheckDiscovery(const nlohmann::json& req
   return plan;
 }
 
-std::int64_t Service::SubmitDiscovery(const nlohmann::json& request, std::int64_t owner_token_id) {
+std::int64_t StudyService::SubmitDiscovery(const nlohmann::json& request,
+                                           std::int64_t owner_token_id) {
   std::int64_t version = 0;
   const auto plan = CheckDiscovery(request, version);
   // Shown and run: the request with the stored model's version it was checked against.
   nlohmann::json stored = request;
   if (plan->machine) stored["machine_version"] = version;
-  return jobs_->Submit(kDiscoveryJob, stored, stored, owner_token_id);
+  return queue_.Submit(kDiscoveryJob, stored, stored, owner_token_id);
 }
 
 // The job reads the tests when it runs, checked again from the plan.
-nlohmann::json Service::RunDiscoveryJob(const nlohmann::json& plan_json, const ProgressFn& p) {
+nlohmann::json StudyService::RunDiscoveryJob(const nlohmann::json& plan_json, const ProgressFn& p) {
   std::int64_t version = 0;
   const auto plan = CheckDiscovery(plan_json, version);
   usecases::DiscoveryStudy study;
@@ -67,7 +69,7 @@ nlohmann::json Service::RunDiscoveryJob(const nlohmann::json& plan_json, const P
   study.tests.reserve(plan->ids.size());
   study.names.reserve(plan->ids.size());
   for (const std::int64_t id : plan->ids) {
-    study.tests.push_back(LoadDbb(id));
+    study.tests.push_back(measurements_.LoadDbb(id));
     study.names.push_back("measurement " + std::to_string(id));
   }
   usecases::DiscoveryOutcome outcome = usecases::RunDiscoveryStudy(study, p);

@@ -1,5 +1,4 @@
-// The measurement kinds the server accepts, one handler per format (docs/formats.md §1), and the
-// DBB-specific queries (trace, pair analysis, plot).
+// The measurement kinds the server accepts, one handler per format (docs/formats.md §1).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -14,8 +13,8 @@
 #include "ingest/tracker_parser.h"
 #include "render/dbb_plot.h"
 #include "server/base/finite_result.h"
+#include "server/measurements/measurement_service.h"
 #include "server/measurements/servo_kinds.h"
-#include "server/service.h"
 #include "usecases/dbb_json.h"
 #include "usecases/dbb_report.h"
 #include "usecases/form_report.h"
@@ -249,125 +248,8 @@ std::vector<FormatRegistration> BuiltinFormats() {
   };
 }
 
-void RegisterBuiltinKinds(Service& service) {
-  for (auto& f : BuiltinFormats()) service.RegisterKind(f.format, std::move(f.handler));
-}
-
-dbb::DbbTest Service::LoadDbb(std::int64_t id, MeasurementRecord* record) {
-  const auto rec = storage_->GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
-  if (rec->kind != "dbb") {
-    throw InvalidInput("", 0, "id", "measurement " + std::to_string(id) + " is not a DBB test");
-  }
-  if (record) *record = *rec;
-  return ingest::ParseDbb(storage_->GetRaw(id), rec->filename);
-}
-
-std::optional<std::int64_t> Service::DbbPartner(const MeasurementRecord& rec) {
-  return NearestPartner(rec, rec.direction == "ccw" ? "cw" : "ccw");
-}
-
-std::optional<std::int64_t> Service::NearestPartner(const MeasurementRecord& rec,
-                                                    const std::string& other_direction) {
-  // The other-direction measurement (the opposite DBB direction, the other set-up of a
-  // reversal) of the same machine, kind and test_id measured nearest in time to this one
-  // (measurement time, else upload time): a pair is run minutes apart, a repeat days or months
-  // later. On equal distance the one stored nearest, then the later.
-  const std::string when = rec.measured_at.value_or(rec.uploaded_at);
-  const auto t = ingest::Iso8601EpochSeconds(when);
-  MeasurementFilter f;
-  f.machine_id = rec.machine_id;
-  f.kind = rec.kind;
-  f.test_id = rec.test_id;
-  f.direction = other_direction;
-  f.limit = 2;
-  std::vector<MeasurementRecord> candidates;
-  f.from = when;  // the nearest at or after it
-  f.order = MeasurementFilter::Order::kOldest;
-  for (auto& m : storage_->ListMeasurements(f).items) candidates.push_back(std::move(m));
-  f.from.reset();
-  f.to = when;  // the nearest before it
-  f.order = MeasurementFilter::Order::kNewest;
-  for (auto& m : storage_->ListMeasurements(f).items) candidates.push_back(std::move(m));
-  std::optional<std::int64_t> best;
-  double best_dt = 0.0;
-  for (const auto& m : candidates) {
-    const auto tm = ingest::Iso8601EpochSeconds(m.measured_at.value_or(m.uploaded_at));
-    const double dt = t && tm ? std::fabs(*tm - *t) : 0.0;
-    const bool nearer =
-        !best || dt < best_dt ||
-        (dt == best_dt && (std::abs(m.id - rec.id) < std::abs(*best - rec.id) ||
-                           (std::abs(m.id - rec.id) == std::abs(*best - rec.id) && m.id > *best)));
-    if (nearer) {
-      best = m.id;
-      best_dt = dt;
-    }
-  }
-  return best;
-}
-
-nlohmann::json Service::DbbTrace(std::int64_t id) {
-  const dbb::DbbTest test = LoadDbb(id);
-  return usecases::DbbTraceJson(test,
-                                dbb::AnalyzeCircularTest(test, dbb::DeviationUnits::kToolPath));
-}
-
-nlohmann::json Service::DbbPairJson(std::int64_t id) {
-  MeasurementRecord rec;
-  const dbb::DbbTest test = LoadDbb(id, &rec);
-  const auto partner = DbbPartner(rec);
-  if (!partner) return nullptr;
-  const dbb::DbbTest other = LoadDbb(*partner);
-  const std::vector<dbb::DbbTest> both{test, other};
-  const dbb::DbbReport report = dbb::AnalyzeDbbSet(both);
-  const nlohmann::json j = usecases::DbbReportJson(both, report);
-  nlohmann::json out;
-  out["partner_id"] = *partner;
-  if (!j["pairs"].empty()) {
-    out["pair"] = j["pairs"][0];
-  }
-  out["joint_diagnosis"] = j["tests"][0]["diagnosis"];
-  out["joint_not_identifiable"] = j["tests"][0]["not_identifiable"];
-  out["partner_joint_diagnosis"] = j["tests"][1]["diagnosis"];
-  return out;
-}
-
-std::string Service::DbbPlotPng(std::int64_t id, const render::PolarPlotOptions& options) {
-  MeasurementRecord rec;
-  std::vector<dbb::DbbTest> tests{LoadDbb(id, &rec)};
-  if (const auto partner = DbbPartner(rec)) tests.push_back(LoadDbb(*partner));
-  const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
-  const auto png = render::DbbPolarPlotPng(report, 0, options);
-  return std::string(png.begin(), png.end());
-}
-
-nlohmann::json Service::StraightnessReversalJson(std::int64_t id) {
-  const auto rec = storage_->GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
-  if (rec->kind != "straightness") {
-    throw InvalidInput("", 0, "id",
-                       "measurement " + std::to_string(id) + " is not a straightness profile");
-  }
-  if (rec->direction != "a" && rec->direction != "b") {
-    throw InvalidInput(
-        "", 0, "reversal",
-        "measurement " + std::to_string(id) +
-            " is not one set-up of a reversal pair (its file has no `reversal` key)");
-  }
-  const auto partner = NearestPartner(*rec, rec->direction == "a" ? "b" : "a");
-  if (!partner) return nullptr;
-  const auto other = storage_->GetMeasurement(*partner);
-  std::vector<ingest::StraightnessFile> files;
-  for (const auto& [mid, name] :
-       {std::pair{id, rec->filename}, std::pair{*partner, other->filename}})
-    files.push_back(ingest::ParseStraightnessFile(storage_->GetRaw(mid), name));
-  if (files[0].reversal == "b") std::swap(files[0], files[1]);
-  const nlohmann::json j = usecases::StraightnessFilesToJson(files);
-  nlohmann::json out;
-  out["partner_id"] = *partner;
-  out["reversal"] = j.value("reversal", nlohmann::json(nullptr));
-  out["profiles"] = j["profiles"];
-  return out;
+void RegisterBuiltinKinds(MeasurementService& measurements) {
+  for (auto& f : BuiltinFormats()) measurements.RegisterKind(f.format, std::move(f.handler));
 }
 
 }  // namespace km::server

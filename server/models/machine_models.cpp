@@ -9,7 +9,7 @@
 #include "ingest/machine_json.h"
 #include "server/base/request_json.h"
 #include "server/base/sha256.h"
-#include "server/service.h"
+#include "server/models/model_service.h"
 
 namespace km::server {
 
@@ -43,8 +43,10 @@ std::string VersionText(const std::string& machine_id, std::int64_t version) {
 
 }  // namespace
 
-MachineModelStored Service::StoreMachineModel(std::string_view bytes, const std::string& source,
-                                              const std::string& note, const std::string& file) {
+MachineModelStored ModelService::StoreMachineModel(std::string_view bytes,
+                                                   const std::string& source,
+                                                   const std::string& note,
+                                                   const std::string& file) {
   if (bytes.size() > kMaxMachineModelBytes) {
     throw TooLarge(file, 0, "",
                    "the machine definition is " + std::to_string(bytes.size()) +
@@ -62,24 +64,24 @@ MachineModelStored Service::StoreMachineModel(std::string_view bytes, const std:
   m.note = note;
   m.document.assign(bytes);
   m.sha256 = Sha256Hex(bytes);
-  const MachineModelPut put = storage_->PutMachineModel(m);
+  const MachineModelPut put = store_.PutMachineModel(m);
   return MachineModelStored{put.record.machine_id, put.record.version, put.record.created_at,
                             put.created};
 }
 
-MachineModelRecord Service::GetMachineModel(const std::string& machine_id,
-                                            std::optional<std::int64_t> version) {
-  auto rec = storage_->GetMachineModel(machine_id, version);
+MachineModelRecord ModelService::GetMachineModel(const std::string& machine_id,
+                                                 std::optional<std::int64_t> version) {
+  auto rec = store_.GetMachineModel(machine_id, version);
   if (rec) return std::move(*rec);
   if (!version) throw NotFound("machine '" + machine_id + "' has no stored model");
-  const auto newest = storage_->GetMachineModel(machine_id, std::nullopt);
+  const auto newest = store_.GetMachineModel(machine_id, std::nullopt);
   if (!newest) throw NotFound("machine '" + machine_id + "' has no stored model");
   throw NotFound("machine '" + machine_id + "' has no model version " + std::to_string(*version) +
                  " (the newest is version " + std::to_string(newest->version) + ")");
 }
 
-nlohmann::json Service::ListMachineModels(const std::string& machine_id) {
-  const auto versions = storage_->ListMachineModels(machine_id);
+nlohmann::json ModelService::ListMachineModels(const std::string& machine_id) {
+  const auto versions = store_.ListMachineModels(machine_id);
   if (versions.empty()) throw NotFound("machine '" + machine_id + "' has no stored model");
   nlohmann::json items = nlohmann::json::array();
   for (const auto& v : versions) {
@@ -92,8 +94,8 @@ nlohmann::json Service::ListMachineModels(const std::string& machine_id) {
   return {{"machine_id", machine_id}, {"versions", items}};
 }
 
-ingest::MachineDefinition Service::RequestedMachine(const nlohmann::json& request,
-                                                    std::int64_t& version) {
+ingest::MachineDefinition ModelService::RequestedMachine(const nlohmann::json& request,
+                                                         std::int64_t& version) {
   const std::string machine_id = req::RequiredString(request, "machine_id");
   std::optional<std::int64_t> wanted;
   if (request.contains("machine_version")) {
@@ -104,34 +106,6 @@ ingest::MachineDefinition Service::RequestedMachine(const nlohmann::json& reques
   version = rec.version;
   // Stored documents were validated when they were stored; parsed again for this study.
   return ingest::ParseMachineJson(rec.document, VersionText(rec.machine_id, rec.version));
-}
-
-MachineModelStored Service::SaveJobMachine(std::int64_t job_id, const std::string& note) {
-  const auto job = storage_->GetJob(job_id);
-  if (!job) throw NotFound("job " + std::to_string(job_id) + " does not exist");
-  const std::string name = "job " + std::to_string(job_id);
-  std::string key, source;
-  if (job->kind == kCalibrationJob) {
-    key = "calibrated_machine";
-    source = "calibration " + name;
-  } else if (job->kind == kDiscoveryJob) {
-    key = "updated_machine";
-    source = "discovery " + name;
-  } else {
-    throw Conflict(name + " (" + job->kind + ") does not produce a machine definition");
-  }
-  if (job->status != JobStatus::kDone) {
-    throw Conflict(name + " is " + ToString(job->status) +
-                   (job->status == JobStatus::kFailed
-                        ? "; it has no machine to save"
-                        : "; its machine can be saved once it is done"));
-  }
-  const auto result = ingest::ParseJsonTextOrDiscarded(job->result_json);
-  if (!result.is_object() || !result.contains(key) || !result[key].is_object()) {
-    throw Conflict(name + " produced no machine to save (its result has no " + key + ")");
-  }
-  // The document as the job wrote it (ingest::WriteMachineJson: indent 2, closing newline).
-  return StoreMachineModel(result[key].dump(2) + "\n", source, note, name + " " + key);
 }
 
 }  // namespace km::server

@@ -24,7 +24,7 @@
 namespace km::server {
 
 // Opens a stream for a device: the stream request (docs/streams.md) and its source; returns
-// the stream id (Service::CreateStream).
+// the stream id (StreamService::CreateStream).
 using OpenStream =
     std::function<std::int64_t(const nlohmann::json& request, const std::string& source)>;
 

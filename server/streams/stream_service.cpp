@@ -8,8 +8,8 @@
 #include "ingest/stream_frames.h"
 #include "server/base/request_json.h"
 #include "server/base/time_util.h"
-#include "server/service.h"
 #include "server/streams/stream_chunks.h"
+#include "server/streams/stream_service.h"
 #include "usecases/stream_profile.h"
 
 namespace km::server {
@@ -39,7 +39,7 @@ json GapJson(const StreamGap& g) {
 }
 
 // All samples of a channel in [from, to), in counter order, as one run.
-ingest::SampleRun ReadChannel(Storage& storage, std::int64_t stream, std::int64_t channel,
+ingest::SampleRun ReadChannel(StreamStore& storage, std::int64_t stream, std::int64_t channel,
                               std::int64_t from_us, std::int64_t to_us) {
   auto samples = ReadChannelSamples(storage, stream, channel, from_us, to_us);
   ingest::SampleRun out;
@@ -52,7 +52,20 @@ ingest::SampleRun ReadChannel(Storage& storage, std::int64_t stream, std::int64_
 
 }  // namespace
 
-std::int64_t Service::CreateStream(const json& request, const std::string& source) {
+StreamService::StreamService(StreamStore& store, MeasurementService& measurements)
+    : store_(store),
+      measurements_(measurements),
+      hub_(std::make_unique<StreamHub>(store, StreamOptions{})),
+      acquisition_(std::make_unique<Acquisition>(
+          *hub_, [this](const json& request, const std::string& source) {
+            return CreateStream(request, source);
+          })) {}
+
+StreamService::~StreamService() {
+  acquisition_.reset();  // the devices stop before the hub writes what it buffers
+}
+
+std::int64_t StreamService::CreateStream(const json& request, const std::string& source) {
   if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
   NewStream s;
   s.machine_id = RequiredString(request, "machine_id");
@@ -81,7 +94,7 @@ std::int64_t Service::CreateStream(const json& request, const std::string& sourc
     }
   }
   s.metadata_json = request.dump();
-  return streams_->Create(s);
+  return hub_->Create(s);
 }
 
 struct FrameIngestion::State {
@@ -94,14 +107,14 @@ struct FrameIngestion::State {
   void OnRun(ingest::SampleRun&& run) { hub.Accept(stream_id, std::move(run), counts); }
 };
 
-FrameIngestion::FrameIngestion(Service& service, std::int64_t stream_id,
+FrameIngestion::FrameIngestion(StreamService& streams, std::int64_t stream_id,
                                const std::string& content_type) {
-  if (!service.storage_->GetStream(stream_id)) {
+  if (!streams.store().GetStream(stream_id)) {
     throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
   }
   const std::string source = "stream " + std::to_string(stream_id) + " frames";
   state_.reset(new State{
-      *service.streams_,
+      streams.hub(),
       stream_id,
       source,
       ingest::StreamFrameDecoder(ingest::FrameFormatFromContentType(content_type), source),
@@ -151,8 +164,8 @@ json FrameIngestion::Finish(bool complete) {
           {"duplicates", s.counts.duplicates}, {"gaps", gaps}};
 }
 
-json Service::IngestFrames(std::int64_t stream_id, const std::string& content_type,
-                           const BodyReader& read_body) {
+json StreamService::IngestFrames(std::int64_t stream_id, const std::string& content_type,
+                                 const BodyReader& read_body) {
   FrameIngestion ingestion(*this, stream_id, content_type);
   const bool complete = read_body([&ingestion](std::string_view piece) {
     ingestion.Feed(piece);
@@ -161,8 +174,8 @@ json Service::IngestFrames(std::int64_t stream_id, const std::string& content_ty
   return ingestion.Finish(complete);
 }
 
-json Service::StreamJson(std::int64_t stream_id) {
-  const auto rec = storage_->GetStream(stream_id);
+json StreamService::StreamJson(std::int64_t stream_id) {
+  const auto rec = store_.GetStream(stream_id);
   if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
   json j;
   j["id"] = rec->id;
@@ -171,7 +184,7 @@ json Service::StreamJson(std::int64_t stream_id) {
   j["source"] = rec->source;
   j["created_at"] = rec->created_at;
   j["metadata"] = ingest::ParseJsonTextOrDiscarded(rec->metadata_json);
-  const auto pending = streams_->Pending(stream_id);
+  const auto pending = hub_->Pending(stream_id);
   json chans = json::array();
   std::int64_t total = 0, gaps = 0;
   // Each channel's missing count fits 63 bits (its gaps lie within 0 … 2⁶³ − 1); their sum over
@@ -179,7 +192,7 @@ json Service::StreamJson(std::int64_t stream_id) {
   std::uint64_t missing = 0;
   bool missing_beyond_u64 = false;
   double missing_approx = 0.0;
-  for (const auto& c : storage_->StreamChannels(stream_id)) {
+  for (const auto& c : store_.StreamChannels(stream_id)) {
     const auto p = pending.find(static_cast<std::uint32_t>(c.channel));
     chans.push_back({{"channel", c.channel},
                      {"samples", c.samples},
@@ -204,32 +217,32 @@ json Service::StreamJson(std::int64_t stream_id) {
   return j;
 }
 
-json Service::ListStreams(const std::optional<std::string>& machine_id, std::int64_t limit) {
+json StreamService::ListStreams(const std::optional<std::string>& machine_id, std::int64_t limit) {
   json items = json::array();
-  for (const auto& s : storage_->ListStreams(machine_id, limit)) items.push_back(StreamJson(s.id));
+  for (const auto& s : store_.ListStreams(machine_id, limit)) items.push_back(StreamJson(s.id));
   return {{"items", items}};
 }
 
-json Service::StreamGapsJson(std::int64_t stream_id, std::int64_t limit) {
-  if (!storage_->GetStream(stream_id)) {
+json StreamService::StreamGapsJson(std::int64_t stream_id, std::int64_t limit) {
+  if (!store_.GetStream(stream_id)) {
     throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
   }
   json items = json::array();
-  for (const auto& g : storage_->StreamGaps(stream_id, limit)) items.push_back(GapJson(g));
+  for (const auto& g : store_.StreamGaps(stream_id, limit)) items.push_back(GapJson(g));
   return {{"stream_id", stream_id}, {"items", items}};
 }
 
-json Service::StreamSamples(std::int64_t stream_id, std::int64_t channel,
-                            std::optional<std::int64_t> from_us, std::optional<std::int64_t> to_us,
-                            std::size_t max_points) {
+json StreamService::StreamSamples(std::int64_t stream_id, std::int64_t channel,
+                                  std::optional<std::int64_t> from_us,
+                                  std::optional<std::int64_t> to_us, std::size_t max_points) {
   std::int64_t lo = std::numeric_limits<std::int64_t>::min();
   std::int64_t hi = std::numeric_limits<std::int64_t>::max();
-  return StreamSamplesJson(*storage_, stream_id, channel, from_us.value_or(lo), to_us.value_or(hi),
+  return StreamSamplesJson(store_, stream_id, channel, from_us.value_or(lo), to_us.value_or(hi),
                            max_points);
 }
 
-UploadOutcome Service::StreamProfile(std::int64_t stream_id, const json& request) {
-  const auto rec = storage_->GetStream(stream_id);
+UploadOutcome StreamService::StreamProfile(std::int64_t stream_id, const json& request) {
+  const auto rec = store_.GetStream(stream_id);
   if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
   if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
   const auto channel = req::WholeNumber(request, "channel", 0, 65535);
@@ -242,8 +255,8 @@ UploadOutcome Service::StreamProfile(std::int64_t stream_id, const json& request
   const std::string axis = RequiredString(request, "axis");
   const std::string error_direction = RequiredString(request, "error_direction");
   const auto bins = static_cast<std::size_t>(req::WholeNumber(request, "points", 3, 100000, 1000));
-  streams_->Flush(stream_id);  // a profile sees every sample received so far
-  const auto sensor = ReadChannel(*storage_, stream_id, channel, from_us, to_us);
+  hub_->Flush(stream_id);  // a profile sees every sample received so far
+  const auto sensor = ReadChannel(store_, stream_id, channel, from_us, to_us);
   if (!request.contains("position") || !request["position"].is_object()) {
     throw InvalidInput(req::kFile, 0, "position",
                        "an object {\"encoder_channel\": N} or {\"feed_mm_min\": F, "
@@ -262,15 +275,15 @@ UploadOutcome Service::StreamProfile(std::int64_t stream_id, const json& request
   std::optional<ingest::SampleRun> encoder;
   if (pos.contains("encoder_channel")) {
     const auto enc = req::WholeNumber(pos, "encoder_channel", 0, 65535);
-    encoder = ReadChannel(*storage_, stream_id, enc, from_us, to_us);
+    encoder = ReadChannel(store_, stream_id, enc, from_us, to_us);
   } else {
     spec.feed_mm_min = req::Number(pos, "feed_mm_min", std::nullopt);
     spec.start_mm = req::Number(pos, "start_mm", 0.0);
   }
   const std::string text =
       usecases::StraightnessFileFromStream(spec, sensor, encoder ? &*encoder : nullptr);
-  return Upload(text,
-                "stream-" + std::to_string(stream_id) + "-ch" + std::to_string(channel) + ".csv");
+  return measurements_.Upload(
+      text, "stream-" + std::to_string(stream_id) + "-ch" + std::to_string(channel) + ".csv");
 }
 
 }  // namespace km::server

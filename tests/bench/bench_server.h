@@ -18,7 +18,7 @@ class BenchServer {
  public:
   explicit BenchServer(const std::filesystem::path& db)
       : service_(std::make_unique<server::SqliteStorage>(db.string()), {}) {
-    server::RegisterBuiltinKinds(service_);
+    server::RegisterBuiltinKinds(service_.measurements());
     api::EnsureAdminToken(service_.storage(), "bench");
     api::AddRoutes(router_, service_);
     router_.SetHook(api::TokenHook(service_.storage()));

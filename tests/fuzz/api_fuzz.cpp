@@ -38,16 +38,16 @@ void SeedData(km::server::Service& svc) {
         "tests/fixtures/browser/parallelism_x_tslot.txt",
         "tests/fixtures/browser/tracker_browser-vmc.txt"}) {
     const std::string bytes = km::fuzz::SourceFile(f);
-    if (!bytes.empty()) svc.Upload(bytes, f);
+    if (!bytes.empty()) svc.measurements().Upload(bytes, f);
   }
   // A hexapod model and a servo record of it (measurement 7): the servo routes.
   const std::string machine = km::fuzz::SourceFile("data/machines/pm600-like.json");
-  if (!machine.empty()) svc.StoreMachineModel(machine, "upload", "fuzz");
+  if (!machine.empty()) svc.models().StoreMachineModel(machine, "upload", "fuzz");
   const std::string servo = km::fuzz::SourceFile("data/examples/servo_pm600-like_a_ccw.txt");
-  if (!servo.empty()) svc.Upload(servo, "servo_pm600-like_a_ccw.txt");
-  const auto stream =
-      svc.CreateStream(json{{"machine_id", "browser-test-vmc"},
-                            {"channels", json::array({{{"channel", 1}}, {{"channel", 2}}})}});
+  if (!servo.empty()) svc.measurements().Upload(servo, "servo_pm600-like_a_ccw.txt");
+  const auto stream = svc.streams().CreateStream(
+      json{{"machine_id", "browser-test-vmc"},
+           {"channels", json::array({{{"channel", 1}}, {{"channel", 2}}})}});
   std::string body;
   for (int k = 0; k < 64; ++k) {
     body += json{{"channel", 1 + k % 2},
@@ -57,8 +57,9 @@ void SeedData(km::server::Service& svc) {
                 .dump() +
             "\n";
   }
-  svc.IngestFrames(stream, "application/x-ndjson",
-                   [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
+  svc.streams().IngestFrames(
+      stream, "application/x-ndjson",
+      [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
   svc.storage().PutToken(km::server::Sha256Hex(kToken), "admin", "fuzz");
 }
 

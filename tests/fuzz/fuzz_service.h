@@ -18,7 +18,7 @@ namespace km::fuzz {
 inline std::unique_ptr<server::Service> NewService() {
   auto service = std::make_unique<server::Service>(
       std::make_unique<server::SqliteStorage>(":memory:"), server::ServiceOptions{});
-  server::RegisterBuiltinKinds(*service);
+  server::RegisterBuiltinKinds(service->measurements());
   return service;
 }
 

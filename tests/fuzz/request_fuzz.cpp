@@ -21,7 +21,7 @@ constexpr std::int64_t kSeededStream = 1;
 
 // Stream 1: channel 1 a sensor, channel 2 an encoder, 200 samples each at 1 kHz.
 void SeedStream(km::server::Service& svc) {
-  const auto id = svc.CreateStream(json{
+  const auto id = svc.streams().CreateStream(json{
       {"machine_id", "fuzz-vmc"}, {"channels", json::array({{{"channel", 1}}, {{"channel", 2}}})}});
   km::fuzz::Check(id == kSeededStream, "the seeded stream is stream 1");
   std::string body;
@@ -36,8 +36,9 @@ void SeedStream(km::server::Service& svc) {
     }
     body += km::ingest::EncodeNdjsonRun(run);
   }
-  svc.IngestFrames(kSeededStream, std::string(km::ingest::kNdjsonContentType),
-                   [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
+  svc.streams().IngestFrames(
+      kSeededStream, std::string(km::ingest::kNdjsonContentType),
+      [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
 }
 
 // A whole number the helper accepted is the number the request holds.
@@ -73,8 +74,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     CheckWhole(j, "from_us", std::numeric_limits<std::int64_t>::min(),
                std::numeric_limits<std::int64_t>::max());
   });
-  Guarded([&] { svc.CreateStream(j); });
-  Guarded([&] { svc.SubmitCalibration(j); });
-  Guarded([&] { svc.StreamProfile(kSeededStream, j); });
+  Guarded([&] { svc.streams().CreateStream(j); });
+  Guarded([&] { svc.studies().SubmitCalibration(j); });
+  Guarded([&] { svc.streams().StreamProfile(kSeededStream, j); });
   return 0;
 }

@@ -7,10 +7,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static km::fuzz::RecycledService service(1000, nullptr);
   auto& svc = service.Get();
   km::fuzz::Guarded([&] {
-    const auto out = svc.Upload(km::fuzz::AsText(data, size), "fuzz.txt");
+    const auto out = svc.measurements().Upload(km::fuzz::AsText(data, size), "fuzz.txt");
     km::fuzz::Check(out.id > 0 && !out.kind.empty() && out.sha256.size() == 64,
                     "an accepted upload has an id, a kind and a SHA-256");
-    svc.Results(out.id);
+    svc.measurements().Results(out.id);
   });
   return 0;
 }

@@ -101,7 +101,7 @@ void RunUpload(benchmark::State& state, const std::string& text) {
     km::server::ServiceOptions options;
     options.upload_limits = {};  // the comparison runs beyond the default limits
     km::server::Service svc(std::make_unique<km::server::SqliteStorage>(db.string()), options);
-    km::server::RegisterBuiltinKinds(svc);
+    km::server::RegisterBuiltinKinds(svc.measurements());
     const auto at = text.find('\n') + 1;  // after the format line
     int n = 0;
     for (auto _ : state) {
@@ -109,7 +109,7 @@ void RunUpload(benchmark::State& state, const std::string& text) {
       const std::string body =
           text.substr(0, at) + "# run: " + std::to_string(n++) + "\n" + text.substr(at);
       state.ResumeTiming();
-      if (!svc.Upload(body, "big.txt").created) state.SkipWithError("not stored");
+      if (!svc.measurements().Upload(body, "big.txt").created) state.SkipWithError("not stored");
     }
     state.counters["input_MB"] = static_cast<double>(text.size()) / (1 << 20);
     state.counters["max_rss_MB"] = MaxRssMb();

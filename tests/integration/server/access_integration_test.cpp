@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "server/measurements/demo_data.h"
+#include "server/demo/demo_data.h"
 #include "tests/integration/server/server_process.h"
 
 namespace fs = std::filesystem;

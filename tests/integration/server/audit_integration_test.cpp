@@ -17,7 +17,7 @@
 #include <string>
 #include <thread>
 
-#include "server/measurements/demo_data.h"
+#include "server/demo/demo_data.h"
 #include "tests/integration/server/server_process.h"
 
 namespace km::audit::test {

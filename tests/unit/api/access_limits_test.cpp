@@ -133,10 +133,10 @@ class Devices : public testing::Test {
     svc_ = std::make_unique<server::Service>(
         std::make_unique<server::SqliteStorage>((dir_ / "km.db").string()),
         server::ServiceOptions{});
-    server::RegisterBuiltinKinds(*svc_);
+    server::RegisterBuiltinKinds(svc_->measurements());
     AddRoutes(router_, *svc_);
     router_.SetHook(TokenHook(*svc_));
-    ASSERT_EQ(svc_->EnsureAdminToken("boot"), "");
+    ASSERT_EQ(svc_->access().EnsureAdminToken("boot"), "");
   }
   void TearDown() override {
     svc_.reset();
@@ -168,16 +168,16 @@ TEST_F(Devices, HostsOutsideTheAllowedNetworksAreRefusedNamingTheReason) {
   r = Call("POST", "/api/v1/devices", DeviceRequest("near", "127.0.0.1").dump());
   EXPECT_EQ(r.status, 201) << r.body;
 
-  svc_->acquisition().SetLimits({16, {"10.0.0.0/24"}});
+  svc_->streams().acquisition().SetLimits({16, {"10.0.0.0/24"}});
   EXPECT_EQ(Call("POST", "/api/v1/devices", DeviceRequest("far", "10.0.0.5").dump()).status, 201);
   EXPECT_EQ(Call("POST", "/api/v1/devices", DeviceRequest("farther", "10.0.1.5").dump()).status,
             403);
   EXPECT_EQ(Call("POST", "/api/v1/devices", DeviceRequest("loop", "127.0.0.1").dump()).status, 403);
-  EXPECT_THROW(svc_->acquisition().SetLimits({16, {"10.0.0.0/33"}}), InvalidInput);
+  EXPECT_THROW(svc_->streams().acquisition().SetLimits({16, {"10.0.0.0/33"}}), InvalidInput);
 }
 
 TEST_F(Devices, AtMostMaxDevicesRunAndAStoppedOneFreesItsPlace) {
-  svc_->acquisition().SetLimits({2, {"127.0.0.0/8"}});
+  svc_->streams().acquisition().SetLimits({2, {"127.0.0.0/8"}});
   EXPECT_EQ(Call("POST", "/api/v1/devices", DeviceRequest("a", "127.0.0.1").dump()).status, 201);
   EXPECT_EQ(Call("POST", "/api/v1/devices", DeviceRequest("b", "localhost").dump()).status, 201);
   auto r = Call("POST", "/api/v1/devices", DeviceRequest("c", "127.0.0.2").dump());

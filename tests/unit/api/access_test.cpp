@@ -12,7 +12,7 @@
 #include "api/routes.h"
 #include "server/access/access.h"
 #include "server/base/sha256.h"
-#include "server/measurements/demo_data.h"
+#include "server/demo/demo_data.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 
@@ -106,11 +106,11 @@ class Access : public testing::Test {
     svc_ = std::make_unique<server::Service>(
         std::make_unique<server::SqliteStorage>((dir_ / "km.db").string()),
         server::ServiceOptions{});
-    server::RegisterBuiltinKinds(*svc_);
+    server::RegisterBuiltinKinds(svc_->measurements());
     AddRoutes(router_, *svc_);
     router_.SetHook(TokenHook(*svc_));
     router_.SetObserver(AuditHook(*svc_));
-    ASSERT_EQ(svc_->EnsureAdminToken("boot"), "");
+    ASSERT_EQ(svc_->access().EnsureAdminToken("boot"), "");
   }
   void TearDown() override {
     svc_.reset();

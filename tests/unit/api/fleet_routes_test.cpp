@@ -55,12 +55,13 @@ class FleetRoutes : public test::RoutedServiceTest {
 
 TEST_F(FleetRoutes, NewestMeasurementOpenJobsAndTrends) {
   // The CW test measured a month before the CCW one (uploaded after it).
-  const auto ccw = svc_->Upload(Example("dbb_xy-r150_ccw.txt"), "ccw.txt").id;
-  const auto cw = svc_->Upload(Replaced(Example("dbb_xy-r150_cw.txt"), "2026-11-02T07:58:00Z",
-                                        "2026-10-02T07:58:00Z"),
-                               "cw.txt")
+  const auto ccw = svc_->measurements().Upload(Example("dbb_xy-r150_ccw.txt"), "ccw.txt").id;
+  const auto cw = svc_->measurements()
+                      .Upload(Replaced(Example("dbb_xy-r150_cw.txt"), "2026-11-02T07:58:00Z",
+                                       "2026-10-02T07:58:00Z"),
+                              "cw.txt")
                       .id;
-  const auto flat = svc_->Upload(Example("flatness_table.txt"), "flat.txt").id;
+  const auto flat = svc_->measurements().Upload(Example("flatness_table.txt"), "flat.txt").id;
   svc_->storage().CreateJob("calibration", json{{"machine_id", "vmc-3axis"}}.dump());
   svc_->storage().CreateJob("discovery", json{{"measurement_ids", {cw}}}.dump());
   svc_->storage().CreateJob("calibration", json{{"machine_id", "other"}}.dump());
@@ -93,18 +94,19 @@ TEST_F(FleetRoutes, NewestMeasurementOpenJobsAndTrends) {
   ASSERT_EQ(t["points"].size(), 2u);
   EXPECT_EQ(t["points"][0]["measurement_id"], cw);
   EXPECT_EQ(t["points"][0]["measured_at"], "2026-10-02T07:58:00Z");
-  EXPECT_EQ(t["points"][0]["value"], svc_->Results(cw)["circularity_um"]);
+  EXPECT_EQ(t["points"][0]["value"], svc_->measurements().Results(cw)["circularity_um"]);
   EXPECT_EQ(t["points"][1]["measurement_id"], ccw);
-  EXPECT_EQ(t["points"][1]["value"], svc_->Results(ccw)["circularity_um"]);
+  EXPECT_EQ(t["points"][1]["value"], svc_->measurements().Results(ccw)["circularity_um"]);
   t = Get("/api/v1/machines/vmc-3axis/trends", "centre_offset_um");
-  const auto c = svc_->Results(ccw)["centre_offset_um"];
+  const auto c = svc_->measurements().Results(ccw)["centre_offset_um"];
   EXPECT_DOUBLE_EQ(t["points"][1]["value"].get<double>(),
                    std::hypot(c[0].get<double>(), c[1].get<double>()));
   t = Get("/api/v1/machines/vmc-3axis/trends", "circular_deviation_um");
-  EXPECT_EQ(t["points"][1]["value"], svc_->Results(ccw)["iso230_4"]["circular_deviation_um"]);
+  EXPECT_EQ(t["points"][1]["value"],
+            svc_->measurements().Results(ccw)["iso230_4"]["circular_deviation_um"]);
   t = Get("/api/v1/machines/vmc-3axis/trends", "flatness_min_zone_um");
   ASSERT_EQ(t["points"].size(), 1u);
-  EXPECT_EQ(t["points"][0]["value"], svc_->Results(flat)["flatness_min_zone_um"]);
+  EXPECT_EQ(t["points"][0]["value"], svc_->measurements().Results(flat)["flatness_min_zone_um"]);
   // A figure of the CW/CCW pair: each test with its partner.
   t = Get("/api/v1/machines/vmc-3axis/trends", "circular_hysteresis_um");
   ASSERT_EQ(t["points"].size(), 2u);

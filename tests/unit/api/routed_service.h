@@ -24,7 +24,7 @@ class RoutedServiceTest : public ::testing::Test {
     std::filesystem::remove(db_);
     svc_ = std::make_unique<server::Service>(std::make_unique<server::SqliteStorage>(db_.string()),
                                              Options());
-    server::RegisterBuiltinKinds(*svc_);
+    server::RegisterBuiltinKinds(svc_->measurements());
     AddRoutes(router_, *svc_);
   }
   // The service's options; a test that stores jobs by hand keeps the workers from running them.

@@ -25,7 +25,7 @@
 #include "server/audits/audit_service.h"
 #include "server/base/config.h"
 #include "server/base/sha256.h"
-#include "server/measurements/demo_data.h"
+#include "server/demo/demo_data.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
@@ -43,14 +43,14 @@ class AccuracyAudits : public TempDirTest {
   std::unique_ptr<Service> Open() {
     auto svc =
         std::make_unique<Service>(std::make_unique<SqliteStorage>(Path("k.db")), ServiceOptions{});
-    RegisterBuiltinKinds(*svc);
+    RegisterBuiltinKinds(svc->measurements());
     return svc;
   }
   // Uploads the first demo DBB test; its id and circularity.
   std::pair<std::int64_t, double> UploadDbb(Service& svc) {
     const auto f = DemoDbbFiles().at(0);
-    const auto out = svc.Upload(f.bytes, f.name);
-    return {out.id, svc.Results(out.id)["circularity_um"].get<double>()};
+    const auto out = svc.measurements().Upload(f.bytes, f.name);
+    return {out.id, svc.measurements().Results(out.id)["circularity_um"].get<double>()};
   }
   static json Rules(double warn, double stop, const std::string& schedule = "") {
     json body = {{"rules",
@@ -124,7 +124,7 @@ TEST_F(AccuracyAudits, PreviousAuditTrendComparesWithTheValueThatAuditSaw) {
   EXPECT_EQ(second["checked"][0]["reference_measurement_id"], id);
   // A newer test of another plane is not compared with the one the previous audit saw.
   const auto yz = DemoDbbFiles().back();
-  const auto yz_id = svc->Upload(yz.bytes, yz.name).id;
+  const auto yz_id = svc->measurements().Upload(yz.bytes, yz.name).id;
   const json third = audits.Run("demo-vmc", "manual");
   EXPECT_EQ(third["checked"][0]["status"], "not evaluated");
   EXPECT_EQ(third["checked"][0]["measurement_id"], yz_id);
@@ -138,7 +138,7 @@ TEST_F(AccuracyAudits, PreviousAuditTrendComparesWithTheValueThatAuditSaw) {
 TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTests) {
   auto svc = Open();
   const auto files = DemoDbbFiles();
-  for (std::size_t i = 0; i < 6; ++i) svc->Upload(files[i].bytes, files[i].name);
+  for (std::size_t i = 0; i < 6; ++i) svc->measurements().Upload(files[i].bytes, files[i].name);
   AuditScheduler audits(*svc, {}, clock_);
   const json rules = {{{"kind", "dbb"},
                        {"metric", "circularity_um"},
@@ -158,7 +158,9 @@ TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTest
   const auto measured = [&](const json& id) {
     return svc->storage().GetMeasurement(id.get<std::int64_t>())->measured_at.value_or("");
   };
-  const auto result = [&](const json& id) { return svc->Results(id.get<std::int64_t>()); };
+  const auto result = [&](const json& id) {
+    return svc->measurements().Results(id.get<std::int64_t>());
+  };
 
   const json& trend = v["findings"][0];
   EXPECT_EQ(measured(trend["measurement_id"]), "2026-11-02T07:58:00Z");

@@ -11,8 +11,8 @@
 #include "server/audits/audit_schedule.h"
 #include "server/audits/audit_service.h"
 #include "server/audits/fleet_service.h"
+#include "server/demo/demo_data.h"
 #include "server/jobs/jobs.h"
-#include "server/measurements/demo_data.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
@@ -30,7 +30,7 @@ class CalibrationAudits : public TempDirTest {
     TempDirTest::SetUp();
     svc_ =
         std::make_unique<Service>(std::make_unique<SqliteStorage>(Path("k.db")), ServiceOptions{});
-    RegisterBuiltinKinds(*svc_);
+    RegisterBuiltinKinds(svc_->measurements());
   }
   // A hexapod calibration job of the machine, stored with that status and strut offsets (µm);
   // `extra` is merged into the result. Its id.
@@ -189,7 +189,8 @@ TEST_F(CalibrationAudits, TrendRulesCompareWithTheCalibrationThePreviousAuditSaw
 TEST_F(CalibrationAudits, TheTrendOfACalibrationMetricListsItsJobs) {
   // A machine the fleet knows (it has a measurement) with two calibrations.
   const auto f = DemoDbbFiles().at(0);
-  const auto machine = svc_->storage().GetMeasurement(svc_->Upload(f.bytes, f.name).id)->machine_id;
+  const auto machine =
+      svc_->storage().GetMeasurement(svc_->measurements().Upload(f.bytes, f.name).id)->machine_id;
   const auto a = Calibration(machine, JobStatus::kDone, {1, -2, 3, -4, 5, -6});
   Calibration(machine, JobStatus::kFailed, {200, 0, 0, 0, 0, 0});
   const auto b = Calibration(machine, JobStatus::kDone, {2, -3, 1, 0.5, -7.5, 4});

@@ -79,7 +79,7 @@ class FiniteResults : public test::TempDirTest {
     TempDirTest::SetUp();
     svc_ =
         std::make_unique<Service>(std::make_unique<SqliteStorage>(Path("k.db")), ServiceOptions{});
-    RegisterBuiltinKinds(*svc_);
+    RegisterBuiltinKinds(svc_->measurements());
   }
   void TearDown() override {
     svc_.reset();
@@ -91,8 +91,9 @@ class FiniteResults : public test::TempDirTest {
                      bool too_large = true) {
     const auto before = svc_->storage().ListMeasurements({}).total;
     try {
-      const auto out = svc_->Upload(bytes, "huge.txt");
-      ADD_FAILURE() << "stored as " << out.id << ": " << svc_->Results(out.id).dump();
+      const auto out = svc_->measurements().Upload(bytes, "huge.txt");
+      ADD_FAILURE() << "stored as " << out.id << ": "
+                    << svc_->measurements().Results(out.id).dump();
     } catch (const InvalidInput& e) {
       EXPECT_EQ(e.file(), "huge.txt") << e.what();
       if (!field.empty()) {
@@ -113,9 +114,10 @@ class FiniteResults : public test::TempDirTest {
 TEST_F(FiniteResults, OrdinaryFilesOfEveryKindAreStored) {
   for (const auto& text : {Straightness(), Parallelism(), Flatness(), Dbb(),
                            ingest::WriteTrackerFile(TrackerSurvey())}) {
-    const auto out = svc_->Upload(text, "ok.txt");
+    const auto out = svc_->measurements().Upload(text, "ok.txt");
     EXPECT_TRUE(out.created) << out.kind;
-    EXPECT_EQ(svc_->Results(out.id).dump().find("null"), std::string::npos) << out.kind;
+    EXPECT_EQ(svc_->measurements().Results(out.id).dump().find("null"), std::string::npos)
+        << out.kind;
   }
 }
 

@@ -13,6 +13,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/machine_json.h"
+#include "server/base/conflict.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/expect_error.h"
@@ -72,7 +73,7 @@ class MachineModels : public test::TempDirTest {
     ServiceOptions options;
     options.jobs.workers = job_workers;
     service_ = std::make_unique<Service>(std::make_unique<SqliteStorage>(Path("km.db")), options);
-    RegisterBuiltinKinds(*service_);
+    RegisterBuiltinKinds(service_->measurements());
   }
   void TearDown() override {
     service_.reset();
@@ -83,19 +84,21 @@ class MachineModels : public test::TempDirTest {
     json ids = json::array();
     for (char c = 'a'; c <= 'j'; ++c) {
       const std::string name = std::string("dbb_") + c + "_ccw.txt";
-      ids.push_back(service_->Upload(ReadFile("tests/fixtures/browser/hexapod/" + name), name).id);
+      ids.push_back(service_->measurements()
+                        .Upload(ReadFile("tests/fixtures/browser/hexapod/" + name), name)
+                        .id);
     }
     return ids;
   }
   json WaitForJob(std::int64_t id) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::minutes(5);
     while (std::chrono::steady_clock::now() < until) {
-      const auto j = service_->Job(id);
+      const auto j = service_->studies().Job(id);
       if (j["status"] == "done" || j["status"] == "failed") return j;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     ADD_FAILURE() << "job " << id << " did not finish";
-    return service_->Job(id);
+    return service_->studies().Job(id);
   }
 
   std::unique_ptr<Service> service_;
@@ -159,9 +162,10 @@ TEST_F(MachineModels, StoredVersionsAreImmutableInTheDatabaseItself) {
 
 TEST_F(MachineModels, MachinesWithOnlyAStoredModelAreListed) {
   Start();
-  service_->Upload(ReadFile("tests/fixtures/browser/dbb_xy-r150_ccw.txt"), "ccw.txt");
-  service_->StoreMachineModel(Pm600(), "upload", "");
-  service_->StoreMachineModel(Pm600With("description", "second"), "upload", "");
+  service_->measurements().Upload(ReadFile("tests/fixtures/browser/dbb_xy-r150_ccw.txt"),
+                                  "ccw.txt");
+  service_->models().StoreMachineModel(Pm600(), "upload", "");
+  service_->models().StoreMachineModel(Pm600With("description", "second"), "upload", "");
   const auto machines = service_->storage().ListMachines();
   ASSERT_EQ(machines.size(), 2u);
   EXPECT_EQ(machines[0].machine_id, "browser-test-vmc");
@@ -177,20 +181,20 @@ TEST_F(MachineModels, MachinesWithOnlyAStoredModelAreListed) {
 TEST_F(MachineModels, TheServiceKeepsTheBytesAndAnswersOlderVersions) {
   Start();
   const std::string first = Pm600();
-  const auto v1 = service_->StoreMachineModel(first, "upload", "as delivered");
+  const auto v1 = service_->models().StoreMachineModel(first, "upload", "as delivered");
   EXPECT_TRUE(v1.created);
   EXPECT_EQ(v1.machine_id, "pm600-like");
   EXPECT_EQ(v1.version, 1);
-  const auto same = service_->StoreMachineModel(first, "upload", "again");
+  const auto same = service_->models().StoreMachineModel(first, "upload", "again");
   EXPECT_FALSE(same.created);
   EXPECT_EQ(same.version, 1);
   EXPECT_EQ(same.created_at, v1.created_at);
   const std::string second = Pm600With("strut_offset_mm", {0.01, 0, 0, 0, 0, -0.02});
-  EXPECT_EQ(service_->StoreMachineModel(second, "upload", "").version, 2);
+  EXPECT_EQ(service_->models().StoreMachineModel(second, "upload", "").version, 2);
 
-  EXPECT_EQ(service_->GetMachineModel("pm600-like").document, second);
-  EXPECT_EQ(service_->GetMachineModel("pm600-like", 1).document, first);  // byte for byte
-  const auto list = service_->ListMachineModels("pm600-like");
+  EXPECT_EQ(service_->models().GetMachineModel("pm600-like").document, second);
+  EXPECT_EQ(service_->models().GetMachineModel("pm600-like", 1).document, first);  // byte for byte
+  const auto list = service_->models().ListMachineModels("pm600-like");
   EXPECT_EQ(list["machine_id"], "pm600-like");
   ASSERT_EQ(list["versions"].size(), 2u);
   EXPECT_EQ(list["versions"][0]["note"], "as delivered");
@@ -198,12 +202,12 @@ TEST_F(MachineModels, TheServiceKeepsTheBytesAndAnswersOlderVersions) {
   EXPECT_EQ(list["versions"][1]["version"], 2);
   EXPECT_EQ(list["versions"][1]["sha256"].get<std::string>().size(), 64u);
 
-  const auto none = Expect<NotFound>([&] { service_->GetMachineModel("nobody"); });
+  const auto none = Expect<NotFound>([&] { service_->models().GetMachineModel("nobody"); });
   EXPECT_TRUE(Contains(none.what(), "'nobody'")) << none.what();
-  const auto v9 = Expect<NotFound>([&] { service_->GetMachineModel("pm600-like", 9); });
+  const auto v9 = Expect<NotFound>([&] { service_->models().GetMachineModel("pm600-like", 9); });
   EXPECT_TRUE(Contains(v9.what(), "version 9")) << v9.what();
   EXPECT_TRUE(Contains(v9.what(), "newest is version 2")) << v9.what();
-  EXPECT_THROW(service_->ListMachineModels("nobody"), NotFound);
+  EXPECT_THROW(service_->models().ListMachineModels("nobody"), NotFound);
 }
 
 TEST_F(MachineModels, BadDocumentsAreRefusedNamingTheFieldAndNothingIsStored) {
@@ -230,37 +234,37 @@ TEST_F(MachineModels, BadDocumentsAreRefusedNamingTheFieldAndNothingIsStored) {
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.body.substr(0, 60));
-    const auto e =
-        Expect<InvalidInput>([&] { service_->StoreMachineModel(c.body, "upload", "", "m.json"); });
+    const auto e = Expect<InvalidInput>(
+        [&] { service_->models().StoreMachineModel(c.body, "upload", "", "m.json"); });
     EXPECT_EQ(e.field(), c.field) << e.what();
     EXPECT_EQ(e.file(), "m.json");
   }
   const auto note = Expect<InvalidInput>(
-      [&] { service_->StoreMachineModel(Pm600(), "upload", std::string(5000, 'n')); });
+      [&] { service_->models().StoreMachineModel(Pm600(), "upload", std::string(5000, 'n')); });
   EXPECT_EQ(note.field(), "note");
   const std::string huge = Pm600With("description", std::string(kMaxMachineModelBytes, 'd'));
-  EXPECT_THROW(service_->StoreMachineModel(huge, "upload", ""), TooLarge);
+  EXPECT_THROW(service_->models().StoreMachineModel(huge, "upload", ""), TooLarge);
   EXPECT_TRUE(service_->storage().ListMachines().empty());
 }
 
 TEST_F(MachineModels, ACalibrationFromAStoredModelIsSavedAsItsNextVersion) {
   Start();
   const json ids = UploadHexapodTests();
-  service_->StoreMachineModel(Pm600(), "upload", "nominal");
-  const auto job =
-      service_->SubmitCalibration({{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
+  service_->models().StoreMachineModel(Pm600(), "upload", "nominal");
+  const auto job = service_->studies().SubmitCalibration(
+      {{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
   const json j = WaitForJob(job);
   ASSERT_EQ(j["status"], "done") << j.dump();
   EXPECT_EQ(j["request"]["machine_id"], "pm600-like");
   EXPECT_EQ(j["request"]["machine_version"], 1);  // the version used is recorded
 
-  const auto saved = service_->SaveJobMachine(job, "after the jig calibration");
+  const auto saved = service_->studies().SaveJobMachine(job, "after the jig calibration");
   EXPECT_TRUE(saved.created);
   EXPECT_EQ(saved.machine_id, "pm600-like");
   EXPECT_EQ(saved.version, 2);
   // Version 2 holds the calibrated geometry of the job, number for number.
-  const auto stored =
-      ingest::ParseHexapodMachineJson(service_->GetMachineModel("pm600-like", 2).document, "v2");
+  const auto stored = ingest::ParseHexapodMachineJson(
+      service_->models().GetMachineModel("pm600-like", 2).document, "v2");
   const auto calibrated =
       ingest::ParseHexapodMachineJson(j["result"]["calibrated_machine"].dump(), "result");
   const auto nominal = ingest::ParseHexapodMachineJson(Pm600(), "v1");
@@ -271,21 +275,21 @@ TEST_F(MachineModels, ACalibrationFromAStoredModelIsSavedAsItsNextVersion) {
     EXPECT_EQ(stored.geometry.strut_offset_mm[s], calibrated.geometry.strut_offset_mm[s]) << s;
   }
   EXPECT_NE(stored.geometry.strut_offset_mm, nominal.geometry.strut_offset_mm);
-  const auto versions = service_->ListMachineModels("pm600-like")["versions"];
+  const auto versions = service_->models().ListMachineModels("pm600-like")["versions"];
   EXPECT_EQ(versions[1]["source"], "calibration job " + std::to_string(job));
   EXPECT_EQ(versions[1]["note"], "after the jig calibration");
   // Saving it again: the same bytes as the newest version, nothing new.
-  const auto again = service_->SaveJobMachine(job, "");
+  const auto again = service_->studies().SaveJobMachine(job, "");
   EXPECT_FALSE(again.created);
   EXPECT_EQ(again.version, 2);
 
   // An older version is named explicitly; the newest is the default.
-  const auto older = service_->SubmitCalibration(
+  const auto older = service_->studies().SubmitCalibration(
       {{"machine_id", "pm600-like"}, {"machine_version", 1}, {"measurement_ids", ids}});
-  EXPECT_EQ(service_->Job(older)["request"]["machine_version"], 1);
-  const auto newest =
-      service_->SubmitCalibration({{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
-  EXPECT_EQ(service_->Job(newest)["request"]["machine_version"], 2);
+  EXPECT_EQ(service_->studies().Job(older)["request"]["machine_version"], 1);
+  const auto newest = service_->studies().SubmitCalibration(
+      {{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
+  EXPECT_EQ(service_->studies().Job(newest)["request"]["machine_version"], 2);
   WaitForJob(older);
   WaitForJob(newest);
 }
@@ -293,20 +297,21 @@ TEST_F(MachineModels, ACalibrationFromAStoredModelIsSavedAsItsNextVersion) {
 TEST_F(MachineModels, CalibrationRequestsNamingAStoredModelAreChecked) {
   Start();
   const json ids = UploadHexapodTests();
-  service_->StoreMachineModel(Pm600(), "upload", "");
+  service_->models().StoreMachineModel(Pm600(), "upload", "");
   json serial = json::parse(Pm600());
   serial["machine_id"] = "vmc";
   serial["kind"] = "serial";
-  service_->StoreMachineModel(serial.dump(), "upload", "");
+  service_->models().StoreMachineModel(serial.dump(), "upload", "");
 
-  EXPECT_THROW(service_->SubmitCalibration({{"machine_id", "nobody"}, {"measurement_ids", ids}}),
-               NotFound);
   EXPECT_THROW(
-      service_->SubmitCalibration(
+      service_->studies().SubmitCalibration({{"machine_id", "nobody"}, {"measurement_ids", ids}}),
+      NotFound);
+  EXPECT_THROW(
+      service_->studies().SubmitCalibration(
           {{"machine_id", "pm600-like"}, {"machine_version", 2}, {"measurement_ids", ids}}),
       NotFound);
   const auto field = [&](const json& request) {
-    return Expect<InvalidInput>([&] { service_->SubmitCalibration(request); }).field();
+    return Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(request); }).field();
   };
   EXPECT_EQ(field({{"machine_id", "pm600-like"}, {"machine_version", 0}, {"measurement_ids", ids}}),
             "machine_version");
@@ -322,63 +327,65 @@ TEST_F(MachineModels, CalibrationRequestsNamingAStoredModelAreChecked) {
 
 TEST_F(MachineModels, SavingTheMachineOfAJobWithoutOneIsAConflict) {
   Start(0);
-  EXPECT_THROW(service_->SaveJobMachine(42, ""), NotFound);
+  EXPECT_THROW(service_->studies().SaveJobMachine(42, ""), NotFound);
   auto& st = service_->storage();
   // Job records in each state (not run: the records alone decide).
   const auto queued = st.CreateJob("hexapod_calibration", "{}");
-  const auto c1 = Expect<Conflict>([&] { service_->SaveJobMachine(queued, ""); });
+  const auto c1 = Expect<Conflict>([&] { service_->studies().SaveJobMachine(queued, ""); });
   EXPECT_TRUE(Contains(c1.what(), "is queued")) << c1.what();
   const auto failed = st.CreateJob("hexapod_calibration", "{}");
   st.UpdateJob(Job(failed, JobStatus::kFailed, 0.0, "", "", "no convergence"));
-  const auto c2 = Expect<Conflict>([&] { service_->SaveJobMachine(failed, ""); });
+  const auto c2 = Expect<Conflict>([&] { service_->studies().SaveJobMachine(failed, ""); });
   EXPECT_TRUE(Contains(c2.what(), "is failed")) << c2.what();
   const auto serial = st.CreateJob("discovery", "{}");
   st.UpdateJob(Job(serial, JobStatus::kDone, 1.0, "done", R"({"verdict":"ok"})", ""));
-  const auto c3 = Expect<Conflict>([&] { service_->SaveJobMachine(serial, ""); });
+  const auto c3 = Expect<Conflict>([&] { service_->studies().SaveJobMachine(serial, ""); });
   EXPECT_TRUE(Contains(c3.what(), "updated_machine")) << c3.what();
   const auto other = st.CreateJob("something_else", "{}");
   st.UpdateJob(Job(other, JobStatus::kDone, 1.0, "done", "{}", ""));
-  EXPECT_THROW(service_->SaveJobMachine(other, ""), Conflict);
+  EXPECT_THROW(service_->studies().SaveJobMachine(other, ""), Conflict);
   EXPECT_TRUE(st.ListMachines().empty());
 }
 
 TEST_F(MachineModels, DiscoveryJobsRunOnStoredModelsAndSaveTheUpdatedMachine) {
   Start();
   // Serial: the DBB tests' own machine, no model; nothing to save.
-  const auto ccw =
-      service_->Upload(ReadFile("tests/fixtures/browser/dbb_xy-r150_ccw.txt"), "ccw.txt").id;
-  const auto cw =
-      service_->Upload(ReadFile("tests/fixtures/browser/dbb_xy-r150_cw.txt"), "cw.txt").id;
-  const auto serial = service_->SubmitDiscovery({{"measurement_ids", {ccw, cw}}});
+  const auto ccw = service_->measurements()
+                       .Upload(ReadFile("tests/fixtures/browser/dbb_xy-r150_ccw.txt"), "ccw.txt")
+                       .id;
+  const auto cw = service_->measurements()
+                      .Upload(ReadFile("tests/fixtures/browser/dbb_xy-r150_cw.txt"), "cw.txt")
+                      .id;
+  const auto serial = service_->studies().SubmitDiscovery({{"measurement_ids", {ccw, cw}}});
   const json sj = WaitForJob(serial);
   ASSERT_EQ(sj["status"], "done") << sj.dump();
   EXPECT_EQ(sj["kind"], "discovery");
   EXPECT_EQ(sj["result"]["kind"], "serial");
   EXPECT_TRUE(sj["result"].contains("verdict"));
   EXPECT_FALSE(sj["result"].contains("updated_machine"));
-  EXPECT_THROW(service_->SaveJobMachine(serial, ""), Conflict);
+  EXPECT_THROW(service_->studies().SaveJobMachine(serial, ""), Conflict);
 
   // Hexapod: the stored model; the updated machine becomes version 2.
   const json ids = UploadHexapodTests();
-  service_->StoreMachineModel(Pm600(), "upload", "");
+  service_->models().StoreMachineModel(Pm600(), "upload", "");
   const auto hex =
-      service_->SubmitDiscovery({{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
+      service_->studies().SubmitDiscovery({{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
   const json hj = WaitForJob(hex);
   ASSERT_EQ(hj["status"], "done") << hj.dump();
   EXPECT_EQ(hj["request"]["machine_version"], 1);
   ASSERT_TRUE(hj["result"].contains("updated_machine")) << hj["result"].dump();
-  const auto saved = service_->SaveJobMachine(hex, "discovered");
+  const auto saved = service_->studies().SaveJobMachine(hex, "discovered");
   EXPECT_TRUE(saved.created);
   EXPECT_EQ(saved.version, 2);
-  EXPECT_EQ(service_->ListMachineModels("pm600-like")["versions"][1]["source"],
+  EXPECT_EQ(service_->models().ListMachineModels("pm600-like")["versions"][1]["source"],
             "discovery job " + std::to_string(hex));
-  EXPECT_EQ(json::parse(service_->GetMachineModel("pm600-like").document),
+  EXPECT_EQ(json::parse(service_->models().GetMachineModel("pm600-like").document),
             hj["result"]["updated_machine"]);
 
   // Requests are checked like calibration requests, before any job exists.
   const std::size_t jobs = service_->storage().ListJobs(100).size();
   const auto field = [&](const json& request) {
-    return Expect<InvalidInput>([&] { service_->SubmitDiscovery(request); }).field();
+    return Expect<InvalidInput>([&] { service_->studies().SubmitDiscovery(request); }).field();
   };
   EXPECT_EQ(field({{"measurement_ids", {ccw, ids[0]}}}), "measurement_ids");  // two machines
   EXPECT_EQ(field({{"measurement_ids", {ccw, cw, ccw}}}), "measurement_ids");
@@ -388,12 +395,13 @@ TEST_F(MachineModels, DiscoveryJobsRunOnStoredModelsAndSaveTheUpdatedMachine) {
   json many = json::array();
   for (int i = 1; i <= 501; ++i) many.push_back(i);
   const auto e = Expect<InvalidInput>([&] {
-    service_->SubmitDiscovery({{"measurement_ids", many}});
+    service_->studies().SubmitDiscovery({{"measurement_ids", many}});
   });
   EXPECT_TRUE(Contains(e.what(), "at most 500")) << e.what();
-  EXPECT_THROW(service_->SubmitDiscovery({{"machine_id", "nobody"}, {"measurement_ids", ids}}),
-               NotFound);
-  EXPECT_THROW(service_->SubmitDiscovery({{"measurement_ids", {ccw, 999}}}), NotFound);
+  EXPECT_THROW(
+      service_->studies().SubmitDiscovery({{"machine_id", "nobody"}, {"measurement_ids", ids}}),
+      NotFound);
+  EXPECT_THROW(service_->studies().SubmitDiscovery({{"measurement_ids", {ccw, 999}}}), NotFound);
   EXPECT_EQ(service_->storage().ListJobs(100).size(), jobs);
 }
 

@@ -19,6 +19,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/text_format.h"
+#include "server/base/conflict.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/expect_error.h"
@@ -84,7 +85,7 @@ class ServiceLimits : public ::testing::Test {
     auto storage = std::make_unique<CountingStorage>(db_.string());
     storage_ = storage.get();
     service_ = std::make_unique<Service>(std::move(storage), options);
-    RegisterBuiltinKinds(*service_);
+    RegisterBuiltinKinds(service_->measurements());
   }
   void Remove() {
     for (const char* ext : {"", "-wal", "-shm"}) fs::remove(db_.string() + ext);
@@ -94,8 +95,8 @@ class ServiceLimits : public ::testing::Test {
     std::vector<std::int64_t> ids;
     for (char c = 'a'; c <= 'j'; ++c) {
       const std::string name = std::string("dbb_") + c + "_ccw.txt";
-      const auto out =
-          service_->Upload(ReadFile(fs::path("tests/fixtures/browser/hexapod") / name), name);
+      const auto out = service_->measurements().Upload(
+          ReadFile(fs::path("tests/fixtures/browser/hexapod") / name), name);
       ids.push_back(out.id);
     }
     return ids;
@@ -107,12 +108,12 @@ class ServiceLimits : public ::testing::Test {
   nlohmann::json WaitForJob(std::int64_t id) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::minutes(5);
     while (std::chrono::steady_clock::now() < until) {
-      const auto j = service_->Job(id);
+      const auto j = service_->studies().Job(id);
       if (j["status"] == "done" || j["status"] == "failed") return j;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     ADD_FAILURE() << "job " << id << " did not finish";
-    return service_->Job(id);
+    return service_->studies().Job(id);
   }
 
   fs::path db_;
@@ -130,14 +131,16 @@ TEST_F(ServiceLimits, TooManyCalibrationTestsAreRefusedBeforeAnythingIsRead) {
   // (each id used to be read and parsed: 100 000 of them took 1.5 GB).
   nlohmann::json many = nlohmann::json::array();
   for (int i = 0; i < 5'000; ++i) many.push_back(ids[static_cast<std::size_t>(i % 10)]);
-  const auto e = Expect<InvalidInput>([&] { service_->SubmitCalibration(Request(many)); });
+  const auto e =
+      Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(Request(many)); });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "500")) << e.what();
   EXPECT_TRUE(Contains(e.what(), "5000 ids")) << e.what();
   // One more than the limit, all distinct ids (most do not exist): the count is refused first.
   nlohmann::json over = nlohmann::json::array();
   for (int i = 1; i <= 501; ++i) over.push_back(i);
-  const auto e2 = Expect<InvalidInput>([&] { service_->SubmitCalibration(Request(over)); });
+  const auto e2 =
+      Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(Request(over)); });
   EXPECT_EQ(e2.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e2.what(), "at most 500")) << e2.what();
   EXPECT_EQ(storage_->RawReads(), 0u);
@@ -149,7 +152,7 @@ TEST_F(ServiceLimits, TheLimitOfCalibrationTestsIsConfiguration) {
   Start(o);
   const auto ids = UploadHexapodTests();
   const auto e = Expect<InvalidInput>([&] {
-    service_->SubmitCalibration(Request({ids[0], ids[1], ids[2], ids[3]}));
+    service_->studies().SubmitCalibration(Request({ids[0], ids[1], ids[2], ids[3]}));
   });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "at most 3")) << e.what();
@@ -159,7 +162,7 @@ TEST_F(ServiceLimits, RepeatedOrMalformedIdsAreRefused) {
   Start();
   const auto ids = UploadHexapodTests();
   const auto e = Expect<InvalidInput>([&] {
-    service_->SubmitCalibration(Request({ids[0], ids[1], ids[0]}));
+    service_->studies().SubmitCalibration(Request({ids[0], ids[1], ids[0]}));
   });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "listed twice (entries 1 and 3)")) << e.what();
@@ -167,19 +170,19 @@ TEST_F(ServiceLimits, RepeatedOrMalformedIdsAreRefused) {
                                     nlohmann::json("1"), nlohmann::json(18446744073709551615ull)}) {
     SCOPED_TRACE(bad.dump());
     const auto e2 = Expect<InvalidInput>([&] {
-      service_->SubmitCalibration(Request({ids[0], bad}));
+      service_->studies().SubmitCalibration(Request({ids[0], bad}));
     });
     EXPECT_EQ(e2.field(), "measurement_ids");
     EXPECT_TRUE(Contains(e2.what(), "entry 2")) << e2.what();
   }
   // A missing test and a test without tool length are found from the stored records.
-  EXPECT_THROW(service_->SubmitCalibration(Request({ids[0], 999})), NotFound);
+  EXPECT_THROW(service_->studies().SubmitCalibration(Request({ids[0], 999})), NotFound);
   std::string no_tool = ReadFile("tests/fixtures/browser/hexapod/dbb_a_ccw.txt");
   const auto tool = no_tool.find("# tool_length_mm");
   no_tool.erase(tool, no_tool.find('\n', tool) - tool + 1);
-  const auto plain = service_->Upload(no_tool, "no_tool.txt").id;
+  const auto plain = service_->measurements().Upload(no_tool, "no_tool.txt").id;
   const auto e3 = Expect<InvalidInput>([&] {
-    service_->SubmitCalibration(Request({ids[0], plain}));
+    service_->studies().SubmitCalibration(Request({ids[0], plain}));
   });
   EXPECT_EQ(e3.field(), "tool_length_mm");
   EXPECT_EQ(storage_->RawReads(), 0u);
@@ -190,7 +193,7 @@ TEST_F(ServiceLimits, TheSamplesOfAStudyAreBounded) {
   o.max_calibration_samples = 1000;  // the fixtures hold about 190 samples each
   Start(o);
   const auto ids = UploadHexapodTests();
-  const auto e = Expect<InvalidInput>([&] { service_->SubmitCalibration(Request(ids)); });
+  const auto e = Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(Request(ids)); });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "at most 1000")) << e.what();
   EXPECT_EQ(storage_->RawReads(), 0u);
@@ -200,7 +203,7 @@ TEST_F(ServiceLimits, AQueuedStudyHoldsIdsAndTheJobReadsEachTestOnce) {
   Start();
   const auto ids = UploadHexapodTests();
   ASSERT_EQ(storage_->RawReads(), 0u);
-  const auto job = service_->SubmitCalibration(Request(ids));
+  const auto job = service_->studies().SubmitCalibration(Request(ids));
   // Nothing was read while the request was checked: the job reads the tests when it runs.
   EXPECT_EQ(storage_->RawReadsOn(std::this_thread::get_id()), 0u);
   const auto j = WaitForJob(job);
@@ -217,15 +220,15 @@ TEST_F(ServiceLimits, ACalibrationOfTheTestsOfTwoMachinesIsRefusedBeforeItIsQueu
   std::string other = ReadFile("tests/fixtures/browser/hexapod/dbb_b_ccw.txt");
   const std::string line = "# machine_id: pm600-like";
   other.replace(other.find(line), line.size(), "# machine_id: pm600-other");
-  const auto foreign = service_->Upload(other, "other.txt").id;
+  const auto foreign = service_->measurements().Upload(other, "other.txt").id;
   const auto e = Expect<InvalidInput>([&] {
-    service_->SubmitCalibration(Request({ids[0], ids[1], foreign}));
+    service_->studies().SubmitCalibration(Request({ids[0], ids[1], foreign}));
   });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "of 'pm600-other'")) << e.what();
   EXPECT_TRUE(Contains(e.what(), "a calibration study takes the DBB tests of one machine"))
       << e.what();
-  EXPECT_TRUE(service_->Jobs(10)["items"].empty());
+  EXPECT_TRUE(service_->studies().Jobs(10)["items"].empty());
   EXPECT_EQ(storage_->RawReads(), 0u);
 }
 
@@ -237,7 +240,7 @@ TEST_F(ServiceLimits, AReductionStudyWithEffectsIsRefusedBeforeItIsQueued) {
   nlohmann::json named = Request(ids);
   named["reduction_study_min_tests"] = 4;
   named["effects"] = nlohmann::json::array({"gravity_deflection"});
-  const auto e = Expect<InvalidInput>([&] { service_->SubmitCalibration(named); });
+  const auto e = Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(named); });
   EXPECT_EQ(e.field(), "reduction_study_min_tests");
   EXPECT_TRUE(Contains(e.what(), "plain calibration only")) << e.what();
   // The model's own effects take part too: the same refusal.
@@ -245,18 +248,18 @@ TEST_F(ServiceLimits, AReductionStudyWithEffectsIsRefusedBeforeItIsQueued) {
   own["machine"]["effects"] =
       nlohmann::json::array({nlohmann::json{{"effect", "tool_length_error"}}});
   own["reduction_study_min_tests"] = 4;
-  const auto e2 = Expect<InvalidInput>([&] { service_->SubmitCalibration(own); });
+  const auto e2 = Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(own); });
   EXPECT_EQ(e2.field(), "reduction_study_min_tests");
   EXPECT_TRUE(Contains(e2.what(), "has effects of its own")) << e2.what();
-  EXPECT_TRUE(service_->Jobs(10)["items"].empty());
+  EXPECT_TRUE(service_->studies().Jobs(10)["items"].empty());
   // Each alone is accepted.
   named.erase("reduction_study_min_tests");
-  EXPECT_GT(service_->SubmitCalibration(named), 0);
+  EXPECT_GT(service_->studies().SubmitCalibration(named), 0);
   own.erase("reduction_study_min_tests");
-  EXPECT_GT(service_->SubmitCalibration(own), 0);
+  EXPECT_GT(service_->studies().SubmitCalibration(own), 0);
   nlohmann::json plain = Request(ids);
   plain["reduction_study_min_tests"] = 4;
-  EXPECT_GT(service_->SubmitCalibration(plain), 0);
+  EXPECT_GT(service_->studies().SubmitCalibration(plain), 0);
 }
 
 TEST_F(ServiceLimits, AJobIsCancelledByItsOwnerOrAnAdminOnly) {
@@ -264,24 +267,28 @@ TEST_F(ServiceLimits, AJobIsCancelledByItsOwnerOrAnAdminOnly) {
   o.jobs.workers = 0;  // the jobs stay queued
   Start(o);
   const auto ids = UploadHexapodTests();
-  const auto job = service_->SubmitCalibration(Request({ids[0], ids[1]}), 5);
-  EXPECT_EQ(service_->Job(job)["owner_token_id"], 5);
-  const auto e = Expect<Forbidden>([&] { service_->CancelJob(job, {6, "other", false}); });
+  const auto job = service_->studies().SubmitCalibration(Request({ids[0], ids[1]}), 5);
+  EXPECT_EQ(service_->studies().Job(job)["owner_token_id"], 5);
+  const auto e = Expect<Forbidden>([&] {
+    service_->studies().CancelJob(job, {6, "other", false});
+  });
   EXPECT_TRUE(Contains(e.what(), "only its owner or an admin")) << e.what();
-  EXPECT_EQ(service_->Job(job)["status"], "queued");
-  const auto j = service_->CancelJob(job, {5, "alice", false});
+  EXPECT_EQ(service_->studies().Job(job)["status"], "queued");
+  const auto j = service_->studies().CancelJob(job, {5, "alice", false});
   EXPECT_EQ(j["status"], "cancelled");
   EXPECT_EQ(j["stage"], "cancelled");
   EXPECT_EQ(j["error"], "cancelled by token 'alice' (id 5)");
   EXPECT_TRUE(j["verdict"].is_null());
-  const auto again = Expect<Conflict>([&] { service_->CancelJob(job, {5, "alice", false}); });
+  const auto again = Expect<Conflict>([&] {
+    service_->studies().CancelJob(job, {5, "alice", false});
+  });
   EXPECT_TRUE(Contains(again.what(), "is cancelled already")) << again.what();
-  EXPECT_THROW(service_->CancelJob(job + 100, {1, "admin", true}), NotFound);
+  EXPECT_THROW(service_->studies().CancelJob(job + 100, {1, "admin", true}), NotFound);
   // An admin cancels any job, also one whose owner is not known (queued by an older version).
-  const auto other = service_->SubmitDiscovery({{"measurement_ids", {ids[0]}}});
-  EXPECT_TRUE(service_->Job(other)["owner_token_id"].is_null());
-  EXPECT_THROW(service_->CancelJob(other, {5, "alice", false}), Forbidden);
-  EXPECT_EQ(service_->CancelJob(other, {1, "root", true})["error"],
+  const auto other = service_->studies().SubmitDiscovery({{"measurement_ids", {ids[0]}}});
+  EXPECT_TRUE(service_->studies().Job(other)["owner_token_id"].is_null());
+  EXPECT_THROW(service_->studies().CancelJob(other, {5, "alice", false}), Forbidden);
+  EXPECT_EQ(service_->studies().CancelJob(other, {1, "root", true})["error"],
             "cancelled by token 'root' (id 1)");
 }
 
@@ -303,22 +310,23 @@ TEST_F(ServiceLimits, UploadsBeyondTheLimitsOfTheirFormatAreRefusedBeforeParsing
   o.upload_limits["kinemetric-dbb/1"].max_line_bytes = 200;
   o.upload_limits["kinemetric-dbb/1"].max_columns = 3;
   Start(o);
-  EXPECT_TRUE(service_->Upload(DbbFile(100), "ok.txt").created);
+  EXPECT_TRUE(service_->measurements().Upload(DbbFile(100), "ok.txt").created);
   // Row 101 is line 8 (header) + 101; the rest of the file is never looked at.
   std::string rows = DbbFile(200);
   rows += std::string(10'000, 'x');
-  const auto e = Expect<TooLarge>([&] { service_->Upload(rows, "rows.txt"); });
+  const auto e = Expect<TooLarge>([&] { service_->measurements().Upload(rows, "rows.txt"); });
   EXPECT_EQ(e.file(), "rows.txt");
   EXPECT_EQ(e.line(), 8u + 101u) << e.what();
   EXPECT_TRUE(Contains(e.what(), "100 data rows")) << e.what();
   const auto e2 = Expect<TooLarge>([&] {
-    service_->Upload(DbbFile(50, "# note: " + std::string(300, 'n') + "\n"), "long.txt");
+    service_->measurements().Upload(DbbFile(50, "# note: " + std::string(300, 'n') + "\n"),
+                                    "long.txt");
   });
   EXPECT_EQ(e2.line(), 8u) << e2.what();
   const auto e3 = Expect<TooLarge>([&] {
     std::string f = DbbFile(50);
     f.replace(f.find("angle_deg,dr_um"), 15, "angle_deg,dr_um,a,b");
-    service_->Upload(f, "cols.txt");
+    service_->measurements().Upload(f, "cols.txt");
   });
   EXPECT_EQ(e3.line(), 8u) << e3.what();
   EXPECT_EQ(service_->storage().ListMeasurements({}).total, 1);
@@ -327,7 +335,7 @@ TEST_F(ServiceLimits, UploadsBeyondTheLimitsOfTheirFormatAreRefusedBeforeParsing
   EXPECT_EQ(defaults.at("kinemetric-dbb/1").max_rows, 500'000u);
   EXPECT_EQ(defaults.at("kinemetric-straightness/1").max_rows, 100'000u);
   EXPECT_EQ(defaults.at("kinemetric-tracker/1").max_rows, 10'000u);
-  for (const auto& f : service_->Formats()) EXPECT_TRUE(defaults.count(f)) << f;
+  for (const auto& f : service_->measurements().Formats()) EXPECT_TRUE(defaults.count(f)) << f;
 }
 
 TEST_F(ServiceLimits, TheFormatLineIsCheckedBeforeItIsUsed) {
@@ -336,7 +344,7 @@ TEST_F(ServiceLimits, TheFormatLineIsCheckedBeforeItIsUsed) {
        {std::string("# format: kinemetric-\xff\xfe/1\nangle_deg,dr_um\n"),
         std::string("# format: kinemetric-dbb/1 \x1b[2J\n"),
         "# format: " + std::string(100'000, 'k') + "/1\n", std::string(100'000, '#') + "\n"}) {
-    const auto e = Expect<InvalidInput>([&] { service_->Upload(bad, "f.txt"); });
+    const auto e = Expect<InvalidInput>([&] { service_->measurements().Upload(bad, "f.txt"); });
     EXPECT_EQ(e.field(), "format") << e.what();
     std::size_t at = 0;
     EXPECT_TRUE(ingest::ValidUtf8(e.what(), at)) << e.what();

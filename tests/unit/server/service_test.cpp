@@ -10,7 +10,7 @@
 #include "analysis/core/errors.h"
 #include "api/http.h"
 #include "api/routes.h"
-#include "server/measurements/demo_data.h"
+#include "server/demo/demo_data.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 
 namespace km::server {
@@ -24,15 +24,16 @@ TEST(Service, DemoDataGoesThroughTheNormalPathAndRoutesAnswer) {
   fs::remove(db);
   {
     Service svc(std::make_unique<SqliteStorage>(db.string()), {});
-    RegisterBuiltinKinds(svc);
+    RegisterBuiltinKinds(svc.measurements());
     const auto files = DemoDbbFiles();
     ASSERT_GE(files.size(), 6u);
-    for (const auto& f : files) EXPECT_TRUE(svc.Upload(f.bytes, f.name).created) << f.name;
+    for (const auto& f : files)
+      EXPECT_TRUE(svc.measurements().Upload(f.bytes, f.name).created) << f.name;
     const auto machines = svc.storage().ListMachines();
     ASSERT_EQ(machines.size(), 1u);
     EXPECT_EQ(machines[0].measurement_count, static_cast<std::int64_t>(files.size()));
     // Demo traces carry a visible error: circularity of several µm, CW and CCW differ.
-    const auto r1 = svc.Results(1), r2 = svc.Results(2);
+    const auto r1 = svc.measurements().Results(1), r2 = svc.measurements().Results(2);
     EXPECT_GT(r1["circularity_um"].get<double>(), 2.0);
     EXPECT_NE(r1["circularity_um"], r2["circularity_um"]);
 
@@ -98,8 +99,8 @@ TEST(Service, DemoDataGoesThroughTheNormalPathAndRoutesAnswer) {
 
     // The demo stream: 30 s of a capacitance sensor and the X encoder, one lost frame, and the
     // straightness profile made from it finds the injected 55 mm waviness and 10 mm lead.
-    const auto stream = LoadDemoStream(svc);
-    const auto sj = svc.StreamJson(stream);
+    const auto stream = LoadDemoStream(svc.streams());
+    const auto sj = svc.streams().StreamJson(stream);
     ASSERT_EQ(sj["channels"].size(), 2u);
     EXPECT_EQ(sj["gap_count"], 1);
     EXPECT_EQ(sj["missing"], 200);
@@ -108,7 +109,7 @@ TEST(Service, DemoDataGoesThroughTheNormalPathAndRoutesAnswer) {
     straightness.kind = "straightness";
     const auto profiles = svc.storage().ListMeasurements(straightness);
     ASSERT_EQ(profiles.items.size(), 1u);
-    const auto pr = svc.Results(profiles.items[0].id);
+    const auto pr = svc.measurements().Results(profiles.items[0].id);
     ASSERT_GE(pr["periodic"].size(), 2u) << pr.dump();
     EXPECT_NEAR(pr["periodic"][0]["period_mm"].get<double>(), 55.0, 55.0 * 0.02);
     EXPECT_NEAR(pr["periodic"][0]["amplitude_um"].get<double>(), 0.2, 0.01);
@@ -140,30 +141,36 @@ TEST(Service, APairIsTheOppositeDirectionMeasuredNearestInTime) {
   fs::remove(db);
   {
     Service svc(std::make_unique<SqliteStorage>(db.string()), {});
-    RegisterBuiltinKinds(svc);
+    RegisterBuiltinKinds(svc.measurements());
     // June CCW + CW, November CCW + CW, then a June CW repeat uploaded last.
-    const auto june_ccw = svc.Upload(DbbText("ccw", "2026-06-01T08:00:00Z", 2.0), "a").id;
-    const auto june_cw = svc.Upload(DbbText("cw", "2026-06-01T08:05:00Z", 2.1), "b").id;
-    const auto nov_ccw = svc.Upload(DbbText("ccw", "2026-11-01T08:00:00Z", 2.2), "c").id;
-    const auto nov_cw = svc.Upload(DbbText("cw", "2026-11-01T08:05:00Z", 2.3), "d").id;
+    const auto june_ccw =
+        svc.measurements().Upload(DbbText("ccw", "2026-06-01T08:00:00Z", 2.0), "a").id;
+    const auto june_cw =
+        svc.measurements().Upload(DbbText("cw", "2026-06-01T08:05:00Z", 2.1), "b").id;
+    const auto nov_ccw =
+        svc.measurements().Upload(DbbText("ccw", "2026-11-01T08:00:00Z", 2.2), "c").id;
+    const auto nov_cw =
+        svc.measurements().Upload(DbbText("cw", "2026-11-01T08:05:00Z", 2.3), "d").id;
     EXPECT_EQ(svc.DbbPairJson(june_ccw)["partner_id"], june_cw);
     // Stored as near to the November CCW as the June CW is: the time decides, not the id.
     EXPECT_EQ(svc.DbbPairJson(june_cw)["partner_id"], june_ccw);
     EXPECT_EQ(svc.DbbPairJson(nov_ccw)["partner_id"], nov_cw);
     EXPECT_EQ(svc.DbbPairJson(nov_cw)["partner_id"], nov_ccw);
     // A later upload of a June CW at 07:58: nearer in time to the June CCW than 08:05 is.
-    const auto june_cw2 = svc.Upload(DbbText("cw", "2026-06-01T07:58:00Z", 2.4), "e").id;
+    const auto june_cw2 =
+        svc.measurements().Upload(DbbText("cw", "2026-06-01T07:58:00Z", 2.4), "e").id;
     EXPECT_EQ(svc.DbbPairJson(june_ccw)["partner_id"], june_cw2);
     EXPECT_EQ(svc.DbbPairJson(nov_ccw)["partner_id"], nov_cw);
     // Each list item carries the key result of its kind.
     MeasurementFilter f;
     f.machine_id = "pair-vmc";
     f.order = MeasurementFilter::Order::kNewest;
-    const auto list = svc.ListMeasurements(f);
+    const auto list = svc.measurements().ListMeasurements(f);
     ASSERT_EQ(list["items"].size(), 5u);
     EXPECT_EQ(list["items"][0]["id"], nov_cw);
     EXPECT_EQ(list["items"][0]["key_result"]["name"], "circularity_um");
-    EXPECT_EQ(list["items"][0]["key_result"]["value"], svc.Results(nov_cw)["circularity_um"]);
+    EXPECT_EQ(list["items"][0]["key_result"]["value"],
+              svc.measurements().Results(nov_cw)["circularity_um"]);
   }
   for (const char* ext : {"", "-wal", "-shm"}) fs::remove(db.string() + ext);
 }
@@ -216,20 +223,25 @@ TEST(Service, StraightnessReversalPairsTheStoredSetUps) {
   fs::remove(db);
   {
     Service svc(std::make_unique<SqliteStorage>(db.string()), {});
-    RegisterBuiltinKinds(svc);
-    const auto a_id = svc.Upload(ReversalText("a", "2026-11-03T09:00:00Z", 3.0), "a.txt").id;
+    RegisterBuiltinKinds(svc.measurements());
+    const auto a_id =
+        svc.measurements().Upload(ReversalText("a", "2026-11-03T09:00:00Z", 3.0), "a.txt").id;
     EXPECT_THROW(
         {
-          if (svc.StraightnessReversalJson(a_id).is_null()) throw NotFound("no partner yet");
+          if (svc.measurements().StraightnessReversalJson(a_id).is_null())
+            throw NotFound("no partner yet");
         },
         NotFound);
-    const auto b_id = svc.Upload(ReversalText("b", "2026-11-03T09:20:00Z", 3.0), "b.txt").id;
+    const auto b_id =
+        svc.measurements().Upload(ReversalText("b", "2026-11-03T09:20:00Z", 3.0), "b.txt").id;
     // A later pair of the same pair_id (a repair, months later) is not mixed in.
-    const auto later_a = svc.Upload(ReversalText("a", "2027-02-01T09:00:00Z", 1.0), "c.txt").id;
-    const auto later_b = svc.Upload(ReversalText("b", "2027-02-01T09:20:00Z", 1.0), "d.txt").id;
+    const auto later_a =
+        svc.measurements().Upload(ReversalText("a", "2027-02-01T09:00:00Z", 1.0), "c.txt").id;
+    const auto later_b =
+        svc.measurements().Upload(ReversalText("b", "2027-02-01T09:20:00Z", 1.0), "d.txt").id;
     for (auto [id, partner, scale] : {std::tuple{a_id, b_id, 3.0}, std::tuple{b_id, a_id, 3.0},
                                       std::tuple{later_a, later_b, 1.0}}) {
-      const auto j = svc.StraightnessReversalJson(id);
+      const auto j = svc.measurements().StraightnessReversalJson(id);
       EXPECT_EQ(j["partner_id"], partner);
       ASSERT_TRUE(j["reversal"].is_object()) << j.dump();
       EXPECT_NEAR(j["reversal"]["machine_straightness_lsq_um"].get<double>(),
@@ -239,9 +251,9 @@ TEST(Service, StraightnessReversalPairsTheStoredSetUps) {
     std::string plain = ReversalText("a", "2026-11-04T09:00:00Z", 1.0);
     plain.erase(plain.find("# reversal: a\n"), 14);
     plain.erase(plain.find("# pair_id: x-y\n"), 15);
-    const auto plain_id = svc.Upload(plain, "plain.txt").id;
+    const auto plain_id = svc.measurements().Upload(plain, "plain.txt").id;
     try {
-      svc.StraightnessReversalJson(plain_id);
+      svc.measurements().StraightnessReversalJson(plain_id);
       FAIL() << "not refused";
     } catch (const InvalidInput& e) {
       EXPECT_EQ(e.field(), "reversal");

@@ -102,11 +102,11 @@ TEST_F(StoredNonUtf8, ListingARowWithABadFileNameWorks) {
   EXPECT_EQ(rec.filename, "caf~" + kFffd + ".txt" + kFffd);
   EXPECT_EQ(rec.machine_id, "vmc" + kFffd);
   std::string listed;
-  ASSERT_NO_THROW(listed = svc.MeasurementJson(rec).dump());
+  ASSERT_NO_THROW(listed = svc.measurements().MeasurementJson(rec).dump());
   EXPECT_NE(listed.find("caf~" + kFffd + ".txt"), std::string::npos) << listed;
   const auto one = svc.storage().GetMeasurement(rec.id);
   ASSERT_TRUE(one);
-  EXPECT_NO_THROW((void)svc.MeasurementJson(*one).dump());
+  EXPECT_NO_THROW((void)svc.measurements().MeasurementJson(*one).dump());
   EXPECT_NO_THROW((void)nlohmann::json::parse(one->metadata_json).dump());
   const auto machines = svc.storage().ListMachines();
   ASSERT_EQ(machines.size(), 1u);

@@ -1,4 +1,4 @@
-// The servo routes (api/servo_routes.cpp → server/measurements/servo_service.h) on a service
+// The servo routes (api/servo_routes.cpp → server/servo/servo_service.h) on a service
 // holding the pm600-like model and the servo records of the jig plan: identify (and save as the
 // next model version), joints with health levels, the force of one record; bad requests named.
 #include <cmath>
@@ -29,7 +29,7 @@ class ServoRoutes : public test::RoutedServiceTest {
     std::ifstream in("data/machines/pm600-like.json");
     std::stringstream machine;
     machine << in.rdbuf();
-    svc_->StoreMachineModel(machine.str(), "upload", "");
+    svc_->models().StoreMachineModel(machine.str(), "upload", "");
   }
   std::vector<std::int64_t> Upload(const servo::truth::Machine& m, unsigned seed) {
     std::mt19937 rng(seed);
@@ -38,7 +38,7 @@ class ServoRoutes : public test::RoutedServiceTest {
       for (bool ccw : {true, false}) {
         c.ccw = ccw;
         const auto text = servo::truth::ServoText(c, servo::truth::Simulate(m, c, 2.0, rng));
-        ids.push_back(svc_->Upload(text, c.test_id + (ccw ? "_ccw" : "_cw")).id);
+        ids.push_back(svc_->measurements().Upload(text, c.test_id + (ccw ? "_ccw" : "_cw")).id);
       }
     }
     return ids;
@@ -62,7 +62,7 @@ TEST_F(ServoRoutes, IdentifySaveJointsAndForce) {
   auto j = json::parse(r.body);
   EXPECT_NEAR(j["identified"]["platform_mass_kg"].get<double>(), m.m_platform, 5.0);
   EXPECT_EQ(j["saved"]["version"], 2);
-  EXPECT_EQ(svc_->GetMachineModel("pm600-like").version, 2);
+  EXPECT_EQ(svc_->models().GetMachineModel("pm600-like").version, 2);
 
   body = {{"machine_id", "pm600-like"}, {"machine_version", 1}, {"measurement_ids", ids}};
   r = Call("POST", "/api/v1/servo/joints", body.dump());
@@ -92,7 +92,7 @@ TEST_F(ServoRoutes, IdentifySaveJointsAndForce) {
   EXPECT_EQ(history["limits"]["level2_ratio"], 1.5);
   EXPECT_EQ(history["limits"]["level3_ratio"], 2.5);
   // The records' own results are still what GET …/results answers.
-  EXPECT_EQ(svc_->Results(ids[0])["record"], "hexapod");
+  EXPECT_EQ(svc_->measurements().Results(ids[0])["record"], "hexapod");
   r = Call("GET", "/api/v1/machines/no-such-machine/joint-health", "");
   EXPECT_EQ(r.status, 404) << r.body;
 
@@ -117,9 +117,9 @@ TEST_F(ServoRoutes, IdentifySaveJointsAndForce) {
 }
 
 TEST_F(ServoRoutes, AStreamBecomesAFeedDriveRecord) {
-  const auto stream =
-      svc_->CreateStream({{"machine_id", "vmc-3axis"},
-                          {"channels", json::array({{{"channel", 1}}, {{"channel", 2}}})}});
+  const auto stream = svc_->streams().CreateStream(
+      {{"machine_id", "vmc-3axis"},
+       {"channels", json::array({{{"channel", 1}}, {{"channel", 2}}})}});
   // X strokes 0 → 100 → 0 mm at 20 mm/s sampled every 10 ms: the encoder in µm on channel 1, the
   // drive force (Coulomb 30 N on an offset of 12 N) on channel 2, its samples 5 ms later.
   std::string body;
@@ -134,15 +134,16 @@ TEST_F(ServoRoutes, AStreamBecomesAFeedDriveRecord) {
                 .dump() +
             "\n";
   }
-  svc_->IngestFrames(stream, "application/x-ndjson",
-                     [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
+  svc_->streams().IngestFrames(
+      stream, "application/x-ndjson",
+      [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
   const json request = {
       {"axes", json::array({{{"axis", "X"}, {"position_channel", 1}, {"force_channel", 2}}})},
       {"test_id", "x-strokes"}};
   auto r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo", request.dump());
   ASSERT_EQ(r.status, 201) << r.body;
   const auto id = json::parse(r.body)["id"].get<std::int64_t>();
-  const auto result = svc_->Results(id);
+  const auto result = svc_->measurements().Results(id);
   EXPECT_EQ(result["record"], "feed_drive");
   EXPECT_NEAR(result["axes"][0]["stroke_mm"].get<double>(), 100.0, 0.5);
   EXPECT_NEAR(result["axes"][0]["force_max_N"].get<double>(), 42.0, 1e-6);
@@ -154,7 +155,7 @@ TEST_F(ServoRoutes, AStreamBecomesAFeedDriveRecord) {
 }
 
 TEST_F(ServoRoutes, AStreamOfStrutLoadsBecomesAHexapodRecord) {
-  const auto stream = svc_->CreateStream({{"machine_id", "pm600-like"}});
+  const auto stream = svc_->streams().CreateStream({{"machine_id", "pm600-like"}});
   std::mt19937 rng(9);
   auto c = servo::truth::JigPlan(120)[6];  // tilted cone test
   const auto rec = servo::truth::Simulate(servo::truth::Pm600Truth(), c, 2.0, rng);
@@ -172,8 +173,9 @@ TEST_F(ServoRoutes, AStreamOfStrutLoadsBecomesAHexapodRecord) {
           json{{"channel", ch + 1}, {"counter", i}, {"t_us", t}, {"value_um", v[ch]}}.dump() + "\n";
     }
   }
-  svc_->IngestFrames(stream, "application/x-ndjson",
-                     [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
+  svc_->streams().IngestFrames(
+      stream, "application/x-ndjson",
+      [&](const std::function<bool(std::string_view)>& sink) { return sink(body); });
   const json request = {{"struts",
                          {{"pose_channels", {1, 2, 3, 4, 5, 6}},
                           {"force_channels", {7, 8, 9, 10, 11, 12}},
@@ -184,7 +186,7 @@ TEST_F(ServoRoutes, AStreamOfStrutLoadsBecomesAHexapodRecord) {
   auto r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo", request.dump());
   ASSERT_EQ(r.status, 201) << r.body;
   const auto id = json::parse(r.body)["id"].get<std::int64_t>();
-  const auto result = svc_->Results(id);
+  const auto result = svc_->measurements().Results(id);
   EXPECT_EQ(result["record"], "hexapod");
   EXPECT_EQ(result["samples"], 120);
   double fmax = -1e300;

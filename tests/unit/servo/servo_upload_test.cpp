@@ -23,12 +23,12 @@ TEST(ServoUpload, StoresTheRecordAndItsSummary) {
   fs::remove(db);
   {
     Service svc(std::make_unique<SqliteStorage>(db.string()), {});
-    RegisterBuiltinKinds(svc);
+    RegisterBuiltinKinds(svc.measurements());
     std::mt19937 rng(5);
     auto c = servo::truth::JigPlan(120)[0];
     const auto rec = servo::truth::Simulate(servo::truth::Pm600Truth(), c, 2.0, rng);
     const std::string text = servo::truth::ServoText(c, rec);
-    const auto up = svc.Upload(text, "a_ccw.txt");
+    const auto up = svc.measurements().Upload(text, "a_ccw.txt");
     EXPECT_TRUE(up.created);
     EXPECT_EQ(up.kind, "servo");
     const auto m = svc.storage().GetMeasurement(up.id);
@@ -39,17 +39,17 @@ TEST(ServoUpload, StoresTheRecordAndItsSummary) {
     const auto samples = svc.storage().GetSamples(up.id);
     EXPECT_EQ(samples.rows(), 120u);
     EXPECT_EQ(samples.columns.size(), 13u);
-    const auto r = svc.Results(up.id);
+    const auto r = svc.measurements().Results(up.id);
     EXPECT_EQ(r["record"], "hexapod");
     EXPECT_EQ(r["samples"], 120);
     EXPECT_NEAR(r["force_max_N"][0].get<double>(), rec.force_N[0][0], 2000.0);
-    EXPECT_FALSE(svc.Upload(text, "again.txt").created);
+    EXPECT_FALSE(svc.measurements().Upload(text, "again.txt").created);
 
     const std::string bad =
         text.substr(0, text.find("t_s,")) +
         "t_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,f1,f2,f3,f4,f5,f6\n0,1,2,3,4,5,6,7,8,9,10,11,x\n";
     try {
-      svc.Upload(bad, "bad.txt");
+      svc.measurements().Upload(bad, "bad.txt");
       ADD_FAILURE() << "accepted";
     } catch (const InvalidInput& e) {
       EXPECT_EQ(e.file(), "bad.txt");

@@ -1,4 +1,4 @@
-#include "server/measurements/servo_service.h"
+#include "server/servo/servo_service.h"
 
 #include <algorithm>
 #include <cctype>
@@ -33,16 +33,16 @@ std::string MeasurementName(std::int64_t id, const std::string& filename) {
   return "measurement " + std::to_string(id) + " (" + filename + ")";
 }
 
-ingest::MachineDefinition Machine(Service& svc, const std::string& machine_id,
+ingest::MachineDefinition Machine(ModelService& models, const std::string& machine_id,
                                   std::optional<std::int64_t> version, std::int64_t& used) {
-  const MachineModelRecord rec = svc.GetMachineModel(machine_id, version);
+  const MachineModelRecord rec = models.GetMachineModel(machine_id, version);
   used = rec.version;
   return ingest::ParseHexapodMachineJson(
       rec.document, "machine " + rec.machine_id + " version " + std::to_string(rec.version));
 }
 
 // The servo measurements of the request, read back and parsed, each of the machine.
-std::vector<servo::ServoFile> Files(Service& svc, const nlohmann::json& request,
+std::vector<servo::ServoFile> Files(MeasurementStore& store, const nlohmann::json& request,
                                     const std::string& machine_id) {
   if (!request.contains("measurement_ids") || !request["measurement_ids"].is_array() ||
       request["measurement_ids"].empty()) {
@@ -64,15 +64,14 @@ std::vector<servo::ServoFile> Files(Service& svc, const nlohmann::json& request,
                          "ids are whole numbers from 1, each listed once");
     }
     const std::int64_t id = v.get<std::int64_t>();
-    const auto rec = svc.storage().GetMeasurement(id);
+    const auto rec = store.GetMeasurement(id);
     if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
     if (rec->kind != "servo" || rec->machine_id != machine_id) {
       throw InvalidInput(
           req::kFile, 0, "measurement_ids",
           "measurement " + std::to_string(id) + " is not a servo record of " + machine_id);
     }
-    files.push_back(
-        ingest::ParseServoFile(svc.storage().GetRaw(id), MeasurementName(id, rec->filename)));
+    files.push_back(ingest::ParseServoFile(store.GetRaw(id), MeasurementName(id, rec->filename)));
     samples += files.back().t_s.size();
     if (samples > kMaxServoSamples) {
       throw InvalidInput(req::kFile, 0, "measurement_ids",
@@ -82,7 +81,7 @@ std::vector<servo::ServoFile> Files(Service& svc, const nlohmann::json& request,
   return files;
 }
 
-Inputs Read(Service& svc, const nlohmann::json& request) {
+Inputs Read(MeasurementStore& store, ModelService& models, const nlohmann::json& request) {
   if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
   Inputs in;
   const std::string machine_id = req::RequiredString(request, "machine_id");
@@ -91,8 +90,8 @@ Inputs Read(Service& svc, const nlohmann::json& request) {
     version =
         req::WholeNumber(request, "machine_version", 1, std::numeric_limits<std::int64_t>::max());
   }
-  in.machine = Machine(svc, machine_id, version, in.version);
-  in.files = Files(svc, request, machine_id);
+  in.machine = Machine(models, machine_id, version, in.version);
+  in.files = Files(store, request, machine_id);
   for (const auto& f : in.files) {
     if (!f.hexapod) {
       throw InvalidInput(req::kFile, 0, "measurement_ids",
@@ -103,13 +102,12 @@ Inputs Read(Service& svc, const nlohmann::json& request) {
 }
 
 // The estimate kept as a result of each measurement it used (see kJointsAnalysis).
-void StoreJoints(Service& svc, const nlohmann::json& j) {
+void StoreJoints(MeasurementStore& store, const nlohmann::json& j) {
   const std::string text = j.dump();
   const NewResult result{
       kJointsAnalysis,
       std::string(usecases::kServoAnalysisVersion) + " #" + Sha256Hex(text).substr(0, 16), text};
-  for (const auto& id : j["measurement_ids"])
-    svc.storage().PutResult(id.get<std::int64_t>(), result);
+  for (const auto& id : j["measurement_ids"]) store.PutResult(id.get<std::int64_t>(), result);
 }
 
 // One stored estimate as an item of the history.
@@ -141,8 +139,8 @@ nlohmann::json HistoryItem(const ResultRecord& rec) {
 
 }  // namespace
 
-nlohmann::json ServoIdentify(Service& service, const nlohmann::json& request) {
-  Inputs in = Read(service, request);
+nlohmann::json ServoService::Identify(const nlohmann::json& request) {
+  Inputs in = Read(store_, models_, request);
   const bool save =
       request.contains("save") && request["save"].is_boolean() && request["save"].get<bool>();
   if (request.contains("save") && !request["save"].is_boolean()) {
@@ -154,7 +152,7 @@ nlohmann::json ServoIdentify(Service& service, const nlohmann::json& request) {
   nlohmann::json j = usecases::ServoIdentifyJson(in.machine.machine_id, in.files, r);
   j["machine_version"] = in.version;
   if (save) {
-    const auto stored = service.StoreMachineModel(usecases::MachineWithIdentified(in.machine, r),
+    const auto stored = models_.StoreMachineModel(usecases::MachineWithIdentified(in.machine, r),
                                                   "servo identification", note);
     j["saved"] = {{"machine_id", stored.machine_id},
                   {"version", stored.version},
@@ -163,8 +161,8 @@ nlohmann::json ServoIdentify(Service& service, const nlohmann::json& request) {
   return j;
 }
 
-nlohmann::json ServoJoints(Service& service, const nlohmann::json& request) {
-  Inputs in = Read(service, request);
+nlohmann::json ServoService::Joints(const nlohmann::json& request) {
+  Inputs in = Read(store_, models_, request);
   servo::JointOptions o;
   o.level2_ratio = req::Number(request, "level2_ratio", o.level2_ratio);
   o.level3_ratio = req::Number(request, "level3_ratio", o.level3_ratio);
@@ -183,12 +181,12 @@ nlohmann::json ServoJoints(Service& service, const nlohmann::json& request) {
   nlohmann::json j = usecases::ServoJointsJson(in.machine.machine_id, r, o);
   j["machine_version"] = in.version;
   j["measurement_ids"] = request["measurement_ids"];
-  StoreJoints(service, j);
+  StoreJoints(store_, j);
   return j;
 }
 
-nlohmann::json JointHealth(Service& service, const std::string& machine_id) {
-  const auto machines = service.storage().ListMachines();
+nlohmann::json ServoService::JointHealth(const std::string& machine_id) {
+  const auto machines = store_.ListMachines();
   if (std::none_of(machines.begin(), machines.end(),
                    [&](const MachineSummary& m) { return m.machine_id == machine_id; })) {
     throw NotFound("machine " + machine_id + " has no measurements and no model");
@@ -202,9 +200,9 @@ nlohmann::json JointHealth(Service& service, const std::string& machine_id) {
   f.kind = "servo";
   f.limit = 500;
   for (f.offset = 0;; f.offset += f.limit) {
-    const auto page = service.storage().ListMeasurements(f);
+    const auto page = store_.ListMeasurements(f);
     for (const auto& m : page.items) {
-      for (auto& r : service.storage().GetResults(m.id)) {
+      for (auto& r : store_.GetResults(m.id)) {
         if (r.analysis != kJointsAnalysis ||
             !seen.emplace(r.analysis_version, found.size()).second) {
           continue;
@@ -224,22 +222,22 @@ nlohmann::json JointHealth(Service& service, const std::string& machine_id) {
   return {{"machine_id", machine_id}, {"limits", limits}, {"estimates", estimates}};
 }
 
-nlohmann::json ServoForce(Service& service, std::int64_t measurement_id,
-                          std::optional<std::int64_t> machine_version) {
-  const auto rec = service.storage().GetMeasurement(measurement_id);
+nlohmann::json ServoService::Force(std::int64_t measurement_id,
+                                   std::optional<std::int64_t> machine_version) {
+  const auto rec = store_.GetMeasurement(measurement_id);
   if (!rec) throw NotFound("measurement " + std::to_string(measurement_id) + " does not exist");
   if (rec->kind != "servo") {
     throw InvalidInput("", 0, "id",
                        "measurement " + std::to_string(measurement_id) + " is not a servo record");
   }
   std::int64_t version = 0;
-  const auto machine = Machine(service, rec->machine_id, machine_version, version);
+  const auto machine = Machine(models_, rec->machine_id, machine_version, version);
   if (!machine.physics) {
     throw InvalidInput("", 0, "machine_id",
                        "the model of " + rec->machine_id +
                            " has no gravity and friction blocks (identify and save first)");
   }
-  const auto file = ingest::ParseServoFile(service.storage().GetRaw(measurement_id),
+  const auto file = ingest::ParseServoFile(store_.GetRaw(measurement_id),
                                            MeasurementName(measurement_id, rec->filename));
   if (!file.hexapod) {
     throw InvalidInput("", 0, "id", "a feed-drive record has no tool-tip force");
@@ -284,10 +282,10 @@ struct Column {
 };
 
 struct StreamRange {
-  Service* service = nullptr;
+  StreamStore* store = nullptr;
   std::int64_t stream = 0, from_us = 0, to_us = 0;
   Column Read(const std::string& name, std::int64_t channel, double scale) const {
-    return {name, ReadChannelSamples(service->storage(), stream, channel, from_us, to_us), scale};
+    return {name, ReadChannelSamples(*store, stream, channel, from_us, to_us), scale};
   }
 };
 
@@ -394,9 +392,8 @@ std::string HexapodRecord(const StreamRange& range, const nlohmann::json& reques
 
 }  // namespace
 
-UploadOutcome ServoFromStream(Service& service, std::int64_t stream_id,
-                              const nlohmann::json& request) {
-  const auto rec = service.storage().GetStream(stream_id);
+UploadOutcome ServoService::FromStream(std::int64_t stream_id, const nlohmann::json& request) {
+  const auto rec = streams_.store().GetStream(stream_id);
   if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
   if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
   if (request.contains("axes") == request.contains("struts")) {
@@ -406,18 +403,18 @@ UploadOutcome ServoFromStream(Service& service, std::int64_t stream_id,
   constexpr auto kMin = std::numeric_limits<std::int64_t>::min();
   constexpr auto kMax = std::numeric_limits<std::int64_t>::max();
   StreamRange range;
-  range.service = &service;
+  range.store = &streams_.store();
   range.stream = stream_id;
   range.from_us = req::WholeNumber(request, "from_us", kMin, kMax, kMin);
   range.to_us = req::WholeNumber(request, "to_us", kMin, kMax, kMax);
-  service.streams().Flush(stream_id);  // every sample received so far
+  streams_.hub().Flush(stream_id);  // every sample received so far
   const std::string body =
       request.contains("axes") ? FeedDriveRecord(range, request) : HexapodRecord(range, request);
   const std::string text =
       "# format: kinemetric-servo/1\n# machine_id: " + rec->machine_id + "\n# test_id: " +
       req::OptionalString(request, "test_id", "stream-" + std::to_string(stream_id)) +
       "\n# source_stream: " + std::to_string(stream_id) + "\n" + body;
-  return service.Upload(text, "stream-" + std::to_string(stream_id) + "-servo.csv");
+  return measurements_.Upload(text, "stream-" + std::to_string(stream_id) + "-servo.csv");
 }
 
 }  // namespace km::server

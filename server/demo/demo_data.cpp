@@ -1,4 +1,4 @@
-#include "server/measurements/demo_data.h"
+#include "server/demo/demo_data.h"
 
 #include <cmath>
 #include <numbers>
@@ -7,7 +7,7 @@
 #include "analysis/dbb/serial_sim.h"
 #include "ingest/dbb_writer.h"
 #include "ingest/stream_frames.h"
-#include "server/service.h"
+#include "server/streams/stream_service.h"
 
 namespace km::server {
 namespace {
@@ -68,14 +68,14 @@ std::vector<DemoFile> DemoDbbFiles() {
   return out;
 }
 
-std::int64_t LoadDemoStream(Service& service) {
+std::int64_t LoadDemoStream(StreamService& streams) {
   const nlohmann::json request = {
       {"machine_id", "demo-vmc"},
       {"name", "optical flat, X travel 300 mm"},
       {"channels",
        {{{"channel", 1}, {"name", "capacitance Z"}, {"unit", "um"}, {"rate_hz", 2000}},
         {{"channel", 2}, {"name", "X encoder"}, {"unit", "um"}, {"rate_hz", 2000}}}}};
-  const std::int64_t id = service.CreateStream(request);
+  const std::int64_t id = streams.CreateStream(request);
   constexpr double kRate = 2000.0, kFeed = 600.0, kTravel = 300.0, kStart = 50.0;
   const auto n = static_cast<std::size_t>(kTravel / (kFeed / 60.0) * kRate);  // 30 s
   const std::int64_t t0 = 1'793'600'000'000'000;  // 2026-11-02 08:53:20 UTC
@@ -103,12 +103,12 @@ std::int64_t LoadDemoStream(Service& service) {
     if (b != 150 * kFrame) frames += ingest::EncodeBinaryFrame(sensor, false, false, 500'000);
     frames += ingest::EncodeBinaryFrame(encoder, false, false, 500'000);
   }
-  service.IngestFrames(id, "application/vnd.kinemetric.stream-frame",
+  streams.IngestFrames(id, "application/vnd.kinemetric.stream-frame",
                        [&frames](const std::function<bool(std::string_view)>& sink) {
                          sink(frames);
                          return true;
                        });
-  service.StreamProfile(id, {{"channel", 1},
+  streams.StreamProfile(id, {{"channel", 1},
                              {"axis", "X"},
                              {"error_direction", "Z"},
                              {"test_id", "x-flat-300"},

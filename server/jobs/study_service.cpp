@@ -1,0 +1,89 @@
+// The study service: its job queue and runners, the jobs of a machine, and saving the machine a
+// job produced as the next version of its model.
+#include "server/jobs/study_service.h"
+
+#include <map>
+
+#include "analysis/core/errors.h"
+#include "ingest/json_text.h"
+#include "server/base/conflict.h"
+
+namespace km::server {
+
+StudyService::StudyService(MeasurementStore& measurement_store, JobStore& job_store,
+                           MeasurementService& measurements, ModelService& models,
+                           StudyOptions options)
+    : measurement_store_(measurement_store),
+      job_store_(job_store),
+      measurements_(measurements),
+      models_(models),
+      options_(options),
+      queue_(job_store, options.jobs) {
+  queue_.Register(kCalibrationJob, [this](const nlohmann::json& plan, const ProgressFn& p) {
+    return RunCalibrationJob(plan, p);
+  });
+  queue_.Register(kDiscoveryJob, [this](const nlohmann::json& plan, const ProgressFn& p) {
+    return RunDiscoveryJob(plan, p);
+  });
+  queue_.Start();
+}
+
+nlohmann::json StudyService::JobsOfMachine(const std::string& machine_id, std::int64_t limit,
+                                           std::int64_t scan) {
+  std::map<std::int64_t, std::string> machine_of;  // measurement id → machine, looked up once
+  const auto test_machine = [&](std::int64_t id) -> const std::string& {
+    auto it = machine_of.find(id);
+    if (it == machine_of.end()) {
+      const auto rec = measurement_store_.GetMeasurement(id);
+      it = machine_of.emplace(id, rec ? rec->machine_id : std::string()).first;
+    }
+    return it->second;
+  };
+  nlohmann::json items = nlohmann::json::array();
+  for (const auto& j : job_store_.ListJobs(scan)) {
+    if (static_cast<std::int64_t>(items.size()) >= limit) break;
+    // The request decides; only the jobs of the machine are turned into JSON (with the verdict).
+    const auto req = ingest::ParseJsonTextOrDiscarded(j.request_json);
+    bool mine = req.is_object() && req.value("machine_id", std::string()) == machine_id;
+    if (!mine && req.is_object() && req.contains("measurement_ids") &&
+        req["measurement_ids"].is_array() && !req["measurement_ids"].empty() &&
+        req["measurement_ids"][0].is_number_integer()) {
+      mine = test_machine(req["measurement_ids"][0].get<std::int64_t>()) == machine_id;
+    }
+    if (!mine) continue;
+    nlohmann::json x = JobJson(j);
+    x.erase("result");  // as Jobs: GET /api/v1/jobs/{id} has the result
+    items.push_back(std::move(x));
+  }
+  return {{"items", items}};
+}
+
+MachineModelStored StudyService::SaveJobMachine(std::int64_t job_id, const std::string& note) {
+  const auto job = job_store_.GetJob(job_id);
+  if (!job) throw NotFound("job " + std::to_string(job_id) + " does not exist");
+  const std::string name = "job " + std::to_string(job_id);
+  std::string key, source;
+  if (job->kind == kCalibrationJob) {
+    key = "calibrated_machine";
+    source = "calibration " + name;
+  } else if (job->kind == kDiscoveryJob) {
+    key = "updated_machine";
+    source = "discovery " + name;
+  } else {
+    throw Conflict(name + " (" + job->kind + ") does not produce a machine definition");
+  }
+  if (job->status != JobStatus::kDone) {
+    throw Conflict(name + " is " + ToString(job->status) +
+                   (job->status == JobStatus::kFailed
+                        ? "; it has no machine to save"
+                        : "; its machine can be saved once it is done"));
+  }
+  const auto result = ingest::ParseJsonTextOrDiscarded(job->result_json);
+  if (!result.is_object() || !result.contains(key) || !result[key].is_object()) {
+    throw Conflict(name + " produced no machine to save (its result has no " + key + ")");
+  }
+  // The document as the job wrote it (ingest::WriteMachineJson: indent 2, closing newline).
+  return models_.StoreMachineModel(result[key].dump(2) + "\n", source, note, name + " " + key);
+}
+
+}  // namespace km::server

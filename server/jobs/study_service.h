@@ -1,0 +1,115 @@
+// Studies of stored DBB tests that run as background jobs: hexapod calibrations
+// (calibration_jobs.cpp) and model-gap discoveries (discovery_jobs.cpp). A request is checked
+// completely before it is queued, from the stored records alone; the queued job keeps the ids
+// and reads each test once when it runs, on whichever instance takes it (server/jobs/jobs.h).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "analysis/core/progress.h"
+#include "server/jobs/jobs.h"
+#include "server/measurements/measurement_service.h"
+#include "server/models/model_service.h"
+#include "server/storage/storage.h"
+
+namespace km::server {
+
+struct StudyOptions {
+  // At most this many DBB tests a study (a study uses tens), and at most this many samples in
+  // all of them (the running job holds every test in memory).
+  std::size_t max_calibration_tests = 500;
+  std::size_t max_calibration_samples = 2'000'000;
+  // Background jobs: workers of this instance, lease, queue bound (server/jobs/jobs.h).
+  JobQueueOptions jobs;
+};
+
+// Who asks to cancel a job (StudyService::CancelJob): the caller's token and whether it is an
+// admin.
+struct JobCanceller {
+  std::int64_t token_id = 0;
+  std::string token_name;
+  bool admin = false;
+};
+
+struct CalibrationPlan;
+struct DiscoveryPlan;
+
+class StudyService {
+ public:
+  // Starts the job queue's workers; the destructor stops them.
+  StudyService(MeasurementStore& measurements_store, JobStore& jobs_store,
+               MeasurementService& measurements, ModelService& models, StudyOptions options);
+  StudyService(const StudyService&) = delete;
+  StudyService& operator=(const StudyService&) = delete;
+
+  // Hexapod calibration study. Request (JSON): {"machine": {machine definition,
+  // docs/formats.md §2}, "measurement_ids": [DBB ids], "method": "absolute" |
+  // "centre-corrected" (optional), "reduction_study_min_tests": N (optional),
+  // "max_samples_per_test": N (optional)}. Validated now from the stored records, without
+  // reading any file (InvalidInput / NotFound): at most max_calibration_tests ids, each listed
+  // once (a repeated id is refused), each a DBB test with a tool length, at most
+  // max_calibration_samples samples in all. Returns the job id. The job's result is the
+  // `hexapod calibrate` object plus the calibrated machine.
+  // Instead of "machine", the request may name a stored model: "machine_id" (and optionally
+  // "machine_version", else the newest); the job's request then records the version used.
+  // The tests must be of one machine, and the reduction study is refused together with
+  // effects (named, or the stored model's own). owner_token_id: the token submitting the job,
+  // who may cancel it (CancelJob).
+  std::int64_t SubmitCalibration(const nlohmann::json& request, std::int64_t owner_token_id = 0);
+  // Model-gap discovery study (usecases/discovery_report.h). Request: {"machine_id"?,
+  // "machine_version"?, "measurement_ids": [DBB ids], "max_samples_per_test"?}. Checked like a
+  // calibration request, and the tests must be of one machine. Without machine_id: the serial
+  // study of the DBB tests' machine; with it: the stored model (a hexapod's tests need the tool
+  // length). The job's result is the `kinemetric discover` object, plus "updated_machine" when
+  // the study produced one.
+  std::int64_t SubmitDiscovery(const nlohmann::json& request, std::int64_t owner_token_id = 0);
+
+  nlohmann::json Job(std::int64_t id);
+  // Cancels a queued or running job for its owner (the token that submitted it) or an admin;
+  // answers the job, status "cancelled" (its error says by whom). A running job stops at its
+  // next progress report. NotFound: no such job; Forbidden: `by` neither owns it nor is an
+  // admin; Conflict: the job is done, failed or cancelled already.
+  nlohmann::json CancelJob(std::int64_t id, const JobCanceller& by);
+  nlohmann::json Jobs(std::int64_t limit);
+  // The jobs of one machine, newest first, as Jobs: those whose request names the machine
+  // (machine_id) or whose DBB tests are of it; among the newest `scan` jobs.
+  nlohmann::json JobsOfMachine(const std::string& machine_id, std::int64_t limit,
+                               std::int64_t scan = 5000);
+  // Stores the machine a finished job produced (a calibration's calibrated machine, a
+  // discovery's updated machine) as the next version of its model, source "calibration job N"
+  // or "discovery job N". NotFound: no such job; Conflict: the job is not done, or produced no
+  // machine.
+  MachineModelStored SaveJobMachine(std::int64_t job_id, const std::string& note);
+
+  // Stops the workers (a running job goes back to the queue).
+  void Stop() { queue_.Stop(); }
+
+ private:
+  // The "measurement_ids" of a study request, checked from the stored records alone (no file is
+  // read): at most max_calibration_tests, each once, each a DBB test (with a tool length and,
+  // when asked, a fixed ball), all of one machine, at most max_calibration_samples samples in
+  // all (calibration_jobs.cpp).
+  std::vector<std::int64_t> CheckedDbbIds(const nlohmann::json& request, const std::string& study,
+                                          bool need_tool_length, bool need_fixed_ball);
+  // Study requests checked into what a job runs, and the jobs' runners (from the stored plan).
+  std::shared_ptr<CalibrationPlan> CheckCalibration(const nlohmann::json& request,
+                                                    std::int64_t& stored_version);
+  std::shared_ptr<DiscoveryPlan> CheckDiscovery(const nlohmann::json& request,
+                                                std::int64_t& version);
+  nlohmann::json RunCalibrationJob(const nlohmann::json& plan, const ProgressFn& p);
+  nlohmann::json RunDiscoveryJob(const nlohmann::json& plan, const ProgressFn& p);
+
+  MeasurementStore& measurement_store_;
+  JobStore& job_store_;
+  MeasurementService& measurements_;
+  ModelService& models_;
+  StudyOptions options_;
+  JobQueue queue_;  // last: its workers stop before the rest goes
+};
+
+}  // namespace km::server

@@ -1,0 +1,308 @@
+// The stored measurements: uploads, results, lists and the queries recomputed from a stored file.
+#include "server/measurements/measurement_service.h"
+
+#include <cmath>
+#include <cstdlib>
+
+#include "analysis/core/errors.h"
+#include "analysis/dbb/circular_test.h"
+#include "analysis/dbb/full_analysis.h"
+#include "ingest/dbb_parser.h"
+#include "ingest/form_parsers.h"
+#include "ingest/iso8601.h"
+#include "ingest/json_text.h"
+#include "ingest/text_format.h"
+#include "render/dbb_plot.h"
+#include "server/base/sha256.h"
+#include "server/base/time_util.h"
+#include "server/measurements/analyses.h"
+#include "usecases/dbb_json.h"
+#include "usecases/dbb_report.h"
+#include "usecases/form_report.h"
+
+namespace km::server {
+
+MeasurementService::MeasurementService(MeasurementStore& store, UploadOptions options)
+    : store_(store), options_(std::move(options)) {}
+
+std::map<std::string, ingest::TextLimits> DefaultUploadLimits() {
+  std::map<std::string, ingest::TextLimits> out;
+  for (const auto& f : BuiltinFormats()) out[f.format] = f.limits;
+  return out;
+}
+
+void MeasurementService::RegisterKind(const std::string& format, KindHandler handler) {
+  kinds_[format] = std::move(handler);
+}
+
+std::vector<std::string> MeasurementService::Formats() const {
+  std::vector<std::string> out;
+  for (const auto& [k, v] : kinds_) out.push_back(k);
+  return out;
+}
+
+UploadOutcome MeasurementService::Upload(std::string_view bytes, const std::string& filename) {
+  const std::string file = filename.empty() ? "upload" : filename;
+  if (bytes.size() > options_.max_upload_bytes) {
+    throw TooLarge(file, 0, "",
+                   "the upload is " + std::to_string(bytes.size()) + " bytes; the limit is " +
+                       std::to_string(options_.max_upload_bytes));
+  }
+  // The format line is checked before it is used (a short name of plain characters).
+  const std::string format = ingest::PeekFormat(bytes, file);
+  const auto it = kinds_.find(format);
+  if (it == kinds_.end()) {
+    std::string known;
+    for (const auto& [k, v] : kinds_) known += (known.empty() ? "" : ", ") + k;
+    throw InvalidInput(file, 1, "format",
+                       "unknown format '" + format + "'; this server accepts: " + known);
+  }
+  // Limits before parsing: one pass, nothing kept; TooLarge names the first line beyond them.
+  ingest::TextLimits limits;
+  if (const auto l = options_.upload_limits.find(format); l != options_.upload_limits.end()) {
+    limits = l->second;
+  }
+  limits.max_bytes = options_.max_upload_bytes;
+  ingest::CheckTextLimits(bytes, file, limits);
+  const std::string sha = Sha256Hex(bytes);
+  if (const auto existing = store_.FindBySha256(sha)) {
+    const auto rec = store_.GetMeasurement(*existing);
+    return UploadOutcome{*existing, false, sha, rec ? rec->kind : ""};
+  }
+  Ingested in = it->second(bytes, file);
+  NewMeasurement m;
+  m.sha256 = sha;
+  m.kind = in.kind;
+  m.format = format;
+  m.machine_id = in.machine_id;
+  m.test_id = in.test_id;
+  m.direction = in.direction;
+  if (in.measured_at) {
+    m.measured_at = NormaliseIso8601(*in.measured_at);
+    if (!m.measured_at) {
+      throw InvalidInput(file, 0, "timestamp", "'" + *in.measured_at + "' is not ISO 8601");
+    }
+  }
+  m.filename = filename;
+  m.metadata_json = in.metadata.dump();
+  m.raw.assign(bytes);
+  m.samples = std::move(in.samples);
+  const auto put = store_.PutMeasurement(m, in.results);
+  return UploadOutcome{put.id, put.created, sha, in.kind};
+}
+
+nlohmann::json MeasurementService::Results(std::int64_t id) {
+  const auto results = store_.GetResults(id);
+  if (results.empty()) {
+    // One query in the common case; the second only tells the two refusals apart.
+    if (!store_.GetMeasurement(id)) {
+      throw NotFound("measurement " + std::to_string(id) + " does not exist");
+    }
+    throw NotFound("measurement " + std::to_string(id) + " has no stored results");
+  }
+  // Newest stored result of the measurement itself (results are appended as analysis versions
+  // are added); the joints estimates kept with servo records are answered elsewhere.
+  for (auto r = results.rbegin(); r != results.rend(); ++r) {
+    if (r->analysis != kJointsAnalysis)
+      return ingest::ParseJsonText(r->result_json, "stored document");
+  }
+  return ingest::ParseJsonText(results.back().result_json, "stored document");
+}
+
+nlohmann::json MeasurementService::MeasurementJson(const MeasurementRecord& r) const {
+  nlohmann::json j;
+  j["id"] = r.id;
+  j["sha256"] = r.sha256;
+  j["kind"] = r.kind;
+  j["format"] = r.format;
+  j["machine_id"] = r.machine_id;
+  j["test_id"] = r.test_id;
+  j["direction"] = r.direction;
+  j["timestamp"] = r.measured_at ? nlohmann::json(*r.measured_at) : nlohmann::json(nullptr);
+  j["uploaded_at"] = r.uploaded_at;
+  j["filename"] = r.filename;
+  j["sample_count"] = r.sample_count;
+  return j;
+}
+
+namespace {
+
+// The figure a list shows for a measurement of each kind (docs/formats.md §5).
+struct KeyFigure {
+  const char* kind;
+  const char* analysis;
+  const char* key;
+  const char* label;
+};
+constexpr KeyFigure kKeyFigures[] = {
+    {"dbb", "dbb", "circularity_um", "circularity"},
+    {"straightness", "straightness", "straightness_min_zone_um", "straightness (minimum zone)"},
+    {"parallelism", "parallelism", "parallelism_um", "parallelism"},
+    {"flatness", "flatness", "flatness_min_zone_um", "flatness (minimum zone)"},
+    {"tracker", "tracker", "residual_rms_um", "residual RMS"},
+};
+
+// {"name", "label", "value", "unit"} from the newest stored result, or null.
+nlohmann::json KeyResultJson(const std::string& kind, const std::vector<ResultRecord>& results) {
+  for (const auto& k : kKeyFigures) {
+    if (kind != k.kind) continue;
+    for (auto r = results.rbegin(); r != results.rend(); ++r) {
+      if (r->analysis != k.analysis) continue;
+      const auto j = ingest::ParseJsonTextOrDiscarded(r->result_json);
+      if (!j.is_object() || !j.contains(k.key) || !j[k.key].is_number()) return nullptr;
+      return {{"name", k.key}, {"label", k.label}, {"value", j[k.key]}, {"unit", "µm"}};
+    }
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+nlohmann::json MeasurementService::ListMeasurements(const MeasurementFilter& filter) {
+  const auto page = store_.ListMeasurements(filter);
+  nlohmann::json items = nlohmann::json::array();
+  for (const auto& r : page.items) {
+    nlohmann::json j = MeasurementJson(r);
+    j["key_result"] = KeyResultJson(r.kind, store_.GetResults(r.id));
+    items.push_back(std::move(j));
+  }
+  return {{"items", items}, {"total", page.total}};
+}
+
+nlohmann::json MeasurementService::MeasurementWithSamples(std::int64_t id) {
+  const auto rec = store_.GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  nlohmann::json j = MeasurementJson(*rec);
+  j["metadata"] = ingest::ParseJsonText(rec->metadata_json, "stored document");
+  const auto block = store_.GetSamples(id);
+  nlohmann::json samples = nlohmann::json::object();
+  for (std::size_t c = 0; c < block.columns.size(); ++c) {
+    samples[block.columns[c]] = block.Column(c);
+  }
+  j["samples"] = samples;
+  return j;
+}
+
+std::vector<MachineSummary> MeasurementService::Machines() {
+  return store_.ListMachines();
+}
+
+dbb::DbbTest MeasurementService::LoadDbb(std::int64_t id, MeasurementRecord* record) {
+  const auto rec = store_.GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (rec->kind != "dbb") {
+    throw InvalidInput("", 0, "id", "measurement " + std::to_string(id) + " is not a DBB test");
+  }
+  if (record) *record = *rec;
+  return ingest::ParseDbb(store_.GetRaw(id), rec->filename);
+}
+
+std::optional<std::int64_t> MeasurementService::DbbPartner(const MeasurementRecord& rec) {
+  return NearestPartner(rec, rec.direction == "ccw" ? "cw" : "ccw");
+}
+
+std::optional<std::int64_t> MeasurementService::NearestPartner(const MeasurementRecord& rec,
+                                                               const std::string& other_direction) {
+  // The other-direction measurement (the opposite DBB direction, the other set-up of a
+  // reversal) of the same machine, kind and test_id measured nearest in time to this one
+  // (measurement time, else upload time): a pair is run minutes apart, a repeat days or months
+  // later. On equal distance the one stored nearest, then the later.
+  const std::string when = rec.measured_at.value_or(rec.uploaded_at);
+  const auto t = ingest::Iso8601EpochSeconds(when);
+  MeasurementFilter f;
+  f.machine_id = rec.machine_id;
+  f.kind = rec.kind;
+  f.test_id = rec.test_id;
+  f.direction = other_direction;
+  f.limit = 2;
+  std::vector<MeasurementRecord> candidates;
+  f.from = when;  // the nearest at or after it
+  f.order = MeasurementFilter::Order::kOldest;
+  for (auto& m : store_.ListMeasurements(f).items) candidates.push_back(std::move(m));
+  f.from.reset();
+  f.to = when;  // the nearest before it
+  f.order = MeasurementFilter::Order::kNewest;
+  for (auto& m : store_.ListMeasurements(f).items) candidates.push_back(std::move(m));
+  std::optional<std::int64_t> best;
+  double best_dt = 0.0;
+  for (const auto& m : candidates) {
+    const auto tm = ingest::Iso8601EpochSeconds(m.measured_at.value_or(m.uploaded_at));
+    const double dt = t && tm ? std::fabs(*tm - *t) : 0.0;
+    const bool nearer =
+        !best || dt < best_dt ||
+        (dt == best_dt && (std::abs(m.id - rec.id) < std::abs(*best - rec.id) ||
+                           (std::abs(m.id - rec.id) == std::abs(*best - rec.id) && m.id > *best)));
+    if (nearer) {
+      best = m.id;
+      best_dt = dt;
+    }
+  }
+  return best;
+}
+
+nlohmann::json MeasurementService::DbbTrace(std::int64_t id) {
+  const dbb::DbbTest test = LoadDbb(id);
+  return usecases::DbbTraceJson(test,
+                                dbb::AnalyzeCircularTest(test, dbb::DeviationUnits::kToolPath));
+}
+
+nlohmann::json MeasurementService::DbbPairJson(std::int64_t id) {
+  MeasurementRecord rec;
+  const dbb::DbbTest test = LoadDbb(id, &rec);
+  const auto partner = DbbPartner(rec);
+  if (!partner) return nullptr;
+  const dbb::DbbTest other = LoadDbb(*partner);
+  const std::vector<dbb::DbbTest> both{test, other};
+  const dbb::DbbReport report = dbb::AnalyzeDbbSet(both);
+  const nlohmann::json j = usecases::DbbReportJson(both, report);
+  nlohmann::json out;
+  out["partner_id"] = *partner;
+  if (!j["pairs"].empty()) {
+    out["pair"] = j["pairs"][0];
+  }
+  out["joint_diagnosis"] = j["tests"][0]["diagnosis"];
+  out["joint_not_identifiable"] = j["tests"][0]["not_identifiable"];
+  out["partner_joint_diagnosis"] = j["tests"][1]["diagnosis"];
+  return out;
+}
+
+std::string MeasurementService::DbbPlotPng(std::int64_t id,
+                                           const render::PolarPlotOptions& options) {
+  MeasurementRecord rec;
+  std::vector<dbb::DbbTest> tests{LoadDbb(id, &rec)};
+  if (const auto partner = DbbPartner(rec)) tests.push_back(LoadDbb(*partner));
+  const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
+  const auto png = render::DbbPolarPlotPng(report, 0, options);
+  return std::string(png.begin(), png.end());
+}
+
+nlohmann::json MeasurementService::StraightnessReversalJson(std::int64_t id) {
+  const auto rec = store_.GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (rec->kind != "straightness") {
+    throw InvalidInput("", 0, "id",
+                       "measurement " + std::to_string(id) + " is not a straightness profile");
+  }
+  if (rec->direction != "a" && rec->direction != "b") {
+    throw InvalidInput(
+        "", 0, "reversal",
+        "measurement " + std::to_string(id) +
+            " is not one set-up of a reversal pair (its file has no `reversal` key)");
+  }
+  const auto partner = NearestPartner(*rec, rec->direction == "a" ? "b" : "a");
+  if (!partner) return nullptr;
+  const auto other = store_.GetMeasurement(*partner);
+  std::vector<ingest::StraightnessFile> files;
+  for (const auto& [mid, name] :
+       {std::pair{id, rec->filename}, std::pair{*partner, other->filename}})
+    files.push_back(ingest::ParseStraightnessFile(store_.GetRaw(mid), name));
+  if (files[0].reversal == "b") std::swap(files[0], files[1]);
+  const nlohmann::json j = usecases::StraightnessFilesToJson(files);
+  nlohmann::json out;
+  out["partner_id"] = *partner;
+  out["reversal"] = j.value("reversal", nlohmann::json(nullptr));
+  out["profiles"] = j["profiles"];
+  return out;
+}
+
+}  // namespace km::server

@@ -1,0 +1,101 @@
+// The stored measurements: uploads of every registered format (validated, analysed and stored
+// at once), their results, the lists the page shows, and the queries recomputed from a stored
+// file (the DBB trace, CW/CCW pair and polar plot; the straightness reversal of a pair).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "analysis/dbb/dbb_types.h"
+#include "ingest/text_format.h"
+#include "render/polar_plot.h"
+#include "server/measurements/formats.h"
+#include "server/storage/storage.h"
+
+namespace km::server {
+
+// What an upload of each format may hold, by format name (e.g. "kinemetric-dbb/1"): data rows,
+// line length, columns, values, header and marker lines (ingest/text_format.h). The defaults
+// keep the analysis done at upload within about 2 s of CPU and the parse within about 2× the
+// file size: DBB 500 000 samples (the analysis costs about 3 µs and 400 bytes a sample);
+// straightness 100 000 points (its periodic-component search costs about 10 µs a point);
+// parallelism and flatness 1 000 000 points; tracker 10 000 points, 24 columns and 80 000
+// values in all (the self-calibration costs about 0.15 ms a point with 4 to 8 trackers, 0.45 ms
+// with 16). Every format: lines of at most 4 KiB, 1 000 header lines, 1 000 '#' lines among the
+// data.
+std::map<std::string, ingest::TextLimits> DefaultUploadLimits();
+
+struct UploadOptions {
+  // The largest upload, in bytes.
+  std::size_t max_upload_bytes = 32u << 20;
+  // Checked in one pass before anything is parsed; an upload beyond them is refused with
+  // km::TooLarge (HTTP 413) naming the file and the first line beyond the limit. A format
+  // without an entry gets the TextLimits defaults.
+  std::map<std::string, ingest::TextLimits> upload_limits = DefaultUploadLimits();
+};
+
+struct UploadOutcome {
+  std::int64_t id = 0;
+  bool created = false;
+  std::string sha256;
+  std::string kind;
+};
+
+class MeasurementService {
+ public:
+  MeasurementService(MeasurementStore& store, UploadOptions options);
+
+  // Registers the handler of a format name (e.g. "kinemetric-dbb/1").
+  void RegisterKind(const std::string& format, KindHandler handler);
+  std::vector<std::string> Formats() const;
+
+  // Validates, analyses and stores. Same bytes again → the existing id, created = false.
+  // Nothing is stored when the input is bad (km::InvalidInput / km::TooLarge).
+  UploadOutcome Upload(std::string_view bytes, const std::string& filename);
+
+  // Results as the CLI prints them (the newest analysis version of each analysis).
+  nlohmann::json Results(std::int64_t id);
+  nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
+  // Measurement metadata matching the filter: {"items": [MeasurementJson…], "total"}.
+  nlohmann::json ListMeasurements(const MeasurementFilter& filter);
+  // One measurement: MeasurementJson plus "metadata" and "samples" (one array per column);
+  // NotFound when there is none.
+  nlohmann::json MeasurementWithSamples(std::int64_t id);
+  // Machines with stored measurements or a stored model.
+  std::vector<MachineSummary> Machines();
+
+  // DBB queries, recomputed from the stored bytes: the plot data of the evaluated turn; the
+  // CW/CCW pair analysis with the opposite-direction test of the same machine and test_id
+  // (null when there is none); the polar plot PNG (both directions when the partner exists).
+  nlohmann::json DbbTrace(std::int64_t id);
+  nlohmann::json DbbPairJson(std::int64_t id);
+  std::string DbbPlotPng(std::int64_t id, const render::PolarPlotOptions& options = {});
+  // Straightness reversal of a stored profile with the other set-up of its pair (same machine
+  // and pair_id, measured nearest in time): {partner_id, reversal{...}, profiles[]}; null when
+  // the other set-up is not stored.
+  nlohmann::json StraightnessReversalJson(std::int64_t id);
+
+  // A stored DBB test, parsed from its stored bytes (NotFound; InvalidInput when the
+  // measurement is of another kind); `record` receives its record when given.
+  dbb::DbbTest LoadDbb(std::int64_t id, MeasurementRecord* record = nullptr);
+
+ private:
+  std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
+  std::optional<std::int64_t> NearestPartner(const MeasurementRecord& rec,
+                                             const std::string& other_direction);
+
+  MeasurementStore& store_;
+  UploadOptions options_;
+  std::map<std::string, KindHandler> kinds_;
+};
+
+// The handlers of every measurement kind the product knows; call once at start-up.
+void RegisterBuiltinKinds(MeasurementService& measurements);
+
+}  // namespace km::server
