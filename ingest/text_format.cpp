@@ -341,6 +341,13 @@ void CheckText(std::string_view bytes, const std::string& file) {
   }
 }
 
+std::optional<double> WordValue(const std::map<std::string, double, std::less<>>& words,
+                                std::string_view cell) {
+  const auto it = words.find(Trim(cell));
+  if (it == words.end()) return std::nullopt;
+  return it->second;
+}
+
 }  // namespace
 
 bool ValidUtf8(std::string_view s, std::size_t& bad_at, std::string* reason) {
@@ -439,6 +446,7 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
   bool have_columns = false;
   std::set<std::string> seen;
   std::vector<char> keep;
+  std::vector<const std::map<std::string, double, std::less<>>*> words;
   std::size_t ncols = 0;
   while (!cur.Done()) {
     const auto raw = cur.Next(file);
@@ -502,6 +510,11 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
       have_columns = true;
       ncols = t.columns.size();
       keep.assign(ncols, 1);
+      words.assign(ncols, nullptr);
+      for (std::size_t c = 0; c < ncols; ++c) {
+        const auto w = options.word_columns.find(t.columns[c]);
+        if (w != options.word_columns.end()) words[c] = &w->second;
+      }
       t.values.resize(ncols);
       for (std::size_t c = 0; c < ncols; ++c) {
         if (options.keep_column && !options.keep_column(t.columns[c])) keep[c] = 0;
@@ -522,7 +535,14 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
       const auto comma = c + 1 < ncols ? line.find(',', start) : std::string_view::npos;
       const auto cell =
           line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
-      const auto v = ParseNumber(cell);
+      const auto v = words[c] ? WordValue(*words[c], cell) : ParseNumber(cell);
+      if (!v && words[c]) {
+        std::string allowed;
+        for (const auto& [word, value] : *words[c])
+          allowed += (allowed.empty() ? "'" : ", '") + word + "'";
+        throw InvalidInput(file, line_no, t.columns[c],
+                           Quote(Trim(cell)) + " is not one of " + allowed);
+      }
       if (!v) {
         throw InvalidInput(file, line_no, t.columns[c],
                            Quote(Trim(cell)) + " is not a finite decimal number");

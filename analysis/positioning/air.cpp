@@ -36,10 +36,10 @@ double SaturationVapourPressurePa(double temperature_c) {
 }
 
 void CheckAirConditions(const AirConditions& air) {
-  CheckRange(air.temperature_c, 0.0, 40.0, "air_temperature_c", "°C");
-  CheckRange(air.pressure_pa, 60000.0, 120000.0, "air_pressure_pa", "Pa");
+  CheckRange(air.temperature_c, 0.0, 100.0, "air_temperature_c", "°C");
+  CheckRange(air.pressure_pa, 10000.0, 140000.0, "air_pressure_pa", "Pa");
   CheckRange(air.humidity_pct, 0.0, 100.0, "air_humidity_pct", "%");
-  CheckRange(air.wavelength_nm, 350.0, 1600.0, "laser_wavelength_nm", "nm");
+  CheckRange(air.wavelength_nm, 300.0, 1700.0, "laser_wavelength_nm", "nm");
 }
 
 double RefractiveIndexOfAir(const AirConditions& air) {

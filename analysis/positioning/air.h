@@ -15,9 +15,11 @@
 // the IAPWS-IF97 formula ([NIST refractive index] A-I, A-II). CO₂ is taken as 450 ppm, the
 // reference content of the equation (no CO₂ term).
 //
-// Range: inputs are refused (km::InvalidInput naming the field) outside the range in which
-// [NIST refractive index] §VI states the equation's uncertainty: air temperature 0 … 40 °C,
-// pressure 60 000 … 120 000 Pa, relative humidity 0 … 100 %, vacuum wavelength 350 … 1600 nm.
+// Range: inputs are refused (km::InvalidInput naming the field) outside the range over which
+// [NIST refractive index] states the calculation valid (§VI, input limits of the calculator),
+// restricted to air above 0 °C (the saturation pressure over water): air temperature 0 … 100 °C,
+// pressure 10 000 … 140 000 Pa, relative humidity 0 … 100 %, vacuum wavelength 300 … 1700 nm.
+// Its stated uncertainty (about 2·10⁻⁸) holds within 0 … 40 °C and 60 000 … 120 000 Pa.
 #pragma once
 
 #include <optional>
