@@ -44,7 +44,7 @@ void PrintTable(std::ostream& out, const std::vector<PositioningReport>& reports
   out << "\n";
   using R = const PositioningReport&;
   Row(out, "A  accuracy", reports, [](R r) { return r.figures.iso.accuracy_um; });
-  Row(out, "A+ / A- accuracy up", reports, [](R r) { return r.figures.iso.accuracy_up_um; });
+  Row(out, "   accuracy up", reports, [](R r) { return r.figures.iso.accuracy_up_um; });
   Row(out, "   accuracy down", reports, [](R r) { return r.figures.iso.accuracy_down_um; });
   Row(out, "B  reversal value", reports, [](R r) { return r.figures.iso.reversal_value_um; });
   Row(out, "   mean reversal value", reports,
