@@ -341,6 +341,29 @@ void CheckText(std::string_view bytes, const std::string& file) {
   }
 }
 
+using WordMap = std::map<std::string, double, std::less<>>;
+
+// The word map of each column (nullptr: a numeric column).
+std::vector<const WordMap*> WordColumns(const ReadOptions& options,
+                                        const std::vector<std::string>& columns) {
+  std::vector<const WordMap*> words(columns.size(), nullptr);
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    const auto w = options.word_columns.find(columns[c]);
+    if (w != options.word_columns.end()) words[c] = &w->second;
+  }
+  return words;
+}
+
+// The number a word cell maps to; refuses any other word naming the ones allowed.
+double WordValue(const WordMap& words, std::string_view cell, const std::string& file,
+                 std::size_t line, const std::string& column) {
+  const auto it = words.find(Trim(cell));
+  if (it != words.end()) return it->second;
+  std::string allowed;
+  for (const auto& [word, value] : words) allowed += (allowed.empty() ? "'" : ", '") + word + "'";
+  throw InvalidInput(file, line, column, Quote(Trim(cell)) + " is not one of " + allowed);
+}
+
 }  // namespace
 
 bool ValidUtf8(std::string_view s, std::size_t& bad_at, std::string* reason) {
@@ -439,6 +462,7 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
   bool have_columns = false;
   std::set<std::string> seen;
   std::vector<char> keep;
+  std::vector<const WordMap*> words;
   std::size_t ncols = 0;
   while (!cur.Done()) {
     const auto raw = cur.Next(file);
@@ -502,6 +526,7 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
       have_columns = true;
       ncols = t.columns.size();
       keep.assign(ncols, 1);
+      words = WordColumns(options, t.columns);
       t.values.resize(ncols);
       for (std::size_t c = 0; c < ncols; ++c) {
         if (options.keep_column && !options.keep_column(t.columns[c])) keep[c] = 0;
@@ -522,7 +547,8 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
       const auto comma = c + 1 < ncols ? line.find(',', start) : std::string_view::npos;
       const auto cell =
           line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
-      const auto v = ParseNumber(cell);
+      const auto v =
+          words[c] ? WordValue(*words[c], cell, file, line_no, t.columns[c]) : ParseNumber(cell);
       if (!v) {
         throw InvalidInput(file, line_no, t.columns[c],
                            Quote(Trim(cell)) + " is not a finite decimal number");

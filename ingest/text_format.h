@@ -52,6 +52,9 @@ struct ReadOptions : TextLimits {
   // Columns whose values are kept (every cell of every column is checked all the same);
   // empty: all columns.
   std::function<bool(std::string_view name)> keep_column;
+  // Columns whose cells are words, each read as the number it maps to (e.g. `direction`: "+" → 1,
+  // "-" → −1); any other cell of such a column is refused naming the words allowed.
+  std::map<std::string, std::map<std::string, double, std::less<>>> word_columns;
 };
 
 // The line of every data row, stored as runs of rows on consecutive lines: a file without

@@ -1,0 +1,47 @@
+// The laser positioning analysis of a `kinemetric-positioning/1` file and its JSON result
+// (docs/formats.md §1.8, §3.14), shared by `kinemetric positioning analyze` and the service:
+// corrections (air, material), ISO 230-2 and VDI/DGQ 3441 figures, compensation table
+// (docs/methods.md §15).
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "analysis/positioning/air.h"
+#include "analysis/positioning/compensation.h"
+#include "analysis/positioning/figures.h"
+#include "ingest/positioning_parser.h"
+
+namespace km::usecases {
+
+inline constexpr const char* kPositioningAnalysisVersion = "positioning/1";
+
+struct PositioningReport {
+  std::string file;
+  std::string machine_id;
+  std::string axis;
+  std::string cycle;
+  std::string timestamp;
+  positioning::AppliedCorrections corrections;
+  std::vector<positioning::Reading> readings;  // corrected deviations, file order
+  positioning::PositioningFigures figures;
+  positioning::CompensationTable compensation;
+};
+
+// Corrects and evaluates a parsed file. Throws km::InvalidInput naming file, line and field.
+PositioningReport AnalysePositioning(const ingest::PositioningFile& file);
+
+// The documented object: reversal_value_um, mean_reversal_value_um, repeatability_up_um,
+// repeatability_down_um, repeatability_um, systematic_deviation_up_um,
+// systematic_deviation_down_um, systematic_deviation_um, mean_deviation_range_um,
+// accuracy_up_um, accuracy_down_um, accuracy_um, iso230_2_compliant, warnings[], targets{},
+// air{}, material{}, compensation{}, vdi3441{}, and machine_id, axis, cycle, runs,
+// target_count, readings, analysis_version.
+nlohmann::json PositioningReportToJson(const PositioningReport& report);
+
+// One file: the object above. Several (the same axis compared, e.g. before and after
+// compensation): {files[]} in input order, each the object above with `file`.
+nlohmann::json PositioningFilesToJson(const std::vector<PositioningReport>& reports);
+
+}  // namespace km::usecases
