@@ -1,5 +1,6 @@
 #include "ingest/positioning_parser.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <set>
@@ -101,9 +102,16 @@ void ReadHeader(const TextTable& t, PositioningFile& f) {
   f.machine_id = t.RequireString("machine_id");
   f.axis = t.RequireString("axis");
   for (char& c : f.axis) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  if (!std::set<std::string>{"X", "Y", "Z", "U", "V", "W"}.count(f.axis)) {
+  // A machine axis name: a letter, then letters or digits (X, Y, Z, U, V, W, X2 of a gantry).
+  const bool named = !f.axis.empty() && f.axis.size() <= 8 &&
+                     std::isalpha(static_cast<unsigned char>(f.axis[0])) &&
+                     std::all_of(f.axis.begin(), f.axis.end(), [](char c) {
+                       return std::isalnum(static_cast<unsigned char>(c)) != 0;
+                     });
+  if (!named) {
     throw InvalidInput(t.file, LineOf(t, "axis"), "axis",
-                       Quote(f.axis) + " is not an axis (X, Y, Z, U, V or W)");
+                       Quote(f.axis) + " is not an axis name (a letter, then letters or digits, " +
+                           "at most 8: X, Y, Z, U, V, W, X2)");
   }
   if (t.Has("timestamp")) f.timestamp = t.RequireString("timestamp");
   f.cycle = RequireOneOf(t, "cycle", {"linear", "pendulum", "step"});

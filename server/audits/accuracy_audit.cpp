@@ -1,6 +1,7 @@
 #include "server/audits/accuracy_audit.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -124,6 +125,21 @@ const std::vector<Entry>& Table() {
        At("/flatness_min_zone_um")},
       {{"parallelism", "parallelism_um", "", "µm", "parallelism", "/parallelism_um"},
        At("/parallelism_um")},
+      {{"positioning", "accuracy_um", "", "µm", "ISO 230-2 accuracy A (bidirectional)",
+        "/accuracy_um"},
+       At("/accuracy_um")},
+      {{"positioning", "reversal_value_um", "", "µm", "ISO 230-2 reversal value B",
+        "/reversal_value_um"},
+       At("/reversal_value_um")},
+      {{"positioning", "repeatability_um", "", "µm", "ISO 230-2 repeatability R (bidirectional)",
+        "/repeatability_um"},
+       At("/repeatability_um")},
+      {{"positioning", "systematic_deviation_um", "", "µm",
+        "ISO 230-2 systematic positioning deviation E (bidirectional)", "/systematic_deviation_um"},
+       At("/systematic_deviation_um")},
+      {{"positioning", "mean_deviation_range_um", "", "µm",
+        "ISO 230-2 range of the mean bidirectional deviations M", "/mean_deviation_range_um"},
+       At("/mean_deviation_range_um")},
       {{"tracker", "volumetric_error_max_um", "", "µm",
         "largest length of the volumetric error vectors", "max |/volumetric_error_um[i]|"},
        MaxOver("/volumetric_error_um", "", true)},
@@ -194,10 +210,30 @@ std::optional<AuditMetric> FindAuditMetric(const std::string& kind, const std::s
                   "|/diagnosis[effect=" + effect + "]/value|"};
     return m;
   }
+  if (const auto dot = metric.find('.'); kind == "positioning" && dot != std::string::npos) {
+    const std::string axis = metric.substr(dot + 1);
+    if (axis.empty() || axis.size() > 8 || !std::all_of(axis.begin(), axis.end(), [](char c) {
+          return std::isupper(static_cast<unsigned char>(c)) ||
+                 std::isdigit(static_cast<unsigned char>(c));
+        })) {
+      return std::nullopt;
+    }
+    auto m = FindAuditMetric(kind, metric.substr(0, dot));
+    if (!m) return std::nullopt;
+    m->metric = metric;
+    m->description += " of axis " + axis;
+    return m;
+  }
   for (const auto& e : Table()) {
     if (e.extract && e.metric.kind == kind && e.metric.metric == metric) return e.metric;
   }
   return std::nullopt;
+}
+
+std::string AuditMetricTestId(const AuditMetric& metric) {
+  const auto dot = metric.metric.find('.');
+  if (metric.kind != "positioning" || dot == std::string::npos) return {};
+  return metric.metric.substr(dot + 1);
 }
 
 std::optional<double> ExtractAuditMetric(const AuditMetric& metric, const json& result) {
@@ -211,8 +247,12 @@ std::optional<double> ExtractAuditMetric(const AuditMetric& metric, const json& 
     }
     return std::nullopt;
   }
+  // A metric of one axis reads the figure of its base name ("accuracy_um.X" → accuracy_um).
+  const std::string base = AuditMetricTestId(metric).empty()
+                               ? metric.metric
+                               : metric.metric.substr(0, metric.metric.find('.'));
   for (const auto& e : Table()) {
-    if (e.extract && e.metric.kind == metric.kind && e.metric.metric == metric.metric) {
+    if (e.extract && e.metric.kind == metric.kind && e.metric.metric == base) {
       return e.extract(result);
     }
   }

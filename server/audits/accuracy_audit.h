@@ -34,9 +34,15 @@ struct AuditMetric {
   std::string source;  // JSON pointer or rule of the value in that result, for the docs
 };
 
+// The test a metric reads: the axis of a positioning metric of one axis ("accuracy_um.X" → "X",
+// only measurements with that test_id); empty: the newest measurement of the kind, whatever its
+// test.
+std::string AuditMetricTestId(const AuditMetric& metric);
+
 // Every metric with a fixed name, in the order documented. DBB diagnosis values are named
 // "diagnosis.<effect>" (docs/formats.md §4, e.g. "diagnosis.backlash_x"), listed here once as
-// "diagnosis.<effect>".
+// "diagnosis.<effect>". A positioning metric of one axis is named "<metric>.<axis>" (e.g.
+// "accuracy_um.X": the newest positioning test of axis X).
 const std::vector<AuditMetric>& AuditMetrics();
 // The metric of a kind and name (diagnosis.<effect> included); nullopt when there is none.
 std::optional<AuditMetric> FindAuditMetric(const std::string& kind, const std::string& metric);

@@ -167,8 +167,10 @@ AuditEvidence Gather(AuditSource& service, const AuditRule& rule, std::vector<St
     ev.missing = "unknown metric";
     return ev;
   }
+  const std::string test_id = AuditMetricTestId(*metric);
   int budget = kMaxPairAnalyses;
   for (auto& s : history) {
+    if (!test_id.empty() && s.record.test_id != test_id) continue;
     if (const auto v = ValueOf(service, *metric, s, budget)) {
       ev.newest = Found(*v, s);
       if (rule.change != AuditRule::Change::kNone) {

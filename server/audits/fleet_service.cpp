@@ -23,6 +23,7 @@ std::optional<AuditMetric> MetricNamed(const std::string& name) {
   for (const auto& m : AuditMetrics()) {
     if (m.metric == name && m.metric.find('<') == std::string::npos) return m;
   }
+  if (auto m = FindAuditMetric("positioning", name)) return m;  // "<metric>.<axis>"
   return FindAuditMetric("dbb", name);
 }
 
@@ -152,7 +153,7 @@ nlohmann::json Trends(AuditSource& service, const std::string& machine_id,
     throw InvalidInput("", 0, "metric",
                        "'" + metric +
                            "' is not a trend metric; GET /api/v1/audit-metrics lists them (and "
-                           "diagnosis.<effect> for DBB tests)");
+                           "diagnosis.<effect> for DBB tests, <metric>.<axis> for positioning)");
   }
   RequireMachine(service, machine_id);
   const auto answer = [&](nlohmann::json points) {
@@ -164,6 +165,7 @@ nlohmann::json Trends(AuditSource& service, const std::string& machine_id,
   MeasurementFilter f;
   f.machine_id = machine_id;
   f.kind = m->kind;
+  if (const auto axis = AuditMetricTestId(*m); !axis.empty()) f.test_id = axis;  // one axis
   f.order = MeasurementFilter::Order::kNewest;
   f.limit = m->analysis == "dbb-pair" ? static_cast<std::int64_t>(kMaxPairPoints) : kMaxTrendPoints;
   const auto page = service.storage().ListMeasurements(f);

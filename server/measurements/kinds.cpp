@@ -9,11 +9,13 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/form_parsers.h"
 #include "ingest/iso8601.h"
+#include "ingest/positioning_parser.h"
 #include "ingest/servo_parser.h"
 #include "ingest/tracker_parser.h"
 #include "render/dbb_plot.h"
 #include "server/base/finite_result.h"
 #include "server/measurements/measurement_service.h"
+#include "server/measurements/positioning_kinds.h"
 #include "server/measurements/servo_kinds.h"
 #include "usecases/dbb_json.h"
 #include "usecases/dbb_report.h"
@@ -245,6 +247,7 @@ std::vector<FormatRegistration> BuiltinFormats() {
       {std::string(ingest::kFlatnessFormat), Limits(1'000'000, 16), IngestFlatness},
       {std::string(ingest::kParallelismFormat), Limits(1'000'000, 16), IngestParallelism},
       {ingest::kServoFormat, Limits(500'000, 32), IngestServo},
+      {std::string(ingest::kPositioningFormat), Limits(1'000'000, 16), IngestPositioning},
   };
 }
 

@@ -140,6 +140,7 @@ constexpr KeyFigure kKeyFigures[] = {
     {"parallelism", "parallelism", "parallelism_um", "parallelism"},
     {"flatness", "flatness", "flatness_min_zone_um", "flatness (minimum zone)"},
     {"tracker", "tracker", "residual_rms_um", "residual RMS"},
+    {"positioning", "positioning", "accuracy_um", "positioning accuracy A (ISO 230-2)"},
 };
 
 // {"name", "label", "value", "unit"} from the newest stored result, or null.

@@ -1,0 +1,17 @@
+// The `kinemetric-positioning/1` measurement kind of the service (docs/formats.md §1.8): a laser
+// positioning run along one axis, corrected (air, material) and evaluated at upload (ISO 230-2,
+// VDI/DGQ 3441, compensation table; usecases/positioning_report.h) and stored as kind
+// "positioning", test_id the axis, with the corrected readings as samples.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "server/measurements/formats.h"
+
+namespace km::server {
+
+// The handler of the format (server/measurements/formats.h BuiltinFormats).
+Ingested IngestPositioning(std::string_view bytes, const std::string& file);
+
+}  // namespace km::server

@@ -1,0 +1,123 @@
+// Laser positioning files through the service: an upload stores the same result the command
+// prints, the list shows its accuracy, and audits and trends read a positioning figure per axis.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "ingest/positioning_parser.h"
+#include "server/audits/audit_service.h"
+#include "server/audits/fleet_service.h"
+#include "server/service.h"
+#include "server/storage/sqlite/sqlite_storage.h"
+#include "usecases/positioning_report.h"
+
+namespace km::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string ExampleFile() {
+  std::ifstream in(std::string(KINEMETRIC_SOURCE_DIR) + "/data/examples/positioning_x.txt");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The example as a test of another axis, a day later, with every reading `scale` times its
+// deviation from the target (a worse axis).
+std::string OtherAxis(const std::string& x, const std::string& axis, double scale) {
+  std::istringstream in(x);
+  std::string line, out;
+  bool rows = false;
+  while (std::getline(in, line)) {
+    if (line == "# axis: X") line = "# axis: " + axis;
+    if (line.rfind("# timestamp:", 0) == 0) line = "# timestamp: 2026-11-21T09:30:00Z";
+    if (rows) {
+      std::istringstream cells(line);
+      std::string run, dir, target, measured;
+      std::getline(cells, run, ',');
+      std::getline(cells, dir, ',');
+      std::getline(cells, target, ',');
+      std::getline(cells, measured, ',');
+      const double t = std::stod(target);
+      line = run + "," + dir + "," + target + "," +
+             std::to_string(t + scale * (std::stod(measured) - t));
+    }
+    if (line.rfind("run,", 0) == 0) rows = true;
+    out += line + "\n";
+  }
+  return out;
+}
+
+class PositioningService : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    db_ = fs::temp_directory_path() / ("km-positioning-" + std::to_string(::getpid()) + ".db");
+    fs::remove(db_);
+    svc_ =
+        std::make_unique<Service>(std::make_unique<SqliteStorage>(db_.string()), ServiceOptions{});
+    RegisterBuiltinKinds(svc_->measurements());
+  }
+  void TearDown() override {
+    svc_.reset();
+    fs::remove(db_);
+  }
+  fs::path db_;
+  std::unique_ptr<Service> svc_;
+};
+
+TEST_F(PositioningService, AnUploadStoresTheResultTheCommandPrints) {
+  const std::string bytes = ExampleFile();
+  ASSERT_FALSE(bytes.empty());
+  const auto out = svc_->measurements().Upload(bytes, "positioning_x.txt");
+  EXPECT_TRUE(out.created);
+  EXPECT_EQ(out.kind, "positioning");
+  const auto stored = svc_->measurements().Results(out.id);
+  const auto cli = usecases::PositioningReportToJson(
+      usecases::AnalysePositioning(ingest::ParsePositioningFile(bytes, "positioning_x.txt")));
+  EXPECT_EQ(stored, cli);
+  EXPECT_GT(stored["accuracy_um"].get<double>(), 5.0);  // a visible pitch error
+  const auto list = svc_->measurements().ListMeasurements({});
+  ASSERT_EQ(list["items"].size(), 1u);
+  EXPECT_EQ(list["items"][0]["test_id"], "X");
+  EXPECT_EQ(list["items"][0]["key_result"]["name"], "accuracy_um");
+  EXPECT_EQ(list["items"][0]["key_result"]["value"], stored["accuracy_um"]);
+  // The corrected readings are kept as samples, one row per reading.
+  const auto m = svc_->measurements().MeasurementWithSamples(out.id);
+  EXPECT_EQ(m["samples"]["deviation_um"].size(), stored["readings"].get<std::size_t>());
+}
+
+TEST_F(PositioningService, AnAuditJudgesEachAxisByItsOwnNewestTest) {
+  const std::string x = ExampleFile();
+  const auto ix = svc_->measurements().Upload(x, "x.txt");
+  const auto iy = svc_->measurements().Upload(OtherAxis(x, "Y", 3.0), "y.txt");
+  const double ax = svc_->measurements().Results(ix.id)["accuracy_um"].get<double>();
+  const double ay = svc_->measurements().Results(iy.id)["accuracy_um"].get<double>();
+  ASSERT_GT(ay, 2.0 * ax);  // Y is the worse axis
+  // X passes its own limit although the newest test of the machine (Y) would not.
+  const nlohmann::json rules = {
+      {"rules",
+       {{{"kind", "positioning"}, {"metric", "accuracy_um.X"}, {"warn", ax + 1.0}},
+        {{"kind", "positioning"},
+         {"metric", "accuracy_um.Y"},
+         {"warn", ax + 1.0},
+         {"stop", 1e4}}}}};
+  PutAuditConfig(*svc_, "vmc-3axis", rules, 1'800'000'000);
+  const auto verdict = RunAccuracyAudit(*svc_, "vmc-3axis", "manual", 1'800'000'000);
+  EXPECT_EQ(verdict["level"], 2);
+  ASSERT_EQ(verdict["findings"].size(), 1u) << verdict.dump();
+  EXPECT_EQ(verdict["findings"][0]["metric"], "accuracy_um.Y");
+  EXPECT_EQ(verdict["findings"][0]["measurement_id"], iy.id);
+  // A trend of one axis holds that axis's tests only.
+  const auto trend = Trends(*svc_, "vmc-3axis", "accuracy_um.X");
+  ASSERT_EQ(trend["points"].size(), 1u);
+  EXPECT_DOUBLE_EQ(trend["points"][0]["value"].get<double>(), ax);
+  EXPECT_EQ(Trends(*svc_, "vmc-3axis", "accuracy_um")["points"].size(), 2u);
+  // An axis name that is not one is no metric.
+  EXPECT_THROW(Trends(*svc_, "vmc-3axis", "accuracy_um.x!"), InvalidInput);
+}
+
+}  // namespace
+}  // namespace km::server
