@@ -14,6 +14,7 @@ import { markCurrent } from './measurements.js';
 import { renderPolarPlot } from './polar.js';
 import { renderServoForce } from './servo.js';
 import { shell } from './shell.js';
+import { renderPositioningPlot } from './positioning.js';
 import { FORM_KINDS, WIDE_KINDS, state } from './state.js';
 
 export function resetDetail() {
@@ -127,6 +128,7 @@ async function showOther(seq, item, measurement) {
   resetAnalysis();
   if (FORM_KINDS.includes(item.kind)) renderFormPlot(item, fetched[0]);
   else if (item.kind === 'tracker') renderTrackerPlot(item, fetched[0]);
+  else if (item.kind === 'positioning') renderPositioningPlot(item, fetched[0]);
   else if (item.kind === 'servo' && results.record === 'hexapod') await renderServoForce(item, () => seq === state.selectSeq);
   else {
     $('#polar-plot').replaceChildren(h('p', { class: 'placeholder' }, `No plot for ${String(item.kind).toUpperCase()} measurements yet.`));

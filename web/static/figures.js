@@ -24,6 +24,24 @@ const KIND_ROWS = {
     'points',
   ],
   parallelism: ['parallelism_um', 'slope_um_per_m', 'straightness_lsq_um', 'length_mm', 'points'],
+  positioning: [
+    'axis',
+    'accuracy_um',
+    'reversal_value_um',
+    'systematic_deviation_um',
+    'mean_deviation_range_um',
+    'repeatability_um',
+    'accuracy_up_um',
+    'accuracy_down_um',
+    'repeatability_up_um',
+    'repeatability_down_um',
+    'systematic_deviation_up_um',
+    'systematic_deviation_down_um',
+    'mean_reversal_value_um',
+    'iso230_2_compliant',
+    'runs',
+    'target_count',
+  ],
   tracker: ['residual_rms_um', 'condition_number', 'rejected_readings_count', 'sigma_um', 'readings_used', 'unknowns', 'iterations'],
   flatness: [
     'flatness_lsq_um',
@@ -42,10 +60,11 @@ const CAPTIONS = {
   parallelism: 'Parallelism figures',
   flatness: 'Flatness figures',
   tracker: 'Laser-tracker self-calibration',
+  positioning: 'Positioning figures (ISO 230-2)',
 };
 
 // Arrays drawn as charts / tables of their own rather than as rows of the figures table.
-const OWN_VIEWS = new Set(['harmonics', 'diagnosis', 'not_identifiable', 'periodic', 'references', 'measurement', 'decomposition', 'transform', 'point_ids']);
+const OWN_VIEWS = new Set(['harmonics', 'diagnosis', 'not_identifiable', 'periodic', 'references', 'measurement', 'decomposition', 'transform', 'point_ids', 'targets', 'compensation']);
 
 // Flattens one results object into {key: value} rows; arrays of objects are returned apart.
 function flattenResults(results) {

@@ -1,6 +1,7 @@
 // Browser test of the kinemetric dashboard (web/static) against the real kinemetricd:
-// straightness, flatness and parallelism uploads with their plots and figures. Compares what is
-// drawn with the API's numbers and takes screenshots.
+// straightness, flatness and parallelism uploads with their plots and figures, and a laser
+// positioning test (ISO 230-2 chart). Compares what is drawn with the API's numbers and takes
+// screenshots.
 //
 //   node tests/browser/dashboard/dashboard_form.test.mjs PATH/TO/kinemetricd [OUTPUT_DIR]
 //
@@ -9,7 +10,7 @@
 import assert from 'node:assert/strict';
 import { join } from 'node:path';
 import {
-  outDir, fixtures, FORM_FIXTURES, apiGet, um3, shown, runDashboard,
+  outDir, fixtures, FORM_FIXTURES, apiGet, um3, shown, runDashboard, repo,
 } from './session.mjs';
 
 runDashboard('form', async ({ step, page, server }) => {
@@ -103,5 +104,38 @@ runDashboard('form', async ({ step, page, server }) => {
     assert.ok(Math.abs(band - res.parallelism_um) < 1e-9);
     assert.ok(Math.abs(Math.max(...d) - Math.min(...d) - res.parallelism_um) < 1e-9);
     await page.screenshot({ path: join(outDir, 'dashboard-parallelism.png') });
+  });
+  await step('laser positioning upload: mean ±2s bands of both directions, every run, A B E M R', async () => {
+    const file = 'positioning_x.txt';
+    await page.setInputFiles('#upload-file', join(repo, 'data/examples', file));
+    await page.click('#upload-button');
+    const msg = await page.waitForSelector(`#upload-message.success:has-text("${file}")`);
+    const id = Number((await msg.textContent()).match(/#(\d+)/)[1]);
+    await page.waitForSelector(`#figures table[data-kind="positioning"]`);
+    await page.waitForSelector('#polar-plot svg[data-testid="positioning-plot"]');
+    const res = await apiGet(server, `/api/v1/measurements/${id}/results`);
+    const plot = await page.$eval('#polar-plot svg', (svg) => ({
+      targets: Number(svg.dataset.targets),
+      runs: Number(svg.dataset.runs),
+      runLines: svg.querySelectorAll('.run-line').length,
+      up: JSON.parse(svg.querySelector('[data-testid="mean-up"]').dataset.values),
+      down: JSON.parse(svg.querySelector('[data-testid="mean-down"]').dataset.values),
+      bandUp: JSON.parse(svg.querySelector('[data-testid="band-up"]').dataset.widthUm),
+      text: svg.querySelector('[data-testid="positioning-figures"]').textContent,
+    }));
+    assert.equal(plot.targets, res.targets.target_mm.length);
+    assert.equal(plot.runs, 2 * res.runs, 'one faint line per run and direction');
+    assert.equal(plot.runLines, plot.runs);
+    assert.deepEqual(plot.up, res.targets.mean_up_um);
+    assert.deepEqual(plot.down, res.targets.mean_down_um);
+    res.targets.s_up_um.forEach((s, i) => assert.ok(Math.abs(plot.bandUp[i] - 4 * s) < 1e-12));
+    for (const [letter, key] of [['A', 'accuracy_um'], ['B', 'reversal_value_um'], ['E', 'systematic_deviation_um'],
+      ['M', 'mean_deviation_range_um'], ['R', 'repeatability_um']]) {
+      assert.ok(plot.text.includes(`${letter} ${res[key].toFixed(2)} µm`), `${letter} on the chart: ${plot.text}`);
+    }
+    const cell = (key) => page.textContent(`#figures td[data-key="${key}"][data-id="${id}"]`);
+    assert.equal(await cell('accuracy_um'), um3(res.accuracy_um));
+    assert.match(await page.textContent('#plot-note'), /air: n = 1\.000/);
+    await page.screenshot({ path: join(outDir, 'dashboard-positioning.png') });
   });
 });
