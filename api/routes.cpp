@@ -183,6 +183,24 @@ void AddDbbRoutes(Router& router, server::Service& service) {
               {{"200", JsonResponse("{partner_id, reversal{machine_um[], artefact_um[], ...}, "
                                     "profiles[]}")}}}}});
 
+  router.Add(Route{
+      "GET",
+      "/api/v1/measurements/{id}/compensation",
+      "Laser positioning: the compensation table a controller loads (LinuxCNC, SINUMERIK, CSV)",
+      true,
+      [svc](const Request& req) {
+        const std::string format = req.Query("format").value_or("csv");
+        Response r;
+        r.content_type = format == "csv" ? "text/csv" : "text/plain; charset=utf-8";
+        r.body = svc->measurements().PositioningCompensation(req.PathId("id"), format);
+        return r;
+      },
+      {{"parameters",
+        json::array({Param("format", "string",
+                           "linuxcnc (nominal forward-trim reverse-trim per target), sinumerik "
+                           "($AA_ENC_COMP part program), csv (default); docs/formats.md §3.15")})},
+       {"responses", {{"200", {{"description", "the table as text"}}}}}}});
+
   router.Add(
       Route{"GET",
             "/api/v1/measurements/{id}/plot.png",

@@ -11,6 +11,7 @@
 #include "ingest/form_parsers.h"
 #include "ingest/iso8601.h"
 #include "ingest/json_text.h"
+#include "ingest/positioning_parser.h"
 #include "ingest/text_format.h"
 #include "render/dbb_plot.h"
 #include "server/base/sha256.h"
@@ -19,6 +20,8 @@
 #include "usecases/dbb_json.h"
 #include "usecases/dbb_report.h"
 #include "usecases/form_report.h"
+#include "usecases/positioning_export.h"
+#include "usecases/positioning_report.h"
 
 namespace km::server {
 
@@ -304,6 +307,23 @@ nlohmann::json MeasurementService::StraightnessReversalJson(std::int64_t id) {
   out["reversal"] = j.value("reversal", nlohmann::json(nullptr));
   out["profiles"] = j["profiles"];
   return out;
+}
+
+std::string MeasurementService::PositioningCompensation(std::int64_t id,
+                                                        const std::string& format) {
+  const auto rec = store_.GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (rec->kind != "positioning") {
+    throw InvalidInput("", 0, "id",
+                       "measurement " + std::to_string(id) + " is not a laser positioning test");
+  }
+  const auto report =
+      usecases::AnalysePositioning(ingest::ParsePositioningFile(store_.GetRaw(id), rec->filename));
+  try {
+    return usecases::ExportCompensation(report, format);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput("", 0, "format", e.reason());
+  }
 }
 
 }  // namespace km::server

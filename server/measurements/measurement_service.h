@@ -81,6 +81,11 @@ class MeasurementService {
   // the other set-up is not stored.
   nlohmann::json StraightnessReversalJson(std::int64_t id);
 
+  // The compensation table a controller loads, from a stored laser positioning test
+  // (usecases/positioning_export.h): format linuxcnc, sinumerik or csv (InvalidInput naming
+  // `format` otherwise; NotFound; InvalidInput for a measurement of another kind).
+  std::string PositioningCompensation(std::int64_t id, const std::string& format);
+
   // A stored DBB test, parsed from its stored bytes (NotFound; InvalidInput when the
   // measurement is of another kind); `record` receives its record when given.
   dbb::DbbTest LoadDbb(std::int64_t id, MeasurementRecord* record = nullptr);

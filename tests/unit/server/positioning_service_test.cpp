@@ -6,11 +6,14 @@
 #include <fstream>
 #include <sstream>
 
+#include "api/http.h"
+#include "api/routes.h"
 #include "ingest/positioning_parser.h"
 #include "server/audits/audit_service.h"
 #include "server/audits/fleet_service.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
+#include "usecases/positioning_export.h"
 #include "usecases/positioning_report.h"
 
 namespace km::server {
@@ -117,6 +120,49 @@ TEST_F(PositioningService, AnAuditJudgesEachAxisByItsOwnNewestTest) {
   EXPECT_EQ(Trends(*svc_, "vmc-3axis", "accuracy_um")["points"].size(), 2u);
   // An axis name that is not one is no metric.
   EXPECT_THROW(Trends(*svc_, "vmc-3axis", "accuracy_um.x!"), InvalidInput);
+}
+
+TEST_F(PositioningService, TheApiGivesTheCompensationTableOfTheCommand) {
+  const std::string bytes = ExampleFile();
+  const auto out = svc_->measurements().Upload(bytes, "positioning_x.txt");
+  api::Router router;
+  api::AddRoutes(router, *svc_);
+  router.SetHook(api::TokenHook(svc_->storage()));
+  api::EnsureAdminToken(svc_->storage(), "boot");
+  const auto get = [&](const std::string& query) {
+    api::Request req;
+    req.method = "GET";
+    req.path = "/api/v1/measurements/" + std::to_string(out.id) + "/compensation";
+    req.query.emplace("format", query);
+    req.headers["authorization"] = "Bearer boot";
+    return router.Dispatch(req);
+  };
+  const auto report =
+      usecases::AnalysePositioning(ingest::ParsePositioningFile(bytes, "positioning_x.txt"));
+  const auto linuxcnc = get("linuxcnc");
+  ASSERT_EQ(linuxcnc.status, 200) << linuxcnc.body;
+  EXPECT_EQ(linuxcnc.body, usecases::ExportLinuxCnc(report));
+  // One line a target; each trim is minus the mean deviation of its direction, in mm.
+  std::istringstream lines(linuxcnc.body);
+  std::string line;
+  std::size_t i = 0;
+  const auto& t = report.figures.targets;
+  while (std::getline(lines, line)) {
+    ASSERT_LT(i, t.size());
+    std::istringstream cells(line);
+    double nominal = 0, forward = 0, reverse = 0;
+    cells >> nominal >> forward >> reverse;
+    EXPECT_NEAR(nominal, t[i].target_mm, 1e-6);
+    EXPECT_NEAR(forward, -t[i].mean_up_um / 1000.0, 1e-6);
+    EXPECT_NEAR(reverse, -t[i].mean_down_um / 1000.0, 1e-6);
+    ++i;
+  }
+  EXPECT_EQ(i, t.size());
+  EXPECT_EQ(get("sinumerik").body, usecases::ExportSinumerik(report));
+  EXPECT_EQ(get("csv").content_type, "text/csv");
+  const auto bad = get("fanuc");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_NE(bad.body.find("format"), std::string::npos);
 }
 
 }  // namespace
