@@ -36,6 +36,7 @@ const std::map<std::string, Role>& ExpectedRoles() {
       {"GET /api/v1/measurements/{id}/trace", Role::kViewer},
       {"GET /api/v1/measurements/{id}/pair", Role::kViewer},
       {"GET /api/v1/measurements/{id}/reversal", Role::kViewer},
+      {"GET /api/v1/measurements/{id}/compensation", Role::kViewer},
       {"GET /api/v1/measurements/{id}/plot.png", Role::kViewer},
       {"GET /api/v1/measurements/{id}/servo/force", Role::kViewer},
       {"GET /api/v1/machines/{machine_id}/joint-health", Role::kViewer},
