@@ -41,18 +41,8 @@ std::size_t RequireColumn(const TextTable& t, const std::string& name) {
   return static_cast<std::size_t>(idx);
 }
 
-std::size_t LineOf(const TextTable& t, const std::string& key) {
-  const auto* v = t.Find(key);
-  return v ? v->line : 0;
-}
-
 std::string Upper(std::string s) {
   for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return s;
-}
-
-std::string Lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
 }
 
@@ -60,19 +50,8 @@ std::string RequireAxis(const TextTable& t, const std::string& key) {
   const std::string v = Upper(t.RequireString(key));
   static const std::set<std::string> kAxes{"X", "Y", "Z", "U", "V", "W"};
   if (!kAxes.count(v)) {
-    throw InvalidInput(t.file, LineOf(t, key), key,
+    throw InvalidInput(t.file, t.KeyLine(key), key,
                        Quote(v) + " is not an axis (X, Y, Z, U, V or W)");
-  }
-  return v;
-}
-
-std::string RequireOneOf(const TextTable& t, const std::string& key,
-                         const std::set<std::string>& allowed) {
-  const std::string v = Lower(t.RequireString(key));
-  if (!allowed.count(v)) {
-    std::string list;
-    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-    throw InvalidInput(t.file, LineOf(t, key), key, Quote(v) + " is not one of " + list);
   }
   return v;
 }
@@ -126,28 +105,28 @@ StraightnessFile ParseStraightnessFile(std::string_view bytes, const std::string
   f.axis = RequireAxis(t, "axis");
   f.error_direction = RequireAxis(t, "error_direction");
   if (f.error_direction == f.axis) {
-    throw InvalidInput(file, LineOf(t, "error_direction"), "error_direction",
+    throw InvalidInput(file, t.KeyLine("error_direction"), "error_direction",
                        "must differ from the travel axis " + f.axis);
   }
-  f.sensor = RequireOneOf(t, "sensor", {"capacitance", "laser", "indicator"});
+  f.sensor = t.RequireOneOf("sensor", {"capacitance", "laser", "indicator"});
   f.reference = t.RequireString("reference");
   if (t.Has("reversal")) {
-    f.reversal = RequireOneOf(t, "reversal", {"a", "b"});
-    f.reversal_line = LineOf(t, "reversal");
+    f.reversal = t.RequireOneOf("reversal", {"a", "b"});
+    f.reversal_line = t.KeyLine("reversal");
     if (!t.Has("pair_id")) {
-      throw InvalidInput(file, LineOf(t, "reversal"), "pair_id",
+      throw InvalidInput(file, t.KeyLine("reversal"), "pair_id",
                          "a reversal profile needs a pair_id");
     }
     f.pair_id = t.RequireString("pair_id");
     f.reversal_setup = "artefact";
     if (t.Has("reversal_setup")) {
-      f.reversal_setup = RequireOneOf(t, "reversal_setup", {"artefact", "artefact_and_sensor"});
-      f.reversal_setup_line = LineOf(t, "reversal_setup");
+      f.reversal_setup = t.RequireOneOf("reversal_setup", {"artefact", "artefact_and_sensor"});
+      f.reversal_setup_line = t.KeyLine("reversal_setup");
     }
   } else {
     for (const char* key : {"pair_id", "reversal_setup"}) {
       if (t.Has(key)) {
-        throw InvalidInput(file, LineOf(t, key), "reversal",
+        throw InvalidInput(file, t.KeyLine(key), "reversal",
                            std::string(key) + " given without reversal (a or b)");
       }
     }

@@ -11,27 +11,6 @@
 namespace km::ingest {
 namespace {
 
-std::size_t LineOf(const TextTable& t, const std::string& key) {
-  const auto* v = t.Find(key);
-  return v ? v->line : 0;
-}
-
-std::string Lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
-std::string RequireOneOf(const TextTable& t, const std::string& key,
-                         const std::set<std::string>& allowed) {
-  const std::string v = Lower(t.RequireString(key));
-  if (!allowed.count(v)) {
-    std::string list;
-    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-    throw InvalidInput(t.file, LineOf(t, key), key, Quote(v) + " is not one of " + list);
-  }
-  return v;
-}
-
 TextTable Read(std::string_view bytes, const std::string& file, const TextLimits& limits) {
   ReadOptions options;
   static_cast<TextLimits&>(options) = limits;
@@ -69,7 +48,7 @@ positioning::AirConditions ReadAir(const TextTable& t) {
   try {
     positioning::CheckAirConditions(air);
   } catch (const InvalidInput& e) {
-    throw InvalidInput(t.file, LineOf(t, e.field()), e.field(), e.reason());
+    throw InvalidInput(t.file, t.KeyLine(e.field()), e.field(), e.reason());
   }
   return air;
 }
@@ -79,7 +58,7 @@ void ReadMaterial(const TextTable& t, positioning::CorrectionSettings& c) {
   const bool has_a = t.Has("expansion_ppm_per_k");
   if (has_t != has_a) {
     const std::string given = has_t ? "material_temperature_c" : "expansion_ppm_per_k";
-    throw InvalidInput(t.file, LineOf(t, given),
+    throw InvalidInput(t.file, t.KeyLine(given),
                        has_t ? "expansion_ppm_per_k" : "material_temperature_c",
                        given + " needs material_temperature_c and expansion_ppm_per_k together");
   }
@@ -87,11 +66,11 @@ void ReadMaterial(const TextTable& t, positioning::CorrectionSettings& c) {
   const double temp = t.RequireNumber("material_temperature_c");
   const double alpha = t.RequireNumber("expansion_ppm_per_k");
   if (temp < -50.0 || temp > 100.0) {
-    throw InvalidInput(t.file, LineOf(t, "material_temperature_c"), "material_temperature_c",
+    throw InvalidInput(t.file, t.KeyLine("material_temperature_c"), "material_temperature_c",
                        "a machine temperature must be within −50 … 100 °C");
   }
   if (alpha < 0.0 || alpha > 100.0) {
-    throw InvalidInput(t.file, LineOf(t, "expansion_ppm_per_k"), "expansion_ppm_per_k",
+    throw InvalidInput(t.file, t.KeyLine("expansion_ppm_per_k"), "expansion_ppm_per_k",
                        "an expansion coefficient must be within 0 … 100 ppm/K");
   }
   c.material_temperature_c = temp;
@@ -109,14 +88,14 @@ void ReadHeader(const TextTable& t, PositioningFile& f) {
                        return std::isalnum(static_cast<unsigned char>(c)) != 0;
                      });
   if (!named) {
-    throw InvalidInput(t.file, LineOf(t, "axis"), "axis",
+    throw InvalidInput(t.file, t.KeyLine("axis"), "axis",
                        Quote(f.axis) + " is not an axis name (a letter, then letters or digits, " +
                            "at most 8: X, Y, Z, U, V, W, X2)");
   }
   if (t.Has("timestamp")) f.timestamp = t.RequireString("timestamp");
-  f.cycle = RequireOneOf(t, "cycle", {"linear", "pendulum", "step"});
+  f.cycle = t.RequireOneOf("cycle", {"linear", "pendulum", "step"});
   f.corrections.datum_mm = t.RequireNumber("datum_mm");
-  f.air_compensated = RequireOneOf(t, "air_compensated", {"yes", "no"}) == "yes";
+  f.air_compensated = t.RequireOneOf("air_compensated", {"yes", "no"}) == "yes";
   if (!f.air_compensated) f.corrections.air = ReadAir(t);
   ReadMaterial(t, f.corrections);
   f.metadata = t.Metadata();

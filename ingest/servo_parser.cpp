@@ -26,22 +26,6 @@ std::string Upper(std::string s) {
   return s;
 }
 
-std::size_t LineOf(const TextTable& t, const std::string& key) {
-  const auto* v = t.Find(key);
-  return v ? v->line : 0;
-}
-
-std::string RequireOneOf(const TextTable& t, const std::string& key,
-                         const std::set<std::string>& allowed) {
-  const std::string v = Lower(t.RequireString(key));
-  if (!allowed.count(v)) {
-    std::string list;
-    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-    throw InvalidInput(t.file, LineOf(t, key), key, Quote(v) + " is not one of " + list);
-  }
-  return v;
-}
-
 std::size_t RequireColumn(const TextTable& t, const std::string& name) {
   const int idx = t.ColumnIndex(name);
   if (idx < 0) throw InvalidInput(t.file, t.columns_line, name, "required column is missing");
@@ -137,20 +121,20 @@ void CheckNoJump(const TextTable& t, std::size_t column, const std::vector<doubl
 std::vector<double> ForceScale(const TextTable& t, std::size_t count, const std::string& unit) {
   if (unit == "n") {
     if (t.Has("force_constant_N_per_A")) {
-      throw InvalidInput(t.file, LineOf(t, "force_constant_N_per_A"), "force_constant_N_per_A",
+      throw InvalidInput(t.file, t.KeyLine("force_constant_N_per_A"), "force_constant_N_per_A",
                          "only with force_unit: current_A");
     }
     return std::vector<double>(count, 1.0);
   }
   if (!t.Has("force_constant_N_per_A")) {
     throw InvalidInput(
-        t.file, LineOf(t, "force_unit"), "force_constant_N_per_A",
+        t.file, t.KeyLine("force_unit"), "force_constant_N_per_A",
         "force_unit current_A needs force_constant_N_per_A (" + std::to_string(count) + " values)");
   }
   auto k = t.RequireNumbers("force_constant_N_per_A", count);
   for (double v : k) {
     if (!(v > 0.0 && v < 1e6)) {
-      throw InvalidInput(t.file, LineOf(t, "force_constant_N_per_A"), "force_constant_N_per_A",
+      throw InvalidInput(t.file, t.KeyLine("force_constant_N_per_A"), "force_constant_N_per_A",
                          "force constants must be positive and below 1e6 N/A");
     }
   }
@@ -160,7 +144,7 @@ std::vector<double> ForceScale(const TextTable& t, std::size_t count, const std:
 void ReadHexapod(const TextTable& t, servo::ServoFile& f, const std::string& unit) {
   f.tool_length_mm = t.RequireNumber("tool_length_mm");
   if (!(f.tool_length_mm >= 0.0 && f.tool_length_mm < 1e4)) {
-    throw InvalidInput(t.file, LineOf(t, "tool_length_mm"), "tool_length_mm",
+    throw InvalidInput(t.file, t.KeyLine("tool_length_mm"), "tool_length_mm",
                        "must be between 0 and 10000 mm");
   }
   static const char* kPose[] = {"x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"};
@@ -191,7 +175,7 @@ void ReadSerial(const TextTable& t, servo::ServoFile& f, const std::string& unit
   const std::string first = Upper(t.RequireString("axis"));
   static const std::set<std::string> kAxes{"X", "Y", "Z", "U", "V", "W"};
   if (!kAxes.count(first)) {
-    throw InvalidInput(t.file, LineOf(t, "axis"), "axis",
+    throw InvalidInput(t.file, t.KeyLine("axis"), "axis",
                        Quote(first) + " is not an axis (X, Y, Z, U, V or W)");
   }
   std::vector<std::pair<std::size_t, std::size_t>> cols{
@@ -250,14 +234,14 @@ servo::ServoFile ParseServoFile(std::string_view bytes, const std::string& file,
   f.file = file;
   f.machine_id = t.RequireString("machine_id");
   f.test_id = t.RequireString("test_id");
-  f.motion = RequireOneOf(t, "motion", {"circle", "path"});
+  f.motion = t.RequireOneOf("motion", {"circle", "path"});
   if (f.motion == "circle" || t.Has("direction")) {
-    f.direction = RequireOneOf(t, "direction", {"cw", "ccw"});
+    f.direction = t.RequireOneOf("direction", {"cw", "ccw"});
   }
   f.force_unit = t.RequireString("force_unit");
   const std::string unit = Lower(f.force_unit);
   if (unit != "n" && unit != "current_a") {
-    throw InvalidInput(file, LineOf(t, "force_unit"), "force_unit",
+    throw InvalidInput(file, t.KeyLine("force_unit"), "force_unit",
                        Quote(f.force_unit) + " is not one of N, current_A");
   }
   f.metadata = t.Metadata();

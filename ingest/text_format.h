@@ -114,8 +114,12 @@ struct TextTable {
   const HeaderValue* Find(const std::string& key) const;
   std::vector<const HeaderValue*> FindAll(const std::string& key) const;
 
+  // The line of a header key (0 when absent).
+  std::size_t KeyLine(const std::string& key) const;
   // Typed accessors; they throw InvalidInput naming file, line and field.
   std::string RequireString(const std::string& key) const;
+  // A required value, lower-cased, that must be one of `allowed` (lower case).
+  std::string RequireOneOf(const std::string& key, const std::set<std::string>& allowed) const;
   double RequireNumber(const std::string& key) const;
   std::optional<double> OptionalNumber(const std::string& key) const;
   std::vector<double> RequireNumbers(const std::string& key, std::size_t count) const;

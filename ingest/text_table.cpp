@@ -6,6 +6,8 @@
 #include "analysis/core/errors.h"
 #include "ingest/text_format.h"
 
+#include <cctype>
+
 namespace km::ingest {
 
 void RowLines::push_back(std::size_t line) {
@@ -60,6 +62,23 @@ std::string TextTable::RequireString(const std::string& key) const {
   if (!v) throw InvalidInput(file, 0, key, "required header key is missing");
   if (v->value.empty()) throw InvalidInput(file, v->line, key, "value is empty");
   return v->value;
+}
+
+std::size_t TextTable::KeyLine(const std::string& key) const {
+  const auto* v = Find(key);
+  return v ? v->line : 0;
+}
+
+std::string TextTable::RequireOneOf(const std::string& key,
+                                    const std::set<std::string>& allowed) const {
+  std::string v = RequireString(key);
+  for (char& c : v) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (!allowed.count(v)) {
+    std::string list;
+    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+    throw InvalidInput(file, KeyLine(key), key, Quote(v) + " is not one of " + list);
+  }
+  return v;
 }
 
 double TextTable::RequireNumber(const std::string& key) const {
