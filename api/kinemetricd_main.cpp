@@ -79,6 +79,9 @@ static void LoadDemoDataAndDevices(km::server::Service& service,
       service.measurements().Upload(f.bytes, f.name);
       ++n;
     }
+    const auto positioning = km::server::DemoPositioningFile();
+    service.measurements().Upload(positioning.bytes, positioning.name);
+    ++n;
     const auto stream = km::server::LoadDemoStream(service.streams());
     std::cout << "kinemetricd: loaded " << n + 1 << " demo measurements and demo stream " << stream
               << std::endl;

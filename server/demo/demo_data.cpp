@@ -1,6 +1,7 @@
 #include "server/demo/demo_data.h"
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <random>
 
@@ -66,6 +67,33 @@ std::vector<DemoFile> DemoDbbFiles() {
     }
   }
   return out;
+}
+
+DemoFile DemoPositioningFile() {
+  std::string text =
+      "# format: kinemetric-positioning/1\n# machine_id: demo-vmc\n# axis: X\n"
+      "# timestamp: 2026-11-02T09:40:00Z\n# cycle: pendulum\n# datum_mm: 0\n"
+      "# air_compensated: yes\n# material_temperature_c: 21.0\n# expansion_ppm_per_k: 11.5\n"
+      "# operator: demo data (generated)\nrun,direction,target_mm,deviation_um\n";
+  std::mt19937 rng(2302);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  const auto deviation = [&](double x, int dir) {
+    const double scale = 11.5e-3 * (21.0 - 20.0) * x;  // the warm scale, µm
+    return 0.012 * x + 1.2 * std::sin(2 * std::numbers::pi * x / 100.0 + 0.3) + 1.5 * dir + scale +
+           noise(rng);
+  };
+  for (int run = 1; run <= 5; ++run) {
+    for (int k = 0; k <= 10; ++k) {  // pendulum: each target ↑ then ↓
+      const double x = 50.0 * k;
+      for (const int dir : {1, -1}) {
+        char row[96];
+        std::snprintf(row, sizeof row, "%d,%s,%.1f,%.4f\n", run, dir > 0 ? "+" : "-", x,
+                      deviation(x, dir));
+        text += row;
+      }
+    }
+  }
+  return DemoFile{"demo-positioning-x-2026-11-02.txt", text};
 }
 
 std::int64_t LoadDemoStream(StreamService& streams) {

@@ -11,6 +11,7 @@
 #include "ingest/positioning_parser.h"
 #include "server/audits/audit_service.h"
 #include "server/audits/fleet_service.h"
+#include "server/demo/demo_data.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "usecases/positioning_export.h"
@@ -163,6 +164,32 @@ TEST_F(PositioningService, TheApiGivesTheCompensationTableOfTheCommand) {
   const auto bad = get("fanuc");
   EXPECT_EQ(bad.status, 400);
   EXPECT_NE(bad.body.find("format"), std::string::npos);
+}
+
+// The demo test of a fresh server: a 12 µm/m pitch error on a machine at 21 °C (11.5 ppm/K) and
+// 3 µm reversal. Referred to 20 °C, the slope of the mean deviations is the pitch error alone
+// (the warm scale would add 11.5 µm/m; a correction of the wrong sign 23 µm/m).
+TEST_F(PositioningService, TheDemoTestShowsItsPitchErrorReferredTo20C) {
+  const auto demo = DemoPositioningFile();
+  const auto out = svc_->measurements().Upload(demo.bytes, demo.name);
+  const auto r = svc_->measurements().Results(out.id);
+  EXPECT_TRUE(r["iso230_2_compliant"].get<bool>());
+  EXPECT_NEAR(r["mean_reversal_value_um"].get<double>(), 3.0, 0.3);
+  const auto& x = r["targets"]["target_mm"];
+  const auto& m = r["targets"]["mean_bidirectional_um"];
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  const double n = static_cast<double>(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double xi = x[i].get<double>(), yi = m[i].get<double>();
+    sx += xi;
+    sy += yi;
+    sxx += xi * xi;
+    sxy += xi * yi;
+  }
+  const double slope_um_per_m = 1000.0 * (n * sxy - sx * sy) / (n * sxx - sx * sx);
+  EXPECT_NEAR(slope_um_per_m, 12.0, 1.5);
+  EXPECT_TRUE(r["material"]["applied"].get<bool>());
+  EXPECT_NEAR(r["material"]["correction_at_end_um"].get<double>(), -5.75, 1e-9);
 }
 
 }  // namespace
