@@ -46,8 +46,11 @@ test('multi-file and dropped uploads with per-file outcomes; report; token messa
     }, [files.ccw, dbbFile({ machine: MACHINE, test: 'xy-r100', direction: 'ccw', timestamp: '2026-04-02T08:00:00Z' })]);
     await page.dispatchEvent('#upload-panel', 'drop', { dataTransfer: dropped });
     await page.waitForSelector('#upload-message.success[data-stored="2"]');
-    const dropOutcomes = await page.$$eval('[data-testid="upload-outcome"]', (li) => li.map((x) => x.dataset.outcome));
-    assert.deepEqual(dropOutcomes, ['existing', 'stored']);
+    const dropOutcomes = await page.$$eval('[data-testid="upload-outcome"]', (li) => li.map((x) => ({ outcome: x.dataset.outcome, id: x.dataset.measurementId })));
+    assert.deepEqual(dropOutcomes.map((o) => o.outcome), ['existing', 'stored']);
+    // The page shows the last stored file once the machine list is reloaded: wait for it, or
+    // it would replace the view chosen next.
+    await page.waitForSelector(`#detail[data-measurement-id="${dropOutcomes[1].id}"]`);
 
     // The printable report of the pair: test conditions, no controls in print.
     await page.evaluate((id) => {
