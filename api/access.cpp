@@ -89,10 +89,13 @@ class TokenCache {
       known_;
 };
 
-// The hook over an authentication of token hashes (throws Unauthorized).
-RequestHook TokenHookOver(std::function<server::Caller(const std::string&)> authenticate) {
+// The hook over an authentication of token hashes (throws Unauthorized); each authentication
+// (a token not in the cache) is noted as a use of the token (server::TokenUseRecorder).
+RequestHook TokenHookOver(std::function<server::Caller(const std::string&)> authenticate,
+                          std::function<void(std::int64_t)> note_use) {
   auto cache = std::make_shared<TokenCache>();
-  return [authenticate = std::move(authenticate), cache](Request& req, const Route& route) {
+  return [authenticate = std::move(authenticate), note_use = std::move(note_use), cache](
+             Request& req, const Route& route) {
     const Role need = RequiredRole(route);
     if (need == Role::kPublic) return;
     const auto auth = req.Header("authorization");
@@ -105,6 +108,7 @@ RequestHook TokenHookOver(std::function<server::Caller(const std::string&)> auth
     if (!caller) {
       caller = authenticate(sha);
       cache->Remember(sha, *caller);
+      note_use(caller->token_id);
     }
     req.token_id = caller->token_id;
     req.token_name = caller->name;
@@ -178,12 +182,17 @@ Role RequiredRole(const Route& route) {
 RequestHook TokenHook(server::Service& service) {
   server::Service* svc = &service;
   return TokenHookOver(
-      [svc](const std::string& sha) { return server::Authenticate(svc->storage(), sha); });
+      [svc](const std::string& sha) { return server::Authenticate(svc->storage(), sha); },
+      [rec = std::make_shared<server::TokenUseRecorder>(svc->storage())](std::int64_t id) {
+        rec->Note(id);
+      });
 }
 
 RequestHook TokenHook(server::AccessStore& storage) {
   server::AccessStore* st = &storage;
-  return TokenHookOver([st](const std::string& sha) { return server::Authenticate(*st, sha); });
+  return TokenHookOver(
+      [st](const std::string& sha) { return server::Authenticate(*st, sha); },
+      [rec = std::make_shared<server::TokenUseRecorder>(*st)](std::int64_t id) { rec->Note(id); });
 }
 
 ResponseHook AuditHook(server::Service& service) {

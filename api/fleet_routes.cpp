@@ -35,7 +35,8 @@ void AddFleetRoutes(Router& router, server::Service& service) {
                                          "strut_offset_max_um, … ")})},
        {"responses",
         {{"200", JsonResponse("{machine_id, metric, label, unit, kind, points[{measured_at, "
-                              "value, measurement_id (job_id for kind calibration)}]}")}}}}});
+                              "value, measurement_id (job_id for kind calibration), test_id, "
+                              "direction}]}")}}}}});
 }
 
 }  // namespace km::api

@@ -428,6 +428,7 @@ void AddRoutes(Router& router, server::Service& service) {
   AddServoRoutes(router, service);
   AddFleetRoutes(router, service);
   AddAuditRoutes(router, service);
+  AddReportRoutes(router, service);
   AddAccessRoutes(router, service);
   AddMetricsRoute(router, service);
 }

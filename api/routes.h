@@ -30,6 +30,9 @@ void AddAuditRoutes(Router& router, server::Service& service);
 // The fleet overview and a machine's trends (api/fleet_routes.cpp).
 void AddFleetRoutes(Router& router, server::Service& service);
 
+// PDF reports of a measurement, a job and a machine's audit (api/report_routes.cpp).
+void AddReportRoutes(Router& router, server::Service& service);
+
 // Tokens (create, list, revoke) and the audit log, all admin (api/access.cpp).
 void AddAccessRoutes(Router& router, server::Service& service);
 

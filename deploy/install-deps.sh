@@ -11,7 +11,7 @@ packages=(
   libeigen3-dev libceres-dev libopencv-dev libmodbus-dev libsqlite3-dev sqlite3
   postgresql libpq-dev
   libcpp-httplib-dev nlohmann-json3-dev libssl-dev zlib1g-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libcairo2-dev fonts-dejavu-core poppler-utils
   python3 python3-numpy python3-pymodbus python3-serial python3-serial-asyncio
   chromium nodejs npm
 )

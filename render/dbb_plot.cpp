@@ -50,8 +50,8 @@ std::vector<std::string> KeyFigures(const DbbReport& report, const std::vector<s
 
 }  // namespace
 
-std::vector<unsigned char> DbbPolarPlotPng(const DbbReport& report, std::size_t test_index,
-                                           const PolarPlotOptions& options) {
+DbbPolar DbbPolarPlot(const DbbReport& report, std::size_t test_index,
+                      const PolarPlotOptions& options) {
   if (test_index >= report.tests.size()) throw InvalidInput("", 0, "test", "no such test");
   const DbbTestReport& t = report.tests[test_index];
   std::vector<std::size_t> idx{test_index};
@@ -89,7 +89,13 @@ std::vector<unsigned char> DbbPolarPlotPng(const DbbReport& report, std::size_t 
   const auto [a, b] = AxisLetters(t.plane);
   o.first_axis = std::string(1, static_cast<char>(a - 'a' + 'A'));
   o.second_axis = std::string(1, static_cast<char>(b - 'a' + 'A'));
-  return RenderPolarPlot(traces, z, o);
+  return {std::move(traces), z, std::move(o)};
+}
+
+std::vector<unsigned char> DbbPolarPlotPng(const DbbReport& report, std::size_t test_index,
+                                           const PolarPlotOptions& options) {
+  const DbbPolar p = DbbPolarPlot(report, test_index, options);
+  return RenderPolarPlot(p.traces, p.zone, p.options);
 }
 
 }  // namespace km::render

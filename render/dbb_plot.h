@@ -11,7 +11,18 @@
 
 namespace km::render {
 
-// PNG bytes. Throws km::InvalidInput when test_index is not a test of the report.
+// What the polar plot of a test draws: its trace (and its partner's), about the test's
+// least-squares centre, its minimum-zone circles, title, axes and key figures. Throws
+// km::InvalidInput when test_index is not a test of the report.
+struct DbbPolar {
+  std::vector<PolarPlotTrace> traces;
+  PolarPlotZone zone;
+  PolarPlotOptions options;
+};
+DbbPolar DbbPolarPlot(const dbb::DbbReport& report, std::size_t test_index,
+                      const PolarPlotOptions& options = {});
+
+// PNG bytes of DbbPolarPlot.
 std::vector<unsigned char> DbbPolarPlotPng(const dbb::DbbReport& report, std::size_t test_index,
                                            const PolarPlotOptions& options = {});
 

@@ -31,10 +31,8 @@ std::string Fmt(double v) {
 
 }  // namespace
 
-std::vector<unsigned char> RenderPolarPlot(const std::vector<PolarPlotTrace>& traces,
-                                           const std::optional<PolarPlotZone>& zone,
-                                           const PolarPlotOptions& o) {
-  if (o.size_px < 200) throw InvalidInput("", 0, "size_px", "at least 200 pixels");
+PolarScale ChoosePolarScale(const std::vector<PolarPlotTrace>& traces,
+                            const std::optional<PolarPlotZone>& zone, const PolarPlotOptions& o) {
   if (!(o.um_per_div >= 0.0) || !std::isfinite(o.um_per_div)) {
     throw InvalidInput("", 0, "um_per_div", "must be a positive number (or 0: automatic)");
   }
@@ -50,9 +48,19 @@ std::vector<unsigned char> RenderPolarPlot(const std::vector<PolarPlotTrace>& tr
     for (double d : t.dev_um) dmax = std::max(dmax, std::abs(d));
   }
   if (zone) dmax = std::max({dmax, std::abs(zone->inner_um), std::abs(zone->outer_um)});
-  const double div = o.um_per_div > 0.0 ? o.um_per_div : NiceStep(std::max(dmax, 1e-3) / 2.0);
-  const int ndiv =
-      o.divisions > 0 ? o.divisions : std::max(1, static_cast<int>(std::ceil(dmax / div - 1e-9)));
+  PolarScale s;
+  s.um_per_div = o.um_per_div > 0.0 ? o.um_per_div : NiceStep(std::max(dmax, 1e-3) / 2.0);
+  s.divisions = o.divisions > 0
+                    ? o.divisions
+                    : std::max(1, static_cast<int>(std::ceil(dmax / s.um_per_div - 1e-9)));
+  return s;
+}
+
+std::vector<unsigned char> RenderPolarPlot(const std::vector<PolarPlotTrace>& traces,
+                                           const std::optional<PolarPlotZone>& zone,
+                                           const PolarPlotOptions& o) {
+  if (o.size_px < 200) throw InvalidInput("", 0, "size_px", "at least 200 pixels");
+  const auto [div, ndiv] = ChoosePolarScale(traces, zone, o);
   const double size = o.size_px;
   const double r0 = 0.27 * size;         // reference circle (deviation 0)
   const double band = 0.17 * size;       // ± band for ndiv divisions

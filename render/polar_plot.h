@@ -41,6 +41,17 @@ struct PolarPlotOptions {
   std::vector<std::string> notes;  // lines of key figures printed at the lower left
 };
 
+// The scale of a plot: µm a division and the divisions of the ± band (options.um_per_div and
+// options.divisions where given, else the 1-2-5 step that fits the largest deviation). Throws
+// km::InvalidInput for an empty plot, traces of unequal lengths or a bad scale option.
+struct PolarScale {
+  double um_per_div = 1.0;
+  int divisions = 1;
+};
+PolarScale ChoosePolarScale(const std::vector<PolarPlotTrace>& traces,
+                            const std::optional<PolarPlotZone>& min_zone,
+                            const PolarPlotOptions& options);
+
 // Returns the PNG bytes. Throws km::InvalidInput on an empty plot or size below 200 px.
 std::vector<unsigned char> RenderPolarPlot(const std::vector<PolarPlotTrace>& traces,
                                            const std::optional<PolarPlotZone>& min_zone,

@@ -9,6 +9,7 @@
 //   servo()         servo-load analyses of stored records (server/servo/servo_service.h)
 //   access()        tokens and the audit log (server/access/access.h)
 //   audits()        accuracy audits and their scheduler (server/audits/audit_scheduler.h)
+//   reports()       PDF reports of measurements, jobs and audits (server/reports/report_service.h)
 // The audit scheduler sees only the narrow AuditSource it reads (records and the DBB pair
 // analysis), not this class.
 #pragma once
@@ -21,6 +22,7 @@
 #include "server/jobs/study_service.h"
 #include "server/measurements/measurement_service.h"
 #include "server/models/model_service.h"
+#include "server/reports/report_service.h"
 #include "server/servo/servo_service.h"
 #include "server/storage/storage.h"
 #include "server/streams/stream_service.h"
@@ -58,6 +60,7 @@ class Service : public AuditSource {
   ServoService& servo() { return servo_; }
   AccessService& access() { return access_; }
   AuditScheduler& audits() { return *audits_; }
+  ReportService& reports() { return reports_; }
 
   // AuditSource: the storage itself (also for tests and tools; the routes use the services),
   // and the DBB pair analysis the audits read.
@@ -71,7 +74,8 @@ class Service : public AuditSource {
   AccessService access_;
   std::unique_ptr<StreamService> streams_;
   ServoService servo_;
-  std::unique_ptr<StudyService> studies_;   // stopped before the streams
+  std::unique_ptr<StudyService> studies_;  // stopped before the streams
+  ReportService reports_;
   std::unique_ptr<AuditScheduler> audits_;  // last: stopped first
 };
 

@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <mutex>
+#include <unordered_map>
 
 #include "analysis/core/errors.h"
 #include "server/base/conflict.h"
@@ -85,6 +87,22 @@ std::uint64_t TokenRevocations() {
   return g_revocations.load();
 }
 
+void TokenUseRecorder::Note(std::int64_t token_id) {
+  const std::int64_t now = NowSeconds();
+  {
+    std::lock_guard lock(mu_);
+    auto& last = stored_[token_id];
+    if (last != 0 && now - last < kTokenUseResolutionS) return;
+    last = now;
+  }
+  try {
+    store_.TouchToken(token_id, UtcIso8601FromSeconds(now));
+  } catch (const std::exception&) {
+    // The request it belongs to goes on: a busy or failing database is reported by the
+    // request's own reads and writes, and the next use after the resolution tries again.
+  }
+}
+
 Caller Authenticate(AccessStore& storage, const std::string& token_sha256) {
   const auto t = storage.FindToken(token_sha256);
   if (!t) throw Unauthorized("the token is not valid");
@@ -142,6 +160,7 @@ nlohmann::json AccessService::ListTokens() {
                      {"created_at", t.created_at},
                      {"expires_at", OptionalJson(t.expires_at)},
                      {"revoked_at", OptionalJson(t.revoked_at)},
+                     {"last_used_at", OptionalJson(t.last_used_at)},
                      {"state", TokenState(t, now)}});
   }
   return {{"items", items}};

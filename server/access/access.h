@@ -4,8 +4,10 @@
 #pragma once
 
 #include <cstdint>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 
 #include <nlohmann/json.hpp>
 
@@ -26,6 +28,24 @@ struct Caller {
 // revoked or has expired (the message says which), or its stored role is not a role.
 Caller Authenticate(AccessStore& storage, const std::string& token_sha256);
 
+// When a token was last used is stored to within this many seconds: a token's first request
+// seen by a recorder, then at most one write a minute per token, not one per request.
+inline constexpr std::int64_t kTokenUseResolutionS = 60;
+
+// Records the requests of accepted tokens (AccessStore::TouchToken, throttled as above), one
+// recorder a server. A storage failure here is not the request's: it is dropped, and the next
+// use after the resolution tries again.
+class TokenUseRecorder {
+ public:
+  explicit TokenUseRecorder(AccessStore& store) : store_(store) {}
+  void Note(std::int64_t token_id);
+
+ private:
+  AccessStore& store_;
+  std::mutex mu_;
+  std::unordered_map<std::int64_t, std::int64_t> stored_;  // token id → unix seconds written
+};
+
 // Counts the revocations made in this process: a cache of accepted tokens forgets them all
 // when the count changes.
 std::uint64_t TokenRevocations();
@@ -40,7 +60,7 @@ class AccessService {
   // bad field.
   nlohmann::json CreateToken(const nlohmann::json& request);
   // Every token: {"items": [{"id", "name", "role", "created_at", "expires_at", "revoked_at",
-  // "state": "active" | "expired" | "revoked"}]}; never a secret or a hash.
+  // "last_used_at", "state": "active" | "expired" | "revoked"}]}; never a secret or a hash.
   nlohmann::json ListTokens();
   // Revokes a token at once (NotFound for an unknown id; Conflict for the last active admin
   // token, so that the service is never left without one): {"id", "revoked_at"}.

@@ -173,9 +173,13 @@ nlohmann::json Trends(AuditSource& service, const std::string& machine_id,
   for (auto r = page.items.rbegin(); r != page.items.rend(); ++r) {
     const auto v = ValueAt(service, *m, r->id, service.storage().GetResults(r->id));
     if (!v || !std::isfinite(*v)) continue;
+    // The test and direction let a client draw one series a test (a circle of one plane,
+    // radius and direction; one axis of a laser run) instead of joining them all.
     points.push_back({{"measured_at", r->measured_at.value_or(r->uploaded_at)},
                       {"value", *v},
-                      {"measurement_id", r->id}});
+                      {"measurement_id", r->id},
+                      {"test_id", r->test_id},
+                      {"direction", r->direction}});
   }
   return answer(std::move(points));
 }

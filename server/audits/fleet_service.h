@@ -23,10 +23,10 @@ inline constexpr std::int64_t kMaxTrendPoints = 5000;
 nlohmann::json Fleet(AuditSource& service);
 
 // {"machine_id", "metric", "label", "unit", "kind", "points": [{"measured_at", "value",
-// "measurement_id"}]}, oldest first (measurement time, else upload time): the metric as an
-// accuracy audit reads it (server/audits/accuracy_audit.h: the same table and extraction, so a
-// trend and an audit's limits agree), for each measurement of its kind. A metric of kind
-// "calibration": for each of the machine's calibrations (MachineCalibrations), points
+// "measurement_id", "test_id", "direction"}]}, oldest first (measurement time, else upload time):
+// the metric as an accuracy audit reads it (server/audits/accuracy_audit.h: the same table and
+// extraction, so a trend and an audit's limits agree), for each measurement of its kind. A metric
+// of kind "calibration": for each of the machine's calibrations (MachineCalibrations), points
 // {"measured_at" (when the job finished), "value", "job_id"}. Another metric is
 // InvalidInput naming the field "metric"; a machine with neither measurements nor a model
 // NotFound.

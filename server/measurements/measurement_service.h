@@ -89,9 +89,11 @@ class MeasurementService {
   // A stored DBB test, parsed from its stored bytes (NotFound; InvalidInput when the
   // measurement is of another kind); `record` receives its record when given.
   dbb::DbbTest LoadDbb(std::int64_t id, MeasurementRecord* record = nullptr);
+  // The stored opposite-direction test of a DBB test (same machine and test, nearest in time);
+  // none when there is none.
+  std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
 
  private:
-  std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
   std::optional<std::int64_t> NearestPartner(const MeasurementRecord& rec,
                                              const std::string& other_direction);
 

@@ -265,6 +265,7 @@ struct TokenRecord {
   std::string created_at;
   std::optional<std::string> expires_at;  // ISO 8601 UTC; none: never expires
   std::optional<std::string> revoked_at;
+  std::optional<std::string> last_used_at;  // to within a minute (NoteTokenUse); none: not yet
 };
 
 // One state-changing request: who (token), what (method, path, status, subject), when.
@@ -448,6 +449,8 @@ class AccessStore {
   // the check and the revocation are one transaction, also against other instances.
   using TokensCheck = std::function<void(const std::vector<TokenRecord>&)>;
   virtual bool RevokeToken(std::int64_t id, const TokensCheck& check) = 0;
+  // Records that a token was used at `at` (ISO 8601 UTC); an earlier time never replaces a later.
+  virtual void TouchToken(std::int64_t id, const std::string& at) = 0;
   // The audit log of state-changing requests, appended only; listed newest first.
   virtual void AppendAudit(const AuditEntry& entry) = 0;
   virtual AuditPage ListAudit(std::int64_t limit, std::int64_t offset) = 0;

@@ -87,10 +87,10 @@ export async function apiFetch(path, { method = 'GET', body, headers = {} } = {}
   return text ? JSON.parse(text) : null;
 }
 
-// Binary resources (the PNG plot): an <img src> cannot send the Authorization header, so the
-// image is fetched here and shown through an object URL.
-export async function apiFetchBlob(path) {
-  const headers = { Accept: 'image/png' };
+// Binary resources (the PNG plot, PDF reports): an <img src> or a link cannot send the
+// Authorization header, so they are fetched here and shown or saved through an object URL.
+export async function apiFetchBlob(path, accept = 'image/png') {
+  const headers = { Accept: accept };
   const token = currentToken();
   if (token) headers.Authorization = `Bearer ${token}`;
   let response;
@@ -124,6 +124,8 @@ export const api = {
       if (err instanceof ApiError && err.status === 404) return null;
       throw err;
     }),
+  // The straightness reversal of a set-up with the other of its pair (404 when that is not stored).
+  reversal: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}/reversal`),
   plotPng: (id) => apiFetchBlob(`/api/v1/measurements/${encodeURIComponent(id)}/plot.png`),
   // Hexapod calibration study → 202 {job_id}; the job is polled with job(id).
   calibrate: (body) =>
@@ -190,7 +192,28 @@ export const api = {
     apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/trends?${new URLSearchParams({ metric })}`),
   // The machine's audit rules and schedule (404 when none) and its audits, newest first.
   machineAudit: (machineId) => apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/audit`),
-  audits: (machineId) => apiFetch(`/api/v1/audits?${new URLSearchParams({ machine_id: machineId })}`),
+  audits: (machineId, limit = 100) => apiFetch(`/api/v1/audits?${new URLSearchParams({ machine_id: machineId, limit: String(limit) })}`),
+  // Every machine's newest audits (the landing view).
+  recentAudits: (limit = 5) => apiFetch(`/api/v1/audits?${new URLSearchParams({ limit: String(limit) })}`),
+  // The metrics a rule may name: [{kind, metric, analysis, unit, description, source}].
+  auditMetrics: () => apiFetch('/api/v1/audit-metrics'),
+  // Replaces the machine's rules and schedule → the stored audit.
+  putAudit: (machineId, body) =>
+    apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/audit`, {
+      method: 'PUT',
+      body: JSON.stringify(body),
+      headers: { 'Content-Type': 'application/json' },
+    }),
+  // Runs the machine's audit now → the verdict.
+  runAudit: (machineId) =>
+    apiFetch(`/api/v1/machines/${encodeURIComponent(machineId)}/audit/run`, { method: 'POST', body: '{}', headers: { 'Content-Type': 'application/json' } }),
+  // The newest uploads of every machine (the landing view).
+  recentMeasurements: (limit = 8) => apiFetch(`/api/v1/measurements?${new URLSearchParams({ limit: String(limit), order: 'uploaded' })}`),
+  // Access tokens (admin): list, make (the secret comes back once), revoke; the audit log.
+  tokens: () => apiFetch('/api/v1/tokens'),
+  createToken: (body) => apiFetch('/api/v1/tokens', { method: 'POST', body: JSON.stringify(body), headers: { 'Content-Type': 'application/json' } }),
+  revokeToken: (id) => apiFetch(`/api/v1/tokens/${encodeURIComponent(id)}`, { method: 'DELETE' }),
+  auditLog: (limit = 50, offset = 0) => apiFetch(`/api/v1/audit-log?${new URLSearchParams({ limit: String(limit), offset: String(offset) })}`),
   upload: (file, bytes) =>
     apiFetch('/api/v1/measurements', {
       method: 'POST',

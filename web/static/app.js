@@ -4,7 +4,9 @@
 // discovery page (#/discoveries…) is discovery.js.
 // Plain ES modules, no build step, nothing loaded from outside the server. One module a view:
 // machines.js, measurements.js, detail.js (figures.js, diagnosis.js, formplots.js),
-// calibration.js, upload.js, streams.js, discovery.js; DOM helpers in dom.js.
+// calibration.js, upload.js, streams.js, discovery.js, fleet.js (fleet and trends), audit.js
+// (a machine's audit; audit_form.js its rules), tokens.js (tokens, audit log), home.js (the
+// landing view); DOM helpers in dom.js.
 
 import { getToken, setToken, takeTokenFromFragment } from './api.js';
 import { handleAuth, showAuthProblem, tokenChanged, updateTokenStatus } from './auth.js';
@@ -18,6 +20,10 @@ import { parseAppRoute } from './router.js';
 import { shell } from './shell.js';
 import { state } from './state.js';
 import { initFleet, showFleet, showTrends } from './fleet.js';
+import { initAudit, resetAuditSummary, showAudit } from './audit.js';
+import { showHome } from './home.js';
+import { initTokens, showTokens } from './tokens.js';
+import { initReports } from './reports.js';
 import { forgetRole, loadRole } from './roles.js';
 import { initServo, resetJointHealth } from './servo.js';
 import { initStreams, refreshStreams } from './streams.js';
@@ -25,12 +31,24 @@ import { initUpload } from './upload.js';
 
 // Which main view is shown: the measurement view (#detail), a calibration job (#job-view) or the
 // discovery page (#discovery, shown by discovery.js).
+const MAIN_VIEWS = { detail: '#detail', job: '#job-view', fleet: '#fleet-view', trends: '#trends-view', home: '#home-view', audit: '#audit-view', tokens: '#tokens-view' };
+let shownView = null;
+
 function showMainView(which) {
-  $('#detail').hidden = which !== 'detail';
-  $('#job-view').hidden = which !== 'job';
-  $('#fleet-view').hidden = which !== 'fleet';
-  $('#trends-view').hidden = which !== 'trends';
+  shownView = which;
+  for (const [name, sel] of Object.entries(MAIN_VIEWS)) $(sel).hidden = which !== name;
   if (which !== 'discovery') $('#discovery').hidden = true;
+}
+
+// A machine the server does not know: said on the landing view (the list is reloaded first, in
+// case it was uploaded meanwhile). True when it is known.
+async function knownMachine(machineId) {
+  if (!state.machines.some((m) => m.machine_id === machineId)) await loadMachines();
+  if (state.machines.some((m) => m.machine_id === machineId)) return true;
+  showMainView('home');
+  resetAuditSummary();
+  await showHome(`No machine “${machineId}” is stored. Choose one under Machines, or upload its measurements.`);
+  return false;
 }
 
 // Shows what the address names; called at start and on every hashchange.
@@ -40,10 +58,13 @@ async function applyRoute() {
   const seq = ++routeSeq;
   const route = parseAppRoute();
   document.body.dataset.route = route.view;
+  if (route.view === 'anchor') {
+    if (!shownView) await applyHome(null);
+    return;
+  }
   if (route.view === 'discovery') {
-    $('#job-view').hidden = true;
-    $('#fleet-view').hidden = true;
-    $('#trends-view').hidden = true;
+    for (const sel of Object.values(MAIN_VIEWS)) if (sel !== '#detail') $(sel).hidden = true;
+    shownView = 'discovery';
     applyDiscoveryRoute();
     return;
   }
@@ -63,20 +84,40 @@ async function applyRoute() {
     await showTrends(route.machineId, route.metric);
     return;
   }
-  showMainView('detail');
+  if (route.view === 'tokens') {
+    showMainView('tokens');
+    await showTokens();
+    return;
+  }
+  if (route.view === 'home' || route.view === 'unknown') {
+    await applyHome(route.view === 'unknown' ? `The address “#${route.address}” names no view of this page.` : null);
+    return;
+  }
+  if (route.view === 'audit') {
+    if (!(await knownMachine(route.machineId))) return;
+    showMainView('audit');
+    await Promise.all([showAudit(route.machineId), selectMachine(route.machineId)]);
+    return;
+  }
   if (route.view === 'measurement') {
+    showMainView('detail');
     await showMeasurement(route.id);
     return;
   }
-  let machineId = route.view === 'machine' ? route.machineId : state.machineId;
-  if (!machineId && state.machines.length === 1) machineId = state.machines[0].machine_id;
-  if (!machineId) return;
+  const machineId = route.machineId;
+  if (!(await knownMachine(machineId))) return;
+  showMainView('detail');
   const items = await selectMachine(machineId);
   if (seq !== routeSeq) return;
   // The machine's newest DBB test on this page (else its newest measurement).
   if (state.measurementId && items.some((m) => m.id === state.measurementId)) return;
   const first = items.find((m) => m.kind === 'dbb') || items[0];
   if (first) await showMeasurement(first.id);
+}
+
+async function applyHome(unknown) {
+  showMainView('home');
+  await showHome(unknown);
 }
 
 function onTokenSubmit(event) {
@@ -105,6 +146,7 @@ function onTokenForget() {
   resetDetail();
   resetCalibration();
   resetJointHealth();
+  resetAuditSummary();
   forgetRole();
   showAuthProblem(null);
 }
@@ -129,6 +171,9 @@ function start() {
   initCalibration();
   initServo();
   initFleet();
+  initAudit();
+  initTokens();
+  initReports();
   window.addEventListener('hashchange', () => {
     if (takeTokenFromFragment()) {
       tokenChanged();

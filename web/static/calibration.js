@@ -373,6 +373,7 @@ function actions(job, r, trusted) {
         type: 'button',
         class: 'secondary',
         'data-testid': 'job-save-machine',
+        'data-min-role': 'engineer',
         onclick: async () => {
           save.disabled = true;
           try {

@@ -12,6 +12,13 @@ export { el, r2 };
 const minus = (s) => String(s).replace('-', '−');
 
 // Tick values from lo to hi with a 1-2-5 step giving about `count` intervals.
+// The width a chart is drawn for: that of its box (at most 900 px, at least 340), so that on a
+// phone its text stays legible instead of being scaled down with a wide drawing.
+export function chartWidth(box) {
+  const w = box && box.clientWidth ? box.clientWidth - 4 : 900;
+  return Math.round(Math.max(340, Math.min(900, w)));
+}
+
 export function ticks(lo, hi, count = 5) {
   const step = niceStep((hi - lo) / count || 1);
   const out = [];

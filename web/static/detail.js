@@ -10,6 +10,7 @@ import { renderAnalysis, resetAnalysis } from './diagnosis.js';
 import { renderFigures } from './figures.js';
 import { formatDirection, formatNumber, formatTimestamp } from './format.js';
 import { renderFormPlot, renderTrackerPlot } from './formplots.js';
+import { resetReversal, showReversal } from './reversal.js';
 import { markCurrent } from './measurements.js';
 import { renderPolarPlot } from './polar.js';
 import { renderServoForce } from './servo.js';
@@ -34,6 +35,7 @@ export function resetDetail() {
   $('#polar-plot').replaceChildren(h('p', { class: 'placeholder' }, 'Select a measurement to see its plot.'));
   $('#figures').replaceChildren(h('p', { class: 'placeholder' }, 'Figures appear here.'));
   $('#figures-extra').replaceChildren();
+  resetReversal();
   resetAnalysis();
   setDetailLayout(null);
 }
@@ -87,6 +89,7 @@ export async function showMeasurement(id) {
     }
     const item = itemOf(measurement);
     $('#detail-heading').textContent = detailHeading(item);
+    if (item.kind === 'dbb') resetReversal();
     if (item.kind === 'dbb') await showDbb(seq, item, measurement);
     else await showOther(seq, item, measurement);
     if (seq !== state.selectSeq) return;
@@ -121,11 +124,13 @@ async function showOther(seq, item, measurement) {
   const view = $('#detail');
   view.dataset.view = item.kind;
   delete view.dataset.partnerId;
+  resetReversal();
   $('#pair-note').hidden = true;
   shownDbb = null;
   renderCompareNote();
   setDetailLayout(item.kind);
   resetAnalysis();
+  if (item.kind === 'straightness') showReversal(item, measurement, () => seq === state.selectSeq).catch(() => {});
   if (FORM_KINDS.includes(item.kind)) renderFormPlot(item, fetched[0]);
   else if (item.kind === 'tracker') renderTrackerPlot(item, fetched[0]);
   else if (item.kind === 'positioning') renderPositioningPlot(item, fetched[0]);

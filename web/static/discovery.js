@@ -86,6 +86,7 @@ export function applyRoute() {
   showView(true);
   bringIntoView();
   $('#discovery-new').hidden = route.view !== 'discovery-new';
+  $('#discovery-new-role').hidden = route.view !== 'discovery-new';
   $('#discovery-job').hidden = route.view !== 'discovery';
   renderDiscoveryList();
   if (route.view === 'discovery-new') {
@@ -252,7 +253,7 @@ function renderForm() {
             }),
             h('span', {}, `${m.test_id || m.filename || `#${m.id}`}`),
             m.direction ? h('span', { class: `badge dir-${m.direction}` }, formatDirection(m.direction)) : '',
-            h('span', { class: 'item-meta' }, `#${m.id}`),
+            h('span', { class: 'item-meta' }, `#${m.id}`, m.measured_at || m.uploaded_at ? ` · ${formatTimestamp(m.measured_at || m.uploaded_at)}` : '', m.filename ? ` · ${m.filename}` : ''),
           );
         })
       : [h('p', { class: 'placeholder' }, 'This machine has no DBB tests.')]),

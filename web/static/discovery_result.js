@@ -503,6 +503,7 @@ function actionsBox(job, r) {
       {
         type: 'button',
         'data-testid': 'disc-save',
+        'data-min-role': 'engineer',
         onclick: async () => {
           button.disabled = true;
           setMessage(status, 'info', 'Saving…');

@@ -110,11 +110,17 @@ export function plain(value) {
   return minus(String(Number(value.toPrecision(4))));
 }
 
-// p-value from its log10 (the F-test p of a strong effect underflows to 0): "1.4 × 10⁻¹¹²⁹³".
+// Below this a p-value is only "smaller than": a power of ten beyond the 16 digits a double carries
+// tells the reader nothing more (the exact log10 stays in data-log10-p and the JSON).
+export const P_FLOOR_LOG10 = -15;
+
+// p-value from its log10 (the F-test p of a strong effect underflows to 0): "1.4 × 10⁻⁸", or
+// "< 10⁻¹⁵" for anything smaller.
 export function pValueNodes(p, log10p) {
   let lg = typeof log10p === 'number' && Number.isFinite(log10p) ? log10p : null;
   if (lg === null && typeof p === 'number' && p > 0) lg = Math.log10(p);
   if (lg === null) return typeof p === 'number' ? [plain(p)] : ['—'];
+  if (lg < P_FLOOR_LOG10) return ['< 10', h('sup', {}, minus(String(P_FLOOR_LOG10)))];
   if (lg >= -3) return [fixedText(10 ** lg, 4)];
   let e = Math.floor(lg);
   let m = 10 ** (lg - e);

@@ -66,12 +66,16 @@ const CAPTIONS = {
 // Arrays drawn as charts / tables of their own rather than as rows of the figures table.
 const OWN_VIEWS = new Set(['harmonics', 'diagnosis', 'not_identifiable', 'periodic', 'references', 'measurement', 'decomposition', 'transform', 'point_ids', 'targets', 'compensation']);
 
+// Bookkeeping of the analysis rather than figures of the machine: not rows of the table (the
+// evaluated arc is a row once, at the top level; the versions stay in the JSON and CSV).
+const INTERNAL = new Set(['analysis_version', 'iso230_4.evaluated_arc_deg', 'iso230_4.deviation_units', 'iso230_4.radial_reference', 'iso230_4.evaluated_over']);
+
 // Flattens one results object into {key: value} rows; arrays of objects are returned apart.
 function flattenResults(results) {
   const flat = {};
   const tables = {};
   for (const [key, value] of Object.entries(results || {})) {
-    if (OWN_VIEWS.has(key)) continue;
+    if (OWN_VIEWS.has(key) || INTERNAL.has(key)) continue;
     if (key === 'rejected_readings' && Array.isArray(value)) {
       flat.rejected_readings_count = value.length; // the list itself is a table below
       if (value.length && value.every((v) => v && typeof v === 'object')) tables[key] = value;
@@ -88,7 +92,7 @@ function flattenResults(results) {
       else if (value.every((v) => v && typeof v === 'object' && !Array.isArray(v))) tables[key] = value;
     } else if (value && typeof value === 'object') {
       for (const [k2, v2] of Object.entries(value)) {
-        if (typeof v2 === 'number') flat[`${key}.${k2}`] = v2;
+        if (typeof v2 === 'number' && !INTERNAL.has(`${key}.${k2}`)) flat[`${key}.${k2}`] = v2;
       }
     }
   }
@@ -197,8 +201,10 @@ export function renderFigures(fetched, { kind = 'dbb', pair = null } = {}) {
     }
   }
   const table = h('table', { class: 'figures', 'data-testid': 'figures-table', 'data-kind': kind }, h('caption', {}, CAPTIONS[kind] || 'Figures'), thead, tbody);
-  $('#figures').replaceChildren(table);
-  table.after(csvButton(columns, keys));
+  // A table wider than its column (both directions on a phone) scrolls with a visible hint.
+  const box = h('div', { class: 'table-scroll' }, table);
+  $('#figures').replaceChildren(box);
+  box.after(csvButton(columns, keys));
   renderExtraTables(columns, fetched, kind);
 }
 

@@ -1,18 +1,18 @@
 // The fleet overview (#/fleet: every machine with its newest accuracy-audit level in colour and
 // words, its newest measurement and its open jobs, from GET /api/v1/fleet) and a machine's
-// trends (#/machines/{id}/trends?metric=…: one figure of its stored results over time, with the
-// warn and stop limits of its audit rules and the audit verdicts marked). Every chart carries
+// trends (#/machines/{id}/trends?metric=…: one figure of its stored results over time, one series
+// a test and direction (data-series), with the warn and stop limits of its audit rules, its rules
+// on the change over time and the audit verdicts marked; by default the figure that set the
+// machine's audit level). Every chart carries
 // data-* attributes with the plotted numbers so what is drawn can be checked against the API.
 
 import { ApiError, api } from './api.js';
 import { handleAuth } from './auth.js';
-import { axesGrid, el, r2, ticks } from './charts.js';
+import { axesGrid, chartWidth, el, r2, ticks } from './charts.js';
 import { $, errorBox, h } from './dom.js';
-import { formatTimestamp } from './format.js';
+import { auditWords, formatTimestamp } from './format.js';
 import { machineHash, measurementHash, trendsHash } from './router.js';
 
-const AUDIT_WORDS = { 1: 'level 1 — normal', 2: 'level 2 — warn', 3: 'level 3 — stop' };
-const auditWords = (level) => AUDIT_WORDS[level] || `level ${level}`;
 
 // 404 (a route or a record not there): null.
 const orNull = (promise) =>
@@ -114,12 +114,12 @@ function verdictsOf(audits, metric) {
   return out;
 }
 
-export function renderTrendChart(trend, limits, verdicts) {
+export function renderTrendChart(trend, limits, verdicts, W = 900) {
   const pts = trend.points.map((p) => ({ ...p, t: Date.parse(p.measured_at) }));
-  const W = 900;
+  const narrow = W < 600;
   const H = 340;
   const L = 64;
-  const R = 70;
+  const R = narrow ? 40 : 130;
   const T = 20;
   const B = 48;
   const values = pts.map((p) => p.value);
@@ -154,21 +154,61 @@ export function renderTrendChart(trend, limits, verdicts) {
     svg.append(el('line', { x1: L, x2: W - R, y1: r2(py(v)), y2: r2(py(v)), class: `limit ${cls}`, 'data-testid': `trend-limit-${key}`, 'data-value': v }));
     svg.append(el('text', { x: W - R + 6, y: r2(py(v)), dy: '0.35em', class: `tick limit-label ${cls}` }, key));
   }
-  svg.append(el('path', { d: pts.map((p, i) => `${i ? 'L' : 'M'}${r2(px(p.t))},${r2(py(p.value))}`).join(''), class: 'trend-line' }));
-  const dots = el('g', { class: 'trend-points' });
-  for (const p of pts) {
-    const level = verdicts.get(evidenceKey(p));
-    const job = isId(p.job_id);
-    const source = job ? { 'data-job-id': p.job_id } : { 'data-measurement-id': p.measurement_id };
-    const dot = el('circle', { cx: r2(px(p.t)), cy: r2(py(p.value)), r: level ? 6 : 4, class: level ? `verdict level-${level}` : 'point', 'data-testid': 'trend-point', ...source, 'data-value': p.value, 'data-level': level || '' });
-    dot.append(el('title', {}, `${job ? `calibration job #${p.job_id}` : `#${p.measurement_id}`}: ${p.value.toFixed(2)} ${trend.unit}${level ? `, audit ${auditWords(level)}` : ''}`));
-    dots.append(dot);
-  }
-  svg.append(dots);
+  const groups = seriesOf(pts);
+  groups.forEach((g, i) => {
+    const series = el('g', { class: `trend-series series-${i % SERIES_COLOURS}`, 'data-series': g.key, 'data-testid': 'trend-series', 'data-points': g.points.length });
+    series.append(el('path', { d: g.points.map((p, k) => `${k ? 'L' : 'M'}${r2(px(p.t))},${r2(py(p.value))}`).join(''), class: 'trend-line' }));
+    for (const p of g.points) series.append(trendDot(p, trend, verdicts, px, py, g.key));
+    svg.append(series);
+  });
+  if (!narrow && (groups.length > 1 || groups[0]?.key)) svg.append(legend(groups, W - R + 6, T + 40));
   return svg;
 }
 
+// One series a test and direction (a circle of one plane, radius and direction; one axis of a
+// positioning run), oldest first; calibrations form one series without a name.
+const SERIES_COLOURS = 6;
+function seriesOf(pts) {
+  const out = new Map();
+  for (const p of pts) {
+    const key = [p.test_id, p.direction ? String(p.direction).toUpperCase() : ''].filter(Boolean).join(' ');
+    if (!out.has(key)) out.set(key, []);
+    out.get(key).push(p);
+  }
+  return [...out.entries()].map(([key, points]) => ({ key, points: points.sort((a, b) => a.t - b.t) }));
+}
+
+function legend(groups, x, y) {
+  const g = el('g', { class: 'trend-legend', 'data-testid': 'trend-legend' });
+  groups.slice(0, 12).forEach((s, i) => {
+    const row = el('g', { class: `series-${i % SERIES_COLOURS}`, transform: `translate(${x} ${y + i * 16})` });
+    row.append(el('line', { x1: 0, x2: 12, y1: 0, y2: 0, class: 'trend-line' }));
+    row.append(el('text', { x: 16, y: 0, dy: '0.35em', class: 'tick' }, s.key || 'all'));
+    g.append(row);
+  });
+  return g;
+}
+
+function trendDot(p, trend, verdicts, px, py, series) {
+  const level = verdicts.get(evidenceKey(p));
+  const job = isId(p.job_id);
+  const source = job ? { 'data-job-id': p.job_id } : { 'data-measurement-id': p.measurement_id };
+  const dot = el('circle', { cx: r2(px(p.t)), cy: r2(py(p.value)), r: level ? 6 : 4, class: level ? `verdict level-${level}` : 'point', 'data-testid': 'trend-point', ...source, 'data-value': p.value, 'data-level': level || '', 'data-series': series });
+  dot.append(el('title', {}, `${job ? `calibration job #${p.job_id}` : `#${p.measurement_id}`}${series ? ` (${series})` : ''}, ${formatTimestamp(p.measured_at)}: ${p.value.toFixed(2)} ${trend.unit}${level ? `, audit ${auditWords(level)}` : ''}`));
+  return dot;
+}
+
 let metricsCache = null;
+
+// The metric that set the machine's level: that of the worst finding of its newest audit, else
+// of its first rule; null without an audit.
+function levelMetric(audit, audits) {
+  const newest = ((audits && audits.audits) || [])[0];
+  const findings = ((newest && newest.findings) || []).slice().sort((a, b) => b.level - a.level);
+  if (findings.length) return findings[0].metric;
+  const rules = (audit && audit.rules) || [];
+  return rules.length ? rules[0].metric : null;
+}
 
 // Without a metric in the address: the first of the kind of the machine's newest measurement.
 async function defaultMetric(machineId) {
@@ -185,23 +225,25 @@ export async function showTrends(machineId, metric) {
   box.setAttribute('aria-busy', 'true');
   try {
     metricsCache = metricsCache || (await api.trendMetrics(machineId)).metrics;
-    const chosen = metric || (await defaultMetric(machineId));
+    const [audit, audits] = await Promise.all([orNull(api.machineAudit(machineId)), orNull(api.audits(machineId))]);
+    const chosen = metric || levelMetric(audit, audits) || (await defaultMetric(machineId));
     const select = $('#trend-metric');
     select.replaceChildren(...metricsCache.map((m) => h('option', { value: m.metric }, `${m.kind}: ${m.metric} — ${m.label}`)));
     if (!metricsCache.some((m) => m.metric === chosen)) select.append(h('option', { value: chosen }, chosen));
     select.value = chosen;
-    const [trend, audit, audits] = await Promise.all([
-      api.trends(machineId, chosen),
-      orNull(api.machineAudit(machineId)),
-      orNull(api.audits(machineId)),
-    ]);
+    const trend = await api.trends(machineId, chosen);
+    const groups = seriesOf(trend.points);
     const limits = limitsOf(audit, chosen);
+    const changeRules = ((audit && audit.rules) || []).filter((r) => r.metric === chosen && r.change);
     const verdicts = verdictsOf(audits, chosen);
     view.dataset.metric = chosen;
     view.dataset.limits = limits ? 'rules' : 'none';
     box.replaceChildren(
       h('p', { class: 'note', 'data-testid': 'trend-note' }, trend.kind === 'calibration' ? `${trend.points.length} hexapod calibration${trend.points.length === 1 ? '' : 's'}. ` : `${trend.points.length} measurement${trend.points.length === 1 ? '' : 's'} of kind ${trend.kind}. `, limits ? 'Warn and stop limits from the machine’s audit rules.' : 'No audit rule for this figure: no limits drawn.', verdicts.size ? ` Larger points: audit findings (${[...new Set(verdicts.values())].sort().map(auditWords).join(', ')}).` : ''),
-      trend.points.length ? h('figure', { class: 'chart-box' }, renderTrendChart(trend, limits, verdicts)) : h('p', { class: 'placeholder' }, 'No stored result has this figure yet.'),
+      trend.points.length ? h('figure', { class: 'chart-box chart-scroll' }, renderTrendChart(trend, limits, verdicts, chartWidth(box))) : h('p', { class: 'placeholder' }, 'No stored result has this figure yet.'),
+      groups.length > 1 ? h('p', { class: 'note', 'data-testid': 'trend-series-list' }, `One line a test and direction: ${groups.map((g) => `${g.key || 'all'} (${g.points.length})`).join(', ')}.`) : '',
+      changeRules.length ? h('p', { class: 'note', 'data-testid': 'trend-change-rules' }, 'Rules on the change over time: ', changeRules.map((r) => `increase ${r.change === 'days' ? `over ${r.days} days` : 'since the previous audit'}${typeof r.warn === 'number' ? `, warn above ${r.warn}` : ''}${typeof r.stop === 'number' ? `, stop above ${r.stop}` : ''} ${trend.unit}`).join('; '), '.') : '',
+      limits ? h('p', { class: 'note' }, 'An audit judges the newest result of each rule’s kind; older points above a line were judged, if at all, when they were the newest.') : '',
     );
   } catch (err) {
     if (!handleAuth(err)) box.replaceChildren(errorBox(err));

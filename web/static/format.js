@@ -199,3 +199,7 @@ export function formatStep(step) {
   // 0.5, 1, 2, 5, 10, ... without trailing zeros
   return String(Number(step.toPrecision(6)));
 }
+
+// The level of an accuracy audit in words, as the API documents the levels.
+const AUDIT_WORDS = { 1: 'level 1 — normal', 2: 'level 2 — warn', 3: 'level 3 — stop' };
+export const auditWords = (level) => AUDIT_WORDS[level] || `level ${level}`;

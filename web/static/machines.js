@@ -11,6 +11,7 @@ import { resetDetail } from './detail.js';
 import { loadJointHealth, resetJointHealth } from './servo.js';
 import { machineHash, navigate, trendsHash } from './router.js';
 import { state } from './state.js';
+import { showAuditSummary } from './audit.js';
 import { discoveryMachineChanged, discoveryMachinesChanged, leaveDiscovery, parseRoute } from './discovery.js';
 
 export async function loadMachines() {
@@ -101,6 +102,7 @@ export async function selectMachine(machineId) {
   const [items] = await Promise.all([loadMeasurementPage({ offset: 0 }), changed || state.dbbMachine !== machineId ? loadDbbTests(machineId) : null]);
   loadJobHistory();
   loadJointHealth(machineId);
+  showAuditSummary(machineId);
   return items || [];
 }
 

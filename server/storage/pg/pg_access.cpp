@@ -1,6 +1,6 @@
 // Access tokens and the audit log in the PostgreSQL backend: table tokens (migration 1, with
-// name, expiry and revocation from migration 6) and audit_log (migration 6, appended only:
-// triggers refuse UPDATE and DELETE).
+// name, expiry and revocation from migration 6, last use from migration 10) and audit_log
+// (migration 6, appended only: triggers refuse UPDATE and DELETE).
 #include "server/base/time_util.h"
 #include "server/storage/pg/pg_db.h"
 #include "server/storage/pg/pg_storage.h"
@@ -11,7 +11,8 @@ namespace {
 using pg::Params;
 using pg::Result;
 
-constexpr const char* kTokenColumns = "id, role, label, created_at, expires_at, revoked_at";
+constexpr const char* kTokenColumns =
+    "id, role, label, created_at, expires_at, revoked_at, last_used_at";
 
 TokenRecord ReadToken(const Result& s, int i) {
   TokenRecord t;
@@ -21,6 +22,7 @@ TokenRecord ReadToken(const Result& s, int i) {
   t.created_at = s.Text(i, 3);
   t.expires_at = s.OptText(i, 4);
   t.revoked_at = s.OptText(i, 5);
+  t.last_used_at = s.OptText(i, 6);
   return t;
 }
 
@@ -79,6 +81,16 @@ bool PgStorage::RevokeToken(std::int64_t id, const TokensCheck& check) {
           .Affected() > 0;
   tx.Commit();
   return changed;
+}
+
+void PgStorage::TouchToken(std::int64_t id, const std::string& at) {
+  auto c = pool_->Acquire();
+  Params p;
+  p.Text(at, "last_used_at").Int(id);
+  c->Query(
+      "UPDATE tokens SET last_used_at = $1 WHERE id = $2 AND (last_used_at IS NULL OR "
+      "last_used_at < $1)",
+      p, "record token use");
 }
 
 void PgStorage::AppendAudit(const AuditEntry& e) {

@@ -98,6 +98,7 @@ class PgStorage : public Storage {
   std::optional<TokenRecord> FindToken(const std::string& token_sha256) override;
   std::vector<TokenRecord> ListTokens() override;
   bool RevokeToken(std::int64_t id, const TokensCheck& check) override;
+  void TouchToken(std::int64_t id, const std::string& at) override;
   void AppendAudit(const AuditEntry& entry) override;
   AuditPage ListAudit(std::int64_t limit, std::int64_t offset) override;
   // Accuracy audits: pg_audits.cpp.

@@ -1,6 +1,6 @@
 // Access tokens and the audit log in the SQLite backend: table tokens (migration 1, with name,
-// expiry and revocation from migration 6) and audit_log (migration 6, appended only: triggers
-// refuse UPDATE and DELETE).
+// expiry and revocation from migration 6, last use from migration 10) and audit_log (migration 6,
+// appended only: triggers refuse UPDATE and DELETE).
 #include <sqlite3.h>
 
 #include "server/base/time_util.h"
@@ -12,7 +12,8 @@ namespace {
 
 using sqlite::Statement;
 
-constexpr const char* kTokenColumns = "id, role, label, created_at, expires_at, revoked_at";
+constexpr const char* kTokenColumns =
+    "id, role, label, created_at, expires_at, revoked_at, last_used_at";
 
 TokenRecord ReadToken(const Statement& s) {
   TokenRecord t;
@@ -22,6 +23,7 @@ TokenRecord ReadToken(const Statement& s) {
   t.created_at = s.Text(3);
   t.expires_at = s.OptText(4);
   t.revoked_at = s.OptText(5);
+  t.last_used_at = s.OptText(6);
   return t;
 }
 
@@ -71,6 +73,15 @@ bool SqliteStorage::RevokeToken(std::int64_t id, const TokensCheck& check) {
   const bool changed = sqlite3_changes(db_) > 0;
   tx.Commit();
   return changed;
+}
+
+void SqliteStorage::TouchToken(std::int64_t id, const std::string& at) {
+  std::lock_guard lock(mu_);
+  auto s = Prepared(
+      "UPDATE tokens SET last_used_at = ? WHERE id = ? AND (last_used_at IS NULL OR "
+      "last_used_at < ?)");
+  s->Bind(1, at).Bind(2, id).Bind(3, at);
+  s->Step();
 }
 
 void SqliteStorage::AppendAudit(const AuditEntry& e) {

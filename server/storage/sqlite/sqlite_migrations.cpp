@@ -201,6 +201,10 @@ CREATE INDEX jobs_by_status ON jobs(status, id);
     R"sql(
 ALTER TABLE jobs ADD COLUMN owner_token_id INTEGER NOT NULL DEFAULT 0;
 )sql",
+    // 10: when each token was last used (to within a minute; GET /api/v1/tokens).
+    R"sql(
+ALTER TABLE tokens ADD COLUMN last_used_at TEXT;
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

@@ -95,6 +95,7 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::optional<TokenRecord> FindToken(const std::string& token_sha256) override;
   std::vector<TokenRecord> ListTokens() override;
   bool RevokeToken(std::int64_t id, const TokensCheck& check) override;
+  void TouchToken(std::int64_t id, const std::string& at) override;
   void AppendAudit(const AuditEntry& entry) override;
   AuditPage ListAudit(std::int64_t limit, std::int64_t offset) override;
   // Accuracy audits: sqlite_audits.cpp.

@@ -311,7 +311,9 @@ runDashboard('dbb', async ({ t, step, browser, page, server }) => {
       await p2.click('#token-save');
       await p2.waitForSelector(`#machines button[data-machine-id="${MACHINE}"]`);
       assert.equal(await p2.isHidden('#auth-message'), true);
-      // The only machine and its newest DBB test are shown straight away.
+      // The landing view with the newest uploads; choosing the machine shows its newest DBB test.
+      await p2.waitForSelector('#home-view:not([hidden]) [data-testid="home-uploads"] a');
+      await p2.click(`#machines button[data-machine-id="${MACHINE}"]`);
       await p2.waitForSelector(`#measurements a[data-id="${ids.cw}"][aria-current="true"]`);
       await p2.waitForSelector('#polar-plot svg path[data-direction="ccw"]');
       await p2.screenshot({ path: join(outDir, 'dashboard-401-recovered.png') });

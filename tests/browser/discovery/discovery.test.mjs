@@ -197,8 +197,10 @@ test('discovery page: hexapod gravity + friction found step by step, saved as ve
         assert.ok(!INTERNAL_NAME.test(row.sentence), `sentence in words: ${row.sentence}`);
         assert.ok(row.sentence.startsWith(ev.sentence.slice(0, 40)), `the evidence sentence: ${row.sentence}`);
         assert.equal(Number(row.log10p), ev.log10_p_value);
-        // p underflows to 0: shown as a power of ten from its log10.
-        assert.equal(row.p, `${(10 ** (ev.log10_p_value - Math.floor(ev.log10_p_value))).toFixed(1)} × 10${`${Math.floor(ev.log10_p_value)}`.replace('-', '−')}`);
+        // p underflows to 0: shown as a power of ten from its log10, or as "< 10⁻¹⁵" below that
+        // (no more digits than a double carries).
+        const pText = ev.log10_p_value < -15 ? '< 10−15' : `${(10 ** (ev.log10_p_value - Math.floor(ev.log10_p_value))).toFixed(1)} × 10${`${Math.floor(ev.log10_p_value)}`.replace('-', '−')}`;
+        assert.equal(row.p, pText);
         const ho = 100 * (1 - ev.cv_press_after_um2 / ev.cv_press_before_um2);
         assert.ok(Math.abs(row.heldOut - ho) < 1e-9, `held-out improvement ${row.heldOut} vs ${ho}`);
         assert.ok(ho > 50, 'each step predicts held-out tests much better');

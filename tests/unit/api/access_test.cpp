@@ -37,6 +37,9 @@ const std::map<std::string, Role>& ExpectedRoles() {
       {"GET /api/v1/measurements/{id}/pair", Role::kViewer},
       {"GET /api/v1/measurements/{id}/reversal", Role::kViewer},
       {"GET /api/v1/measurements/{id}/compensation", Role::kViewer},
+      {"GET /api/v1/measurements/{id}/report.pdf", Role::kViewer},
+      {"GET /api/v1/jobs/{id}/report.pdf", Role::kViewer},
+      {"GET /api/v1/machines/{machine_id}/audit/report.pdf", Role::kViewer},
       {"GET /api/v1/measurements/{id}/plot.png", Role::kViewer},
       {"GET /api/v1/measurements/{id}/servo/force", Role::kViewer},
       {"GET /api/v1/machines/{machine_id}/joint-health", Role::kViewer},
@@ -230,8 +233,14 @@ TEST_F(Access, TokensAreShownOnceListedWithoutSecretsAndCheckedField) {
   EXPECT_EQ(items[1]["name"], "line 3 uploader");
   EXPECT_EQ(items[1]["state"], "active");
   EXPECT_FALSE(items[1].contains("token"));
+  // Last use: the admin's request of the list is recorded; the new token was not used yet.
+  EXPECT_TRUE(items[0]["last_used_at"].is_string()) << items[0];
+  EXPECT_TRUE(items[1]["last_used_at"].is_null()) << items[1];
   const auto me = json::parse(Call("GET", "/api/v1/whoami", secret).body);
   EXPECT_EQ(me, (json{{"token_id", t["id"]}, {"name", "line 3 uploader"}, {"role", "operator"}}));
+  const json used = json::parse(Call("GET", "/api/v1/tokens", "boot").body)["items"][1];
+  ASSERT_TRUE(used["last_used_at"].is_string()) << used;
+  EXPECT_EQ(used["last_used_at"].get<std::string>().size(), 20u);  // YYYY-MM-DDTHH:MM:SSZ
 
   const auto bad = [&](const json& body, const std::string& field) {
     const auto r = Call("POST", "/api/v1/tokens", "boot", body.dump());

@@ -116,7 +116,12 @@ TEST_F(PgStorageTest, InstancesStartingAtOnceMigrateOnce) {
   EXPECT_EQ(QueryValue(url_, "SELECT COUNT(*) FROM kinemetric_schema"), "1");
   EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"),
             std::to_string(PgStorage::SchemaVersion()));
-  EXPECT_EQ(PgStorage::SchemaVersion(), 9);
+  EXPECT_EQ(PgStorage::SchemaVersion(), 10);
+  // When each token was last used (migration 10).
+  EXPECT_EQ(QueryValue(url_,
+                       "SELECT COUNT(*) FROM information_schema.columns WHERE table_name = "
+                       "'tokens' AND column_name = 'last_used_at'"),
+            "1");
   // The job-queue columns and the job's owner are there.
   EXPECT_EQ(QueryValue(url_,
                        "SELECT COUNT(*) FROM information_schema.columns WHERE table_name = 'jobs' "

@@ -366,6 +366,14 @@ TEST_P(Backends, TokensAndTheAuditLog) {
   EXPECT_EQ(list[0].name, "first");
   EXPECT_EQ(list[2].role, "viewer");
   EXPECT_FALSE(list[2].expires_at);
+  // The last use: none until recorded; a later time replaces an earlier one, never the reverse.
+  EXPECT_FALSE(list[2].last_used_at);
+  s->TouchToken(3, "2026-05-02T10:00:00Z");
+  s->TouchToken(3, "2026-05-01T10:00:00Z");
+  EXPECT_EQ(s->FindToken("h3")->last_used_at, std::optional<std::string>("2026-05-02T10:00:00Z"));
+  s->TouchToken(3, "2026-05-03T10:00:00Z");
+  EXPECT_EQ(s->ListTokens()[2].last_used_at, std::optional<std::string>("2026-05-03T10:00:00Z"));
+  EXPECT_FALSE(s->ListTokens()[1].last_used_at);
   for (int i = 1; i <= 5; ++i) {
     AuditEntry e;
     e.at = i == 5 ? "" : "2026-05-0" + std::to_string(i) + "T00:00:00Z";

@@ -276,6 +276,19 @@ void ExpectJobsWithoutPlan(SqliteStorage& s) {
   EXPECT_FALSE(s.ClaimJob("instance-a", 1'000'000, 1000, 3, "abandoned"));
 }
 
+// Tokens of earlier versions have no last use (version 10); a use is recorded after the
+// migration, and an earlier time never replaces a later one.
+void ExpectTokenUseRecorded(SqliteStorage& s) {
+  ASSERT_FALSE(s.ListTokens().empty());
+  EXPECT_FALSE(s.ListTokens()[0].last_used_at);
+  s.TouchToken(1, "2026-01-02T03:04:05Z");
+  s.TouchToken(1, "2026-01-01T00:00:00Z");
+  EXPECT_EQ(s.ListTokens()[0].last_used_at, std::optional<std::string>("2026-01-02T03:04:05Z"));
+  const auto t = s.FindToken("c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3");
+  ASSERT_TRUE(t);
+  EXPECT_EQ(t->last_used_at, std::optional<std::string>("2026-01-02T03:04:05Z"));
+}
+
 // Accuracy audits (version 7) are usable at once after a migration.
 void ExpectAccuracyAuditsUsable(SqliteStorage& s) {
   EXPECT_FALSE(s.GetAuditConfig("old-vmc"));
@@ -312,6 +325,7 @@ TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
       if (v >= 8) ExpectVersion8Rows(s);
       if (v >= 2) ExpectJobsWithoutPlan(s);
       ExpectAccuracyAuditsUsable(s);
+      ExpectTokenUseRecorded(s);
       // Tables a migration added are usable at once.
       NewMachineModel m{"old-vmc", "upload", "after migration", "{}", std::string(64, 'd')};
       EXPECT_EQ(s.PutMachineModel(m).record.version, 1);

@@ -1,0 +1,384 @@
+#include "render/pdf_report.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <stdexcept>
+#include <utility>
+
+#include <cairo-pdf.h>
+#include <cairo.h>
+
+#include "render/pdf_report_page.h"
+
+namespace km::render {
+namespace pdf {
+
+namespace {
+
+constexpr const char* kFace = "DejaVu Sans";
+constexpr double kFootSize = 7.5;
+
+// The length in bytes of the UTF-8 code point starting with byte c.
+std::size_t CodePointLength(unsigned char c) {
+  if (c >= 0xF0) return 4;
+  if (c >= 0xE0) return 3;
+  if (c >= 0xC0) return 2;
+  return 1;
+}
+
+}  // namespace
+
+void Page::Font(double size, bool bold) const {
+  cairo_select_font_face(cr_, kFace, CAIRO_FONT_SLANT_NORMAL,
+                         bold ? CAIRO_FONT_WEIGHT_BOLD : CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(cr_, size);
+}
+
+double Page::TextWidth(const std::string& s) const {
+  cairo_text_extents_t e;
+  cairo_text_extents(cr_, s.c_str(), &e);
+  return e.x_advance;
+}
+
+void Page::Text(double x, double baseline, const std::string& s, Rgb colour) const {
+  cairo_set_source_rgb(cr_, colour.r, colour.g, colour.b);
+  cairo_move_to(cr_, x, baseline);
+  cairo_show_text(cr_, s.c_str());
+}
+
+void Page::TextRight(double right, double baseline, const std::string& s) const {
+  Text(right - TextWidth(s), baseline, s);
+}
+
+std::vector<std::string> Page::Wrap(const std::string& s, double width) const {
+  std::vector<std::string> lines;
+  std::string line;
+  std::size_t i = 0;
+  while (i <= s.size()) {
+    const std::size_t end = std::min(s.find(' ', i), s.size());
+    std::string word = s.substr(i, end - i);
+    const std::string candidate = line.empty() ? word : line + " " + word;
+    if (TextWidth(candidate) <= width || (line.empty() && word.empty())) {
+      line = candidate;
+    } else {
+      if (!line.empty()) lines.push_back(line);
+      line.clear();
+      // A word wider than the line is broken between code points.
+      while (TextWidth(word) > width && word.size() > 1) {
+        std::size_t cut = 0;
+        for (std::size_t k = 0; k < word.size(); k += CodePointLength(word[k])) {
+          if (TextWidth(word.substr(0, k + CodePointLength(word[k]))) > width) break;
+          cut = k + CodePointLength(word[k]);
+        }
+        if (cut == 0) cut = CodePointLength(word[0]);
+        lines.push_back(word.substr(0, cut));
+        word = word.substr(cut);
+      }
+      line = word;
+    }
+    i = end + 1;
+  }
+  if (!line.empty() || lines.empty()) lines.push_back(line);
+  return lines;
+}
+
+void Page::Foot() const {
+  Font(kFootSize);
+  const std::string page = "page " + std::to_string(page_);
+  cairo_set_source_rgb(cr_, 0.4, 0.4, 0.4);
+  cairo_move_to(cr_, kMargin, kPageH - 28);
+  cairo_show_text(cr_, footer_.c_str());
+  cairo_move_to(cr_, kPageW - kMargin - TextWidth(page), kPageH - 28);
+  cairo_show_text(cr_, page.c_str());
+  cairo_set_source_rgb(cr_, 0, 0, 0);
+}
+
+void Page::Need(double height) {
+  if (y_ + height <= kPageH - kMargin) return;
+  Foot();
+  cairo_show_page(cr_);
+  ++page_;
+  y_ = kMargin;
+}
+
+void Page::Finish() {
+  Foot();
+}
+
+}  // namespace pdf
+
+namespace {
+
+using pdf::kMargin;
+using pdf::kWidth;
+using pdf::Page;
+
+void DrawTitle(Page& p, const Report& r) {
+  p.Font(16, true);
+  for (const auto& line : p.Wrap(r.title, kWidth)) {
+    p.Need(22);
+    p.Advance(18);
+    p.Text(kMargin, p.y(), line);
+    p.Advance(4);
+  }
+  p.Advance(6);
+  double key_w = 0;
+  p.Font(9, true);
+  for (const auto& [k, v] : r.identification) key_w = std::max(key_w, p.TextWidth(k));
+  key_w = std::min(key_w + 10, kWidth / 3);
+  for (const auto& [k, v] : r.identification) {
+    p.Font(9);
+    const auto lines = p.Wrap(v, kWidth - key_w);
+    p.Need(12.0 * static_cast<double>(lines.size()));
+    p.Font(9, true);
+    p.Text(kMargin, p.y() + 9, k);
+    p.Font(9);
+    for (const auto& line : lines) {
+      p.Text(kMargin + key_w, p.y() + 9, line);
+      p.Advance(12);
+    }
+  }
+  p.Advance(8);
+}
+
+void DrawHeading(Page& p, const std::string& text) {
+  p.Font(12, true);
+  const auto lines = p.Wrap(text, kWidth);
+  p.Need(20 + 15.0 * static_cast<double>(lines.size()) + 30);  // keep a heading with its text
+  p.Advance(8);
+  for (const auto& line : lines) {
+    p.Advance(13);
+    p.Text(kMargin, p.y(), line, {0.04, 0.22, 0.45});
+    p.Advance(2);
+  }
+  p.Advance(6);
+}
+
+void DrawParagraph(Page& p, const std::string& text) {
+  p.Font(9.5);
+  for (const auto& line : p.Wrap(text, kWidth)) {
+    p.Need(13);
+    p.Text(kMargin, p.y() + 9.5, line);
+    p.Advance(12.5);
+  }
+  p.Advance(4);
+}
+
+// Column widths: each column's natural width (header and cells), scaled to the page width when
+// the sum is wider, no column under 45 pt.
+std::vector<double> ColumnWidths(const Page& p, const ReportTable& t) {
+  const std::size_t n = t.header.size();
+  std::vector<double> w(n, 0.0);
+  p.Font(8.5, true);
+  for (std::size_t c = 0; c < n; ++c) w[c] = p.TextWidth(t.header[c]);
+  p.Font(8.5);
+  for (const auto& row : t.rows) {
+    for (std::size_t c = 0; c < n && c < row.size(); ++c)
+      w[c] = std::max(w[c], std::min(p.TextWidth(row[c]), kWidth * 0.6));
+  }
+  double sum = 0;
+  for (auto& x : w) sum += (x += 8.0);
+  if (sum > kWidth) {
+    for (auto& x : w) x = std::max(45.0, x * kWidth / sum);
+    double again = 0;
+    for (double x : w) again += x;
+    for (auto& x : w) x *= kWidth / again;
+  }
+  return w;
+}
+
+// The lines of each cell of a row wrapped to its column, and the row's height.
+struct RowLines {
+  std::vector<std::vector<std::string>> lines;
+  double height = 0;
+};
+
+RowLines WrapRow(const Page& p, const std::vector<std::string>& cells, const std::vector<double>& w,
+                 bool header) {
+  p.Font(8.5, header);
+  RowLines r;
+  r.lines.resize(w.size());
+  std::size_t height = 1;
+  for (std::size_t c = 0; c < w.size(); ++c) {
+    r.lines[c] = p.Wrap(c < cells.size() ? cells[c] : "", w[c] - 8.0);
+    height = std::max(height, r.lines[c].size());
+  }
+  r.height = 11.0 * static_cast<double>(height) + 4.0;
+  return r;
+}
+
+void DrawRow(Page& p, const RowLines& row, const std::vector<double>& w,
+             const std::vector<bool>& numeric, bool header) {
+  const auto& lines = row.lines;
+  const double h = row.height;
+  p.Font(8.5, header);
+  p.Need(h);
+  cairo_t* cr = p.cr();
+  if (header) {
+    cairo_set_source_rgb(cr, 0.92, 0.94, 0.96);
+    cairo_rectangle(cr, kMargin, p.y(), kWidth, h);
+    cairo_fill(cr);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+  }
+  double x = kMargin;
+  for (std::size_t c = 0; c < w.size(); ++c) {
+    const bool right = !header && c < numeric.size() && numeric[c];
+    for (std::size_t k = 0; k < lines[c].size(); ++k) {
+      const double base = p.y() + 10.0 + 11.0 * static_cast<double>(k);
+      if (right) {
+        p.TextRight(x + w[c] - 4.0, base, lines[c][k]);
+      } else {
+        p.Text(x + 4.0, base, lines[c][k]);
+      }
+    }
+    x += w[c];
+  }
+  p.Advance(h);
+  cairo_set_source_rgb(cr, 0.8, 0.82, 0.85);
+  cairo_set_line_width(cr, 0.5);
+  cairo_move_to(cr, kMargin, p.y());
+  cairo_line_to(cr, kMargin + kWidth, p.y());
+  cairo_stroke(cr);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+}
+
+void DrawTable(Page& p, const ReportTable& t) {
+  if (t.header.empty()) return;
+  const auto w = ColumnWidths(p, t);
+  const RowLines head = WrapRow(p, t.header, w, true);
+  p.Need(head.height + 30);
+  DrawRow(p, head, w, t.numeric, true);
+  for (const auto& cells : t.rows) {
+    const RowLines row = WrapRow(p, cells, w, false);
+    const int page = p.number();
+    p.Need(row.height);
+    if (p.number() != page) DrawRow(p, head, w, t.numeric, true);  // the header on each page
+    DrawRow(p, row, w, t.numeric, false);
+  }
+  p.Advance(8);
+}
+
+void DrawSignatures(Page& p, const std::vector<std::string>& signers) {
+  p.Need(24.0 + 34.0 * static_cast<double>(signers.size()));
+  p.Advance(10);
+  cairo_t* cr = p.cr();
+  cairo_set_line_width(cr, 0.6);
+  for (const auto& role : signers) {
+    p.Font(9, true);
+    p.Text(kMargin, p.y() + 12, role);
+    p.Font(8);
+    const double cols[] = {kMargin + 110, kMargin + 260, kMargin + 410};
+    const char* labels[] = {"Name", "Signature", "Date"};
+    for (int k = 0; k < 3; ++k) {
+      cairo_move_to(cr, cols[k], p.y() + 16);
+      cairo_line_to(cr, cols[k] + (k == 2 ? 85 : 140), p.y() + 16);
+      cairo_stroke(cr);
+      p.Text(cols[k], p.y() + 26, labels[k], {0.4, 0.4, 0.4});
+    }
+    p.Advance(34);
+  }
+}
+
+cairo_status_t AppendBytes(void* closure, const unsigned char* data, unsigned int length) {
+  static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
+  return CAIRO_STATUS_SUCCESS;
+}
+
+void DrawBlock(Page& p, const ReportBlock& b) {
+  switch (b.kind) {
+    case ReportBlock::Kind::kHeading:
+      DrawHeading(p, b.text);
+      break;
+    case ReportBlock::Kind::kParagraph:
+      DrawParagraph(p, b.text);
+      break;
+    case ReportBlock::Kind::kTable:
+      DrawTable(p, b.table);
+      break;
+    case ReportBlock::Kind::kPolar:
+      pdf::DrawPolar(p, b.polar);
+      break;
+    case ReportBlock::Kind::kChart:
+      pdf::DrawChart(p, b.chart);
+      break;
+    case ReportBlock::Kind::kSignature:
+      DrawSignatures(p, b.signers);
+      break;
+  }
+}
+
+}  // namespace
+
+ReportBlock HeadingBlock(std::string text) {
+  ReportBlock b;
+  b.kind = ReportBlock::Kind::kHeading;
+  b.text = std::move(text);
+  return b;
+}
+
+ReportBlock ParagraphBlock(std::string text) {
+  ReportBlock b;
+  b.kind = ReportBlock::Kind::kParagraph;
+  b.text = std::move(text);
+  return b;
+}
+
+ReportBlock TableBlock(ReportTable table) {
+  ReportBlock b;
+  b.kind = ReportBlock::Kind::kTable;
+  b.table = std::move(table);
+  return b;
+}
+
+ReportBlock PolarBlock(DbbPolar polar) {
+  ReportBlock b;
+  b.kind = ReportBlock::Kind::kPolar;
+  b.polar = std::move(polar);
+  return b;
+}
+
+ReportBlock ChartBlock(ReportChart chart) {
+  ReportBlock b;
+  b.kind = ReportBlock::Kind::kChart;
+  b.chart = std::move(chart);
+  return b;
+}
+
+ReportBlock SignatureBlock(std::vector<std::string> signers) {
+  ReportBlock b;
+  b.kind = ReportBlock::Kind::kSignature;
+  b.signers = std::move(signers);
+  return b;
+}
+
+std::string RenderPdf(const Report& report) {
+  std::string out;
+  cairo_surface_t* surface =
+      cairo_pdf_surface_create_for_stream(AppendBytes, &out, pdf::kPageW, pdf::kPageH);
+  cairo_pdf_surface_set_metadata(surface, CAIRO_PDF_METADATA_TITLE, report.title.c_str());
+  cairo_pdf_surface_set_metadata(surface, CAIRO_PDF_METADATA_CREATOR, "kinemetric");
+  cairo_t* cr = cairo_create(surface);
+  try {
+    Page page(cr, report.footer);
+    DrawTitle(page, report);
+    for (const auto& b : report.blocks) DrawBlock(page, b);
+    page.Finish();
+  } catch (...) {
+    cairo_destroy(cr);
+    cairo_surface_destroy(surface);
+    throw;
+  }
+  const cairo_status_t drawn = cairo_status(cr);
+  cairo_destroy(cr);
+  cairo_surface_finish(surface);
+  const cairo_status_t written = cairo_surface_status(surface);
+  cairo_surface_destroy(surface);
+  for (const auto st : {drawn, written}) {
+    if (st != CAIRO_STATUS_SUCCESS) {
+      throw std::runtime_error(std::string("PDF report: cairo: ") + cairo_status_to_string(st));
+    }
+  }
+  return out;
+}
+
+}  // namespace km::render

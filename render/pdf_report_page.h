@@ -1,0 +1,55 @@
+// The page of a PDF report being laid out (render/pdf_report.cpp, pdf_report_plots.cpp): a
+// cairo context on an A4 PDF surface, the cursor going down the page, a new page when a block does
+// not fit, text in DejaVu Sans measured and wrapped to a width. Internal to render/.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <cairo.h>
+
+#include "render/pdf_report.h"
+
+namespace km::render::pdf {
+
+inline constexpr double kPageW = 595.28;  // A4 in points
+inline constexpr double kPageH = 841.89;
+inline constexpr double kMargin = 50.0;
+inline constexpr double kWidth = kPageW - 2 * kMargin;
+
+struct Rgb {
+  double r = 0, g = 0, b = 0;
+};
+
+class Page {
+ public:
+  Page(cairo_t* cr, std::string footer) : cr_(cr), footer_(std::move(footer)) {}
+  cairo_t* cr() const { return cr_; }
+  double y() const { return y_; }
+  void Advance(double dy) { y_ += dy; }
+  int number() const { return page_; }
+  // Starts a new page unless `height` points still fit above the bottom margin.
+  void Need(double height);
+  void Finish();  // the foot of the last page
+
+  void Font(double size, bool bold = false) const;
+  double TextWidth(const std::string& s) const;
+  void Text(double x, double baseline, const std::string& s, Rgb colour = {}) const;
+  void TextRight(double right, double baseline, const std::string& s) const;
+  // Lines of at most `width` points, broken at spaces (a longer word at code points).
+  std::vector<std::string> Wrap(const std::string& s, double width) const;
+
+ private:
+  void Foot() const;
+  cairo_t* cr_;
+  std::string footer_;
+  double y_ = kMargin;
+  int page_ = 1;
+};
+
+// The polar plot of a DBB test and a line chart, drawn at the cursor (pdf_report_plots.cpp).
+void DrawPolar(Page& page, const DbbPolar& polar);
+void DrawChart(Page& page, const ReportChart& chart);
+
+}  // namespace km::render::pdf

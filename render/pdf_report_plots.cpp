@@ -1,0 +1,227 @@
+// The graphics of a PDF report (render/pdf_report.h) as vector paths: the polar plot of a DBB
+// test, drawn as render/polar_plot.h draws its PNG (deviation d at angle θ at the radius r0 + k·d,
+// rings at whole divisions, the minimum-zone circles, the same scale), and line charts.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <utility>
+
+#include "render/pdf_report_page.h"
+#include "render/polar_plot.h"
+
+namespace km::render::pdf {
+namespace {
+
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.6g", v);
+  return buf;
+}
+
+void Stroke(cairo_t* cr, Rgb c, double width, bool dashed = false) {
+  cairo_set_source_rgb(cr, c.r, c.g, c.b);
+  cairo_set_line_width(cr, width);
+  const double dash[] = {4.0, 2.5};
+  cairo_set_dash(cr, dash, dashed ? 2 : 0, 0);
+  cairo_stroke(cr);
+  cairo_set_dash(cr, dash, 0, 0);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+}
+
+const Rgb kGreen{0.16, 0.63, 0.16};
+
+// 1-2-5 ticks covering [lo, hi], about `count` of them.
+std::vector<double> Ticks(double lo, double hi, int count) {
+  const double span = hi - lo;
+  if (!(span > 0) || !std::isfinite(span)) return {lo};
+  const double raw = span / count;
+  const double e = std::pow(10.0, std::floor(std::log10(raw)));
+  const double m = raw / e;
+  const double step = (m <= 1 ? 1 : m <= 2 ? 2 : m <= 5 ? 5 : 10) * e;
+  std::vector<double> out;
+  for (double v = std::ceil(lo / step) * step; v <= hi + 1e-9 * step; v += step)
+    out.push_back(std::abs(v) < 1e-12 * step ? 0.0 : v);
+  return out;
+}
+
+}  // namespace
+
+void DrawPolar(Page& p, const DbbPolar& polar) {
+  const auto& o = polar.options;
+  const auto [div, ndiv] = ChoosePolarScale(polar.traces, polar.zone, o);
+  const double size = 300.0;
+  const double notes_h = 12.0 * static_cast<double>(o.notes.size());
+  p.Need(size + 44 + notes_h);
+  cairo_t* cr = p.cr();
+  p.Font(10, true);
+  p.Text(kMargin, p.y() + 10, o.title);
+  const double cx = kMargin + kWidth / 2.0, cy = p.y() + 22 + size / 2.0;
+  const double r0 = 0.30 * size, band = 0.18 * size;
+  const double k = band / (ndiv * div);  // points per µm
+  const auto at = [&](double theta, double d) {
+    const double r = std::max(0.0, r0 + k * d);
+    return std::pair{cx + r * std::cos(theta), cy - r * std::sin(theta)};
+  };
+  for (int i = -ndiv; i <= ndiv; ++i) {
+    const double r = r0 + k * i * div;
+    if (r <= 0) continue;
+    cairo_new_path(cr);
+    cairo_arc(cr, cx, cy, r, 0, 2 * std::numbers::pi);
+    Stroke(cr, i == 0 ? Rgb{0.47, 0.47, 0.47} : Rgb{0.86, 0.86, 0.86}, i == 0 ? 0.8 : 0.5);
+  }
+  for (int a = 0; a < 360; a += 30) {
+    const double t = a * std::numbers::pi / 180.0;
+    const auto [x0, y0] = at(t, -ndiv * div);
+    const auto [x1, y1] = at(t, ndiv * div);
+    cairo_move_to(cr, x0, y0);
+    cairo_line_to(cr, x1, y1);
+    Stroke(cr, {0.86, 0.86, 0.86}, 0.5);
+  }
+  for (double rho : {polar.zone.inner_um, polar.zone.outer_um}) {
+    for (int i = 0; i <= 720; ++i) {
+      const double t = i * std::numbers::pi / 360.0;
+      const auto [x, y] = at(
+          t, rho + polar.zone.centre_um[0] * std::cos(t) + polar.zone.centre_um[1] * std::sin(t));
+      if (i == 0) {
+        cairo_move_to(cr, x, y);
+      } else {
+        cairo_line_to(cr, x, y);
+      }
+    }
+    Stroke(cr, kGreen, 0.6, true);
+  }
+  double legend_y = p.y() + 30;
+  p.Font(8);
+  for (const auto& t : polar.traces) {
+    for (std::size_t i = 0; i < t.angle_rad.size(); ++i) {
+      const auto [x, y] = at(t.angle_rad[i], t.dev_um[i]);
+      if (i == 0) {
+        cairo_move_to(cr, x, y);
+      } else {
+        cairo_line_to(cr, x, y);
+      }
+    }
+    const Rgb c{t.bgr[2] / 255.0, t.bgr[1] / 255.0, t.bgr[0] / 255.0};
+    Stroke(cr, c, 0.9);
+    cairo_move_to(cr, kMargin + kWidth - 70, legend_y - 3);
+    cairo_line_to(cr, kMargin + kWidth - 55, legend_y - 3);
+    Stroke(cr, c, 1.2);
+    p.Text(kMargin + kWidth - 50, legend_y, t.label);
+    legend_y += 12;
+  }
+  cairo_move_to(cr, kMargin + kWidth - 70, legend_y - 3);
+  cairo_line_to(cr, kMargin + kWidth - 55, legend_y - 3);
+  Stroke(cr, kGreen, 0.8, true);
+  p.Text(kMargin + kWidth - 50, legend_y, "min. zone");
+  const auto [ax, ay] = at(0.0, (ndiv + 0.5) * div);
+  p.Text(ax + 2, ay + 3, "+" + o.first_axis);
+  const auto [bx, by] = at(std::numbers::pi / 2.0, (ndiv + 0.5) * div);
+  p.Text(bx - 6, by - 2, "+" + o.second_axis);
+  p.Advance(size + 30);
+  p.Font(8.5);
+  p.Text(kMargin, p.y(),
+         "Scale " + Num(div) +
+             " µm/div; grey ring: the least-squares circle; deviations about "
+             "its centre.");
+  p.Advance(6);
+  for (const auto& n : o.notes) {
+    p.Advance(12);
+    p.Text(kMargin, p.y(), n);
+  }
+  p.Advance(12);
+}
+
+void DrawChart(Page& p, const ReportChart& chart) {
+  double xlo = std::numeric_limits<double>::infinity(), xhi = -xlo, ylo = xlo, yhi = -xlo;
+  for (const auto& s : chart.series) {
+    for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+      xlo = std::min(xlo, s.x[i]);
+      xhi = std::max(xhi, s.x[i]);
+      ylo = std::min(ylo, s.y[i]);
+      yhi = std::max(yhi, s.y[i]);
+    }
+  }
+  if (!std::isfinite(xlo)) return;  // nothing finite to draw
+  for (const auto& [label, v] : chart.limits) {
+    ylo = std::min(ylo, v);
+    yhi = std::max(yhi, v);
+  }
+  if (xhi <= xlo) xhi = xlo + 1;
+  const double pad = (yhi - ylo) * 0.08 + (yhi > ylo ? 0 : 0.5);
+  ylo -= pad;
+  yhi += pad;
+  const double H = 190, L = 58, R = 12, T = 18, B = 32;
+  p.Need(H + 16.0 * static_cast<double>(chart.series.size() / 4 + 1) + 10);
+  cairo_t* cr = p.cr();
+  const double top = p.y();
+  const auto px = [&](double x) {
+    return kMargin + L + (x - xlo) / (xhi - xlo) * (kWidth - L - R);
+  };
+  const auto py = [&](double y) { return top + T + (1 - (y - ylo) / (yhi - ylo)) * (H - T - B); };
+  p.Font(10, true);
+  p.Text(kMargin, top + 11, chart.title);
+  p.Font(7.5);
+  for (double v : Ticks(ylo, yhi, 5)) {
+    cairo_move_to(cr, kMargin + L, py(v));
+    cairo_line_to(cr, kMargin + kWidth - R, py(v));
+    Stroke(cr, {0.88, 0.88, 0.88}, 0.4);
+    p.TextRight(kMargin + L - 4, py(v) + 2.5, Num(v));
+  }
+  for (double v : Ticks(xlo, xhi, 8)) {
+    p.Text(px(v) - p.TextWidth(Num(v)) / 2, top + H - B + 10, Num(v));
+  }
+  cairo_rectangle(cr, kMargin + L, top + T, kWidth - L - R, H - T - B);
+  Stroke(cr, {0.5, 0.5, 0.5}, 0.6);
+  p.Font(8);
+  p.Text(kMargin + L, top + H - 6, chart.x_label);
+  p.Text(kMargin, top + T - 3, chart.y_label);
+  for (const auto& [label, v] : chart.limits) {
+    cairo_move_to(cr, kMargin + L, py(v));
+    cairo_line_to(cr, kMargin + kWidth - R, py(v));
+    Stroke(cr, {0.7, 0.12, 0.07}, 0.8, true);
+    p.TextRight(kMargin + kWidth - R - 3, py(v) - 2, label + " " + Num(v));
+  }
+  const Rgb palette[] = {{0.04, 0.36, 0.68}, {0.71, 0.33, 0.04}, {0.06, 0.46, 0.43},
+                         {0.49, 0.23, 0.93}, {0.62, 0.09, 0.30}, {0.30, 0.49, 0.06}};
+  double lx = kMargin + L, ly = top + H + 10;
+  for (std::size_t k = 0; k < chart.series.size(); ++k) {
+    const auto& s = chart.series[k];
+    const Rgb c = palette[k % 6];
+    bool first = true;
+    for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+      if (first) {
+        cairo_move_to(cr, px(s.x[i]), py(s.y[i]));
+      } else {
+        cairo_line_to(cr, px(s.x[i]), py(s.y[i]));
+      }
+      first = false;
+    }
+    Stroke(cr, c, 1.0);
+    if (s.x.size() <= 80) {
+      for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+        if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+        cairo_new_path(cr);
+        cairo_arc(cr, px(s.x[i]), py(s.y[i]), 1.8, 0, 2 * std::numbers::pi);
+        cairo_set_source_rgb(cr, c.r, c.g, c.b);
+        cairo_fill(cr);
+      }
+    }
+    if (lx + 120 > kMargin + kWidth) {
+      lx = kMargin + L;
+      ly += 14;
+    }
+    cairo_move_to(cr, lx, ly - 3);
+    cairo_line_to(cr, lx + 14, ly - 3);
+    Stroke(cr, c, 1.2);
+    p.Text(lx + 18, ly, s.label);
+    lx += 24 + std::max(80.0, p.TextWidth(s.label));
+  }
+  p.Advance(ly - top + 12);
+}
+
+}  // namespace km::render::pdf

@@ -1,0 +1,113 @@
+#include "server/reports/report_service.h"
+
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "analysis/core/errors.h"
+#include "analysis/dbb/full_analysis.h"
+#include "ingest/json_text.h"
+#include "render/pdf_report.h"
+#include "server/audits/audit_service.h"
+#include "server/base/time_util.h"
+#include "usecases/dbb_report.h"
+#include "usecases/pdf_reports.h"
+
+namespace km::server {
+namespace {
+
+usecases::ReportSource SourceOf(const MeasurementRecord& r) {
+  usecases::ReportSource s;
+  s.measurement_id = r.id;
+  s.kind = r.kind;
+  s.machine_id = r.machine_id;
+  s.test_id = r.test_id;
+  s.direction = r.direction;
+  s.filename = r.filename;
+  s.measured_at = r.measured_at.value_or("");
+  s.uploaded_at = r.uploaded_at;
+  if (!r.metadata_json.empty())
+    s.metadata = ingest::ParseJsonText(r.metadata_json, "stored document");
+  return s;
+}
+
+// The machine's audit rules (null: none) and its newest verdict (null: none).
+usecases::ReportAudit AuditOf(AuditSource& records, const std::string& machine_id) {
+  usecases::ReportAudit a{nullptr, nullptr};
+  if (records.storage().GetAuditConfig(machine_id)) a.config = AuditConfigJson(records, machine_id);
+  AuditVerdictFilter f;
+  f.machine_id = machine_id;
+  f.limit = 1;
+  const auto list = ListAccuracyAudits(records, f);
+  if (!list.at("audits").empty()) a.verdict = list.at("audits").at(0);
+  return a;
+}
+
+// The newest test of the same set-up (machine, kind, test and direction) measured after `r`: the
+// machine as left.
+std::optional<usecases::ReportLater> LaterOf(AuditSource& records, MeasurementService& ms,
+                                             const MeasurementRecord& r) {
+  MeasurementFilter f;
+  f.machine_id = r.machine_id;
+  f.kind = r.kind;
+  f.test_id = r.test_id;
+  if (!r.direction.empty()) f.direction = r.direction;
+  f.order = MeasurementFilter::Order::kNewest;
+  f.limit = 1;
+  const auto page = records.storage().ListMeasurements(f);
+  if (page.items.empty() || page.items.front().id == r.id) return std::nullopt;
+  const auto& n = page.items.front();
+  const std::string then = n.measured_at.value_or(n.uploaded_at);
+  if (then <= r.measured_at.value_or(r.uploaded_at)) return std::nullopt;
+  return usecases::ReportLater{n.id, then, ms.Results(n.id)};
+}
+
+usecases::ReportContext ContextOf(AuditSource& records, MeasurementService& ms,
+                                  const MeasurementRecord& r) {
+  usecases::ReportContext c;
+  c.printed_at = NowUtcIso8601();
+  c.audit = AuditOf(records, r.machine_id);
+  c.later = LaterOf(records, ms, r);
+  return c;
+}
+
+}  // namespace
+
+std::string ReportService::DbbPdf(const MeasurementRecord& rec) {
+  std::vector<dbb::DbbTest> tests{measurements_.LoadDbb(rec.id)};
+  const auto partner = measurements_.DbbPartner(rec);
+  if (partner) tests.push_back(measurements_.LoadDbb(*partner));
+  const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
+  const nlohmann::json j = usecases::DbbReportJson(tests, report);
+  usecases::ReportContext ctx = ContextOf(records_, measurements_, rec);
+  ctx.partner_id = partner;
+  return render::RenderPdf(usecases::DbbPdfReport(report, j, 0, SourceOf(rec), ctx));
+}
+
+std::string ReportService::MeasurementPdf(std::int64_t id) {
+  const auto rec = records_.storage().GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (rec->kind == "dbb") return DbbPdf(*rec);
+  const auto ctx = ContextOf(records_, measurements_, *rec);
+  return render::RenderPdf(
+      usecases::ResultsPdfReport(measurements_.Results(id), SourceOf(*rec), ctx));
+}
+
+std::string ReportService::JobPdf(std::int64_t id) {
+  return render::RenderPdf(usecases::JobPdfReport(studies_.Job(id), NowUtcIso8601()));
+}
+
+std::string ReportService::AuditPdf(const std::string& machine_id) {
+  const auto a = AuditOf(records_, machine_id);
+  AuditVerdictFilter f;
+  f.machine_id = machine_id;
+  f.limit = 50;
+  const auto verdicts = ListAccuracyAudits(records_, f).at("audits");
+  if (a.config.is_null() && verdicts.empty()) {
+    throw NotFound("machine '" + machine_id + "' has no accuracy audit");
+  }
+  return render::RenderPdf(
+      usecases::AuditPdfReport(machine_id, a.config, verdicts, NowUtcIso8601()));
+}
+
+}  // namespace km::server

@@ -1,0 +1,227 @@
+#include "usecases/pdf_reports.h"
+
+#include <cctype>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "render/dbb_plot.h"
+#include "usecases/pdf_reports_text.h"
+
+namespace km::usecases {
+namespace {
+
+using nlohmann::json;
+using render::HeadingBlock;
+using render::ParagraphBlock;
+using render::ReportTable;
+using render::TableBlock;
+using report_text::Fixed;
+
+std::string Upper(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string Meta(const json& m, const char* key, const std::string& fallback = "—") {
+  return m.contains(key) && m[key].is_string() ? m[key].get<std::string>() : fallback;
+}
+
+// The set-up of the test as its file states it.
+ReportTable SetUpTable(const json& test, const json& meta) {
+  ReportTable t;
+  t.header = {"Set-up", "Value"};
+  t.rows = {{"Plane", test.value("plane", "XY")},
+            {"Direction", Upper(test.value("direction", ""))},
+            {"Bar length", Fixed(test.value("bar_length_mm", json()), 3) + " mm"},
+            {"Circle radius", Fixed(test.value("radius_mm", json()), 3) + " mm"},
+            {"Centre", Meta(meta, "centre_mm") + " mm"},
+            {"Feed", Meta(meta, "feed_mm_min") + " mm/min"},
+            {"Evaluation", test.value("mode", "") + ", over " + test.value("evaluated_over", "") +
+                               " (" + Fixed(test.value("evaluated_arc_deg", json()), 0) + "°)"},
+            {"Temperature", Meta(meta, "temperature_c") + " °C"}};
+  return t;
+}
+
+// Figure | CCW | CW | unit, in tool-path units (ISO 230-4), for the tests shown.
+ReportTable FiguresOfTests(const std::vector<json>& tests, const json& pair) {
+  ReportTable t;
+  t.header = {"Figure"};
+  for (const auto& x : tests) t.header.push_back(Upper(x.value("direction", "")));
+  t.header.push_back("Unit");
+  t.numeric.assign(t.header.size(), true);
+  t.numeric.front() = false;
+  t.numeric.back() = false;
+  const auto row = [&](const std::string& label, auto get, const char* unit) {
+    std::vector<std::string> r{label};
+    for (const auto& x : tests) r.push_back(get(x));
+    r.push_back(unit);
+    t.rows.push_back(std::move(r));
+  };
+  const auto num = [](const char* key) {
+    return [key](const json& x) { return Fixed(x.value(key, json())); };
+  };
+  row("Circularity F (least squares)", num("circularity_um"), "µm");
+  row("Circularity, minimum zone", num("min_zone_circularity_um"), "µm");
+  row(
+      "Circular deviation G (ISO 230-4)",
+      [](const json& x) {
+        return Fixed(x.value("iso230_4", json::object()).value("circular_deviation_um", json()));
+      },
+      "µm");
+  row(
+      "Centre offset x",
+      [](const json& x) {
+        const auto c = x.value("centre_offset_um", json::array());
+        return c.size() == 2 ? Fixed(c[0]) : std::string("—");
+      },
+      "µm");
+  row(
+      "Centre offset y",
+      [](const json& x) {
+        const auto c = x.value("centre_offset_um", json::array());
+        return c.size() == 2 ? Fixed(c[1]) : std::string("—");
+      },
+      "µm");
+  row("Average radial error", num("average_radial_error_um"), "µm");
+  if (pair.is_object()) {
+    const auto one = [&](const std::string& label, const char* key) {
+      std::vector<std::string> r{label, Fixed(pair.value(key, json()))};
+      r.resize(t.header.size() - 1);
+      r.push_back("µm");
+      t.rows.push_back(std::move(r));
+    };
+    one("Bidirectional circular deviation G(b) (pair)", "bidirectional_circular_deviation_um");
+    one("Circular hysteresis H (pair)", "circular_hysteresis_um");
+  }
+  return t;
+}
+
+std::vector<render::ReportBlock> DiagnosisBlocks(const json& test) {
+  std::vector<render::ReportBlock> out;
+  out.push_back(HeadingBlock("Diagnosis: the errors that make up the circle"));
+  const auto& d = test.value("diagnosis", json::array());
+  if (d.empty()) {
+    out.push_back(ParagraphBlock("No effect stands out of the noise of this test."));
+  } else {
+    ReportTable t;
+    t.header = {"Effect", "Value", "± σ", "Unit", "Share of circularity"};
+    t.numeric = {false, true, true, false, true};
+    for (const auto& e : d) {
+      std::string name = e.value("effect", "");
+      for (auto& c : name) c = c == '_' ? ' ' : c;
+      t.rows.push_back({name, Fixed(e.value("value", json()), 3),
+                        Fixed(e.value("uncertainty", json()), 3), e.value("unit", ""),
+                        Fixed(e.value("contribution_pct", json()), 1) + " %"});
+    }
+    out.push_back(TableBlock(std::move(t)));
+  }
+  const auto& ni = test.value("not_identifiable", json::array());
+  if (!ni.empty()) {
+    std::string s = "Not identifiable from this test: ";
+    for (std::size_t i = 0; i < ni.size(); ++i) s += (i ? "; " : "") + report_text::Short(ni[i]);
+    out.push_back(ParagraphBlock(s + "."));
+  }
+  return out;
+}
+
+std::vector<render::ReportBlock> AsFoundAsLeft(const json& test, const ReportLater& later,
+                                               const ReportSource& source) {
+  ReportTable t;
+  t.header = {"Figure", "As found", "As left", "Unit"};
+  t.numeric = {false, true, true, false};
+  const json& after = later.results;
+  t.rows.push_back({"Measurement", "#" + std::to_string(source.measurement_id),
+                    "#" + std::to_string(later.measurement_id), ""});
+  t.rows.push_back({"Measured", report_text::When(source.measured_at),
+                    report_text::When(later.measured_at), ""});
+  for (const char* key : {"circularity_um", "min_zone_circularity_um", "average_radial_error_um"}) {
+    const auto l = report_text::LabelOf(key);
+    t.rows.push_back(
+        {l.label, Fixed(test.value(key, json())), Fixed(after.value(key, json())), l.unit});
+  }
+  return {HeadingBlock("As found / as left"),
+          ParagraphBlock("The newest later test of the same set-up (machine, test and "
+                         "direction) is the machine as left."),
+          TableBlock(std::move(t))};
+}
+
+void AddClosing(render::Report& r, const ReportSource& source, const ReportContext& context) {
+  if (context.audit) {
+    for (auto& b : report_text::AuditBlocks(*context.audit, source.kind)) {
+      r.blocks.push_back(std::move(b));
+    }
+  }
+  r.blocks.push_back(HeadingBlock("Signatures"));
+  r.blocks.push_back(render::SignatureBlock({"Measured by", "Checked by", "Approved by"}));
+}
+
+}  // namespace
+
+render::Report DbbPdfReport(const dbb::DbbReport& report, const json& report_json,
+                            std::size_t test_index, const ReportSource& source,
+                            const ReportContext& context) {
+  const json& tests = report_json.at("tests");
+  const json& test = tests.at(test_index);
+  std::vector<json> shown{test};
+  json pair = nullptr;
+  const auto& t = report.tests.at(test_index);
+  if (t.pair) {
+    const auto& p = report.pairs[*t.pair];
+    shown = {tests.at(p.ccw), tests.at(p.cw)};
+    pair = report_json.at("pairs").at(*t.pair);
+  }
+  render::Report r;
+  r.title = "DBB circular test — " + source.machine_id + ", " + source.test_id + " " +
+            Upper(source.direction);
+  r.identification = report_text::Identification(source);
+  if (context.partner_id) {
+    r.identification.push_back(
+        {"Partner", "measurement #" + std::to_string(*context.partner_id) + " (" +
+                        Upper(source.direction == "cw" ? "ccw" : "cw") + ")"});
+  }
+  r.footer = report_text::Footer("DBB report " + source.machine_id, context.printed_at);
+  r.blocks.push_back(TableBlock(SetUpTable(test, source.metadata)));
+  r.blocks.push_back(HeadingBlock("Polar plot"));
+  r.blocks.push_back(render::PolarBlock(render::DbbPolarPlot(report, test_index)));
+  r.blocks.push_back(HeadingBlock("Figures (ISO 230-4, tool-path units)"));
+  r.blocks.push_back(TableBlock(FiguresOfTests(shown, pair)));
+  for (auto& b : DiagnosisBlocks(test)) r.blocks.push_back(std::move(b));
+  if (context.later) {
+    for (auto& b : AsFoundAsLeft(test, *context.later, source)) r.blocks.push_back(std::move(b));
+  }
+  AddClosing(r, source, context);
+  return r;
+}
+
+render::Report ResultsPdfReport(const json& results, const ReportSource& source,
+                                const ReportContext& context) {
+  static const std::vector<std::pair<std::string, std::string>> kTitles = {
+      {"straightness", "Straightness"},
+      {"flatness", "Flatness"},
+      {"parallelism", "Parallelism"},
+      {"tracker", "Laser-tracker self-calibration"},
+      {"positioning", "Linear positioning (ISO 230-2)"},
+      {"servo", "Servo loads"}};
+  std::string what = source.kind;
+  for (const auto& [k, v] : kTitles) {
+    if (k == source.kind) what = v;
+  }
+  render::Report r;
+  r.title =
+      what + " — " + source.machine_id + (source.test_id.empty() ? "" : ", " + source.test_id);
+  r.identification = report_text::Identification(source);
+  r.footer = report_text::Footer(what + " report " + source.machine_id, context.printed_at);
+  r.blocks.push_back(HeadingBlock("Figures"));
+  r.blocks.push_back(TableBlock(report_text::FiguresTable(results)));
+  for (auto& b : report_text::ColumnTables(results)) r.blocks.push_back(std::move(b));
+  if (results.contains("warnings") && results["warnings"].is_array()) {
+    for (const auto& w : results["warnings"]) {
+      r.blocks.push_back(ParagraphBlock("Note: " + report_text::Short(w)));
+    }
+  }
+  AddClosing(r, source, context);
+  return r;
+}
+
+}  // namespace km::usecases

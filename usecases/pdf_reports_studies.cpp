@@ -1,0 +1,271 @@
+// The PDF reports of an accuracy audit and of a calibration or discovery job, and the audit
+// section of a measurement report (usecases/pdf_reports.h).
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "usecases/pdf_reports.h"
+#include "usecases/pdf_reports_text.h"
+
+namespace km::usecases {
+
+using nlohmann::json;
+using render::HeadingBlock;
+using render::ParagraphBlock;
+using render::ReportTable;
+using render::TableBlock;
+using report_text::Fixed;
+using report_text::Short;
+
+std::string AuditLevelWords(int level) {
+  switch (level) {
+    case 1:
+      return "level 1 — normal";
+    case 2:
+      return "level 2 — warn";
+    case 3:
+      return "level 3 — stop";
+    default:
+      return "level " + std::to_string(level);
+  }
+}
+
+namespace {
+
+std::string Limits(const json& rule) {
+  std::string s;
+  if (rule.contains("warn") && rule["warn"].is_number()) s += "warn " + Short(rule["warn"]);
+  if (rule.contains("stop") && rule["stop"].is_number()) {
+    s += (s.empty() ? "" : ", ") + std::string("stop ") + Short(rule["stop"]);
+  }
+  const std::string change = rule.value("change", "");
+  if (change == "previous_audit") s = "increase since the previous audit: " + s;
+  if (change == "days") s = "increase over " + Short(rule.value("days", json())) + " days: " + s;
+  return s;
+}
+
+std::string Status(const json& c) {
+  const std::string st = c.value("status", "");
+  if (st == "finding") return AuditLevelWords(c.value("level", 0));
+  if (st == "ok") return "within limits";
+  return "not evaluated" + (c.contains("reason") ? ": " + Short(c["reason"]) : std::string());
+}
+
+std::string Evidence(const json& x) {
+  if (x.contains("job_id") && !x["job_id"].is_null()) return "job #" + Short(x["job_id"]);
+  if (x.contains("measurement_id") && !x["measurement_id"].is_null()) {
+    return "measurement #" + Short(x["measurement_id"]);
+  }
+  return "—";
+}
+
+// One row a rule: what it limits, its limits, the newest audit's value and status.
+ReportTable RulesTable(const json& rules, const json& verdict, const std::string& kind) {
+  ReportTable t;
+  t.header = {"Rule", "Limits", "Value", "Status", "Judged"};
+  t.numeric = {false, false, true, false, false};
+  const json checked = verdict.is_object() ? verdict.value("checked", json::array()) : json();
+  for (std::size_t i = 0; i < rules.size(); ++i) {
+    const json& rule = rules[i];
+    if (!kind.empty() && rule.value("kind", "") != kind) continue;
+    json c = json::object();
+    for (const auto& x : checked) {
+      if (x.value("rule", -1) == static_cast<int>(i)) c = x;
+    }
+    t.rows.push_back({rule.value("kind", "") + " " + rule.value("metric", ""), Limits(rule),
+                      c.contains("value") ? Fixed(c["value"], 3) : "—",
+                      c.empty() ? "not run yet" : Status(c), Evidence(c)});
+  }
+  return t;
+}
+
+std::string VerdictLine(const json& v) {
+  if (!v.is_object()) return "No audit has run yet.";
+  return "Verdict: " + AuditLevelWords(v.value("level", 0)) + " (audit #" +
+         Short(v.value("id", json())) + " of " + v.value("created_at", "") + ", " +
+         (v.value("trigger", "") == "schedule" ? "scheduled" : "on request") + ").";
+}
+
+}  // namespace
+
+namespace report_text {
+
+std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const std::string& kind) {
+  std::vector<render::ReportBlock> out;
+  out.push_back(HeadingBlock("Accuracy audit of the machine"));
+  const json rules =
+      audit.config.is_object() ? audit.config.value("rules", json::array()) : json::array();
+  if (rules.empty()) {
+    out.push_back(ParagraphBlock("No audit rules are set for this machine."));
+    return out;
+  }
+  out.push_back(ParagraphBlock(VerdictLine(audit.verdict)));
+  ReportTable t = RulesTable(rules, audit.verdict, kind);
+  if (t.rows.empty()) {
+    out.push_back(ParagraphBlock("No rule of the machine's audit reads " + kind + " results."));
+  } else {
+    out.push_back(TableBlock(std::move(t)));
+  }
+  return out;
+}
+
+}  // namespace report_text
+
+render::Report AuditPdfReport(const std::string& machine_id, const json& config,
+                              const json& verdicts, const std::string& printed_at) {
+  const json newest = verdicts.is_array() && !verdicts.empty() ? verdicts[0] : json();
+  render::Report r;
+  r.title = "Accuracy audit — " + machine_id;
+  r.identification = {
+      {"Machine", machine_id},
+      {"Level",
+       newest.is_object() ? AuditLevelWords(newest.value("level", 0)) : "no audit run yet"},
+      {"Newest audit", newest.is_object() ? "#" + Short(newest.value("id", json())) + " of " +
+                                                newest.value("created_at", "")
+                                          : "—"},
+      {"Schedule", config.is_object() && config.value("schedule", json()).is_string()
+                       ? config.value("schedule", "")
+                       : "on request only"},
+      {"Rules updated", config.is_object() ? config.value("updated_at", "—") : "—"}};
+  r.footer = report_text::Footer("audit report " + machine_id, printed_at);
+  const json rules = config.is_object() ? config.value("rules", json::array()) : json::array();
+  r.blocks.push_back(HeadingBlock("Rules, values and levels"));
+  if (rules.empty()) {
+    r.blocks.push_back(ParagraphBlock("No audit rules are set for this machine."));
+  } else {
+    r.blocks.push_back(ParagraphBlock(VerdictLine(newest)));
+    r.blocks.push_back(TableBlock(RulesTable(rules, newest, "")));
+  }
+  r.blocks.push_back(HeadingBlock("Findings of the newest audit"));
+  const json findings = newest.is_object() ? newest.value("findings", json::array()) : json();
+  if (findings.empty()) {
+    r.blocks.push_back(ParagraphBlock("No findings: every evaluated rule is within its limits."));
+  } else {
+    ReportTable f;
+    f.header = {"Level", "Finding", "Evidence"};
+    for (const auto& x : findings) {
+      f.rows.push_back({AuditLevelWords(x.value("level", 0)), x.value("message", ""), Evidence(x)});
+    }
+    r.blocks.push_back(TableBlock(std::move(f)));
+  }
+  r.blocks.push_back(HeadingBlock("History"));
+  ReportTable h;
+  h.header = {"Audit", "When", "Trigger", "Level", "Findings"};
+  for (std::size_t i = 0; verdicts.is_array() && i < verdicts.size() && i < 50; ++i) {
+    const json& v = verdicts[i];
+    h.rows.push_back({"#" + Short(v.value("id", json())), v.value("created_at", ""),
+                      v.value("trigger", ""), AuditLevelWords(v.value("level", 0)),
+                      std::to_string(v.value("findings", json::array()).size())});
+  }
+  r.blocks.push_back(TableBlock(std::move(h)));
+  r.blocks.push_back(HeadingBlock("Signatures"));
+  r.blocks.push_back(render::SignatureBlock({"Audited by", "Approved by"}));
+  return r;
+}
+
+namespace {
+
+// A discovery: each step's added effect and the gap before and after it, as a table and a chart.
+void DiscoverySteps(render::Report& r, const json& result) {
+  const json steps = result.value("steps", json::array());
+  r.blocks.push_back(HeadingBlock("Steps: the effect added and the gap it closed"));
+  ReportTable t;
+  t.header = {"Step", "Effect added", "Gap before (µm)", "Gap after (µm)", "Evidence"};
+  t.numeric = {true, false, true, true, false};
+  render::ReportChart c;
+  c.title = "The gap between model and measurement, step by step";
+  c.x_label = "step";
+  c.y_label = "gap rms (µm)";
+  render::ReportSeries gap{"gap rms", {}, {}};
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    const json& s = steps[i];
+    const json ev = s.value("evidence", json::object());
+    t.rows.push_back({std::to_string(i + 1), s.value("added_effect", ""),
+                      Fixed(s.value("gap_rms_before_um", json()), 3),
+                      Fixed(s.value("gap_rms_after_um", json()), 3), ev.value("sentence", "")});
+    if (i == 0) {
+      gap.x.push_back(0);
+      gap.y.push_back(s.value("gap_rms_before_um", 0.0));
+    }
+    gap.x.push_back(static_cast<double>(i + 1));
+    gap.y.push_back(s.value("gap_rms_after_um", 0.0));
+  }
+  if (t.rows.empty()) t.rows.push_back({"—", "no effect added", "", "", ""});
+  r.blocks.push_back(TableBlock(std::move(t)));
+  c.series.push_back(std::move(gap));
+  if (result.contains("noise_floor_um") && result["noise_floor_um"].is_number()) {
+    c.limits.push_back({"noise floor", result["noise_floor_um"].get<double>()});
+  }
+  if (!steps.empty()) r.blocks.push_back(render::ChartBlock(std::move(c)));
+}
+
+// The fitted values with their σ: a discovery's final model, a calibration's parameters.
+void FittedValues(render::Report& r, const json& result) {
+  r.blocks.push_back(HeadingBlock("Fitted values"));
+  ReportTable t;
+  t.header = {"Quantity", "Value", "σ", "Unit"};
+  t.numeric = {false, true, true, false};
+  for (const auto& m : result.value("final_model", json::array())) {
+    if (m.contains("value")) {
+      t.rows.push_back({m.value("effect", ""), Fixed(m["value"], 4),
+                        Fixed(m.value("sigma", json()), 4), m.value("unit", "")});
+    } else if (m.contains("parameters")) {
+      t.rows.push_back({m.value("effect", ""), Short(m["parameters"]),
+                        Short(m.value("uncertainty", json())), ""});
+    }
+  }
+  const json params = result.value("parameters", json::object());
+  const json sigma = result.value("parameter_uncertainty_um", json::object());
+  for (const auto& [key, v] : params.items()) {
+    const auto l = report_text::LabelOf(key);
+    for (std::size_t i = 0; v.is_array() && i < v.size(); ++i) {
+      const json s = sigma.contains(key) && sigma[key].is_array() && i < sigma[key].size()
+                         ? sigma[key][i]
+                         : json();
+      t.rows.push_back({l.label + " " + std::to_string(i + 1), Short(v[i]), Short(s), l.unit});
+    }
+  }
+  if (t.rows.empty()) t.rows.push_back({"—", "", "", ""});
+  r.blocks.push_back(TableBlock(std::move(t)));
+}
+
+}  // namespace
+
+render::Report JobPdfReport(const json& job, const std::string& printed_at) {
+  const std::string kind = job.value("kind", "");
+  const bool discovery = kind.find("discovery") != std::string::npos;
+  const json request = job.value("request", json::object());
+  const json result = job.value("result", json::object());
+  render::Report r;
+  r.title = std::string(discovery ? "Model-gap discovery" : "Hexapod calibration") + " — job #" +
+            Short(job.value("id", json()));
+  r.identification = {
+      {"Machine", request.is_object() ? request.value("machine_id", "—") : "—"},
+      {"Job", kind + ", " + job.value("status", "") + " (" + job.value("stage", "") + ")"},
+      {"Verdict", job.contains("verdict") && job["verdict"].is_string()
+                      ? job["verdict"].get<std::string>()
+                      : "—"},
+      {"Submitted", job.value("created_at", "")},
+      {"Finished", job.value("updated_at", "")},
+      {"Measurements",
+       request.is_object() ? Short(request.value("measurement_ids", json())) : "—"}};
+  r.footer = report_text::Footer("job report #" + Short(job.value("id", json())), printed_at);
+  for (const auto& reason : job.value("verdict_reasons", json::array())) {
+    r.blocks.push_back(ParagraphBlock(Short(reason)));
+  }
+  if (job.contains("error") && job["error"].is_string()) {
+    r.blocks.push_back(ParagraphBlock("Error: " + job["error"].get<std::string>()));
+  }
+  if (result.is_object() && !result.empty()) {
+    if (discovery) DiscoverySteps(r, result);
+    FittedValues(r, result);
+    r.blocks.push_back(HeadingBlock("Figures"));
+    r.blocks.push_back(TableBlock(report_text::FiguresTable(
+        result, {"parameters", "parameter_uncertainty_um", "steps", "final_model"})));
+  }
+  r.blocks.push_back(HeadingBlock("Signatures"));
+  r.blocks.push_back(render::SignatureBlock({"Calibrated by", "Approved by"}));
+  return r;
+}
+
+}  // namespace km::usecases

@@ -1,0 +1,280 @@
+// A machine's accuracy audit (#/machines/{id}/audit): the level of its newest verdict, one row a
+// rule with its warn / stop limits and what the newest audit found, each finding linked to the
+// measurement (or calibration job) it came from, which of two tests of the same moment a rule
+// judged and why, the history of verdicts, and the rules and schedule as a form an engineer
+// edits (checked here as the API checks them, the API's answer shown when it refuses). The same
+// level, rules and findings appear in short beside a machine's measurement list.
+// Data attributes: data-audit-level (1–3, or none), data-audit-rule (the rule's index),
+// data-finding-measurement / data-finding-job (the evidence of a finding).
+
+import { ApiError, api } from './api.js';
+import { handleAuth } from './auth.js';
+import { $, asProblem, errorBox, h, problemContent, setMessage } from './dom.js';
+import { auditWords, formatDirection, formatTimestamp } from './format.js';
+import { auditHash, jobHash, measurementHash, trendsHash } from './router.js';
+import { refusalContent } from './roles.js';
+import { checkRules, ruleEditor } from './audit_form.js';
+
+// 404 (no audit stored): null.
+const orNull = (promise) =>
+  promise.catch((err) => {
+    if (err instanceof ApiError && err.status === 404) return null;
+    throw err;
+  });
+
+let metricsCache = null;
+export async function auditMetricList() {
+  if (!metricsCache) metricsCache = (await api.auditMetrics()).metrics || [];
+  return metricsCache;
+}
+
+const num = (v) => (typeof v === 'number' && Number.isFinite(v) ? v : null);
+const fmt = (v) => (num(v) === null ? '—' : Number(v.toFixed(3)).toString());
+function unitOfMetric(metrics, kind, metric) {
+  const base = String(metric).replace(/^diagnosis\..*/, 'diagnosis.<effect>').replace(/\.[A-Z][A-Z0-9]*$/, '');
+  const m = metrics.find((x) => x.kind === kind && (x.metric === metric || x.metric === base));
+  return m ? m.unit : '';
+}
+
+export function levelBadge(verdict, testid = 'audit-level') {
+  if (!verdict) return h('span', { class: 'level-badge no-audit', 'data-testid': testid, 'data-audit-level': 'none' }, 'no audit run yet');
+  return h('span', { class: `level-badge level-${verdict.level}`, 'data-testid': testid, 'data-audit-level': verdict.level }, auditWords(verdict.level));
+}
+
+// The evidence of a finding or a checked rule: a link to its measurement or calibration job.
+function evidenceLink(x, attr) {
+  if (x.job_id !== undefined && x.job_id !== null) return h('a', { href: jobHash(x.job_id), [`data-${attr}-job`]: x.job_id }, `calibration job #${x.job_id}`);
+  if (x.measurement_id === undefined || x.measurement_id === null) return '';
+  return h('a', { href: measurementHash(x.measurement_id), [`data-${attr}-measurement`]: x.measurement_id }, `measurement #${x.measurement_id}`);
+}
+
+function limitsText(rule, unit) {
+  const parts = [];
+  if (num(rule.warn) !== null) parts.push(`warn ${fmt(rule.warn)}`);
+  if (num(rule.stop) !== null) parts.push(`stop ${fmt(rule.stop)}`);
+  const u = unit ? ` ${unit}` : '';
+  if (rule.change === 'previous_audit') return `increase since the previous audit: ${parts.join(', ')}${u}`;
+  if (rule.change === 'days') return `increase over ${rule.days} days: ${parts.join(', ')}${u}`;
+  return `${parts.join(', ')}${u}`;
+}
+
+function statusText(c) {
+  if (!c) return 'not judged yet';
+  if (c.status === 'finding') return auditWords(c.level);
+  if (c.status === 'ok') return 'within limits';
+  return `not evaluated${c.reason ? `: ${c.reason}` : ''}`;
+}
+
+function ruleRow(rule, index, checked, metrics, pairNotes, compact) {
+  const unit = unitOfMetric(metrics, rule.kind, rule.metric);
+  const c = (checked || []).find((x) => x.rule === index);
+  const cells = [
+    h('th', { scope: 'row' }, `${rule.kind} ${rule.metric}`),
+    h('td', {}, limitsText(rule, unit)),
+    h('td', { class: 'num', 'data-key': 'value' }, c && num(c.value) !== null ? `${fmt(c.value)} ${unit}` : '—'),
+    h('td', { 'data-key': 'status' }, statusText(c)),
+  ];
+  if (!compact) cells.push(h('td', {}, c ? evidenceLink(c, 'judged') : '', pairNotes.get(index) ? h('p', { class: 'note pair-judged', 'data-testid': 'audit-pair-note' }, pairNotes.get(index)) : ''));
+  return h('tr', { 'data-audit-rule': index, 'data-status': c ? c.status : 'none', 'data-level': c && c.level ? c.level : '' }, ...cells);
+}
+
+function rulesTable(audit, verdict, metrics, pairNotes, compact = false) {
+  const rules = (audit && audit.rules) || [];
+  if (!rules.length) return h('p', { class: 'placeholder', 'data-testid': 'audit-no-rules' }, 'No rules set for this machine yet.');
+  const head = ['Rule', 'Limits', 'Newest value', 'Status'];
+  if (!compact) head.push('Judged result');
+  return h(
+    'div',
+    { class: 'table-scroll' },
+    h(
+      'table',
+      { class: 'figures audit-rules', 'data-testid': 'audit-rules' },
+      h('thead', {}, h('tr', {}, ...head.map((t) => h('th', { scope: 'col' }, t)))),
+      h('tbody', {}, ...rules.map((r, i) => ruleRow(r, i, verdict && verdict.checked, metrics, pairNotes, compact))),
+    ),
+  );
+}
+
+function findingsList(verdict) {
+  const findings = (verdict && verdict.findings) || [];
+  if (!findings.length) return h('p', { class: 'note', 'data-testid': 'audit-no-findings' }, verdict ? 'No findings: every evaluated rule is within its limits.' : '');
+  return h(
+    'ul',
+    { class: 'findings', 'data-testid': 'audit-findings' },
+    ...findings.map((f) => h('li', { class: `finding level-${f.level}`, 'data-testid': 'audit-finding' }, h('span', { class: `level-badge level-${f.level}` }, auditWords(f.level)), ' ', f.message || `${f.kind} ${f.metric} ${fmt(f.value)}`, ' — ', evidenceLink(f, 'finding'))),
+  );
+}
+
+function historyTable(verdicts) {
+  if (!verdicts.length) return h('p', { class: 'note' }, 'No audit has run yet.');
+  return h(
+    'div',
+    { class: 'table-scroll' },
+    h(
+      'table',
+      { class: 'figures audit-history', 'data-testid': 'audit-history' },
+      h('thead', {}, h('tr', {}, ...['When', 'Trigger', 'Level', 'Findings'].map((t) => h('th', { scope: 'col' }, t)))),
+      h(
+        'tbody',
+        {},
+        ...verdicts.map((v) =>
+          h(
+            'tr',
+            { 'data-audit-id': v.id, 'data-level': v.level },
+            h('td', {}, formatTimestamp(v.created_at)),
+            h('td', {}, v.trigger === 'schedule' ? 'scheduled' : 'on request'),
+            h('td', {}, h('span', { class: `level-badge level-${v.level}` }, auditWords(v.level))),
+            h('td', {}, (v.findings || []).map((f) => `${f.kind} ${f.metric} ${fmt(f.value)} (${auditWords(f.level)})`).join('; ') || 'none'),
+          ),
+        ),
+      ),
+    ),
+  );
+}
+
+// For each DBB rule judged on a test with an opposite-direction partner measured within an hour,
+// one sentence: which test the rule judged, its value and the partner's, and why that one.
+async function pairNotesOf(machineId, verdict, metrics) {
+  const notes = new Map();
+  const checked = ((verdict && verdict.checked) || []).filter((c) => c.kind === 'dbb' && !c.change && num(c.value) !== null && c.measurement_id !== undefined && c.metric !== 'circular_hysteresis_um');
+  for (const c of checked.slice(0, 4)) {
+    const trend = await api.trends(machineId, c.metric).catch(() => null);
+    const pts = (trend && trend.points) || [];
+    const judged = pts.find((p) => p.measurement_id === c.measurement_id);
+    if (!judged || !judged.direction) continue;
+    const t = Date.parse(judged.measured_at);
+    const partner = pts
+      .filter((p) => p.test_id === judged.test_id && p.direction && p.direction !== judged.direction && Math.abs(Date.parse(p.measured_at) - t) <= 3_600_000)
+      .sort((a, b) => Math.abs(Date.parse(a.measured_at) - t) - Math.abs(Date.parse(b.measured_at) - t))[0];
+    if (!partner) continue;
+    const unit = unitOfMetric(metrics, 'dbb', c.metric);
+    const minutes = Math.round(Math.abs(t - Date.parse(partner.measured_at)) / 60000);
+    const when = minutes === 0 ? 'at the same time as' : `${minutes} min ${t > Date.parse(partner.measured_at) ? 'after' : 'before'}`;
+    notes.set(
+      c.rule,
+      `Judged: the ${formatDirection(judged.direction)} test #${judged.measurement_id} (${fmt(judged.value)} ${unit}), the machine's newest DBB test, measured ${when} its ${formatDirection(partner.direction)} partner #${partner.measurement_id} (${fmt(partner.value)} ${unit}). A rule reads the newest result of its kind; ${judged.value >= partner.value ? 'here it is also the worse of the two.' : `the partner is worse: a rule on circular_hysteresis_um or a check of the ${formatDirection(partner.direction)} test covers it.`}`,
+    );
+  }
+  return notes;
+}
+
+async function loadAudit(machineId) {
+  const [audit, audits, metrics] = await Promise.all([orNull(api.machineAudit(machineId)), orNull(api.audits(machineId, 50)), auditMetricList()]);
+  const verdicts = (audits && audits.audits) || [];
+  return { audit, verdicts, latest: verdicts[0] || null, metrics };
+}
+
+// ---------------------------------------------------------------- the audit view
+
+let viewSeq = 0;
+
+export async function showAudit(machineId) {
+  const seq = ++viewSeq;
+  const view = $('#audit-view');
+  view.dataset.machineId = machineId;
+  $('#audit-heading').textContent = `Accuracy audit — ${machineId}`;
+  $('#machine-audit-summary').replaceChildren(); // the view shows it in full
+  const body = $('#audit-body');
+  body.setAttribute('aria-busy', 'true');
+  try {
+    const data = await loadAudit(machineId);
+    const pairNotes = await pairNotesOf(machineId, data.latest, data.metrics);
+    if (seq !== viewSeq) return;
+    view.dataset.auditLevel = data.latest ? String(data.latest.level) : 'none';
+    $('#audit-run').hidden = !data.audit;
+    body.replaceChildren(
+      h(
+        'p',
+        { class: 'audit-verdict' },
+        levelBadge(data.latest),
+        data.latest ? ` — audit #${data.latest.id} of ${formatTimestamp(data.latest.created_at)} (${data.latest.trigger === 'schedule' ? 'scheduled' : 'on request'})` : '',
+        data.audit ? ` · schedule: ${data.audit.schedule || 'on request only'}` : '',
+        data.audit && data.audit.next_run_at ? `, next ${formatTimestamp(data.audit.next_run_at)}` : '',
+        ' · ',
+        h('a', { href: trendsHash(machineId), 'data-testid': 'audit-trends-link' }, 'trends'),
+      ),
+      h('h3', {}, 'Rules'),
+      rulesTable(data.audit, data.latest, data.metrics, pairNotes),
+      h('h3', {}, 'Findings of the newest audit'),
+      findingsList(data.latest),
+      h('h3', {}, 'History'),
+      historyTable(data.verdicts),
+    );
+    ruleEditor(data.audit, data.metrics);
+  } catch (err) {
+    if (!handleAuth(err)) body.replaceChildren(errorBox(err));
+  } finally {
+    body.removeAttribute('aria-busy');
+  }
+}
+
+// ---------------------------------------------------------------- beside the measurement list
+
+let summarySeq = 0;
+
+export async function showAuditSummary(machineId) {
+  const seq = ++summarySeq;
+  const box = $('#machine-audit-summary');
+  $('#machine-audit-link').href = auditHash(machineId);
+  $('#machine-audit-link').hidden = false;
+  try {
+    const data = await loadAudit(machineId);
+    if (seq !== summarySeq || $('#audit-view').hidden === false) return;
+    box.replaceChildren(
+      h('p', { class: 'audit-verdict' }, 'Audit: ', levelBadge(data.latest, 'machine-audit-level'), data.latest ? ` (${formatTimestamp(data.latest.created_at)})` : ''),
+      data.audit ? rulesTable(data.audit, data.latest, data.metrics, new Map(), true) : h('p', { class: 'note' }, 'No audit rules yet.'),
+      data.latest && (data.latest.findings || []).length ? findingsList(data.latest) : '',
+    );
+  } catch (err) {
+    if (!handleAuth(err)) box.replaceChildren(errorBox(err));
+  }
+}
+
+export function resetAuditSummary() {
+  ++summarySeq;
+  $('#machine-audit-summary').replaceChildren();
+  $('#machine-audit-link').hidden = true;
+}
+
+// ---------------------------------------------------------------- saving and running
+
+async function onSave(event) {
+  event.preventDefault();
+  const machineId = $('#audit-view').dataset.machineId;
+  const status = $('#audit-form-status');
+  const checked = checkRules(await auditMetricList());
+  if (checked.error) {
+    setMessage(status, 'error', ...problemContent({ title: 'Rules not saved', detail: checked.error.detail, field: checked.error.field }));
+    return;
+  }
+  $('#audit-save').disabled = true;
+  try {
+    await api.putAudit(machineId, checked.body);
+    await showAudit(machineId); // redraws the form too (which clears its status)
+    setMessage(status, 'success', `Saved ${checked.body.rules.length} rule${checked.body.rules.length === 1 ? '' : 's'} for ${machineId}.`);
+  } catch (err) {
+    if (!handleAuth(err)) setMessage(status, 'error', ...(refusalContent(err, 'set audit rules') || problemContent(asProblem(err, 'Rules not saved'))));
+  } finally {
+    $('#audit-save').disabled = false;
+  }
+}
+
+async function onRun() {
+  const machineId = $('#audit-view').dataset.machineId;
+  const status = $('#audit-status');
+  $('#audit-run').disabled = true;
+  try {
+    const verdict = await api.runAudit(machineId);
+    await showAudit(machineId);
+    setMessage(status, verdict.level > 1 ? 'warning' : 'success', `Audit #${verdict.id}: ${auditWords(verdict.level)}.`);
+  } catch (err) {
+    if (!handleAuth(err)) setMessage(status, 'error', ...(refusalContent(err, 'run audits') || problemContent(asProblem(err, 'Audit not run'))));
+  } finally {
+    $('#audit-run').disabled = false;
+  }
+}
+
+export function initAudit() {
+  $('#audit-form').addEventListener('submit', onSave);
+  $('#audit-run').addEventListener('click', onRun);
+}
