@@ -6,6 +6,7 @@
 #include "api/http_target.h"
 #include "api/metrics.h"
 #include "api/route_util.h"
+#include "server/audits/fleet_service.h"
 #include "server/base/conflict.h"
 #include "server/base/request_json.h"
 #include "server/base/time_util.h"
@@ -326,17 +327,20 @@ void AddJobRoutes(Router& router, server::Service& service) {
       true,
       [svc](const Request&) {
         json items = json::array();
+        const auto rules = server::AuditRuleCounts(*svc);
         for (const auto& m : svc->measurements().Machines()) {
+          const auto r = rules.find(m.machine_id);
           items.push_back({{"machine_id", m.machine_id},
                            {"measurement_count", m.measurement_count},
                            {"last_timestamp", m.last_time ? json(*m.last_time) : json(nullptr)},
-                           {"model_versions", m.model_versions}});
+                           {"model_versions", m.model_versions},
+                           {"audit_rules", r == rules.end() ? 0 : r->second}});
         }
         return Response::Json({{"machines", items}});
       },
       {{"responses",
         {{"200", JsonResponse("{machines[{machine_id, measurement_count, last_timestamp, "
-                              "model_versions}]}")}}}}});
+                              "model_versions, audit_rules}]}")}}}}});
 }
 
 // Discovery studies, and saving the machine a finished job produced.

@@ -26,6 +26,40 @@ std::size_t CodePointLength(unsigned char c) {
   return 1;
 }
 
+// The text with every byte that does not start a well-formed UTF-8 sequence replaced by U+FFFD
+// (cairo refuses a whole document over one bad string).
+std::string Clean(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (std::size_t i = 0; i < s.size();) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    std::size_t n = c < 0x80                   ? 1
+                    : (c >= 0xC2 && c <= 0xDF) ? 2
+                    : (c >= 0xE0 && c <= 0xEF) ? 3
+                    : (c >= 0xF0 && c <= 0xF4) ? 4
+                                               : 0;
+    bool ok = n > 0 && i + n <= s.size();
+    for (std::size_t k = 1; ok && k < n; ++k)
+      ok = (static_cast<unsigned char>(s[i + k]) & 0xC0) == 0x80;
+    if (ok && n == 3) {  // no overlong forms, no UTF-16 surrogates
+      const auto d = static_cast<unsigned char>(s[i + 1]);
+      ok = !(c == 0xE0 && d < 0xA0) && !(c == 0xED && d >= 0xA0);
+    }
+    if (ok && n == 4) {  // no overlong forms, nothing above U+10FFFF
+      const auto d = static_cast<unsigned char>(s[i + 1]);
+      ok = !(c == 0xF0 && d < 0x90) && !(c == 0xF4 && d >= 0x90);
+    }
+    if (ok) {
+      out.append(s, i, n);
+      i += n;
+    } else {
+      out += "\xEF\xBF\xBD";
+      ++i;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 void Page::Font(double size, bool bold) const {
@@ -36,14 +70,14 @@ void Page::Font(double size, bool bold) const {
 
 double Page::TextWidth(const std::string& s) const {
   cairo_text_extents_t e;
-  cairo_text_extents(cr_, s.c_str(), &e);
+  cairo_text_extents(cr_, Clean(s).c_str(), &e);
   return e.x_advance;
 }
 
 void Page::Text(double x, double baseline, const std::string& s, Rgb colour) const {
   cairo_set_source_rgb(cr_, colour.r, colour.g, colour.b);
   cairo_move_to(cr_, x, baseline);
-  cairo_show_text(cr_, s.c_str());
+  cairo_show_text(cr_, Clean(s).c_str());
 }
 
 void Page::TextRight(double right, double baseline, const std::string& s) const {
@@ -71,6 +105,7 @@ std::vector<std::string> Page::Wrap(const std::string& s, double width) const {
           cut = k + CodePointLength(word[k]);
         }
         if (cut == 0) cut = CodePointLength(word[0]);
+        cut = std::min(cut, word.size());  // a sequence cut short at the end of the text
         lines.push_back(word.substr(0, cut));
         word = word.substr(cut);
       }
@@ -87,7 +122,7 @@ void Page::Foot() const {
   const std::string page = "page " + std::to_string(page_);
   cairo_set_source_rgb(cr_, 0.4, 0.4, 0.4);
   cairo_move_to(cr_, kMargin, kPageH - 28);
-  cairo_show_text(cr_, footer_.c_str());
+  cairo_show_text(cr_, Clean(footer_).c_str());
   cairo_move_to(cr_, kPageW - kMargin - TextWidth(page), kPageH - 28);
   cairo_show_text(cr_, page.c_str());
   cairo_set_source_rgb(cr_, 0, 0, 0);
@@ -355,7 +390,8 @@ std::string RenderPdf(const Report& report) {
   std::string out;
   cairo_surface_t* surface =
       cairo_pdf_surface_create_for_stream(AppendBytes, &out, pdf::kPageW, pdf::kPageH);
-  cairo_pdf_surface_set_metadata(surface, CAIRO_PDF_METADATA_TITLE, report.title.c_str());
+  cairo_pdf_surface_set_metadata(surface, CAIRO_PDF_METADATA_TITLE,
+                                 pdf::Clean(report.title).c_str());
   cairo_pdf_surface_set_metadata(surface, CAIRO_PDF_METADATA_CREATOR, "kinemetric");
   cairo_t* cr = cairo_create(surface);
   try {

@@ -107,6 +107,15 @@ nlohmann::json CalibrationPoints(AuditSource& service, const AuditMetric& m,
 
 }  // namespace
 
+std::map<std::string, std::size_t> AuditRuleCounts(AuditSource& service) {
+  std::map<std::string, std::size_t> out;
+  for (const auto& c : service.storage().ListAuditConfigs()) {
+    const auto rules = ingest::ParseJsonText(c.rules_json, "stored document");
+    out[c.machine_id] = rules.is_array() ? rules.size() : 0;
+  }
+  return out;
+}
+
 nlohmann::json TrendMetrics() {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& m : AuditMetrics()) {

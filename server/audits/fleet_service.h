@@ -4,6 +4,8 @@
 // oldest first.
 #pragma once
 
+#include <cstddef>
+#include <map>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -32,6 +34,10 @@ nlohmann::json Fleet(AuditSource& service);
 // NotFound.
 nlohmann::json Trends(AuditSource& service, const std::string& machine_id,
                       const std::string& metric);
+
+// The number of rules of each machine that has an accuracy audit (GET /api/v1/machines answers
+// it with each machine, so a client knows whether to ask for the rules).
+std::map<std::string, std::size_t> AuditRuleCounts(AuditSource& service);
 
 // The metrics a trend can show: [{"metric", "label", "unit", "kind"}] (those of the
 // audits but diagnosis.<effect>, which is asked for by name).

@@ -14,6 +14,7 @@ import { auditWords, formatDirection, formatTimestamp } from './format.js';
 import { auditHash, jobHash, measurementHash, trendsHash } from './router.js';
 import { refusalContent } from './roles.js';
 import { checkRules, ruleEditor } from './audit_form.js';
+import { state } from './state.js';
 
 // 404 (no audit stored): null.
 const orNull = (promise) =>
@@ -21,6 +22,23 @@ const orNull = (promise) =>
     if (err instanceof ApiError && err.status === 404) return null;
     throw err;
   });
+
+// The machine's rules and schedule, or null when it has none. GET /api/v1/machines says how many
+// rules each machine has now (another user may have set them since the list was loaded), so a
+// machine without an audit costs no failed request.
+export async function machineAuditOrNull(machineId) {
+  const list = await api.machines();
+  const fresh = (list.machines || []).find((x) => x.machine_id === machineId);
+  const m = state.machines.find((x) => x.machine_id === machineId);
+  if (fresh && m) m.audit_rules = fresh.audit_rules;
+  if (fresh && fresh.audit_rules === 0) return null;
+  return orNull(api.machineAudit(machineId));
+}
+
+function noteRuleCount(machineId, n) {
+  const m = state.machines.find((x) => x.machine_id === machineId);
+  if (m) m.audit_rules = n;
+}
 
 let metricsCache = null;
 export async function auditMetricList() {
@@ -159,7 +177,7 @@ async function pairNotesOf(machineId, verdict, metrics) {
 }
 
 async function loadAudit(machineId) {
-  const [audit, audits, metrics] = await Promise.all([orNull(api.machineAudit(machineId)), orNull(api.audits(machineId, 50)), auditMetricList()]);
+  const [audit, audits, metrics] = await Promise.all([machineAuditOrNull(machineId), orNull(api.audits(machineId, 50)), auditMetricList()]);
   const verdicts = (audits && audits.audits) || [];
   return { audit, verdicts, latest: verdicts[0] || null, metrics };
 }
@@ -250,6 +268,7 @@ async function onSave(event) {
   $('#audit-save').disabled = true;
   try {
     await api.putAudit(machineId, checked.body);
+    noteRuleCount(machineId, checked.body.rules.length);
     await showAudit(machineId); // redraws the form too (which clears its status)
     setMessage(status, 'success', `Saved ${checked.body.rules.length} rule${checked.body.rules.length === 1 ? '' : 's'} for ${machineId}.`);
   } catch (err) {

@@ -201,13 +201,22 @@ function dbbOfMachine() {
     .sort((a, b) => a.id - b.id);
 }
 
-// The ticked tests of a machine; every DBB test by default (the study scores candidates on
-// held-out tests, so more tests make it stronger). Remembered once the machine's tests are in.
+// The ticked tests of a machine; by default the newest test of each set-up (test and
+// direction): every set-up counts (the study scores candidates on held-out tests, so more
+// set-ups make it stronger), while older repeats — a machine measured before a repair — would mix
+// two states of the machine into one model. Remembered once the machine's tests are in.
 function checkedSet(machineId) {
   const known = state.checked.get(machineId);
   if (known) return known;
   const dbb = dbbOfMachine();
-  const set = new Set(dbb.map((m) => m.id));
+  const newest = new Map();
+  const when = (m) => m.timestamp || m.uploaded_at || '';
+  for (const m of dbb) {
+    const key = `${m.test_id}\u0000${m.direction}`;
+    const cur = newest.get(key);
+    if (!cur || when(m) > when(cur) || (when(m) === when(cur) && m.id > cur.id)) newest.set(key, m);
+  }
+  const set = new Set([...newest.values()].map((m) => m.id));
   if (dbb.length) state.checked.set(machineId, set);
   return set;
 }
@@ -253,7 +262,7 @@ function renderForm() {
             }),
             h('span', {}, `${m.test_id || m.filename || `#${m.id}`}`),
             m.direction ? h('span', { class: `badge dir-${m.direction}` }, formatDirection(m.direction)) : '',
-            h('span', { class: 'item-meta' }, `#${m.id}`, m.measured_at || m.uploaded_at ? ` · ${formatTimestamp(m.measured_at || m.uploaded_at)}` : '', m.filename ? ` · ${m.filename}` : ''),
+            h('span', { class: 'item-meta' }, `#${m.id}`, m.timestamp || m.uploaded_at ? ` · ${formatTimestamp(m.timestamp || m.uploaded_at)}` : '', m.filename ? ` · ${m.filename}` : ''),
           );
         })
       : [h('p', { class: 'placeholder' }, 'This machine has no DBB tests.')]),
@@ -495,7 +504,11 @@ export function initDiscovery() {
   $('#disc-none').addEventListener('click', () => setAllChecks(false));
   $('#disc-model').addEventListener('change', () => loadVersions());
   $('#disc-store').addEventListener('click', onStoreModel);
-  $('#discovery-close').addEventListener('click', leaveDiscovery);
+  // Back to the machine's measurements (its newest DBB test), not to an empty view.
+  $('#discovery-close').addEventListener('click', () => {
+    const id = ctx.getMachineId();
+    window.location.hash = id ? `#/machines/${encodeURIComponent(id)}` : '#/';
+  });
   showCancel = jobCancelControl($('#disc-cancel'), $('#disc-cancel-status'));
 }
 

@@ -11,6 +11,7 @@ import { handleAuth } from './auth.js';
 import { axesGrid, chartWidth, el, r2, ticks } from './charts.js';
 import { $, errorBox, h } from './dom.js';
 import { auditWords, formatTimestamp } from './format.js';
+import { machineAuditOrNull } from './audit.js';
 import { machineHash, measurementHash, trendsHash } from './router.js';
 
 
@@ -225,7 +226,7 @@ export async function showTrends(machineId, metric) {
   box.setAttribute('aria-busy', 'true');
   try {
     metricsCache = metricsCache || (await api.trendMetrics(machineId)).metrics;
-    const [audit, audits] = await Promise.all([orNull(api.machineAudit(machineId)), orNull(api.audits(machineId))]);
+    const [audit, audits] = await Promise.all([machineAuditOrNull(machineId), orNull(api.audits(machineId))]);
     const chosen = metric || levelMetric(audit, audits) || (await defaultMetric(machineId));
     const select = $('#trend-metric');
     select.replaceChildren(...metricsCache.map((m) => h('option', { value: m.metric }, `${m.kind}: ${m.metric} — ${m.label}`)));

@@ -4,6 +4,7 @@
 // shaded. "Live" refreshes every second.
 
 import { apiFetch } from './api.js';
+import { shell } from './shell.js';
 import { mayDo } from './roles.js';
 import { axesGrid, el, r2, ticks } from './charts.js';
 import { $, asProblem, h, problemContent, setMessage } from './dom.js';
@@ -79,13 +80,26 @@ function renderDevices(items) {
   );
 }
 
+// The streams of the selected machine (all of them without one, or with "all machines" ticked).
+function shownStreams() {
+  const machine = shell.getMachineId ? shell.getMachineId() : null;
+  const all = !machine || $('#streams-all').checked;
+  $('#streams-heading').textContent = all ? 'Sensor streams and Modbus devices' : `Sensor streams of ${machine} and Modbus devices`;
+  return all ? state.streams : state.streams.filter((s) => s.machine_id === machine || s.id === state.selected);
+}
+
 function renderStreamList() {
   const box = $('#streams-list');
   if (!state.streams.length) {
     box.replaceChildren(h('p', { class: 'note' }, 'No streams yet. Clients open one with POST /api/v1/streams and send frames to /api/v1/streams/{id}/frames.'));
     return;
   }
-  const rows = state.streams.map((s) => {
+  const streams = shownStreams();
+  if (!streams.length) {
+    box.replaceChildren(h('p', { class: 'note', 'data-testid': 'streams-none-here' }, `No stream of this machine; ${state.streams.length} of other machines (tick “all machines”).`));
+    return;
+  }
+  const rows = streams.map((s) => {
     const last = Math.max(0, ...s.channels.map((c) => c.last_t_us));
     return h(
       'tr',
@@ -360,6 +374,8 @@ export function initStreams() {
   $('#profile-form').addEventListener('submit', onMakeProfile);
   $('#profile-position').addEventListener('change', () => state.stream && renderProfileChoices(state.stream));
   $('#streams-refresh').addEventListener('click', refreshStreams);
+  $('#streams-all').addEventListener('change', renderStreamList);
+  window.addEventListener('hashchange', () => setTimeout(renderStreamList, 0));
   $('#streams-live').addEventListener('change', (e) => setLive(e.target.checked));
   $('#stream-channel').addEventListener('change', (e) => {
     state.channel = Number(e.target.value);

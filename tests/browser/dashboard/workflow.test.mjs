@@ -153,6 +153,14 @@ test('landing, unknown addresses, audit view and form, trends per test', { timeo
     assert.deepEqual(series.sort(), [['xy-r150 CCW', 2], ['xy-r150 CW', 2]]);
     const cwPoints = await page.$$eval('[data-series="xy-r150 CW"] [data-testid="trend-point"]', (cs) => cs.map((c) => Number(c.dataset.measurementId)));
     assert.deepEqual(cwPoints, [ids.oldCw, ids.cw]);
+
+    // A discovery starts from the newest test of each set-up, each shown with its date and file.
+    await go(page, `#/discoveries?machine=${MACHINE}`);
+    await page.waitForFunction(() => document.querySelectorAll('[data-testid="disc-choice"]').length === 4);
+    const ticked = await page.$$eval('[data-testid="disc-choice"]', (bs) => bs.filter((b) => b.checked).map((b) => Number(b.dataset.id)).sort((a, b) => a - b));
+    assert.deepEqual(ticked, [ids.ccw, ids.cw].sort((a, b) => a - b));
+    assert.equal(await page.textContent('#disc-count'), '2 of 4 chosen');
+    assert.match(await page.textContent('#disc-measurements'), /2026-0\d-01 \d\d:\d\d · new_cw\.txt/);
   });
 });
 
@@ -167,6 +175,16 @@ test('reversal pair, tokens page, viewer, 400 px', { timeout: 110_000 }, async (
     assert.equal(Number(await page.getAttribute('[data-testid="reversal-machine"]', 'data-points')), rev.reversal.machine_um.length);
     assert.equal(Number(await page.getAttribute('[data-testid="reversal-artefact"]', 'data-points')), rev.reversal.artefact_um.length);
     assert.match(await page.textContent('[data-testid="reversal-note"]'), new RegExp(`#${b.id}\\b`));
+    // Streams: those of the machine shown; another machine's only with "all machines".
+    const own = (await api.post('/api/v1/streams', JSON.stringify({ machine_id: a.machine_id || 'vmc-3axis', name: 'own' }))).id;
+    const other = (await api.post('/api/v1/streams', JSON.stringify({ machine_id: 'other-lathe', name: 'other' }))).id;
+    await page.click('[data-testid="streams-refresh"]');
+    await page.waitForSelector(`[data-testid="streams-table"] tr[data-stream="${own}"]`);
+    assert.equal(await page.locator(`[data-testid="streams-table"] tr[data-stream="${other}"]`).count(), 0);
+    await page.check('[data-testid="streams-all"]');
+    await page.waitForSelector(`[data-testid="streams-table"] tr[data-stream="${other}"]`);
+    await page.uncheck('[data-testid="streams-all"]');
+
     // A DBB test afterwards shows no reversal.
     const dbb = (await api.upload(dbbFile({ machine: MACHINE, direction: 'ccw', timestamp: '2026-04-01T08:00:00Z' }), 'ccw.txt')).id;
     await go(page, `#/measurements/${dbb}`);

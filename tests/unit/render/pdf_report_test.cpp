@@ -109,6 +109,19 @@ TEST_F(PdfReport, IsAPdfWhoseTextAndNumbersAreExtractable) {
   }
 }
 
+TEST_F(PdfReport, TextThatIsNotUtf8IsDrawnWithReplacementCharacters) {
+  Report r;
+  r.title = "machine \xff\xfe lathe";
+  r.blocks.push_back(ParagraphBlock("cut short \xe2\x82"));
+  ReportTable t;
+  t.header = {"a\xc0\xaf" "b"};
+  t.rows = {{"\xed\xa0\x80 surrogate"}};
+  r.blocks.push_back(TableBlock(t));
+  const std::string text = Shell("pdftotext '" + Write(RenderPdf(r)) + "' - 2>&1");
+  EXPECT_NE(text.find("machine \xEF\xBF\xBD\xEF\xBF\xBD lathe"), std::string::npos) << text;
+  EXPECT_NE(text.find("surrogate"), std::string::npos) << text;
+}
+
 TEST_F(PdfReport, LongTablesContinueOnNewPagesWithTheirHeader) {
   const std::string path = Write(RenderPdf(Sample(150)));
   const std::string info = Shell("pdfinfo '" + path + "' 2>&1");
