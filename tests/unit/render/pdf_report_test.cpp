@@ -114,7 +114,9 @@ TEST_F(PdfReport, TextThatIsNotUtf8IsDrawnWithReplacementCharacters) {
   r.title = "machine \xff\xfe lathe";
   r.blocks.push_back(ParagraphBlock("cut short \xe2\x82"));
   ReportTable t;
-  t.header = {"a\xc0\xaf" "b"};
+  t.header = {
+      "a\xc0\xaf"
+      "b"};
   t.rows = {{"\xed\xa0\x80 surrogate"}};
   r.blocks.push_back(TableBlock(t));
   const std::string text = Shell("pdftotext '" + Write(RenderPdf(r)) + "' - 2>&1");
