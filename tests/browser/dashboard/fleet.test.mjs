@@ -11,20 +11,11 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { join } from 'node:path';
-import { assertNoHorizontalOverflow, dbbFile, outDir, withDashboard } from '../lib/harness.mjs';
+import { assertNoHorizontalOverflow, dbbFile, makeToken, outDir, withDashboard } from '../lib/harness.mjs';
 
 const MACHINE = 'trend-vmc';
 const OTHER = 'fleet-lathe';
 
-async function token(server, name, role) {
-  const r = await fetch(`${server.base}/api/v1/tokens`, {
-    method: 'POST',
-    headers: { Authorization: `Bearer ${server.token}`, 'Content-Type': 'application/json' },
-    body: JSON.stringify({ name, role }),
-  });
-  assert.equal(r.status, 201, await r.clone().text());
-  return (await r.json()).token;
-}
 
 async function openAs(page, server, secret, role) {
   await page.goto('about:blank');
@@ -140,7 +131,7 @@ test('fleet overview, trends with limits, viewer and operator controls', { timeo
     }
 
     // A viewer: the upload panel is not shown; forced to show, the 403 is told in words.
-    const viewer = await token(server, 'shop-floor screen', 'viewer');
+    const viewer = await makeToken(server, 'shop-floor screen', 'viewer');
     await openAs(page, server, viewer, 'viewer');
     assert.equal(await page.isHidden('#upload-panel'), true, 'no upload control for a viewer');
     assert.equal(await page.isHidden('#devices'), true, 'no Modbus devices (admin) for a viewer');
@@ -158,7 +149,7 @@ test('fleet overview, trends with limits, viewer and operator controls', { timeo
     assert.equal((await api.get(`/api/v1/measurements?machine_id=${MACHINE}`)).total, 3, 'nothing stored');
 
     // An operator: the upload panel is shown and uploads.
-    const operator = await token(server, 'cell 4 operator', 'operator');
+    const operator = await makeToken(server, 'cell 4 operator', 'operator');
     await openAs(page, server, operator, 'operator');
     assert.equal(await page.isVisible('#upload-panel'), true);
     await page.setInputFiles('#upload-file', { name: 'operator.txt', mimeType: 'text/plain', buffer: Buffer.from(dbbFile({ machine: MACHINE, timestamp: '2026-05-03T08:00:00Z', shape: 1.5 })) });

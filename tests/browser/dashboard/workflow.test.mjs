@@ -16,19 +16,10 @@ import assert from 'node:assert/strict';
 import { execFileSync } from 'node:child_process';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { assertNoHorizontalOverflow, dbbFile, outDir, repo, withDashboard } from '../lib/harness.mjs';
+import { assertNoHorizontalOverflow, dbbFile, makeToken, outDir, repo, withDashboard } from '../lib/harness.mjs';
 
 const MACHINE = 'workflow-vmc';
 
-async function token(server, name, role) {
-  const r = await fetch(`${server.base}/api/v1/tokens`, {
-    method: 'POST',
-    headers: { Authorization: `Bearer ${server.token}`, 'Content-Type': 'application/json' },
-    body: JSON.stringify({ name, role }),
-  });
-  assert.equal(r.status, 201, await r.clone().text());
-  return (await r.json()).token;
-}
 
 const go = (page, hash) =>
   page.evaluate((h) => {
@@ -214,7 +205,7 @@ test('reversal pair, tokens page, viewer, 400 px', { timeout: 110_000 }, async (
     assert.match(await page.textContent('[data-testid="audit-log"]'), /DELETE \/api\/v1\/tokens/);
 
     // A viewer: no tokens link, no audit form or run button, no discovery form.
-    const viewer = await token(server, 'viewer', 'viewer');
+    const viewer = await makeToken(server, 'viewer', 'viewer');
     await page.goto('about:blank');
     await page.goto(`${server.base}/#token=${encodeURIComponent(viewer)}`);
     await page.waitForSelector('body[data-ready="true"][data-role="viewer"]');

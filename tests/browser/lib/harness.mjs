@@ -201,6 +201,17 @@ export async function withDashboard(name, fn, { viewport = { width: 1280, height
   }
 }
 
+// A new token of `role` made with the server's admin token; its secret.
+export async function makeToken(server, name, role) {
+  const r = await fetch(`${server.base}/api/v1/tokens`, {
+    method: 'POST',
+    headers: { Authorization: `Bearer ${server.token}`, 'Content-Type': 'application/json' },
+    body: JSON.stringify({ name, role }),
+  });
+  assert.equal(r.status, 201, await r.clone().text());
+  return (await r.json()).token;
+}
+
 // No element wider than the window: the page does not scroll sideways.
 export async function assertNoHorizontalOverflow(page, what) {
   const { scroll, width, wide } = await page.evaluate(() => {
