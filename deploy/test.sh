@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Builds kinemetric and runs every test (unit, integration, browser) through CTest, the
 # integration and browser tests again on PostgreSQL, then every test once more under
-# AddressSanitizer + UndefinedBehaviorSanitizer (clang), then fuzzes every parser for a bounded
-# time with the libFuzzer targets of that same build. Exits non-zero on any failure.
+# AddressSanitizer + UndefinedBehaviorSanitizer, then fuzzes every parser for a
+# bounded time (clang, libFuzzer). Exits non-zero on any failure.
 #   KINEMETRIC_SKIP_SANITIZERS=1  skip the sanitizer pass (local quick runs only)
 #   KINEMETRIC_LONG=1             also run the long soak / load tests, and fuzz 300 s a target
 #   KINEMETRIC_SKIP_FUZZ=1        skip the fuzz stage (libFuzzer targets, docs/fuzzing.md)
@@ -19,16 +19,16 @@ stage() { echo "== [$(( (SECONDS - start) / 60 )) min] $*"; }
 deploy/install-deps.sh
 
 # A full disk fails a build midway with a linker error far from its cause: say it first. The
-# two build directories and the tests' temporary files take about 8 GB from scratch.
+# three build directories and the tests' temporary files take about 8 GB from scratch.
 need_mb=8192
 have_mb=0
-for d in build build-san; do
+for d in build build-asan build-fuzz; do
   if [ -d "$d" ]; then have_mb=$((have_mb + $(du -sm "$d" | cut -f1))); fi
 done
 free_mb=$(df -Pm . | awk 'NR == 2 {print $4}')
 if [ "$free_mb" -lt $((need_mb - have_mb)) ]; then
   echo "deploy/test.sh: only ${free_mb} MB free on the disk of $PWD; the builds and tests need" \
-    "about $((need_mb - have_mb)) MB more (build/, build-san/, $(dirname "$(mktemp -u)"))" >&2
+    "about $((need_mb - have_mb)) MB more (build/, build-asan/, build-fuzz/, $(dirname "$(mktemp -u)"))" >&2
   exit 1
 fi
 
@@ -88,28 +88,33 @@ pg_load_db=$(KINEMETRIC_TEST_DATABASE="$pg_url" tests/tools/test_database.sh "$p
 /usr/bin/python3 tests/bench/http/load_bench.py build/bin/kinemetricd --seconds 2 --idle 200 --slow 20 \
   --database "$pg_load_db"
 
-# One clang build with AddressSanitizer + UBSan serves the tests and the libFuzzer targets (the
-# parsing layers also get libFuzzer's coverage instrumentation, CMakeLists.txt KM_FUZZ_COVERED).
 if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
-  stage "sanitizer build (clang, AddressSanitizer + UBSan: tests and libFuzzer targets)"
-  use_generator_for build-san
-  # Line tables only: sanitizer reports keep file and line, and the programs stay small.
-  CC=clang CXX=clang++ cmake -S . -B build-san "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
-    -DCMAKE_CXX_FLAGS_DEBUG="-gline-tables-only" -DCMAKE_C_FLAGS_DEBUG="-gline-tables-only" \
-    -DKINEMETRIC_SANITIZE=ON -DKINEMETRIC_FUZZ=ON -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=OFF \
-    "${launcher[@]}" >/dev/null
-  cmake --build build-san -j"$jobs"
+  stage "AddressSanitizer + UBSan build"
+  use_generator_for build-asan
+  # Line tables only (-g1): sanitizer reports keep file and line, and the test programs stay
+  # near 10 % of their size with full debug information (13 GB for the whole build otherwise).
+  cmake -S . -B build-asan "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
+    -DCMAKE_CXX_FLAGS_DEBUG="-g1" -DCMAKE_C_FLAGS_DEBUG="-g1" \
+    -DKINEMETRIC_SANITIZE=ON -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
+  cmake --build build-asan -j"$jobs"
   stage "tests (ASan + UBSan)"
-  (cd build-san && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+  # LeakSanitizer passes over what third-party libraries keep until exit (deploy/lsan.supp).
+  lsan_supp="$PWD/deploy/lsan.supp"
+  (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+    LSAN_OPTIONS="suppressions=$lsan_supp:print_suppressions=0" \
     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --output-on-failure -j"$jobs" "${label_args[@]}")
-  if [ "${KINEMETRIC_SKIP_FUZZ:-0}" != 1 ]; then
-    # Every parser under libFuzzer: known crash inputs (tests/fuzz/crashes/) are replayed, then
-    # each target fuzzes from its seed corpus for a bounded time.
-    stage "fuzzing (libFuzzer + ASan + UBSan)"
-    fuzz_seconds=10
-    if [ "${KINEMETRIC_LONG:-0}" = 1 ]; then fuzz_seconds=300; fi
-    KINEMETRIC_FUZZ_BUILD=build-san KINEMETRIC_FUZZ_SECONDS=$fuzz_seconds tests/fuzz/run.sh
-  fi
+fi
+if [ "${KINEMETRIC_SKIP_FUZZ:-0}" != 1 ]; then
+  # Every parser under libFuzzer + ASan + UBSan: known crash inputs (tests/fuzz/crashes/) are
+  # replayed, then each target fuzzes from its seed corpus for a bounded time.
+  stage "fuzz build (clang, libFuzzer + ASan + UBSan)"
+  use_generator_for build-fuzz
+  CC=clang CXX=clang++ cmake -S . -B build-fuzz "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
+    -DKINEMETRIC_FUZZ=ON -DKINEMETRIC_TESTS=OFF -DKINEMETRIC_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
+  cmake --build build-fuzz -j"$jobs" --target fuzz_targets
+  fuzz_seconds=10
+  if [ "${KINEMETRIC_LONG:-0}" = 1 ]; then fuzz_seconds=300; fi
+  KINEMETRIC_FUZZ_BUILD=build-fuzz KINEMETRIC_FUZZ_SECONDS=$fuzz_seconds tests/fuzz/run.sh
 fi
 stage "all tests passed"

@@ -32,6 +32,9 @@ fi
 # would fill half the RSS limit of the targets that analyse uploads, so it is kept at 64 MB.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:detect_stack_use_after_return=1:quarantine_size_mb=64}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+# What third-party libraries keep until exit (fontconfig, for the PDF reports the api target
+# renders) is not a leak of the product: deploy/lsan.supp.
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/deploy/lsan.supp:print_suppressions=0}
 
 rows=()
 failed=()
