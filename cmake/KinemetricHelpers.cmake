@@ -5,9 +5,74 @@
 #                  [PRIVATE_DEPS Ceres::ceres])
 #   km_add_test(NAME geometry_test SRCS x_test.cpp DEPS km_geometry [LABELS unit])
 #   km_add_benchmark(NAME dbb_bench SRCS dbb_bench.cpp DEPS km_dbb)
+
+# Unity batches (KINEMETRIC_UNITY, on by default): the .cpp files of a target are compiled
+# KM_UNITY_BATCH at a time, as one translation unit that includes them. Most of a test's compile
+# time is spent instantiating the same gtest, Eigen and nlohmann templates; a batch does that
+# once. The batch files include their sources by paths relative to the repository root (unlike
+# CMake's own UNITY_BUILD, which writes absolute paths), so ccache finds them again from another
+# checkout. A file's anonymous-namespace names are therefore seen by the files after it in its
+# batch: give helpers distinct names, or share them through a header.
+set(KM_UNITY_BATCH 8 CACHE STRING "Source files per unity batch (KINEMETRIC_UNITY)")
+
+# Replaces the .cpp files of `srcs` (relative to the current source folder or absolute, inside
+# the repository) by unity batch files of `target`; other sources pass through.
+function(km_unity_sources target srcs out_var)
+  if(NOT KINEMETRIC_UNITY)
+    set(${out_var} ${srcs} PARENT_SCOPE)
+    return()
+  endif()
+  set(result "")
+  set(batch "")
+  set(count 0)
+  set(index 0)
+  set(batch_dir "")
+  foreach(src ${srcs})
+    get_filename_component(abs "${src}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
+    file(RELATIVE_PATH rel "${PROJECT_SOURCE_DIR}" "${abs}")
+    if(NOT abs MATCHES "\\.cpp$" OR rel MATCHES "^\\.\\.")
+      list(APPEND result "${src}")
+      continue()
+    endif()
+    # A batch holds files of one folder: rooms (e.g. the two storage back-ends) stay apart.
+    get_filename_component(dir "${rel}" DIRECTORY)
+    if(count GREATER 0 AND NOT dir STREQUAL batch_dir)
+      km_write_unity_batch(${target} ${index} "${batch}" file)
+      list(APPEND result "${file}")
+      set(batch "")
+      set(count 0)
+      math(EXPR index "${index} + 1")
+    endif()
+    set(batch_dir "${dir}")
+    string(APPEND batch "#include \"${rel}\"\n")
+    math(EXPR count "${count} + 1")
+    if(count EQUAL KM_UNITY_BATCH)
+      km_write_unity_batch(${target} ${index} "${batch}" file)
+      list(APPEND result "${file}")
+      set(batch "")
+      set(count 0)
+      math(EXPR index "${index} + 1")
+    endif()
+  endforeach()
+  if(count GREATER 0)
+    km_write_unity_batch(${target} ${index} "${batch}" file)
+    list(APPEND result "${file}")
+  endif()
+  set(${out_var} ${result} PARENT_SCOPE)
+endfunction()
+
+function(km_write_unity_batch target index includes out_var)
+  set(file "${CMAKE_CURRENT_BINARY_DIR}/unity/${target}_${index}.cpp")
+  # Written only when its content changes, so an unchanged batch is not rebuilt.
+  file(CONFIGURE OUTPUT "${file}"
+       CONTENT "// Unity batch of ${target} (cmake/KinemetricHelpers.cmake).\n${includes}")
+  set(${out_var} "${file}" PARENT_SCOPE)
+endfunction()
+
 function(km_add_library)
   cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS;PRIVATE_DEPS" ${ARGN})
-  add_library(${ARG_NAME} STATIC ${ARG_SRCS})
+  km_unity_sources(${ARG_NAME} "${ARG_SRCS}" srcs)
+  add_library(${ARG_NAME} STATIC ${srcs})
   target_include_directories(${ARG_NAME} PUBLIC ${PROJECT_SOURCE_DIR})
   target_link_libraries(${ARG_NAME} PUBLIC ${ARG_DEPS})
   if(ARG_PRIVATE_DEPS)
@@ -17,7 +82,9 @@ endfunction()
 
 function(km_add_test)
   cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS;LABELS" ${ARGN})
-  add_executable(${ARG_NAME} ${ARG_SRCS})
+  km_unity_sources(${ARG_NAME} "${ARG_SRCS}" srcs)
+  add_executable(${ARG_NAME} ${srcs})
+  target_include_directories(${ARG_NAME} PRIVATE ${PROJECT_SOURCE_DIR})
   target_link_libraries(${ARG_NAME} PRIVATE ${ARG_DEPS} GTest::gtest_main)
   set_target_properties(${ARG_NAME} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
   if(NOT ARG_LABELS)

@@ -98,12 +98,18 @@ if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
     -DKINEMETRIC_SANITIZE=ON -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
   cmake --build build-asan -j"$jobs"
   stage "tests (ASan + UBSan)"
+  # The slowest numerical studies run here only with KINEMETRIC_LONG=1 (tests/sanitizer_long.txt
+  # names them and what covers their code in every run).
+  san_args=("${label_args[@]}")
+  if [ "${KINEMETRIC_LONG:-0}" != 1 ]; then
+    san_args+=(-E "^($(grep -v '^#' tests/sanitizer_long.txt | awk 'NF {print $1}' | paste -sd'|'))\$")
+  fi
   # LeakSanitizer passes over what third-party libraries keep until exit (deploy/lsan.supp).
   lsan_supp="$PWD/deploy/lsan.supp"
   (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
     LSAN_OPTIONS="suppressions=$lsan_supp:print_suppressions=0" \
     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    ctest --output-on-failure -j"$jobs" "${label_args[@]}")
+    ctest --output-on-failure -j"$jobs" "${san_args[@]}")
 fi
 if [ "${KINEMETRIC_SKIP_FUZZ:-0}" != 1 ]; then
   # Every parser under libFuzzer + ASan + UBSan: known crash inputs (tests/fuzz/crashes/) are

@@ -33,14 +33,6 @@ TextTable ReadForm(std::string_view bytes, const std::string& file, std::string_
 }
 
 // Index of a required column; names the column-header line when it is missing.
-std::size_t RequireColumn(const TextTable& t, const std::string& name) {
-  const int idx = t.ColumnIndex(name);
-  if (idx < 0) {
-    throw InvalidInput(t.file, t.columns_line, name, "required column is missing");
-  }
-  return static_cast<std::size_t>(idx);
-}
-
 std::string Upper(std::string s) {
   for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return s;
@@ -68,8 +60,8 @@ void RequireRows(const TextTable& t, std::size_t min_rows, const std::string& fi
 // position_mm, deviation_um with strictly increasing positions; the columns move out of the
 // table.
 form::Profile ReadProfile(TextTable& t, std::size_t min_rows) {
-  const std::size_t ip = RequireColumn(t, "position_mm");
-  const std::size_t id = RequireColumn(t, "deviation_um");
+  const std::size_t ip = t.RequireColumn("position_mm");
+  const std::size_t id = t.RequireColumn("deviation_um");
   RequireRows(t, min_rows, "position_mm");
   const std::vector<double>& x = t.Column(ip);
   for (std::size_t i = 1; i < x.size(); ++i) {
@@ -159,9 +151,9 @@ FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file,
   f.machine_id = t.RequireString("machine_id");
   if (t.Has("datum")) f.datum = t.RequireString("datum");
   f.metadata = t.Metadata();
-  const std::size_t ix = RequireColumn(t, "x_mm");
-  const std::size_t iy = RequireColumn(t, "y_mm");
-  const std::size_t iz = RequireColumn(t, "z_um");
+  const std::size_t ix = t.RequireColumn("x_mm");
+  const std::size_t iy = t.RequireColumn("y_mm");
+  const std::size_t iz = t.RequireColumn("z_um");
   RequireRows(t, kMinFlatnessPoints, "z_um");
   const std::size_t n = t.NumRows();
   {

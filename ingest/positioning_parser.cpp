@@ -32,12 +32,6 @@ TextTable Read(std::string_view bytes, const std::string& file, const TextLimits
   return t;
 }
 
-std::size_t RequireColumn(const TextTable& t, const std::string& name) {
-  const int idx = t.ColumnIndex(name);
-  if (idx < 0) throw InvalidInput(t.file, t.columns_line, name, "required column is missing");
-  return static_cast<std::size_t>(idx);
-}
-
 // The air conditions of a file read with n = 1; out-of-range values name their header line.
 positioning::AirConditions ReadAir(const TextTable& t) {
   positioning::AirConditions air;
@@ -109,16 +103,16 @@ void CheckCell(const TextTable& t, std::size_t row, const char* field, double v,
 }
 
 void ReadRows(const TextTable& t, PositioningFile& f) {
-  const std::size_t ir = RequireColumn(t, "run");
-  const std::size_t id = RequireColumn(t, "direction");
-  const std::size_t it = RequireColumn(t, "target_mm");
+  const std::size_t ir = t.RequireColumn("run");
+  const std::size_t id = t.RequireColumn("direction");
+  const std::size_t it = t.RequireColumn("target_mm");
   const bool measured = t.ColumnIndex("measured_mm") >= 0;
   if (measured == (t.ColumnIndex("deviation_um") >= 0)) {
     throw InvalidInput(t.file, t.columns_line, "measured_mm",
                        "give exactly one of the columns measured_mm and deviation_um");
   }
   f.value_column = measured ? "measured_mm" : "deviation_um";
-  const std::size_t iv = RequireColumn(t, f.value_column);
+  const std::size_t iv = t.RequireColumn(f.value_column);
   f.readings.reserve(t.NumRows());
   for (std::size_t row = 0; row < t.NumRows(); ++row) {
     const double run = t.Column(ir)[row];

@@ -26,12 +26,6 @@ std::string Upper(std::string s) {
   return s;
 }
 
-std::size_t RequireColumn(const TextTable& t, const std::string& name) {
-  const int idx = t.ColumnIndex(name);
-  if (idx < 0) throw InvalidInput(t.file, t.columns_line, name, "required column is missing");
-  return static_cast<std::size_t>(idx);
-}
-
 void CheckRange(const TextTable& t, std::size_t column, double limit, const char* what) {
   const auto& v = t.Column(column);
   for (std::size_t i = 0; i < v.size(); ++i) {
@@ -151,11 +145,11 @@ void ReadHexapod(const TextTable& t, servo::ServoFile& f, const std::string& uni
   std::array<std::size_t, 6> pc{};
   std::array<std::size_t, 6> fc{};
   for (int k = 0; k < 6; ++k) {
-    pc[k] = RequireColumn(t, kPose[k]);
+    pc[k] = t.RequireColumn(kPose[k]);
     CheckRange(t, pc[k], k < 3 ? kMaxPositionMm : kMaxAngleDeg,
                k < 3 ? "a position in mm" : "an angle in degrees (|angle| <= 360)");
     if (k < 3) CheckNoJump(t, pc[k], f.t_s);
-    fc[k] = RequireColumn(t, "f" + std::to_string(k + 1));
+    fc[k] = t.RequireColumn("f" + std::to_string(k + 1));
   }
   const auto scale = ForceScale(t, 6, unit);
   for (int k = 0; k < 6; ++k) CheckRange(t, fc[k], kMaxForceN / scale[k], "a strut force");
@@ -179,7 +173,7 @@ void ReadSerial(const TextTable& t, servo::ServoFile& f, const std::string& unit
                        Quote(first) + " is not an axis (X, Y, Z, U, V or W)");
   }
   std::vector<std::pair<std::size_t, std::size_t>> cols{
-      {RequireColumn(t, "pos_mm"), RequireColumn(t, "force")}};
+      {t.RequireColumn("pos_mm"), t.RequireColumn("force")}};
   std::vector<std::string> names{first};
   for (const char* axis : {"X", "Y", "Z", "U", "V", "W"}) {
     const std::string a = axis;
@@ -191,7 +185,7 @@ void ReadSerial(const TextTable& t, servo::ServoFile& f, const std::string& unit
       throw InvalidInput(t.file, t.columns_line, pos,
                          "axis " + a + " is the file's axis; its columns are pos_mm,force");
     }
-    cols.emplace_back(RequireColumn(t, pos), RequireColumn(t, force));
+    cols.emplace_back(t.RequireColumn(pos), t.RequireColumn(force));
     names.push_back(a);
   }
   const auto scale = ForceScale(t, cols.size(), unit);
@@ -246,7 +240,7 @@ servo::ServoFile ParseServoFile(std::string_view bytes, const std::string& file,
   }
   f.metadata = t.Metadata();
   f.hexapod = !t.Has("axis");
-  const std::size_t it = RequireColumn(t, "t_s");
+  const std::size_t it = t.RequireColumn("t_s");
   CheckTimes(t, it);
   f.t_s = t.Column(it);
   if (f.hexapod) {

@@ -127,6 +127,8 @@ struct TextTable {
                                                      std::size_t count) const;
   // Index of a column by name, or -1.
   int ColumnIndex(const std::string& name) const;
+  // Index of a column the format requires; InvalidInput naming the columns line if absent.
+  std::size_t RequireColumn(const std::string& name) const;
   // All header keys as a map (last value wins; repeatable keys joined by "; ").
   std::map<std::string, std::string> Metadata() const;
 };

@@ -119,6 +119,12 @@ std::optional<std::vector<double>> TextTable::OptionalNumbers(const std::string&
   return RequireNumbers(key, count);
 }
 
+std::size_t TextTable::RequireColumn(const std::string& name) const {
+  const int idx = ColumnIndex(name);
+  if (idx < 0) throw InvalidInput(file, columns_line, name, "required column is missing");
+  return static_cast<std::size_t>(idx);
+}
+
 int TextTable::ColumnIndex(const std::string& name) const {
   for (std::size_t i = 0; i < columns.size(); ++i) {
     if (columns[i] == name) return static_cast<int>(i);

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "analysis/core/angles.h"
 #include "analysis/core/errors.h"
 #include "analysis/dbb/iso230.h"
 
@@ -17,8 +18,6 @@ namespace km::render {
 using dbb::DbbReport;
 using dbb::DbbTestReport;
 using dbb::Direction;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 namespace {
 

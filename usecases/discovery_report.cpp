@@ -73,7 +73,7 @@ DiscoveryOutcome HexapodDiscovery(const DiscoveryStudy& study, const ProgressFn&
   return out;
 }
 
-json Values(const std::vector<double>& v) {
+json NumberOrArray(const std::vector<double>& v) {
   if (v.size() == 1) return v[0];
   return json(v);
 }
@@ -107,8 +107,8 @@ json SerialDiscoveryJson(const discovery::SerialFamily& family, const discovery:
     for (const auto& [k, v] : s.evidence.figures) ev[k] = v;
     if (const auto* e =
             i + 1 < history.size() ? FindSerialEffect(history[i + 1], s.added_effect) : nullptr) {
-      ev["value"] = Values(e->value);
-      ev["sigma"] = Values(e->sigma);
+      ev["value"] = NumberOrArray(e->value);
+      ev["sigma"] = NumberOrArray(e->sigma);
       ev["unit"] = e->unit;
       ev["z_score"] = e->z_score;
       ev["parameters"] = e->parameters;
@@ -145,9 +145,9 @@ json SerialDiscoveryJson(const discovery::SerialFamily& family, const discovery:
                    {"sigma", fin.radius_sigma_um}});
   for (const auto& e : fin.effects) {
     json x = {{"effect", e.name},
-              {"value", Values(e.value)},
+              {"value", NumberOrArray(e.value)},
               {"unit", e.unit},
-              {"sigma", Values(e.sigma)},
+              {"sigma", NumberOrArray(e.sigma)},
               {"z_score", e.z_score}};
     if (!e.shape_map.empty()) x["shape"] = e.shape_map;
     if (e.at_bound) x["at_physical_bound"] = true;

@@ -10,7 +10,7 @@
 namespace km::usecases {
 namespace {
 
-std::string Fixed(double v, int decimals) {
+std::string PlainFixed(double v, int decimals) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
   std::string s = buf;
@@ -37,8 +37,8 @@ std::string ExportLinuxCnc(const PositioningReport& report) {
   const auto& t = report.compensation;
   std::string out;
   for (std::size_t i = 0; i < t.target_mm.size(); ++i) {
-    out += Fixed(t.target_mm[i], 6) + " " + Fixed(t.forward_um[i] / 1000.0, 6) + " " +
-           Fixed(t.reverse_um[i] / 1000.0, 6) + "\n";
+    out += PlainFixed(t.target_mm[i], 6) + " " + PlainFixed(t.forward_um[i] / 1000.0, 6) + " " +
+           PlainFixed(t.reverse_um[i] / 1000.0, 6) + "\n";
   }
   return out;
 }
@@ -58,16 +58,16 @@ std::string ExportSinumerik(const PositioningReport& report) {
                        : "; the targets are not evenly spaced: values linearly interpolated onto "
                          "an even grid of " +
                              std::to_string(grid.count) + " points\n";
-  out += "; mean reversal B = " + Fixed(report.figures.iso.mean_reversal_value_um, 3) +
+  out += "; mean reversal B = " + PlainFixed(report.figures.iso.mean_reversal_value_um, 3) +
          " um is not in this table (backlash compensation)\n";
-  out += "$AA_ENC_COMP_STEP[0,AX1]=" + Fixed(grid.step_mm, 6) + "\n";
-  out += "$AA_ENC_COMP_MIN[0,AX1]=" + Fixed(grid.start_mm, 6) + "\n";
-  out += "$AA_ENC_COMP_MAX[0,AX1]=" + Fixed(max_mm, 6) + "\n";
+  out += "$AA_ENC_COMP_STEP[0,AX1]=" + PlainFixed(grid.step_mm, 6) + "\n";
+  out += "$AA_ENC_COMP_MIN[0,AX1]=" + PlainFixed(grid.start_mm, 6) + "\n";
+  out += "$AA_ENC_COMP_MAX[0,AX1]=" + PlainFixed(max_mm, 6) + "\n";
   out += "$AA_ENC_COMP_IS_MODULO[0,AX1]=0\n";
   for (std::size_t i = 0; i < grid.count; ++i) {
     const double p = i + 1 == grid.count ? x.back() : grid.start_mm + grid.step_mm * double(i);
     const double v = positioning::Interpolate(x, y, p) / 1000.0;
-    out += "$AA_ENC_COMP[0," + std::to_string(i) + ",AX1]=" + Fixed(v, 6) + "\n";
+    out += "$AA_ENC_COMP[0," + std::to_string(i) + ",AX1]=" + PlainFixed(v, 6) + "\n";
   }
   out += "M17\n";
   return out;
@@ -77,9 +77,9 @@ std::string ExportCompensationCsv(const PositioningReport& report) {
   const auto& t = report.compensation;
   std::string out = "target_mm,forward_um,reverse_um,mean_bidirectional_um\n";
   for (std::size_t i = 0; i < t.target_mm.size(); ++i) {
-    out += Fixed(t.target_mm[i], 6) + "," + Fixed(t.forward_um[i], 4) + "," +
-           Fixed(t.reverse_um[i], 4) + "," +
-           Fixed(report.figures.targets[i].mean_bidirectional_um, 4) + "\n";
+    out += PlainFixed(t.target_mm[i], 6) + "," + PlainFixed(t.forward_um[i], 4) + "," +
+           PlainFixed(t.reverse_um[i], 4) + "," +
+           PlainFixed(report.figures.targets[i].mean_bidirectional_um, 4) + "\n";
   }
   return out;
 }

@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "analysis/core/angles.h"
 #include "analysis/core/errors.h"
 #include "analysis/core/parallel.h"
 #include "analysis/dbb/diagnosis_entry.h"
@@ -28,7 +29,6 @@ using namespace diag;  // NOLINT(google-build-using-namespace): the diagnosis' o
 using effects::EffectId;
 using Eigen::VectorXd;
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 // Sample steps a spike must cover above e⁻² of its height to be named (DiagnosisRun::Screen).
 constexpr double kSpikeMinSamples = 3.0;
 constexpr const char* kUnresolvedSpike =

@@ -7,6 +7,8 @@
 #include <numbers>
 #include <utility>
 
+#include "analysis/core/angles.h"
+
 namespace km::dbb::diag {
 
 using effects::EffectId;
@@ -19,8 +21,6 @@ double ZScore(double value, double sigma) {
 }
 
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 double Range(const VectorXd& v, std::size_t b, std::size_t e) {
   double mn = v[static_cast<Eigen::Index>(b)], mx = mn;

@@ -9,16 +9,14 @@
 
 #include <opencv2/core.hpp>
 
+#include "analysis/core/angles.h"
+
 namespace km::dbb::diag {
 
 using effects::EffectId;
 using Eigen::VectorXd;
 
-namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
-
-}  // namespace
+namespace {}  // namespace
 
 int ReversalOrder::Bucket(double phi) {
   return std::clamp(static_cast<int>(phi / std::numbers::pi * kBuckets), 0, kBuckets - 1);

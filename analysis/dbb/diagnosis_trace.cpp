@@ -1,5 +1,6 @@
 // The diagnosis's option checks, entries and traces (diagnosis.h); the diagnosis itself is in
 // diagnosis.cpp.
+#include "analysis/core/angles.h"
 #include "analysis/dbb/diagnosis.h"
 
 #include <algorithm>
@@ -12,9 +13,7 @@
 
 namespace km::dbb {
 
-namespace {
-constexpr double kDeg = std::numbers::pi / 180.0;
-}  // namespace
+namespace {}  // namespace
 
 void DiagnosisOptions::Check() const {
   if (!(significance > 0.0)) throw InvalidInput("", 0, "significance", "must be positive");

@@ -7,6 +7,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
+#include "analysis/core/angles.h"
 #include "analysis/core/errors.h"
 #include "analysis/core/parallel.h"
 #include "analysis/geometry/circle_fit.h"
@@ -14,8 +15,6 @@
 namespace km::dbb {
 
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 // Samples of a periodic function of the angle, sorted by angle in [0, 2π).
 struct PeriodicTrace {

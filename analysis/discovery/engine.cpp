@@ -12,16 +12,14 @@
 #include "analysis/core/errors.h"
 #include "analysis/core/option_check.h"
 #include "analysis/core/statistics.h"
+#include "analysis/discovery/serial_family_util.h"
 
 namespace km::discovery {
 namespace {
 
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
-
-double Rms(const VectorXd& v) {
-  return v.size() > 0 ? std::sqrt(v.squaredNorm() / static_cast<double>(v.size())) : 0.0;
-}
+using util::Rms;
 
 // Eliminates the local columns of a fit group by group: every vector handed to Project() loses
 // its component in the span of its group's local columns.
@@ -90,10 +88,12 @@ FoldSystem Accumulate(const MatrixXd& x, const VectorXd& y, const std::vector<in
     const int f = row_fold[static_cast<std::size_t>(r)];
     int e = r;
     while (e < x.rows() && row_fold[static_cast<std::size_t>(e)] == f) ++e;
-    const auto xb = x.middleRows(r, e - r);
     const auto yb = y.segment(r, e - r);
-    s.gram[static_cast<std::size_t>(f)].noalias() += xb.transpose() * xb;
-    s.rhs[static_cast<std::size_t>(f)].noalias() += xb.transpose() * yb;
+    if (p > 0) {  // a block of a matrix without columns would offset a null data pointer
+      const auto xb = x.middleRows(r, e - r);
+      s.gram[static_cast<std::size_t>(f)].noalias() += xb.transpose() * xb;
+      s.rhs[static_cast<std::size_t>(f)].noalias() += xb.transpose() * yb;
+    }
     s.yy[static_cast<std::size_t>(f)] += yb.squaredNorm();
     r = e;
   }

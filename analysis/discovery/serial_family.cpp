@@ -10,8 +10,10 @@
 
 #include <Eigen/Cholesky>
 
+#include "analysis/core/angles.h"
 #include "analysis/core/errors.h"
 #include "analysis/core/option_check.h"
+#include "analysis/discovery/serial_family_util.h"
 
 namespace km::discovery {
 namespace {
@@ -19,17 +21,12 @@ namespace {
 using effects::EffectId;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
+using util::Format;
+using util::IsCyclic;
+using util::IsSpike;
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kBlockDeg = 2.0;       // angle of one block of an interleaved sub-trace
 constexpr double kConfoundRatio = 0.1;  // as the engine's and the diagnosis's
-
-bool IsSpike(EffectId id) {
-  return id == EffectId::kReversalSpikeU || id == EffectId::kReversalSpikeV;
-}
-bool IsCyclic(EffectId id) {
-  return id == EffectId::kCyclicErrorU || id == EffectId::kCyclicErrorV;
-}
 
 // Solves the symmetric system g x = b scaled by its diagonal (a tiny ridge keeps a parameter
 // the data do not see at 0).
@@ -46,12 +43,6 @@ MatrixXd InverseScaled(const MatrixXd& g) {
   MatrixXd inv(k, k);
   for (int j = 0; j < k; ++j) inv.col(j) = SolveScaled(g, VectorXd::Unit(k, j));
   return inv;
-}
-
-std::string Format(const char* fmt, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, v);
-  return buf;
 }
 
 // Removes from v its components along the orthonormal vectors q (twice, for orthogonality).

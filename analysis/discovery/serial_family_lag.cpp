@@ -5,22 +5,18 @@
 #include <cstdio>
 #include <numbers>
 
+#include "analysis/core/angles.h"
 #include "analysis/discovery/serial_family.h"
+#include "analysis/discovery/serial_family_util.h"
 
 namespace km::discovery {
 namespace {
 
 using effects::EffectId;
 using Eigen::VectorXd;
+using util::Format;
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kGolden = 0.6180339887498949;
-
-std::string Format(const char* fmt, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, v);
-  return buf;
-}
 
 // Angular speed (rad/s) times the direction sign of a trace: the angle a delay of 1 s shifts.
 double SignedOmega(const dbb::DiagnosisTrace& t) {

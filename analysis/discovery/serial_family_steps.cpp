@@ -2,7 +2,9 @@
 // names, refinement of the shape parameters (spike width, cyclic period) when an effect is
 // accepted, the evidence of a step for people, and the search around the greedy ladder
 // (DiscoverSerial).
+#include "analysis/core/angles.h"
 #include "analysis/discovery/serial_family.h"
+#include "analysis/discovery/serial_family_util.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,25 +17,10 @@ namespace {
 
 using effects::EffectId;
 using Eigen::VectorXd;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
-
-bool IsSpike(EffectId id) {
-  return id == EffectId::kReversalSpikeU || id == EffectId::kReversalSpikeV;
-}
-bool IsCyclic(EffectId id) {
-  return id == EffectId::kCyclicErrorU || id == EffectId::kCyclicErrorV;
-}
-
-std::string Format(const char* fmt, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, v);
-  return buf;
-}
-
-double Rms(const VectorXd& v) {
-  return v.size() > 0 ? std::sqrt(v.squaredNorm() / static_cast<double>(v.size())) : 0.0;
-}
+using util::Format;
+using util::IsCyclic;
+using util::IsSpike;
+using util::Rms;
 
 }  // namespace
 

@@ -6,12 +6,11 @@
 
 #include <Eigen/Geometry>
 
+#include "analysis/core/angles.h"
 #include "analysis/hexapod/joint_swing.h"
 
 namespace km::servo {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 // Neighbours and weights of the first derivative at i (central where possible).
 struct Stencil {

@@ -20,7 +20,7 @@ namespace {
 constexpr int kParams = 18;  // f0_j, τb_j, τp_j
 using FrictionRows = Eigen::Matrix<double, 6, kParams>;
 
-struct Track {
+struct ResistanceTrack {
   const ServoFile* file = nullptr;
   std::vector<MotionSample> motion;
   std::vector<RowUse> use;
@@ -65,14 +65,15 @@ double PoseDistance(const HexapodSample& a, const HexapodSample& b) {
 }
 
 // CW/CCW pairs of tracks by test id (and tool length).
-std::vector<std::pair<const Track*, const Track*>> Pairs(const std::vector<Track>& tracks) {
-  std::map<std::string, std::pair<const Track*, const Track*>> by_id;
+std::vector<std::pair<const ResistanceTrack*, const ResistanceTrack*>> Pairs(
+    const std::vector<ResistanceTrack>& tracks) {
+  std::map<std::string, std::pair<const ResistanceTrack*, const ResistanceTrack*>> by_id;
   for (const auto& t : tracks) {
     auto& p = by_id[t.file->test_id];
     if (t.file->direction == "cw" && !p.first) p.first = &t;
     if (t.file->direction == "ccw" && !p.second) p.second = &t;
   }
-  std::vector<std::pair<const Track*, const Track*>> out;
+  std::vector<std::pair<const ResistanceTrack*, const ResistanceTrack*>> out;
   for (const auto& [id, p] : by_id) {
     if (p.first && p.second && p.first->file->tool_length_mm == p.second->file->tool_length_mm) {
       out.push_back(p);
@@ -110,7 +111,7 @@ double Distance(const HexapodSample& a, const HexapodSample& b, const HexapodSam
   return PoseDistance(a, m);
 }
 
-std::vector<Match> Matches(const Track& cw, const Track& ccw, double match_mm) {
+std::vector<Match> Matches(const ResistanceTrack& cw, const ResistanceTrack& ccw, double match_mm) {
   std::vector<Match> out(cw.motion.size());
   const auto& cs = ccw.file->samples;
   const std::size_t n = cs.size();
@@ -163,7 +164,8 @@ bool LoadDependent(const hexapod::MachinePhysics& m) {
   return m.has_friction && m.base_joint_torque_Nm > 0.0 && m.base_joint_torque_per_N_m > 0.0;
 }
 
-std::array<double, 6> Gravity(const hexapod::MachinePhysics& m, const Track& t, std::size_t i) {
+std::array<double, 6> Gravity(const hexapod::MachinePhysics& m, const ResistanceTrack& t,
+                              std::size_t i) {
   const hexapod::Vector6d g =
       StaticGravity(m, ParametersOf(m), t.motion[i], t.file->tool_length_mm);
   std::array<double, 6> out{};
@@ -178,8 +180,8 @@ double ModelTorque(const hexapod::MachinePhysics& m, double gravity_N) {
 }
 
 // First pass: the mean axial gravity of each strut over the matched poses.
-void AddGravity(const hexapod::MachinePhysics& m, const Track& cw, const std::vector<Match>& match,
-                Accumulated& acc) {
+void AddGravity(const hexapod::MachinePhysics& m, const ResistanceTrack& cw,
+                const std::vector<Match>& match, Accumulated& acc) {
   for (std::size_t i = 0; i < cw.motion.size(); ++i) {
     if (match[i].k < 0) continue;
     const auto g = Gravity(m, cw, i);
@@ -188,8 +190,8 @@ void AddGravity(const hexapod::MachinePhysics& m, const Track& cw, const std::ve
   }
 }
 
-void AddPair(const hexapod::MachinePhysics& m, const Track& cw, const Track& ccw,
-             const std::vector<Match>& match, Accumulated& acc) {
+void AddPair(const hexapod::MachinePhysics& m, const ResistanceTrack& cw,
+             const ResistanceTrack& ccw, const std::vector<Match>& match, Accumulated& acc) {
   const bool load = LoadDependent(m) && acc.gravity_samples > 0;
   for (std::size_t i = 0; i < cw.motion.size(); ++i) {
     if (match[i].k < 0) continue;
@@ -315,10 +317,10 @@ JointsResult EstimateJointResistance(const hexapod::HexapodGeometry& geometry,
                                      const std::vector<ServoFile>& files,
                                      const JointOptions& options) {
   options.Check();
-  std::vector<Track> tracks;
+  std::vector<ResistanceTrack> tracks;
   for (const auto& f : files) {
     if (!f.hexapod) throw InvalidInput(f.file, 0, "axis", "not a hexapod servo record");
-    Track t;
+    ResistanceTrack t;
     t.file = &f;
     t.motion = TrackMotion(geometry, f.samples, f.tool_length_mm);
     t.use = UsableRows(t.motion, options.min_rate_fraction, options.reversal_skip_mm);

@@ -14,8 +14,6 @@
 namespace km::tracker::selfcal_stages {
 namespace {
 
-const double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 double MedianAbs(const std::vector<double>& r) {
   std::vector<double> a;
   a.reserve(r.size());

@@ -18,8 +18,6 @@
 namespace km::tracker::selfcal_stages {
 namespace {
 
-const double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 double PointSpreadMm(const SelfCalState& state, const SelfCalProblem& problem) {
   const auto use = problem.PointsInUse();
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -12,6 +13,9 @@
 #include "analysis/tracker/tracker_selfcal.h"
 
 namespace km::tracker::selfcal_stages {
+
+// What a figure the survey cannot give is reported as.
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // One point id a commanded point; tracker guesses of existing trackers within 100 m of the
 // machine origin (InvalidInput otherwise).

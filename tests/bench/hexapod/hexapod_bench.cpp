@@ -5,6 +5,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "analysis/core/angles.h"
 #include "analysis/hexapod/calibration.h"
 #include "analysis/hexapod/kinematics.h"
 #include "analysis/sim/hexapod_dbb_sim.h"
@@ -12,8 +13,6 @@
 
 namespace km::hexapod {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 struct FkCase {
   Vector6d struts;

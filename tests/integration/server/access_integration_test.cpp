@@ -18,7 +18,7 @@ using nlohmann::json;
 
 namespace {
 
-const char* kAdmin = "access-integration-admin";
+const char* kAccessAdmin = "access-integration-admin";
 
 class AccessIntegration : public ::testing::Test {
  protected:
@@ -31,7 +31,8 @@ class AccessIntegration : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
   std::unique_ptr<km::test::ServerProcess> Start(const std::string& extra = "") {
-    return std::make_unique<km::test::ServerProcess>(KINEMETRICD_BIN, dir_.string(), kAdmin, extra);
+    return std::make_unique<km::test::ServerProcess>(KINEMETRICD_BIN, dir_.string(), kAccessAdmin,
+                                                     extra);
   }
   static httplib::Headers Bearer(const std::string& token) {
     return {{"Authorization", "Bearer " + token}};
@@ -44,7 +45,7 @@ TEST_F(AccessIntegration, RolesTokensRevocationAndTheAuditLogOverHttp) {
   httplib::Client c("127.0.0.1", server->port());
   c.set_read_timeout(10, 0);
   const auto make = [&](const std::string& role) {
-    auto r = c.Post("/api/v1/tokens", Bearer(kAdmin),
+    auto r = c.Post("/api/v1/tokens", Bearer(kAccessAdmin),
                     json{{"name", role + " at line 1"}, {"role", role}}.dump(), "application/json");
     EXPECT_TRUE(r);
     EXPECT_EQ(r->status, 201) << r->body;
@@ -68,23 +69,23 @@ TEST_F(AccessIntegration, RolesTokensRevocationAndTheAuditLogOverHttp) {
   ASSERT_EQ(up->status, 201) << up->body;
   const auto mid = json::parse(up->body)["id"].get<std::int64_t>();
 
-  auto del = c.Delete("/api/v1/tokens/" + op["id"].dump(), Bearer(kAdmin));
+  auto del = c.Delete("/api/v1/tokens/" + op["id"].dump(), Bearer(kAccessAdmin));
   ASSERT_TRUE(del);
   EXPECT_EQ(del->status, 200) << del->body;
   auto after = c.Get("/api/v1/measurements", Bearer(op["token"]));
   EXPECT_EQ(after->status, 401);
   EXPECT_EQ(after->get_header_value("WWW-Authenticate"), "Bearer");
 
-  const auto tokens = c.Get("/api/v1/tokens", Bearer(kAdmin));
+  const auto tokens = c.Get("/api/v1/tokens", Bearer(kAccessAdmin));
   ASSERT_EQ(tokens->status, 200);
   EXPECT_EQ(tokens->body.find(op["token"].get<std::string>()), std::string::npos);
-  EXPECT_EQ(tokens->body.find(kAdmin), std::string::npos);
+  EXPECT_EQ(tokens->body.find(kAccessAdmin), std::string::npos);
 
   // The audit log survives a restart.
   EXPECT_EQ(server->Stop(), 0);
   server = Start();
   httplib::Client c2("127.0.0.1", server->port());
-  auto log = c2.Get("/api/v1/audit-log", Bearer(kAdmin));
+  auto log = c2.Get("/api/v1/audit-log", Bearer(kAccessAdmin));
   ASSERT_TRUE(log);
   ASSERT_EQ(log->status, 200) << log->body;
   const json items = json::parse(log->body)["items"];
@@ -113,12 +114,12 @@ TEST_F(AccessIntegration, CorsForTheConfiguredOriginAndDeviceLimits) {
   auto server = Start("--cors-origin https://dash.example --max-devices 1");
   httplib::Client c("127.0.0.1", server->port());
   c.set_read_timeout(10, 0);
-  httplib::Headers h = Bearer(kAdmin);
+  httplib::Headers h = Bearer(kAccessAdmin);
   h.emplace("Origin", "https://dash.example");
   auto ok = c.Get("/api/v1/machines", h);
   ASSERT_TRUE(ok);
   EXPECT_EQ(ok->get_header_value("Access-Control-Allow-Origin"), "https://dash.example");
-  httplib::Headers other = Bearer(kAdmin);
+  httplib::Headers other = Bearer(kAccessAdmin);
   other.emplace("Origin", "https://elsewhere.example");
   auto no = c.Get("/api/v1/machines", other);
   ASSERT_TRUE(no);
@@ -134,15 +135,16 @@ TEST_F(AccessIntegration, CorsForTheConfiguredOriginAndDeviceLimits) {
                 {"channels", json::array({{{"channel", 1}, {"address", 0}, {"type", "int16"}}})}}
         .dump();
   };
-  auto far =
-      c.Post("/api/v1/devices", Bearer(kAdmin), device("far", "192.0.2.7"), "application/json");
+  auto far = c.Post("/api/v1/devices", Bearer(kAccessAdmin), device("far", "192.0.2.7"),
+                    "application/json");
   EXPECT_EQ(far->status, 403) << far->body;
   EXPECT_NE(far->body.find("device_networks"), std::string::npos) << far->body;
-  EXPECT_EQ(c.Post("/api/v1/devices", Bearer(kAdmin), device("a", "127.0.0.1"), "application/json")
-                ->status,
-            201);
+  EXPECT_EQ(
+      c.Post("/api/v1/devices", Bearer(kAccessAdmin), device("a", "127.0.0.1"), "application/json")
+          ->status,
+      201);
   auto second =
-      c.Post("/api/v1/devices", Bearer(kAdmin), device("b", "127.0.0.1"), "application/json");
+      c.Post("/api/v1/devices", Bearer(kAccessAdmin), device("b", "127.0.0.1"), "application/json");
   EXPECT_EQ(second->status, 403) << second->body;
   EXPECT_NE(second->body.find("max_devices"), std::string::npos) << second->body;
 }

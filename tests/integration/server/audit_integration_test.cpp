@@ -26,7 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const char* kAdmin = "audit-integration-admin";
+const char* kAuditAdmin = "audit-integration-admin";
 
 class AuditIntegration : public ::testing::Test {
  protected:
@@ -43,8 +43,8 @@ class AuditIntegration : public ::testing::Test {
   }
   void Start(const std::string& extra = "") {
     server_.reset();
-    server_ =
-        std::make_unique<km::test::ServerProcess>(KINEMETRICD_BIN, dir_.string(), kAdmin, extra);
+    server_ = std::make_unique<km::test::ServerProcess>(KINEMETRICD_BIN, dir_.string(), kAuditAdmin,
+                                                        extra);
     client_ = std::make_unique<httplib::Client>("127.0.0.1", server_->port());
     client_->set_read_timeout(20, 0);
   }
@@ -52,17 +52,17 @@ class AuditIntegration : public ::testing::Test {
     return {{"Authorization", "Bearer " + token}};
   }
   httplib::Result Put(const std::string& path, const json& body,
-                      const std::string& token = kAdmin) {
+                      const std::string& token = kAuditAdmin) {
     return client_->Put(path, Bearer(token), body.dump(), "application/json");
   }
   json Get(const std::string& path) {
-    auto r = client_->Get(path, Bearer(kAdmin));
+    auto r = client_->Get(path, Bearer(kAuditAdmin));
     EXPECT_TRUE(r);
     EXPECT_EQ(r->status, 200) << path << ": " << r->body;
     return json::parse(r->body);
   }
   json Run(const std::string& machine) {
-    auto r = client_->Post("/api/v1/machines/" + machine + "/audit/run", Bearer(kAdmin), "",
+    auto r = client_->Post("/api/v1/machines/" + machine + "/audit/run", Bearer(kAuditAdmin), "",
                            "application/json");
     EXPECT_TRUE(r);
     EXPECT_EQ(r->status, 201) << r->body;
@@ -70,7 +70,7 @@ class AuditIntegration : public ::testing::Test {
   }
   // Uploads the first demo DBB test; its id and circularity.
   std::pair<std::int64_t, double> UploadDbb() {
-    auto up = client_->Post("/api/v1/measurements", Bearer(kAdmin),
+    auto up = client_->Post("/api/v1/measurements", Bearer(kAuditAdmin),
                             km::server::DemoDbbFiles().at(0).bytes, "text/plain");
     EXPECT_EQ(up->status, 201) << up->body;
     const auto id = json::parse(up->body)["id"].get<std::int64_t>();
@@ -101,7 +101,7 @@ TEST_F(AuditIntegration, RulesRunsFindingsAndVerdictsOverHttp) {
   Start();
   const auto [id, circ] = UploadDbb();
   ASSERT_GT(circ, 2.0);
-  auto viewer = client_->Post("/api/v1/tokens", Bearer(kAdmin),
+  auto viewer = client_->Post("/api/v1/tokens", Bearer(kAuditAdmin),
                               json{{"name", "v"}, {"role", "viewer"}}.dump(), "application/json");
   const std::string vt = json::parse(viewer->body)["token"];
   EXPECT_EQ(Put("/api/v1/machines/demo-vmc/audit", Rules(1, 2), vt)->status, 403);
@@ -141,7 +141,7 @@ TEST_F(AuditIntegration, RulesRunsFindingsAndVerdictsOverHttp) {
   EXPECT_TRUE(Get("/api/v1/audits?machine_id=other")["audits"].empty());
   EXPECT_EQ(Get("/api/v1/machines/demo-vmc/audit")["rules"][0]["warn"], circ / 4);
   EXPECT_GE(Get("/api/v1/audit-metrics")["metrics"].size(), 15u);
-  EXPECT_EQ(client_->Get("/api/v1/audits/999", Bearer(kAdmin))->status, 404);
+  EXPECT_EQ(client_->Get("/api/v1/audits/999", Bearer(kAuditAdmin))->status, 404);
 
   const json log = Get("/api/v1/audit-log")["items"];
   EXPECT_EQ(log[0]["method"], "POST");

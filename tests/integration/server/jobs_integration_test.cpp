@@ -27,7 +27,7 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-const char* kAdmin = "jobs-integration-admin";
+const char* kJobsAdmin = "jobs-integration-admin";
 
 class JobsIntegration : public ::testing::Test {
  protected:
@@ -37,7 +37,7 @@ class JobsIntegration : public ::testing::Test {
             ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    server_ = std::make_unique<km::test::ServerProcess>(KINEMETRICD_BIN, dir_.string(), kAdmin,
+    server_ = std::make_unique<km::test::ServerProcess>(KINEMETRICD_BIN, dir_.string(), kJobsAdmin,
                                                         "--job-workers 1");
     client_ = std::make_unique<httplib::Client>("127.0.0.1", server_->port());
     client_->set_read_timeout(30, 0);
@@ -52,7 +52,7 @@ class JobsIntegration : public ::testing::Test {
   }
   // A new token of the role: its secret.
   std::string Token(const std::string& role, const std::string& name) {
-    auto r = client_->Post("/api/v1/tokens", Bearer(kAdmin),
+    auto r = client_->Post("/api/v1/tokens", Bearer(kJobsAdmin),
                            json{{"name", name}, {"role", role}}.dump(), "application/json");
     EXPECT_TRUE(r && r->status == 201) << (r ? r->body : "no answer");
     return json::parse(r->body)["token"];
@@ -69,7 +69,7 @@ class JobsIntegration : public ::testing::Test {
     json ids = json::array();
     for (const auto& t : km::sim::SimulateHexapodDbbPlan(machine.geometry, truth,
                                                          km::sim::Table21Plan(180, false), so)) {
-      auto r = client_->Post("/api/v1/measurements", Bearer(kAdmin), km::ingest::WriteDbb(t),
+      auto r = client_->Post("/api/v1/measurements", Bearer(kJobsAdmin), km::ingest::WriteDbb(t),
                              "text/plain");
       EXPECT_TRUE(r && r->status == 201) << (r ? r->body : "no answer");
       ids.push_back(json::parse(r->body)["id"]);
@@ -85,7 +85,7 @@ class JobsIntegration : public ::testing::Test {
     return json::parse(r->body)["job_id"];
   }
   json Job(std::int64_t id) {
-    auto r = client_->Get("/api/v1/jobs/" + std::to_string(id), Bearer(kAdmin));
+    auto r = client_->Get("/api/v1/jobs/" + std::to_string(id), Bearer(kJobsAdmin));
     EXPECT_TRUE(r && r->status == 200);
     return json::parse(r->body);
   }
@@ -160,12 +160,12 @@ TEST_F(JobsIntegration, TheOwnerCancelsALongJobAndTheWorkerRunsTheNextAtOnce) {
 
   // Finished jobs cannot be cancelled (409), not even by an admin.
   for (const auto& [id, token] :
-       {std::pair{long_job, alice}, std::pair{next, std::string(kAdmin)}}) {
+       {std::pair{long_job, alice}, std::pair{next, std::string(kJobsAdmin)}}) {
     auto again = Cancel(id, token);
     EXPECT_EQ(again->status, 409) << again->body;
   }
   // The audit log names the job cancelled.
-  const json log = json::parse(client_->Get("/api/v1/audit-log", Bearer(kAdmin))->body);
+  const json log = json::parse(client_->Get("/api/v1/audit-log", Bearer(kJobsAdmin))->body);
   bool logged = false;
   for (const auto& e : log["items"]) {
     logged = logged || (e["method"] == "DELETE" && e["status"] == 200 &&
@@ -182,10 +182,10 @@ TEST_F(JobsIntegration, AnAdminCancelsAnyJobAndAQueuedJobNeverRuns) {
   const auto queued = SubmitJob(alice, request);
   WaitJob(running, InReductionStudy);
   EXPECT_EQ(Job(queued)["status"], "queued");
-  auto q = Cancel(queued, kAdmin);
+  auto q = Cancel(queued, kJobsAdmin);
   ASSERT_EQ(q->status, 200) << q->body;
   EXPECT_EQ(json::parse(q->body)["status"], "cancelled");
-  auto r = Cancel(running, kAdmin);
+  auto r = Cancel(running, kJobsAdmin);
   ASSERT_EQ(r->status, 200) << r->body;
   // Nothing else to run: the queued job stays cancelled, never started.
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
@@ -193,7 +193,7 @@ TEST_F(JobsIntegration, AnAdminCancelsAnyJobAndAQueuedJobNeverRuns) {
   EXPECT_EQ(never["status"], "cancelled");
   EXPECT_EQ(never["attempts"], 0);
   EXPECT_EQ(Job(running)["status"], "cancelled");
-  const std::string metrics = client_->Get("/metrics", Bearer(kAdmin))->body;
+  const std::string metrics = client_->Get("/metrics", Bearer(kJobsAdmin))->body;
   EXPECT_NE(metrics.find("kinemetric_jobs{status=\"cancelled\"} 2"), std::string::npos) << metrics;
 }
 
@@ -201,11 +201,11 @@ TEST_F(JobsIntegration, ARequestTheJobWouldRefuseIsRefusedBeforeItIsQueued) {
   json request = CalibrationRequest();
   request["reduction_study_min_tests"] = 3;
   request["effects"] = json::array({"gravity_deflection"});
-  auto r = Submit(kAdmin, request);
+  auto r = Submit(kJobsAdmin, request);
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 400) << r->body;
   EXPECT_EQ(json::parse(r->body)["field"], "reduction_study_min_tests");
-  EXPECT_TRUE(json::parse(client_->Get("/api/v1/jobs", Bearer(kAdmin))->body)["items"].empty());
+  EXPECT_TRUE(json::parse(client_->Get("/api/v1/jobs", Bearer(kJobsAdmin))->body)["items"].empty());
 }
 
 }  // namespace

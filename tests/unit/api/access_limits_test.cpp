@@ -23,10 +23,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 using test::RawConnection;
-
-int StatusOf(const std::string& response) {
-  return response.size() > 12 ? std::stoi(response.substr(9, 3)) : 0;
-}
+using test::StatusOf;
 
 bool HasHeader(const std::string& response, const std::string& line) {
   const auto end = response.find("\r\n\r\n");

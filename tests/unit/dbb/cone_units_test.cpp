@@ -31,7 +31,7 @@ namespace {
 
 using truth::Kind;
 
-constexpr double kDeg = truth::kDeg;
+using truth::kDeg;
 constexpr double kTol = 0.01;  // µm
 
 truth::Setup Cone(Direction d, std::vector<truth::Effect> effects) {

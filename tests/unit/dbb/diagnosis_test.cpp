@@ -13,21 +13,13 @@ namespace km::dbb {
 namespace {
 
 using effects::EffectId;
+using test::Describe;
 
 struct Case {
   EffectId id;
   std::vector<double> params;
   double truth;  // reported value expected
 };
-
-std::string Describe(const DiagnosisResult& r) {
-  std::string s;
-  for (const auto& e : r.named) {
-    s += e.effect + "=" + std::to_string(e.value[0]) + "±" + std::to_string(e.uncertainty[0]) +
-         " (" + std::to_string(e.MaxContribution()) + "%) ";
-  }
-  return s;
-}
 
 const DiagnosisEntry* Find(const DiagnosisResult& r, const std::string& name) {
   for (const auto& e : r.named)

@@ -16,15 +16,18 @@
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/dbb/full_analysis.h"
 #include "analysis/dbb/iso230.h"
+#include "tests/unit/dbb/dbb_test_util.h"
 #include "tests/unit/dbb/dbb_truth.h"
 #include "usecases/dbb_json.h"
 
 namespace km::dbb {
 namespace {
 
+using test::Describe;
+using test::Named;
 using truth::Kind;
 
-constexpr double kDeg = truth::kDeg;
+using truth::kDeg;
 
 // The 220° arc of the test, in time order for the direction.
 std::vector<double> Arc(Direction d, double step = 0.1) {
@@ -68,21 +71,6 @@ Lin LinearCircle(const std::vector<double>& deg, const std::vector<double>& dr) 
 double Range(const std::vector<double>& v) {
   const auto [mn, mx] = std::minmax_element(v.begin(), v.end());
   return *mx - *mn;
-}
-
-std::string Describe(const DiagnosisResult& r) {
-  std::string s;
-  for (const auto& e : r.named)
-    s += e.effect + "=" + std::to_string(e.value[0]) + "±" + std::to_string(e.uncertainty[0]) + " ";
-  s += "| not identifiable:";
-  for (const auto& n : r.not_identifiable) s += " " + n + ";";
-  return s;
-}
-
-const DiagnosisEntry* Named(const DiagnosisResult& r, const std::string& name) {
-  for (const auto& e : r.named)
-    if (e.effect == name) return &e;
-  return nullptr;
 }
 
 // The arc is inferred from the samples (no arc_deg) and evaluated over the arc: the centre, the

@@ -20,16 +20,19 @@
 
 #include <gtest/gtest.h>
 
+#include "analysis/core/angles.h"
 #include "analysis/dbb/circular_test.h"
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/dbb/full_analysis.h"
+#include "tests/unit/dbb/dbb_test_util.h"
 #include "usecases/dbb_json.h"
 
 namespace km::dbb {
 namespace {
 
+using test::Describe;
+using test::Named;
 constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 
 enum class Decay { kExponential, kGaussian };
 enum class AtReversal { kPeak, kNothing };
@@ -115,31 +118,6 @@ std::vector<DbbTest> Tests(const SpikeMachine& m, Runs runs) {
   return v;
 }
 
-DiagnosisResult Diagnose(const std::vector<DbbTest>& tests) {
-  std::vector<DiagnosisTrace> tr;
-  for (const auto& t : tests) tr.push_back(MakeDiagnosisTrace(t, AnalyzeCircularTest(t)));
-  return DiagnoseSerialDbb(tr, tests.front().plane);
-}
-
-const DiagnosisEntry* Named(const DiagnosisResult& r, const std::string& name) {
-  for (const auto& e : r.named)
-    if (e.effect == name) return &e;
-  return nullptr;
-}
-
-std::string Describe(const DiagnosisResult& r) {
-  std::string s;
-  for (const auto& e : r.named) {
-    s += e.effect + "=" + std::to_string(e.value[0]) + "±" + std::to_string(e.uncertainty[0]);
-    for (const auto& [k, v] : e.shape) s += " " + k + "=" + std::to_string(v);
-    for (const auto& [k, v] : e.shape_uncertainty) s += " u(" + k + ")=" + std::to_string(v);
-    if (!e.shape_kind.empty()) s += " " + e.shape_kind;
-    s += "; ";
-  }
-  for (const auto& n : r.not_identifiable) s += "[" + n + "] ";
-  return s;
-}
-
 const char* ShapeName(Decay d) {
   return d == Decay::kExponential ? "exponential" : "gaussian";
 }
@@ -188,7 +166,7 @@ TEST(SpikeShape, TheIssuesMachines) {
         m.seed = seed;
         const auto tests = Tests(m, Runs::kPair);
         SCOPED_TRACE("R " + std::to_string(m.radius_mm) + " seed " + std::to_string(seed));
-        ExpectSpike(Diagnose(tests), m, "reversal_spike_y");
+        ExpectSpike(test::DiagnoseTests(tests), m, "reversal_spike_y");
         const auto j = usecases::DbbReportToJson(AnalyzeDbbSet(tests));
         bool found = false;
         for (const auto& d : j["tests"][0]["diagnosis"]) {
@@ -231,7 +209,8 @@ TEST(SpikeShape, RecoveredOverWidthsAndSamplings) {
             SCOPED_TRACE("step " + std::to_string(step) + " " + ShapeName(decay) + " width " +
                          std::to_string(w_deg) + " runs " + std::to_string(static_cast<int>(runs)) +
                          " offset " + std::to_string(offset));
-            const double z = ExpectSpike(Diagnose(Tests(m, runs)), m, "reversal_spike_y", 4.0);
+            const double z =
+                ExpectSpike(test::DiagnoseTests(Tests(m, runs)), m, "reversal_spike_y", 4.0);
             z2 += z * z;
           }
         }
@@ -256,7 +235,7 @@ TEST(SpikeShape, BesideABacklashOfItsAxisAndASquareness) {
       m.backlash_um = 2.2;
       m.squareness_um_per_m = 12.0;
       m.seed = seed;
-      const auto r = Diagnose(Tests(m, Runs::kPair));
+      const auto r = test::DiagnoseTests(Tests(m, Runs::kPair));
       ExpectSpike(r, m, "reversal_spike_x");
       const auto* b = Named(r, "backlash_x");
       const auto* q = Named(r, "squareness");
@@ -276,7 +255,7 @@ TEST(SpikeShape, NarrowerThanTheSamplesIsNotGivenAHeight) {
     m.offset_steps = 0.29;
     m.at_reversal = at;
     m.width_s = 0.6 / m.DegPerS();
-    const auto r = Diagnose(Tests(m, Runs::kPair));
+    const auto r = test::DiagnoseTests(Tests(m, Runs::kPair));
     EXPECT_EQ(Named(r, "reversal_spike_y"), nullptr) << Describe(r);
     bool listed = false;
     for (const auto& n : r.not_identifiable)
@@ -299,7 +278,7 @@ TEST(SpikeShape, UncertaintyIncludesTheDoubtAboutTheShape) {
     m.noise_um = 0.4;
     m.width_s = 1.15 / m.DegPerS();
     m.seed = 300 + seed;
-    const auto r = Diagnose(Tests(m, Runs::kPair));
+    const auto r = test::DiagnoseTests(Tests(m, Runs::kPair));
     const DiagnosisEntry* e = Named(r, "reversal_spike_y");
     if (!e) continue;
     ++named;

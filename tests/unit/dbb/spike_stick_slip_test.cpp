@@ -10,37 +10,16 @@
 #include "analysis/dbb/circular_test.h"
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/dbb/iso230.h"
+#include "tests/unit/dbb/dbb_test_util.h"
 #include "tests/unit/dbb/dbb_truth.h"
 
 namespace km::dbb {
 namespace {
 
+using test::Describe;
+using test::Named;
 using truth::Effect;
 using truth::Kind;
-
-DiagnosisResult Diagnose(const std::vector<DbbTest>& tests) {
-  std::vector<DiagnosisTrace> tr;
-  for (const auto& t : tests) tr.push_back(MakeDiagnosisTrace(t, AnalyzeCircularTest(t)));
-  return DiagnoseSerialDbb(tr, tests.front().plane);
-}
-
-std::string Describe(const DiagnosisResult& r) {
-  std::string s;
-  for (const auto& e : r.named) {
-    s += e.effect + "=" + std::to_string(e.value[0]) + "±" + std::to_string(e.uncertainty[0]);
-    for (const auto& [k, v] : e.shape) s += " " + k + "=" + std::to_string(v);
-    for (const auto& [k, v] : e.shape_uncertainty) s += " u(" + k + ")=" + std::to_string(v);
-    if (!e.shape_kind.empty()) s += " " + e.shape_kind;
-    s += "; ";
-  }
-  return s;
-}
-
-const DiagnosisEntry* Named(const DiagnosisResult& r, const std::string& name) {
-  for (const auto& e : r.named)
-    if (e.effect == name) return &e;
-  return nullptr;
-}
 
 truth::Setup Machine(unsigned seed, double noise, std::vector<Effect> effects) {
   truth::Setup st;
@@ -55,7 +34,8 @@ truth::Setup Machine(unsigned seed, double noise, std::vector<Effect> effects) {
 // (3.9 µm before the width was fitted), decay constant within 10 %.
 TEST(ReversalSpike, ExponentialDecayIsFittedWithItsUncertainty) {
   for (unsigned seed : {1u, 2u, 3u}) {
-    const auto r = Diagnose(truth::Pair(Machine(seed, 0.3, {{Kind::kSpikeExp, 1, {5.0, 0.95}}})));
+    const auto r =
+        test::DiagnoseTests(truth::Pair(Machine(seed, 0.3, {{Kind::kSpikeExp, 1, {5.0, 0.95}}})));
     const auto* e = Named(r, "reversal_spike_y");
     ASSERT_NE(e, nullptr) << Describe(r);
     EXPECT_NEAR(e->value[0], 5.0, 0.2) << Describe(r);
@@ -74,7 +54,7 @@ TEST(ReversalSpike, ExponentialDecayIsFittedWithItsUncertainty) {
 // scale mismatch within 5 %, and no stick_slip.
 TEST(ReversalSpike, BesideAScaleMismatch) {
   for (unsigned seed : {4u, 5u, 6u}) {
-    const auto r = Diagnose(truth::Pair(Machine(
+    const auto r = test::DiagnoseTests(truth::Pair(Machine(
         seed, 0.3, {{Kind::kScaleMismatch, 0, {30.0}}, {Kind::kSpikeExp, 0, {4.0, 0.95}}})));
     const auto* e = Named(r, "reversal_spike_x");
     const auto* sc = Named(r, "scale_mismatch");
@@ -90,7 +70,8 @@ TEST(ReversalSpike, BesideAScaleMismatch) {
 // width within 10 %.
 TEST(ReversalSpike, GaussianLikeShapeIsRecognised) {
   for (unsigned seed : {7u, 8u, 9u}) {
-    const auto r = Diagnose(truth::Pair(Machine(seed, 0.3, {{Kind::kSpikeGauss, 0, {4.0, 1.5}}})));
+    const auto r =
+        test::DiagnoseTests(truth::Pair(Machine(seed, 0.3, {{Kind::kSpikeGauss, 0, {4.0, 1.5}}})));
     const auto* e = Named(r, "reversal_spike_x");
     ASSERT_NE(e, nullptr) << Describe(r);
     EXPECT_NEAR(e->value[0], 4.0, 0.2) << Describe(r);
@@ -103,7 +84,7 @@ TEST(ReversalSpike, GaussianLikeShapeIsRecognised) {
 // Wide and narrow decays across the range: 0.4° … 3.3°, both axes at once.
 TEST(ReversalSpike, BothAxesAtDifferentDecays) {
   for (unsigned seed : {10u, 11u}) {
-    const auto r = Diagnose(truth::Pair(
+    const auto r = test::DiagnoseTests(truth::Pair(
         Machine(seed, 0.2, {{Kind::kSpikeExp, 0, {3.0, 0.4}}, {Kind::kSpikeExp, 1, {6.0, 3.3}}})));
     const auto* x = Named(r, "reversal_spike_x");
     const auto* y = Named(r, "reversal_spike_y");
@@ -126,8 +107,8 @@ TEST(ReversalSpike, CoarseSingleTraceIsUnbiased) {
   const int n = 12;
   for (int seed = 1; seed <= n; ++seed) {
     auto st = Machine(static_cast<unsigned>(seed), 0.15, {{Kind::kSpikeExp, 1, {5.0, 2.6}}});
-    const auto r =
-        Diagnose({truth::Simulate(st, truth::Angles(Direction::kCcw, 0.0, 360.0, 1.0, true))});
+    const auto r = test::DiagnoseTests(
+        {truth::Simulate(st, truth::Angles(Direction::kCcw, 0.0, 360.0, 1.0, true))});
     const auto* e = Named(r, "reversal_spike_y");
     ASSERT_NE(e, nullptr) << Describe(r);
     EXPECT_LT(std::abs(e->value[0] - 5.0), 3.5 * e->uncertainty[0]) << Describe(r);
@@ -143,7 +124,7 @@ TEST(ReversalSpike, WidthUncertaintyMatchesScatter) {
   double uw = 0.0, uh = 0.0;
   const int n = 12;
   for (int seed = 0; seed < n; ++seed) {
-    const auto r = Diagnose(truth::Pair(
+    const auto r = test::DiagnoseTests(truth::Pair(
         Machine(200u + static_cast<unsigned>(seed), 0.5, {{Kind::kSpikeExp, 1, {3.0, 1.2}}})));
     const auto* e = Named(r, "reversal_spike_y");
     ASSERT_NE(e, nullptr) << Describe(r);
@@ -174,7 +155,7 @@ TEST(StickSlip, NotNamedBesideOtherReversalEffects) {
   };
   for (std::size_t m = 0; m < machines.size(); ++m) {
     for (unsigned seed : {21u, 22u, 23u}) {
-      const auto r = Diagnose(truth::Pair(Machine(seed, 0.3, machines[m])));
+      const auto r = test::DiagnoseTests(truth::Pair(Machine(seed, 0.3, machines[m])));
       EXPECT_EQ(Named(r, "stick_slip"), nullptr) << "machine " << m << ": " << Describe(r);
     }
   }
@@ -187,10 +168,10 @@ TEST(StickSlip, NotNamedBesideOtherReversalEffects) {
 TEST(StickSlip, FittedWhenPresent) {
   for (double period : {0.73, 0.5}) {
     for (unsigned seed : {31u, 32u, 33u}) {
-      const auto r = Diagnose(truth::Pair(Machine(seed, 0.2,
-                                                  {{Kind::kStickSlip, 0, {0.6, period}},
-                                                   {Kind::kBacklash, 0, {2.0}},
-                                                   {Kind::kSpikeExp, 1, {3.0, 1.0}}})));
+      const auto r = test::DiagnoseTests(truth::Pair(Machine(seed, 0.2,
+                                                             {{Kind::kStickSlip, 0, {0.6, period}},
+                                                              {Kind::kBacklash, 0, {2.0}},
+                                                              {Kind::kSpikeExp, 1, {3.0, 1.0}}})));
       const auto* s = Named(r, "stick_slip");
       ASSERT_NE(s, nullptr) << Describe(r);
       EXPECT_NEAR(s->value[0], 0.6, 0.06) << period << ": " << Describe(r);
@@ -217,11 +198,11 @@ TEST(StickSlip, NoiseAloneNamesNoSpikeNorStickSlip) {
     }
   };
   for (unsigned seed = 40; seed < 50; ++seed)
-    check(Diagnose(truth::Pair(Machine(seed, 0.3, {}))), seed);
+    check(test::DiagnoseTests(truth::Pair(Machine(seed, 0.3, {}))), seed);
   for (unsigned seed = 50; seed < 55; ++seed) {
     auto st = Machine(seed, 0.3, {});
-    const auto r =
-        Diagnose({truth::Simulate(st, truth::Angles(Direction::kCcw, 0.0, 360.0, 0.5, true))});
+    const auto r = test::DiagnoseTests(
+        {truth::Simulate(st, truth::Angles(Direction::kCcw, 0.0, 360.0, 0.5, true))});
     check(r, seed);
     // At 0.5° steps the sawtooth's teeth are not resolved: not assessed, and said so.
     bool listed = false;

@@ -3,6 +3,7 @@
 // (declared arc_deg or inferred). Expected figures come from an independent linearised
 // least-squares circle written here (3 × 3 normal equations), not from the code under test.
 #include "analysis/dbb/coverage.h"
+#include "analysis/core/angles.h"
 
 #include <gtest/gtest.h>
 
@@ -19,8 +20,6 @@
 
 namespace km::dbb {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 // 0.1°/9° sampling: blocks of 11 samples 0.1° apart (1°), 9° between blocks, the last block
 // ending at `end_deg` (the closing gap is 360 − end_deg).

@@ -9,14 +9,13 @@
 #include <gtest/gtest.h>
 #include <Eigen/SVD>
 
+#include "analysis/core/angles.h"
 #include "analysis/core/errors.h"
 #include "analysis/hexapod/kinematics.h"
 #include "tests/unit/hexapod/pm600_fixture.h"
 
 namespace km::hexapod {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 Pose RandomWorkspacePose(std::mt19937& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
