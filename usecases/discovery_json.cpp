@@ -257,18 +257,4 @@ nlohmann::json CandidateJson(const discovery::CandidateScore& c) {
           {"rejected_because", c.rejected_because}};
 }
 
-ingest::MachineDefinition UpdatedMachine(const ingest::MachineDefinition& machine,
-                                         const hexapod::EffectFitResult& fit) {
-  ingest::MachineDefinition m = machine;
-  m.geometry = hexapod::ApplyParameters(machine.geometry, fit.k_um);
-  m.effects.clear();
-  for (const auto& a : fit.effects) {
-    ingest::MachineEffect me;
-    me.effect = a.effect->Name();
-    for (const auto& p : a.params) me.parameters.emplace_back(p.name, p.value);
-    m.effects.push_back(std::move(me));
-  }
-  return m;
-}
-
 }  // namespace km::usecases

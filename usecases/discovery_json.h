@@ -1,6 +1,5 @@
 // JSON of `kinemetric discover` (docs/formats.md §3) for the hexapod family (the serial
-// family's is in discovery_report.cpp), and the machine model a hexapod discovery produces. Used by
-// usecases/discovery_report.cpp.
+// family's is in discovery_report.cpp). Used by usecases/discovery_report.cpp.
 #pragma once
 
 #include <string>
@@ -28,13 +27,8 @@ nlohmann::json KinematicJson(const hexapod::ParameterVector& k);
 nlohmann::json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& sigma,
                                const std::vector<bool>& at_bound = {});
 
-// The machine with the calibrated geometry (nominal + fitted kinematic parameters) and the
-// fitted effects as its "effects" block.
 // One candidate of a discovery step: effect, variant, the fit with it, the held-out prediction,
 // its p-value and whether it qualified (or why not).
 nlohmann::json CandidateJson(const discovery::CandidateScore& c);
-
-ingest::MachineDefinition UpdatedMachine(const ingest::MachineDefinition& machine,
-                                         const hexapod::EffectFitResult& fit);
 
 }  // namespace km::usecases

@@ -14,6 +14,7 @@
 #include "ingest/iso8601.h"
 #include "usecases/discovery_json.h"
 #include "usecases/effect_calibration.h"
+#include "usecases/updated_machine.h"
 
 namespace km::usecases {
 namespace {

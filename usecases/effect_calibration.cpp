@@ -6,6 +6,7 @@
 #include "analysis/hexapod/effect_fit.h"
 #include "ingest/iso8601.h"
 #include "usecases/discovery_json.h"
+#include "usecases/updated_machine.h"
 
 namespace km::usecases {
 
