@@ -32,7 +32,6 @@ TextTable ReadForm(std::string_view bytes, const std::string& file, std::string_
   return t;
 }
 
-// Index of a required column; names the column-header line when it is missing.
 std::string Upper(std::string s) {
   for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return s;
