@@ -65,10 +65,19 @@ macro(km_flush_unity_batch)
   math(EXPR index "${index} + 1")
 endmacro()
 
+# Marks a target as product code: the sanitizer build instruments it (KM_PRODUCT_COMPILE_OPTIONS,
+# top-level CMakeLists.txt); test programs' own files are left as the build type compiles them.
+function(km_product_target target)
+  if(KM_PRODUCT_COMPILE_OPTIONS)
+    target_compile_options(${target} PRIVATE ${KM_PRODUCT_COMPILE_OPTIONS})
+  endif()
+endfunction()
+
 function(km_add_library)
   cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS;PRIVATE_DEPS" ${ARGN})
   km_unity_sources(${ARG_NAME} "${ARG_SRCS}" srcs)
   add_library(${ARG_NAME} STATIC ${srcs})
+  km_product_target(${ARG_NAME})
   target_include_directories(${ARG_NAME} PUBLIC ${PROJECT_SOURCE_DIR})
   target_link_libraries(${ARG_NAME} PUBLIC ${ARG_DEPS})
   if(ARG_PRIVATE_DEPS)

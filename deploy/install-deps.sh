@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 
 packages=(
   build-essential cmake ninja-build pkg-config git clang-format ccache
-  clang libclang-rt-14-dev libboost-dev wrk
+  clang libclang-rt-14-dev lld libboost-dev wrk
   libeigen3-dev libceres-dev libopencv-dev libmodbus-dev libsqlite3-dev sqlite3
   postgresql libpq-dev
   libcpp-httplib-dev nlohmann-json3-dev libssl-dev zlib1g-dev

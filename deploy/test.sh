@@ -91,10 +91,11 @@ pg_load_db=$(KINEMETRIC_TEST_DATABASE="$pg_url" tests/tools/test_database.sh "$p
 if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
   stage "AddressSanitizer + UBSan build"
   use_generator_for build-asan
-  # Line tables only (-g1): sanitizer reports keep file and line, and the test programs stay
-  # near 10 % of their size with full debug information (13 GB for the whole build otherwise).
-  cmake -S . -B build-asan "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS="-O1" \
-    -DCMAKE_CXX_FLAGS_DEBUG="-g1" -DCMAKE_C_FLAGS_DEBUG="-g1" \
+  # The product (libraries, kinemetricd, the CLI) is instrumented at -O1 with line tables and
+  # asserts on; the test programs' own files are compiled as in the Release build above, so
+  # ccache serves them and only the product is compiled again (CMakeLists.txt,
+  # KM_PRODUCT_COMPILE_OPTIONS).
+  cmake -S . -B build-asan "${gen[@]}" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS="" \
     -DKINEMETRIC_SANITIZE=ON -DKINEMETRIC_TESTS=ON -DKINEMETRIC_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
   cmake --build build-asan -j"$jobs"
   stage "tests (ASan + UBSan)"
