@@ -113,10 +113,8 @@ CalibrationOutcome RunCalibrationStudy(const CalibrationStudy& study, const Prog
     report(0.7, "test-set reduction study");
     nlohmann::json steps = nlohmann::json::array();
     // Each of its calibrations is reported: a job's progress, and where a cancelled job stops.
-    const auto each = [&](int done, int total) {
-      report(0.7 + 0.29 * done / std::max(total, 1), "test-set reduction study: calibration " +
-                                                         std::to_string(done + 1) + " of " +
-                                                         std::to_string(total));
+    const auto each = [&](double done, const std::string& stage) {
+      report(0.7 + 0.29 * done, "test-set reduction study: " + stage);
     };
     for (const auto& st : hexapod::TestSetReductionStudy(
              study.machine.geometry, study.tests, options, study.reduction_min_tests, each)) {

@@ -1,12 +1,6 @@
 #include "usecases/discovery_json.h"
 
-#include <algorithm>
 #include <cmath>
-
-#include <Eigen/Cholesky>
-
-#include "analysis/hexapod/compensation.h"
-#include "analysis/hexapod/dbb_geometry.h"
 
 namespace km::usecases {
 using nlohmann::json;
@@ -43,94 +37,30 @@ json EffectModelJson(const hexapod::ActiveEffect& a, const std::vector<double>& 
 
 namespace {
 
-double Rms(const Eigen::VectorXd& v, int r0, int r1) {
-  return r1 > r0 ? std::sqrt(v.segment(r0, r1 - r0).squaredNorm() / (r1 - r0)) : 0.0;
-}
-
-json TestGaps(const hexapod::EffectFitData& d, const Eigen::VectorXd& before,
-              const Eigen::VectorXd* after, const std::vector<std::string>& names) {
+json TestGapsJson(const std::vector<TestGap>& gaps) {
   json list = json::array();
-  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
-    const auto& test = d.problem.tests[t];
-    json row = {{"test_id", test.test_id},
-                {"direction", dbb::ToString(test.direction)},
-                {"gap_rms_before_um", Rms(before, d.row_begin[t], d.row_begin[t + 1])}};
-    if (t < names.size()) row["file"] = names[t];
-    if (after) row["gap_rms_after_um"] = Rms(*after, d.row_begin[t], d.row_begin[t + 1]);
-    list.push_back(row);
+  for (const auto& g : gaps) {
+    json row = {{"test_id", g.test_id},
+                {"direction", dbb::ToString(g.direction)},
+                {"gap_rms_before_um", g.gap_rms_before_um}};
+    if (g.file) row["file"] = *g.file;
+    if (g.gap_rms_after_um) row["gap_rms_after_um"] = *g.gap_rms_after_um;
+    list.push_back(std::move(row));
   }
   return list;
 }
 
-const hexapod::ActiveEffect* FindEffect(const hexapod::EffectFitResult& f, const std::string& n,
-                                        std::vector<double>* sigma,
-                                        std::vector<bool>* at_bound = nullptr) {
-  for (std::size_t e = 0; e < f.effects.size(); ++e) {
-    if (f.effects[e].effect->Name() != n) continue;
-    if (sigma) *sigma = f.effect_sigma[e];
-    if (at_bound && e < f.effect_at_bound.size()) *at_bound = f.effect_at_bound[e];
-    return &f.effects[e];
-  }
-  return nullptr;
-}
-
-// Measured vs model trace of the test with the largest gap before a step (≤ 360 points): the
-// bar deviation measured, and as the model before and after the step predicts it
-// (measured + residual, the residual being model − measured).
-json WorstTestTraces(const hexapod::EffectFitData& d, const Eigen::VectorXd& before,
-                     const Eigen::VectorXd& after) {
-  std::size_t worst = 0;
-  double worst_rms = -1.0;
-  for (std::size_t t = 0; t < d.problem.tests.size(); ++t) {
-    const double r = Rms(before, d.row_begin[t], d.row_begin[t + 1]);
-    if (r > worst_rms) {
-      worst_rms = r;
-      worst = t;
-    }
-  }
-  const auto& test = d.problem.tests[worst];
-  const auto& path = d.prepared.paths[worst];
-  const Eigen::Vector3d& centre = test.fixed_ball_mm;
-  const std::size_t n = test.samples.size();
-  const std::size_t stride = std::max<std::size_t>(1, (n + 359) / 360);
-  // About the least-squares circle of the measured trace (its mean and first harmonic removed
-  // from all three), so that form differences of a µm show beside a large centre offset.
-  std::vector<double> th, m, mb, ma;
-  const double bar0 = (path.pose.front().tip_mm - centre).norm();
-  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d aty = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < n; i += stride) {
-    const int row = d.row_begin[worst] + static_cast<int>(i);
-    const Eigen::Vector3d v = path.pose[i].tip_mm - centre;
-    th.push_back(std::atan2(v.y(), v.x()));
-    m.push_back(1000.0 * (test.samples[i].measured_bar_mm - bar0));
-    mb.push_back(m.back() + before[row]);
-    ma.push_back(m.back() + after[row]);
-    const Eigen::Vector3d a(1.0, std::cos(th.back()), std::sin(th.back()));
-    ata += a * a.transpose();
-    aty += a * m.back();
-  }
-  const Eigen::Vector3d c = ata.ldlt().solve(aty);
-  json angle = json::array(), measured = json::array(), model_before = json::array(),
-       model_after = json::array();
-  for (std::size_t k = 0; k < th.size(); ++k) {
-    const double ref = c[0] + c[1] * std::cos(th[k]) + c[2] * std::sin(th[k]);
-    angle.push_back(th[k] * 180.0 / 3.14159265358979323846);
-    measured.push_back(m[k] - ref);
-    model_before.push_back(mb[k] - ref);
-    model_after.push_back(ma[k] - ref);
-  }
-  return {{"test_id", test.test_id},
-          {"direction", dbb::ToString(test.direction)},
-          {"angle_deg", angle},
-          {"measured_um", measured},
-          {"model_before_um", model_before},
-          {"model_after_um", model_after}};
+json TracesJson(const TestTraces& t) {
+  return {{"test_id", t.test_id},
+          {"direction", dbb::ToString(t.direction)},
+          {"angle_deg", t.angle_deg},
+          {"measured_um", t.measured_um},
+          {"model_before_um", t.model_before_um},
+          {"model_after_um", t.model_after_um}};
 }
 
 // The compensation preview (analysis/hexapod/compensation.h) as JSON; null without one.
-json CompensationPreviewJson(const hexapod::EffectFitData& d, const hexapod::EffectFitResult& fit) {
-  const auto preview = hexapod::PreviewCompensation(d, fit);
+json CompensationPreviewJson(const std::optional<hexapod::CompensationPreview>& preview) {
   if (!preview) return nullptr;
   json tests = json::array();
   for (const auto& t : preview->tests) {
@@ -146,12 +76,25 @@ json CompensationPreviewJson(const hexapod::EffectFitData& d, const hexapod::Eff
           {"tests", tests}};
 }
 
+const hexapod::ActiveEffect* FindEffect(const hexapod::EffectFitResult& f, const std::string& n,
+                                        std::vector<double>* sigma,
+                                        std::vector<bool>* at_bound = nullptr) {
+  for (std::size_t e = 0; e < f.effects.size(); ++e) {
+    if (f.effects[e].effect->Name() != n) continue;
+    if (sigma) *sigma = f.effect_sigma[e];
+    if (at_bound && e < f.effect_at_bound.size()) *at_bound = f.effect_at_bound[e];
+    return &f.effects[e];
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                           const hexapod::EffectFitData& data,
                           const std::vector<hexapod::EffectFitResult>& history,
-                          const discovery::EngineResult& r, const std::vector<std::string>& names) {
+                          const discovery::EngineResult& r,
+                          const HexapodDiscoveryFigures& figures) {
   json steps = json::array();
   for (std::size_t i = 0; i < r.steps.size(); ++i) {
     const auto& s = r.steps[i];
@@ -189,18 +132,15 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                      {"evidence", ev},
                      {"gap_rms_before_um", s.gap_rms_before_um},
                      {"gap_rms_after_um", s.gap_rms_after_um},
-                     {"tests", TestGaps(data, s.before.residual, &s.after.residual, names)},
-                     {"worst_test", WorstTestTraces(data, s.before.residual, s.after.residual)}});
+                     {"tests", TestGapsJson(figures.steps[i].tests)},
+                     {"worst_test", TracesJson(figures.steps[i].worst_test)}});
   }
   const auto& fin = history.back();
   json model = json::array();
-  json kin = {
-      {"effect", "kinematic_parameters"},
-      {"parameters", KinematicJson(fin.k_um)},
-      {"uncertainty", KinematicJson(fin.k_sigma_um)},
-      {"fixed_parameters", data.problem.options.method == hexapod::CalibrationMethod::kAbsolute
-                               ? json::array()
-                               : json::array()}};
+  json kin = {{"effect", "kinematic_parameters"},
+              {"parameters", KinematicJson(fin.k_um)},
+              {"uncertainty", KinematicJson(fin.k_sigma_um)},
+              {"fixed_parameters", json::array()}};
   for (int i = 0; i < hexapod::kNumKinematicParameters; ++i)
     if (data.problem.fixed[static_cast<std::size_t>(i)])
       kin["fixed_parameters"].push_back(hexapod::ParameterName(i));
@@ -224,7 +164,7 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
           {"base",
            {{"model", "kinematic_parameters"},
             {"gap_rms_um", history.front().residual_rms_um},
-            {"tests", TestGaps(data, history.front().residual_um, nullptr, names)}}},
+            {"tests", TestGapsJson(figures.base_tests)}}},
           {"steps", steps},
           {"final_model", model},
           {"unexplained_rms_um", r.unexplained_rms_um},
@@ -242,9 +182,9 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
           {"stop_reason", discovery::ToString(r.stop_reason)},
           {"stop_code", discovery::StopCode(r.stop_reason)},
           {"candidates_at_stop", last},
-          {"final_tests", TestGaps(data, fin.residual_um, nullptr, names)},
+          {"final_tests", TestGapsJson(figures.final_tests)},
           {"condition_number", fin.condition_number},
-          {"compensation", CompensationPreviewJson(data, fin)}};
+          {"compensation", CompensationPreviewJson(figures.compensation)}};
 }
 
 nlohmann::json CandidateJson(const discovery::CandidateScore& c) {

@@ -1,5 +1,7 @@
 // JSON of `kinemetric discover` (docs/formats.md §3) for the hexapod family (the serial
-// family's is in discovery_report.cpp). Used by usecases/discovery_report.cpp.
+// family's is in discovery_report.cpp): a mapping of the engine's result and of the figures
+// computed beside it (hexapod_discovery_figures.h), nothing computed here. Used by
+// usecases/discovery_report.cpp.
 #pragma once
 
 #include <string>
@@ -10,6 +12,7 @@
 #include "analysis/discovery/engine.h"
 #include "analysis/hexapod/effect_fit.h"
 #include "ingest/machine_json.h"
+#include "usecases/hexapod_discovery_figures.h"
 
 namespace km::usecases {
 
@@ -17,7 +20,7 @@ nlohmann::json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
                                     const hexapod::EffectFitData& data,
                                     const std::vector<hexapod::EffectFitResult>& history,
                                     const discovery::EngineResult& r,
-                                    const std::vector<std::string>& names);
+                                    const HexapodDiscoveryFigures& figures);
 
 // {"strut_offset_um": [6], "base_joint_offset_um": [6][3]} of a kinematic parameter vector.
 nlohmann::json KinematicJson(const hexapod::ParameterVector& k);

@@ -62,13 +62,10 @@ DiscoveryOutcome HexapodDiscovery(const DiscoveryStudy& study, const ProgressFn&
   const hexapod::EffectFitData data =
       PrepareNamedEffectFit(machine, study.tests, study.names, method, study.max_samples_per_test);
   discovery::HexapodFamily family(data, KnownEffects(machine, data.prepared.setup));
-  const int max_steps = discovery::EngineOptions{}.max_steps;
-  const auto options = discovery::HexapodEngineOptions();
-  const auto r = discovery::RunDiscovery(family, options, [&](int step, const std::string& what) {
-    if (progress) progress(std::min(0.95, step / static_cast<double>(max_steps + 1)), what);
-  });
+  const auto r = discovery::RunDiscovery(family, discovery::HexapodEngineOptions(), progress);
   DiscoveryOutcome out;
-  out.report = HexapodDiscoveryJson(machine, data, family.History(), r, study.names);
+  const auto figures = ComputeHexapodDiscoveryFigures(data, family.History(), r, study.names);
+  out.report = HexapodDiscoveryJson(machine, data, family.History(), r, figures);
   out.updated_machine = UpdatedMachine(machine, family.History().back());
   if (progress) progress(1.0, "done");
   return out;
@@ -219,12 +216,8 @@ DiscoveryOutcome SerialDiscovery(const DiscoveryStudy& study, const ProgressFn& 
   }
   discovery::EngineOptions options;
   options.max_steps = kSerialMaxSteps;
-  const auto run = discovery::DiscoverSerial(
-      traces, test_ids, study.tests.front().plane, {}, options,
-      [&](int step, const std::string& what) {
-        if (progress)
-          progress(std::min(0.95, step / static_cast<double>(kSerialMaxSteps + 1)), what);
-      });
+  const auto run =
+      discovery::DiscoverSerial(traces, test_ids, study.tests.front().plane, {}, options, progress);
   DiscoveryOutcome out;
   out.report = SerialDiscoveryJson(*run.family, run.result);
   out.report["alternatives_tried"] = run.alternatives_tried;

@@ -398,10 +398,10 @@ const char* StopCode(StopReason r) {
 }
 
 EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& opt,
-                          const EngineProgress& progress) {
+                          const ProgressFn& progress) {
   opt.Check();
   auto tell = [&](int step, const std::string& what) {
-    if (progress) progress(step, what);
+    if (progress) progress(std::min(0.95, step / static_cast<double>(opt.max_steps + 1)), what);
   };
   EngineResult res;
   tell(0, "fitting the base model");

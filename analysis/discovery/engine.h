@@ -33,6 +33,8 @@
 
 #include <Eigen/Core>
 
+#include "analysis/core/progress.h"
+
 namespace km::discovery {
 
 struct FitState {
@@ -168,10 +170,11 @@ struct EngineResult {
   Evidence misfit;                              // when the verdict is kModelMisfit
 };
 
-using EngineProgress = std::function<void(int step, const std::string& what)>;
-
+// progress, when given, hears before each fit the fraction of the steps reached
+// (step / (max_steps + 1), at most 0.95) and what is being fitted; it may stop the run by
+// throwing.
 EngineResult RunDiscovery(ModelFamily& family, const EngineOptions& options = {},
-                          const EngineProgress& progress = {});
+                          const ProgressFn& progress = {});
 
 // Robust white-noise σ of a residual grouped by rows: 1.4826·MAD(Δ)/√2 over all groups.
 double NoiseFloor(const Eigen::VectorXd& residual, const std::vector<int>& row_begin);

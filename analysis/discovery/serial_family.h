@@ -222,6 +222,6 @@ struct SerialRun {
 SerialRun DiscoverSerial(const std::vector<dbb::DiagnosisTrace>& traces,
                          const std::vector<std::string>& test_ids, dbb::Plane plane,
                          const SerialFamilyOptions& options = {}, EngineOptions engine = {},
-                         const EngineProgress& progress = {});
+                         const ProgressFn& progress = {});
 
 }  // namespace km::discovery

@@ -219,7 +219,7 @@ Evidence SerialFamily::Describe(const FitState& before, const Candidate& c,
 SerialRun DiscoverSerial(const std::vector<dbb::DiagnosisTrace>& traces,
                          const std::vector<std::string>& test_ids, dbb::Plane plane,
                          const SerialFamilyOptions& options, EngineOptions engine,
-                         const EngineProgress& progress) {
+                         const ProgressFn& progress) {
   auto run = [&](const SerialFamilyOptions& o) {
     SerialRun r;
     r.family = std::make_unique<SerialFamily>(traces, test_ids, plane, o);

@@ -305,7 +305,7 @@ std::vector<TestPrediction> PredictAfterCalibration(
 std::vector<ReductionStep> TestSetReductionStudy(const HexapodGeometry& nominal,
                                                  const std::vector<dbb::DbbTest>& tests,
                                                  const CalibrationOptions& options, int min_groups,
-                                                 const ReductionProgress& on_calibration) {
+                                                 const ProgressFn& on_calibration) {
   std::vector<std::string> groups;
   for (const auto& t : tests) {
     if (std::find(groups.begin(), groups.end(), t.test_id) == groups.end())
@@ -319,7 +319,10 @@ std::vector<ReductionStep> TestSetReductionStudy(const HexapodGeometry& nominal,
   const int total = 1 + (n * (n + 1) - lowest * (lowest + 1)) / 2;
   int done = 0;
   auto evaluate = [&](const std::vector<std::string>& kept, ReductionStep* step) -> bool {
-    if (on_calibration) on_calibration(done, total);
+    if (on_calibration) {
+      on_calibration(static_cast<double>(done) / total,
+                     "calibration " + std::to_string(done + 1) + " of " + std::to_string(total));
+    }
     ++done;
     std::vector<dbb::DbbTest> subset;
     for (const auto& t : tests) {

@@ -35,6 +35,7 @@
 
 #include <Eigen/Core>
 
+#include "analysis/core/progress.h"
 #include "analysis/dbb/dbb_types.h"
 #include "analysis/hexapod/kinematics.h"
 
@@ -189,13 +190,12 @@ struct ReductionStep {
   double max_predicted_circularity_um = 0.0;
   double condition_number = 0.0;
 };
-// on_calibration(done, total), when given, is called before each of the study's calibrations
-// (done of about total so far): a caller follows the progress there, and may stop the study by
-// throwing from it.
-using ReductionProgress = std::function<void(int done, int total)>;
+// on_calibration, when given, is called before each of the study's calibrations with the
+// fraction done and "calibration k of n": a caller follows the progress there, and may stop the
+// study by throwing from it.
 std::vector<ReductionStep> TestSetReductionStudy(const HexapodGeometry& nominal,
                                                  const std::vector<dbb::DbbTest>& tests,
                                                  const CalibrationOptions& options, int min_groups,
-                                                 const ReductionProgress& on_calibration = {});
+                                                 const ProgressFn& on_calibration = {});
 
 }  // namespace km::hexapod
