@@ -1,7 +1,7 @@
-// Access control of the API: the role each route needs (RequiredRole), the token hook that
-// checks `Authorization: Bearer` (401 without a valid token, 403 with a token of a lower role),
-// the audit hook that records every state-changing request, and the routes of tokens and the
-// audit log (admin).
+// Access control of the API: the role a route needs (RequiredRole; the route table of
+// api/routes.cpp gives each route its role), the token hook that checks `Authorization: Bearer`
+// (401 without a valid token, 403 with a token of a lower role), and the audit hook that records
+// every state-changing request.
 #include <chrono>
 #include <memory>
 #include <mutex>
@@ -18,36 +18,6 @@ namespace km::api {
 namespace {
 
 using server::Role;
-
-struct PolicyEntry {
-  const char* method;
-  const char* pattern;
-  Role role;
-};
-
-// Every route that is neither a read (GET: viewer) nor declares its own role. A route missing
-// here needs admin: nothing is silently open (tests/unit/api/access_test.cpp lists every route).
-constexpr PolicyEntry kPolicy[] = {
-    {"POST", "/api/v1/measurements", Role::kOperator},
-    {"POST", "/api/v1/streams", Role::kOperator},
-    {"POST", "/api/v1/streams/{id}/frames", Role::kOperator},
-    {"POST", "/api/v1/streams/{id}/profile", Role::kOperator},
-    {"POST", "/api/v1/streams/{id}/servo", Role::kOperator},
-    {"POST", "/api/v1/servo/joints", Role::kOperator},
-    {"POST", "/api/v1/calibrations", Role::kEngineer},
-    {"POST", "/api/v1/discoveries", Role::kEngineer},
-    {"POST", "/api/v1/jobs/{id}/save-machine", Role::kEngineer},
-    // Beyond the role, only the job's owner or an admin (StudyService::CancelJob).
-    {"DELETE", "/api/v1/jobs/{id}", Role::kEngineer},
-    {"POST", "/api/v1/machines", Role::kEngineer},
-    {"POST", "/api/v1/servo/identify", Role::kEngineer},
-    {"PUT", "/api/v1/machines/{machine_id}/audit", Role::kEngineer},
-    {"POST", "/api/v1/machines/{machine_id}/audit/run", Role::kEngineer},
-    // Devices poll hosts on the network: admin only, reading their status too.
-    {"GET", "/api/v1/devices", Role::kAdmin},
-    {"POST", "/api/v1/devices", Role::kAdmin},
-    {"DELETE", "/api/v1/devices/{name}", Role::kAdmin},
-};
 
 // Recently accepted tokens, so that a busy client costs no database read per request. An entry
 // is trusted for kTrust at most and never past its token's expiry; a revocation in this process
@@ -173,9 +143,6 @@ std::string AuditSubject(const Route* route, const Request& req, const Response&
 Role RequiredRole(const Route& route) {
   if (route.role) return *route.role;
   if (!route.needs_token) return Role::kPublic;
-  for (const auto& e : kPolicy) {
-    if (route.method == e.method && route.pattern == e.pattern) return e.role;
-  }
   return route.method == "GET" ? Role::kViewer : Role::kAdmin;
 }
 
@@ -210,89 +177,6 @@ ResponseHook AuditHook(server::Service& service) {
     e.subject = AuditSubject(route, req, res);
     svc->access().RecordAudit(e);
   };
-}
-
-void AddAccessRoutes(Router& router, server::Service& service) {
-  server::Service* svc = &service;
-  router.Add(
-      Route{"GET",
-            "/api/v1/whoami",
-            "The caller: its token's id, name and role (e.g. for a dashboard to hide what the role "
-            "may not do)",
-            true,
-            [](const Request& req) {
-              return Response::Json(
-                  {{"token_id", req.token_id}, {"name", req.token_name}, {"role", req.token_role}});
-            },
-            {{"responses", {{"200", JsonResponse("{token_id, name, role}")}}}}});
-  Route create{
-      "POST",
-      "/api/v1/tokens",
-      "Create an access token (the secret is shown only in this answer)",
-      true,
-      [svc](const Request& req) {
-        Response r = Response::Json(svc->access().CreateToken(JsonBody(req)), 201);
-        r.headers["Cache-Control"] = "no-store";
-        return r;
-      },
-      {{"requestBody",
-        JsonRequestBody({{"type", "object"},
-                         {"required", json::array({"name", "role"})},
-                         {"properties",
-                          {{"name", {{"type", "string"}}},
-                           {"role",
-                            {{"type", "string"},
-                             {"enum", json::array({"viewer", "operator", "engineer", "admin"})}}},
-                           {"expires_in_s", {{"type", "integer"}, {"minimum", 1}}}}}})},
-       {"responses", {{"201", JsonResponse("{id, token, name, role, expires_at}")}}}}};
-  create.max_body_bytes = 4096;
-  create.role = Role::kAdmin;
-  router.Add(std::move(create));
-
-  Route list{"GET",
-             "/api/v1/tokens",
-             "Access tokens (never their secrets)",
-             true,
-             [svc](const Request&) { return Response::Json(svc->access().ListTokens()); },
-             {{"responses",
-               {{"200", JsonResponse("{items[{id, name, role, created_at, expires_at, "
-                                     "revoked_at, state}]}")}}}}};
-  list.role = Role::kAdmin;
-  router.Add(std::move(list));
-
-  Route revoke{"DELETE",
-               "/api/v1/tokens/{id}",
-               "Revoke an access token at once",
-               true,
-               [svc](const Request& req) {
-                 try {
-                   return Response::Json(svc->access().RevokeToken(req.PathId("id")));
-                 } catch (const server::Conflict& e) {
-                   return Problem(409, "Conflict", e.what());
-                 }
-               },
-               {{"responses",
-                 {{"200", JsonResponse("{id, revoked_at}")},
-                  {"409", {{"description", "the last active admin token"}}}}}}};
-  revoke.role = Role::kAdmin;
-  router.Add(std::move(revoke));
-
-  Route audit{"GET",
-              "/api/v1/audit-log",
-              "Audit log of state-changing requests (who, what, when), newest first",
-              true,
-              [svc](const Request& req) {
-                return Response::Json(
-                    svc->access().AuditLog(QueryInt(req, "limit", 100, 1, 1000),
-                                           QueryInt(req, "offset", 0, 0, std::int64_t{1} << 40)));
-              },
-              {{"parameters", json::array({Param("limit", "integer", "1 to 1000 (default 100)"),
-                                           Param("offset", "integer", "entries to skip")})},
-               {"responses",
-                {{"200", JsonResponse("{items[{id, at, token_id, token_name, role, method, path, "
-                                      "status, subject}], total, limit, offset}")}}}}};
-  audit.role = Role::kAdmin;
-  router.Add(std::move(audit));
 }
 
 }  // namespace km::api

@@ -2,7 +2,7 @@
 // them. Boost.Beast stays behind api/http_server.cpp and api/http_session.cpp; routes see only
 // these types. Each route carries its method, path pattern, summary, role, handler and OpenAPI
 // description, so the OpenAPI document is made from the same routes the server dispatches on.
-// The routes are added by capability (api/routes.h lists the files).
+// The API's routes come from one table (api/routes.cpp).
 #pragma once
 
 #include <exception>
@@ -75,14 +75,13 @@ struct Route {
   // Largest body of this route (0: the server's max_payload_bytes); a larger one is answered
   // 413 without being read. Never above the server's limit.
   std::size_t max_body_bytes = 0;
-  // The least role a token needs (server/access/roles.h); unset: the access policy's role for the
-  // method and pattern (RequiredRole).
+  // The least role a token needs (server/access/roles.h); the route table (api/routes.cpp) sets
+  // it for every route of the API. Unset: RequiredRole's default.
   std::optional<server::Role> role = std::nullopt;
 };
 
-// The role a route needs: its own, else kPublic without needs_token, else the policy of
-// api/access.cpp (reads: viewer; uploads and streams: operator; studies and machine
-// definitions: engineer; tokens, devices and the audit log: admin; anything else: admin).
+// The role a route needs: its own, else kPublic without needs_token, else viewer for a read
+// (GET) and admin for anything else, so that nothing is silently open (api/access.cpp).
 server::Role RequiredRole(const Route& route);
 
 // Called before every route's handler (access control sits here); throws to refuse.

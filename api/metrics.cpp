@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "api/endpoints.h"
 #include "api/route_util.h"
 #include "server/storage/storage.h"
 
@@ -272,22 +273,23 @@ void AccessLog::Write(const RequestRecord& r) {
   std::fflush(out_);
 }
 
-void AddMetricsRoute(Router& router, server::Service& service) {
-  server::Service* svc = &service;
-  router.Add(
-      Route{"GET",
-            "/metrics",
-            "Operations metrics in the Prometheus text format: requests by route and status class, "
-            "latency histogram, requests in flight, jobs by status, uploads and stream counters",
-            true,
-            [svc](const Request&) {
-              Response r;
-              r.content_type = "text/plain; version=0.0.4; charset=utf-8";
-              r.body = ProcessMetrics().Exposition(svc);
-              r.headers["Cache-Control"] = "no-store";
-              return r;
-            },
-            {{"responses", {{"200", {{"description", "Prometheus text exposition (0.0.4)"}}}}}}});
+namespace endpoints {
+
+Endpoint OperationsMetrics(const RouteContext& c) {
+  server::Service* svc = &c.service;
+  return {
+      "Operations metrics in the Prometheus text format: requests by route and status class, "
+      "latency histogram, requests in flight, jobs by status, uploads and stream counters",
+      [svc](const Request&) {
+        Response r;
+        r.content_type = "text/plain; version=0.0.4; charset=utf-8";
+        r.body = ProcessMetrics().Exposition(svc);
+        r.headers["Cache-Control"] = "no-store";
+        return r;
+      },
+      {{"responses", {{"200", {{"description", "Prometheus text exposition (0.0.4)"}}}}}}};
 }
+
+}  // namespace endpoints
 
 }  // namespace km::api

@@ -88,7 +88,4 @@ class AccessLog {
 // One access-log line (without the newline); the raw path is cut to 200 bytes and escaped.
 std::string AccessLogLine(const RequestRecord& r);
 
-// GET /metrics (viewer unless the server makes it public, see kinemetricd --metrics-public).
-void AddMetricsRoute(Router& router, server::Service& service);
-
 }  // namespace km::api

@@ -1,9 +1,10 @@
-// Routes of the PDF reports (server/reports/report_service.h): a measurement, a calibration or
-// discovery job, a machine's accuracy audit, each one PDF document a viewer may read.
+// Endpoints of the PDF reports (server/reports/report_service.h): a measurement, a calibration
+// or discovery job, a machine's accuracy audit, each one PDF document a viewer may read
+// (api/endpoints.h).
+#include "api/endpoints.h"
 #include "api/route_util.h"
-#include "api/routes.h"
 
-namespace km::api {
+namespace km::api::endpoints {
 namespace {
 
 json PdfResponse() {
@@ -30,39 +31,41 @@ Response Pdf(std::string bytes, std::string name) {
 
 }  // namespace
 
-void AddReportRoutes(Router& router, server::Service& service) {
-  server::Service* svc = &service;
-  router.Add(Route{"GET",
-                   "/api/v1/measurements/{id}/report.pdf",
-                   "The report of a measurement as a PDF a lab signs: set-up, plot, figures, "
-                   "diagnosis, the machine's audit rules and verdict, as found / as left",
-                   true,
-                   [svc](const Request& req) {
-                     const auto id = req.PathId("id");
-                     return Pdf(svc->reports().MeasurementPdf(id),
-                                "kinemetric-measurement-" + std::to_string(id));
-                   },
-                   {{"responses", PdfResponse()}}});
-  router.Add(Route{"GET",
-                   "/api/v1/jobs/{id}/report.pdf",
-                   "The report of a calibration or discovery job as a PDF: the steps, the gap "
-                   "shrinking, the fitted values with their σ",
-                   true,
-                   [svc](const Request& req) {
-                     const auto id = req.PathId("id");
-                     return Pdf(svc->reports().JobPdf(id), "kinemetric-job-" + std::to_string(id));
-                   },
-                   {{"responses", PdfResponse()}}});
-  router.Add(Route{"GET",
-                   "/api/v1/machines/{machine_id}/audit/report.pdf",
-                   "The accuracy audit of a machine as a PDF: every rule, value, level and "
-                   "finding, and the history of verdicts",
-                   true,
-                   [svc](const Request& req) {
-                     const auto& machine = req.path_params.at("machine_id");
-                     return Pdf(svc->reports().AuditPdf(machine), "kinemetric-audit-" + machine);
-                   },
-                   {{"responses", PdfResponse()}}});
+Endpoint MeasurementReportPdf(const RouteContext& c) {
+  server::Service* svc = &c.service;
+  return {
+      "The report of a measurement as a PDF a lab signs: set-up, plot, figures, "
+      "diagnosis, the machine's audit rules and verdict, as found / as left",
+      [svc](const Request& req) {
+        const auto id = req.PathId("id");
+        return Pdf(svc->reports().MeasurementPdf(id),
+                   "kinemetric-measurement-" + std::to_string(id));
+      },
+      {{"responses", PdfResponse()}}};
 }
 
-}  // namespace km::api
+Endpoint JobReportPdf(const RouteContext& c) {
+  server::Service* svc = &c.service;
+  return {
+      "The report of a calibration or discovery job as a PDF: the steps, the gap "
+      "shrinking, the fitted values with their σ",
+      [svc](const Request& req) {
+        const auto id = req.PathId("id");
+        return Pdf(svc->reports().JobPdf(id), "kinemetric-job-" + std::to_string(id));
+      },
+      {{"responses", PdfResponse()}}};
+}
+
+Endpoint AuditReportPdf(const RouteContext& c) {
+  server::Service* svc = &c.service;
+  return {
+      "The accuracy audit of a machine as a PDF: every rule, value, level and "
+      "finding, and the history of verdicts",
+      [svc](const Request& req) {
+        const auto& machine = req.path_params.at("machine_id");
+        return Pdf(svc->reports().AuditPdf(machine), "kinemetric-audit-" + machine);
+      },
+      {{"responses", PdfResponse()}}};
+}
+
+}  // namespace km::api::endpoints

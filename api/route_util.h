@@ -10,6 +10,7 @@
 
 #include "analysis/core/errors.h"
 #include "api/http.h"
+#include "api/http_target.h"
 #include "ingest/json_text.h"
 #include "server/base/time_util.h"
 
@@ -59,11 +60,20 @@ inline json JsonResponse(const std::string& description) {
           {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}};
 }
 
-// A route with a body limit of its own, below max_upload_bytes (docs/http.md): the request is
-// refused 413 before its body is read or parsed.
-inline Route WithBodyLimit(Route r, std::size_t bytes) {
-  r.max_body_bytes = bytes;
-  return r;
+// The X-Filename of an upload: shown in messages and lists, so it must be printable text.
+inline std::string UploadFilename(const Request& req) {
+  const auto name = req.Header("x-filename");
+  if (!name || name->empty()) return "upload";
+  const auto refuse = [](const std::string& why) {
+    throw InvalidInput("", 0, "X-Filename", "the X-Filename header " + why);
+  };
+  if (name->size() > 255) refuse("is longer than 255 bytes");
+  if (!IsUtf8(*name)) refuse("is not valid UTF-8");
+  for (const char c : *name) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7F) refuse("holds a control character");
+  }
+  return *name;
 }
 
 // Requests that name a few fields (a stream to open, a stretch of one, a device): 256 KiB.
@@ -72,7 +82,6 @@ inline constexpr std::size_t kSmallRequestBytes = 256u << 10;
 // Study requests name stored measurements (ids), so their bodies are small.
 inline constexpr std::size_t kStudyRequestBytes = 256u << 10;
 
-// The request body as JSON; InvalidInput when it is not.
 // The request body as JSON (ingest/json_text.h: nesting depth, repeated keys and numbers
 // beyond a double are refused as well); InvalidInput naming the field when it is not.
 inline json JsonBody(const Request& req) {

@@ -1,14 +1,14 @@
 // Routes of the servo-load analyses (docs/formats.md §5): identification of a hexapod's masses
 // and friction from stored servo measurements (optionally saved as the next version of its
-// model), joint resistance and health, and the external force of one stored record. The work
-// is done by the service (server/servo/servo_service.h).
+// model), joint resistance and health, and the external force of one stored record
+// (api/endpoints.h). The work is done by the service (server/servo/servo_service.h).
 #include <limits>
 
+#include "api/endpoints.h"
 #include "api/route_util.h"
-#include "api/routes.h"
 #include "server/servo/servo_service.h"
 
-namespace km::api {
+namespace km::api::endpoints {
 namespace {
 
 json ServoRequestBody(bool identify) {
@@ -31,69 +31,67 @@ json ServoRequestBody(bool identify) {
 
 }  // namespace
 
-void AddServoRoutes(Router& router, server::Service& service) {
-  server::Service* svc = &service;
-  router.Add(WithBodyLimit(
-      Route{"POST",
-            "/api/v1/servo/identify",
-            "Hexapod masses and friction from stored servo measurements (docs/formats.md §3.10); "
-            "\"save\": true stores them as the next version of the machine's model",
-            true,
-            [svc](const Request& req) {
-              return Response::Json(svc->servo().Identify(JsonBody(req)));
-            },
-            {{"requestBody", ServoRequestBody(true)},
-             {"responses",
-              {{"200", JsonResponse("{identified{}, uncertainty{}, residual_rms_N[], "
-                                    "condition_number, fixed[], saved?}")}}}}},
-      kStudyRequestBytes));
-  router.Add(WithBodyLimit(
-      Route{
-          "POST",
-          "/api/v1/servo/joints",
-          "Joint resistance per leg and health levels 1/2/3 from stored CW and CCW servo "
-          "measurements (docs/formats.md §3.12)",
-          true,
-          [svc](const Request& req) { return Response::Json(svc->servo().Joints(JsonBody(req))); },
-          {{"requestBody", ServoRequestBody(false)},
-           {"responses",
-            {{"200", JsonResponse("{legs[{leg, resistance_Nm, sigma_Nm, level, "
-                                  "evidence}], level}")}}}}},
-      kStudyRequestBytes));
-  router.Add(
-      Route{"GET",
-            "/api/v1/machines/{machine_id}/joint-health",
-            "The machine's stored joint-health estimates, oldest first, with the limits of "
-            "the newest (docs/formats.md §5)",
-            true,
-            [svc](const Request& req) {
-              return Response::Json(svc->servo().JointHealth(req.path_params.at("machine_id")));
-            },
-            {{"responses",
-              {{"200", JsonResponse("{machine_id, limits, estimates[{result_id, "
-                                    "measurement_ids[], estimated_at, legs[], level}]}")}}}}});
-  router.Add(WithBodyLimit(
-      Route{"POST",
-            "/api/v1/streams/{id}/servo",
-            "A stretch of a stream (feed-drive position and force channels) stored as a "
-            "kinemetric-servo/1 measurement (docs/formats.md §5)",
-            true,
-            [svc](const Request& req) {
-              const auto out = svc->servo().FromStream(req.PathId("id"), JsonBody(req));
-              return Response::Json({{"id", out.id}, {"kind", out.kind}, {"created", out.created}},
-                                    out.created ? 201 : 200);
-            },
-            {{"requestBody",
-              {{"required", true},
-               {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}}},
-             {"responses", {{"201", JsonResponse("{id, kind: servo, created}")}}}}},
-      kSmallRequestBytes));
-  router.Add(Route{
-      "GET",
-      "/api/v1/measurements/{id}/servo/force",
+Endpoint ServoIdentify(const RouteContext& c) {
+  server::Service* svc = &c.service;
+  return {
+      "Hexapod masses and friction from stored servo measurements (docs/formats.md §3.10); "
+      "\"save\": true stores them as the next version of the machine's model",
+      [svc](const Request& req) { return Response::Json(svc->servo().Identify(JsonBody(req))); },
+      {{"requestBody", ServoRequestBody(true)},
+       {"responses",
+        {{"200", JsonResponse("{identified{}, uncertainty{}, residual_rms_N[], "
+                              "condition_number, fixed[], saved?}")}}}},
+      kStudyRequestBytes};
+}
+
+Endpoint ServoJoints(const RouteContext& c) {
+  server::Service* svc = &c.service;
+  return {
+      "Joint resistance per leg and health levels 1/2/3 from stored CW and CCW servo "
+      "measurements (docs/formats.md §3.12)",
+      [svc](const Request& req) { return Response::Json(svc->servo().Joints(JsonBody(req))); },
+      {{"requestBody", ServoRequestBody(false)},
+       {"responses",
+        {{"200", JsonResponse("{legs[{leg, resistance_Nm, sigma_Nm, level, "
+                              "evidence}], level}")}}}},
+      kStudyRequestBytes};
+}
+
+Endpoint JointHealth(const RouteContext& c) {
+  server::Service* svc = &c.service;
+  return {
+      "The machine's stored joint-health estimates, oldest first, with the limits of "
+      "the newest (docs/formats.md §5)",
+      [svc](const Request& req) {
+        return Response::Json(svc->servo().JointHealth(req.path_params.at("machine_id")));
+      },
+      {{"responses",
+        {{"200", JsonResponse("{machine_id, limits, estimates[{result_id, "
+                              "measurement_ids[], estimated_at, legs[], level}]}")}}}}};
+}
+
+Endpoint StreamServo(const RouteContext& c) {
+  server::Service* svc = &c.service;
+  return {
+      "A stretch of a stream (feed-drive position and force channels) stored as a "
+      "kinemetric-servo/1 measurement (docs/formats.md §5)",
+      [svc](const Request& req) {
+        const auto out = svc->servo().FromStream(req.PathId("id"), JsonBody(req));
+        return Response::Json({{"id", out.id}, {"kind", out.kind}, {"created", out.created}},
+                              out.created ? 201 : 200);
+      },
+      {{"requestBody",
+        {{"required", true},
+         {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}}},
+       {"responses", {{"201", JsonResponse("{id, kind: servo, created}")}}}},
+      kSmallRequestBytes};
+}
+
+Endpoint ServoForce(const RouteContext& c) {
+  server::Service* svc = &c.service;
+  return {
       "External tool-tip force of a stored hexapod servo record with its machine's model "
       "(docs/formats.md §3.11)",
-      true,
       [svc](const Request& req) {
         std::optional<std::int64_t> version;
         if (req.Query("machine_version")) {
@@ -104,7 +102,7 @@ void AddServoRoutes(Router& router, server::Service& service) {
       },
       {{"parameters", json::array({Param("machine_version", "integer",
                                          "a stored version of the model (default: the newest)")})},
-       {"responses", {{"200", JsonResponse("{t_s[], force_N[][3], sigma_N[][3], ...}")}}}}});
+       {"responses", {{"200", JsonResponse("{t_s[], force_N[][3], sigma_N[][3], ...}")}}}}};
 }
 
-}  // namespace km::api
+}  // namespace km::api::endpoints

@@ -5,23 +5,18 @@
 // each test once, when it runs.
 #include <algorithm>
 #include <cstdint>
-#include <limits>
 #include <map>
 #include <memory>
 
 #include "analysis/core/errors.h"
-#include "analysis/hexapod/effects/registry.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/json_text.h"
 #include "ingest/machine_json.h"
 #include "server/base/conflict.h"
-#include "server/base/request_json.h"
 #include "server/jobs/study_service.h"
 #include "usecases/calibration_study.h"
 
 namespace km::server {
-
-namespace req = km::server::request;
 
 // What a calibration job needs to run: the request, checked, with ids instead of tests.
 struct CalibrationPlan {
@@ -35,67 +30,8 @@ struct CalibrationPlan {
 
 namespace {
 
-// `effects`: a list of hexapod effect names, each once.
-std::vector<std::string> EffectNames(const nlohmann::json& request) {
-  std::vector<std::string> names;
-  if (!request.contains("effects")) return names;
-  const auto& list = request["effects"];
-  if (!list.is_array() || list.size() > 16)
-    throw InvalidInput("request", 0, "effects", "a list of hexapod effect names");
-  for (const auto& v : list) {
-    if (!v.is_string() || !hexapod::FindHexapodEffect(v.get<std::string>())) {
-      throw InvalidInput("request", 0, "effects",
-                         "each entry must be one of " + hexapod::HexapodEffectNames());
-    }
-    if (std::find(names.begin(), names.end(), v.get<std::string>()) != names.end())
-      throw InvalidInput("request", 0, "effects", v.get<std::string>() + " is listed twice");
-    names.push_back(v.get<std::string>());
-  }
-  return names;
-}
-
 std::string TestName(std::int64_t id) {
   return "measurement " + std::to_string(id);
-}
-
-// The measurement ids of the request: whole numbers ≥ 1, each listed once, at most `max_tests`.
-std::vector<std::int64_t> MeasurementIds(const nlohmann::json& request, std::size_t max_tests,
-                                         const std::string& study) {
-  if (!request.contains("measurement_ids") || !request["measurement_ids"].is_array() ||
-      request["measurement_ids"].empty()) {
-    throw InvalidInput("request", 0, "measurement_ids", "a non-empty list of DBB measurement ids");
-  }
-  const auto& list = request["measurement_ids"];
-  if (list.size() > max_tests) {
-    throw InvalidInput("request", 0, "measurement_ids",
-                       std::to_string(list.size()) + " ids; a " + study + " takes at most " +
-                           std::to_string(max_tests) + " DBB tests");
-  }
-  std::vector<std::int64_t> ids;
-  ids.reserve(list.size());
-  std::map<std::int64_t, std::size_t> position;  // id -> 1-based position in the list
-  for (const auto& v : list) {
-    const bool whole = v.is_number_integer() &&
-                       !(v.is_number_unsigned() &&
-                         v.get<std::uint64_t>() >
-                             static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max()));
-    if (!whole || v.get<std::int64_t>() < 1) {
-      throw InvalidInput("request", 0, "measurement_ids",
-                         "ids must be whole numbers from 1 (entry " +
-                             std::to_string(ids.size() + 1) + " is " +
-                             v.dump(-1, ' ', true).substr(0, 40) + ")");
-    }
-    const std::int64_t id = v.get<std::int64_t>();
-    const auto [it, fresh] = position.emplace(id, ids.size() + 1);
-    if (!fresh) {
-      throw InvalidInput("request", 0, "measurement_ids",
-                         "measurement " + std::to_string(id) + " is listed twice (entries " +
-                             std::to_string(it->second) + " and " + std::to_string(ids.size() + 1) +
-                             "); list each DBB test once (duplicates are refused, not merged)");
-    }
-    ids.push_back(id);
-  }
-  return ids;
 }
 
 // The tests of a study are of one machine: a model is calibrated (or its gaps found) from the
@@ -131,11 +67,24 @@ void RequireReductionWithoutEffects(const CalibrationPlan& plan) {
 
 }  // namespace
 
-std::vector<std::int64_t> StudyService::CheckedDbbIds(const nlohmann::json& request,
+std::vector<std::int64_t> StudyService::CheckedDbbIds(const std::vector<std::int64_t>& ids,
                                                       const std::string& study,
                                                       bool need_tool_length, bool need_fixed_ball) {
-  const std::vector<std::int64_t> ids =
-      MeasurementIds(request, options_.max_calibration_tests, study);
+  if (ids.size() > options_.max_calibration_tests) {
+    throw InvalidInput("request", 0, "measurement_ids",
+                       std::to_string(ids.size()) + " ids; a " + study + " takes at most " +
+                           std::to_string(options_.max_calibration_tests) + " DBB tests");
+  }
+  std::map<std::int64_t, std::size_t> position;  // id -> 1-based position in the list
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    const auto [it, fresh] = position.emplace(ids[i], i + 1);
+    if (!fresh) {
+      throw InvalidInput("request", 0, "measurement_ids",
+                         "measurement " + std::to_string(ids[i]) + " is listed twice (entries " +
+                             std::to_string(it->second) + " and " + std::to_string(i + 1) +
+                             "); list each DBB test once (duplicates are refused, not merged)");
+    }
+  }
   // Every test from its stored record (no file is read now): it exists, is a DBB test, and has
   // what the study needs without a solve (tool length; the fixed ball when the method is
   // absolute). The samples of all tests together are bounded: the job holds them all.
@@ -171,67 +120,41 @@ std::vector<std::int64_t> StudyService::CheckedDbbIds(const nlohmann::json& requ
   return ids;
 }
 
-std::shared_ptr<CalibrationPlan> StudyService::CheckCalibration(const nlohmann::json& request,
+std::shared_ptr<CalibrationPlan> StudyService::CheckCalibration(const CalibrationRequest& request,
                                                                 std::int64_t& stored_version) {
-  if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
   auto plan = std::make_shared<CalibrationPlan>();
   stored_version = 0;
-  if (request.contains("machine")) {
-    if (!request["machine"].is_object()) {
-      throw InvalidInput("request", 0, "machine",
-                         "the hexapod machine definition (docs/formats.md §2) must be an object");
-    }
-    if (request.contains("machine_id") || request.contains("machine_version")) {
-      throw InvalidInput("request", 0, "machine_id",
-                         "give either the machine definition (machine) or a stored model "
-                         "(machine_id, machine_version), not both");
-    }
-    plan->machine = ingest::ParseHexapodMachineJson(request["machine"].dump(), "request.machine");
-  } else if (request.contains("machine_id")) {
-    plan->machine = models_.RequestedMachine(request, stored_version);
+  if (request.machine) {
+    plan->machine = ingest::ParseHexapodMachineJson(request.machine->dump(), "request.machine");
+  } else {
+    plan->machine = models_.RequestedMachine(*request.model, stored_version);
     if (plan->machine.kind != "hexapod") {
       throw InvalidInput("request", 0, "machine_id",
                          "stored model '" + plan->machine.machine_id + "' version " +
                              std::to_string(stored_version) + " is not a hexapod");
     }
-  } else {
-    throw InvalidInput(
-        "request", 0, "machine",
-        "the hexapod machine definition (docs/formats.md §2) is required as an object, "
-        "or machine_id naming a stored model");
   }
-  if (request.contains("method")) {
-    if (!request["method"].is_string()) {
-      throw InvalidInput("request", 0, "method", "absolute or centre-corrected");
-    }
-    plan->method = usecases::ParseCalibrationMethod(request["method"].get<std::string>(), "method");
-  }
-  plan->reduction_min_tests =
-      static_cast<int>(req::WholeNumber(request, "reduction_study_min_tests", 1, 1000, 0));
-  plan->effects = EffectNames(request);
-  plan->max_samples_per_test =
-      static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
+  plan->method = request.method;
+  plan->reduction_min_tests = request.reduction_study_min_tests.value_or(0);
+  plan->effects = request.effects;
+  plan->max_samples_per_test = request.max_samples_per_test.value_or(0);
   RequireReductionWithoutEffects(*plan);
-  plan->ids = CheckedDbbIds(request, "calibration study", true,
+  plan->ids = CheckedDbbIds(request.measurement_ids, "calibration study", true,
                             plan->method == hexapod::CalibrationMethod::kAbsolute);
-
   return plan;
 }
 
-std::int64_t StudyService::SubmitCalibration(const nlohmann::json& request,
+std::int64_t StudyService::SubmitCalibration(const CalibrationRequest& request,
                                              std::int64_t owner_token_id) {
   std::int64_t stored_version = 0;
   const auto plan = CheckCalibration(request, stored_version);
-  nlohmann::json shown = request;
+  // The plan any instance runs: the request, with the stored model's version it was checked
+  // against (versions are never changed). Shown: the same without the machine definition.
+  nlohmann::json run = request.ToJson();
+  if (stored_version > 0) run["machine_version"] = stored_version;
+  nlohmann::json shown = run;
   shown.erase("machine");
   shown["machine_id"] = plan->machine.machine_id;
-  // The plan any instance runs: the request, with the stored model's version it was checked
-  // against (versions are never changed).
-  nlohmann::json run = request;
-  if (stored_version > 0) {
-    shown["machine_version"] = stored_version;
-    run["machine_version"] = stored_version;
-  }
   return queue_.Submit(kCalibrationJob, shown, run, owner_token_id);
 }
 
@@ -239,7 +162,7 @@ std::int64_t StudyService::SubmitCalibration(const nlohmann::json& request,
 nlohmann::json StudyService::RunCalibrationJob(const nlohmann::json& plan_json,
                                                const ProgressFn& p) {
   std::int64_t version = 0;
-  const auto plan = CheckCalibration(plan_json, version);
+  const auto plan = CheckCalibration(CalibrationRequest::Parse(plan_json), version);
   usecases::CalibrationStudy study;
   study.machine = plan->machine;
   study.method = plan->method;

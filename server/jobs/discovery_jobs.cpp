@@ -10,13 +10,10 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
 #include "server/base/conflict.h"
-#include "server/base/request_json.h"
 #include "server/jobs/study_service.h"
 #include "usecases/discovery_report.h"
 
 namespace km::server {
-
-namespace req = km::server::request;
 
 // What a discovery job needs to run: the request, checked, with ids instead of tests.
 struct DiscoveryPlan {
@@ -25,35 +22,23 @@ struct DiscoveryPlan {
   int max_samples_per_test = 0;
 };
 
-std::shared_ptr<DiscoveryPlan> StudyService::CheckDiscovery(const nlohmann::json& request,
+std::shared_ptr<DiscoveryPlan> StudyService::CheckDiscovery(const DiscoveryRequest& request,
                                                             std::int64_t& version) {
-  if (!request.is_object()) throw InvalidInput("request", 0, "", "the body must be a JSON object");
-  if (request.contains("machine")) {
-    throw InvalidInput("request", 0, "machine",
-                       "a discovery study takes a stored model: store the machine definition "
-                       "(POST /api/v1/machines) and name it with machine_id");
-  }
   auto plan = std::make_shared<DiscoveryPlan>();
   version = 0;
-  if (request.contains("machine_id")) {
-    plan->machine = models_.RequestedMachine(request, version);
-  } else if (request.contains("machine_version")) {
-    throw InvalidInput("request", 0, "machine_version", "needs machine_id (the stored model)");
-  }
-  plan->max_samples_per_test =
-      static_cast<int>(req::WholeNumber(request, "max_samples_per_test", 0, 10'000'000, 0));
+  if (request.model) plan->machine = models_.RequestedMachine(*request.model, version);
+  plan->max_samples_per_test = request.max_samples_per_test.value_or(0);
   const bool hexapod = plan->machine && plan->machine->kind == "hexapod";
-  plan->ids = CheckedDbbIds(request, "discovery study", hexapod, false);
-
+  plan->ids = CheckedDbbIds(request.measurement_ids, "discovery study", hexapod, false);
   return plan;
 }
 
-std::int64_t StudyService::SubmitDiscovery(const nlohmann::json& request,
+std::int64_t StudyService::SubmitDiscovery(const DiscoveryRequest& request,
                                            std::int64_t owner_token_id) {
   std::int64_t version = 0;
   const auto plan = CheckDiscovery(request, version);
   // Shown and run: the request with the stored model's version it was checked against.
-  nlohmann::json stored = request;
+  nlohmann::json stored = request.ToJson();
   if (plan->machine) stored["machine_version"] = version;
   return queue_.Submit(kDiscoveryJob, stored, stored, owner_token_id);
 }
@@ -61,7 +46,7 @@ std::int64_t StudyService::SubmitDiscovery(const nlohmann::json& request,
 // The job reads the tests when it runs, checked again from the plan.
 nlohmann::json StudyService::RunDiscoveryJob(const nlohmann::json& plan_json, const ProgressFn& p) {
   std::int64_t version = 0;
-  const auto plan = CheckDiscovery(plan_json, version);
+  const auto plan = CheckDiscovery(DiscoveryRequest::Parse(plan_json), version);
   usecases::DiscoveryStudy study;
   study.machine = plan->machine;
   study.max_samples_per_test = plan->max_samples_per_test;

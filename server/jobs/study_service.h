@@ -13,6 +13,7 @@
 
 #include "analysis/core/progress.h"
 #include "server/jobs/jobs.h"
+#include "server/jobs/study_requests.h"
 #include "server/measurements/measurement_service.h"
 #include "server/models/model_service.h"
 #include "server/storage/storage.h"
@@ -47,27 +48,21 @@ class StudyService {
   StudyService(const StudyService&) = delete;
   StudyService& operator=(const StudyService&) = delete;
 
-  // Hexapod calibration study. Request (JSON): {"machine": {machine definition,
-  // docs/formats.md §2}, "measurement_ids": [DBB ids], "method": "absolute" |
-  // "centre-corrected" (optional), "reduction_study_min_tests": N (optional),
-  // "max_samples_per_test": N (optional)}. Validated now from the stored records, without
-  // reading any file (InvalidInput / NotFound): at most max_calibration_tests ids, each listed
-  // once (a repeated id is refused), each a DBB test with a tool length, at most
-  // max_calibration_samples samples in all. Returns the job id. The job's result is the
-  // `hexapod calibrate` object plus the calibrated machine.
-  // Instead of "machine", the request may name a stored model: "machine_id" (and optionally
-  // "machine_version", else the newest); the job's request then records the version used.
-  // The tests must be of one machine, and the reduction study is refused together with
-  // effects (named, or the stored model's own). owner_token_id: the token submitting the job,
-  // who may cancel it (CancelJob).
-  std::int64_t SubmitCalibration(const nlohmann::json& request, std::int64_t owner_token_id = 0);
-  // Model-gap discovery study (usecases/discovery_report.h). Request: {"machine_id"?,
-  // "machine_version"?, "measurement_ids": [DBB ids], "max_samples_per_test"?}. Checked like a
-  // calibration request, and the tests must be of one machine. Without machine_id: the serial
-  // study of the DBB tests' machine; with it: the stored model (a hexapod's tests need the tool
-  // length). The job's result is the `kinemetric discover` object, plus "updated_machine" when
-  // the study produced one.
-  std::int64_t SubmitDiscovery(const nlohmann::json& request, std::int64_t owner_token_id = 0);
+  // Hexapod calibration study (server/jobs/study_requests.h), checked now from the stored
+  // records, without reading any file (InvalidInput / NotFound): at most max_calibration_tests
+  // ids, each a DBB test with a tool length (and its fixed ball for the absolute method), of one
+  // machine, at most max_calibration_samples samples in all; a stored model must be a hexapod;
+  // the reduction study is refused together with effects (named, or the stored model's own).
+  // Returns the job id. The job's result is the `hexapod calibrate` object plus the calibrated
+  // machine; its request records the stored model's version used. owner_token_id: the token
+  // submitting the job, who may cancel it (CancelJob).
+  std::int64_t SubmitCalibration(const CalibrationRequest& request,
+                                 std::int64_t owner_token_id = 0);
+  // Model-gap discovery study (usecases/discovery_report.h), checked like a calibration. Without
+  // a model: the serial study of the DBB tests' machine; with one: the stored model (a
+  // hexapod's tests need the tool length). The job's result is the `kinemetric discover`
+  // object, plus "updated_machine" when the study produced one.
+  std::int64_t SubmitDiscovery(const DiscoveryRequest& request, std::int64_t owner_token_id = 0);
 
   nlohmann::json Job(std::int64_t id);
   // Cancels a queued or running job for its owner (the token that submitted it) or an admin;
@@ -90,16 +85,17 @@ class StudyService {
   void Stop() { queue_.Stop(); }
 
  private:
-  // The "measurement_ids" of a study request, checked from the stored records alone (no file is
-  // read): at most max_calibration_tests, each once, each a DBB test (with a tool length and,
-  // when asked, a fixed ball), all of one machine, at most max_calibration_samples samples in
-  // all (calibration_jobs.cpp).
-  std::vector<std::int64_t> CheckedDbbIds(const nlohmann::json& request, const std::string& study,
-                                          bool need_tool_length, bool need_fixed_ball);
+  // The measurement ids of a study request, checked from the stored records alone (no file is
+  // read): at most max_calibration_tests, each listed once, each a DBB test (with a tool length
+  // and, when asked, a fixed ball), all of one machine, at most max_calibration_samples samples
+  // in all (calibration_jobs.cpp).
+  std::vector<std::int64_t> CheckedDbbIds(const std::vector<std::int64_t>& ids,
+                                          const std::string& study, bool need_tool_length,
+                                          bool need_fixed_ball);
   // Study requests checked into what a job runs, and the jobs' runners (from the stored plan).
-  std::shared_ptr<CalibrationPlan> CheckCalibration(const nlohmann::json& request,
+  std::shared_ptr<CalibrationPlan> CheckCalibration(const CalibrationRequest& request,
                                                     std::int64_t& stored_version);
-  std::shared_ptr<DiscoveryPlan> CheckDiscovery(const nlohmann::json& request,
+  std::shared_ptr<DiscoveryPlan> CheckDiscovery(const DiscoveryRequest& request,
                                                 std::int64_t& version);
   nlohmann::json RunCalibrationJob(const nlohmann::json& plan, const ProgressFn& p);
   nlohmann::json RunDiscoveryJob(const nlohmann::json& plan, const ProgressFn& p);

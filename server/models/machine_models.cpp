@@ -2,18 +2,14 @@
 // calibrated machine or a discovery's updated machine becomes the next version of its machine's
 // model; nothing is overwritten. Studies name a stored model by machine_id (and version).
 #include <cstdint>
-#include <limits>
 
 #include "analysis/core/errors.h"
 #include "ingest/json_text.h"
 #include "ingest/machine_json.h"
-#include "server/base/request_json.h"
 #include "server/base/sha256.h"
 #include "server/models/model_service.h"
 
 namespace km::server {
-
-namespace req = km::server::request;
 
 namespace {
 
@@ -94,15 +90,9 @@ nlohmann::json ModelService::ListMachineModels(const std::string& machine_id) {
   return {{"machine_id", machine_id}, {"versions", items}};
 }
 
-ingest::MachineDefinition ModelService::RequestedMachine(const nlohmann::json& request,
+ingest::MachineDefinition ModelService::RequestedMachine(const ModelRef& ref,
                                                          std::int64_t& version) {
-  const std::string machine_id = req::RequiredString(request, "machine_id");
-  std::optional<std::int64_t> wanted;
-  if (request.contains("machine_version")) {
-    wanted =
-        req::WholeNumber(request, "machine_version", 1, std::numeric_limits<std::int64_t>::max());
-  }
-  const MachineModelRecord rec = GetMachineModel(machine_id, wanted);
+  const MachineModelRecord rec = GetMachineModel(ref.machine_id, ref.version);
   version = rec.version;
   // Stored documents were validated when they were stored; parsed again for this study.
   return ingest::ParseMachineJson(rec.document, VersionText(rec.machine_id, rec.version));

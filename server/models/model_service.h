@@ -28,6 +28,12 @@ struct MachineModelStored {
   bool created = false;  // false: the bytes were those of the newest version already
 };
 
+// A stored machine model named by a request: its id and a version (unset: the newest).
+struct ModelRef {
+  std::string machine_id;
+  std::optional<std::int64_t> version;
+};
+
 class ModelService {
  public:
   explicit ModelService(ModelStore& store) : store_(store) {}
@@ -45,9 +51,9 @@ class ModelService {
   // {"machine_id", "versions": [{"version", "created_at", "source", "note", "sha256"}]},
   // oldest first; NotFound when the machine has no stored model.
   nlohmann::json ListMachineModels(const std::string& machine_id);
-  // The stored model named by a request's "machine_id" / "machine_version" (newest without a
-  // version), parsed; `version` is set to the version used.
-  ingest::MachineDefinition RequestedMachine(const nlohmann::json& request, std::int64_t& version);
+  // The stored model a request names (the newest without a version), parsed; `version` is set
+  // to the version used.
+  ingest::MachineDefinition RequestedMachine(const ModelRef& ref, std::int64_t& version);
 
  private:
   ModelStore& store_;

@@ -1,8 +1,9 @@
 // JSON request bodies checked without HTTP: the field helpers of server/base/request_json.h, and
-// the service calls that validate a request before doing anything (Service::CreateStream,
-// Service::SubmitCalibration, Service::StreamProfile on a stream that holds samples). The body
-// is the whole input; a body that is not JSON, or that ingest/json_text.h refuses (nesting,
-// repeated keys, numbers beyond a double), is refused before any of these runs.
+// the service calls that validate a request before doing anything (Service::CreateStream, the
+// study requests parsed and submitted (server/jobs/study_requests.h), Service::StreamProfile on
+// a stream that holds samples). The body is the whole input; a body that is not JSON, or that
+// ingest/json_text.h refuses (nesting, repeated keys, numbers beyond a double), is refused before
+// any of these runs.
 #include <cmath>
 #include <limits>
 
@@ -75,7 +76,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                std::numeric_limits<std::int64_t>::max());
   });
   Guarded([&] { svc.streams().CreateStream(j); });
-  Guarded([&] { svc.studies().SubmitCalibration(j); });
+  Guarded([&] { svc.studies().SubmitCalibration(km::server::CalibrationRequest::Parse(j)); });
+  Guarded([&] { svc.studies().SubmitDiscovery(km::server::DiscoveryRequest::Parse(j)); });
   Guarded([&] { svc.streams().StreamProfile(kSeededStream, j); });
   return 0;
 }

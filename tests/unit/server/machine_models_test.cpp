@@ -17,6 +17,7 @@
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/expect_error.h"
+#include "tests/unit/server/study_request_json.h"
 #include "tests/unit/server/temp_dir.h"
 
 namespace km::server {
@@ -251,8 +252,8 @@ TEST_F(MachineModels, ACalibrationFromAStoredModelIsSavedAsItsNextVersion) {
   Start();
   const json ids = UploadHexapodTests();
   service_->models().StoreMachineModel(Pm600(), "upload", "nominal");
-  const auto job = service_->studies().SubmitCalibration(
-      {{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
+  const auto job = km::test::SubmitCalibrationJson(
+      *service_, {{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
   const json j = WaitForJob(job);
   ASSERT_EQ(j["status"], "done") << j.dump();
   EXPECT_EQ(j["request"]["machine_id"], "pm600-like");
@@ -284,11 +285,11 @@ TEST_F(MachineModels, ACalibrationFromAStoredModelIsSavedAsItsNextVersion) {
   EXPECT_EQ(again.version, 2);
 
   // An older version is named explicitly; the newest is the default.
-  const auto older = service_->studies().SubmitCalibration(
-      {{"machine_id", "pm600-like"}, {"machine_version", 1}, {"measurement_ids", ids}});
+  const auto older = km::test::SubmitCalibrationJson(
+      *service_, {{"machine_id", "pm600-like"}, {"machine_version", 1}, {"measurement_ids", ids}});
   EXPECT_EQ(service_->studies().Job(older)["request"]["machine_version"], 1);
-  const auto newest = service_->studies().SubmitCalibration(
-      {{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
+  const auto newest = km::test::SubmitCalibrationJson(
+      *service_, {{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
   EXPECT_EQ(service_->studies().Job(newest)["request"]["machine_version"], 2);
   WaitForJob(older);
   WaitForJob(newest);
@@ -303,15 +304,16 @@ TEST_F(MachineModels, CalibrationRequestsNamingAStoredModelAreChecked) {
   serial["kind"] = "serial";
   service_->models().StoreMachineModel(serial.dump(), "upload", "");
 
-  EXPECT_THROW(
-      service_->studies().SubmitCalibration({{"machine_id", "nobody"}, {"measurement_ids", ids}}),
-      NotFound);
-  EXPECT_THROW(
-      service_->studies().SubmitCalibration(
-          {{"machine_id", "pm600-like"}, {"machine_version", 2}, {"measurement_ids", ids}}),
-      NotFound);
+  EXPECT_THROW(km::test::SubmitCalibrationJson(
+                   *service_, {{"machine_id", "nobody"}, {"measurement_ids", ids}}),
+               NotFound);
+  EXPECT_THROW(km::test::SubmitCalibrationJson(*service_, {{"machine_id", "pm600-like"},
+                                                           {"machine_version", 2},
+                                                           {"measurement_ids", ids}}),
+               NotFound);
   const auto field = [&](const json& request) {
-    return Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(request); }).field();
+    return Expect<InvalidInput>([&] { km::test::SubmitCalibrationJson(*service_, request); })
+        .field();
   };
   EXPECT_EQ(field({{"machine_id", "pm600-like"}, {"machine_version", 0}, {"measurement_ids", ids}}),
             "machine_version");
@@ -356,7 +358,7 @@ TEST_F(MachineModels, DiscoveryJobsRunOnStoredModelsAndSaveTheUpdatedMachine) {
   const auto cw = service_->measurements()
                       .Upload(ReadFile("tests/fixtures/browser/dbb_xy-r150_cw.txt"), "cw.txt")
                       .id;
-  const auto serial = service_->studies().SubmitDiscovery({{"measurement_ids", {ccw, cw}}});
+  const auto serial = km::test::SubmitDiscoveryJson(*service_, {{"measurement_ids", {ccw, cw}}});
   const json sj = WaitForJob(serial);
   ASSERT_EQ(sj["status"], "done") << sj.dump();
   EXPECT_EQ(sj["kind"], "discovery");
@@ -368,8 +370,8 @@ TEST_F(MachineModels, DiscoveryJobsRunOnStoredModelsAndSaveTheUpdatedMachine) {
   // Hexapod: the stored model; the updated machine becomes version 2.
   const json ids = UploadHexapodTests();
   service_->models().StoreMachineModel(Pm600(), "upload", "");
-  const auto hex =
-      service_->studies().SubmitDiscovery({{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
+  const auto hex = km::test::SubmitDiscoveryJson(
+      *service_, {{"machine_id", "pm600-like"}, {"measurement_ids", ids}});
   const json hj = WaitForJob(hex);
   ASSERT_EQ(hj["status"], "done") << hj.dump();
   EXPECT_EQ(hj["request"]["machine_version"], 1);
@@ -385,7 +387,7 @@ TEST_F(MachineModels, DiscoveryJobsRunOnStoredModelsAndSaveTheUpdatedMachine) {
   // Requests are checked like calibration requests, before any job exists.
   const std::size_t jobs = service_->storage().ListJobs(100).size();
   const auto field = [&](const json& request) {
-    return Expect<InvalidInput>([&] { service_->studies().SubmitDiscovery(request); }).field();
+    return Expect<InvalidInput>([&] { km::test::SubmitDiscoveryJson(*service_, request); }).field();
   };
   EXPECT_EQ(field({{"measurement_ids", {ccw, ids[0]}}}), "measurement_ids");  // two machines
   EXPECT_EQ(field({{"measurement_ids", {ccw, cw, ccw}}}), "measurement_ids");
@@ -395,13 +397,14 @@ TEST_F(MachineModels, DiscoveryJobsRunOnStoredModelsAndSaveTheUpdatedMachine) {
   json many = json::array();
   for (int i = 1; i <= 501; ++i) many.push_back(i);
   const auto e = Expect<InvalidInput>([&] {
-    service_->studies().SubmitDiscovery({{"measurement_ids", many}});
+    km::test::SubmitDiscoveryJson(*service_, {{"measurement_ids", many}});
   });
   EXPECT_TRUE(Contains(e.what(), "at most 500")) << e.what();
-  EXPECT_THROW(
-      service_->studies().SubmitDiscovery({{"machine_id", "nobody"}, {"measurement_ids", ids}}),
-      NotFound);
-  EXPECT_THROW(service_->studies().SubmitDiscovery({{"measurement_ids", {ccw, 999}}}), NotFound);
+  EXPECT_THROW(km::test::SubmitDiscoveryJson(*service_,
+                                             {{"machine_id", "nobody"}, {"measurement_ids", ids}}),
+               NotFound);
+  EXPECT_THROW(km::test::SubmitDiscoveryJson(*service_, {{"measurement_ids", {ccw, 999}}}),
+               NotFound);
   EXPECT_EQ(service_->storage().ListJobs(100).size(), jobs);
 }
 

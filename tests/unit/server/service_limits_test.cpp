@@ -23,6 +23,7 @@
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/expect_error.h"
+#include "tests/unit/server/study_request_json.h"
 
 namespace km::server {
 namespace {
@@ -132,7 +133,7 @@ TEST_F(ServiceLimits, TooManyCalibrationTestsAreRefusedBeforeAnythingIsRead) {
   nlohmann::json many = nlohmann::json::array();
   for (int i = 0; i < 5'000; ++i) many.push_back(ids[static_cast<std::size_t>(i % 10)]);
   const auto e =
-      Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(Request(many)); });
+      Expect<InvalidInput>([&] { km::test::SubmitCalibrationJson(*service_, Request(many)); });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "500")) << e.what();
   EXPECT_TRUE(Contains(e.what(), "5000 ids")) << e.what();
@@ -140,7 +141,7 @@ TEST_F(ServiceLimits, TooManyCalibrationTestsAreRefusedBeforeAnythingIsRead) {
   nlohmann::json over = nlohmann::json::array();
   for (int i = 1; i <= 501; ++i) over.push_back(i);
   const auto e2 =
-      Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(Request(over)); });
+      Expect<InvalidInput>([&] { km::test::SubmitCalibrationJson(*service_, Request(over)); });
   EXPECT_EQ(e2.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e2.what(), "at most 500")) << e2.what();
   EXPECT_EQ(storage_->RawReads(), 0u);
@@ -152,7 +153,7 @@ TEST_F(ServiceLimits, TheLimitOfCalibrationTestsIsConfiguration) {
   Start(o);
   const auto ids = UploadHexapodTests();
   const auto e = Expect<InvalidInput>([&] {
-    service_->studies().SubmitCalibration(Request({ids[0], ids[1], ids[2], ids[3]}));
+    km::test::SubmitCalibrationJson(*service_, Request({ids[0], ids[1], ids[2], ids[3]}));
   });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "at most 3")) << e.what();
@@ -162,7 +163,7 @@ TEST_F(ServiceLimits, RepeatedOrMalformedIdsAreRefused) {
   Start();
   const auto ids = UploadHexapodTests();
   const auto e = Expect<InvalidInput>([&] {
-    service_->studies().SubmitCalibration(Request({ids[0], ids[1], ids[0]}));
+    km::test::SubmitCalibrationJson(*service_, Request({ids[0], ids[1], ids[0]}));
   });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "listed twice (entries 1 and 3)")) << e.what();
@@ -170,19 +171,19 @@ TEST_F(ServiceLimits, RepeatedOrMalformedIdsAreRefused) {
                                     nlohmann::json("1"), nlohmann::json(18446744073709551615ull)}) {
     SCOPED_TRACE(bad.dump());
     const auto e2 = Expect<InvalidInput>([&] {
-      service_->studies().SubmitCalibration(Request({ids[0], bad}));
+      km::test::SubmitCalibrationJson(*service_, Request({ids[0], bad}));
     });
     EXPECT_EQ(e2.field(), "measurement_ids");
     EXPECT_TRUE(Contains(e2.what(), "entry 2")) << e2.what();
   }
   // A missing test and a test without tool length are found from the stored records.
-  EXPECT_THROW(service_->studies().SubmitCalibration(Request({ids[0], 999})), NotFound);
+  EXPECT_THROW(km::test::SubmitCalibrationJson(*service_, Request({ids[0], 999})), NotFound);
   std::string no_tool = ReadFile("tests/fixtures/browser/hexapod/dbb_a_ccw.txt");
   const auto tool = no_tool.find("# tool_length_mm");
   no_tool.erase(tool, no_tool.find('\n', tool) - tool + 1);
   const auto plain = service_->measurements().Upload(no_tool, "no_tool.txt").id;
   const auto e3 = Expect<InvalidInput>([&] {
-    service_->studies().SubmitCalibration(Request({ids[0], plain}));
+    km::test::SubmitCalibrationJson(*service_, Request({ids[0], plain}));
   });
   EXPECT_EQ(e3.field(), "tool_length_mm");
   EXPECT_EQ(storage_->RawReads(), 0u);
@@ -193,7 +194,8 @@ TEST_F(ServiceLimits, TheSamplesOfAStudyAreBounded) {
   o.max_calibration_samples = 1000;  // the fixtures hold about 190 samples each
   Start(o);
   const auto ids = UploadHexapodTests();
-  const auto e = Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(Request(ids)); });
+  const auto e =
+      Expect<InvalidInput>([&] { km::test::SubmitCalibrationJson(*service_, Request(ids)); });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "at most 1000")) << e.what();
   EXPECT_EQ(storage_->RawReads(), 0u);
@@ -203,7 +205,7 @@ TEST_F(ServiceLimits, AQueuedStudyHoldsIdsAndTheJobReadsEachTestOnce) {
   Start();
   const auto ids = UploadHexapodTests();
   ASSERT_EQ(storage_->RawReads(), 0u);
-  const auto job = service_->studies().SubmitCalibration(Request(ids));
+  const auto job = km::test::SubmitCalibrationJson(*service_, Request(ids));
   // Nothing was read while the request was checked: the job reads the tests when it runs.
   EXPECT_EQ(storage_->RawReadsOn(std::this_thread::get_id()), 0u);
   const auto j = WaitForJob(job);
@@ -222,7 +224,7 @@ TEST_F(ServiceLimits, ACalibrationOfTheTestsOfTwoMachinesIsRefusedBeforeItIsQueu
   other.replace(other.find(line), line.size(), "# machine_id: pm600-other");
   const auto foreign = service_->measurements().Upload(other, "other.txt").id;
   const auto e = Expect<InvalidInput>([&] {
-    service_->studies().SubmitCalibration(Request({ids[0], ids[1], foreign}));
+    km::test::SubmitCalibrationJson(*service_, Request({ids[0], ids[1], foreign}));
   });
   EXPECT_EQ(e.field(), "measurement_ids");
   EXPECT_TRUE(Contains(e.what(), "of 'pm600-other'")) << e.what();
@@ -240,7 +242,7 @@ TEST_F(ServiceLimits, AReductionStudyWithEffectsIsRefusedBeforeItIsQueued) {
   nlohmann::json named = Request(ids);
   named["reduction_study_min_tests"] = 4;
   named["effects"] = nlohmann::json::array({"gravity_deflection"});
-  const auto e = Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(named); });
+  const auto e = Expect<InvalidInput>([&] { km::test::SubmitCalibrationJson(*service_, named); });
   EXPECT_EQ(e.field(), "reduction_study_min_tests");
   EXPECT_TRUE(Contains(e.what(), "plain calibration only")) << e.what();
   // The model's own effects take part too: the same refusal.
@@ -248,18 +250,18 @@ TEST_F(ServiceLimits, AReductionStudyWithEffectsIsRefusedBeforeItIsQueued) {
   own["machine"]["effects"] =
       nlohmann::json::array({nlohmann::json{{"effect", "tool_length_error"}}});
   own["reduction_study_min_tests"] = 4;
-  const auto e2 = Expect<InvalidInput>([&] { service_->studies().SubmitCalibration(own); });
+  const auto e2 = Expect<InvalidInput>([&] { km::test::SubmitCalibrationJson(*service_, own); });
   EXPECT_EQ(e2.field(), "reduction_study_min_tests");
   EXPECT_TRUE(Contains(e2.what(), "has effects of its own")) << e2.what();
   EXPECT_TRUE(service_->studies().Jobs(10)["items"].empty());
   // Each alone is accepted.
   named.erase("reduction_study_min_tests");
-  EXPECT_GT(service_->studies().SubmitCalibration(named), 0);
+  EXPECT_GT(km::test::SubmitCalibrationJson(*service_, named), 0);
   own.erase("reduction_study_min_tests");
-  EXPECT_GT(service_->studies().SubmitCalibration(own), 0);
+  EXPECT_GT(km::test::SubmitCalibrationJson(*service_, own), 0);
   nlohmann::json plain = Request(ids);
   plain["reduction_study_min_tests"] = 4;
-  EXPECT_GT(service_->studies().SubmitCalibration(plain), 0);
+  EXPECT_GT(km::test::SubmitCalibrationJson(*service_, plain), 0);
 }
 
 TEST_F(ServiceLimits, AJobIsCancelledByItsOwnerOrAnAdminOnly) {
@@ -267,7 +269,7 @@ TEST_F(ServiceLimits, AJobIsCancelledByItsOwnerOrAnAdminOnly) {
   o.jobs.workers = 0;  // the jobs stay queued
   Start(o);
   const auto ids = UploadHexapodTests();
-  const auto job = service_->studies().SubmitCalibration(Request({ids[0], ids[1]}), 5);
+  const auto job = km::test::SubmitCalibrationJson(*service_, Request({ids[0], ids[1]}), 5);
   EXPECT_EQ(service_->studies().Job(job)["owner_token_id"], 5);
   const auto e = Expect<Forbidden>([&] {
     service_->studies().CancelJob(job, {6, "other", false});
@@ -285,7 +287,7 @@ TEST_F(ServiceLimits, AJobIsCancelledByItsOwnerOrAnAdminOnly) {
   EXPECT_TRUE(Contains(again.what(), "is cancelled already")) << again.what();
   EXPECT_THROW(service_->studies().CancelJob(job + 100, {1, "admin", true}), NotFound);
   // An admin cancels any job, also one whose owner is not known (queued by an older version).
-  const auto other = service_->studies().SubmitDiscovery({{"measurement_ids", {ids[0]}}});
+  const auto other = km::test::SubmitDiscoveryJson(*service_, {{"measurement_ids", {ids[0]}}});
   EXPECT_TRUE(service_->studies().Job(other)["owner_token_id"].is_null());
   EXPECT_THROW(service_->studies().CancelJob(other, {5, "alice", false}), Forbidden);
   EXPECT_EQ(service_->studies().CancelJob(other, {1, "root", true})["error"],
