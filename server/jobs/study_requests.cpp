@@ -113,7 +113,11 @@ CalibrationRequest CalibrationRequest::Parse(const nlohmann::json& body) {
     if (!body["method"].is_string()) {
       throw InvalidInput("request", 0, "method", "absolute or centre-corrected");
     }
-    r.method = usecases::ParseCalibrationMethod(body["method"].get<std::string>(), "method");
+    try {
+      r.method = usecases::ParseCalibrationMethod(body["method"].get<std::string>(), "method");
+    } catch (const InvalidInput& e) {
+      throw InvalidInput("request", 0, "method", e.reason());  // named like every other field
+    }
   }
   r.reduction_study_min_tests = OptionalInt(body, "reduction_study_min_tests", 1, 1000);
   r.effects = EffectNames(body);

@@ -106,6 +106,17 @@ TEST(CalibrationRequest, BadFieldsAreNamed) {
       "measurement_ids");
 }
 
+TEST(CalibrationRequest, AnUnknownMethodIsNamedAsAFieldOfTheRequest) {
+  const auto e = Expect<InvalidInput>([] {
+    CalibrationRequest::Parse(
+        {{"machine_id", "m"}, {"method", "radial"}, {"measurement_ids", {1}}});
+  });
+  EXPECT_EQ(e.file(), "request");
+  EXPECT_EQ(e.field(), "method");
+  EXPECT_TRUE(test::Contains(e.what(), "'radial' is neither absolute nor centre-corrected"))
+      << e.what();
+}
+
 TEST(DiscoveryRequest, ReadsAStoredModelOrNone) {
   const auto serial = DiscoveryRequest::Parse({{"measurement_ids", {2, 1}}});
   EXPECT_FALSE(serial.model.has_value());
