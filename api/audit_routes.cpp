@@ -77,20 +77,28 @@ Endpoint RunAudit(const RouteContext& c) {
 
 Endpoint ListAudits(const RouteContext& c) {
   server::Service* svc = &c.service;
-  return {"Accuracy-audit verdicts, newest first",
-          [svc](const Request& req) {
-            server::AuditVerdictFilter f;
-            if (const auto m = req.Query("machine_id")) f.machine_id = *m;
-            f.from = QueryTime(req, "from");
-            f.to = QueryTime(req, "to");
-            f.limit = QueryInt(req, "limit", 100, 1, 1000);
-            return Response::Json(server::ListAccuracyAudits(*svc, f));
-          },
-          {{"parameters", json::array({Param("machine_id", "string", "one machine's verdicts"),
-                                       Param("from", "string", "ISO 8601, inclusive (created_at)"),
-                                       Param("to", "string", "ISO 8601, exclusive"),
-                                       Param("limit", "integer", "1 to 1000 (default 100)")})},
-           {"responses", {{"200", JsonResponse(std::string("{audits[") + kVerdictKeys + "]}")}}}}};
+  return {
+      "Accuracy-audit verdicts, newest first",
+      [svc](const Request& req) {
+        server::AuditVerdictFilter f;
+        if (const auto m = req.Query("machine_id")) f.machine_id = *m;
+        f.from = QueryTime(req, "from");
+        f.to = QueryTime(req, "to");
+        f.limit = QueryInt(req, "limit", 100, 1, 1000);
+        f.offset = QueryInt(req, "offset", 0, 0, std::int64_t{1} << 40);
+        Response r;
+        r.body = server::ListAccuracyAuditsText(*svc, f);
+        return r;
+      },
+      {{"parameters", json::array({Param("machine_id", "string", "one machine's verdicts"),
+                                   Param("from", "string", "ISO 8601, inclusive (created_at)"),
+                                   Param("to", "string", "ISO 8601, exclusive"),
+                                   Param("limit", "integer", "1 to 1000 (default 100)"),
+                                   Param("offset", "integer", "verdicts to skip (next_offset)")})},
+       {"responses",
+        {{"200", JsonResponse(std::string("{audits[") + kVerdictKeys +
+                              "], limit, offset, truncated (the page stopped at 4 MiB), "
+                              "next_offset (null on the last page)}")}}}}};
 }
 
 Endpoint GetAudit(const RouteContext& c) {

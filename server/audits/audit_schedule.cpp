@@ -13,6 +13,9 @@ namespace km::server {
 namespace {
 
 constexpr std::int64_t kDay = 86400;
+// How far ahead a cron schedule's next run is searched: beyond the longest wait of a schedule
+// that fires (29 February only: 8 years where a century year is no leap year, 2096 → 2104).
+constexpr std::int64_t kHorizonDays = 9 * 366;
 
 // The civil date (proleptic Gregorian) of a day number since 1970-01-01.
 struct Civil {
@@ -91,6 +94,21 @@ std::bitset<N> ParseCronField(const std::string& text, int lo, int hi, const std
   return set;
 }
 
+// Whether a cron schedule ever fires. A day of the week matches in every month (alone, or
+// either day field when both are restricted); a day of the month alone only in the months that
+// have it (29 February: in leap years).
+bool Fires(const AuditSchedule& s) {
+  if (s.weekdays_restricted) return s.weekdays.any();
+  static constexpr std::size_t kLongest[13] = {0, 31, 29, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  for (std::size_t m = 1; m <= 12; ++m) {
+    if (!s.months[m]) continue;
+    for (std::size_t d = 1; d <= kLongest[m]; ++d) {
+      if (s.days[d]) return true;
+    }
+  }
+  return false;
+}
+
 AuditSchedule ParseCron(const std::string& text, const std::string& field) {
   std::istringstream in(text);
   std::vector<std::string> parts;
@@ -109,6 +127,12 @@ AuditSchedule ParseCron(const std::string& text, const std::string& field) {
   s.months = ParseCronField<13>(parts[3], 1, 12, "month", field, nullptr);
   const auto dow = ParseCronField<8>(parts[4], 0, 7, "day-of-week", field, &s.weekdays_restricted);
   for (std::size_t d = 0; d < 7; ++d) s.weekdays[d] = dow[d] || (d == 0 && dow[7]);
+  if (!Fires(s)) {
+    throw InvalidInput("", 0, field,
+                       "'" + text +
+                           "' never fires: none of its months has any of its days of the month "
+                           "(e.g. 30 or 31 February, 31 April)");
+  }
   return s;
 }
 
@@ -162,7 +186,7 @@ std::optional<std::int64_t> NextAuditRun(const AuditSchedule& s, std::int64_t af
   if (s.every_s > 0) return after + s.every_s;
   const std::int64_t start = FloorDiv(after, 60) * 60 + 60;  // the next whole minute
   const std::int64_t first_day = FloorDiv(start, kDay);
-  for (std::int64_t day = first_day; day < first_day + 5 * 366; ++day) {
+  for (std::int64_t day = first_day; day < first_day + kHorizonDays; ++day) {
     if (!DayMatches(s, day)) continue;
     for (std::size_t h = 0; h < 24; ++h) {
       if (!s.hours[h]) continue;

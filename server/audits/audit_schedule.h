@@ -24,13 +24,14 @@ struct AuditSchedule {
   bool days_restricted = false, weekdays_restricted = false;
 };
 
-// Parses a schedule; km::InvalidInput naming `field` (and the cron field) when it is not one.
-// Intervals: 1 s to 366 d (seconds are meant for tests and demonstrations).
+// Parses a schedule; km::InvalidInput naming `field` (and the cron field) when it is not one,
+// or when it never fires ("0 0 31 2 *", "0 0 30 2 *", "0 0 31 4 *"; "0 0 29 2 *" fires in leap
+// years). Intervals: 1 s to 366 d (seconds are meant for tests and demonstrations).
 AuditSchedule ParseAuditSchedule(const std::string& text, const std::string& field = "schedule");
 
 // The first run time strictly after `after` (Unix seconds): after + the interval, or the next
-// whole minute the cron fields match (searched up to 5 years ahead; nullopt when none, e.g.
-// "0 0 31 2 *").
+// whole minute the cron fields match (searched up to 9 years ahead, beyond the longest wait of
+// a schedule that fires: 29 February across 2100; nullopt when none).
 std::optional<std::int64_t> NextAuditRun(const AuditSchedule& schedule, std::int64_t after);
 
 // Unix seconds as "YYYY-MM-DDTHH:MM:SSZ", and back (nullopt when not ISO 8601).

@@ -3,6 +3,7 @@
 // verdicts. Times are whole Unix seconds given by the caller, so that tests set the clock.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -28,8 +29,20 @@ nlohmann::json AuditConfigJson(AuditSource& service, const std::string& machine_
 // verdict's JSON (VerdictJson).
 nlohmann::json RunAccuracyAudit(AuditSource& service, const std::string& machine_id,
                                 const std::string& trigger, std::int64_t now);
-// {"audits": [VerdictJson…]} newest first; one verdict (NotFound when there is none).
+// At most this many bytes of JSON in one page of verdicts (GET /api/v1/audits); a page holds
+// at least one verdict, however large.
+inline constexpr std::size_t kAuditPageBytes = std::size_t{4} << 20;
+// One page of verdicts, newest first, as JSON text: {"audits": [VerdictJson…], "limit",
+// "offset", "truncated", "next_offset"}. The filter's limit and offset choose the page; it ends
+// early, before max_bytes of text, with "truncated": true. "next_offset": the offset of the
+// next page, null after the last. The verdicts are read and written one by one (the storage
+// reads about max_bytes of them), and memory freed by a large page goes back to the system.
+std::string ListAccuracyAuditsText(AuditSource& service, const AuditVerdictFilter& filter,
+                                   std::size_t max_bytes = kAuditPageBytes);
+// The same page as JSON, bounded by the filter's limit only (the service's own readers, such as
+// the audit report's history of verdicts).
 nlohmann::json ListAccuracyAudits(AuditSource& service, const AuditVerdictFilter& filter);
+// One verdict (NotFound when there is none).
 nlohmann::json AccuracyAuditJson(AuditSource& service, std::int64_t id);
 // {"id", "machine_id", "level", "created_at", "trigger", "findings", "checked", "webhook"}.
 nlohmann::json VerdictJson(const AuditVerdictRecord& record);

@@ -313,6 +313,10 @@ struct AuditVerdictFilter {
   std::optional<std::string> from;  // created_at, inclusive
   std::optional<std::string> to;    // exclusive
   std::int64_t limit = 100;
+  std::int64_t offset = 0;  // verdicts skipped (in the listing's order) before the first
+  // Set: the listing ends after the verdict whose verdict_json takes the bytes listed past it
+  // (that verdict included), so a page of large verdicts never loads more than about this much.
+  std::optional<std::int64_t> max_bytes;
 };
 
 // The storage of the service, one role a group of tables; each back-end (sqlite/, pg/)

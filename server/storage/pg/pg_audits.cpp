@@ -132,6 +132,8 @@ std::optional<AuditVerdictRecord> PgStorage::GetAuditVerdict(std::int64_t id) {
   return ReadVerdict(r, 0);
 }
 
+// A page of verdicts, newest first; with max_bytes only those whose predecessors on the page
+// hold at most max_bytes of verdict_json (counted by the server, so the rest is never sent).
 std::vector<AuditVerdictRecord> PgStorage::ListAuditVerdicts(const AuditVerdictFilter& f) {
   auto c = pool_->Acquire();
   Params p;
@@ -141,12 +143,23 @@ std::vector<AuditVerdictRecord> PgStorage::ListAuditVerdicts(const AuditVerdictF
   } else {
     p.Int(f.limit);
   }
-  const Result r = c->Query(std::string("SELECT ") + kVerdictColumns +
-                                " FROM audit_verdicts WHERE ($1::TEXT IS NULL OR machine_id = $1) "
-                                "AND ($2::TEXT IS NULL OR created_at >= $2) AND "
-                                "($3::TEXT IS NULL OR created_at < $3) "
-                                "ORDER BY created_at DESC, id DESC LIMIT $4",
-                            p, "list audit verdicts");
+  p.Int(f.offset);
+  if (f.max_bytes) {
+    p.Int(*f.max_bytes);
+  } else {
+    p.Null();
+  }
+  const std::string cols = kVerdictColumns;
+  const Result r = c->Query(
+      "SELECT " + cols + " FROM (SELECT " + cols +
+          ", COALESCE(SUM(octet_length(verdict_json)) OVER (ORDER BY created_at DESC, id DESC "
+          "ROWS BETWEEN UNBOUNDED PRECEDING AND 1 PRECEDING), 0) AS bytes_before FROM (SELECT " +
+          cols +
+          " FROM audit_verdicts WHERE ($1::TEXT IS NULL OR machine_id = $1) "
+          "AND ($2::TEXT IS NULL OR created_at >= $2) AND ($3::TEXT IS NULL OR created_at < $3) "
+          "ORDER BY created_at DESC, id DESC LIMIT $4 OFFSET $5) page) listed "
+          "WHERE $6::BIGINT IS NULL OR bytes_before <= $6 ORDER BY created_at DESC, id DESC",
+      p, "list audit verdicts");
   std::vector<AuditVerdictRecord> out;
   for (int i = 0; i < r.Rows(); ++i) out.push_back(ReadVerdict(r, i));
   return out;

@@ -123,10 +123,14 @@ std::vector<AuditVerdictRecord> SqliteStorage::ListAuditVerdicts(const AuditVerd
   auto s = Prepared(std::string("SELECT ") + kVerdictColumns +
                     " FROM audit_verdicts WHERE (?1 IS NULL OR machine_id = ?1) AND "
                     "(?2 IS NULL OR created_at >= ?2) AND (?3 IS NULL OR created_at < ?3) "
-                    "ORDER BY created_at DESC, id DESC LIMIT ?4");
-  s->Bind(1, f.machine_id).Bind(2, f.from).Bind(3, f.to).Bind(4, f.limit);
+                    "ORDER BY created_at DESC, id DESC LIMIT ?4 OFFSET ?5");
+  s->Bind(1, f.machine_id).Bind(2, f.from).Bind(3, f.to).Bind(4, f.limit).Bind(5, f.offset);
   std::vector<AuditVerdictRecord> out;
-  while (s->Step()) out.push_back(ReadVerdict(*s));
+  std::int64_t bytes = 0;  // rows are read one at a time: the rest is never loaded
+  while ((!f.max_bytes || bytes <= *f.max_bytes) && s->Step()) {
+    out.push_back(ReadVerdict(*s));
+    bytes += static_cast<std::int64_t>(out.back().verdict_json.size());
+  }
   return out;
 }
 

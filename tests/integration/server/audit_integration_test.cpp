@@ -1,9 +1,10 @@
 // Accuracy audits on a real kinemetricd: rules stored over HTTP (an engineer's; a viewer is
 // refused, bad rules answered 400 naming the rule and field), runs whose findings carry the
 // uploaded DBB test's id and circularity (level 2 under warn, 3 under stop, a kind without
-// results "not evaluated"), the verdict list and audit log, a 1 s schedule run by the server's
-// thread, a schedule missed while the server was down run exactly once at the restart, and the
-// webhook delivered to a local receiver after a first 500.
+// results "not evaluated"), the verdict list in pages of at most 4 MiB (also of 200-rule
+// verdicts) and the audit log, schedules that never fire refused, a 1 s schedule run by the
+// server's thread, a schedule missed while the server was down run exactly once at the
+// restart, and the webhook delivered to a local receiver after a first 500.
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
@@ -14,6 +15,7 @@
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 #include <thread>
 
@@ -116,6 +118,17 @@ TEST_F(AuditIntegration, RulesRunsFindingsAndVerdictsOverHttp) {
   bad = Put("/api/v1/machines/demo-vmc/audit", Rules(1, 2, "0 25 * * *"));
   EXPECT_EQ(bad->status, 400);
   EXPECT_EQ(json::parse(bad->body)["field"], "schedule") << bad->body;
+  for (const char* never : {"0 0 31 2 *", "0 0 30 2 *", "0 0 31 4 *"}) {
+    bad = Put("/api/v1/machines/demo-vmc/audit", Rules(1, 2, never));
+    EXPECT_EQ(bad->status, 400) << never;
+    EXPECT_EQ(json::parse(bad->body)["field"], "schedule") << bad->body;
+    EXPECT_NE(bad->body.find("never fires"), std::string::npos) << bad->body;
+  }
+  for (const char* fires : {"0 0 29 2 *", "0 0 31 * *"}) {
+    auto ok = Put("/api/v1/machines/leap-day/audit", Rules(1, 2, fires));
+    ASSERT_EQ(ok->status, 200) << ok->body;
+    EXPECT_TRUE(json::parse(ok->body)["next_run_at"].is_string()) << ok->body;
+  }
 
   auto put = Put("/api/v1/machines/demo-vmc/audit", Rules(circ - 1.0, circ + 10.0));
   ASSERT_EQ(put->status, 200) << put->body;
@@ -139,6 +152,19 @@ TEST_F(AuditIntegration, RulesRunsFindingsAndVerdictsOverHttp) {
   EXPECT_EQ(list["audits"][0]["id"], stop["id"]);
   EXPECT_EQ(list["audits"][1]["id"], warn["id"]);
   EXPECT_TRUE(Get("/api/v1/audits?machine_id=other")["audits"].empty());
+  EXPECT_EQ(list.at("limit"), 100);
+  EXPECT_EQ(list.at("offset"), 0);
+  EXPECT_EQ(list.at("truncated"), false);
+  EXPECT_TRUE(list.at("next_offset").is_null());
+  const json newest = Get("/api/v1/audits?machine_id=demo-vmc&limit=1");
+  EXPECT_EQ(newest["audits"], json::array({stop}));
+  EXPECT_EQ(newest.at("next_offset"), 1);
+  const json older = Get("/api/v1/audits?machine_id=demo-vmc&limit=1&offset=1");
+  EXPECT_EQ(older["audits"][0]["id"], warn["id"]);
+  EXPECT_TRUE(older.at("next_offset").is_null());
+  auto bad_offset = client_->Get("/api/v1/audits?offset=-1", Bearer(kAuditAdmin));
+  EXPECT_EQ(bad_offset->status, 400);
+  EXPECT_EQ(json::parse(bad_offset->body)["field"], "offset");
   EXPECT_EQ(Get("/api/v1/machines/demo-vmc/audit")["rules"][0]["warn"], circ / 4);
   EXPECT_GE(Get("/api/v1/audit-metrics")["metrics"].size(), 15u);
   EXPECT_EQ(client_->Get("/api/v1/audits/999", Bearer(kAuditAdmin))->status, 404);
@@ -155,6 +181,39 @@ int Scheduled(const json& list) {
   int n = 0;
   for (const auto& a : list["audits"]) n += a["trigger"] == "schedule";
   return n;
+}
+
+TEST_F(AuditIntegration, ManyLargeVerdictsAreListedAPageOfAtMostFourMiBAtATime) {
+  Start();
+  UploadDbb();
+  const char* metrics[] = {"circularity_um", "min_zone_circularity_um", "centre_offset_um",
+                           "circular_deviation_um", "average_radial_error_um"};
+  json rules = json::array();
+  for (int i = 0; i < 200; ++i) {
+    rules.push_back({{"kind", "dbb"}, {"metric", metrics[i % 5]}, {"warn", 0.0}});
+  }
+  ASSERT_EQ(Put("/api/v1/machines/demo-vmc/audit", {{"rules", rules}})->status, 200);
+  constexpr int kRuns = 70;  // about 80 kB each: more than a page
+  for (int i = 0; i < kRuns; ++i) ASSERT_EQ(Run("demo-vmc")["findings"].size(), 200u);
+
+  std::set<std::int64_t> seen;
+  std::string offset = "0";
+  int pages = 0;
+  while (++pages < 50) {
+    auto r = client_->Get("/api/v1/audits?limit=1000&offset=" + offset, Bearer(kAuditAdmin));
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200);
+    EXPECT_LE(r->body.size(), std::size_t{4} << 20);
+    const json page = json::parse(r->body);
+    for (const auto& v : page["audits"]) {
+      EXPECT_TRUE(seen.insert(v["id"].get<std::int64_t>()).second) << v["id"];
+    }
+    if (page.at("next_offset").is_null()) break;
+    EXPECT_EQ(page.at("truncated"), true);
+    offset = page.at("next_offset").dump();
+  }
+  EXPECT_EQ(seen.size(), static_cast<std::size_t>(kRuns));
+  EXPECT_GE(pages, 2);
 }
 
 TEST_F(AuditIntegration, TheServerRunsSchedulesAndOnceForATimeMissedWhileDown) {

@@ -1,7 +1,8 @@
 // Accuracy-audit schedules (server/audits/audit_schedule.h): intervals and 5-field cron expressions
 // in UTC, with the exact next run times at the edges (the due minute itself, weekends, month and
-// year ends, 29 February, day-of-month OR day-of-week, Sunday as 0 and 7) and the errors of
-// malformed schedules naming the field and the cron field.
+// year ends, 29 February also across 2100, day-of-month OR day-of-week, Sunday as 0 and 7) and
+// the errors of malformed schedules and of schedules that never fire, naming the field and the
+// cron field.
 #include "server/audits/audit_schedule.h"
 
 #include <gtest/gtest.h>
@@ -51,7 +52,6 @@ TEST(AuditSchedule, CronStepsListsAndRanges) {
 
 TEST(AuditSchedule, CronLeapDaysImpossibleDatesAndDayFieldsEitherMatching) {
   EXPECT_EQ(Next("0 0 29 2 *", "2026-03-01T00:00:00Z"), "2028-02-29T00:00:00Z");
-  EXPECT_EQ(Next("0 0 31 2 *", "2026-03-01T00:00:00Z"), "none");
   EXPECT_EQ(Next("0 0 31 * *", "2026-11-27T00:00:00Z"), "2026-12-31T00:00:00Z");
   // Both day fields restricted: the 1st of the month or a Sunday, whichever comes first.
   EXPECT_EQ(Next("0 12 1 * 0", "2026-11-27T00:00:00Z"), "2026-11-29T12:00:00Z");
@@ -84,6 +84,30 @@ TEST(AuditSchedule, MalformedSchedulesNameTheFieldAndThePart) {
   EXPECT_NE(ErrorOf("* * * *").find("5 fields"), std::string::npos);
   EXPECT_NE(ErrorOf("").find("cron"), std::string::npos);
   EXPECT_NE(ErrorOf("daily").find("5 fields"), std::string::npos);
+}
+
+TEST(AuditSchedule, AScheduleThatNeverFiresIsRefusedNamingTheField) {
+  for (const char* never : {"0 0 31 2 *", "0 0 30 2 *", "0 0 30,31 2 *", "0 0 31 4 *",
+                            "0 0 31 4,6,9,11 *", "15 3 30-31 2 *", "0 0 31 2,4 *"}) {
+    const std::string why = ErrorOf(never);
+    EXPECT_NE(why.find("never fires"), std::string::npos) << never << ": " << why;
+    EXPECT_NE(why.find(never), std::string::npos) << why;
+  }
+  // Each of these fires: a day some month has, a weekday (alone or either day field).
+  EXPECT_EQ(Next("0 0 31 * *", "2026-11-01T00:00:00Z"), "2026-12-31T00:00:00Z");
+  EXPECT_EQ(Next("0 0 31 2,3 *", "2026-11-01T00:00:00Z"), "2027-03-31T00:00:00Z");
+  EXPECT_EQ(Next("0 0 30 4 *", "2026-11-01T00:00:00Z"), "2027-04-30T00:00:00Z");
+  EXPECT_EQ(Next("0 0 31 2 1", "2026-11-01T00:00:00Z"), "2027-02-01T00:00:00Z");  // a Monday
+  EXPECT_EQ(Next("0 0 * 2 1", "2026-11-01T00:00:00Z"), "2027-02-01T00:00:00Z");
+}
+
+TEST(AuditSchedule, TwentyNinthOfFebruaryWaitsAcrossACenturyThatIsNoLeapYear) {
+  // 2100 is no leap year: after 29 February 2096 the next is 29 February 2104, 8 years on.
+  EXPECT_EQ(Next("0 0 29 2 *", "2096-02-29T00:00:00Z"), "2104-02-29T00:00:00Z");
+  EXPECT_EQ(Next("0 0 29 2 *", "2097-01-01T00:00:00Z"), "2104-02-29T00:00:00Z");
+  EXPECT_EQ(Next("59 23 29 2 *", "2099-12-31T23:59:59Z"), "2104-02-29T23:59:00Z");
+  // 2000 was one (divisible by 400).
+  EXPECT_EQ(Next("0 0 29 2 *", "1996-03-01T00:00:00Z"), "2000-02-29T00:00:00Z");
 }
 
 TEST(AuditSchedule, IsoTextsAndUnixSecondsRoundTrip) {

@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <optional>
+#include <vector>
 
 #include "analysis/core/errors.h"
 #include "server/storage/pg/pg_storage.h"
@@ -456,6 +458,29 @@ TEST_P(Backends, AccuracyAuditConfigsAndVerdicts) {
   f = AuditVerdictFilter{};
   f.limit = 1;
   EXPECT_EQ(s->ListAuditVerdicts(f).at(0).machine_id, "other");
+  // Pages: an offset, and a byte budget that ends the page after the verdict taking the
+  // verdict_json bytes past it (each verdict_json here is 7 bytes).
+  const auto ids = [&](std::int64_t offset, std::optional<std::int64_t> max_bytes) {
+    AuditVerdictFilter p;
+    p.offset = offset;
+    p.max_bytes = max_bytes;
+    std::vector<std::int64_t> out;
+    for (const auto& v : s->ListAuditVerdicts(p)) out.push_back(v.id);
+    return out;
+  };
+  using Ids = std::vector<std::int64_t>;
+  EXPECT_EQ(ids(1, std::nullopt), (Ids{3, 2, 1}));
+  EXPECT_EQ(ids(1, 7), (Ids{3, 2}));
+  EXPECT_EQ(ids(1, 6), (Ids{3}));
+  EXPECT_EQ(ids(0, 0), (Ids{4}));
+  EXPECT_EQ(ids(0, 14), (Ids{4, 3, 2}));
+  EXPECT_EQ(ids(3, 1000), (Ids{1}));
+  EXPECT_TRUE(ids(4, 1000).empty());
+  f = AuditVerdictFilter{};
+  f.limit = 2;
+  f.offset = 1;
+  f.max_bytes = 1000;
+  EXPECT_EQ(s->ListAuditVerdicts(f).size(), 2u);
 }
 
 StreamChunk Chunk(std::int64_t stream, std::int64_t channel, std::int64_t first, std::int64_t n) {
