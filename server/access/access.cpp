@@ -34,11 +34,10 @@ std::string TokenName(const nlohmann::json& request) {
                        "must be at most " + std::to_string(kMaxNameBytes) + " bytes");
   }
   if (!IsValidUtf8(name)) throw InvalidInput(request::kFile, 0, "name", "is not valid UTF-8");
-  for (const char c : name) {
-    const auto u = static_cast<unsigned char>(c);
-    if (u < 0x20 || u == 0x7F) {
-      throw InvalidInput(request::kFile, 0, "name", "holds a control character");
-    }
+  if (HasControlOrLineBreak(name)) {
+    throw InvalidInput(request::kFile, 0, "name",
+                       "holds a control or line-breaking character (C0, DEL, C1 such as U+0085, "
+                       "U+2028 or U+2029)");
   }
   return name;
 }

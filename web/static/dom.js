@@ -96,12 +96,27 @@ export function downloadText(text, filename, type = 'text/plain') {
   setTimeout(() => URL.revokeObjectURL(url), 10_000);
 }
 
-// CSV of rows (arrays of values): quoted where needed, "\r\n" line ends (RFC 4180).
+// A finite decimal number written as text: optional sign, digits with at most one '.', an
+// optional exponent ("-3.25", "+4", "-1e-3", ".5"; not "1e999", "-Infinity", "0x1").
+const DECIMAL = /^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$/;
+
+// One CSV cell, safe to open in a spreadsheet (OWASP, CSV injection). The rule: a finite number
+// (a JS number, or text that is entirely a finite decimal number such as "-3.25") is written as
+// it is, so negative deviations stay numbers. Any other value is text; text beginning with '=',
+// '+', '-', '@', tab or CR gets a leading "'", so a spreadsheet shows it instead of running it as
+// a formula ("=HYPERLINK(…)" → "'=HYPERLINK(…)"). A cell holding ',', ';', '"', CR or LF is then
+// put in double quotes with its quotes doubled (';' too, for spreadsheets that split on it). The
+// server's CSV cells follow the same rule (usecases/csv_cell.h).
+export function csvCell(v) {
+  if (v === undefined || v === null) return '';
+  if (typeof v === 'number' && Number.isFinite(v)) return String(v);
+  let s = String(v);
+  const number = DECIMAL.test(s) && Number.isFinite(Number(s));
+  if (!number && /^[=+\-@\t\r]/.test(s)) s = `'${s}`;
+  return /[",;\r\n]/.test(s) ? `"${s.replace(/"/g, '""')}"` : s;
+}
+
+// CSV of rows (arrays of values): cells by csvCell, "\r\n" line ends (RFC 4180).
 export function toCsv(rows) {
-  const cell = (v) => {
-    if (v === undefined || v === null) return '';
-    const s = String(v);
-    return /[",\r\n]/.test(s) ? `"${s.replace(/"/g, '""')}"` : s;
-  };
-  return `${rows.map((r) => r.map(cell).join(',')).join('\r\n')}\r\n`;
+  return `${rows.map((r) => r.map(csvCell).join(',')).join('\r\n')}\r\n`;
 }

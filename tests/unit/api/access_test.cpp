@@ -8,6 +8,7 @@
 #include <map>
 #include <thread>
 
+#include "analysis/core/errors.h"
 #include "api/http.h"
 #include "api/routes.h"
 #include "server/access/access.h"
@@ -254,9 +255,48 @@ TEST_F(Access, TokensAreShownOnceListedWithoutSecretsAndCheckedField) {
   bad({{"name", "x"}, {"role", "viewer"}, {"expires_in_s", "soon"}}, "expires_in_s");
   bad({{"name", "x"}, {"role", "viewer"}, {"scope", "all"}}, "scope");
   bad({{"name", "a\nb"}, {"role", "viewer"}}, "name");
+  // Every control or line-breaking character, as a JSON escape and as raw UTF-8 bytes: C0, DEL,
+  // C1 (U+0080, U+0085 NEL, U+009F), U+2028, U+2029.
+  for (const std::string& c :
+       {std::string("\\u0000"), std::string("\\t"), std::string("\\u001f"), std::string("\\u007f"),
+        std::string("\\u0080"), std::string("\\u0085"), std::string("\\u009f"),
+        std::string("\\u2028"), std::string("\\u2029"), std::string("\x7f"),
+        std::string("\xC2\x85"), std::string("\xC2\x9F"), std::string("\xE2\x80\xA8"),
+        std::string("\xE2\x80\xA9")}) {
+    const std::string body = R"({"name": "line 3)" + c + R"(uploader", "role": "viewer"})";
+    const auto r = Call("POST", "/api/v1/tokens", "boot", body);
+    EXPECT_EQ(r.status, 400) << ::testing::PrintToString(body);
+    EXPECT_EQ(json::parse(r.body).value("field", ""), "name") << ::testing::PrintToString(body);
+  }
+  // Bytes that are not UTF-8: a body holding them is not JSON (400); a name that reaches the
+  // service another way is refused naming the field.
+  for (const std::string& c : {std::string("\xFF"), std::string("\xC2"),
+                               std::string("\xED\xA0\x80"), std::string("\xC0\x8A")}) {
+    const std::string name = "line 3" + c + "uploader";
+    EXPECT_EQ(
+        Call("POST", "/api/v1/tokens", "boot", R"({"name": ")" + name + R"(", "role": "viewer"})")
+            .status,
+        400)
+        << ::testing::PrintToString(name);
+    try {
+      (void)svc_->access().CreateToken(json{{"name", name}, {"role", "viewer"}});
+      ADD_FAILURE() << "accepted " << ::testing::PrintToString(name);
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.field(), "name") << ::testing::PrintToString(name);
+    }
+  }
+  // Printable text beyond ASCII stays accepted, including the neighbours of the refused ranges.
+  for (const std::string& ok :
+       {std::string("Prüfstand \xC2\xA0"
+                    "A"),
+        std::string("\xE2\x80\xA7"), std::string("\xE2\x80\xAA"), std::string("\xC2\xA0")}) {
+    const auto r =
+        Call("POST", "/api/v1/tokens", "boot", R"({"name": ")" + ok + R"(", "role": "viewer"})");
+    EXPECT_EQ(r.status, 201) << ::testing::PrintToString(ok) << " " << r.body;
+  }
   EXPECT_EQ(Call("POST", "/api/v1/tokens", "boot", "[1]").status, 400);
   EXPECT_EQ(Call("POST", "/api/v1/tokens", "boot", "not json").status, 400);
-  EXPECT_EQ(json::parse(Call("GET", "/api/v1/tokens", "boot").body)["items"].size(), 2u);
+  EXPECT_EQ(json::parse(Call("GET", "/api/v1/tokens", "boot").body)["items"].size(), 2u + 4u);
 }
 
 TEST_F(Access, ExpiredTokensAreRefusedWith401EvenWhenRecentlyAccepted) {
