@@ -1,4 +1,5 @@
 // kinemetricd — the kinemetric service. Thin main: configuration, storage, routes, serve.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -168,19 +169,24 @@ int main(int argc, char** argv) {
     km::api::HttpServer http(router, ho);
     const int port = http.Bind();
     std::atomic<bool> serving{true};
-    std::thread waiter([&http, &serving, signals, grace = cfg.shutdown_timeout_s]() mutable {
-      int sig = 0;
-      sigwait(&signals, &sig);
-      if (!serving.load()) return;
-      std::cout << "kinemetricd: stopping (" << (sig == SIGINT ? "SIGINT" : "SIGTERM")
-                << "): no new connections, waiting up to " << grace << " s for " << http.InFlight()
-                << " requests in flight" << std::endl;
-      const auto left = http.Shutdown(std::chrono::seconds(grace));
-      if (left > 0) {
-        std::cout << "kinemetricd: " << left << " requests were still in flight after " << grace
-                  << " s; closing them" << std::endl;
-      }
-    });
+    std::thread waiter(
+        [&http, &service, &serving, signals, grace = cfg.shutdown_timeout_s]() mutable {
+          int sig = 0;
+          sigwait(&signals, &sig);
+          if (!serving.load()) return;
+          std::cout << "kinemetricd: stopping (" << (sig == SIGINT ? "SIGINT" : "SIGTERM")
+                    << "): no new connections, waiting up to " << grace << " s for "
+                    << http.InFlight() << " requests in flight" << std::endl;
+          // Reports being made give up a second before the deadline, so their requests are answered
+          // (503) within it; waiting and new ones are refused now.
+          service.reports().Stop(std::chrono::steady_clock::now() +
+                                 std::chrono::milliseconds(std::max(0, grace * 1000 - 1000)));
+          const auto left = http.Shutdown(std::chrono::seconds(grace));
+          if (left > 0) {
+            std::cout << "kinemetricd: " << left << " requests were still in flight after " << grace
+                      << " s; closing them" << std::endl;
+          }
+        });
     std::cout << "kinemetricd: listening on http://" << cfg.host << ":" << port << "/ (data in "
               << km::server::DescribeDatabase(cfg) << ")" << std::endl;
     http.Serve();

@@ -128,8 +128,18 @@ void Page::Foot() const {
   cairo_set_source_rgb(cr_, 0, 0, 0);
 }
 
+void Page::CheckCancelled() const {
+  if (cancelled_ && cancelled_()) {
+    throw RenderCancelled(
+        "the report was not finished: its render was cancelled (the server is "
+        "stopping); retry shortly");
+  }
+}
+
 void Page::Need(double height) {
+  CheckCancelled();
   if (y_ + height <= kPageH - kMargin) return;
+  if (content_pages_ > 0 && page_ >= content_pages_) throw PageBudgetReached{};
   Foot();
   cairo_show_page(cr_);
   ++page_;
@@ -147,6 +157,7 @@ namespace {
 using pdf::kMargin;
 using pdf::kWidth;
 using pdf::Page;
+using pdf::PageBudgetReached;
 
 void DrawTitle(Page& p, const Report& r) {
   p.Font(16, true);
@@ -199,15 +210,18 @@ void DrawParagraph(Page& p, const std::string& text) {
   p.Advance(4);
 }
 
-// Column widths: each column's natural width (header and cells), scaled to the page width when
-// the sum is wider, no column under 45 pt.
+// Column widths: each column's natural width (header and the cells of the rows a budget of
+// pages can hold), scaled to the page width when the sum is wider, no column under 45 pt.
 std::vector<double> ColumnWidths(const Page& p, const ReportTable& t) {
+  constexpr std::size_t kMeasuredRows = 2000;  // more than kMaxReportPages pages hold
   const std::size_t n = t.header.size();
   std::vector<double> w(n, 0.0);
   p.Font(8.5, true);
   for (std::size_t c = 0; c < n; ++c) w[c] = p.TextWidth(t.header[c]);
   p.Font(8.5);
-  for (const auto& row : t.rows) {
+  for (std::size_t r = 0; r < t.rows.size() && r < kMeasuredRows; ++r) {
+    const auto& row = t.rows[r];
+    if (r % 64 == 0) p.CheckCancelled();
     for (std::size_t c = 0; c < n && c < row.size(); ++c)
       w[c] = std::max(w[c], std::min(p.TextWidth(row[c]), kWidth * 0.6));
   }
@@ -283,10 +297,16 @@ void DrawTable(Page& p, const ReportTable& t) {
   const RowLines head = WrapRow(p, t.header, w, true);
   p.Need(head.height + 30);
   DrawRow(p, head, w, t.numeric, true);
-  for (const auto& cells : t.rows) {
-    const RowLines row = WrapRow(p, cells, w, false);
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const RowLines row = WrapRow(p, t.rows[i], w, false);
     const int page = p.number();
-    p.Need(row.height);
+    try {
+      p.Need(row.height);
+    } catch (PageBudgetReached& cut) {
+      cut.left_out = "rows " + std::to_string(i + 1) + " to " + std::to_string(t.rows.size()) +
+                     " of the table with the column \"" + t.header.front() + "\"";
+      throw;
+    }
     if (p.number() != page) DrawRow(p, head, w, t.numeric, true);  // the header on each page
     DrawRow(p, row, w, t.numeric, false);
   }
@@ -342,6 +362,40 @@ void DrawBlock(Page& p, const ReportBlock& b) {
   }
 }
 
+// The last page of a report cut by its page budget: what was left out and where the complete
+// data is, then the signature blocks (with their headings) of the blocks left out.
+void DrawClosing(Page& p, const Report& r, std::size_t next, const PageBudgetReached& cut,
+                 int max_pages) {
+  p.EndBudget();
+  std::string note = "This report ends here: it reached its limit of " + std::to_string(max_pages) +
+                     " pages, and ";
+  note += cut.left_out.empty() ? "what follows" : cut.left_out + " and what follows them";
+  note += " is left out";
+  note += r.complete_at.empty() ? "." : "; the complete data is in " + r.complete_at + ".";
+  DrawHeading(p, "Report cut at its page limit");
+  DrawParagraph(p, note);
+  for (std::size_t i = next; i < r.blocks.size(); ++i) {
+    const bool signature = r.blocks[i].kind == ReportBlock::Kind::kSignature;
+    const bool its_heading = r.blocks[i].kind == ReportBlock::Kind::kHeading &&
+                             i + 1 < r.blocks.size() &&
+                             r.blocks[i + 1].kind == ReportBlock::Kind::kSignature;
+    if (signature || its_heading) DrawBlock(p, r.blocks[i]);
+  }
+}
+
+void DrawReport(Page& p, const Report& r, int max_pages) {
+  std::size_t next = 0;  // the block after the one being drawn
+  try {
+    DrawTitle(p, r);
+    for (const auto& b : r.blocks) {
+      ++next;
+      DrawBlock(p, b);
+    }
+  } catch (const PageBudgetReached& cut) {
+    DrawClosing(p, r, next, cut, max_pages);
+  }
+}
+
 }  // namespace
 
 ReportBlock HeadingBlock(std::string text) {
@@ -386,7 +440,8 @@ ReportBlock SignatureBlock(std::vector<std::string> signers) {
   return b;
 }
 
-std::string RenderPdf(const Report& report) {
+std::string RenderPdf(const Report& report, const RenderOptions& options) {
+  const int max_pages = std::max(2, options.max_pages);
   std::string out;
   cairo_surface_t* surface =
       cairo_pdf_surface_create_for_stream(AppendBytes, &out, pdf::kPageW, pdf::kPageH);
@@ -395,9 +450,8 @@ std::string RenderPdf(const Report& report) {
   cairo_pdf_surface_set_metadata(surface, CAIRO_PDF_METADATA_CREATOR, "kinemetric");
   cairo_t* cr = cairo_create(surface);
   try {
-    Page page(cr, report.footer);
-    DrawTitle(page, report);
-    for (const auto& b : report.blocks) DrawBlock(page, b);
+    Page page(cr, report.footer, max_pages - 1, options.cancelled);
+    DrawReport(page, report, max_pages);
     page.Finish();
   } catch (...) {
     cairo_destroy(cr);

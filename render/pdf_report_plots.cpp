@@ -1,6 +1,7 @@
 // The graphics of a PDF report (render/pdf_report.h) as vector paths: the polar plot of a DBB
 // test, drawn as render/polar_plot.h draws its PNG (deviation d at angle θ at the radius r0 + k·d,
-// rings at whole divisions, the minimum-zone circles, the same scale), and line charts.
+// rings at whole divisions, the minimum-zone circles, the same scale), and line charts; a line of
+// many points is drawn from PlotPoints of it (render/pdf_report.h).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -8,6 +9,7 @@
 #include <numbers>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "render/pdf_report_page.h"
 #include "render/polar_plot.h"
@@ -96,13 +98,16 @@ void DrawPolar(Page& p, const DbbPolar& polar) {
   double legend_y = p.y() + 30;
   p.Font(8);
   for (const auto& t : polar.traces) {
-    for (std::size_t i = 0; i < t.angle_rad.size(); ++i) {
+    bool first = true;
+    for (const std::size_t i : PlotPoints(t.dev_um, kMaxPlotPoints)) {
+      if (i >= t.angle_rad.size()) break;
       const auto [x, y] = at(t.angle_rad[i], t.dev_um[i]);
-      if (i == 0) {
+      if (first) {
         cairo_move_to(cr, x, y);
       } else {
         cairo_line_to(cr, x, y);
       }
+      first = false;
     }
     const Rgb c{t.bgr[2] / 255.0, t.bgr[1] / 255.0, t.bgr[0] / 255.0};
     Stroke(cr, c, 0.9);
@@ -192,8 +197,8 @@ void DrawChart(Page& p, const ReportChart& chart) {
     const auto& s = chart.series[k];
     const Rgb c = palette[k % 6];
     bool first = true;
-    for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
-      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+    for (const std::size_t i : PlotPoints(s.y, kMaxPlotPoints)) {
+      if (i >= s.x.size() || !std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
       if (first) {
         cairo_move_to(cr, px(s.x[i]), py(s.y[i]));
       } else {
@@ -225,3 +230,31 @@ void DrawChart(Page& p, const ReportChart& chart) {
 }
 
 }  // namespace km::render::pdf
+
+namespace km::render {
+
+std::vector<std::size_t> PlotPoints(const std::vector<double>& y, std::size_t max_points) {
+  const std::size_t n = y.size();
+  std::vector<std::size_t> out;
+  if (n <= std::max<std::size_t>(max_points, 2)) {
+    for (std::size_t i = 0; i < n; ++i) out.push_back(i);
+    return out;
+  }
+  const std::size_t runs = std::max<std::size_t>(max_points / 2, 1);
+  out.reserve(2 * runs);
+  for (std::size_t r = 0; r < runs; ++r) {
+    const std::size_t begin = r * n / runs, end = (r + 1) * n / runs;
+    std::size_t lo = end, hi = end;
+    for (std::size_t i = begin; i < end; ++i) {
+      if (!std::isfinite(y[i])) continue;
+      if (lo == end || y[i] < y[lo]) lo = i;
+      if (hi == end || y[i] > y[hi]) hi = i;
+    }
+    if (lo == end) continue;
+    out.push_back(std::min(lo, hi));
+    if (lo != hi) out.push_back(std::max(lo, hi));
+  }
+  return out;
+}
+
+}  // namespace km::render

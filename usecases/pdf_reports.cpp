@@ -97,7 +97,7 @@ ReportTable FiguresOfTests(const std::vector<json>& tests, const json& pair) {
   return t;
 }
 
-std::vector<render::ReportBlock> DiagnosisBlocks(const json& test) {
+std::vector<render::ReportBlock> DiagnosisBlocks(const json& test, const std::string& where) {
   std::vector<render::ReportBlock> out;
   out.push_back(HeadingBlock("Diagnosis: the errors that make up the circle"));
   const auto& d = test.value("diagnosis", json::array());
@@ -114,7 +114,9 @@ std::vector<render::ReportBlock> DiagnosisBlocks(const json& test) {
                         Fixed(e.value("uncertainty", json()), 3), e.value("unit", ""),
                         Fixed(e.value("contribution_pct", json()), 1) + " %"});
     }
-    out.push_back(TableBlock(std::move(t)));
+    for (auto& b : report_text::BoundedTable(std::move(t), report_text::Evenly("effects", where))) {
+      out.push_back(std::move(b));
+    }
   }
   const auto& ni = test.value("not_identifiable", json::array());
   if (!ni.empty()) {
@@ -148,12 +150,39 @@ std::vector<render::ReportBlock> AsFoundAsLeft(const json& test, const ReportLat
 
 void AddClosing(render::Report& r, const ReportSource& source, const ReportContext& context) {
   if (context.audit) {
-    for (auto& b : report_text::AuditBlocks(*context.audit, source.kind)) {
+    for (auto& b : report_text::AuditBlocks(*context.audit, source.kind, source.machine_id)) {
       r.blocks.push_back(std::move(b));
     }
   }
   r.blocks.push_back(HeadingBlock("Signatures"));
   r.blocks.push_back(render::SignatureBlock({"Measured by", "Checked by", "Approved by"}));
+}
+
+// Where the complete result of a measurement is; for a laser positioning test also its
+// compensation table as CSV.
+std::string CompleteAt(const ReportSource& source) {
+  std::string at = report_text::ResultAt(source);
+  if (source.kind != "positioning") return at;
+  if (source.measurement_id > 0) {
+    return at + ", the compensation table also as CSV (GET /api/v1/measurements/" +
+           std::to_string(source.measurement_id) + "/compensation?format=csv)";
+  }
+  return at + ", the compensation table also as CSV (kinemetric positioning export " +
+         source.filename + " --format csv)";
+}
+
+// The result's warnings, each a note, at most report_text::kMaxNotes of them.
+void AddNotes(render::Report& r, const json& results) {
+  if (!results.contains("warnings") || !results["warnings"].is_array()) return;
+  const json& warnings = results["warnings"];
+  for (std::size_t i = 0; i < warnings.size() && i < report_text::kMaxNotes; ++i) {
+    r.blocks.push_back(ParagraphBlock("Note: " + report_text::Short(warnings[i])));
+  }
+  if (warnings.size() > report_text::kMaxNotes) {
+    r.blocks.push_back(ParagraphBlock(
+        std::to_string(report_text::kMaxNotes) + " of " + std::to_string(warnings.size()) +
+        " notes shown; every note is in the warnings of " + r.complete_at + "."));
+  }
 }
 
 }  // namespace
@@ -181,12 +210,13 @@ render::Report DbbPdfReport(const dbb::DbbReport& report, const json& report_jso
                         Upper(source.direction == "cw" ? "ccw" : "cw") + ")"});
   }
   r.footer = report_text::Footer("DBB report " + source.machine_id, context.printed_at);
+  r.complete_at = report_text::ResultAt(source);
   r.blocks.push_back(TableBlock(SetUpTable(test, source.metadata)));
   r.blocks.push_back(HeadingBlock("Polar plot"));
   r.blocks.push_back(render::PolarBlock(render::DbbPolarPlot(report, test_index)));
   r.blocks.push_back(HeadingBlock("Figures (ISO 230-4, tool-path units)"));
   r.blocks.push_back(TableBlock(FiguresOfTests(shown, pair)));
-  for (auto& b : DiagnosisBlocks(test)) r.blocks.push_back(std::move(b));
+  for (auto& b : DiagnosisBlocks(test, r.complete_at)) r.blocks.push_back(std::move(b));
   if (context.later) {
     for (auto& b : AsFoundAsLeft(test, *context.later, source)) r.blocks.push_back(std::move(b));
   }
@@ -212,14 +242,16 @@ render::Report ResultsPdfReport(const json& results, const ReportSource& source,
       what + " — " + source.machine_id + (source.test_id.empty() ? "" : ", " + source.test_id);
   r.identification = report_text::Identification(source);
   r.footer = report_text::Footer(what + " report " + source.machine_id, context.printed_at);
+  r.complete_at = CompleteAt(source);
   r.blocks.push_back(HeadingBlock("Figures"));
-  r.blocks.push_back(TableBlock(report_text::FiguresTable(results)));
-  for (auto& b : report_text::ColumnTables(results)) r.blocks.push_back(std::move(b));
-  if (results.contains("warnings") && results["warnings"].is_array()) {
-    for (const auto& w : results["warnings"]) {
-      r.blocks.push_back(ParagraphBlock("Note: " + report_text::Short(w)));
-    }
+  for (auto& b : report_text::BoundedTable(report_text::FiguresTable(results),
+                                           report_text::Evenly("figures", r.complete_at))) {
+    r.blocks.push_back(std::move(b));
   }
+  for (auto& b : report_text::ColumnTables(results, r.complete_at)) {
+    r.blocks.push_back(std::move(b));
+  }
+  AddNotes(r, results);
   AddClosing(r, source, context);
   return r;
 }

@@ -1,5 +1,7 @@
 // The PDF reports of an accuracy audit and of a calibration or discovery job, and the audit
 // section of a measurement report (usecases/pdf_reports.h).
+#include <algorithm>
+#include <cstddef>
 #include <string>
 #include <utility>
 #include <vector>
@@ -59,8 +61,10 @@ std::string Evidence(const json& x) {
   return "—";
 }
 
-// One row a rule: what it limits, its limits, the newest audit's value and status.
-ReportTable RulesTable(const json& rules, const json& verdict, const std::string& kind) {
+// One row a rule: what it limits, its limits, the newest audit's value and status; the rows of
+// rules with a finding are added to `finding_rows`.
+ReportTable RulesTable(const json& rules, const json& verdict, const std::string& kind,
+                       std::vector<std::size_t>& finding_rows) {
   ReportTable t;
   t.header = {"Rule", "Limits", "Value", "Status", "Judged"};
   t.numeric = {false, false, true, false, false};
@@ -72,6 +76,7 @@ ReportTable RulesTable(const json& rules, const json& verdict, const std::string
     for (const auto& x : checked) {
       if (x.value("rule", -1) == static_cast<int>(i)) c = x;
     }
+    if (c.value("status", "") == "finding") finding_rows.push_back(t.rows.size());
     t.rows.push_back({rule.value("kind", "") + " " + rule.value("metric", ""), Limits(rule),
                       c.contains("value") ? Fixed(c["value"], 3) : "—",
                       c.empty() ? "not run yet" : Status(c), Evidence(c)});
@@ -86,11 +91,28 @@ std::string VerdictLine(const json& v) {
          (v.value("trigger", "") == "schedule" ? "scheduled" : "on request") + ").";
 }
 
+// The rules table, at most report_text::kMaxTextTableRows rows, keeping the rules with a finding.
+std::vector<render::ReportBlock> BoundedRules(const json& rules, const json& verdict,
+                                              const std::string& kind,
+                                              const std::string& machine_id) {
+  std::vector<std::size_t> findings;
+  ReportTable t = RulesTable(rules, verdict, kind, findings);
+  return report_text::BoundedTable(std::move(t),
+                                   {"rules", report_text::AuditAt(machine_id), std::move(findings),
+                                    "rules with a finding", report_text::kMaxTextTableRows});
+}
+
 }  // namespace
 
 namespace report_text {
 
-std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const std::string& kind) {
+std::string AuditAt(const std::string& machine_id) {
+  return "the machine's audit rules (GET /api/v1/machines/" + machine_id +
+         "/audit) and its audits (GET /api/v1/audits?machine_id=" + machine_id + ")";
+}
+
+std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const std::string& kind,
+                                             const std::string& machine_id) {
   std::vector<render::ReportBlock> out;
   out.push_back(HeadingBlock("Accuracy audit of the machine"));
   const json rules =
@@ -100,16 +122,36 @@ std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const std
     return out;
   }
   out.push_back(ParagraphBlock(VerdictLine(audit.verdict)));
-  ReportTable t = RulesTable(rules, audit.verdict, kind);
-  if (t.rows.empty()) {
+  auto table = BoundedRules(rules, audit.verdict, kind, machine_id);
+  if (table.front().table.rows.empty()) {
     out.push_back(ParagraphBlock("No rule of the machine's audit reads " + kind + " results."));
   } else {
-    out.push_back(TableBlock(std::move(t)));
+    for (auto& b : table) out.push_back(std::move(b));
   }
   return out;
 }
 
 }  // namespace report_text
+
+namespace {
+
+// The findings of an audit, at most report_text::kMaxTextTableRows, keeping the highest level.
+std::vector<render::ReportBlock> FindingsTable(const json& findings, const std::string& where) {
+  ReportTable f;
+  f.header = {"Level", "Finding", "Evidence"};
+  int highest = 0;
+  for (const auto& x : findings) highest = std::max(highest, x.value("level", 0));
+  std::vector<std::size_t> keep;
+  for (const auto& x : findings) {
+    if (x.value("level", 0) == highest) keep.push_back(f.rows.size());
+    f.rows.push_back({AuditLevelWords(x.value("level", 0)), x.value("message", ""), Evidence(x)});
+  }
+  return report_text::BoundedTable(
+      std::move(f), {"findings", where, std::move(keep), "findings of the highest level",
+                     report_text::kMaxTextTableRows});
+}
+
+}  // namespace
 
 render::Report AuditPdfReport(const std::string& machine_id, const json& config,
                               const json& verdicts, const std::string& printed_at) {
@@ -128,25 +170,21 @@ render::Report AuditPdfReport(const std::string& machine_id, const json& config,
                        : "on request only"},
       {"Rules updated", config.is_object() ? config.value("updated_at", "—") : "—"}};
   r.footer = report_text::Footer("audit report " + machine_id, printed_at);
+  r.complete_at = report_text::AuditAt(machine_id);
   const json rules = config.is_object() ? config.value("rules", json::array()) : json::array();
   r.blocks.push_back(HeadingBlock("Rules, values and levels"));
   if (rules.empty()) {
     r.blocks.push_back(ParagraphBlock("No audit rules are set for this machine."));
   } else {
     r.blocks.push_back(ParagraphBlock(VerdictLine(newest)));
-    r.blocks.push_back(TableBlock(RulesTable(rules, newest, "")));
+    for (auto& b : BoundedRules(rules, newest, "", machine_id)) r.blocks.push_back(std::move(b));
   }
   r.blocks.push_back(HeadingBlock("Findings of the newest audit"));
   const json findings = newest.is_object() ? newest.value("findings", json::array()) : json();
   if (findings.empty()) {
     r.blocks.push_back(ParagraphBlock("No findings: every evaluated rule is within its limits."));
   } else {
-    ReportTable f;
-    f.header = {"Level", "Finding", "Evidence"};
-    for (const auto& x : findings) {
-      f.rows.push_back({AuditLevelWords(x.value("level", 0)), x.value("message", ""), Evidence(x)});
-    }
-    r.blocks.push_back(TableBlock(std::move(f)));
+    for (auto& b : FindingsTable(findings, r.complete_at)) r.blocks.push_back(std::move(b));
   }
   r.blocks.push_back(HeadingBlock("History"));
   ReportTable h;
@@ -191,7 +229,11 @@ void DiscoverySteps(render::Report& r, const json& result) {
     gap.y.push_back(s.value("gap_rms_after_um", 0.0));
   }
   if (t.rows.empty()) t.rows.push_back({"—", "no effect added", "", "", ""});
-  r.blocks.push_back(TableBlock(std::move(t)));
+  for (auto& b : report_text::BoundedTable(
+           std::move(t),
+           report_text::Evenly("steps", r.complete_at, report_text::kMaxTextTableRows))) {
+    r.blocks.push_back(std::move(b));
+  }
   c.series.push_back(std::move(gap));
   if (result.contains("noise_floor_um") && result["noise_floor_um"].is_number()) {
     c.limits.push_back({"noise floor", result["noise_floor_um"].get<double>()});
@@ -226,7 +268,10 @@ void FittedValues(render::Report& r, const json& result) {
     }
   }
   if (t.rows.empty()) t.rows.push_back({"—", "", "", ""});
-  r.blocks.push_back(TableBlock(std::move(t)));
+  for (auto& b : report_text::BoundedTable(std::move(t),
+                                           report_text::Evenly("fitted values", r.complete_at))) {
+    r.blocks.push_back(std::move(b));
+  }
 }
 
 }  // namespace
@@ -250,8 +295,15 @@ render::Report JobPdfReport(const json& job, const std::string& printed_at) {
       {"Measurements",
        request.is_object() ? Short(request.value("measurement_ids", json())) : "—"}};
   r.footer = report_text::Footer("job report #" + Short(job.value("id", json())), printed_at);
-  for (const auto& reason : job.value("verdict_reasons", json::array())) {
-    r.blocks.push_back(ParagraphBlock(Short(reason)));
+  r.complete_at = "the job's result (GET /api/v1/jobs/" + Short(job.value("id", json())) + ")";
+  const json reasons = job.value("verdict_reasons", json::array());
+  for (std::size_t i = 0; i < reasons.size() && i < report_text::kMaxNotes; ++i) {
+    r.blocks.push_back(ParagraphBlock(Short(reasons[i])));
+  }
+  if (reasons.size() > report_text::kMaxNotes) {
+    r.blocks.push_back(ParagraphBlock(std::to_string(report_text::kMaxNotes) + " of " +
+                                      std::to_string(reasons.size()) +
+                                      " reasons shown; every reason is in " + r.complete_at + "."));
   }
   if (job.contains("error") && job["error"].is_string()) {
     r.blocks.push_back(ParagraphBlock("Error: " + job["error"].get<std::string>()));
@@ -260,8 +312,12 @@ render::Report JobPdfReport(const json& job, const std::string& printed_at) {
     if (discovery) DiscoverySteps(r, result);
     FittedValues(r, result);
     r.blocks.push_back(HeadingBlock("Figures"));
-    r.blocks.push_back(TableBlock(report_text::FiguresTable(
-        result, {"parameters", "parameter_uncertainty_um", "steps", "final_model"})));
+    for (auto& b : report_text::BoundedTable(
+             report_text::FiguresTable(
+                 result, {"parameters", "parameter_uncertainty_um", "steps", "final_model"}),
+             report_text::Evenly("figures", r.complete_at))) {
+      r.blocks.push_back(std::move(b));
+    }
   }
   r.blocks.push_back(HeadingBlock("Signatures"));
   r.blocks.push_back(render::SignatureBlock({"Calibrated by", "Approved by"}));

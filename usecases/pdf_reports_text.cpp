@@ -103,18 +103,116 @@ render::ReportTable FiguresTable(const json& object, const std::vector<std::stri
   return t;
 }
 
-std::vector<render::ReportBlock> ColumnTables(const json& object) {
+std::vector<std::size_t> RowsShown(std::size_t n, std::size_t cap,
+                                   const std::vector<std::size_t>& keep) {
+  std::vector<std::size_t> out;
+  if (n <= cap) {
+    for (std::size_t i = 0; i < n; ++i) out.push_back(i);
+    return out;
+  }
+  cap = std::max<std::size_t>(cap, 2);
+  std::vector<std::size_t> must{0, n - 1};
+  for (std::size_t i : keep) {
+    if (i < n) must.push_back(i);
+  }
+  std::sort(must.begin(), must.end());
+  must.erase(std::unique(must.begin(), must.end()), must.end());
+  if (must.size() > cap) {  // evenly among them
+    for (std::size_t j = 0; j < cap; ++j) out.push_back(must[j * (must.size() - 1) / (cap - 1)]);
+  } else {
+    out = must;
+    const std::size_t m = cap - must.size();
+    for (std::size_t j = 1; j <= m; ++j) out.push_back(j * (n - 1) / (m + 1));
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+Summary Evenly(std::string noun, std::string where, std::size_t cap) {
+  return {std::move(noun), std::move(where), {}, "", cap};
+}
+
+Shown Summarise(std::size_t n, const Summary& s) {
+  Shown out;
+  out.rows = RowsShown(n, s.cap, s.keep);
+  if (out.rows.size() == n) return out;
+  std::vector<std::size_t> keep;
+  for (std::size_t i : s.keep) {
+    if (i < n) keep.push_back(i);
+  }
+  std::sort(keep.begin(), keep.end());
+  keep.erase(std::unique(keep.begin(), keep.end()), keep.end());
+  std::string how = "evenly spaced from the first to the last";
+  if (keep.size() + 2 <= s.cap && !keep.empty()) {
+    how += ", and every one of the " + s.kept;
+  } else if (!keep.empty()) {
+    how = "evenly spaced among the " + std::to_string(keep.size()) + " " + s.kept;
+  }
+  out.sentence = std::to_string(out.rows.size()) + " of " + std::to_string(n) + " " + s.noun +
+                 " shown (" + how + "); the full table is in " + s.where + ".";
+  return out;
+}
+
+std::vector<render::ReportBlock> BoundedTable(render::ReportTable t, const Summary& s) {
+  const Shown shown = Summarise(t.rows.size(), s);
+  std::vector<render::ReportBlock> out;
+  if (!shown.sentence.empty()) {
+    std::vector<std::vector<std::string>> rows;
+    rows.reserve(shown.rows.size());
+    for (std::size_t i : shown.rows) rows.push_back(std::move(t.rows[i]));
+    t.rows = std::move(rows);
+  }
+  out.push_back(render::TableBlock(std::move(t)));
+  if (!shown.sentence.empty()) out.push_back(render::ParagraphBlock(shown.sentence));
+  return out;
+}
+
+std::string ResultAt(const ReportSource& s) {
+  if (s.measurement_id > 0) {
+    return "the JSON result of the measurement (GET /api/v1/measurements/" +
+           std::to_string(s.measurement_id) + "/results)";
+  }
+  return "the JSON result of the file " + s.filename + " (docs/formats.md §3)";
+}
+
+namespace {
+
+// The rows holding the largest and the smallest number of each column.
+std::vector<std::size_t> ExtremeRows(const json& columns, std::size_t n) {
+  std::vector<std::size_t> out;
+  for (const auto& [k, col] : columns.items()) {
+    std::size_t lo = n, hi = n;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!col[i].is_number()) continue;
+      const double v = col[i].get<double>();
+      if (lo == n || v < col[lo].get<double>()) lo = i;
+      if (hi == n || v > col[hi].get<double>()) hi = i;
+    }
+    if (lo < n) out.insert(out.end(), {lo, hi});
+  }
+  return out;
+}
+
+// The number of rows of an object whose members are arrays of one length (0: not such).
+std::size_t ColumnRows(const json& v) {
+  if (!v.is_object() || v.empty()) return 0;
+  std::size_t n = 0;
+  for (const auto& [k, col] : v.items()) {
+    if (!col.is_array() || (n && col.size() != n)) return 0;
+    n = col.size();
+  }
+  return n;
+}
+
+}  // namespace
+
+std::vector<render::ReportBlock> ColumnTables(const json& object, const std::string& where) {
   std::vector<render::ReportBlock> out;
   if (!object.is_object()) return out;
   for (const auto& [key, v] : object.items()) {
-    if (!v.is_object() || v.empty()) continue;
-    std::size_t n = 0;
-    bool columns = true;
-    for (const auto& [k, col] : v.items()) {
-      if (!col.is_array() || (n && col.size() != n)) columns = false;
-      if (col.is_array()) n = col.size();
-    }
-    if (!columns || n == 0) continue;
+    const std::size_t n = ColumnRows(v);
+    if (n == 0) continue;
     // The position (target_mm, position_mm, …) first, then the other columns by name.
     std::vector<std::string> keys;
     for (const auto& [k, col] : v.items()) keys.push_back(k);
@@ -126,13 +224,18 @@ std::vector<render::ReportBlock> ColumnTables(const json& object) {
       t.header.push_back(l.unit.empty() ? l.label : l.label + " (" + l.unit + ")");
       t.numeric.push_back(true);
     }
-    for (std::size_t i = 0; i < n; ++i) {
+    // Only the rows shown are written out (a table may hold 100 000 rows).
+    const std::string noun = LabelOf(key).label;
+    const Shown shown = Summarise(n, {noun, where, ExtremeRows(v, n),
+                                      noun + " with the largest or smallest value of a column"});
+    for (std::size_t i : shown.rows) {
       std::vector<std::string> row;
       for (const auto& k : keys) row.push_back(Short(v[k][i]));
       t.rows.push_back(std::move(row));
     }
-    out.push_back(render::HeadingBlock(LabelOf(key).label));
+    out.push_back(render::HeadingBlock(noun));
     out.push_back(render::TableBlock(std::move(t)));
+    if (!shown.sentence.empty()) out.push_back(render::ParagraphBlock(shown.sentence));
   }
   return out;
 }

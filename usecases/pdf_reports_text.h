@@ -2,6 +2,7 @@
 // unit of a result key, a table of a result object's figures. Internal to usecases/.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -29,13 +30,55 @@ std::string When(const std::string& iso);
 // nested objects' with "parent." before the key, skipping `skip`.
 render::ReportTable FiguresTable(const nlohmann::json& object,
                                  const std::vector<std::string>& skip = {});
+// The most rows a table of a report shows; a longer table is summarised (BoundedTable), so a
+// report stays a few pages whatever the size of the data.
+inline constexpr std::size_t kMaxTableRows = 200;
+// The most rows of a table of sentences (audit rules and findings, discovery steps).
+inline constexpr std::size_t kMaxTextTableRows = 100;
+// The most notes (warnings) a report prints one by one.
+inline constexpr std::size_t kMaxNotes = 20;
+// The rows a table of n rows shows, ascending: all when n <= cap; else cap rows (a few fewer when
+// they meet): the first, the last, the rows of `keep` (evenly chosen among them when they are
+// more than the cap) and evenly spaced rows between.
+std::vector<std::size_t> RowsShown(std::size_t n, std::size_t cap,
+                                   const std::vector<std::size_t>& keep = {});
+// How a long table is summarised: what its rows are, where the full table is, the rows shown
+// whatever the spacing (e.g. the findings of the highest level) and what they are.
+struct Summary {
+  std::string noun;               // "targets"
+  std::string where;              // "the JSON result of the measurement (GET …)"
+  std::vector<std::size_t> keep;  // rows shown whatever the spacing
+  std::string kept;               // what they are: "findings of the highest level"
+  std::size_t cap = kMaxTableRows;
+};
+// A table summarised by evenly spaced rows alone.
+Summary Evenly(std::string noun, std::string where, std::size_t cap = kMaxTableRows);
+// The rows a table of n rows shows (RowsShown) and, when rows were left out, the sentence
+// "N of M <noun> shown (evenly spaced from the first to the last, and every one of the <kept>);
+// the full table is in <where>."
+struct Shown {
+  std::vector<std::size_t> rows;
+  std::string sentence;  // "" when every row is shown
+};
+Shown Summarise(std::size_t n, const Summary& s);
+// The table with the rows Summarise shows, followed by its sentence when rows were left out.
+std::vector<render::ReportBlock> BoundedTable(render::ReportTable t, const Summary& s);
+// Where the complete result of a measurement is: its JSON result on the API for a stored one,
+// the file's JSON result for the command line.
+std::string ResultAt(const ReportSource& s);
 // Tables of the objects of `object` whose members are arrays of equal length (columns), e.g.
-// the targets of a positioning test; each with its key as heading.
-std::vector<render::ReportBlock> ColumnTables(const nlohmann::json& object);
+// the targets of a positioning test; each with its key as heading, at most kMaxTableRows rows
+// (evenly spaced, with the first, the last and the largest and smallest value of each column)
+// and then a sentence naming `where` the full table is.
+std::vector<render::ReportBlock> ColumnTables(const nlohmann::json& object,
+                                              const std::string& where);
 // The identification lines every measurement report starts with.
 std::vector<std::pair<std::string, std::string>> Identification(const ReportSource& s);
 // The audit section of a measurement report: the rules of `kind`, limits, values, the verdict.
-std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const std::string& kind);
+std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const std::string& kind,
+                                             const std::string& machine_id);
+// Where a machine's audit rules and its verdicts are on the API.
+std::string AuditAt(const std::string& machine_id);
 std::string Footer(const std::string& what, const std::string& printed_at);
 
 }  // namespace km::usecases::report_text

@@ -73,7 +73,17 @@ usecases::ReportContext ContextOf(AuditSource& records, MeasurementService& ms,
 
 }  // namespace
 
-std::string ReportService::DbbPdf(const MeasurementRecord& rec) {
+namespace {
+
+render::RenderOptions Options(const std::function<bool()>& cancelled) {
+  render::RenderOptions o;
+  o.cancelled = cancelled;
+  return o;
+}
+
+}  // namespace
+
+std::string ReportService::DbbPdf(const MeasurementRecord& rec, const Cancelled& cancelled) {
   std::vector<dbb::DbbTest> tests{measurements_.LoadDbb(rec.id)};
   const auto partner = measurements_.DbbPartner(rec);
   if (partner) tests.push_back(measurements_.LoadDbb(*partner));
@@ -81,33 +91,46 @@ std::string ReportService::DbbPdf(const MeasurementRecord& rec) {
   const nlohmann::json j = usecases::DbbReportJson(tests, report);
   usecases::ReportContext ctx = ContextOf(records_, measurements_, rec);
   ctx.partner_id = partner;
-  return render::RenderPdf(usecases::DbbPdfReport(report, j, 0, SourceOf(rec), ctx));
+  return render::RenderPdf(usecases::DbbPdfReport(report, j, 0, SourceOf(rec), ctx),
+                           Options(cancelled));
+}
+
+std::string ReportService::ResultsPdf(const MeasurementRecord& rec, const Cancelled& cancelled) {
+  const auto ctx = ContextOf(records_, measurements_, rec);
+  render::Report report =
+      usecases::ResultsPdfReport(measurements_.Results(rec.id), SourceOf(rec), ctx);
+  return render::RenderPdf(report, Options(cancelled));
 }
 
 std::string ReportService::MeasurementPdf(std::int64_t id) {
-  const auto rec = records_.storage().GetMeasurement(id);
+  auto rec = records_.storage().GetMeasurement(id);
   if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
-  if (rec->kind == "dbb") return DbbPdf(*rec);
-  const auto ctx = ContextOf(records_, measurements_, *rec);
-  return render::RenderPdf(
-      usecases::ResultsPdfReport(measurements_.Results(id), SourceOf(*rec), ctx));
+  return gate_.Run([this, rec = std::move(*rec)](const Cancelled& cancelled) {
+    return rec.kind == "dbb" ? DbbPdf(rec, cancelled) : ResultsPdf(rec, cancelled);
+  });
 }
 
 std::string ReportService::JobPdf(std::int64_t id) {
-  return render::RenderPdf(usecases::JobPdfReport(studies_.Job(id), NowUtcIso8601()));
+  return gate_.Run([this, id](const Cancelled& cancelled) {
+    return render::RenderPdf(usecases::JobPdfReport(studies_.Job(id), NowUtcIso8601()),
+                             Options(cancelled));
+  });
 }
 
 std::string ReportService::AuditPdf(const std::string& machine_id) {
-  const auto a = AuditOf(records_, machine_id);
-  AuditVerdictFilter f;
-  f.machine_id = machine_id;
-  f.limit = 50;
-  const auto verdicts = ListAccuracyAudits(records_, f).at("audits");
-  if (a.config.is_null() && verdicts.empty()) {
-    throw NotFound("machine '" + machine_id + "' has no accuracy audit");
-  }
-  return render::RenderPdf(
-      usecases::AuditPdfReport(machine_id, a.config, verdicts, NowUtcIso8601()));
+  return gate_.Run([this, machine_id](const Cancelled& cancelled) {
+    const auto a = AuditOf(records_, machine_id);
+    AuditVerdictFilter f;
+    f.machine_id = machine_id;
+    f.limit = 50;
+    const auto verdicts = ListAccuracyAudits(records_, f).at("audits");
+    if (a.config.is_null() && verdicts.empty()) {
+      throw NotFound("machine '" + machine_id + "' has no accuracy audit");
+    }
+    return render::RenderPdf(
+        usecases::AuditPdfReport(machine_id, a.config, verdicts, NowUtcIso8601()),
+        Options(cancelled));
+  });
 }
 
 }  // namespace km::server
