@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "analysis/core/errors.h"
+#include "api/http_framing.h"
 #include "api/route_util.h"
 #include "api/routes.h"
 #include "server/access/access.h"
@@ -69,11 +70,10 @@ RequestHook TokenHookOver(std::function<server::Caller(const std::string&)> auth
     const Role need = RequiredRole(route);
     if (need == Role::kPublic) return;
     const auto auth = req.Header("authorization");
-    if (!auth || auth->rfind("Bearer ", 0) != 0 || auth->size() <= 7) {
-      throw Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
-    }
+    const auto token = auth ? BearerToken(*auth) : std::nullopt;
+    if (!token) throw Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
     // Looked up by the SHA-256 of the secret: no byte of a stored secret is ever compared.
-    const std::string sha = server::Sha256Hex(auth->substr(7));
+    const std::string sha = server::Sha256Hex(*token);
     auto caller = cache->Find(sha);
     if (!caller) {
       caller = authenticate(sha);

@@ -24,7 +24,11 @@ struct HttpOptions {
   int threads = 8;               // handler (worker) threads
   int io_threads = 1;            // event-loop threads
   std::size_t queue_limit = 64;  // requests waiting for a worker; more get 503
+  // Open connections in all, and of one client address. A newcomer beyond either takes the
+  // place of a connection waiting for its headers (api/connection_registry.h); it gets 503 only
+  // when every connection it could replace is busy with a request.
   std::size_t max_connections = 4096;
+  std::size_t max_connections_per_client = 1024;
   int backlog = 1024;       // listen backlog (the kernel caps it at somaxconn)
   std::string static_root;  // dashboard files (served at "/" and "/static/…")
   // Web origins allowed to call the API from a browser (CORS); others get no CORS headers and

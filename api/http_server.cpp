@@ -83,10 +83,14 @@ struct HttpServer::Impl {
     }
     boost::system::error_code opt_ec;
     socket.set_option(tcp::no_delay(true), opt_ec);
-    if (ctx.connections.load() >= ctx.options.max_connections) {
-      RefuseConnection(socket);
+    boost::system::error_code ep_ec;
+    const auto ep = socket.remote_endpoint(ep_ec);
+    std::string address = ep_ec ? std::string() : ep.address().to_string();
+    if (ctx.registry.Admit(address, ctx.options.max_connections,
+                           ctx.options.max_connections_per_client)) {
+      StartSession(std::move(socket), std::move(address), ctx);
     } else {
-      StartSession(std::move(socket), ctx);
+      RefuseConnection(socket);
     }
     Accept();
   }
@@ -109,9 +113,10 @@ struct HttpServer::Impl {
 
 HttpServer::HttpServer(const Router& router, HttpOptions options) {
   if (options.threads < 1 || options.io_threads < 1 || options.queue_limit < 1 ||
-      options.max_connections < 1) {
+      options.max_connections < 1 || options.max_connections_per_client < 1) {
     throw InvalidInput("", 0, "threads",
-                       "threads, io_threads, queue_limit and max_connections must be at least 1");
+                       "threads, io_threads, queue_limit, max_connections and "
+                       "max_connections_per_client must be at least 1");
   }
   impl_ = std::make_unique<Impl>(router, std::move(options));
 }

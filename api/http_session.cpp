@@ -6,12 +6,15 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 
+#include "api/http_framing.h"
 #include "api/http_target.h"
 #include "api/metrics.h"
 
@@ -43,11 +46,13 @@ bool IsStaticPath(const std::string& path) {
 
 class Session : public std::enable_shared_from_this<Session> {
  public:
-  Session(tcp::socket&& socket, ServerContext& ctx) : stream_(std::move(socket)), ctx_(ctx) {
+  Session(tcp::socket&& socket, const std::string& address, ServerContext& ctx)
+      : stream_(std::move(socket)), ctx_(ctx), registry_id_(ctx.registry.Open(address)) {
     ++ctx_.connections;
   }
   ~Session() {
     EndRequest();
+    ctx_.registry.Close(registry_id_);
     --ctx_.connections;
   }
 
@@ -65,12 +70,30 @@ class Session : public std::enable_shared_from_this<Session> {
     const int wait =
         served_ == 0 ? ctx_.options.header_timeout_s : ctx_.options.keep_alive_timeout_s;
     stream_.expires_after(seconds(wait));
+    waiting_ = true;
+    ctx_.registry.Waiting(registry_id_, [weak = weak_from_this()] {
+      if (const auto self = weak.lock()) {
+        net::post(self->stream_.get_executor(), [self] { self->Evict(); });
+      }
+    });
     http::async_read_header(
         stream_, buffer_, *header_,
         [self = shared_from_this()](beast::error_code ec, std::size_t) { self->OnHeader(ec); });
   }
 
+  // Another client needs this connection's place while it waits for headers (api/
+  // connection_registry.h): closed without an answer, as after the header deadline.
+  void Evict() {
+    if (!waiting_) return;
+    evicted_ = true;
+    beast::error_code ignored;
+    stream_.socket().cancel(ignored);
+  }
+
   void OnHeader(beast::error_code ec) {
+    waiting_ = false;
+    ctx_.registry.Busy(registry_id_);
+    if (evicted_) return Close();
     if (ec == http::error::end_of_stream || ec == beast::error::timeout ||
         ec == net::error::connection_reset || ec == net::error::eof) {
       return Close();
@@ -91,13 +114,21 @@ class Session : public std::enable_shared_from_this<Session> {
     beast::error_code ep_ec;
     const auto ep = stream_.socket().remote_endpoint(ep_ec);
     if (!ep_ec) req_.remote_addr = ep.address().to_string();
+    std::vector<std::pair<std::string, std::string>> fields;
     for (const auto& field : msg) {
       std::string name(field.name_string());
       for (auto& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      fields.emplace_back(name, std::string(field.value()));
       req_.headers[name] = std::string(field.value());
     }
     keep_alive_ = msg.keep_alive();
     has_body_ = header_->chunked() || header_->content_length().value_or(0) > 0;
+    // A body whose length is in doubt is never read: answered, and the connection closed.
+    if (const auto refusal = CheckFraming(fields, msg.version())) {
+      has_body_ = false;
+      const char* title = refusal->status == 501 ? "Not Implemented" : "Bad Request";
+      return Respond(Problem(refusal->status, title, refusal->detail), true);
+    }
     std::string error;
     auto target = ParseTarget(std::string_view(msg.target().data(), msg.target().size()), error);
     if (!target) return Respond(Problem(400, "Bad Request", error), true);
@@ -439,6 +470,8 @@ class Session : public std::enable_shared_from_this<Session> {
   bool in_flight_ = false;
   std::size_t drained_ = 0;
   bool head_ = false, keep_alive_ = false, has_body_ = false, keep_ = false, drain_ = false;
+  bool waiting_ = false, evicted_ = false;
+  std::uint64_t registry_id_ = 0;
 };
 
 }  // namespace
@@ -450,8 +483,8 @@ std::string ServerContext::NextRequestId() {
   return request_id_prefix + "-" + buf;
 }
 
-void StartSession(tcp::socket socket, ServerContext& context) {
-  std::make_shared<Session>(std::move(socket), context)->Start();
+void StartSession(tcp::socket socket, std::string address, ServerContext& context) {
+  std::make_shared<Session>(std::move(socket), address, context)->Start();
 }
 
 }  // namespace km::api

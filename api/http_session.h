@@ -8,6 +8,7 @@
 
 #include <boost/asio/ip/tcp.hpp>
 
+#include "api/connection_registry.h"
 #include "api/http.h"
 #include "api/http_options.h"
 #include "api/worker_pool.h"
@@ -22,6 +23,7 @@ struct ServerContext {
   const HttpOptions options;
   WorkerPool pool;
   std::atomic<std::size_t> connections{0};
+  ConnectionRegistry registry;  // connections by client address, and which may make room
   std::atomic<std::uint64_t> requests{0};
   // Requests whose headers were read and whose answer is not yet written (graceful shutdown
   // waits for them); while stopping, new requests on open connections are answered 503.
@@ -33,7 +35,7 @@ struct ServerContext {
 };
 
 // Serves requests on the socket until the client closes, a deadline passes or a limit is hit.
-void StartSession(boost::asio::ip::tcp::socket socket, ServerContext& context);
+void StartSession(boost::asio::ip::tcp::socket socket, std::string address, ServerContext& context);
 
 // The dashboard files: "/" is index.html, "/static/NAME" a plain file below `root`.
 Response ServeStatic(const std::string& root, const std::string& path);

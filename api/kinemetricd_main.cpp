@@ -52,6 +52,7 @@ km::api::HttpOptions HttpOptionsOf(const km::server::ServerConfig& cfg) {
   ho.io_threads = cfg.io_threads;
   ho.queue_limit = cfg.queue_limit;
   ho.max_connections = cfg.max_connections;
+  ho.max_connections_per_client = cfg.max_connections_per_client;
   ho.backlog = cfg.backlog;
   ho.max_header_bytes = cfg.max_header_bytes;
   ho.cors_origins = cfg.cors_origins;

@@ -21,6 +21,16 @@ std::string ContentTypeFor(const std::filesystem::path& p) {
   return "application/octet-stream";
 }
 
+// Whether `p` is below `base` (both canonical).
+bool Inside(const std::filesystem::path& base, const std::filesystem::path& p) {
+  auto b = base.begin();
+  auto q = p.begin();
+  for (; b != base.end(); ++b, ++q) {
+    if (q == p.end() || *q != *b) return false;
+  }
+  return q != p.end();
+}
+
 }  // namespace
 
 Response ServeStatic(const std::string& root, const std::string& path) {
@@ -32,8 +42,13 @@ Response ServeStatic(const std::string& root, const std::string& path) {
       rel.front() == '.' || rel.find("/.") != std::string::npos) {
     return missing();
   }
-  const fs::path p = fs::path(root) / rel;
+  // The file itself, symbolic links resolved, must lie inside the root: a link below the root
+  // to a file elsewhere is not served.
   std::error_code ec;
+  const fs::path base = fs::canonical(root, ec);
+  if (ec) return missing();
+  const fs::path p = fs::canonical(base / rel, ec);
+  if (ec || !Inside(base, p)) return missing();
   if (!fs::is_regular_file(p, ec) || fs::file_size(p, ec) > kMaxStaticBytes || ec) return missing();
   std::ifstream in(p, std::ios::binary);
   if (!in) return missing();

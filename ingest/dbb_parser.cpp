@@ -60,7 +60,7 @@ void RequireHeaderAtMost(const TextTable& t, const std::string& key, double limi
 dbb::DbbTest ReadHeader(const TextTable& t, const std::string& file) {
   dbb::DbbTest d;
   d.metadata = t.Metadata();
-  d.machine_id = t.RequireString("machine_id");
+  d.machine_id = t.RequireMachineId();
   d.test_id = t.RequireString("test_id");
   const std::string dir = t.RequireString("direction");
   if (dir == "ccw" || dir == "CCW") {

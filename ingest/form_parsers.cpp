@@ -92,7 +92,7 @@ StraightnessFile ParseStraightnessFile(std::string_view bytes, const std::string
   TextTable t = ReadForm(bytes, file, kStraightnessFormat, limits, kProfileColumns);
   StraightnessFile f;
   f.file = file;
-  f.machine_id = t.RequireString("machine_id");
+  f.machine_id = t.RequireMachineId();
   f.axis = RequireAxis(t, "axis");
   f.error_direction = RequireAxis(t, "error_direction");
   if (f.error_direction == f.axis) {
@@ -133,7 +133,7 @@ ParallelismFile ParseParallelismFile(std::string_view bytes, const std::string& 
   TextTable t = ReadForm(bytes, file, kParallelismFormat, limits, kProfileColumns);
   ParallelismFile f;
   f.file = file;
-  f.machine_id = t.RequireString("machine_id");
+  f.machine_id = t.RequireMachineId();
   f.axis = RequireAxis(t, "axis");
   f.datum = t.RequireString("datum");
   f.metadata = t.Metadata();
@@ -147,7 +147,7 @@ FlatnessFile ParseFlatnessFile(std::string_view bytes, const std::string& file,
   TextTable t = ReadForm(bytes, file, kFlatnessFormat, limits, {"x_mm", "y_mm", "z_um"});
   FlatnessFile f;
   f.file = file;
-  f.machine_id = t.RequireString("machine_id");
+  f.machine_id = t.RequireMachineId();
   if (t.Has("datum")) f.datum = t.RequireString("datum");
   f.metadata = t.Metadata();
   const std::size_t ix = t.RequireColumn("x_mm");

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/errors.h"
+#include "ingest/identifiers.h"
 #include "ingest/json_text.h"
 
 namespace km::ingest {
@@ -60,6 +61,7 @@ MachineDefinition ParseMachineJson(std::string_view bytes, const std::string& fi
     throw InvalidInput(file, 0, "machine_id", "missing or not a non-empty string");
   }
   m.machine_id = doc["machine_id"].get<std::string>();
+  CheckMachineId(m.machine_id, file, 0);
   if (!doc.contains("kind") || !doc["kind"].is_string()) {
     throw InvalidInput(file, 0, "kind", "missing (expected \"hexapod\" or \"serial\")");
   }

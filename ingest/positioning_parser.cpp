@@ -72,7 +72,7 @@ void ReadMaterial(const TextTable& t, positioning::CorrectionSettings& c) {
 }
 
 void ReadHeader(const TextTable& t, PositioningFile& f) {
-  f.machine_id = t.RequireString("machine_id");
+  f.machine_id = t.RequireMachineId();
   f.axis = t.RequireString("axis");
   for (char& c : f.axis) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   // A machine axis name: a letter, then letters or digits (X, Y, Z, U, V, W, X2 of a gantry).

@@ -226,7 +226,7 @@ servo::ServoFile ParseServoFile(std::string_view bytes, const std::string& file,
   }
   servo::ServoFile f;
   f.file = file;
-  f.machine_id = t.RequireString("machine_id");
+  f.machine_id = t.RequireMachineId();
   f.test_id = t.RequireString("test_id");
   f.motion = t.RequireOneOf("motion", {"circle", "path"});
   if (f.motion == "circle" || t.Has("direction")) {

@@ -20,6 +20,8 @@
 #include <string_view>
 #include <vector>
 
+#include "ingest/utf8_text.h"
+
 namespace km::ingest {
 
 struct HeaderValue {
@@ -118,6 +120,8 @@ struct TextTable {
   std::size_t KeyLine(const std::string& key) const;
   // Typed accessors; they throw InvalidInput naming file, line and field.
   std::string RequireString(const std::string& key) const;
+  // The `machine_id` key, refused unless it can name a machine (ingest/identifiers.h).
+  std::string RequireMachineId() const;
   // A required value, lower-cased, that must be one of `allowed` (lower case).
   std::string RequireOneOf(const std::string& key, const std::set<std::string>& allowed) const;
   double RequireNumber(const std::string& key) const;
@@ -153,16 +157,5 @@ std::optional<double> ParseNumber(std::string_view text);
 std::optional<std::vector<double>> ParseNumberList(std::string_view text);
 
 std::string_view Trim(std::string_view s);
-
-// Strict UTF-8 (Unicode table 3-7: no overlong forms, no UTF-16 surrogates, nothing above
-// U+10FFFF). On failure `bad_at` is the offset of the first byte of the bad sequence and
-// `reason` says what is wrong with it.
-bool ValidUtf8(std::string_view s, std::size_t& bad_at, std::string* reason = nullptr);
-
-// File content for an error message, between single quotes: at most `max_chars` characters
-// (cut at a character boundary, "..." appended when cut); control characters, DEL and bytes that
-// are not part of valid UTF-8 are written as \xNN, a backslash as \\. The result is valid
-// UTF-8 whatever the input.
-std::string Quote(std::string_view text, std::size_t max_chars = 40);
 
 }  // namespace km::ingest

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "analysis/core/errors.h"
+#include "ingest/identifiers.h"
 #include "ingest/text_format.h"
 
 #include <cctype>
@@ -62,6 +63,12 @@ std::string TextTable::RequireString(const std::string& key) const {
   if (!v) throw InvalidInput(file, 0, key, "required header key is missing");
   if (v->value.empty()) throw InvalidInput(file, v->line, key, "value is empty");
   return v->value;
+}
+
+std::string TextTable::RequireMachineId() const {
+  std::string id = RequireString("machine_id");
+  CheckMachineId(id, file, KeyLine("machine_id"));
+  return id;
 }
 
 std::size_t TextTable::KeyLine(const std::string& key) const {

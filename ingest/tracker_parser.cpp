@@ -192,7 +192,7 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file,
   TrackerFile out;
   auto& r = out.readings;
   out.metadata = t.Metadata();
-  r.machine_id = t.RequireString("machine_id");
+  r.machine_id = t.RequireMachineId();
 
   const double nd = t.RequireNumber("trackers");
   long long n = 0;

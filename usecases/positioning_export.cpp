@@ -6,6 +6,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/positioning/compensation.h"
+#include "ingest/identifiers.h"
 
 namespace km::usecases {
 namespace {
@@ -31,6 +32,13 @@ std::vector<double> Targets(const PositioningReport& r) {
   return r.compensation.target_mm;
 }
 
+// A name copied into a controller's program: only when it is of the safe alphabet
+// (ingest::IsControllerSafe), so that nothing a client wrote can start a program line.
+std::string ControllerName(const std::string& what, const std::string& name) {
+  if (ingest::IsControllerSafe(name)) return what + " " + name;
+  return what + " (name left out: not of the letters, digits and _ . - : a program may carry)";
+}
+
 }  // namespace
 
 std::string ExportLinuxCnc(const PositioningReport& report) {
@@ -49,8 +57,9 @@ std::string ExportSinumerik(const PositioningReport& report) {
   const positioning::EvenGrid grid = positioning::EvenGridOf(x);
   const double max_mm = grid.start_mm + grid.step_mm * double(grid.count - 1);
   std::string out = "%_N_AX_EEC_INI\nCHANDATA(1)\n";
-  out += "; kinemetric: leadscrew error compensation of machine " + report.machine_id + ", axis " +
-         report.axis + " (rename AX1 to its machine axis)\n";
+  out += "; kinemetric: leadscrew error compensation of " +
+         ControllerName("machine", report.machine_id) + ", " + ControllerName("axis", report.axis) +
+         " (rename AX1 to its machine axis)\n";
   out +=
       "; values in mm = mean bidirectional deviation; a positive value moves the axis in the "
       "negative direction\n";

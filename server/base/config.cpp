@@ -58,6 +58,10 @@ const NumberOption kNumberOptions[] = {
      [](ServerConfig& c, std::int64_t v) { c.queue_limit = static_cast<std::size_t>(v); }},
     {"max_connections", kConnections,
      [](ServerConfig& c, std::int64_t v) { c.max_connections = static_cast<std::size_t>(v); }},
+    {"max_connections_per_client", kConnections,
+     [](ServerConfig& c, std::int64_t v) {
+       c.max_connections_per_client = static_cast<std::size_t>(v);
+     }},
     {"backlog", kBacklog, [](ServerConfig& c, std::int64_t v) { c.backlog = static_cast<int>(v); }},
     {"max_header_bytes", kHeaderBytes,
      [](ServerConfig& c, std::int64_t v) { c.max_header_bytes = static_cast<std::size_t>(v); }},

@@ -25,6 +25,7 @@ struct ServerConfig {
   int io_threads = 1;
   std::size_t queue_limit = 64;  // requests waiting for a thread; more are refused
   std::size_t max_connections = 4096;
+  std::size_t max_connections_per_client = 1024;
   int backlog = 1024;
   std::size_t max_header_bytes = 16u << 10;
   int header_timeout_s = 10;
@@ -92,16 +93,17 @@ struct ServerConfig {
 // Applies a JSON config file (// comments allowed): keys listen ("HOST:PORT"), data_dir, web_root,
 // database, demo_data, modbus_config, access_log, metrics_public, the audit_webhook_* keys, and
 // the whole numbers
-// max_upload_bytes, threads, io_threads, queue_limit, max_connections, backlog,
+// max_upload_bytes, threads, io_threads, queue_limit, max_connections,
+// max_connections_per_client, backlog,
 // max_header_bytes, header_timeout_s, read_timeout_s, write_timeout_s, keep_alive_max_count,
 // keep_alive_timeout_s, db_busy_timeout_ms, db_pool_size, db_statement_timeout_ms,
 // shutdown_timeout_s, job_workers,
 // job_lease_s, max_queued_jobs (each also a command-line option, e.g. --header-timeout-s).
 // Unknown keys are an error (typos are not ignored). Numbers must be whole and within range:
-// threads 1–256, io_threads 1–64, queue_limit, keep_alive_max_count and max_connections
-// 1–1 000 000, backlog 1–65535, max_header_bytes 1 KiB–1 MiB, timeouts 1–3600 s, job_workers
-// 0–64, max_queued_jobs 1–1 000 000, db_busy_timeout_ms 0–600 000 ms, db_pool_size 1–1000,
-// db_statement_timeout_ms 0–3 600 000 ms, audit_webhook_timeout_s 1–300 s,
+// threads 1–256, io_threads 1–64, queue_limit, keep_alive_max_count, max_connections and
+// max_connections_per_client 1–1 000 000, backlog 1–65535, max_header_bytes 1 KiB–1 MiB, timeouts
+// 1–3600 s, job_workers 0–64, max_queued_jobs 1–1 000 000, db_busy_timeout_ms 0–600 000 ms,
+// db_pool_size 1–1000, db_statement_timeout_ms 0–3 600 000 ms, audit_webhook_timeout_s 1–300 s,
 // max_upload_bytes 1 B–4 GiB, port 0–65535 (0: any free port); data_dir must not be empty;
 // database empty, sqlite: or a postgresql:// URL. Anything else is km::InvalidInput naming the
 // option or key.

@@ -13,25 +13,7 @@ namespace km::server {
 
 namespace {
 
-constexpr std::size_t kMaxMachineIdBytes = 256;
 constexpr std::size_t kMaxNoteBytes = 4096;
-
-// A stored machine is addressed as /api/v1/machines/{machine_id}/…: its id must fit one path
-// segment (no '/', not "." or "..") and be printable.
-void CheckMachineId(const std::string& id, const std::string& file) {
-  const auto refuse = [&](const std::string& why) {
-    throw InvalidInput(file, 0, "machine_id", "'" + id.substr(0, 80) + "' " + why);
-  };
-  if (id.size() > kMaxMachineIdBytes) {
-    refuse("is longer than " + std::to_string(kMaxMachineIdBytes) + " bytes");
-  }
-  if (id == "." || id == "..") refuse("is not a machine name");
-  for (const char c : id) {
-    const auto u = static_cast<unsigned char>(c);
-    if (c == '/') refuse("holds a '/' (it must fit one segment of a URL path)");
-    if (u < 0x20 || u == 0x7F) refuse("holds a control character");
-  }
-}
 
 std::string VersionText(const std::string& machine_id, std::int64_t version) {
   return "machine '" + machine_id + "' version " + std::to_string(version);
@@ -53,7 +35,6 @@ MachineModelStored ModelService::StoreMachineModel(std::string_view bytes,
                        "the note is longer than " + std::to_string(kMaxNoteBytes) + " bytes");
   }
   const ingest::MachineDefinition machine = ingest::ParseMachineJson(bytes, file);
-  CheckMachineId(machine.machine_id, file);
   NewMachineModel m;
   m.machine_id = machine.machine_id;
   m.source = source;

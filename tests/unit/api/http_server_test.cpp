@@ -246,17 +246,25 @@ TEST_F(HttpServerTest, FullQueueAnswers503WithRetryAfter) {
   EXPECT_EQ(StatusOf(*rb), 200);
 }
 
+// Beyond the cap, a newcomer takes the place of a connection waiting for its headers
+// (tests/unit/api/http_framing_test.cpp); when every connection is busy with a request, it is
+// refused clearly.
 TEST_F(HttpServerTest, ConnectionsBeyondTheCapAreRefusedClearly) {
   HttpOptions o;
   o.max_connections = 4;
   Start(o);
   std::vector<RawConnection> held;
-  for (int i = 0; i < 4; ++i) held.emplace_back(port_);
-  std::this_thread::sleep_for(100ms);
+  for (int i = 0; i < 4; ++i) {
+    held.emplace_back(port_);
+    held.back().Send("GET /block HTTP/1.1\r\nHost: x\r\n\r\n");
+  }
+  while (blocked_.load() < 4) std::this_thread::sleep_for(5ms);
   const auto r = Get("/healthz");
   ASSERT_TRUE(r);
   EXPECT_EQ(StatusOf(*r), 503);
   EXPECT_NE(r->find("too many connections"), std::string::npos);
+  gate_.Open();
+  for (auto& c : held) EXPECT_TRUE(c.ReadResponse(3s));
   held.clear();
   std::this_thread::sleep_for(100ms);
   const auto after = Get("/healthz");

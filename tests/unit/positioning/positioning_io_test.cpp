@@ -162,5 +162,66 @@ TEST(PositioningCompensation, SinumerikEvenGrid) {
             "--format");
 }
 
+// A file whose header carries program lines behind a carriage return (or another character
+// that ends a line on a controller) is refused naming the file, the line and the key.
+TEST(PositioningControllerText, LineBreaksInHeaderValuesAreRefused) {
+  const std::string rows = "1,+,0,0\n1,+,100,1\n1,-,0,0\n1,-,100,1\n";
+  for (const char* brk : {"\r", "\v", "\f", "\xC2\x85", "\xE2\x80\xA8"}) {
+    std::string text = kHeader;
+    const std::string bad = std::string("vmc") + brk + "$AA_ENC_COMP[0,0,AX1]=9.999" + brk + "M30";
+    text.replace(text.find("m1"), 2, bad);
+    const auto e = Refused(text + rows);
+    EXPECT_EQ(e.file(), "p.txt");
+    EXPECT_EQ(e.line(), 2u) << e.what();
+    EXPECT_EQ(e.field(), "machine_id") << e.what();
+  }
+  std::string axis = kHeader;
+  axis.replace(axis.find("# axis: X"), 9, "# axis: X\rM30");
+  const auto e = Refused(axis + rows);
+  EXPECT_EQ(e.line(), 3u);
+  EXPECT_EQ(e.field(), "axis");
+}
+
+TEST(PositioningControllerText, MachineIdsThatCannotNameAMachineAreRefused) {
+  const std::string rows = "1,+,0,0\n1,+,100,1\n1,-,0,0\n1,-,100,1\n";
+  for (const std::string& bad :
+       {std::string("a/b"), std::string("a\\b"), std::string(".."), std::string("a\tb"),
+        std::string("x\xE2\x80\xAE"
+                    "gpj.exe"),
+        std::string(257, 'm')}) {
+    std::string text = kHeader;
+    text.replace(text.find("m1"), 2, bad);
+    const auto e = Refused(text + rows);
+    EXPECT_EQ(e.line(), 2u) << e.what();
+    EXPECT_EQ(e.field(), "machine_id") << e.what();
+  }
+}
+
+// Text from a stored measurement reaches a controller program only when it is of the safe
+// alphabet: an id stored before ids were checked is left out, never copied.
+TEST(PositioningControllerText, ExportsCarryOnlySafeNames) {
+  std::string text = kHeader;
+  for (int run = 1; run <= 2; ++run) {
+    for (const char* dir : {"+", "-"}) {
+      for (const char* p : {"0", "100", "200"})
+        text += std::to_string(run) + "," + dir + "," + p + ",1\n";
+    }
+  }
+  usecases::PositioningReport r = Analyse(text);
+  EXPECT_TRUE(Contains(usecases::ExportSinumerik(r), "machine m1, axis X"));
+  r.machine_id = "vmc\r$AA_ENC_COMP[0,0,AX1]=9.999\rM30";
+  r.axis = "X\x0BM30";
+  for (const char* format : {"sinumerik", "linuxcnc", "csv"}) {
+    const std::string out = usecases::ExportCompensation(r, format);
+    EXPECT_FALSE(Contains(out, "M30")) << format << ":\n" << out;
+    EXPECT_FALSE(Contains(out, "9.999")) << format;
+    for (const char c : out) {
+      const auto u = static_cast<unsigned char>(c);
+      EXPECT_TRUE(c == '\n' || (u >= 0x20 && u < 0x7F)) << format << " holds byte " << int(u);
+    }
+  }
+  EXPECT_TRUE(Contains(usecases::ExportSinumerik(r), "machine (name left out"));
+}
+
 }  // namespace
 }  // namespace km::positioning
