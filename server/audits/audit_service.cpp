@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "analysis/core/errors.h"
+#include "ingest/identifiers.h"
 #include "ingest/json_text.h"
 #include "server/audits/accuracy_audit.h"
 #include "server/audits/audit_schedule.h"
@@ -213,9 +214,7 @@ json PutAuditConfig(AuditSource& service, const std::string& machine_id, const j
       throw InvalidInput("", 0, key, "is not a key of an audit (schedule, rules)");
     }
   }
-  if (machine_id.empty() || machine_id.size() > 256) {
-    throw InvalidInput("", 0, "machine_id", "must be 1 to 256 bytes");
-  }
+  ingest::CheckMachineId(machine_id, "", 0);
   if (!body.contains("rules")) throw InvalidInput("", 0, "rules", "is missing");
   const auto rules = ParseAuditRules(body["rules"]);
   AuditConfigRecord c;

@@ -5,7 +5,11 @@
 // read in any letter case, and half-open connections cannot shut other clients out.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <atomic>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <thread>
@@ -14,6 +18,7 @@
 #include "api/connection_registry.h"
 #include "api/http_framing.h"
 #include "api/http_server.h"
+#include "api/http_session.h"
 #include "tests/unit/api/raw_client.h"
 
 namespace km::api {
@@ -222,6 +227,30 @@ TEST_F(FramingServer, HalfOpenRequestsCannotShutOthersOut) {
     half.emplace_back(port_);
     half.back().Send("GET /healthz HTTP/1.1\r\nHo");
   }
+}
+
+// The dashboard's files: a symbolic link below the web root to a file outside it is not served;
+// links within it, and a root that is itself a link, are.
+TEST(StaticFiles, LinksOutOfTheWebRootAreNotServed) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("km-static-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "web");
+  std::ofstream(dir / "secret.txt") << "key";
+  std::ofstream(dir / "web" / "index.html") << "<html></html>";
+  std::ofstream(dir / "web" / "app.js") << "1;";
+  fs::create_symlink(dir / "secret.txt", dir / "web" / "leak.txt");
+  fs::create_symlink(dir / "web" / "app.js", dir / "web" / "alias.js");
+  fs::create_directory_symlink(dir, dir / "web" / "up");
+  fs::create_directory_symlink(dir / "web", dir / "link-root");
+  const std::string root = (dir / "web").string();
+  EXPECT_EQ(ServeStatic(root, "/static/leak.txt").status, 404);
+  EXPECT_EQ(ServeStatic(root, "/static/up/secret.txt").status, 404);
+  EXPECT_EQ(ServeStatic(root, "/static/alias.js").status, 200);
+  EXPECT_EQ(ServeStatic(root, "/").status, 200);
+  EXPECT_EQ(ServeStatic((dir / "link-root").string(), "/static/app.js").body, "1;");
+  EXPECT_EQ(ServeStatic((dir / "link-root").string(), "/static/leak.txt").status, 404);
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -108,5 +108,20 @@ TEST(AccessLog, OneJsonObjectWithTheTokenIdOnly) {
   EXPECT_TRUE(AccessLogLine(Record("GET", "", 404, 0)).find("\"route\":null") != std::string::npos);
 }
 
+// A client inventing request methods adds no series: every method outside RFC 9110's (and
+// PATCH) is one label, OTHER.
+TEST(Metrics, InventedMethodsShareOneSeries) {
+  Metrics m;
+  for (int i = 0; i < 5000; ++i) m.Count(Record("X" + std::to_string(i), "", 405, 0.001));
+  m.Count(Record("PATCH", "", 405, 0.001));
+  const std::string t = m.Exposition(nullptr);
+  EXPECT_TRUE(
+      Has(t, "kinemetric_http_requests_total{method=\"OTHER\",route=\"none\",code=\"4xx\"} 5000"))
+      << t;
+  EXPECT_EQ(t.find("method=\"X1\""), std::string::npos);
+  EXPECT_NE(t.find("method=\"PATCH\""), std::string::npos);
+  EXPECT_LT(t.size(), 20000u);
+}
+
 }  // namespace
 }  // namespace km::api
