@@ -39,7 +39,12 @@ std::string NowIso() {
 // Where the report's measurement came from: the file's header keys.
 usecases::ReportSource SourceOf(const std::string& bytes, const std::string& path,
                                 const std::string& kind) {
-  const auto table = ingest::ReadTextTable(bytes, path);
+  // The header is what is wanted; the data rows are checked, not kept (a positioning file's
+  // direction column holds the words + and -).
+  ingest::ReadOptions options;
+  options.keep_column = [](std::string_view) { return false; };
+  if (kind == "positioning") options.word_columns["direction"] = {{"+", 1.0}, {"-", -1.0}};
+  const auto table = ingest::ReadTextTable(bytes, path, options);
   usecases::ReportSource s;
   s.kind = kind;
   s.filename = path;
