@@ -20,7 +20,7 @@
 #include <string_view>
 #include <vector>
 
-#include "ingest/utf8_text.h"
+#include "ingest/identifiers.h"
 
 namespace km::ingest {
 
