@@ -19,6 +19,7 @@
 #include "api/http_framing.h"
 #include "api/http_server.h"
 #include "api/http_session.h"
+#include "tests/unit/api/loopback_server.h"
 #include "tests/unit/api/raw_client.h"
 
 namespace km::api {
@@ -140,16 +141,10 @@ class FramingServer : public ::testing::Test {
         throw Unauthorized("token needed");
       }
     });
-    o.host = "127.0.0.1";
-    o.port = 0;
-    server_ = std::make_unique<HttpServer>(router_, o);
-    port_ = server_->Bind();
-    thread_ = std::thread([this] { server_->Serve(); });
+    server_ = std::make_unique<test::LoopbackServer>(router_, o);
+    port_ = server_->port();
   }
-  void TearDown() override {
-    if (server_) server_->Stop();
-    if (thread_.joinable()) thread_.join();
-  }
+  void TearDown() override { server_.reset(); }
   std::optional<std::string> Send(const std::string& bytes) {
     RawConnection c(port_);
     if (!c.Send(bytes)) return {};
@@ -157,8 +152,7 @@ class FramingServer : public ::testing::Test {
   }
 
   Router router_;
-  std::unique_ptr<HttpServer> server_;
-  std::thread thread_;
+  std::unique_ptr<test::LoopbackServer> server_;
   int port_ = 0;
   std::atomic<int> secrets_{0}, uploads_{0};
 };

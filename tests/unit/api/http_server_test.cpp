@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "analysis/core/errors.h"
+#include "tests/unit/api/loopback_server.h"
 #include "tests/unit/api/raw_client.h"
 
 namespace km::api {
@@ -90,16 +91,12 @@ class HttpServerTest : public ::testing::Test {
         throw Unauthorized("token needed");
       }
     });
-    o.host = "127.0.0.1";
-    o.port = 0;
-    server_ = std::make_unique<HttpServer>(router_, o);
-    port_ = server_->Bind();
-    thread_ = std::thread([this] { server_->Serve(); });
+    server_ = std::make_unique<test::LoopbackServer>(router_, o);
+    port_ = server_->port();
   }
   void TearDown() override {
     gate_.Open();
-    if (server_) server_->Stop();
-    if (thread_.joinable()) thread_.join();
+    server_.reset();
   }
 
   std::optional<std::string> Get(const std::string& path, std::chrono::milliseconds wait = 5s) {
@@ -109,8 +106,7 @@ class HttpServerTest : public ::testing::Test {
   }
 
   Router router_;
-  std::unique_ptr<HttpServer> server_;
-  std::thread thread_;
+  std::unique_ptr<test::LoopbackServer> server_;
   int port_ = 0;
   BlockGate gate_;
   std::atomic<int> blocked_{0}, uploads_{0};
