@@ -36,8 +36,9 @@ std::string TokenName(const nlohmann::json& request) {
   if (!IsValidUtf8(name)) throw InvalidInput(request::kFile, 0, "name", "is not valid UTF-8");
   if (HasControlOrLineBreak(name)) {
     throw InvalidInput(request::kFile, 0, "name",
-                       "holds a control or line-breaking character (C0, DEL, C1 such as U+0085, "
-                       "U+2028 or U+2029)");
+                       "holds a control, line-breaking or invisible formatting character (C0, "
+                       "DEL, C1 such as U+0085, U+2028, U+2029, zero-width or bidirectional "
+                       "controls)");
   }
   return name;
 }

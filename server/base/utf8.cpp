@@ -3,6 +3,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "ingest/identifiers.h"
+
 namespace km::server {
 namespace {
 
@@ -76,19 +78,8 @@ std::string SanitizeUtf8(std::string_view text) {
 }
 
 bool HasControlOrLineBreak(std::string_view utf8) {
-  if (!IsValidUtf8(utf8)) return true;
-  for (std::size_t i = 0; i < utf8.size(); ++i) {
-    const auto b = static_cast<std::uint8_t>(utf8[i]);
-    if (b < 0x20 || b == 0x7F) return true;  // C0, DEL
-    // Valid UTF-8: C1 controls are C2 80…C2 9F; U+2028 and U+2029 are E2 80 A8 and E2 80 A9.
-    // A lead byte is never a continuation byte, so these patterns match whole characters only.
-    const auto next = [&](std::size_t k) {
-      return i + k < utf8.size() ? static_cast<std::uint8_t>(utf8[i + k]) : std::uint8_t{0};
-    };
-    if (b == 0xC2 && next(1) >= 0x80 && next(1) <= 0x9F) return true;
-    if (b == 0xE2 && next(1) == 0x80 && (next(2) == 0xA8 || next(2) == 0xA9)) return true;
-  }
-  return false;
+  // One rule with the header values of measurement files (ingest/identifiers.h), and tab too.
+  return utf8.find('\t') != std::string_view::npos || ingest::ForbiddenCharacter(utf8).has_value();
 }
 
 }  // namespace km::server

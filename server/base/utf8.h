@@ -17,7 +17,8 @@ std::string SanitizeUtf8(std::string_view text);
 
 // true when `utf8` is not valid UTF-8 (above) or holds a control or line-breaking character:
 // C0 (U+0000…U+001F, tab, CR and LF included), DEL (U+007F), C1 (U+0080…U+009F, NEL U+0085
-// included), U+2028 LINE SEPARATOR or U+2029 PARAGRAPH SEPARATOR. A name, id or other one-line
+// included), U+2028 LINE SEPARATOR, U+2029 PARAGRAPH SEPARATOR, or an invisible formatting
+// character (zero-width, bidirectional: ingest::IsInvisibleOrControl). A name, id or other one-line
 // text a client sends is refused when this is true, so it can never start a new line or carry
 // an invisible control into a log, a file or another program.
 bool HasControlOrLineBreak(std::string_view utf8);

@@ -289,7 +289,7 @@ TEST_F(Access, TokensAreShownOnceListedWithoutSecretsAndCheckedField) {
   for (const std::string& ok :
        {std::string("Prüfstand \xC2\xA0"
                     "A"),
-        std::string("\xE2\x80\xA7"), std::string("\xE2\x80\xAA"), std::string("\xC2\xA0")}) {
+        std::string("\xE2\x80\xA7"), std::string("\xE2\x80\xAF"), std::string("\xC2\xA0")}) {
     const auto r =
         Call("POST", "/api/v1/tokens", "boot", R"({"name": ")" + ok + R"(", "role": "viewer"})");
     EXPECT_EQ(r.status, 201) << ::testing::PrintToString(ok) << " " << r.body;

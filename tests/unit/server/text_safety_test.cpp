@@ -27,6 +27,7 @@ TEST(HasControlOrLineBreak, RefusesEveryControlLineBreakAndInvalidSequence) {
   }
   for (const std::string& s :
        {std::string("\xE2\x80\xA8"), std::string("\xE2\x80\xA9"), std::string("x\xE2\x80\xA9"),
+        std::string("\xE2\x80\xAE"), std::string("\xE2\x80\x8B"), std::string("\xEF\xBB\xBF"),
         std::string("\r"), std::string("\n"), std::string("\t"), std::string("\0", 1),
         std::string("\xFF"), std::string("\xC2"), std::string("\xE2\x80"),
         std::string("\xC0\x8A"),       // overlong LF
@@ -44,7 +45,7 @@ TEST(HasControlOrLineBreak, AcceptsPrintableTextAndTheNeighboursOfTheRefusedRang
        {std::string(""), std::string("line 3 uploader"), std::string("~ !\"#"),
         std::string("Prüfstand µm ± 0.5 °C"), std::string("\xC2\xA0"),  // U+00A0 NBSP
         std::string("\xC3\x85"),                                        // U+00C5, not C1
-        std::string("\xE2\x80\xA7"), std::string("\xE2\x80\xAA"),       // U+2027, U+202A
+        std::string("\xE2\x80\xA7"), std::string("\xE2\x80\xAF"),       // U+2027, U+202F
         std::string("\xE2\x82\xAC"),                                    // U+20AC €
         std::string("日本語"), std::string("\xF0\x9F\x98\x80")}) {
     EXPECT_FALSE(HasControlOrLineBreak(s)) << ::testing::PrintToString(s);
