@@ -7,12 +7,14 @@ let memoryToken = '';
 
 export class ApiError extends Error {
   constructor(status, problem) {
-    const title = problem.title || `HTTP ${status}`;
-    super(problem.detail ? `${title}: ${problem.detail}` : title);
+    const str = (v) => (typeof v === 'string' ? v : v === undefined || v === null ? '' : JSON.stringify(v));
+    const title = str(problem.title) || `HTTP ${status}`;
+    const detail = str(problem.detail);
+    super(detail ? `${title}: ${detail}` : title);
     this.name = 'ApiError';
     this.status = status;
     this.title = title;
-    this.detail = problem.detail || '';
+    this.detail = detail;
     this.file = problem.file;
     this.line = problem.line;
     this.field = problem.field;
@@ -57,11 +59,24 @@ export function takeTokenFromFragment() {
   return true;
 }
 
+// The server's refusal as {title, detail, file, line, field}: problem+json as it is; a body
+// {"error": {message, file, line, field}} (or {"error": "text"}) read into the same keys, so the
+// message is shown in words, never as an object.
+function problemOf(body, response) {
+  const e = body.error;
+  if (e === undefined || body.title || body.detail) return body;
+  const fallback = response.statusText || `HTTP ${response.status}`;
+  if (typeof e === 'string') return { title: fallback, detail: e };
+  if (!e || typeof e !== 'object') return { title: fallback, detail: '' };
+  const text = (v) => (v === undefined || v === null ? undefined : typeof v === 'object' ? JSON.stringify(v) : String(v));
+  return { title: text(e.title) || fallback, detail: text(e.message ?? e.detail ?? e.reason) || '', file: text(e.file), line: e.line, field: text(e.field) };
+}
+
 async function readProblem(response) {
   const text = await response.text();
   try {
     const body = JSON.parse(text);
-    if (body && typeof body === 'object') return body;
+    if (body && typeof body === 'object' && !Array.isArray(body)) return problemOf(body, response);
   } catch {
     // not JSON: fall through
   }

@@ -13,7 +13,7 @@ import { $, asProblem, errorBox, h, problemContent, setMessage } from './dom.js'
 import { auditWords, formatDirection, formatTimestamp } from './format.js';
 import { auditHash, jobHash, measurementHash, trendsHash } from './router.js';
 import { refusalContent } from './roles.js';
-import { checkRules, ruleEditor } from './audit_form.js';
+import { checkRules, DEFAULT_MAX_AGE_DAYS, metricUnit, ruleEditor } from './audit_form.js';
 import { state } from './state.js';
 
 // 404 (no audit stored): null.
@@ -48,10 +48,30 @@ export async function auditMetricList() {
 
 const num = (v) => (typeof v === 'number' && Number.isFinite(v) ? v : null);
 const fmt = (v) => (num(v) === null ? '—' : Number(v.toFixed(3)).toString());
-function unitOfMetric(metrics, kind, metric) {
-  const base = String(metric).replace(/^diagnosis\..*/, 'diagnosis.<effect>').replace(/\.[A-Z][A-Z0-9]*$/, '');
-  const m = metrics.find((x) => x.kind === kind && (x.metric === metric || x.metric === base));
-  return m ? m.unit : '';
+const unitOfMetric = metricUnit;
+
+// The set-up of a finding, a checked entry or a stale entry in words: the server's name for it
+// ("xy-r150 CW", "axis X"), else its test and direction.
+function setUpText(x) {
+  if (x.set_up) return String(x.set_up);
+  const parts = [x.test_id, x.direction ? formatDirection(x.direction) : ''].filter(Boolean);
+  return parts.join(' ');
+}
+
+// A rule's scope in words: "tests xy-*, CW", "axis X"; '' for every set-up of its kind.
+function scopeText(rule) {
+  const parts = [];
+  if (rule.test_id) parts.push(`${String(rule.test_id).includes('*') ? 'tests' : 'test'} ${rule.test_id}`);
+  if (rule.direction) parts.push(formatDirection(rule.direction));
+  if (rule.axis) parts.push(`axis ${rule.axis}`);
+  return parts.join(', ');
+}
+
+// The worst of a rule's checked entries (one a set-up): a finding of the highest level, else a
+// value within limits (the largest), else one not evaluated.
+function worstOf(entries) {
+  const rank = (c) => (c.status === 'finding' ? 10 + (c.level || 0) : c.status === 'ok' || c.status === 'stale' ? 1 : 0);
+  return [...entries].sort((a, b) => rank(b) - rank(a) || (num(b.value) ?? -Infinity) - (num(a.value) ?? -Infinity))[0] || null;
 }
 
 export function levelBadge(verdict, testid = 'audit-level') {
@@ -80,17 +100,21 @@ function statusText(c) {
   if (!c) return 'not judged yet';
   if (c.status === 'finding') return auditWords(c.level);
   if (c.status === 'ok') return 'within limits';
+  if (c.status === 'stale') return `stale: newest test of ${formatTimestamp(c.measured_at)}`;
   return `not evaluated${c.reason ? `: ${c.reason}` : ''}`;
 }
 
 function ruleRow(rule, index, checked, metrics, pairNotes, compact) {
   const unit = unitOfMetric(metrics, rule.kind, rule.metric);
-  const c = (checked || []).find((x) => x.rule === index);
+  const entries = (checked || []).filter((x) => x.rule === index);
+  const c = worstOf(entries);
+  const scope = scopeText(rule);
+  const where = c && entries.length > 1 && setUpText(c) ? ` (${setUpText(c)}, the worst of ${entries.length} set-ups)` : c && setUpText(c) ? ` (${setUpText(c)})` : '';
   const cells = [
-    h('th', { scope: 'row' }, `${rule.kind} ${rule.metric}`),
+    h('th', { scope: 'row' }, `${rule.kind} ${rule.metric}`, scope ? h('span', { class: 'rule-scope', 'data-testid': 'audit-rule-scope' }, ` — ${scope}`) : ''),
     h('td', {}, limitsText(rule, unit)),
     h('td', { class: 'num', 'data-key': 'value' }, c && num(c.value) !== null ? `${fmt(c.value)} ${unit}` : '—'),
-    h('td', { 'data-key': 'status' }, statusText(c)),
+    h('td', { 'data-key': 'status' }, statusText(c), where),
   ];
   if (!compact) cells.push(h('td', {}, c ? evidenceLink(c, 'judged') : '', pairNotes.get(index) ? h('p', { class: 'note pair-judged', 'data-testid': 'audit-pair-note' }, pairNotes.get(index)) : ''));
   return h('tr', { 'data-audit-rule': index, 'data-status': c ? c.status : 'none', 'data-level': c && c.level ? c.level : '' }, ...cells);
@@ -119,7 +143,78 @@ function findingsList(verdict) {
   return h(
     'ul',
     { class: 'findings', 'data-testid': 'audit-findings' },
-    ...findings.map((f) => h('li', { class: `finding level-${f.level}`, 'data-testid': 'audit-finding' }, h('span', { class: `level-badge level-${f.level}` }, auditWords(f.level)), ' ', f.message || `${f.kind} ${f.metric} ${fmt(f.value)}`, ' — ', evidenceLink(f, 'finding'))),
+    ...findings.map((f) =>
+      h(
+        'li',
+        { class: `finding level-${f.level}`, 'data-testid': 'audit-finding', 'data-set-up': setUpText(f) },
+        h('span', { class: `level-badge level-${f.level}` }, auditWords(f.level)),
+        ' ',
+        f.message || `${f.kind} ${f.metric} ${fmt(f.value)}`,
+        ' — ',
+        setUpText(f) ? h('span', { class: 'set-up', 'data-testid': 'audit-finding-setup' }, `set-up ${setUpText(f)}, `) : '',
+        evidenceLink(f, 'finding'),
+        f.measured_at ? ` measured ${formatTimestamp(f.measured_at)}` : '',
+      ),
+    ),
+  );
+}
+
+// Every set-up the newest audit judged: one row a rule and set-up, with its value, status and the
+// measurement judged (data-checked-rule, data-checked-measurement).
+function checkedTable(verdict, rules, metrics) {
+  const checked = (verdict && verdict.checked) || [];
+  if (!checked.length) return '';
+  return h(
+    'div',
+    { class: 'table-scroll' },
+    h(
+      'table',
+      { class: 'figures audit-checked', 'data-testid': 'audit-checked' },
+      h('thead', {}, h('tr', {}, ...['Rule', 'Set-up', 'Value', 'Status', 'Measurement'].map((t) => h('th', { scope: 'col' }, t)))),
+      h(
+        'tbody',
+        {},
+        ...checked.map((c) => {
+          const unit = unitOfMetric(metrics, c.kind, c.metric);
+          return h(
+            'tr',
+            { 'data-checked-rule': c.rule, 'data-status': c.status, 'data-set-up': setUpText(c), 'data-level': c.level || '' },
+            h('td', {}, `${Number.isInteger(c.rule) ? `${c.rule + 1}. ` : ''}${c.kind} ${c.metric}`),
+            h('td', { 'data-key': 'set_up' }, setUpText(c) || '—'),
+            h('td', { class: 'num', 'data-key': 'value' }, num(c.value) !== null ? `${fmt(c.value)} ${unit}` : '—'),
+            h('td', { 'data-key': 'status' }, statusText(c)),
+            h('td', { 'data-key': 'measurement' }, evidenceLink(c, 'checked'), c.measured_at ? ` measured ${formatTimestamp(c.measured_at)}` : ''),
+          );
+        }),
+      ),
+    ),
+  );
+}
+
+// The set-ups whose newest test is older than the audit's max_age_days, with its date.
+function staleList(verdict, audit) {
+  const stale = (verdict && verdict.stale) || [];
+  if (!stale.length) return '';
+  const days = audit && Number.isInteger(audit.max_age_days) ? audit.max_age_days : DEFAULT_MAX_AGE_DAYS;
+  const warns = audit && audit.stale === 'warn';
+  return h(
+    'div',
+    { class: 'audit-stale', 'data-testid': 'audit-stale' },
+    h('h3', {}, 'Stale set-ups'),
+    h('p', { class: 'note' }, `Their newest test is older than ${days} days: measure them again. ${warns ? 'The audit counts each as a level-2 finding.' : 'The audit lists them without a finding.'}`),
+    h(
+      'ul',
+      { class: 'findings' },
+      ...stale.map((x) =>
+        h(
+          'li',
+          { 'data-testid': 'audit-stale-item', 'data-set-up': setUpText(x), 'data-measurement-id': x.measurement_id ?? '' },
+          `${x.kind ? `${x.kind} ` : ''}${setUpText(x) || 'set-up'}: newest test `,
+          evidenceLink(x, 'stale'),
+          x.measured_at ? ` measured ${formatTimestamp(x.measured_at)}` : '',
+        ),
+      ),
+    ),
   );
 }
 
@@ -142,7 +237,7 @@ function historyTable(verdicts) {
             h('td', {}, formatTimestamp(v.created_at)),
             h('td', {}, v.trigger === 'schedule' ? 'scheduled' : 'on request'),
             h('td', {}, h('span', { class: `level-badge level-${v.level}` }, auditWords(v.level))),
-            h('td', {}, (v.findings || []).map((f) => `${f.kind} ${f.metric} ${fmt(f.value)} (${auditWords(f.level)})`).join('; ') || 'none'),
+            h('td', {}, (v.findings || []).map((f) => `${f.kind} ${f.metric}${setUpText(f) ? ` ${setUpText(f)}` : ''} ${fmt(f.value)} (${auditWords(f.level)})`).join('; ') || 'none'),
           ),
         ),
       ),
@@ -152,7 +247,27 @@ function historyTable(verdicts) {
 
 // For each DBB rule judged on a test with an opposite-direction partner measured within an hour,
 // one sentence: which test the rule judged, its value and the partner's, and why that one.
+// A verdict that judges every set-up (its checked entries name them) judged both tests: the note
+// says so, the worse first.
+function setUpPairNotes(verdict, metrics) {
+  const notes = new Map();
+  const checked = ((verdict && verdict.checked) || []).filter((c) => c.kind === 'dbb' && !c.change && num(c.value) !== null && c.measurement_id !== undefined && c.direction);
+  for (const c of checked) {
+    if (notes.has(c.rule)) continue;
+    const partner = checked.find((p) => p.rule === c.rule && p.test_id === c.test_id && p.direction !== c.direction);
+    if (!partner) continue;
+    const [a, b] = worstOf([c, partner]) === c ? [c, partner] : [partner, c];
+    const unit = unitOfMetric(metrics, 'dbb', c.metric);
+    notes.set(
+      c.rule,
+      `Judged: the ${formatDirection(a.direction)} test #${a.measurement_id} (${fmt(a.value)} ${unit}) and its ${formatDirection(b.direction)} partner #${b.measurement_id} (${fmt(b.value)} ${unit}), each the newest test of its set-up (${setUpText(a)}; ${setUpText(b)}); the rule's status is the worse of the two.`,
+    );
+  }
+  return notes;
+}
+
 async function pairNotesOf(machineId, verdict, metrics) {
+  if (((verdict && verdict.checked) || []).some((c) => c.set_up !== undefined)) return setUpPairNotes(verdict, metrics);
   const notes = new Map();
   const checked = ((verdict && verdict.checked) || []).filter((c) => c.kind === 'dbb' && !c.change && num(c.value) !== null && c.measurement_id !== undefined && c.metric !== 'circular_hysteresis_um');
   for (const c of checked.slice(0, 4)) {
@@ -192,6 +307,7 @@ export async function showAudit(machineId) {
   view.dataset.machineId = machineId;
   $('#audit-heading').textContent = `Accuracy audit — ${machineId}`;
   $('#machine-audit-summary').replaceChildren(); // the view shows it in full
+  $('#audit-report-pdf').hidden = true; // offered once the machine's audit is known to exist
   const body = $('#audit-body');
   body.setAttribute('aria-busy', 'true');
   try {
@@ -200,6 +316,7 @@ export async function showAudit(machineId) {
     if (seq !== viewSeq) return;
     view.dataset.auditLevel = data.latest ? String(data.latest.level) : 'none';
     $('#audit-run').hidden = !data.audit;
+    $('#audit-report-pdf').hidden = !data.audit; // no audit: its report is a 404
     body.replaceChildren(
       h(
         'p',
@@ -207,6 +324,7 @@ export async function showAudit(machineId) {
         levelBadge(data.latest),
         data.latest ? ` — audit #${data.latest.id} of ${formatTimestamp(data.latest.created_at)} (${data.latest.trigger === 'schedule' ? 'scheduled' : 'on request'})` : '',
         data.audit ? ` · schedule: ${data.audit.schedule || 'on request only'}` : '',
+        data.audit ? ` · stale after ${Number.isInteger(data.audit.max_age_days) ? data.audit.max_age_days : DEFAULT_MAX_AGE_DAYS} days${data.audit.stale === 'warn' ? ' (level 2)' : ''}` : '',
         data.audit && data.audit.next_run_at ? `, next ${formatTimestamp(data.audit.next_run_at)}` : '',
         ' · ',
         h('a', { href: trendsHash(machineId), 'data-testid': 'audit-trends-link' }, 'trends'),
@@ -215,6 +333,9 @@ export async function showAudit(machineId) {
       rulesTable(data.audit, data.latest, data.metrics, pairNotes),
       h('h3', {}, 'Findings of the newest audit'),
       findingsList(data.latest),
+      staleList(data.latest, data.audit),
+      data.latest && (data.latest.checked || []).some((c) => c.set_up !== undefined) ? h('h3', {}, 'Set-ups judged by the newest audit') : '',
+      data.latest && (data.latest.checked || []).some((c) => c.set_up !== undefined) ? checkedTable(data.latest, data.audit, data.metrics) : '',
       h('h3', {}, 'History'),
       historyTable(data.verdicts),
     );

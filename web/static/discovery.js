@@ -35,6 +35,8 @@ const state = {
   jobs: [], // discovery jobs of the selected machine (list, without results)
   jobsMachine: null, // the machine state.jobs belongs to
   jobsSeq: 0,
+  planes: new Map(), // measurement id → the plane of its DBB test (XY, YZ, ZX; '' unknown)
+  modelKinds: new Map(), // machine id → the kind of its stored model (hexapod, serial, …)
 };
 
 // ---------------------------------------------------------------- routing
@@ -201,23 +203,57 @@ function dbbOfMachine() {
     .sort((a, b) => a.id - b.id);
 }
 
+// The plane of each DBB test (its results say it; a measurement never changes, so once read it is
+// kept) and the kind of the machine's own stored model: what the default choice and the check
+// before submitting need. Resolves when both are known.
+async function readPlanes(machineId, tests) {
+  const missing = tests.filter((m) => !state.planes.has(m.id));
+  const one = (m) =>
+    api.results(m.id).then(
+      (r) => state.planes.set(m.id, String((r && r.plane) || 'XY').toUpperCase()),
+      (err) => (err instanceof ApiError && (err.status === 401 || err.status === 403) ? Promise.reject(err) : state.planes.set(m.id, '')),
+    );
+  for (let i = 0; i < missing.length; i += 6) await Promise.all(missing.slice(i, i + 6).map(one));
+  const own = ctx.getMachines().find((m) => m.machine_id === machineId);
+  if (own && (own.model_versions || 0) > 0) await modelKind(machineId);
+}
+
+async function modelKind(machineId) {
+  if (!state.modelKinds.has(machineId)) {
+    const def = await api.machineDefinition(machineId).catch(() => null);
+    state.modelKinds.set(machineId, (def && def.kind) || '');
+  }
+  return state.modelKinds.get(machineId);
+}
+
+// A serial study (no model, or a model that is not a hexapod) fits the tests of one plane.
+const isSerial = (kind) => kind !== 'hexapod';
+const planeOf = (m) => state.planes.get(m.id) || '';
+
 // The ticked tests of a machine; by default the newest test of each set-up (test and
 // direction): every set-up counts (the study scores candidates on held-out tests, so more
 // set-ups make it stronger), while older repeats — a machine measured before a repair — would mix
-// two states of the machine into one model. Remembered once the machine's tests are in.
+// two states of the machine into one model. A serial study fits one plane: then only the set-ups
+// of the plane of the machine's newest test. Remembered once the machine's tests are in.
 function checkedSet(machineId) {
   const known = state.checked.get(machineId);
   if (known) return known;
-  const dbb = dbbOfMachine();
+  let dbb = dbbOfMachine();
   const newest = new Map();
   const when = (m) => m.timestamp || m.uploaded_at || '';
+  const own = ctx.getMachines().find((m) => m.machine_id === machineId);
+  const ownKind = own && (own.model_versions || 0) > 0 ? state.modelKinds.get(machineId) : '';
+  if (dbb.length && isSerial(ownKind)) {
+    const last = dbb.reduce((a, b) => (when(b) > when(a) || (when(b) === when(a) && b.id > a.id) ? b : a));
+    dbb = dbb.filter((m) => planeOf(m) === planeOf(last));
+  }
   for (const m of dbb) {
     const key = `${m.test_id}\u0000${m.direction}`;
     const cur = newest.get(key);
     if (!cur || when(m) > when(cur) || (when(m) === when(cur) && m.id > cur.id)) newest.set(key, m);
   }
   const set = new Set([...newest.values()].map((m) => m.id));
-  if (dbb.length) state.checked.set(machineId, set);
+  if (dbbOfMachine().length) state.checked.set(machineId, set);
   return set;
 }
 
@@ -236,10 +272,28 @@ function renderForm() {
     'then adds one effect at a time — the one that best predicts held-out tests — until the gap is at the noise floor ' +
     'or no candidate qualifies ([PM-600 report] ch. 4–5). It runs on the server.';
   const dbb = dbbOfMachine();
+  if (state.formMachine !== machineId) {
+    state.formMachine = machineId;
+    setMessage($('#disc-form-status'), null);
+    loadModels();
+  }
+  const box = $('#disc-measurements');
+  if (dbb.some((m) => !state.planes.has(m.id)) || (!state.checked.has(machineId) && !planesReady(machineId))) {
+    box.dataset.planes = 'loading';
+    box.replaceChildren(h('p', { class: 'placeholder' }, 'Reading the planes of the tests…'));
+    $('#disc-count').textContent = '';
+    readPlanes(machineId, dbb).then(
+      () => {
+        if (parseRoute().view === 'discovery-new' && ctx.getMachineId() === machineId) renderForm();
+      },
+      (err) => ctx.handleAuth(err),
+    );
+    return;
+  }
+  box.dataset.planes = 'ready';
   const known = new Set(dbb.map((m) => m.id));
   const checked = checkedSet(machineId);
   for (const id of [...checked]) if (!known.has(id)) checked.delete(id);
-  const box = $('#disc-measurements');
   box.replaceChildren(
     ...(dbb.length
       ? dbb.map((m) => {
@@ -253,6 +307,7 @@ function renderForm() {
               value: m.id,
               'data-testid': 'disc-choice',
               'data-id': m.id,
+              'data-plane': planeOf(m),
               checked: checked.has(m.id),
               onchange: (e) => {
                 if (e.target.checked) checked.add(m.id);
@@ -262,17 +317,20 @@ function renderForm() {
             }),
             h('span', {}, `${m.test_id || m.filename || `#${m.id}`}`),
             m.direction ? h('span', { class: `badge dir-${m.direction}` }, formatDirection(m.direction)) : '',
-            h('span', { class: 'item-meta' }, `#${m.id}`, m.timestamp || m.uploaded_at ? ` · ${formatTimestamp(m.timestamp || m.uploaded_at)}` : '', m.filename ? ` · ${m.filename}` : ''),
+            planeOf(m) ? h('span', { class: 'badge plane', 'data-testid': 'disc-plane', title: 'plane of the circle' }, planeOf(m)) : '',
+            // The note above the list says the times are UTC.
+            h('span', { class: 'item-meta' }, `#${m.id}`, m.timestamp || m.uploaded_at ? ` · ${formatTimestamp(m.timestamp || m.uploaded_at, { zone: false })}` : '', m.filename ? ` · ${m.filename}` : ''),
           );
         })
       : [h('p', { class: 'placeholder' }, 'This machine has no DBB tests.')]),
   );
   updateCount();
-  if (state.formMachine !== machineId) {
-    state.formMachine = machineId;
-    setMessage($('#disc-form-status'), null);
-    loadModels();
-  }
+}
+
+// The kind of the machine's own model is known (or it has none).
+function planesReady(machineId) {
+  const own = ctx.getMachines().find((m) => m.machine_id === machineId);
+  return !(own && (own.model_versions || 0) > 0) || state.modelKinds.has(machineId);
 }
 
 function updateCount() {
@@ -367,6 +425,18 @@ async function onStoreModel() {
   }
 }
 
+// The chosen tests grouped by plane, in words, when they are in more than one plane; else null.
+function planesOfChoice(ids) {
+  const byPlane = new Map();
+  for (const id of ids) {
+    const p = state.planes.get(id) || 'unknown plane';
+    byPlane.set(p, [...(byPlane.get(p) || []), id]);
+  }
+  if (byPlane.size < 2) return null;
+  const groups = [...byPlane].map(([p, list]) => `${p} (${list.map((i) => `#${i}`).join(', ')})`);
+  return `A study without a hexapod model fits the tests of one plane; the chosen tests are in ${groups.join(' and ')}. Untick the tests of all planes but one.`;
+}
+
 async function onSubmit(event) {
   event.preventDefault();
   const machineId = ctx.getMachineId();
@@ -381,6 +451,11 @@ async function onSubmit(event) {
   }
   const body = { measurement_ids: ids };
   const model = $('#disc-model').value;
+  const mixed = isSerial(model ? await modelKind(model) : '') ? planesOfChoice(ids) : null;
+  if (mixed) {
+    setMessage(status, 'error', h('strong', { class: 'problem-title', 'data-testid': 'disc-planes-refused' }, 'Tests in more than one plane'), h('span', { class: 'problem-detail' }, mixed), h('span', { class: 'problem-where' }, 'field “plane”'));
+    return;
+  }
   if (model) {
     body.machine_id = model;
     const version = $('#disc-version').value;

@@ -536,7 +536,7 @@ function actionsBox(job, r) {
     result.jsonUrl = URL.createObjectURL(new Blob([`${JSON.stringify(r, null, 2)}\n`], { type: 'application/json' }));
     box.append(h('a', { class: 'button-link secondary-link', href: result.jsonUrl, download: `kinemetric-discovery-job-${job.id}.json`, 'data-testid': 'disc-download' }, 'Download result (JSON)'));
   }
-  box.append(h('a', { class: 'button-link secondary-link', href: newFormHash(ctx.getMachineId()) }, 'New discovery'));
+  box.append(h('a', { class: 'button-link secondary-link', href: newFormHash(ctx.getMachineId()), 'data-testid': 'disc-new-again', 'data-min-role': 'engineer' }, 'New discovery'));
   return h('div', {}, box, status);
 }
 

@@ -3,6 +3,7 @@
 // focus kept over a rebuild, downloads of text made in the page.
 
 import { ApiError } from './api.js';
+import { parseDecimal } from './format.js';
 
 // h('td', {class: 'num', 'data-key': k, onclick: fn}, child, …): attributes with false / null /
 // undefined values are left out, `true` gives an empty attribute, children may be nested arrays.
@@ -42,9 +43,13 @@ export function problemContent(err) {
   return parts;
 }
 
-// An API error (or any other) as {title, detail, …} for problemContent.
+// An API error (or any other) as {title, detail, …} for problemContent: an ApiError or a problem
+// the page made ({title, detail, field}) as it is, an Error by its message, a string as it is.
 export function asProblem(err, title = 'Error') {
-  return err instanceof ApiError ? err : { title, detail: String((err && err.message) || err) };
+  if (err instanceof ApiError) return err;
+  if (err && typeof err === 'object' && !(err instanceof Error) && (err.title || err.detail)) return { title, ...err };
+  const detail = err && typeof err.message === 'string' ? err.message : typeof err === 'string' ? err : '';
+  return { title, detail: detail || 'something went wrong (no message)' };
 }
 
 export function errorBox(err) {
@@ -119,4 +124,24 @@ export function csvCell(v) {
 // CSV of rows (arrays of values): cells by csvCell, "\r\n" line ends (RFC 4180).
 export function toCsv(rows) {
   return `${rows.map((r) => r.map(csvCell).join(',')).join('\r\n')}\r\n`;
+}
+
+// A numeric form field read by parseDecimal (format.js), the one reader of typed numbers: "5,5" is
+// 5.5, "1.234,5" or "abc" are refused. `name` is how messages call the field ("the warn limit");
+// min / max bound it, integer asks for a whole number, optional lets it be empty ({empty: true}).
+// → {value} | {empty: true} | {error: "sentence beginning with name"}; a refused field is marked
+// aria-invalid.
+export function readNumberField(input, name, { min, max, integer = false, optional = false } = {}) {
+  input.removeAttribute('aria-invalid');
+  const r = parseDecimal(input.value);
+  let error = r.error ? `${name}: ${r.error}.` : null;
+  if (r.empty) error = optional ? null : `${name}: give a number.`;
+  else if (!error && integer && !Number.isInteger(r.value)) error = `${name} must be a whole number (not ${input.value.trim()}).`;
+  else if (!error && min !== undefined && r.value < min) error = `${name} must be at least ${min} (not ${input.value.trim()}).`;
+  else if (!error && max !== undefined && r.value > max) error = `${name} must be at most ${max} (not ${input.value.trim()}).`;
+  if (error) {
+    input.setAttribute('aria-invalid', 'true');
+    return { error };
+  }
+  return r;
 }

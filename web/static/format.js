@@ -175,13 +175,31 @@ export function formatMode(m) {
   return MODE_LABELS[m] || (m ? String(m) : '—');
 }
 
-export function formatTimestamp(ts) {
-  if (!ts) return '';
-  const d = new Date(ts);
+// Every time the page shows, in UTC and saying so, as the PDF reports print them:
+// "2026-12-06 08:18 UTC". {seconds: true} adds the seconds ("08:18:05 UTC"); {zone: false} leaves
+// the zone out where a heading of the list already says "UTC".
+export function formatTimestamp(ts, { seconds = false, zone = true } = {}) {
+  if (ts === undefined || ts === null || ts === '') return '';
+  const d = ts instanceof Date ? ts : new Date(ts);
   if (Number.isNaN(d.getTime())) return String(ts);
-  // ISO-like, local time, minutes resolution: readable and unambiguous on the shop floor.
-  const pad = (n) => String(n).padStart(2, '0');
-  return `${d.getFullYear()}-${pad(d.getMonth() + 1)}-${pad(d.getDate())} ${pad(d.getHours())}:${pad(d.getMinutes())}`;
+  const iso = d.toISOString(); // always UTC: 2026-12-06T08:18:05.000Z
+  const time = `${iso.slice(0, 10)} ${iso.slice(11, seconds ? 19 : 16)}`;
+  return zone ? `${time} UTC` : time;
+}
+
+// A number typed in a form field, read one way everywhere on the page: "5.5", " 5.5 ", "5,5" (a
+// decimal comma), "-1,25e-3", ".5". Anything else is refused, never guessed: thousands separators
+// ("1.234,5", "1 000", "12,500": a comma before exactly three digits may be either), two
+// separators ("5,5,5"), letters, "Infinity". → {value} | {empty: true} | {error: "reason"}.
+const TYPED_NUMBER = /^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$/;
+export function parseDecimal(text) {
+  const s = String(text ?? '').trim();
+  if (s === '') return { empty: true };
+  if (!TYPED_NUMBER.test(s)) return { error: `“${s}” is not a number (write it as 5.5 or 5,5, without thousands separators)` };
+  if (/^[+-]?[1-9]\d{0,2},\d{3}(?![\deE])/.test(s)) return { error: `“${s}” is ambiguous: a comma before three digits may separate thousands (write ${s.replace(',', '')} or ${s.replace(',', '.')})` };
+  const value = Number(s.replace(',', '.'));
+  if (!Number.isFinite(value)) return { error: `“${s}” is not a finite number` };
+  return { value };
 }
 
 // "Nice" step ≥ x from the 1-2-5 series (used for the µm/div scale of the polar plot).

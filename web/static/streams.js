@@ -7,7 +7,8 @@ import { apiFetch } from './api.js';
 import { shell } from './shell.js';
 import { mayDo } from './roles.js';
 import { axesGrid, el, r2, ticks } from './charts.js';
-import { $, asProblem, h, problemContent, setMessage } from './dom.js';
+import { $, asProblem, h, problemContent, readNumberField, setMessage } from './dom.js';
+import { formatTimestamp } from './format.js';
 
 const state = { streams: [], selected: null, stream: null, channel: null, timer: null, busy: false };
 
@@ -17,7 +18,7 @@ function fmtInt(n) {
 
 function fmtTime(us) {
   if (!us) return '—';
-  return new Date(us / 1000).toISOString().replace('T', ' ').replace(/\.\d+Z$/, ' UTC');
+  return formatTimestamp(new Date(us / 1000), { seconds: true });
 }
 
 function fmtAge(us) {
@@ -298,7 +299,7 @@ export async function refreshStreams() {
     state.streams = streams.items;
     renderStreamList();
     if (state.selected !== null) await refreshSelected();
-    $('#streams-updated').textContent = `updated ${new Date().toLocaleTimeString('en-GB')}`;
+    $('#streams-updated').textContent = `updated ${formatTimestamp(new Date(), { seconds: true })}`;
   } catch (err) {
     showError($('#streams-list'), err);
   } finally {
@@ -337,12 +338,30 @@ async function onMakeProfile(event) {
   const s = state.stream;
   if (!s || state.channel === null) return;
   const ch = s.channels.find((c) => c.channel === state.channel);
-  const from = Number($('#profile-from').value);
-  const to = Number($('#profile-to').value);
-  if (!ch || !Number.isFinite(from) || !Number.isFinite(to) || !(to > from)) {
+  if (!ch) return;
+  const pos = $('#profile-position').value;
+  // Each number as the page reads every typed number ("0,39" is 0.39); a refusal names its field.
+  const fields = [
+    ['from', '#profile-from', '“From (s)”', { min: 0 }],
+    ['to', '#profile-to', '“To (s)”', { min: 0 }],
+    ...(pos === 'feed' ? [['feed', '#profile-feed', '“Feed (mm/min)”', {}], ['start', '#profile-start', '“Start (mm)”', { optional: true }]] : []),
+  ];
+  const v = {};
+  for (const [key, sel, name, opts] of fields) {
+    const r = readNumberField($(sel), name, opts);
+    if (r.error) {
+      $(sel).focus();
+      setMessage(msg, 'error', ...problemContent({ title: 'No profile', detail: `${r.error}.`, field: name.slice(1, -1) }));
+      return;
+    }
+    v[key] = r.empty ? 0 : r.value;
+  }
+  if (!(v.to > v.from)) {
+    $('#profile-to').setAttribute('aria-invalid', 'true');
     setMessage(msg, 'error', h('strong', { class: 'problem-title' }, 'No span'), h('span', { class: 'problem-detail' }, 'Give “from” and “to” in seconds after the first sample, “to” after “from”.'));
     return;
   }
+  const { from, to } = v;
   const body = {
     channel: state.channel,
     from_us: Math.round(ch.first_t_us + from * 1e6),
@@ -350,8 +369,7 @@ async function onMakeProfile(event) {
     axis: $('#profile-axis').value,
     error_direction: $('#profile-direction').value,
   };
-  const pos = $('#profile-position').value;
-  body.position = pos === 'feed' ? { feed_mm_min: Number($('#profile-feed').value), start_mm: Number($('#profile-start').value) || 0 } : { encoder_channel: Number(pos) };
+  body.position = pos === 'feed' ? { feed_mm_min: v.feed, start_mm: v.start } : { encoder_channel: Number(pos) };
   setMessage(msg, 'info', 'Making the profile…');
   try {
     const out = await apiFetch(`/api/v1/streams/${s.id}/profile`, { method: 'POST', body: JSON.stringify(body), headers: { 'Content-Type': 'application/json' } });
