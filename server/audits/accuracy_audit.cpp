@@ -189,6 +189,10 @@ constexpr const char* kDiagnosisPrefix = "diagnosis.";
 
 }  // namespace
 
+bool MachineWideKind(const std::string& kind) {
+  return kind == "servo" || kind == "calibration";
+}
+
 const std::vector<AuditMetric>& AuditMetrics() {
   static const std::vector<AuditMetric> metrics = [] {
     std::vector<AuditMetric> out;
@@ -305,11 +309,14 @@ void ParseChange(const json& r, std::size_t i, AuditRule& rule) {
 
 AuditRule ParseRule(const json& r, std::size_t i) {
   if (!r.is_object()) throw RuleError(i, "", "must be an object");
-  static const char* const kKeys[] = {"kind", "metric", "warn", "stop", "change", "days"};
+  static const char* const kKeys[] = {"kind", "metric",  "warn", "stop",     "change",
+                                      "days", "test_id", "axis", "direction"};
   for (const auto& item : r.items()) {
     const std::string key = item.key();
     if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* k) { return key == k; })) {
-      throw RuleError(i, key, "is not a rule key (kind, metric, warn, stop, change, days)");
+      throw RuleError(
+          i, key,
+          "is not a rule key (kind, metric, warn, stop, change, days, test_id, direction, axis)");
     }
   }
   AuditRule rule;
@@ -325,6 +332,12 @@ AuditRule ParseRule(const json& r, std::size_t i) {
                     "'" + rule.metric + "' is not a metric of kind '" + rule.kind +
                         "' (GET /api/v1/audit-metrics)");
   }
+  rule.scope = ParseSetUpScope(r, rule.kind, "rules[" + std::to_string(i) + "]");
+  if (MachineWideKind(rule.kind) &&
+      (rule.scope.test_id || rule.scope.direction || rule.scope.axis)) {
+    throw RuleError(i, "test_id",
+                    "kind '" + rule.kind + "' is judged for the whole machine: it takes no scope");
+  }
   rule.warn = Limit(r, i, "warn");
   rule.stop = Limit(r, i, "stop");
   if (!rule.warn && !rule.stop) throw RuleError(i, "warn", "a rule needs warn, stop or both");
@@ -333,76 +346,6 @@ AuditRule ParseRule(const json& r, std::size_t i) {
   }
   ParseChange(r, i, rule);
   return rule;
-}
-
-std::string Format(double v) {
-  std::ostringstream o;
-  o.precision(6);
-  o << v;
-  return o.str();
-}
-
-// The evidence's id: the job of a calibration, else the measurement.
-json Evidence(const AuditValue& v, const char* prefix) {
-  const std::string p(prefix);
-  json j = {{p + "value", v.value}, {p + "measured_at", v.measured_at}};
-  if (v.job_id != 0) {
-    j[p + "job_id"] = v.job_id;
-  } else {
-    j[p + "measurement_id"] = v.measurement_id;
-  }
-  return j;
-}
-
-std::string EvidenceName(const AuditValue& v) {
-  return v.job_id != 0 ? "calibration job " + std::to_string(v.job_id)
-                       : "measurement " + std::to_string(v.measurement_id);
-}
-
-// The compared value of a rule (the newest value, or its increase) into `checked` and, when
-// it exceeds a limit, a finding; returns the level.
-int Judge(const AuditRule& rule, std::size_t i, const AuditEvidence& ev, json& checked,
-          json& findings) {
-  const bool trend = rule.change != AuditRule::Change::kNone;
-  const double value = trend ? ev.newest->value - ev.reference->value : ev.newest->value;
-  int level = 1;
-  std::optional<double> limit;
-  if (rule.stop && value > *rule.stop) {
-    level = 3;
-    limit = rule.stop;
-  } else if (rule.warn && value > *rule.warn) {
-    level = 2;
-    limit = rule.warn;
-  }
-  checked["status"] = level > 1 ? "finding" : "ok";
-  checked["level"] = level;
-  checked["value"] = value;
-  checked.update(Evidence(*ev.newest, ""));
-  checked["value"] = value;
-  if (trend) {
-    checked["newest_value"] = ev.newest->value;
-    checked.update(Evidence(*ev.reference, "reference_"));
-  }
-  if (level == 1) return 1;
-  json f = {{"rule", i},
-            {"kind", rule.kind},
-            {"metric", rule.metric},
-            {"level", level},
-            {"limit", *limit}};
-  f.update(Evidence(*ev.newest, ""));
-  f["value"] = value;
-  const std::string what = trend ? rule.kind + " " + rule.metric + " rose by " + Format(value) +
-                                       " (from " + Format(ev.reference->value) + " to " +
-                                       Format(ev.newest->value) + ")"
-                                 : rule.kind + " " + rule.metric + " " + Format(value);
-  f["message"] = what + ", above the " + (level == 3 ? "stop" : "warn") + " limit " +
-                 Format(*limit) + " (" + EvidenceName(*ev.newest) + ")";
-  if (trend) {
-    f["newest_value"] = ev.newest->value;
-    f.update(Evidence(*ev.reference, "reference_"));
-  }
-  findings.push_back(std::move(f));
-  return level;
 }
 
 }  // namespace
@@ -421,6 +364,7 @@ std::vector<AuditRule> ParseAuditRules(const json& rules) {
 
 json AuditRuleJson(const AuditRule& rule) {
   json j = {{"kind", rule.kind}, {"metric", rule.metric}};
+  AddScopeJson(rule.scope, j);
   j["warn"] = rule.warn ? json(*rule.warn) : json(nullptr);
   j["stop"] = rule.stop ? json(*rule.stop) : json(nullptr);
   if (rule.change == AuditRule::Change::kPreviousAudit) j["change"] = "previous_audit";
@@ -429,34 +373,6 @@ json AuditRuleJson(const AuditRule& rule) {
     j["days"] = rule.days;
   }
   return j;
-}
-
-json EvaluateAudit(const std::vector<AuditRule>& rules,
-                   const std::vector<AuditEvidence>& evidence) {
-  json findings = json::array();
-  json checked = json::array();
-  int level = 1;
-  for (std::size_t i = 0; i < rules.size(); ++i) {
-    const AuditRule& rule = rules[i];
-    json c = AuditRuleJson(rule);
-    c["rule"] = i;
-    const AuditEvidence none;
-    const AuditEvidence& ev = i < evidence.size() ? evidence[i] : none;
-    const bool trend = rule.change != AuditRule::Change::kNone;
-    std::string missing = ev.missing;
-    if (missing.empty() && !ev.newest) missing = "no result of this metric yet";
-    if (missing.empty() && trend && !ev.reference) missing = "no reference value to compare with";
-    if (!missing.empty()) {
-      c["status"] = "not evaluated";
-      c["reason"] = missing;
-      if (ev.newest) c.update(Evidence(*ev.newest, ""));
-      checked.push_back(std::move(c));
-      continue;
-    }
-    level = std::max(level, Judge(rule, i, ev, c, findings));
-    checked.push_back(std::move(c));
-  }
-  return {{"level", level}, {"findings", findings}, {"checked", checked}};
 }
 
 }  // namespace km::server

@@ -16,6 +16,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "server/audits/set_up.h"
+
 namespace km::server {
 
 // One metric: where it is read and what it means. Every metric is "bigger is worse" (a
@@ -49,11 +51,18 @@ std::optional<AuditMetric> FindAuditMetric(const std::string& kind, const std::s
 // The metric's value in a result of its analysis; nullopt when the result does not hold it.
 std::optional<double> ExtractAuditMetric(const AuditMetric& metric, const nlohmann::json& result);
 
+// Kinds judged machine-wide (one set-up: the machine): the joint-health estimates kept with servo
+// records and the hexapod calibrations. Every other kind is judged per set-up.
+bool MachineWideKind(const std::string& kind);
+
 // A rule: a finding of level 2 when the compared value exceeds warn, 3 when it exceeds stop.
-// Absolute rules compare the newest value; trend rules compare its increase over the value at
-// the previous audit (kPreviousAudit) or over the newest result at or before now − days (kDays).
+// It applies to every set-up of its kind within its scope (server/audits/set_up.h). Absolute
+// rules compare the newest value of each set-up; trend rules compare its increase over the value
+// at the previous audit (kPreviousAudit) or over the set-up's newest result at or before
+// now − days (kDays).
 struct AuditRule {
   std::string kind, metric;
+  SetUpScope scope;
   std::optional<double> warn, stop;
   enum class Change { kNone, kPreviousAudit, kDays } change = Change::kNone;
   std::int64_t days = 0;
@@ -64,28 +73,5 @@ inline constexpr std::size_t kMaxAuditRules = 200;
 // The rules of a request body's "rules" array; km::InvalidInput naming "rules[i].field".
 std::vector<AuditRule> ParseAuditRules(const nlohmann::json& rules);
 nlohmann::json AuditRuleJson(const AuditRule& rule);
-
-// A value found for a rule, with its evidence: a measurement, or (kind "calibration") a job.
-struct AuditValue {
-  double value = 0.0;
-  std::int64_t measurement_id = 0;  // 0 when the evidence is a job
-  std::string measured_at;          // measurement time, else upload time; a job's finish time
-  std::int64_t job_id = 0;          // the calibration job; 0 for a measurement
-};
-
-// What was found for one rule: the newest value and, for a trend rule, the reference value.
-// `missing` says why a rule cannot be evaluated (empty: it can).
-struct AuditEvidence {
-  std::optional<AuditValue> newest, reference;
-  std::string missing;
-};
-
-// The verdict over rules and their evidence (same order): {"level", "findings": [{"rule",
-// "kind", "metric", "level", "value", "limit", "measurement_id" (or "job_id" when the evidence is
-// a job), "measured_at", "message", …}], "checked": [{"rule", "kind", "metric", "status": "ok" |
-// "finding" | "not evaluated", …}]}.
-// Level = the worst finding, 1 without any.
-nlohmann::json EvaluateAudit(const std::vector<AuditRule>& rules,
-                             const std::vector<AuditEvidence>& evidence);
 
 }  // namespace km::server

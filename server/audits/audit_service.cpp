@@ -13,6 +13,7 @@
 #include "ingest/identifiers.h"
 #include "ingest/json_text.h"
 #include "server/audits/accuracy_audit.h"
+#include "server/audits/audit_gather.h"
 #include "server/audits/audit_schedule.h"
 #include "server/jobs/jobs.h"
 #include "server/measurements/analyses.h"
@@ -22,177 +23,53 @@ namespace {
 
 using nlohmann::json;
 
-// How many of a machine's newest measurements of a kind an audit looks through, and how many
-// CW/CCW pair analyses it computes for one rule at most.
-constexpr std::int64_t kHistory = 500;
-constexpr int kMaxPairAnalyses = 4;
-// A stored measurement with the results an audit reads (read when first needed), or a
-// calibration job (kind "calibration").
-struct Stored {
-  MeasurementRecord record;
-  bool loaded = false;
-  json result;  // the measurement's own newest result (null when none)
-  json joints;  // the newest joint-health estimate kept with it (null when none)
-  std::int64_t at = 0;
-  std::string time;                           // measurement (else upload) time; finish time
-  std::optional<CalibrationRun> calibration;  // set for a calibration job
+// The audit's document as stored: {"rules": [...], "max_age_days", "stale"}; an audit stored
+// before set-ups were judged holds the array of rules alone.
+struct StoredAudit {
+  json rules = json::array();
+  AuditPolicy policy;
 };
 
-std::string TimeOf(const MeasurementRecord& r) {
-  return r.measured_at ? *r.measured_at : r.uploaded_at;
-}
-
-// The machine's newest measurements of a kind, newest first, without their results.
-std::vector<Stored> ListHistory(AuditSource& service, const std::string& machine_id,
-                                const std::string& kind) {
-  MeasurementFilter f;
-  f.machine_id = machine_id;
-  f.kind = kind;
-  f.order = MeasurementFilter::Order::kNewest;
-  f.limit = kHistory;
-  std::vector<Stored> out;
-  for (auto& rec : service.storage().ListMeasurements(f).items) {
-    Stored s;
-    s.time = TimeOf(rec);
-    s.at = UnixSecondsFromIso(s.time).value_or(0);
-    s.record = std::move(rec);
-    out.push_back(std::move(s));
+StoredAudit ReadStoredAudit(const std::string& text) {
+  const json doc = ingest::ParseJsonText(text, "stored document");
+  StoredAudit out;
+  if (doc.is_array()) {
+    out.rules = doc;
+    return out;
   }
+  out.rules = doc.value("rules", json::array());
+  out.policy.max_age_days = doc.value("max_age_days", out.policy.max_age_days);
+  out.policy.stale_warn = doc.value("stale", std::string("ignore")) == "warn";
   return out;
 }
 
-std::vector<Stored> ListCalibrationHistory(AuditSource& service, const std::string& machine_id) {
-  std::vector<Stored> out;
-  for (auto& run : MachineCalibrations(service, machine_id)) {
-    Stored s;
-    s.loaded = true;
-    s.at = run.at;
-    s.time = run.finished_at;
-    s.calibration = std::move(run);
-    out.push_back(std::move(s));
-  }
-  return out;
-}
-
-void LoadResults(AuditSource& service, Stored& s) {
-  if (s.loaded) return;
-  s.loaded = true;
-  for (const auto& r : service.storage().GetResults(s.record.id)) {
-    json& slot = r.analysis == kJointsAnalysis ? s.joints : s.result;
-    slot = ingest::ParseJsonTextOrDiscarded(r.result_json);
-    if (slot.is_discarded()) slot = nullptr;
-  }
-}
-
-std::optional<double> ValueOf(AuditSource& service, const AuditMetric& m, Stored& s,
-                              int& pair_budget) {
-  if (s.calibration) return CalibrationMetricValue(m, *s.calibration);
-  if (m.analysis == "dbb-pair") {
-    if (pair_budget <= 0) return std::nullopt;
-    --pair_budget;
-    try {
-      return ExtractAuditMetric(m, service.DbbPairJson(s.record.id));
-    } catch (const Error&) {  // a test the pair analysis cannot take is passed over
-      return std::nullopt;
+AuditPolicy ParsePolicy(const json& body) {
+  AuditPolicy p;
+  if (body.contains("max_age_days") && !body["max_age_days"].is_null()) {
+    const json& v = body["max_age_days"];
+    if (!v.is_number_integer() || v.get<std::int64_t>() < 1 || v.get<std::int64_t>() > 3660) {
+      throw InvalidInput("", 0, "max_age_days", "must be a whole number of days from 1 to 3660");
     }
+    p.max_age_days = v.get<std::int64_t>();
   }
-  LoadResults(service, s);
-  const json& r = m.analysis == kJointsAnalysis ? s.joints : s.result;
-  return r.is_null() ? std::nullopt : ExtractAuditMetric(m, r);
-}
-
-AuditValue Found(double v, const Stored& s) {
-  if (s.calibration) return {v, 0, s.time, s.calibration->job_id};
-  return {v, s.record.id, s.time};
-}
-
-// The value of the rule's metric at the previous audit (from that verdict's checked list), with
-// the measurement or (kind "calibration") the job it was read from.
-std::optional<AuditValue> AtPreviousAudit(const json& previous, const AuditRule& rule) {
-  if (!previous.is_object()) return std::nullopt;
-  for (const auto& c : previous.value("checked", json::array())) {
-    if (c.value("kind", "") != rule.kind || c.value("metric", "") != rule.metric) continue;
-    const json& v = c.contains("newest_value") ? c["newest_value"] : c.value("value", json());
-    const char* id_key = c.contains("job_id") ? "job_id" : "measurement_id";
-    if (!v.is_number() || !c.contains(id_key) || !c[id_key].is_number_integer()) continue;
-    AuditValue seen{v.get<double>(), 0, c.value("measured_at", ""), 0};
-    (c.contains("job_id") ? seen.job_id : seen.measurement_id) = c[id_key].get<std::int64_t>();
-    return seen;
-  }
-  return std::nullopt;
-}
-
-bool SameTest(const MeasurementRecord& a, const MeasurementRecord& b) {
-  return a.test_id == b.test_id && a.direction == b.direction;
-}
-
-std::string TestName(const MeasurementRecord& r) {
-  std::string name = r.test_id.empty() ? "(no test_id)" : r.test_id;
-  return r.direction.empty() ? name : name + " " + r.direction;
-}
-
-// A trend's reference is a value of the same test (test_id and direction) as the newest one:
-// the value the previous audit saw, or the newest at or before now − days.
-void FindReference(AuditSource& service, const AuditMetric& metric, const AuditRule& rule,
-                   std::vector<Stored>& history, const Stored& newest, const json& previous,
-                   std::int64_t now, AuditEvidence& ev) {
-  if (rule.change == AuditRule::Change::kPreviousAudit) {
-    ev.reference = AtPreviousAudit(previous, rule);
-    if (!ev.reference) {
-      ev.missing = "no previous audit with a value of this metric";
-      return;
+  if (body.contains("stale") && !body["stale"].is_null()) {
+    const json& v = body["stale"];
+    if (!v.is_string() || (v != "warn" && v != "ignore")) {
+      throw InvalidInput("", 0, "stale", "must be \"warn\" or \"ignore\"");
     }
-    if (newest.calibration) return;  // calibrations of a machine are all compared
-    const auto seen = service.storage().GetMeasurement(ev.reference->measurement_id);
-    if (!seen || !SameTest(*seen, newest.record)) {
-      ev.missing = "the previous audit saw another test than " + TestName(newest.record) +
-                   " (measurement " + std::to_string(ev.reference->measurement_id) + ")";
-      ev.reference.reset();
-    }
-    return;
+    p.stale_warn = v == "warn";
   }
-  const std::int64_t cutoff = now - rule.days * 86400;
-  int budget = kMaxPairAnalyses;
-  for (auto& s : history) {
-    if (s.at > cutoff || !SameTest(s.record, newest.record)) continue;
-    if (const auto v = ValueOf(service, metric, s, budget)) {
-      ev.reference = Found(*v, s);
-      return;
-    }
-  }
-  ev.missing = (newest.calibration ? std::string("no calibration")
-                                   : "no result of test " + TestName(newest.record)) +
-               " at or before " + IsoFromUnixSeconds(cutoff);
-}
-
-AuditEvidence Gather(AuditSource& service, const AuditRule& rule, std::vector<Stored>& history,
-                     const json& previous, std::int64_t now) {
-  AuditEvidence ev;
-  const auto metric = FindAuditMetric(rule.kind, rule.metric);
-  if (!metric) {
-    ev.missing = "unknown metric";
-    return ev;
-  }
-  const std::string test_id = AuditMetricTestId(*metric);
-  int budget = kMaxPairAnalyses;
-  for (auto& s : history) {
-    if (!test_id.empty() && s.record.test_id != test_id) continue;
-    if (const auto v = ValueOf(service, *metric, s, budget)) {
-      ev.newest = Found(*v, s);
-      if (rule.change != AuditRule::Change::kNone) {
-        FindReference(service, *metric, rule, history, s, previous, now, ev);
-      }
-      break;
-    }
-  }
-  return ev;
+  return p;
 }
 
 json ConfigJson(const AuditConfigRecord& c) {
   const auto opt = [](const std::optional<std::string>& v) { return v ? json(*v) : json(nullptr); };
+  const StoredAudit stored = ReadStoredAudit(c.rules_json);
   return {{"machine_id", c.machine_id},
           {"schedule", opt(c.schedule)},
-          {"rules", ingest::ParseJsonText(c.rules_json, "stored document")},
+          {"rules", stored.rules},
+          {"max_age_days", stored.policy.max_age_days},
+          {"stale", stored.policy.stale_warn ? "warn" : "ignore"},
           {"updated_at", c.updated_at},
           {"last_run_at", opt(c.last_run_at)},
           {"next_run_at", opt(c.next_run_at)}};
@@ -210,13 +87,15 @@ json PutAuditConfig(AuditSource& service, const std::string& machine_id, const j
                     std::int64_t now) {
   if (!body.is_object()) throw InvalidInput("", 0, "", "the body must be a JSON object");
   for (const auto& [key, value] : body.items()) {
-    if (key != "schedule" && key != "rules") {
-      throw InvalidInput("", 0, key, "is not a key of an audit (schedule, rules)");
+    if (key != "schedule" && key != "rules" && key != "max_age_days" && key != "stale") {
+      throw InvalidInput("", 0, key,
+                         "is not a key of an audit (schedule, rules, max_age_days, stale)");
     }
   }
   ingest::CheckMachineId(machine_id, "", 0);
   if (!body.contains("rules")) throw InvalidInput("", 0, "rules", "is missing");
   const auto rules = ParseAuditRules(body["rules"]);
+  const AuditPolicy policy = ParsePolicy(body);
   AuditConfigRecord c;
   c.machine_id = machine_id;
   c.updated_at = IsoFromUnixSeconds(now);
@@ -230,7 +109,10 @@ json PutAuditConfig(AuditSource& service, const std::string& machine_id, const j
   }
   json stored = json::array();
   for (const auto& r : rules) stored.push_back(AuditRuleJson(r));
-  c.rules_json = stored.dump();
+  c.rules_json = json{{"rules", stored},
+                      {"max_age_days", policy.max_age_days},
+                      {"stale", policy.stale_warn ? "warn" : "ignore"}}
+                     .dump();
   if (const auto old = service.storage().GetAuditConfig(machine_id))
     c.last_run_at = old->last_run_at;
   service.storage().PutAuditConfig(c);
@@ -244,7 +126,8 @@ json AuditConfigJson(AuditSource& service, const std::string& machine_id) {
 json RunAccuracyAudit(AuditSource& service, const std::string& machine_id,
                       const std::string& trigger, std::int64_t now) {
   const AuditConfigRecord config = StoredConfig(service, machine_id);
-  const auto rules = ParseAuditRules(ingest::ParseJsonText(config.rules_json, "stored document"));
+  const StoredAudit stored = ReadStoredAudit(config.rules_json);
+  const auto rules = ParseAuditRules(stored.rules);
   AuditVerdictFilter last;
   last.machine_id = machine_id;
   last.limit = 1;
@@ -252,26 +135,16 @@ json RunAccuracyAudit(AuditSource& service, const std::string& machine_id,
   const json previous = previous_records.empty()
                             ? json(nullptr)
                             : ingest::ParseJsonTextOrDiscarded(previous_records[0].verdict_json);
-  std::map<std::string, std::vector<Stored>> histories;
-  std::vector<AuditEvidence> evidence;
-  for (const auto& rule : rules) {
-    auto it = histories.find(rule.kind);
-    if (it == histories.end()) {
-      it = histories
-               .emplace(rule.kind, rule.kind == "calibration"
-                                       ? ListCalibrationHistory(service, machine_id)
-                                       : ListHistory(service, machine_id, rule.kind))
-               .first;
-    }
-    evidence.push_back(Gather(service, rule, it->second, previous, now));
-  }
-  const json outcome = EvaluateAudit(rules, evidence);
+  const auto evidence =
+      GatherAuditEvidence(service, machine_id, rules, stored.policy, previous, now);
+  json outcome = EvaluateAudit(rules, evidence, stored.policy);
   AuditVerdictRecord v;
   v.machine_id = machine_id;
-  v.level = outcome["level"].get<int>();
   v.trigger = trigger;
   v.created_at = IsoFromUnixSeconds(now);
-  v.verdict_json = json{{"findings", outcome["findings"]}, {"checked", outcome["checked"]}}.dump();
+  v.level = outcome["level"].get<int>();
+  outcome.erase("level");
+  v.verdict_json = outcome.dump();
   v.id = service.storage().AddAuditVerdict(v);
   return VerdictJson(v);
 }
@@ -285,6 +158,12 @@ json VerdictJson(const AuditVerdictRecord& v) {
             {"trigger", v.trigger},
             {"findings", body.is_object() ? body.value("findings", json::array()) : json::array()},
             {"checked", body.is_object() ? body.value("checked", json::array()) : json::array()}};
+  // Verdicts that judge set-ups also list the stale ones and the policy they were judged under.
+  if (body.is_object()) {
+    for (const char* key : {"stale", "max_age_days", "stale_policy", "checked_ok_not_listed"}) {
+      if (body.contains(key)) j[key] = body[key];
+    }
+  }
   j["webhook"] = v.webhook_status.empty()
                      ? json(nullptr)
                      : json{{"status", v.webhook_status}, {"attempts", v.webhook_attempts}};

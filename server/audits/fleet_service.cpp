@@ -110,7 +110,8 @@ nlohmann::json CalibrationPoints(AuditSource& service, const AuditMetric& m,
 std::map<std::string, std::size_t> AuditRuleCounts(AuditSource& service) {
   std::map<std::string, std::size_t> out;
   for (const auto& c : service.storage().ListAuditConfigs()) {
-    const auto rules = ingest::ParseJsonText(c.rules_json, "stored document");
+    const auto doc = ingest::ParseJsonText(c.rules_json, "stored document");
+    const auto& rules = doc.is_object() ? doc.value("rules", nlohmann::json::array()) : doc;
     out[c.machine_id] = rules.is_array() ? rules.size() : 0;
   }
   return out;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "analysis/core/errors.h"
+#include "server/audits/audit_verdict.h"
 
 namespace km::server::test {
 namespace {
@@ -124,8 +125,12 @@ AuditRule Rule(const std::string& metric, double warn, double stop) {
 }
 
 AuditEvidence Newest(double v, std::int64_t id) {
+  SetUpEvidence s;
+  s.test_id = "xy-r150";
+  s.direction = "ccw";
+  s.newest = AuditValue{v, id, "2026-11-20T08:00:00Z"};
   AuditEvidence e;
-  e.newest = AuditValue{v, id, "2026-11-20T08:00:00Z"};
+  e.set_ups.push_back(s);
   return e;
 }
 
@@ -144,7 +149,8 @@ TEST(AccuracyAuditEvaluation, LevelIsTheWorstFindingWithItsEvidence) {
   EXPECT_EQ(f0["limit"], 5.0);
   EXPECT_EQ(f0["measurement_id"], 42);
   EXPECT_EQ(f0["measured_at"], "2026-11-20T08:00:00Z");
-  EXPECT_EQ(f0["message"], "dbb circularity_um 7.5, above the warn limit 5 (measurement 42)");
+  EXPECT_EQ(f0["message"],
+            "dbb circularity_um in xy-r150 CCW 7.5, above the warn limit 5 (measurement 42)");
   EXPECT_EQ(v["findings"][1]["level"], 3);
   EXPECT_EQ(v["findings"][1]["limit"], 30.0);
   ASSERT_EQ(v["checked"].size(), 4u);
@@ -152,6 +158,7 @@ TEST(AccuracyAuditEvaluation, LevelIsTheWorstFindingWithItsEvidence) {
   EXPECT_EQ(v["checked"][2]["value"], 0.5);
   EXPECT_EQ(v["checked"][3]["status"], "not evaluated");
   EXPECT_EQ(v["checked"][3]["reason"], "no result of this metric yet");
+  EXPECT_EQ(f0["set_up"], "xy-r150 CCW");
 }
 
 TEST(AccuracyAuditEvaluation, NoFindingsIsLevelOneAndLimitsAreExclusive) {
@@ -170,7 +177,7 @@ TEST(AccuracyAuditEvaluation, TrendRulesCompareTheIncreaseOverTheReference) {
                                             {"warn", 5},
                                             {"stop", 8}}}))[0];
   AuditEvidence rose = Newest(10, 9);
-  rose.reference = AuditValue{3, 4, "2026-10-01T00:00:00Z"};
+  rose.set_ups[0].reference = AuditValue{3, 4, "2026-10-01T00:00:00Z"};
   const json v = EvaluateAudit({rule}, {rose});
   EXPECT_EQ(v["level"], 2);
   const json& f = v["findings"][0];
@@ -181,10 +188,11 @@ TEST(AccuracyAuditEvaluation, TrendRulesCompareTheIncreaseOverTheReference) {
   EXPECT_EQ(f["reference_value"], 3.0);
   EXPECT_EQ(f["reference_measurement_id"], 4);
   EXPECT_EQ(f["message"],
-            "dbb circularity_um rose by 7 (from 3 to 10), above the warn limit 5 (measurement 9)");
+            "dbb circularity_um in xy-r150 CCW rose by 7 (from 3 to 10), above the warn limit 5 "
+            "(measurement 9)");
 
   AuditEvidence fell = Newest(3, 9);
-  fell.reference = AuditValue{30, 4, "2026-10-01T00:00:00Z"};
+  fell.set_ups[0].reference = AuditValue{30, 4, "2026-10-01T00:00:00Z"};
   EXPECT_EQ(EvaluateAudit({rule}, {fell})["level"], 1);
   EXPECT_EQ(EvaluateAudit({rule}, {fell})["checked"][0]["value"], -27.0);
 

@@ -122,15 +122,20 @@ TEST_F(AccuracyAudits, PreviousAuditTrendComparesWithTheValueThatAuditSaw) {
   EXPECT_EQ(second["checked"][0]["status"], "ok");
   EXPECT_EQ(second["checked"][0]["value"], 0.0);
   EXPECT_EQ(second["checked"][0]["reference_measurement_id"], id);
-  // A newer test of another plane is not compared with the one the previous audit saw.
+  // A newer test of another plane is a set-up of its own: not compared with the one the
+  // previous audit saw, which is still compared with itself.
   const auto yz = DemoDbbFiles().back();
   const auto yz_id = svc->measurements().Upload(yz.bytes, yz.name).id;
   const json third = audits.Run("demo-vmc", "manual");
+  ASSERT_EQ(third["checked"].size(), 2u);
   EXPECT_EQ(third["checked"][0]["status"], "not evaluated");
   EXPECT_EQ(third["checked"][0]["measurement_id"], yz_id);
+  EXPECT_EQ(third["checked"][0]["set_up"], "yz-r150 CW");
   EXPECT_EQ(third["checked"][0]["reason"],
-            "the previous audit saw another test than yz-r150 cw (measurement " +
-                std::to_string(id) + ")");
+            "no previous audit with a value of this metric in this set-up");
+  EXPECT_EQ(third["checked"][1]["status"], "ok");
+  EXPECT_EQ(third["checked"][1]["measurement_id"], id);
+  EXPECT_EQ(third["checked"][1]["reference_measurement_id"], id);
 }
 
 // The demo machine's XY tests of 2 September, 1 October and 2 November 2026 (CCW and CW each),
@@ -154,7 +159,8 @@ TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTest
                        {"warn", 0}}};
   audits.PutConfig("demo-vmc", {{"rules", rules}});
   const json v = audits.Run("demo-vmc", "manual");
-  ASSERT_EQ(v["findings"].size(), 3u) << v.dump(1);
+  // Every set-up: the CW and CCW circles of xy-r150 for each rule, their pair once for H.
+  ASSERT_EQ(v["findings"].size(), 5u) << v.dump(1);
   const auto measured = [&](const json& id) {
     return svc->storage().GetMeasurement(id.get<std::int64_t>())->measured_at.value_or("");
   };
@@ -163,6 +169,8 @@ TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTest
   };
 
   const json& trend = v["findings"][0];
+  EXPECT_EQ(trend["set_up"], "xy-r150 CW");
+  EXPECT_EQ(v["findings"][1]["set_up"], "xy-r150 CCW");
   EXPECT_EQ(measured(trend["measurement_id"]), "2026-11-02T07:58:00Z");
   EXPECT_EQ(measured(trend["reference_measurement_id"]), "2026-10-01T08:05:00Z");
   const double newest = result(trend["measurement_id"])["circularity_um"].get<double>();
@@ -170,14 +178,15 @@ TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTest
   EXPECT_EQ(trend["value"], newest - older);
   EXPECT_GT(newest - older, 0.0);
 
-  const json& h = v["findings"][1];
+  const json& h = v["findings"][2];
+  EXPECT_EQ(h["set_up"], "xy-r150");
   EXPECT_EQ(h["metric"], "circular_hysteresis_um");
   EXPECT_EQ(measured(h["measurement_id"]), "2026-11-02T07:58:00Z");
   EXPECT_EQ(
       h["value"],
       svc->DbbPairJson(h["measurement_id"].get<std::int64_t>())["pair"]["circular_hysteresis_um"]);
 
-  const json& backlash = v["findings"][2];
+  const json& backlash = v["findings"][3];
   double expected = -1;
   const json diagnosed = result(backlash["measurement_id"]);  // kept alive over the loop
   for (const auto& d : diagnosed["diagnosis"]) {
@@ -186,9 +195,9 @@ TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTest
   EXPECT_EQ(backlash["value"], expected);
   EXPECT_NEAR(expected, 3.0, 0.1);  // 3 µm of backlash simulated
 
-  EXPECT_EQ(v["checked"][3]["status"], "not evaluated");
-  EXPECT_EQ(v["checked"][3]["reason"],
-            "no result of test xy-r150 cw at or before 2016-11-29T03:12:00Z");
+  EXPECT_EQ(v["checked"][5]["rule"], 3);
+  EXPECT_EQ(v["checked"][5]["status"], "not evaluated");
+  EXPECT_EQ(v["checked"][5]["reason"], "no result of xy-r150 CW at or before 2016-11-29T03:12:00Z");
 }
 
 TEST_F(AccuracyAudits, AMissedScheduleRunsOnceAlsoAfterARestart) {

@@ -1,0 +1,220 @@
+#include "server/audits/audit_verdict.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <tuple>
+
+namespace km::server {
+namespace {
+
+using nlohmann::json;
+
+std::string Format(double v) {
+  std::ostringstream o;
+  o.precision(6);
+  o << v;
+  return o.str();
+}
+
+// The evidence's id: the job of a calibration, else the measurement.
+json Evidence(const AuditValue& v, const char* prefix) {
+  const std::string p(prefix);
+  json j = {{p + "value", v.value}, {p + "measured_at", v.measured_at}};
+  if (v.job_id != 0) {
+    j[p + "job_id"] = v.job_id;
+  } else {
+    j[p + "measurement_id"] = v.measurement_id;
+  }
+  return j;
+}
+
+std::string EvidenceName(const AuditValue& v) {
+  return v.job_id != 0 ? "calibration job " + std::to_string(v.job_id)
+                       : "measurement " + std::to_string(v.measurement_id);
+}
+
+std::string SetUpOf(const AuditRule& rule, const SetUpEvidence& s) {
+  if (MachineWideKind(rule.kind)) return "machine";
+  return SetUpName(rule.kind, s.test_id, s.direction);
+}
+
+json SetUpJson(const AuditRule& rule, const SetUpEvidence& s) {
+  return {{"set_up", SetUpOf(rule, s)}, {"test_id", s.test_id}, {"direction", s.direction}};
+}
+
+// The level a compared value earns under a rule's limits, and the limit it exceeded (0 at
+// level 1).
+std::pair<int, double> LevelOf(const AuditRule& rule, double value) {
+  if (rule.stop && value > *rule.stop) return {3, *rule.stop};
+  if (rule.warn && value > *rule.warn) return {2, *rule.warn};
+  return {1, 0.0};
+}
+
+std::string FindingMessage(const AuditRule& rule, const SetUpEvidence& s, double value, int level,
+                           double limit) {
+  const bool trend = rule.change != AuditRule::Change::kNone;
+  const std::string where = MachineWideKind(rule.kind) ? "" : " in " + SetUpOf(rule, s);
+  const std::string what = trend ? rule.kind + " " + rule.metric + where + " rose by " +
+                                       Format(value) + " (from " + Format(s.reference->value) +
+                                       " to " + Format(s.newest->value) + ")"
+                                 : rule.kind + " " + rule.metric + where + " " + Format(value);
+  return what + ", above the " + (level == 3 ? "stop" : "warn") + " limit " + Format(limit) + " (" +
+         EvidenceName(*s.newest) + ")";
+}
+
+// Judges one set-up under a rule: its `checked` entry and, above a limit, a finding; the level.
+int Judge(const AuditRule& rule, std::size_t i, const SetUpEvidence& s, json& checked,
+          json& findings) {
+  const bool trend = rule.change != AuditRule::Change::kNone;
+  const double value = trend ? s.newest->value - s.reference->value : s.newest->value;
+  const auto [level, limit] = LevelOf(rule, value);
+  checked["status"] = level > 1 ? "finding" : "ok";
+  checked["level"] = level;
+  checked.update(Evidence(*s.newest, ""));
+  checked["value"] = value;
+  if (trend) {
+    checked["newest_value"] = s.newest->value;
+    checked.update(Evidence(*s.reference, "reference_"));
+  }
+  if (s.extra.is_object()) checked.update(s.extra);
+  if (level == 1) return 1;
+  json f = {{"rule", i}, {"kind", rule.kind}, {"metric", rule.metric}, {"level", level}};
+  f.update(SetUpJson(rule, s));
+  f["limit"] = limit;
+  f.update(Evidence(*s.newest, ""));
+  f["value"] = value;
+  f["message"] = FindingMessage(rule, s, value, level, limit);
+  if (trend) {
+    f["newest_value"] = s.newest->value;
+    f.update(Evidence(*s.reference, "reference_"));
+  }
+  if (s.extra.is_object()) f.update(s.extra);
+  findings.push_back(std::move(f));
+  return level;
+}
+
+// A stale set-up, once however many rules cover it: kind, test_id, direction.
+using SetUpKey = std::tuple<std::string, std::string, std::string>;
+
+struct StaleSetUps {
+  std::map<SetUpKey, std::size_t> seen;  // index into `list`
+  json list = json::array();
+  std::vector<std::size_t> first_rule;
+};
+
+void NoteStale(const AuditRule& rule, std::size_t i, const SetUpEvidence& s, StaleSetUps& stale) {
+  const SetUpKey key{rule.kind, s.test_id, s.direction};
+  if (stale.seen.count(key) != 0) return;
+  stale.seen[key] = stale.list.size();
+  json j = {{"kind", rule.kind}};
+  j.update(SetUpJson(rule, s));
+  j.update(Evidence(*s.newest, ""));
+  j.erase("value");
+  j["age_days"] = std::floor(s.age_days * 10.0) / 10.0;
+  stale.list.push_back(std::move(j));
+  stale.first_rule.push_back(i);
+}
+
+// One finding of level 2 per stale set-up (the audit asked for it).
+void StaleFindings(const StaleSetUps& stale, const AuditPolicy& policy, json& findings) {
+  for (std::size_t k = 0; k < stale.list.size(); ++k) {
+    json f = stale.list[k];
+    f["rule"] = stale.first_rule[k];
+    f["metric"] = "max_age_days";
+    f["level"] = 2;
+    f["value"] = f["age_days"];
+    f["limit"] = policy.max_age_days;
+    f["stale"] = true;
+    f["message"] = f["kind"].get<std::string>() + " set-up " + f["set_up"].get<std::string>() +
+                   " was last measured " + f["measured_at"].get<std::string>() + ", " +
+                   Format(f["age_days"].get<double>()) + " days ago: older than max_age_days " +
+                   std::to_string(policy.max_age_days);
+    findings.push_back(std::move(f));
+  }
+}
+
+struct Tally {
+  json findings = json::array();
+  json checked = json::array();
+  std::size_t ok_listed = 0, ok_not_listed = 0;
+  int level = 1;
+};
+
+void Keep(json entry, Tally& t) {
+  if (entry.value("status", "") == "ok") {
+    if (t.ok_listed >= kMaxCheckedOk) {
+      ++t.ok_not_listed;
+      return;
+    }
+    ++t.ok_listed;
+  }
+  t.checked.push_back(std::move(entry));
+}
+
+json NotEvaluated(json c, const std::string& reason) {
+  c["status"] = "not evaluated";
+  c["reason"] = reason;
+  return c;
+}
+
+void JudgeRule(const AuditRule& rule, std::size_t i, const AuditEvidence& ev, Tally& t,
+               StaleSetUps& stale) {
+  json base = AuditRuleJson(rule);
+  base["rule"] = i;
+  if (ev.set_ups.empty()) {
+    Keep(NotEvaluated(base, ev.missing.empty() ? "no result of this metric yet" : ev.missing), t);
+    return;
+  }
+  const bool trend = rule.change != AuditRule::Change::kNone;
+  for (const auto& s : ev.set_ups) {
+    json c = base;
+    c.update(SetUpJson(rule, s));
+    if (s.stale && s.newest) {
+      c["status"] = "stale";
+      c.update(Evidence(*s.newest, ""));
+      c.erase("value");
+      c["age_days"] = std::floor(s.age_days * 10.0) / 10.0;
+      NoteStale(rule, i, s, stale);
+      Keep(std::move(c), t);
+      continue;
+    }
+    std::string missing = s.missing;
+    if (missing.empty() && !s.newest) missing = "no result of this metric yet";
+    if (missing.empty() && trend && !s.reference) missing = "no reference value to compare with";
+    if (!missing.empty()) {
+      if (s.newest) c.update(Evidence(*s.newest, ""));
+      Keep(NotEvaluated(std::move(c), missing), t);
+      continue;
+    }
+    t.level = std::max(t.level, Judge(rule, i, s, c, t.findings));
+    Keep(std::move(c), t);
+  }
+}
+
+}  // namespace
+
+json EvaluateAudit(const std::vector<AuditRule>& rules, const std::vector<AuditEvidence>& evidence,
+                   const AuditPolicy& policy) {
+  Tally t;
+  StaleSetUps stale;
+  const AuditEvidence none;
+  for (std::size_t i = 0; i < rules.size(); ++i) {
+    JudgeRule(rules[i], i, i < evidence.size() ? evidence[i] : none, t, stale);
+  }
+  if (policy.stale_warn && !stale.list.empty()) {
+    StaleFindings(stale, policy, t.findings);
+    t.level = std::max(t.level, 2);
+  }
+  json out = {{"level", t.level},
+              {"findings", std::move(t.findings)},
+              {"checked", std::move(t.checked)},
+              {"stale", std::move(stale.list)},
+              {"max_age_days", policy.max_age_days},
+              {"stale_policy", policy.stale_warn ? "warn" : "ignore"}};
+  if (t.ok_not_listed > 0) out["checked_ok_not_listed"] = t.ok_not_listed;
+  return out;
+}
+
+}  // namespace km::server
