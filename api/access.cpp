@@ -127,6 +127,8 @@ std::string AuditSubject(const Route* route, const Request& req, const Response&
         parts.push_back("measurement " + j["id"].dump());
       } else if (j.contains("id") && req.path_params.empty() && !first_noun.empty()) {
         parts.push_back(first_noun + " " + j["id"].dump());
+      } else if (j.contains("tolerances") && j.contains("version")) {
+        parts.push_back("tolerances version " + j["version"].dump());  // a tolerance table
       } else if (j.contains("machine_id") && j.contains("version")) {
         parts.push_back("machine " + j["machine_id"].get<std::string>() + " version " +
                         j["version"].dump());

@@ -93,6 +93,10 @@ Endpoint ListAudits(const RouteContext& c);
 Endpoint GetAudit(const RouteContext& c);
 Endpoint AuditMetrics(const RouteContext& c);
 
+// The machines' tolerance tables, versioned (api/tolerance_routes.cpp).
+Endpoint PutTolerances(const RouteContext& c);
+Endpoint GetTolerances(const RouteContext& c);
+
 // PDF reports (api/report_routes.cpp).
 Endpoint MeasurementReportPdf(const RouteContext& c);
 Endpoint JobReportPdf(const RouteContext& c);

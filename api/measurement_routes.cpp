@@ -27,9 +27,12 @@ Endpoint UploadMeasurement(const RouteContext& c) {
       [svc](const Request& req) {
         const std::string name = UploadFilename(req);
         const auto out = svc->measurements().Upload(req.body, name);
-        return Response::Json(
-            {{"id", out.id}, {"sha256", out.sha256}, {"kind", out.kind}, {"created", out.created}},
-            out.created ? 201 : 200);
+        return Response::Json({{"id", out.id},
+                               {"sha256", out.sha256},
+                               {"kind", out.kind},
+                               {"created", out.created},
+                               {"conformance", out.conformance}},
+                              out.created ? 201 : 200);
       },
       {{"requestBody",
         {{"required", true}, {"content", {{"text/plain", {{"schema", {{"type", "string"}}}}}}}}},
@@ -41,7 +44,7 @@ Endpoint UploadMeasurement(const RouteContext& c) {
                                      "control characters, at most 255 bytes"},
                                     {"schema", {{"type", "string"}}}}})},
        {"responses",
-        {{"201", JsonResponse("stored: {id, sha256, kind, created: true}")},
+        {{"201", JsonResponse("stored: {id, sha256, kind, created: true, conformance}")},
          {"200", JsonResponse("the same bytes were stored before: the existing id")}}}}};
 }
 
@@ -79,7 +82,8 @@ Endpoint ListMeasurements(const RouteContext& c) {
                            "time, descending), uploaded (newest upload first)"),
                      Param("limit", "integer", "page size, 1 to 1000 (default 50)"),
                      Param("offset", "integer", "items to skip")})},
-       {"responses", {{"200", JsonResponse("{items[], total, limit, offset}")}}}}};
+       {"responses",
+        {{"200", JsonResponse("{items[{…, key_result, conformance}], total, limit, offset}")}}}}};
 }
 
 Endpoint GetMeasurement(const RouteContext& c) {
@@ -88,16 +92,18 @@ Endpoint GetMeasurement(const RouteContext& c) {
           [svc](const Request& req) {
             return Response::Json(svc->measurements().MeasurementWithSamples(req.PathId("id")));
           },
-          {{"responses", {{"200", JsonResponse("metadata and samples (one array per column)")}}}}};
+          {{"responses",
+            {{"200", JsonResponse("metadata, samples (one array per column), conformance")}}}}};
 }
 
 Endpoint MeasurementResults(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Analysis results (the same object the CLI prints for the file)",
           [svc](const Request& req) {
-            return Response::Json(svc->measurements().Results(req.PathId("id")));
+            return Response::Json(svc->measurements().ResultsWithConformance(req.PathId("id")));
           },
-          {{"responses", {{"200", JsonResponse("results of the newest analysis version")}}}}};
+          {{"responses",
+            {{"200", JsonResponse("results of the newest analysis version, with conformance")}}}}};
 }
 
 Endpoint DbbTrace(const RouteContext& c) {

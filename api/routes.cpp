@@ -76,6 +76,9 @@ constexpr RouteLine kRouteTable[] = {
   {"GET",    "/api/v1/audits",                                    Role::kViewer,   ep::ListAudits},
   {"GET",    "/api/v1/audits/{id}",                               Role::kViewer,   ep::GetAudit},
   {"GET",    "/api/v1/audit-metrics",                             Role::kViewer,   ep::AuditMetrics},
+  // Tolerance tables (api/tolerance_routes.cpp)
+  {"PUT",    "/api/v1/machines/{machine_id}/tolerances",          Role::kEngineer, ep::PutTolerances},
+  {"GET",    "/api/v1/machines/{machine_id}/tolerances",          Role::kViewer,   ep::GetTolerances},
   // PDF reports (api/report_routes.cpp)
   {"GET",    "/api/v1/measurements/{id}/report.pdf",              Role::kViewer,   ep::MeasurementReportPdf},
   {"GET",    "/api/v1/jobs/{id}/report.pdf",                      Role::kViewer,   ep::JobReportPdf},

@@ -4,6 +4,7 @@ namespace km::server {
 
 Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
     : storage_(std::move(storage)),
+      tolerances_(*storage_),
       measurements_(*storage_, UploadOptions{options.max_upload_bytes, options.upload_limits}),
       models_(*storage_),
       access_(*storage_),
@@ -14,7 +15,10 @@ Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
           StudyOptions{options.max_calibration_tests, options.max_calibration_samples,
                        options.jobs})),
       reports_(*this, measurements_, *studies_),
-      audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {}
+      audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {
+  // Every answer about a measurement carries its conformance with the newest tolerances.
+  measurements_.SetConformanceJudges(tolerances_.Judges());
+}
 
 Service::~Service() {
   // The scheduler first (it reads through this class), then the job workers, then the streams.

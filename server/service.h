@@ -10,6 +10,8 @@
 //   access()        tokens and the audit log (server/access/access.h)
 //   audits()        accuracy audits and their scheduler (server/audits/audit_scheduler.h)
 //   reports()       PDF reports of measurements, jobs and audits (server/reports/report_service.h)
+//   tolerances()    the machines' tolerance tables, versioned; the measurements are judged
+//                   against them (server/tolerances/tolerance_service.h)
 // The audit scheduler sees only the narrow AuditSource it reads (records and the DBB pair
 // analysis), not this class.
 #pragma once
@@ -26,6 +28,7 @@
 #include "server/servo/servo_service.h"
 #include "server/storage/storage.h"
 #include "server/streams/stream_service.h"
+#include "server/tolerances/tolerance_service.h"
 
 namespace km::server {
 
@@ -61,6 +64,7 @@ class Service : public AuditSource {
   AccessService& access() { return access_; }
   AuditScheduler& audits() { return *audits_; }
   ReportService& reports() { return reports_; }
+  ToleranceService& tolerances() { return tolerances_; }
 
   // AuditSource: the storage itself (also for tests and tools; the routes use the services),
   // and the DBB pair analysis the audits read.
@@ -69,6 +73,7 @@ class Service : public AuditSource {
 
  private:
   std::unique_ptr<Storage> storage_;
+  ToleranceService tolerances_;
   MeasurementService measurements_;
   ModelService models_;
   AccessService access_;

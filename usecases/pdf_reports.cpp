@@ -148,9 +148,58 @@ std::vector<render::ReportBlock> AsFoundAsLeft(const json& test, const ReportLat
           TableBlock(std::move(t))};
 }
 
+// "test_id xy-r*, CW", "axis X", "every set-up" for an entry's scope keys in a figure.
+std::string ScopeOf(const json& figure) {
+  std::string out;
+  const auto add = [&](const std::string& s) { out += (out.empty() ? "" : ", ") + s; };
+  if (figure.contains("axis")) add("axis " + figure["axis"].get<std::string>());
+  if (figure.contains("test_id")) add("test_id " + figure["test_id"].get<std::string>());
+  if (figure.contains("direction")) add(Upper(figure["direction"].get<std::string>()));
+  return out.empty() ? "every set-up" : out;
+}
+
+// The conformance with the tolerances: the table's version, each figure with its value,
+// tolerance and verdict, and the overall verdict.
+std::vector<render::ReportBlock> ConformanceBlocks(const json& c, const ReportSource& source) {
+  std::vector<render::ReportBlock> out{HeadingBlock("Conformance with the tolerances")};
+  const std::string verdict = c.value("verdict", "");
+  const json& version = c.contains("tolerance_version") ? c["tolerance_version"] : json();
+  if (!version.is_number_integer()) {
+    out.push_back(ParagraphBlock("Machine " + source.machine_id +
+                                 " has no tolerance table: verdict no tolerance."));
+    return out;
+  }
+  const std::string table = "tolerance table version " + version.dump() + " of machine " +
+                            source.machine_id + " (the newest when printed)";
+  if (verdict == "no tolerance") {
+    out.push_back(ParagraphBlock("No tolerance applies to this set-up in the " + table +
+                                 ": verdict no tolerance."));
+    return out;
+  }
+  ReportTable t;
+  t.header = {"Figure", "Tolerance of", "Value", "Tolerance", "Unit", "Verdict"};
+  t.numeric = {false, false, true, true, false, false};
+  for (const auto& f : c.value("figures", json::array())) {
+    t.rows.push_back({f.value("metric", ""), ScopeOf(f), Fixed(f.value("value", json()), 3),
+                      Fixed(f.value("tolerance", json()), 3), f.value("unit", ""),
+                      f.value("verdict", "")});
+  }
+  out.push_back(ParagraphBlock("Judged against the " + table +
+                               "; a figure passes when its value is at most the tolerance."));
+  out.push_back(TableBlock(std::move(t)));
+  out.push_back(ParagraphBlock(
+      "Verdict: " + verdict +
+      (verdict == "pass" ? " — every figure is within its tolerance."
+                         : " — a figure is out of tolerance or the result does not hold it.")));
+  return out;
+}
+
 void AddClosing(render::Report& r, const ReportSource& source, const ReportContext& context) {
+  if (context.conformance.is_object()) {
+    for (auto& b : ConformanceBlocks(context.conformance, source)) r.blocks.push_back(std::move(b));
+  }
   if (context.audit) {
-    for (auto& b : report_text::AuditBlocks(*context.audit, source.kind, source.machine_id)) {
+    for (auto& b : report_text::AuditBlocks(*context.audit, source)) {
       r.blocks.push_back(std::move(b));
     }
   }

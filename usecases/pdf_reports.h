@@ -49,6 +49,9 @@ struct ReportContext {
   std::optional<ReportAudit> audit;
   std::optional<ReportLater> later;
   std::optional<std::int64_t> partner_id;  // the stored partner of a DBB test
+  // The measurement's conformance with its machine's tolerances ({verdict, tolerance_version,
+  // figures}; docs/http.md "Tolerances and conformance"); null: not judged (the command line).
+  nlohmann::json conformance = nullptr;
 };
 
 // A DBB test: test_index is the test of `report` the report is about (its pair partner, when the

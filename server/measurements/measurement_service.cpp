@@ -70,7 +70,9 @@ UploadOutcome MeasurementService::Upload(std::string_view bytes, const std::stri
   const std::string sha = Sha256Hex(bytes);
   if (const auto existing = store_.FindBySha256(sha)) {
     const auto rec = store_.GetMeasurement(*existing);
-    return UploadOutcome{*existing, false, sha, rec ? rec->kind : ""};
+    UploadOutcome out{*existing, false, sha, rec ? rec->kind : ""};
+    if (rec && judges_) out.conformance = Judge(judges_(), *rec, store_.GetResults(*existing));
+    return out;
   }
   Ingested in = it->second(bytes, file);
   NewMeasurement m;
@@ -91,25 +93,70 @@ UploadOutcome MeasurementService::Upload(std::string_view bytes, const std::stri
   m.raw.assign(bytes);
   m.samples = std::move(in.samples);
   const auto put = store_.PutMeasurement(m, in.results);
-  return UploadOutcome{put.id, put.created, sha, in.kind};
+  UploadOutcome out{put.id, put.created, sha, in.kind};
+  if (judges_) out.conformance = Conformance(put.id);
+  return out;
 }
 
-nlohmann::json MeasurementService::Results(std::int64_t id) {
-  const auto results = store_.GetResults(id);
+namespace {
+
+// The measurement's own result: the newest stored one (results are appended as analysis
+// versions are added) other than the joints estimates kept with servo records, which are
+// answered elsewhere; null when there is none.
+const ResultRecord* OwnResult(const std::vector<ResultRecord>& results) {
+  for (auto r = results.rbegin(); r != results.rend(); ++r) {
+    if (r->analysis != kJointsAnalysis) return &*r;
+  }
+  return results.empty() ? nullptr : &results.back();
+}
+
+ConformanceSubject SubjectOf(const MeasurementRecord& r) {
+  return {r.machine_id, r.kind, r.test_id, r.direction};
+}
+
+std::vector<ResultRecord> ResultsOrRefuse(MeasurementStore& store, std::int64_t id) {
+  auto results = store.GetResults(id);
   if (results.empty()) {
     // One query in the common case; the second only tells the two refusals apart.
-    if (!store_.GetMeasurement(id)) {
+    if (!store.GetMeasurement(id)) {
       throw NotFound("measurement " + std::to_string(id) + " does not exist");
     }
     throw NotFound("measurement " + std::to_string(id) + " has no stored results");
   }
-  // Newest stored result of the measurement itself (results are appended as analysis versions
-  // are added); the joints estimates kept with servo records are answered elsewhere.
-  for (auto r = results.rbegin(); r != results.rend(); ++r) {
-    if (r->analysis != kJointsAnalysis)
-      return ingest::ParseJsonText(r->result_json, "stored document");
-  }
-  return ingest::ParseJsonText(results.back().result_json, "stored document");
+  return results;
+}
+
+}  // namespace
+
+nlohmann::json MeasurementService::Results(std::int64_t id) {
+  const auto results = ResultsOrRefuse(store_, id);
+  return ingest::ParseJsonText(OwnResult(results)->result_json, "stored document");
+}
+
+nlohmann::json MeasurementService::ResultsWithConformance(std::int64_t id) {
+  const auto results = ResultsOrRefuse(store_, id);
+  nlohmann::json j = ingest::ParseJsonText(OwnResult(results)->result_json, "stored document");
+  if (!judges_) return j;
+  const auto rec = store_.GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  nlohmann::json conformance = judges_()(SubjectOf(*rec), j);
+  if (j.is_object()) j["conformance"] = std::move(conformance);
+  return j;
+}
+
+nlohmann::json MeasurementService::Conformance(std::int64_t id) {
+  const auto rec = store_.GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!judges_) return nullptr;
+  return Judge(judges_(), *rec, store_.GetResults(id));
+}
+
+nlohmann::json MeasurementService::Judge(const ConformanceJudge& judge, const MeasurementRecord& r,
+                                         const std::vector<ResultRecord>& results) const {
+  const ResultRecord* own = OwnResult(results);
+  const nlohmann::json result =
+      own ? ingest::ParseJsonTextOrDiscarded(own->result_json) : nlohmann::json(nullptr);
+  return judge(SubjectOf(r), result.is_discarded() ? nlohmann::json(nullptr) : result);
 }
 
 nlohmann::json MeasurementService::MeasurementJson(const MeasurementRecord& r) const {
@@ -146,16 +193,14 @@ constexpr KeyFigure kKeyFigures[] = {
     {"positioning", "positioning", "accuracy_um", "positioning accuracy A (ISO 230-2)"},
 };
 
-// {"name", "label", "value", "unit"} from the newest stored result, or null.
-nlohmann::json KeyResultJson(const std::string& kind, const std::vector<ResultRecord>& results) {
+// {"name", "label", "value", "unit"} from the measurement's own result (of `analysis`, parsed),
+// or null.
+nlohmann::json KeyResultJson(const std::string& kind, const std::string& analysis,
+                             const nlohmann::json& j) {
   for (const auto& k : kKeyFigures) {
-    if (kind != k.kind) continue;
-    for (auto r = results.rbegin(); r != results.rend(); ++r) {
-      if (r->analysis != k.analysis) continue;
-      const auto j = ingest::ParseJsonTextOrDiscarded(r->result_json);
-      if (!j.is_object() || !j.contains(k.key) || !j[k.key].is_number()) return nullptr;
-      return {{"name", k.key}, {"label", k.label}, {"value", j[k.key]}, {"unit", "µm"}};
-    }
+    if (kind != k.kind || analysis != k.analysis) continue;
+    if (!j.is_object() || !j.contains(k.key) || !j[k.key].is_number()) return nullptr;
+    return {{"name", k.key}, {"label", k.label}, {"value", j[k.key]}, {"unit", "µm"}};
   }
   return nullptr;
 }
@@ -164,10 +209,18 @@ nlohmann::json KeyResultJson(const std::string& kind, const std::vector<ResultRe
 
 nlohmann::json MeasurementService::ListMeasurements(const MeasurementFilter& filter) {
   const auto page = store_.ListMeasurements(filter);
+  const ConformanceJudge judge = judges_ ? judges_() : nullptr;  // one for the page
   nlohmann::json items = nlohmann::json::array();
   for (const auto& r : page.items) {
     nlohmann::json j = MeasurementJson(r);
-    j["key_result"] = KeyResultJson(r.kind, store_.GetResults(r.id));
+    const auto results = store_.GetResults(r.id);
+    const ResultRecord* own = OwnResult(results);
+    // The own result is parsed once, for the key figure and the conformance.
+    nlohmann::json result =
+        own ? ingest::ParseJsonTextOrDiscarded(own->result_json) : nlohmann::json(nullptr);
+    if (result.is_discarded()) result = nullptr;
+    j["key_result"] = KeyResultJson(r.kind, own ? own->analysis : "", result);
+    if (judge) j["conformance"] = judge(SubjectOf(r), result);
     items.push_back(std::move(j));
   }
   return {{"items", items}, {"total", page.total}};
@@ -184,6 +237,7 @@ nlohmann::json MeasurementService::MeasurementWithSamples(std::int64_t id) {
     samples[block.columns[c]] = block.Column(c);
   }
   j["samples"] = samples;
+  if (judges_) j["conformance"] = Judge(judges_(), *rec, store_.GetResults(id));
   return j;
 }
 

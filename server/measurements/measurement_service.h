@@ -15,6 +15,7 @@
 #include "analysis/dbb/dbb_types.h"
 #include "ingest/text_format.h"
 #include "render/polar_plot.h"
+#include "server/measurements/conformance_hook.h"
 #include "server/measurements/formats.h"
 #include "server/storage/storage.h"
 
@@ -45,6 +46,8 @@ struct UploadOutcome {
   bool created = false;
   std::string sha256;
   std::string kind;
+  // The measurement's conformance with its machine's newest tolerances (null without judges).
+  nlohmann::json conformance = nullptr;
 };
 
 class MeasurementService {
@@ -59,13 +62,23 @@ class MeasurementService {
   // Nothing is stored when the input is bad (km::InvalidInput / km::TooLarge).
   UploadOutcome Upload(std::string_view bytes, const std::string& filename);
 
+  // Judges measurements against their machine's newest tolerances from now on: the upload
+  // answer, MeasurementWithSamples, ResultsWithConformance and every item of ListMeasurements
+  // carry "conformance" (server/measurements/conformance_hook.h). Set once, before serving.
+  void SetConformanceJudges(ConformanceJudges judges) { judges_ = std::move(judges); }
+
   // Results as the CLI prints them (the newest analysis version of each analysis).
   nlohmann::json Results(std::int64_t id);
+  // The same object with "conformance" added (GET /api/v1/measurements/{id}/results).
+  nlohmann::json ResultsWithConformance(std::int64_t id);
+  // The conformance of a stored measurement (null without judges); NotFound.
+  nlohmann::json Conformance(std::int64_t id);
   nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
-  // Measurement metadata matching the filter: {"items": [MeasurementJson…], "total"}.
+  // Measurement metadata matching the filter: {"items": [MeasurementJson… + "key_result",
+  // "conformance"], "total"}.
   nlohmann::json ListMeasurements(const MeasurementFilter& filter);
-  // One measurement: MeasurementJson plus "metadata" and "samples" (one array per column);
-  // NotFound when there is none.
+  // One measurement: MeasurementJson plus "metadata", "samples" (one array per column) and
+  // "conformance"; NotFound when there is none.
   nlohmann::json MeasurementWithSamples(std::int64_t id);
   // Machines with stored measurements or a stored model.
   std::vector<MachineSummary> Machines();
@@ -97,9 +110,14 @@ class MeasurementService {
   std::optional<std::int64_t> NearestPartner(const MeasurementRecord& rec,
                                              const std::string& other_direction);
 
+  // The conformance of a measurement from its stored results, by a judge of judges_.
+  nlohmann::json Judge(const ConformanceJudge& judge, const MeasurementRecord& r,
+                       const std::vector<ResultRecord>& results) const;
+
   MeasurementStore& store_;
   UploadOptions options_;
   std::map<std::string, KindHandler> kinds_;
+  ConformanceJudges judges_;
 };
 
 // The handlers of every measurement kind the product knows; call once at start-up.

@@ -68,6 +68,7 @@ usecases::ReportContext ContextOf(AuditSource& records, MeasurementService& ms,
   c.printed_at = NowUtcIso8601();
   c.audit = AuditOf(records, r.machine_id);
   c.later = LaterOf(records, ms, r);
+  c.conformance = ms.Conformance(r.id);
   return c;
 }
 

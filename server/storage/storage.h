@@ -319,6 +319,27 @@ struct AuditVerdictFilter {
   std::optional<std::int64_t> max_bytes;
 };
 
+// One version of a machine's tolerance table (server/tolerances/tolerances.h). Versions of a
+// machine are numbered 1, 2, … in the order they were stored; none is ever changed or removed.
+struct NewToleranceTable {
+  std::string machine_id;
+  std::string tolerances_json;  // the entries as validated, in the order given
+  std::string sha256;           // of the entries in any order (the same table again)
+};
+
+struct ToleranceTableRecord {
+  std::string machine_id;
+  std::int64_t version = 0;
+  std::string created_at;
+  std::string tolerances_json;
+  std::string sha256;
+};
+
+struct ToleranceTablePut {
+  ToleranceTableRecord record;
+  bool created = false;
+};
+
 // The storage of the service, one role a group of tables; each back-end (sqlite/, pg/)
 // implements every role in one class (Storage). A part of the service that needs one role takes
 // that role only (the job queue a JobStore, the audit scheduler an AuditStore, …).
@@ -485,12 +506,27 @@ class AuditStore {
                                std::int64_t attempts) = 0;
 };
 
+// Tolerance tables: each machine's specification of its figures, versioned.
+class ToleranceStore {
+ public:
+  virtual ~ToleranceStore() = default;
+
+  // PutToleranceTable appends the next version of the machine's table atomically; when the
+  // newest version has the same sha256, that version is answered with created = false and
+  // nothing is written. GetToleranceTable: the given version, or the newest without one;
+  // nullopt when there is none.
+  virtual ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) = 0;
+  virtual std::optional<ToleranceTableRecord> GetToleranceTable(
+      const std::string& machine_id, std::optional<std::int64_t> version) = 0;
+};
+
 // Every role, as one back-end implements them.
 class Storage : public MeasurementStore,
                 public ModelStore,
                 public JobStore,
                 public StreamStore,
                 public AccessStore,
-                public AuditStore {};
+                public AuditStore,
+                public ToleranceStore {};
 
 }  // namespace km::server

@@ -17,6 +17,7 @@ import { renderServoForce } from './servo.js';
 import { shell } from './shell.js';
 import { renderPositioningPlot } from './positioning.js';
 import { FORM_KINDS, WIDE_KINDS, state } from './state.js';
+import { conformancePanel } from './tolerances.js';
 
 export function resetDetail() {
   const view = $('#detail');
@@ -35,9 +36,28 @@ export function resetDetail() {
   $('#polar-plot').replaceChildren(h('p', { class: 'placeholder' }, 'Select a measurement to see its plot.'));
   $('#figures').replaceChildren(h('p', { class: 'placeholder' }, 'Figures appear here.'));
   $('#figures-extra').replaceChildren();
+  renderConformance(null);
   resetReversal();
   resetAnalysis();
   setDetailLayout(null);
+}
+
+// The measurement's conformance with its machine's newest tolerances, above its figures: the
+// verdict and each figure with value, tolerance and verdict.
+function renderConformance(conformance) {
+  let box = $('#conformance');
+  if (!box) {
+    box = h('div', { id: 'conformance', class: 'conformance' });
+    $('#figures').before(box);
+  }
+  box.replaceChildren(conformance ? conformancePanel(conformance) : '');
+}
+
+// The results without the conformance the server adds to them (shown on its own, not as figures).
+function splitConformance(results) {
+  if (!results || typeof results !== 'object' || !('conformance' in results)) return { results, conformance: null };
+  const { conformance, ...rest } = results;
+  return { results: rest, conformance };
 }
 
 // DBB: polar plot beside the figures; form measurements: the wide plot above the figures.
@@ -62,12 +82,13 @@ function detailHeading(item) {
 
 // Everything one DBB file of the pair needs: metadata, results, trace.
 async function fetchDbbFile(id, measurement) {
-  const [m, results, trace] = await Promise.all([
+  const [m, judged, trace] = await Promise.all([
     measurement ? Promise.resolve(measurement) : api.measurement(id),
     api.results(id),
     api.trace(id),
   ]);
-  return { item: itemOf(m), metadata: m.metadata || {}, results, trace };
+  const { results, conformance } = splitConformance(judged);
+  return { item: itemOf(m), metadata: m.metadata || {}, results, trace, conformance };
 }
 
 // Shows measurement `id`: selects its machine in the sidebar first (a deep link, a reload).
@@ -118,8 +139,9 @@ export async function showMeasurement(id) {
 }
 
 async function showOther(seq, item, measurement) {
-  const results = await api.results(item.id);
+  const { results, conformance } = splitConformance(await api.results(item.id));
   if (seq !== state.selectSeq) return;
+  renderConformance(conformance);
   const fetched = [{ item, results, trace: null, measurement }];
   const view = $('#detail');
   view.dataset.view = item.kind;
@@ -170,6 +192,7 @@ async function showDbb(seq, item, measurement) {
   else delete view.dataset.partnerId;
   setDetailLayout('dbb');
   renderDbbPlot(item, fetched);
+  renderConformance(own.conformance);
   renderPairNote(item, pairData, partner, partnerError);
   renderFigures(fetched, { kind: 'dbb', pair: partner ? pairData : null });
   renderAnalysis(item, fetched, partner ? pairData : null, pairError);
@@ -424,6 +447,10 @@ async function exportTrace() {
 
 export function initDetail() {
   $('#plot-png-button').addEventListener('click', openPlotPng);
+  // A new tolerance table judges the shown measurement again.
+  window.addEventListener('km-tolerances-changed', (e) => {
+    if (state.measurementId && e.detail?.machineId === state.machineId) showMeasurement(state.measurementId);
+  });
   // Focus returns to the button that opened the dialog when it closes.
   $('#png-dialog').addEventListener('close', () => $('#plot-png-button').focus());
   $('#png-close').addEventListener('click', () => $('#png-dialog').close());

@@ -12,6 +12,7 @@ import { loadJointHealth, resetJointHealth } from './servo.js';
 import { machineHash, navigate, trendsHash } from './router.js';
 import { state } from './state.js';
 import { showAuditSummary } from './audit.js';
+import { showTolerances } from './tolerances.js';
 import { discoveryMachineChanged, discoveryMachinesChanged, leaveDiscovery, parseRoute } from './discovery.js';
 
 export async function loadMachines() {
@@ -103,6 +104,7 @@ export async function selectMachine(machineId) {
   loadJobHistory();
   loadJointHealth(machineId);
   showAuditSummary(machineId);
+  showTolerances(machineId);
   return items || [];
 }
 

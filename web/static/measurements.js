@@ -8,6 +8,7 @@ import { $, downloadText, errorBox, h, keepFocus, toCsv } from './dom.js';
 import { formatDirection, formatNumber, formatTimestamp } from './format.js';
 import { measurementHash, navigate } from './router.js';
 import { PAGE_SIZE, state } from './state.js';
+import { conformanceBadge } from './tolerances.js';
 
 export function resetFilters() {
   state.filters = { kind: '', test_id: '', from: '', to: '', q: '', order: 'newest' };
@@ -125,6 +126,8 @@ export function renderMeasurements() {
               h('span', { class: 'item-id' }, `#${m.id}`),
             ),
             keyResultText(m) ? h('span', { class: 'item-key', 'data-testid': 'key-result' }, keyResultText(m)) : '',
+            // The measurement judged against the machine's newest tolerances.
+            m.conformance ? h('span', { class: 'item-conformance' }, 'tolerances ', conformanceBadge(m.conformance, 'measurement-conformance')) : '',
             h('span', { class: 'item-meta' }, [String(m.kind || '').toUpperCase(), timeText(m), m.filename].filter(Boolean).join(' · ')),
           ),
         ),
@@ -197,6 +200,10 @@ export function initMeasurementList() {
   $('#list-prev').addEventListener('click', () => loadMeasurementPage({ offset: Math.max(0, state.list.offset - PAGE_SIZE) }));
   $('#list-next').addEventListener('click', () => loadMeasurementPage({ offset: state.list.offset + PAGE_SIZE }));
   $('#list-csv').addEventListener('click', () => exportCsv().catch((err) => handleAuth(err)));
+  // A new tolerance table judges every measurement again: the page shown is read again.
+  window.addEventListener('km-tolerances-changed', (e) => {
+    if (e.detail?.machineId === state.machineId) loadMeasurementPage();
+  });
   $('#measurements').addEventListener('click', (e) => {
     const a = e.target.closest('a[data-testid="measurement-item"]');
     if (!a || e.ctrlKey || e.metaKey || e.shiftKey) return;

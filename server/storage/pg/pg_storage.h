@@ -113,6 +113,10 @@ class PgStorage : public Storage {
   std::optional<AuditVerdictRecord> GetAuditVerdict(std::int64_t id) override;
   std::vector<AuditVerdictRecord> ListAuditVerdicts(const AuditVerdictFilter& filter) override;
   void SetAuditWebhook(std::int64_t id, const std::string& status, std::int64_t attempts) override;
+  // Tolerance tables: pg_tolerances.cpp.
+  ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) override;
+  std::optional<ToleranceTableRecord> GetToleranceTable(
+      const std::string& machine_id, std::optional<std::int64_t> version) override;
 
  private:
   std::unique_ptr<pg::Pool> pool_;

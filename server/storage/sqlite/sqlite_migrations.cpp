@@ -205,6 +205,23 @@ ALTER TABLE jobs ADD COLUMN owner_token_id INTEGER NOT NULL DEFAULT 0;
     R"sql(
 ALTER TABLE tokens ADD COLUMN last_used_at TEXT;
 )sql",
+    // 11: tolerance tables, versioned per machine: a new version is appended, none is ever
+    // changed.
+    R"sql(
+CREATE TABLE tolerance_tables (
+  id              INTEGER PRIMARY KEY,
+  machine_id      TEXT NOT NULL,
+  version         INTEGER NOT NULL CHECK (version >= 1),
+  created_at      TEXT NOT NULL,
+  tolerances_json TEXT NOT NULL,
+  sha256          TEXT NOT NULL,
+  UNIQUE (machine_id, version)
+);
+CREATE TRIGGER tolerance_tables_immutable BEFORE UPDATE ON tolerance_tables
+  BEGIN SELECT RAISE(ABORT, 'tolerance table versions are immutable'); END;
+CREATE TRIGGER tolerance_tables_kept BEFORE DELETE ON tolerance_tables
+  BEGIN SELECT RAISE(ABORT, 'tolerance table versions are never deleted'); END;
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

@@ -110,6 +110,10 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::optional<AuditVerdictRecord> GetAuditVerdict(std::int64_t id) override;
   std::vector<AuditVerdictRecord> ListAuditVerdicts(const AuditVerdictFilter& filter) override;
   void SetAuditWebhook(std::int64_t id, const std::string& status, std::int64_t attempts) override;
+  // Tolerance tables: sqlite_tolerances.cpp.
+  ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) override;
+  std::optional<ToleranceTableRecord> GetToleranceTable(
+      const std::string& machine_id, std::optional<std::int64_t> version) override;
 
  private:
   // The connection's prepared statement of this SQL, leased until the result goes out of scope.

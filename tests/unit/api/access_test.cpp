@@ -50,6 +50,8 @@ const std::map<std::string, Role>& ExpectedRoles() {
       {"GET /api/v1/audits", Role::kViewer},
       {"GET /api/v1/audits/{id}", Role::kViewer},
       {"GET /api/v1/audit-metrics", Role::kViewer},
+      {"PUT /api/v1/machines/{machine_id}/tolerances", Role::kEngineer},
+      {"GET /api/v1/machines/{machine_id}/tolerances", Role::kViewer},
       {"GET /api/v1/fleet", Role::kViewer},
       {"GET /api/v1/machines/{machine_id}/trends", Role::kViewer},
       {"POST /api/v1/calibrations", Role::kEngineer},

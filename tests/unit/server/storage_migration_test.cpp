@@ -329,6 +329,9 @@ TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
       // Tables a migration added are usable at once.
       NewMachineModel m{"old-vmc", "upload", "after migration", "{}", std::string(64, 'd')};
       EXPECT_EQ(s.PutMachineModel(m).record.version, 1);
+      // Tolerance tables (version 11).
+      EXPECT_FALSE(s.GetToleranceTable("old-vmc", std::nullopt));
+      EXPECT_EQ(s.PutToleranceTable({"old-vmc", "[]", std::string(64, 'e')}).record.version, 1);
       EXPECT_EQ(s.ListMachines().size(), 2u);
       if (v < 2) {
         EXPECT_TRUE(s.ListJobs(10).empty());
