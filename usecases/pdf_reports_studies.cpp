@@ -61,25 +61,57 @@ std::string Evidence(const json& x) {
   return "—";
 }
 
-// One row a rule: what it limits, its limits, the newest audit's value and status; the rows of
-// rules with a finding are added to `finding_rows`.
-ReportTable RulesTable(const json& rules, const json& verdict, const std::string& kind,
+// The set-up a report is about: every set-up (a machine's audit report), or one measurement's.
+struct SetUpFilter {
+  std::string kind;  // "": every kind
+  bool one = false;
+  std::string test_id, direction;
+};
+
+// Whether a checked entry judged the filter's set-up (a pair figure: the test_id's pair).
+bool JudgedSetUp(const json& c, const SetUpFilter& f) {
+  if (!f.one || !c.contains("test_id")) return true;
+  const std::string direction = c.value("direction", "");
+  return c.value("test_id", "") == f.test_id && (direction.empty() || direction == f.direction);
+}
+
+std::string SetUpCell(const json& c) {
+  if (c.value("status", "") == "stale") {
+    return c.value("set_up", "") + " (stale, " + c.value("measured_at", "") + ")";
+  }
+  return c.value("set_up", "—");
+}
+
+// The rows of a rule: one per set-up it judged (of the filter's set-up only, when it is one).
+void RuleRows(const json& rule, std::size_t i, const json& checked, const SetUpFilter& f,
+              ReportTable& t, std::vector<std::size_t>& finding_rows) {
+  const std::string what = rule.value("kind", "") + " " + rule.value("metric", "");
+  bool any = false;
+  for (const auto& c : checked) {
+    if (c.value("rule", -1) != static_cast<int>(i) || !JudgedSetUp(c, f)) continue;
+    any = true;
+    if (c.value("status", "") == "finding") finding_rows.push_back(t.rows.size());
+    t.rows.push_back(
+        {what, SetUpCell(c), Limits(rule), c.contains("value") ? Fixed(c["value"], 3) : "—",
+         c.value("status", "") == "stale" ? "stale: not judged" : Status(c), Evidence(c)});
+  }
+  if (!any) {
+    t.rows.push_back({what, f.one ? f.test_id : "—", Limits(rule), "—",
+                      checked.empty() ? "not run yet" : "not judged in this set-up", "—"});
+  }
+}
+
+// One row a rule and set-up: what it limits, its limits, the newest audit's value and status;
+// the rows with a finding are added to `finding_rows`.
+ReportTable RulesTable(const json& rules, const json& verdict, const SetUpFilter& f,
                        std::vector<std::size_t>& finding_rows) {
   ReportTable t;
-  t.header = {"Rule", "Limits", "Value", "Status", "Judged"};
-  t.numeric = {false, false, true, false, false};
+  t.header = {"Rule", "Set-up", "Limits", "Value", "Status", "Judged"};
+  t.numeric = {false, false, false, true, false, false};
   const json checked = verdict.is_object() ? verdict.value("checked", json::array()) : json();
   for (std::size_t i = 0; i < rules.size(); ++i) {
-    const json& rule = rules[i];
-    if (!kind.empty() && rule.value("kind", "") != kind) continue;
-    json c = json::object();
-    for (const auto& x : checked) {
-      if (x.value("rule", -1) == static_cast<int>(i)) c = x;
-    }
-    if (c.value("status", "") == "finding") finding_rows.push_back(t.rows.size());
-    t.rows.push_back({rule.value("kind", "") + " " + rule.value("metric", ""), Limits(rule),
-                      c.contains("value") ? Fixed(c["value"], 3) : "—",
-                      c.empty() ? "not run yet" : Status(c), Evidence(c)});
+    if (!f.kind.empty() && rules[i].value("kind", "") != f.kind) continue;
+    RuleRows(rules[i], i, checked.is_array() ? checked : json::array(), f, t, finding_rows);
   }
   return t;
 }
@@ -93,10 +125,9 @@ std::string VerdictLine(const json& v) {
 
 // The rules table, at most report_text::kMaxTextTableRows rows, keeping the rules with a finding.
 std::vector<render::ReportBlock> BoundedRules(const json& rules, const json& verdict,
-                                              const std::string& kind,
-                                              const std::string& machine_id) {
+                                              const SetUpFilter& f, const std::string& machine_id) {
   std::vector<std::size_t> findings;
-  ReportTable t = RulesTable(rules, verdict, kind, findings);
+  ReportTable t = RulesTable(rules, verdict, f, findings);
   return report_text::BoundedTable(std::move(t),
                                    {"rules", report_text::AuditAt(machine_id), std::move(findings),
                                     "rules with a finding", report_text::kMaxTextTableRows});
@@ -111,8 +142,9 @@ std::string AuditAt(const std::string& machine_id) {
          "/audit) and its audits (GET /api/v1/audits?machine_id=" + machine_id + ")";
 }
 
-std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const std::string& kind,
-                                             const std::string& machine_id) {
+std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const ReportSource& source) {
+  const std::string& kind = source.kind;
+  const std::string& machine_id = source.machine_id;
   std::vector<render::ReportBlock> out;
   out.push_back(HeadingBlock("Accuracy audit of the machine"));
   const json rules =
@@ -122,7 +154,8 @@ std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const std
     return out;
   }
   out.push_back(ParagraphBlock(VerdictLine(audit.verdict)));
-  auto table = BoundedRules(rules, audit.verdict, kind, machine_id);
+  const SetUpFilter f{kind, true, source.test_id, source.direction};
+  auto table = BoundedRules(rules, audit.verdict, f, machine_id);
   if (table.front().table.rows.empty()) {
     out.push_back(ParagraphBlock("No rule of the machine's audit reads " + kind + " results."));
   } else {
@@ -151,6 +184,34 @@ std::vector<render::ReportBlock> FindingsTable(const json& findings, const std::
                      report_text::kMaxTextTableRows});
 }
 
+// The set-ups whose newest test is older than the audit's max_age_days: listed, not judged.
+void StaleBlocks(render::Report& r, const json& verdict, const std::string& machine_id) {
+  if (!verdict.is_object() || !verdict.contains("max_age_days")) return;
+  const json stale = verdict.value("stale", json::array());
+  r.blocks.push_back(
+      HeadingBlock("Set-ups not measured within " + Short(verdict["max_age_days"]) + " days"));
+  if (stale.empty()) {
+    r.blocks.push_back(ParagraphBlock("None: every set-up judged was measured within that age."));
+    return;
+  }
+  r.blocks.push_back(ParagraphBlock(
+      verdict.value("stale_policy", "") == "warn"
+          ? "Each is a level 2 finding of the audit: measure it again."
+          : "They are listed, not judged: their newest values no longer describe the machine."));
+  ReportTable t;
+  t.header = {"Kind", "Set-up", "Last measured", "Age (days)", "Evidence"};
+  t.numeric = {false, false, false, true, false};
+  for (const auto& x : stale) {
+    t.rows.push_back({x.value("kind", ""), x.value("set_up", ""), x.value("measured_at", ""),
+                      Fixed(x.value("age_days", json()), 1), Evidence(x)});
+  }
+  for (auto& b : report_text::BoundedTable(
+           std::move(t), report_text::Evenly("stale set-ups", report_text::AuditAt(machine_id),
+                                             report_text::kMaxTextTableRows))) {
+    r.blocks.push_back(std::move(b));
+  }
+}
+
 }  // namespace
 
 render::Report AuditPdfReport(const std::string& machine_id, const json& config,
@@ -177,7 +238,9 @@ render::Report AuditPdfReport(const std::string& machine_id, const json& config,
     r.blocks.push_back(ParagraphBlock("No audit rules are set for this machine."));
   } else {
     r.blocks.push_back(ParagraphBlock(VerdictLine(newest)));
-    for (auto& b : BoundedRules(rules, newest, "", machine_id)) r.blocks.push_back(std::move(b));
+    for (auto& b : BoundedRules(rules, newest, SetUpFilter{}, machine_id)) {
+      r.blocks.push_back(std::move(b));
+    }
   }
   r.blocks.push_back(HeadingBlock("Findings of the newest audit"));
   const json findings = newest.is_object() ? newest.value("findings", json::array()) : json();
@@ -186,6 +249,7 @@ render::Report AuditPdfReport(const std::string& machine_id, const json& config,
   } else {
     for (auto& b : FindingsTable(findings, r.complete_at)) r.blocks.push_back(std::move(b));
   }
+  StaleBlocks(r, newest, machine_id);
   r.blocks.push_back(HeadingBlock("History"));
   ReportTable h;
   h.header = {"Audit", "When", "Trigger", "Level", "Findings"};

@@ -74,9 +74,10 @@ std::vector<render::ReportBlock> ColumnTables(const nlohmann::json& object,
                                               const std::string& where);
 // The identification lines every measurement report starts with.
 std::vector<std::pair<std::string, std::string>> Identification(const ReportSource& s);
-// The audit section of a measurement report: the rules of `kind`, limits, values, the verdict.
-std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const std::string& kind,
-                                             const std::string& machine_id);
+// The audit section of a measurement report: the rules of its kind with their limits, and the
+// newest verdict's judgement of the measurement's own set-up (its test_id and direction) under
+// each: value, status and the measurement it judged.
+std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const ReportSource& source);
 // Where a machine's audit rules and its verdicts are on the API.
 std::string AuditAt(const std::string& machine_id);
 std::string Footer(const std::string& what, const std::string& printed_at);

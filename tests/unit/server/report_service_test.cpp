@@ -102,6 +102,31 @@ TEST_F(ReportServiceTest, ADbbReportNamesMachineDateFiguresAuditAndAsLeft) {
   EXPECT_NE(again.find("4.00"), std::string::npos) << again;
 }
 
+// Two set-ups measured in one session: each report shows the judgement of its own set-up (the
+// older xy-r100 circle above stop is not "within limits" because a newer circle is).
+TEST_F(ReportServiceTest, AMeasurementReportShowsTheJudgementOfItsOwnSetUp) {
+  auto& m = svc_->measurements();
+  std::string big = OvalDbb("cw", "2026-04-01T08:00:00Z", 20.0);
+  big.replace(big.find("xy-r150"), 7, "xy-r100");
+  const auto above = m.Upload(big, "r100.txt").id;
+  const auto good = m.Upload(OvalDbb("ccw", "2026-04-01T08:30:00Z", 2.0), "r150.txt").id;
+  PutAuditConfig(
+      *svc_, "report-vmc",
+      {{"rules", {{{"kind", "dbb"}, {"metric", "circularity_um"}, {"warn", 15}, {"stop", 30}}}}},
+      1'775'000'000);
+  ASSERT_EQ(RunAccuracyAudit(*svc_, "report-vmc", "manual", 1'775'000'100)["level"], 3);
+  const std::string text = Text(svc_->reports().MeasurementPdf(above));
+  EXPECT_NE(text.find("level 3 — stop"), std::string::npos) << text;
+  EXPECT_NE(text.find("xy-r100 CW"), std::string::npos) << text;
+  EXPECT_EQ(text.find("within limits"), std::string::npos) << text;
+  EXPECT_EQ(text.find("measurement #" + std::to_string(good)), std::string::npos) << text;
+  const std::string other = Text(svc_->reports().MeasurementPdf(good));
+  EXPECT_NE(other.find("within limits"), std::string::npos) << other;
+  const std::string audit = Text(svc_->reports().AuditPdf("report-vmc"));
+  EXPECT_NE(audit.find("xy-r100 CW"), std::string::npos) << audit;
+  EXPECT_NE(audit.find("xy-r150 CCW"), std::string::npos) << audit;
+}
+
 TEST_F(ReportServiceTest, TheAuditReportListsRulesValuesFindingsAndHistory) {
   auto& m = svc_->measurements();
   const auto id = m.Upload(OvalDbb("ccw", "2026-04-01T08:00:00Z", 5.0), "ccw.txt").id;
