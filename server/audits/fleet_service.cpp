@@ -10,6 +10,7 @@
 #include "ingest/json_text.h"
 #include "server/audits/accuracy_audit.h"
 #include "server/audits/audit_service.h"
+#include "server/audits/set_up.h"
 #include "server/measurements/analyses.h"
 
 namespace km::server {
@@ -185,11 +186,14 @@ nlohmann::json Trends(AuditSource& service, const std::string& machine_id,
     if (!v || !std::isfinite(*v)) continue;
     // The test and direction let a client draw one series a test (a circle of one plane,
     // radius and direction; one axis of a laser run) instead of joining them all.
-    points.push_back({{"measured_at", r->measured_at.value_or(r->uploaded_at)},
-                      {"value", *v},
-                      {"measurement_id", r->id},
-                      {"test_id", r->test_id},
-                      {"direction", r->direction}});
+    points.push_back(
+        {{"measured_at", r->measured_at.value_or(r->uploaded_at)},
+         {"value", *v},
+         {"measurement_id", r->id},
+         {"test_id", r->test_id},
+         {"direction", r->direction},
+         {"set_up", m->analysis == "dbb-pair" ? SetUpName(m->kind, r->test_id, "")
+                                              : SetUpName(m->kind, r->test_id, r->direction)}});
   }
   return answer(std::move(points));
 }

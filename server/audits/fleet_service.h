@@ -25,7 +25,8 @@ inline constexpr std::int64_t kMaxTrendPoints = 5000;
 nlohmann::json Fleet(AuditSource& service);
 
 // {"machine_id", "metric", "label", "unit", "kind", "points": [{"measured_at", "value",
-// "measurement_id", "test_id", "direction"}]}, oldest first (measurement time, else upload time):
+// "measurement_id", "test_id", "direction", "set_up"}]} (set_up: the name of the point's set-up,
+// server/audits/set_up.h: one series a set-up), oldest first (measurement time, else upload time):
 // the metric as an accuracy audit reads it (server/audits/accuracy_audit.h: the same table and
 // extraction, so a trend and an audit's limits agree), for each measurement of its kind. A metric
 // of kind "calibration": for each of the machine's calibrations (MachineCalibrations), points

@@ -17,6 +17,7 @@
 
 #include "analysis/core/errors.h"
 #include "server/audits/audit_service.h"
+#include "server/demo/demo_data.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/server/temp_dir.h"
@@ -242,6 +243,75 @@ TEST_F(AuditSetUps, HysteresisIsJudgedForEachTestIdsPair) {
   EXPECT_EQ(v["level"], 2) << v.dump(1);
   EXPECT_EQ(v["findings"][0]["set_up"], "xy-r150");
   EXPECT_GE(v["findings"][0]["value"].get<double>(), 5.0 - 1e-6);
+}
+
+// The demo machine as a plant measures it: several circles in one session. The newest test is
+// within the limits; the audit must still find the circle above stop, naming it.
+TEST_F(AuditSetUps, TheDemoMachinesCircleAboveStopIsFoundThoughANewerTestIsGood) {
+  for (const auto& f : DemoDbbFiles()) svc_->measurements().Upload(f.bytes, f.name);
+  MeasurementFilter all;
+  all.machine_id = "demo-vmc";
+  all.kind = "dbb";
+  all.limit = 1000;
+  double worst = 0.0;
+  std::int64_t worst_id = 0;
+  for (const auto& r : svc_->storage().ListMeasurements(all).items) {
+    // Only each set-up's newest test counts; the demo holds older tests of xy-r150 too.
+    MeasurementFilter same = all;
+    same.test_id = r.test_id;
+    same.direction = r.direction;
+    same.order = MeasurementFilter::Order::kNewest;
+    same.limit = 1;
+    if (svc_->storage().ListMeasurements(same).items.front().id != r.id) continue;
+    const double f = svc_->measurements().Results(r.id)["circularity_um"].get<double>();
+    if (f > worst) {
+      worst = f;
+      worst_id = r.id;
+    }
+  }
+  ASSERT_GT(worst, 0.0);
+  PutAuditConfig(*svc_, "demo-vmc",
+                 {{"rules",
+                   {{{"kind", "dbb"},
+                     {"metric", "circularity_um"},
+                     {"warn", worst / 3},
+                     {"stop", worst - 0.01}}}}},
+                 kAuditNow);
+  const json v = RunAccuracyAudit(*svc_, "demo-vmc", "manual", kAuditNow);
+  EXPECT_EQ(v["level"], 3) << v.dump(1);
+  bool named = false;
+  for (const auto& f : v["findings"]) {
+    if (f["level"] == 3) {
+      EXPECT_EQ(f["measurement_id"], worst_id);
+      named = true;
+    }
+  }
+  EXPECT_TRUE(named) << v.dump(1);
+}
+
+// Laser positioning: one set-up per axis; "axis" scopes a rule to one of them.
+TEST_F(AuditSetUps, PositioningIsJudgedPerAxis) {
+  const auto x = DemoPositioningFile();
+  const auto x_id = svc_->measurements().Upload(x.bytes, x.name).id;
+  std::string z = x.bytes;
+  z.replace(z.find("# axis: X"), 9, "# axis: Z");
+  const auto when = z.find("# timestamp: ") + 13;
+  z.replace(when, z.find('\n', when) - when, "2026-11-26T09:00:00Z");
+  const auto z_id = svc_->measurements().Upload(z, "z.txt").id;
+  const double a_x = svc_->measurements().Results(x_id)["accuracy_um"].get<double>();
+  json every = {{"kind", "positioning"}, {"metric", "accuracy_um"}, {"warn", a_x / 2}};
+  json only_z = every;
+  only_z["axis"] = "z";
+  PutAuditConfig(*svc_, "demo-vmc", {{"rules", {every, only_z}}}, kAuditNow);
+  const json v = RunAccuracyAudit(*svc_, "demo-vmc", "manual", kAuditNow);
+  const auto each = Checked(v, 0);
+  ASSERT_EQ(each.size(), 2u) << v.dump(1);
+  EXPECT_EQ(each.at("axis X")["measurement_id"], x_id);
+  EXPECT_EQ(each.at("axis Z")["measurement_id"], z_id);
+  const auto one = Checked(v, 1);
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_EQ(one.begin()->first, "axis Z");
+  EXPECT_EQ(AuditConfigJson(*svc_, "demo-vmc")["rules"][1]["axis"], "Z");
 }
 
 }  // namespace
