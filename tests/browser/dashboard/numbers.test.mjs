@@ -22,6 +22,14 @@ async function auditOf(server) {
   return r.status === 404 ? null : r.json();
 }
 
+// Empties a message box, so that the next one waited for is the answer to the next action.
+const clear = (page, testid) =>
+  page.evaluate((t) => {
+    const box = document.querySelector(`[data-testid="${t}"]`);
+    box.className = 'message';
+    box.replaceChildren();
+  }, testid);
+
 // Saves the form; the status is either an error naming `field` (nothing stored) or a success.
 async function saveRefused(page, server, field, before) {
   let puts = 0;
@@ -29,6 +37,7 @@ async function saveRefused(page, server, field, before) {
     if (req.method() === 'PUT') puts += 1;
   };
   page.on('request', count);
+  await clear(page, 'audit-form-status');
   await page.click('[data-testid="audit-save"]');
   await page.waitForSelector('[data-testid="audit-form-status"].error');
   page.off('request', count);
@@ -132,6 +141,7 @@ test('decimal comma read, ambiguous numbers refused naming the field, units besi
       await page.fill('[data-testid="profile-feed"]', '600');
       await page.fill('[data-testid="profile-start"]', '0');
       await page.fill(`[data-testid="${sel}"]`, bad);
+      await clear(page, 'profile-message');
       await page.click('[data-testid="profile-make"]');
       await page.waitForSelector('[data-testid="profile-message"].error');
       const text = await page.textContent('[data-testid="profile-message"]');

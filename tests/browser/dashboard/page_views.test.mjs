@@ -114,6 +114,8 @@ test('the overlay box says the server’s message; the audit PDF only with an au
     await open(`#/measurements/${ids.xyCcw}`);
     await page.waitForSelector(`#detail[data-view="dbb"][data-measurement-id="${ids.xyCcw}"] [data-testid="compare-form"]:not([hidden])`);
     const overlay = async (text) => {
+      // The box of the previous try is cleared first, so the message read is this one's.
+      await page.evaluate(() => document.querySelector('[data-testid="compare-note"]').replaceChildren());
       await page.fill('[data-testid="compare-id"]', text);
       await page.click('[data-testid="compare-add"]');
       await page.waitForSelector('[data-testid="compare-note"]:not([hidden]) [role="alert"]');
