@@ -6,7 +6,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/json_text.h"
-#include "server/audits/audit_service.h"
+#include "server/audits/calibration_runs.h"
 #include "server/base/time_util.h"
 #include "server/measurements/analyses.h"
 

@@ -13,6 +13,7 @@
 
 #include "server/audits/accuracy_audit.h"
 #include "server/audits/audit_source.h"
+#include "server/audits/calibration_runs.h"
 #include "server/storage/storage.h"
 
 namespace km::server {
@@ -48,26 +49,5 @@ nlohmann::json AccuracyAuditJson(AuditSource& service, std::int64_t id);
 nlohmann::json VerdictJson(const AuditVerdictRecord& record);
 // {"metrics": [{"kind", "metric", "analysis", "unit", "description", "source"}]}.
 nlohmann::json AuditMetricsJson();
-
-// At most this many of the newest jobs are looked through for a machine's calibrations.
-inline constexpr std::int64_t kCalibrationJobScan = 500;
-
-// A hexapod calibration an audit (kind "calibration") and a trend take as evidence.
-struct CalibrationRun {
-  std::int64_t job_id = 0;
-  std::string finished_at;  // the job's updated_at
-  std::int64_t at = 0;      // the same, Unix seconds
-  nlohmann::json result;    // the job's result (docs/formats.md §5)
-  nlohmann::json previous;  // the result of the machine's calibration before it; null for none
-};
-
-// The machine's calibrations: done hexapod_calibration jobs whose request names the machine
-// (machine_id) and whose verdict is not "failed" (server/jobs/jobs.h), newest first by when they
-// finished, among the newest kCalibrationJobScan jobs.
-std::vector<CalibrationRun> MachineCalibrations(AuditSource& service,
-                                                const std::string& machine_id);
-// A metric of kind "calibration" at one calibration; nullopt when it does not hold it (the
-// change metric: also the oldest calibration, which has none before it).
-std::optional<double> CalibrationMetricValue(const AuditMetric& metric, const CalibrationRun& run);
 
 }  // namespace km::server
