@@ -202,7 +202,22 @@ const std::vector<AuditMetric>& AuditMetrics() {
   return metrics;
 }
 
+static bool TakesTolerances(const std::string& kind) {
+  return kind == "dbb" || kind == "straightness" || kind == "flatness" || kind == "parallelism" ||
+         kind == "positioning" || kind == "tracker";
+}
+
 std::optional<AuditMetric> FindAuditMetric(const std::string& kind, const std::string& metric) {
+  if (metric == kConformanceMetric) {
+    if (!TakesTolerances(kind)) return std::nullopt;
+    return AuditMetric{kind,
+                       kConformanceMetric,
+                       kConformanceMetric,
+                       "figures",
+                       "figures of the set-up's newest test that do not meet the machine's "
+                       "tolerances (GET /api/v1/machines/{id}/tolerances)",
+                       "count of /conformance/figures[verdict != pass]"};
+  }
   if (kind == "dbb" && metric.rfind(kDiagnosisPrefix, 0) == 0) {
     const std::string effect = metric.substr(std::string(kDiagnosisPrefix).size());
     if (!KnownEffect(effect)) return std::nullopt;
@@ -307,16 +322,36 @@ void ParseChange(const json& r, std::size_t i, AuditRule& rule) {
   }
 }
 
+// A conformance rule's "level" (2 or 3; 3 without limits): short for warn 0 or stop 0, so that a
+// set-up failing its tolerances is a finding of that level.
+void ConformanceLevel(const json& r, std::size_t i, AuditRule& rule) {
+  const bool conformance = rule.metric == kConformanceMetric;
+  if (!r.contains("level")) {
+    if (conformance && !rule.warn && !rule.stop) rule.stop = 0.0;
+    return;
+  }
+  if (!conformance) throw RuleError(i, "level", "is only for the metric \"conformance\"");
+  if (rule.warn || rule.stop) throw RuleError(i, "level", "give a level or limits, not both");
+  if (r["level"] == 2) {
+    rule.warn = 0.0;
+  } else if (r["level"] == 3) {
+    rule.stop = 0.0;
+  } else {
+    throw RuleError(i, "level", "must be 2 (warn) or 3 (stop)");
+  }
+}
+
 AuditRule ParseRule(const json& r, std::size_t i) {
   if (!r.is_object()) throw RuleError(i, "", "must be an object");
-  static const char* const kKeys[] = {"kind", "metric",  "warn", "stop",     "change",
-                                      "days", "test_id", "axis", "direction"};
+  static const char* const kKeys[] = {"kind", "metric",  "warn", "stop",      "change",
+                                      "days", "test_id", "axis", "direction", "level"};
   for (const auto& item : r.items()) {
     const std::string key = item.key();
     if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* k) { return key == k; })) {
       throw RuleError(
           i, key,
-          "is not a rule key (kind, metric, warn, stop, change, days, test_id, direction, axis)");
+          "is not a rule key (kind, metric, warn, stop, change, days, test_id, direction, axis, "
+          "level)");
     }
   }
   AuditRule rule;
@@ -340,6 +375,7 @@ AuditRule ParseRule(const json& r, std::size_t i) {
   }
   rule.warn = Limit(r, i, "warn");
   rule.stop = Limit(r, i, "stop");
+  ConformanceLevel(r, i, rule);
   if (!rule.warn && !rule.stop) throw RuleError(i, "warn", "a rule needs warn, stop or both");
   if (rule.warn && rule.stop && *rule.warn > *rule.stop) {
     throw RuleError(i, "warn", "must be ≤ stop");

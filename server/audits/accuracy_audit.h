@@ -51,6 +51,12 @@ std::optional<AuditMetric> FindAuditMetric(const std::string& kind, const std::s
 // The metric's value in a result of its analysis; nullopt when the result does not hold it.
 std::optional<double> ExtractAuditMetric(const AuditMetric& metric, const nlohmann::json& result);
 
+// The metric "conformance" of the measurement kinds that take tolerances: the number of figures
+// of a set-up's newest test that do not meet the machine's tolerance table
+// (server/tolerances/tolerances.h). A rule of it may give "level": 2 or 3 (default 3) instead of
+// limits: a set-up that fails its tolerances is a finding of that level.
+inline constexpr const char* kConformanceMetric = "conformance";
+
 // Kinds judged machine-wide (one set-up: the machine): the joint-health estimates kept with servo
 // records and the hexapod calibrations. Every other kind is judged per set-up.
 bool MachineWideKind(const std::string& kind);

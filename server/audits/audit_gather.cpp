@@ -9,6 +9,8 @@
 #include "server/audits/calibration_runs.h"
 #include "server/base/time_util.h"
 #include "server/measurements/analyses.h"
+#include "server/tolerances/tolerance_service.h"
+#include "server/tolerances/tolerances.h"
 
 namespace km::server {
 namespace {
@@ -178,9 +180,33 @@ void FindReference(AuditSource& service, const AuditRule& rule, const AuditMetri
               " at or before " + IsoFromUnixSeconds(cutoff);
 }
 
+// The set-up's newest test against the machine's tolerance table: the value is the number of
+// figures that do not pass; a set-up no tolerance applies to is not evaluated.
+void ConformanceOf(AuditSource& service, const ToleranceTable& table, Stored& newest,
+                   SetUpEvidence& e) {
+  LoadResults(service, newest);
+  const json c = Conformance(table, newest.record.kind, newest.record.test_id,
+                             newest.record.direction, newest.result);
+  const std::string verdict = c.value("verdict", "");
+  e.extra = {{"conformance", verdict}, {"tolerance_version", c.value("tolerance_version", json())}};
+  if (verdict == "no tolerance") {
+    e.missing = "no tolerance of the machine applies to this set-up";
+    return;
+  }
+  double failed = 0;
+  json figures = json::array();
+  for (const auto& f : c.value("figures", json::array())) {
+    if (f.value("verdict", "") == "pass") continue;
+    ++failed;
+    figures.push_back(f.value("metric", "") + " " + f.value("verdict", ""));
+  }
+  e.extra["failed_figures"] = figures;
+  e.newest = Found(failed, newest);
+}
+
 SetUpEvidence JudgeSetUp(AuditSource& service, const AuditRule& rule, const AuditMetric& metric,
                          SetUpTests& group, const AuditPolicy& policy, const json& previous,
-                         std::int64_t now) {
+                         std::int64_t now, const ToleranceTable& tolerances) {
   SetUpEvidence e;
   e.test_id = group.test_id;
   e.direction = group.direction;
@@ -190,6 +216,13 @@ SetUpEvidence JudgeSetUp(AuditSource& service, const AuditRule& rule, const Audi
     e.stale = true;
     e.age_days = age;
     e.newest = Found(0.0, newest);
+    return e;
+  }
+  if (metric.analysis == kConformanceMetric) {
+    ConformanceOf(service, tolerances, *group.tests.front(), e);
+    if (e.newest && rule.change != AuditRule::Change::kNone) {
+      e.missing = "conformance is judged as it stands, not as a trend";
+    }
     return e;
   }
   const std::size_t depth = SearchDepth(rule, metric, group.tests.size());
@@ -217,7 +250,8 @@ SetUpEvidence JudgeSetUp(AuditSource& service, const AuditRule& rule, const Audi
 }
 
 AuditEvidence GatherRule(AuditSource& service, const AuditRule& rule, std::vector<Stored>& history,
-                         const AuditPolicy& policy, const json& previous, std::int64_t now) {
+                         const AuditPolicy& policy, const json& previous, std::int64_t now,
+                         const ToleranceTable& tolerances) {
   AuditEvidence ev;
   const auto metric = FindAuditMetric(rule.kind, rule.metric);
   if (!metric) {
@@ -226,7 +260,7 @@ AuditEvidence GatherRule(AuditSource& service, const AuditRule& rule, std::vecto
   }
   auto groups = GroupSetUps(history, rule, *metric);
   for (auto& g : groups) {
-    ev.set_ups.push_back(JudgeSetUp(service, rule, *metric, g, policy, previous, now));
+    ev.set_ups.push_back(JudgeSetUp(service, rule, *metric, g, policy, previous, now, tolerances));
   }
   if (groups.empty() && MachineWideKind(rule.kind)) {
     ev.missing = "no result of this metric yet";
@@ -246,12 +280,14 @@ std::vector<AuditEvidence> GatherAuditEvidence(AuditSource& service, const std::
                                                std::int64_t now) {
   std::map<std::string, std::vector<Stored>> histories;
   std::vector<AuditEvidence> evidence;
+  const ToleranceTable tolerances =
+      ReadToleranceTable(service.storage(), machine_id).value_or(ToleranceTable{});
   for (const auto& rule : rules) {
     auto it = histories.find(rule.kind);
     if (it == histories.end()) {
       it = histories.emplace(rule.kind, ListHistory(service, machine_id, rule.kind)).first;
     }
-    evidence.push_back(GatherRule(service, rule, it->second, policy, previous, now));
+    evidence.push_back(GatherRule(service, rule, it->second, policy, previous, now, tolerances));
   }
   return evidence;
 }

@@ -260,7 +260,12 @@ json AccuracyAuditJson(AuditSource& service, std::int64_t id) {
 
 json AuditMetricsJson() {
   json items = json::array();
-  for (const auto& m : AuditMetrics()) {
+  std::vector<AuditMetric> metrics = AuditMetrics();
+  for (const char* kind :
+       {"dbb", "straightness", "flatness", "parallelism", "positioning", "tracker"}) {
+    metrics.push_back(*FindAuditMetric(kind, kConformanceMetric));
+  }
+  for (const auto& m : metrics) {
     items.push_back({{"kind", m.kind},
                      {"metric", m.metric},
                      {"analysis", m.analysis.empty() ? "result" : m.analysis},

@@ -245,6 +245,54 @@ TEST_F(AuditSetUps, HysteresisIsJudgedForEachTestIdsPair) {
   EXPECT_GE(v["findings"][0]["value"].get<double>(), 5.0 - 1e-6);
 }
 
+// Conformance as a rule: a set-up whose newest test fails the machine's tolerances is a finding
+// of the rule's level; a set-up no tolerance applies to is not evaluated; a new table judges the
+// same tests again.
+TEST_F(AuditSetUps, ASetUpFailingItsTolerancesIsAFindingOfTheRulesLevel) {
+  const auto r100 = Upload(OvalDbb("xy-r100", "cw", 8.0, "2026-11-26T08:00:00Z"), "a.txt");
+  Upload(OvalDbb("xy-r150", "ccw", 5.0, "2026-11-26T08:10:00Z"), "b.txt");
+  Upload(OvalDbb("yz-r150", "ccw", 5.0, "2026-11-26T08:20:00Z"), "c.txt");
+  // ISO 230-4 G of an oval A·cos 2θ is 2A: 16 µm, 10 µm and 10 µm.
+  svc_->tolerances().Put(kSetUpMachine, {{"tolerances",
+                                          {{{"kind", "dbb"},
+                                            {"metric", "circular_deviation_um"},
+                                            {"test_id", "xy-*"},
+                                            {"tolerance", 15}}}}});
+  const json rule = {{"kind", "dbb"}, {"metric", "conformance"}, {"level", 2}};
+  const json v = Audit({{"rules", {rule}}});
+  EXPECT_EQ(v["level"], 2) << v.dump(1);
+  ASSERT_EQ(v["findings"].size(), 1u) << v.dump(1);
+  EXPECT_EQ(v["findings"][0]["measurement_id"], r100);
+  EXPECT_EQ(v["findings"][0]["conformance"], "fail");
+  EXPECT_EQ(v["findings"][0]["tolerance_version"], 1);
+  const auto checked = Checked(v, 0);
+  EXPECT_EQ(checked.at("xy-r150 CCW")["status"], "ok");
+  EXPECT_EQ(checked.at("xy-r150 CCW")["conformance"], "pass");
+  EXPECT_EQ(checked.at("yz-r150 CCW")["status"], "not evaluated");
+
+  // A tighter table: every set-up fails; without a level the rule stops the machine.
+  svc_->tolerances().Put(
+      kSetUpMachine,
+      {{"tolerances",
+        {{{"kind", "dbb"}, {"metric", "circular_deviation_um"}, {"tolerance", 9.5}}}}});
+  const json again = Audit({{"rules", {{{"kind", "dbb"}, {"metric", "conformance"}}}}});
+  EXPECT_EQ(again["level"], 3);
+  EXPECT_EQ(again["findings"].size(), 3u);
+  EXPECT_EQ(again["findings"][0]["tolerance_version"], 2);
+  EXPECT_EQ(AuditConfigJson(*svc_, kSetUpMachine)["rules"][0]["stop"], 0.0);
+
+  json bad = rule;
+  bad["level"] = 1;
+  EXPECT_THROW(PutAuditConfig(*svc_, kSetUpMachine, {{"rules", {bad}}}, kAuditNow), InvalidInput);
+  bad = Circularity(1, 2);
+  bad["level"] = 3;
+  EXPECT_THROW(PutAuditConfig(*svc_, kSetUpMachine, {{"rules", {bad}}}, kAuditNow), InvalidInput);
+  EXPECT_THROW(
+      PutAuditConfig(*svc_, kSetUpMachine,
+                     {{"rules", {{{"kind", "servo"}, {"metric", "conformance"}}}}}, kAuditNow),
+      InvalidInput);
+}
+
 // The demo machine as a plant measures it: several circles in one session. The newest test is
 // within the limits; the audit must still find the circle above stop, naming it.
 TEST_F(AuditSetUps, TheDemoMachinesCircleAboveStopIsFoundThoughANewerTestIsGood) {
