@@ -381,6 +381,9 @@ AuditRule ParseRule(const json& r, std::size_t i) {
     throw RuleError(i, "warn", "must be ≤ stop");
   }
   ParseChange(r, i, rule);
+  if (rule.metric == kConformanceMetric && rule.change != AuditRule::Change::kNone) {
+    throw RuleError(i, "change", "conformance is judged as it stands, not as a trend");
+  }
   return rule;
 }
 

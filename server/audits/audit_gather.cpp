@@ -219,10 +219,7 @@ SetUpEvidence JudgeSetUp(AuditSource& service, const AuditRule& rule, const Audi
     return e;
   }
   if (metric.analysis == kConformanceMetric) {
-    ConformanceOf(service, tolerances, *group.tests.front(), e);
-    if (e.newest && rule.change != AuditRule::Change::kNone) {
-      e.missing = "conformance is judged as it stands, not as a trend";
-    }
+    ConformanceOf(service, tolerances, *group.tests.front(), e);  // never a trend (ParseRule)
     return e;
   }
   const std::size_t depth = SearchDepth(rule, metric, group.tests.size());

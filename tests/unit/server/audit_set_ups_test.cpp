@@ -284,6 +284,9 @@ TEST_F(AuditSetUps, ASetUpFailingItsTolerancesIsAFindingOfTheRulesLevel) {
   json bad = rule;
   bad["level"] = 1;
   EXPECT_THROW(PutAuditConfig(*svc_, kSetUpMachine, {{"rules", {bad}}}, kAuditNow), InvalidInput);
+  bad = rule;
+  bad["change"] = "previous_audit";
+  EXPECT_THROW(PutAuditConfig(*svc_, kSetUpMachine, {{"rules", {bad}}}, kAuditNow), InvalidInput);
   bad = Circularity(1, 2);
   bad["level"] = 3;
   EXPECT_THROW(PutAuditConfig(*svc_, kSetUpMachine, {{"rules", {bad}}}, kAuditNow), InvalidInput);
