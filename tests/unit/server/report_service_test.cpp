@@ -18,6 +18,7 @@
 #include "server/audits/audit_service.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
+#include "tests/unit/server/pdf_text.h"
 
 namespace km::server {
 namespace {
@@ -59,15 +60,7 @@ class ReportServiceTest : public ::testing::Test {
   // The text of a PDF (pdftotext, reading order as laid out).
   std::string Text(const std::string& pdf) {
     EXPECT_EQ(pdf.rfind("%PDF-", 0), 0u);
-    const auto path = (dir_ / "r.pdf").string();
-    std::ofstream(path, std::ios::binary) << pdf;
-    std::string out;
-    FILE* p = popen(("pdftotext -layout '" + path + "' - 2>&1").c_str(), "r");
-    std::array<char, 4096> buf;
-    std::size_t n;
-    while (p && (n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
-    if (p) pclose(p);
-    return out;
+    return ::km::test::PdfToText(pdf, (dir_ / "r.pdf").string());
   }
   fs::path dir_;
   std::unique_ptr<Service> svc_;

@@ -18,6 +18,7 @@
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/expect_error.h"
+#include "tests/unit/server/pdf_text.h"
 
 namespace km::server {
 namespace {
@@ -64,15 +65,7 @@ class ToleranceServiceTest : public ::testing::Test {
     fs::remove_all(dir_);
   }
   std::string PdfText(const std::string& pdf) {
-    const auto path = (dir_ / "r.pdf").string();
-    std::ofstream(path, std::ios::binary) << pdf;
-    std::string out;
-    FILE* p = popen(("pdftotext -layout '" + path + "' - 2>&1").c_str(), "r");
-    std::array<char, 4096> buf;
-    std::size_t n;
-    while (p && (n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
-    if (p) pclose(p);
-    return out;
+    return ::km::test::PdfToText(pdf, (dir_ / "r.pdf").string());
   }
   fs::path dir_;
   std::unique_ptr<Service> svc_;
