@@ -392,7 +392,9 @@ test('discovery page: hexapod gravity + friction found step by step, saved as ve
       await page.selectOption('#disc-model', '');
       assert.equal(await page.isDisabled('#disc-version'), true);
       await page.click('#disc-none');
-      // Test a, CCW and CW.
+      // Test a, CCW and CW (the list is drawn again once the tests' planes are read).
+      await page.waitForFunction(() => [...document.querySelectorAll('#disc-measurements label')]
+        .filter((l) => /^a(CCW|CW)/.test(l.textContent.replace(/\s+/g, ''))).length === 2);
       const two = await page.$$eval('#disc-measurements label', (ls) =>
         ls.filter((l) => /^a(CCW|CW)/.test(l.textContent.replace(/\s+/g, ''))).map((l) => Number(l.querySelector('input').dataset.id)),
       );
