@@ -1,0 +1,293 @@
+#include "analysis/uncertainty/monte_carlo.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "analysis/core/errors.h"
+
+namespace km::uncertainty {
+namespace {
+
+// std::seed_seq keeps 32 bits of each value: the 64-bit seed goes in as two halves.
+std::uint32_t Low32(std::uint64_t v) {
+  return static_cast<std::uint32_t>(v & 0xffffffffu);
+}
+std::uint32_t High32(std::uint64_t v) {
+  return static_cast<std::uint32_t>(v >> 32);
+}
+
+// Draws the inputs from their distributions out of one seeded stream.
+class InputSampler {
+ public:
+  InputSampler(const std::vector<McInput>& inputs, std::seed_seq& seed)
+      : inputs_(inputs), rng_(seed) {
+    for (const auto& in : inputs) {
+      const double scale = in.distribution == Distribution::kNormal        ? 1.0
+                           : in.distribution == Distribution::kRectangular ? std::sqrt(3.0)
+                                                                           : std::sqrt(6.0);
+      scale_.push_back(scale * in.u);
+    }
+  }
+
+  // Input i drawn once (its estimate when u = 0).
+  double DrawOne(std::size_t i) {
+    const McInput& in = inputs_[i];
+    if (scale_[i] == 0.0) return in.estimate;
+    switch (in.distribution) {
+      case Distribution::kNormal:
+        return in.estimate + scale_[i] * normal_(rng_);
+      case Distribution::kRectangular:
+        return in.estimate + scale_[i] * uniform_(rng_);
+      case Distribution::kTriangular:
+        // The mean of two independent R(−1, 1) is the symmetric triangle on [−1, 1].
+        return in.estimate + scale_[i] * 0.5 * (uniform_(rng_) + uniform_(rng_));
+    }
+    return in.estimate;
+  }
+
+  void DrawAll(std::span<double> x) {
+    for (std::size_t i = 0; i < x.size(); ++i) x[i] = DrawOne(i);
+  }
+
+ private:
+  const std::vector<McInput>& inputs_;
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> normal_{0.0, 1.0};
+  std::uniform_real_distribution<double> uniform_{-1.0, 1.0};
+  std::vector<double> scale_;  // σ, a or a of each input
+};
+
+void CheckRun(const VectorModel& model, const std::vector<McInput>& inputs, std::size_t outputs,
+              const McOptions& o) {
+  if (!model) throw InvalidInput("", 0, "model", "is empty");
+  if (outputs == 0) throw InvalidInput("", 0, "outputs", "must be at least 1");
+  for (const auto& in : inputs) {
+    if (!(in.u >= 0.0 && std::isfinite(in.u) && std::isfinite(in.estimate))) {
+      throw InvalidInput("", 0, in.name, "estimate and u must be finite, u not negative");
+    }
+  }
+  if (!(o.p > 0.0 && o.p < 1.0)) throw InvalidInput("", 0, "p", "must be within (0, 1)");
+  // The interval needs M ≥ 1/(1 − p) draws ([JCGM 101] 7.2.1); a batch as much.
+  const double least = 1.0 / (1.0 - o.p);
+  const std::size_t m = o.adaptive ? o.batch : o.draws;
+  if (static_cast<double>(m) < least) {
+    throw InvalidInput("", 0, o.adaptive ? "batch" : "draws", "fewer than 1/(1 − p) draws");
+  }
+  if (o.adaptive && (o.significant_digits < 1 || o.max_draws < 2 * o.batch)) {
+    throw InvalidInput("", 0, "adaptive", "needs 1+ significant digits and two batches");
+  }
+}
+
+// Appends `count` evaluations of the model to columns[j], one column per output. The buffers
+// are allocated once; the columns grow by one reserve.
+void DrawBatch(const VectorModel& model, InputSampler& sampler, std::size_t inputs,
+               std::size_t count, std::vector<std::vector<double>>& columns) {
+  std::vector<double> x(inputs);
+  std::vector<double> y(columns.size());
+  for (auto& c : columns) {
+    if (c.capacity() < c.size() + count) c.reserve(std::max(c.size() + count, 2 * c.capacity()));
+  }
+  for (std::size_t m = 0; m < count; ++m) {
+    sampler.DrawAll(x);
+    model(x, y);
+    for (std::size_t j = 0; j < y.size(); ++j) columns[j].push_back(y[j]);
+  }
+}
+
+// Mean, u, U and the interval of one output from its draws (reordered).
+McOutput Summarise(std::span<double> draws, double p, double k) {
+  McOutput out;
+  out.mean = Mean(draws);
+  out.u = StandardDeviation(draws, out.mean);
+  out.U = k * out.u;
+  std::tie(out.low, out.high) = SymmetricCoverageInterval(draws, p);
+  return out;
+}
+
+// The budget by one input at a time: input i drawn alone (its own stream, seeded by the run's
+// seed and i), the others at their estimates; the σ of each output over `draws` evaluations
+// (Welford's running variance, no storage).
+void OneAtATimeBudget(const VectorModel& model, const std::vector<McInput>& inputs,
+                      const McOptions& o, McResult& result) {
+  const std::size_t n = inputs.size();
+  const std::size_t outs = result.outputs.size();
+  for (auto& out : result.outputs) out.budget.assign(n, 0.0);
+  std::vector<double> x(n);
+  std::vector<double> y(outs);
+  std::vector<double> mean(outs);
+  std::vector<double> m2(outs);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (inputs[i].u == 0.0) continue;
+    std::seed_seq seed{Low32(o.seed), High32(o.seed), 1u, static_cast<std::uint32_t>(i)};
+    InputSampler sampler(inputs, seed);
+    for (std::size_t q = 0; q < n; ++q) x[q] = inputs[q].estimate;
+    std::fill(mean.begin(), mean.end(), 0.0);
+    std::fill(m2.begin(), m2.end(), 0.0);
+    for (std::size_t m = 1; m <= o.budget_draws; ++m) {
+      x[i] = sampler.DrawOne(i);
+      model(x, y);
+      for (std::size_t j = 0; j < outs; ++j) {
+        const double d = y[j] - mean[j];
+        mean[j] += d / static_cast<double>(m);
+        m2[j] += d * (y[j] - mean[j]);
+      }
+    }
+    for (std::size_t j = 0; j < outs; ++j) {
+      result.outputs[j].budget[i] = std::sqrt(m2[j] / static_cast<double>(o.budget_draws - 1));
+    }
+  }
+}
+
+// The results of one batch for one output: y, u, y_low, y_high ([JCGM 101] 7.9.4 b).
+struct BatchFigures {
+  double mean, u, low, high;
+};
+
+// s of the average of h batch figures (7.9.4 c): √(Σ (v_r − v̄)² / (h (h − 1))).
+double SpreadOfAverage(const std::vector<BatchFigures>& b, double BatchFigures::*field) {
+  const double h = static_cast<double>(b.size());
+  double mean = 0.0;
+  for (const auto& f : b) mean += f.*field;
+  mean /= h;
+  double ss = 0.0;
+  for (const auto& f : b) ss += (f.*field - mean) * (f.*field - mean);
+  return std::sqrt(ss / (h * (h - 1.0)));
+}
+
+// Whether 2s of every batch figure is within δ of u from all draws so far (7.9.4 d).
+bool BatchesStable(const std::vector<BatchFigures>& b, double u_all, int digits, double& delta) {
+  delta = NumericalTolerance(u_all, digits);
+  for (auto field :
+       {&BatchFigures::mean, &BatchFigures::u, &BatchFigures::low, &BatchFigures::high}) {
+    if (2.0 * SpreadOfAverage(b, field) > delta) return false;
+  }
+  return true;
+}
+
+// Mean and variance of all the draws so far, pooled from each batch's mean and u (Chan's
+// parallel update), so a batch costs O(batch) whatever the draws before it.
+class RunningMoments {
+ public:
+  void AddBatch(double mean, double u, std::size_t count) {
+    const double nb = static_cast<double>(count);
+    const double total = n_ + nb;
+    const double d = mean - mean_;
+    m2_ += u * u * (nb - 1.0) + d * d * n_ * nb / total;
+    mean_ += d * nb / total;
+    n_ = total;
+  }
+  double U() const { return n_ > 1.0 ? std::sqrt(m2_ / (n_ - 1.0)) : 0.0; }
+
+ private:
+  double n_ = 0.0;
+  double mean_ = 0.0;
+  double m2_ = 0.0;
+};
+
+// The adaptive procedure ([JCGM 101] 7.9.4): batches until every output is stable.
+McResult RunAdaptive(const VectorModel& model, const std::vector<McInput>& inputs,
+                     std::size_t outputs, const McOptions& o, InputSampler& sampler) {
+  McResult result;
+  std::vector<std::vector<double>> columns(outputs);
+  std::vector<std::vector<BatchFigures>> batches(outputs);
+  std::vector<double> scratch;
+  std::vector<RunningMoments> all(outputs);
+  result.converged = false;
+  while (!result.converged && result.draws + o.batch <= o.max_draws) {
+    DrawBatch(model, sampler, inputs.size(), o.batch, columns);
+    result.draws += o.batch;
+    bool stable = batches[0].size() >= 1;  // two batches at least
+    result.tolerance = 0.0;
+    for (std::size_t j = 0; j < outputs; ++j) {
+      scratch.assign(columns[j].end() - static_cast<std::ptrdiff_t>(o.batch), columns[j].end());
+      const McOutput f = Summarise(scratch, o.p, o.k);
+      batches[j].push_back({f.mean, f.u, f.low, f.high});
+      all[j].AddBatch(f.mean, f.u, o.batch);
+      if (batches[j].size() < 2) continue;
+      double delta = 0.0;
+      stable = BatchesStable(batches[j], all[j].U(), o.significant_digits, delta) && stable;
+      result.tolerance = std::max(result.tolerance, delta);
+    }
+    result.converged = stable;
+  }
+  for (auto& c : columns) result.outputs.push_back(Summarise(c, o.p, o.k));
+  return result;
+}
+
+}  // namespace
+
+McInput McInput::Normal(std::string name, double x, double u) {
+  return {std::move(name), x, u, Distribution::kNormal};
+}
+
+McInput McInput::Rectangular(std::string name, double low, double high) {
+  if (!(high >= low)) throw InvalidInput("", 0, name, "the upper bound is below the lower");
+  return {std::move(name), 0.5 * (low + high), (high - low) / std::sqrt(12.0),
+          Distribution::kRectangular};
+}
+
+McInput McInput::Triangular(std::string name, double x, double half_width) {
+  if (!(half_width >= 0.0)) throw InvalidInput("", 0, name, "the half-width is negative");
+  return {std::move(name), x, half_width / std::sqrt(6.0), Distribution::kTriangular};
+}
+
+double Mean(std::span<const double> draws) {
+  if (draws.empty()) throw InvalidInput("", 0, "draws", "none");
+  double sum = 0.0;
+  for (double v : draws) sum += v;
+  return sum / static_cast<double>(draws.size());
+}
+
+double StandardDeviation(std::span<const double> draws, double mean) {
+  if (draws.size() < 2) throw InvalidInput("", 0, "draws", "fewer than two");
+  double ss = 0.0;
+  for (double v : draws) ss += (v - mean) * (v - mean);
+  return std::sqrt(ss / static_cast<double>(draws.size() - 1));
+}
+
+std::pair<double, double> SymmetricCoverageInterval(std::span<double> draws, double p) {
+  if (draws.empty()) throw InvalidInput("", 0, "draws", "none");
+  if (!(p > 0.0 && p < 1.0)) throw InvalidInput("", 0, "p", "must be within (0, 1)");
+  const std::size_t m = draws.size();
+  const auto q = static_cast<std::size_t>(std::floor(p * static_cast<double>(m) + 0.5));
+  std::size_t r = (m - q + 1) / 2;  // (M − q)/2, or (M − q + 1)/2 when that is not whole
+  r = std::clamp<std::size_t>(r, 1, m);
+  const std::size_t top = std::min(r + q, m);
+  // 1-based order statistics y_(r) and y_(r+q); nth_element twice, O(M).
+  // y_(r+q) is found among the draws above y_(r), which the second pass leaves in place.
+  auto low = draws.begin() + static_cast<std::ptrdiff_t>(r - 1);
+  std::nth_element(draws.begin(), low, draws.end());
+  auto high = draws.begin() + static_cast<std::ptrdiff_t>(top - 1);
+  if (high > low) std::nth_element(low + 1, high, draws.end());
+  return {*low, *high};
+}
+
+double NumericalTolerance(double u, int significant_digits) {
+  if (!(u > 0.0) || !std::isfinite(u)) return 0.0;
+  const double l = std::floor(std::log10(u)) - (significant_digits - 1);
+  return 0.5 * std::pow(10.0, l);
+}
+
+McResult PropagateMonteCarlo(const VectorModel& model, const std::vector<McInput>& inputs,
+                             std::size_t outputs, const McOptions& options) {
+  CheckRun(model, inputs, outputs, options);
+  std::seed_seq seed{Low32(options.seed), High32(options.seed), 0u};
+  InputSampler sampler(inputs, seed);
+  McResult result;
+  if (options.adaptive) {
+    result = RunAdaptive(model, inputs, outputs, options, sampler);
+  } else {
+    std::vector<std::vector<double>> columns(outputs);
+    DrawBatch(model, sampler, inputs.size(), options.draws, columns);
+    result.draws = options.draws;
+    for (auto& c : columns) result.outputs.push_back(Summarise(c, options.p, options.k));
+  }
+  result.seed = options.seed;
+  result.p = options.p;
+  result.k = options.k;
+  if (options.budget_draws >= 2) OneAtATimeBudget(model, inputs, options, result);
+  return result;
+}
+
+}  // namespace km::uncertainty
