@@ -1,10 +1,10 @@
 // First-order propagation of standard uncertainties, the law of propagation of uncertainty
 // ([JCGM 100] §5): the combined standard uncertainty u_c(y) of y = f(x_1 … x_N) from the
 // sensitivity coefficients c_i = ∂f/∂x_i at the estimates (given, or by central finite
-// differences) and the standard uncertainties u(x_i), for uncorrelated inputs (eq. 10) or with a
-// correlation matrix r (eq. 16); each input's contribution c_i·u(x_i) (the budget); the effective
+// differences) and the standard uncertainties u(x_i), for uncorrelated inputs (§5.1) or with a
+// correlation matrix r (§5.2); each input's contribution c_i·u(x_i) (the budget); the effective
 // degrees of freedom by the Welch–Satterthwaite formula (eq. G.2b) and the coverage factor
-// k = t_p(ν_eff) of the t-distribution (G.3, G.6.4). A pure numerical module: no I/O.
+// k = t_p(ν_eff) of the t-distribution (G.6.2, G.6.4). A pure numerical module: no I/O.
 #pragma once
 
 #include <Eigen/Core>
@@ -15,8 +15,8 @@
 
 namespace km::uncertainty {
 
-// Degrees of freedom of a standard uncertainty known exactly (a Type B evaluation taken as
-// exact, [JCGM 100] G.4.3): it adds nothing to the denominator of eq. G.2b.
+// Degrees of freedom of a standard uncertainty taken as known exactly: it adds nothing to the
+// denominator of [JCGM 100] eq. G.2b.
 inline constexpr double kInfiniteDof = std::numeric_limits<double>::infinity();
 
 // One input quantity: its estimate x_i, standard uncertainty u(x_i) (k = 1) and the degrees of
@@ -58,9 +58,9 @@ std::vector<double> SensitivityCoefficients(const ScalarModel& f, const std::vec
                                             const std::vector<double>& u,
                                             double relative_step = 1e-3);
 
-// u_c = √(Σ (c_i u_i)²), [JCGM 100] eq. 10 (uncorrelated inputs).
+// u_c = √(Σ (c_i u_i)²), [JCGM 100] §5.1 (uncorrelated inputs).
 double CombinedStandardUncertainty(const std::vector<double>& c, const std::vector<double>& u);
-// u_c = √(Σ_i Σ_j c_i c_j u_i u_j r_ij), [JCGM 100] eq. 16; r symmetric with unit diagonal and
+// u_c = √(Σ_i Σ_j c_i c_j u_i u_j r_ij), [JCGM 100] §5.2; r symmetric with unit diagonal and
 // |r_ij| ≤ 1.
 double CombinedStandardUncertainty(const std::vector<double>& c, const std::vector<double>& u,
                                    const Eigen::MatrixXd& r);
@@ -71,7 +71,7 @@ double WelchSatterthwaite(double u_c, const std::vector<double>& contributions,
                           const std::vector<double>& dof);
 
 // Two-sided quantile t_p(ν) of the t-distribution: P(|T_ν| ≤ t_p) = p, for real ν > 0; the
-// normal quantile for infinite ν ([JCGM 100] Table G.2). Bisection on the regularised
+// normal quantile for infinite ν. Bisection on the regularised
 // incomplete beta function, P(|T_ν| > t) = I_{ν/(ν+t²)}(ν/2, 1/2).
 double TwoSidedTQuantile(double p, double nu);
 // Two-sided normal quantile z_p: P(|Z| ≤ z_p) = p.
@@ -79,12 +79,12 @@ double TwoSidedNormalQuantile(double p);
 // k_p = t_p(ν) with ν truncated to the next lower integer ([JCGM 100] G.6.4), ν ≥ 1.
 double CoverageFactor(double nu_eff, double p);
 
-// The whole evaluation with the given sensitivity coefficients c and value y (eq. 10, G.2b).
+// The whole evaluation with the given sensitivity coefficients c and value y (§5.1, G.2b).
 GumResult PropagateGum(const std::vector<GumInput>& inputs, const std::vector<double>& c, double y,
                        double p = 0.95);
 // Sensitivity coefficients by central differences of f (SensitivityCoefficients).
 GumResult PropagateGum(const ScalarModel& f, const std::vector<GumInput>& inputs, double p = 0.95);
-// Correlated inputs (eq. 16). Eq. G.2b assumes independent inputs; here it is applied to the
+// Correlated inputs (§5.2). Eq. G.2b assumes independent inputs; here it is applied to the
 // contributions with the correlated u_c, an approximation the caller should state.
 GumResult PropagateGumCorrelated(const ScalarModel& f, const std::vector<GumInput>& inputs,
                                  const Eigen::MatrixXd& r, double p = 0.95);

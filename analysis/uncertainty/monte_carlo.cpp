@@ -68,7 +68,7 @@ void CheckRun(const VectorModel& model, const std::vector<McInput>& inputs, std:
     }
   }
   if (!(o.p > 0.0 && o.p < 1.0)) throw InvalidInput("", 0, "p", "must be within (0, 1)");
-  // The interval needs M ≥ 1/(1 − p) draws ([JCGM 101] 7.2.1); a batch as much.
+  // The interval needs M ≥ 1/(1 − p) draws ([JCGM 101] §7.2); a batch as much.
   const double least = 1.0 / (1.0 - o.p);
   const std::size_t m = o.adaptive ? o.batch : o.draws;
   if (static_cast<double>(m) < least) {
@@ -139,12 +139,12 @@ void OneAtATimeBudget(const VectorModel& model, const std::vector<McInput>& inpu
   }
 }
 
-// The results of one batch for one output: y, u, y_low, y_high ([JCGM 101] 7.9.4 b).
+// The results of one batch for one output: y, u, y_low, y_high ([JCGM 101] §7.9.4).
 struct BatchFigures {
   double mean, u, low, high;
 };
 
-// s of the average of h batch figures (7.9.4 c): √(Σ (v_r − v̄)² / (h (h − 1))).
+// s of the average of h batch figures (§7.9.4): √(Σ (v_r − v̄)² / (h (h − 1))).
 double SpreadOfAverage(const std::vector<BatchFigures>& b, double BatchFigures::*field) {
   const double h = static_cast<double>(b.size());
   double mean = 0.0;
@@ -155,7 +155,7 @@ double SpreadOfAverage(const std::vector<BatchFigures>& b, double BatchFigures::
   return std::sqrt(ss / (h * (h - 1.0)));
 }
 
-// Whether 2s of every batch figure is within δ of u from all draws so far (7.9.4 d).
+// Whether 2s of every batch figure is within δ of u from all draws so far (§7.9.4).
 bool BatchesStable(const std::vector<BatchFigures>& b, double u_all, int digits, double& delta) {
   delta = NumericalTolerance(u_all, digits);
   for (auto field :
@@ -185,7 +185,7 @@ class RunningMoments {
   double m2_ = 0.0;
 };
 
-// The adaptive procedure ([JCGM 101] 7.9.4): batches until every output is stable.
+// The adaptive procedure ([JCGM 101] §7.9.4): batches until every output is stable.
 McResult RunAdaptive(const VectorModel& model, const std::vector<McInput>& inputs,
                      std::size_t outputs, const McOptions& o, InputSampler& sampler) {
   McResult result;

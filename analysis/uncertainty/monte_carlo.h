@@ -21,8 +21,8 @@ namespace km::uncertainty {
 
 enum class Distribution {
   kNormal,       // N(x, u²)
-  kRectangular,  // R(x − a, x + a), a = √3·u ([JCGM 101] 6.4.2)
-  kTriangular,   // symmetric T(x − a, x + a), a = √6·u ([JCGM 101] 6.4.5)
+  kRectangular,  // R(x − a, x + a), a = √3·u
+  kTriangular,   // symmetric T(x − a, x + a), a = √6·u
 };
 
 // One input quantity by its estimate and standard uncertainty (k = 1); u = 0 holds it fixed.
@@ -49,7 +49,7 @@ struct McOptions {
   double p = 0.95;                    // coverage probability of the interval
   double k = 2.0;                     // U = k·u
   std::size_t budget_draws = 10'000;  // draws per input of the budget; 0: no budget
-  // Adaptive procedure ([JCGM 101] 7.9): batches of `batch` draws until twice the standard
+  // Adaptive procedure ([JCGM 101] §7.9.4): batches of `batch` draws until twice the standard
   // deviation of every batch result (mean, u, both ends of the interval) is at most the
   // numerical tolerance δ of `significant_digits` digits of u, or `max_draws` are spent.
   bool adaptive = false;
@@ -60,10 +60,10 @@ struct McOptions {
 
 // The results for one output quantity.
 struct McOutput {
-  double mean = 0.0;  // estimate y ([JCGM 101] eq. 23)
-  double u = 0.0;     // standard deviation of the draws (eq. 24)
+  double mean = 0.0;  // estimate y ([JCGM 101] §7.6)
+  double u = 0.0;     // standard deviation of the draws (§7.6)
   double U = 0.0;     // k·u
-  double low = 0.0;   // probabilistically symmetric coverage interval [low, high] (7.7)
+  double low = 0.0;   // probabilistically symmetric coverage interval [low, high] (§7.7)
   double high = 0.0;
   std::vector<double> budget;  // per input: σ of this output with that input drawn alone
 };
@@ -86,9 +86,9 @@ McResult PropagateMonteCarlo(const VectorModel& model, const std::vector<McInput
 double Mean(std::span<const double> draws);
 double StandardDeviation(std::span<const double> draws, double mean);
 // The probabilistically symmetric 100p % interval [y_(r), y_(r+q)] of the order statistics,
-// q = pM rounded, r = (M − q)/2 rounded up when not whole ([JCGM 101] 7.7.1–7.7.2).
+// q = pM rounded, r = (M − q)/2 rounded up when not whole ([JCGM 101] §7.7).
 std::pair<double, double> SymmetricCoverageInterval(std::span<double> draws, double p);
-// The numerical tolerance δ = ½·10^l of u written as c·10^l with c of n digits (7.9.2).
+// The numerical tolerance δ = ½·10^l of u written as c·10^l with c of n digits ([JCGM 101] §7.9.2).
 double NumericalTolerance(double u, int significant_digits);
 
 }  // namespace km::uncertainty

@@ -1,8 +1,8 @@
 // The law of propagation of uncertainty against the end-gauge calibration of [JCGM 100] annex
-// H.1. The truth is the annex's: its stated input values (H.1.3) and its results — Table H.1
-// (the budget rows c_i·u(x_i), rounded by the annex to 0.1 nm), u_c(l) = 32 nm (H.1.4),
-// ν_eff(l) ≈ 16 and k = 2.12 for p = 95 % (H.1.6), U = k·u_c = 68 nm (the annex multiplies the
-// rounded 2.12 × 32 nm = 67.8 nm).
+// H.1. The truth is the annex's: its stated input values and its results — Table H.1 (the
+// budget rows c_i·u(x_i), rounded by the annex to 0.1 nm), u_c(l) = 32 nm, ν_eff(l) ≈ 16 and k
+// = 2.12 for p = 95 % (H.1.6), U = k·u_c = 68 nm (the annex multiplies the rounded 2.12 × 32 nm
+// = 67.8 nm).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -20,12 +20,12 @@ using km::uncertainty::kInfiniteDof;
 enum EndGaugeIndex { kLs, kD0, kD1, kD2, kAlphaS, kThetaBar, kCyclic, kDeltaAlpha, kDeltaTheta };
 
 // The inputs as the annex states them: the standard's length 50.000 623 mm with u = 25 nm,
-// ν = 18 (H.1.3.1); the mean difference 215 nm with u = 5.8 nm, ν = 24, the comparator's random
-// effects u = 3.9 nm, ν = 5, and its systematic effects u = 6.7 nm, ν = 8 (H.1.3.2); α_s =
-// 11.5 × 10⁻⁶ /°C within ±2 × 10⁻⁶ /°C, rectangular, ν infinite (H.1.3.3); the bed at −0.1 °C
-// with u = 0.2 °C and a cyclic variation of amplitude 0.5 °C, arcsine: u = 0.5/√2 °C (H.1.3.4);
-// δα within ±1 × 10⁻⁶ /°C, rectangular, ν = 50 (H.1.3.5); δθ within ±0.05 °C, rectangular,
-// ν = 2 (H.1.3.6).
+// ν = 18; the mean difference 215 nm with u = 5.8 nm, ν = 24, the comparator's random
+// effects u = 3.9 nm, ν = 5, and its systematic effects u = 6.7 nm, ν = 8; α_s =
+// 11.5 × 10⁻⁶ /°C within ±2 × 10⁻⁶ /°C, rectangular, ν infinite; the bed at −0.1 °C
+// with u = 0.2 °C and a cyclic variation of amplitude 0.5 °C, arcsine: u = 0.5/√2 °C;
+// δα within ±1 × 10⁻⁶ /°C, rectangular, ν = 50; δθ within ±0.05 °C, rectangular,
+// ν = 2.
 std::vector<GumInput> EndGaugeInputs() {
   return {
       {"l_s", 50'000'623.0, 25.0, 18.0},
@@ -40,7 +40,7 @@ std::vector<GumInput> EndGaugeInputs() {
   };
 }
 
-// l = l_s + d − l_s (δα θ + α_s δθ), d = d̄ + d1 + d2, θ = θ̄ + Δ (H.1.2, H.1.3.2, H.1.3.4).
+// l = l_s + d − l_s (δα θ + α_s δθ), d = d̄ + d1 + d2, θ = θ̄ + Δ.
 double EndGaugeLength(const std::vector<double>& x) {
   const double d = x[kD0] + x[kD1] + x[kD2];
   const double theta = x[kThetaBar] + x[kCyclic];
@@ -49,16 +49,16 @@ double EndGaugeLength(const std::vector<double>& x) {
 
 TEST(GumEndGauge, CombinedUncertaintyDegreesOfFreedomAndCoverageFactor) {
   const auto r = km::uncertainty::PropagateGum(EndGaugeLength, EndGaugeInputs());
-  // l = 50.000 838 mm (H.1.5): 50 000 623 + 215 nm.
+  // l = 50.000 838 mm: 50 000 623 + 215 nm.
   EXPECT_NEAR(r.y, 50'000'838.0, 0.5);
-  // u_c(l) = 32 nm (H.1.4): the annex rounds √(1 002 nm²) = 31.7 nm.
+  // u_c(l) = 32 nm: the annex rounds √(1 002 nm²) = 31.7 nm.
   EXPECT_NEAR(r.u_c, 32.0, 0.5);
   EXPECT_NEAR(r.u_c * r.u_c, 1002.0, 2.0);
   // ν_eff(l) = 16.7, truncated to 16 (H.1.6, G.6.4). The annex computes it from its rounded
   // rows (Table H.1); from the unrounded inputs 16.75, hence a tolerance of 0.1.
   EXPECT_NEAR(r.nu_eff, 16.7, 0.1);
   EXPECT_EQ(std::floor(r.nu_eff), 16.0);
-  // t_95(16) = 2.12 (H.1.6, Table G.2).
+  // t_95(16) = 2.12 (H.1.6).
   EXPECT_NEAR(r.k, 2.12, 0.005);
   // U = 68 nm (H.1.6); from the unrounded u_c 67.1 nm, within 1 nm of the annex's rounding.
   EXPECT_NEAR(r.U, 68.0, 1.0);
@@ -72,8 +72,8 @@ TEST(GumEndGauge, BudgetRowsOfTableH1) {
   for (std::size_t i = 0; i < r.budget.size(); ++i) {
     EXPECT_NEAR(std::abs(r.budget[i].contribution), table[i], 0.05) << r.budget[i].name;
   }
-  // Sensitivity coefficients: c = 1 for l_s and d; c_δθ = −l_s α_s = −575 nm/°C (H.1.3.6);
-  // c_α_s = −l_s δθ = 0 and c_θ = −l_s δα = 0 at the estimates (H.1.3.3, H.1.3.4).
+  // Sensitivity coefficients: c = 1 for l_s and d; c_δθ = −l_s α_s = −575 nm/°C;
+  // c_α_s = −l_s δθ = 0 and c_θ = −l_s δα = 0 at the estimates.
   EXPECT_NEAR(r.budget[kLs].sensitivity, 1.0, 1e-6);
   EXPECT_NEAR(r.budget[kD0].sensitivity, 1.0, 1e-6);
   EXPECT_NEAR(r.budget[kDeltaTheta].sensitivity, -575.0, 0.5);
@@ -82,7 +82,7 @@ TEST(GumEndGauge, BudgetRowsOfTableH1) {
 }
 
 TEST(GumEndGauge, ComparatorDifferenceOfH132) {
-  // d = d̄ + d1 + d2: u(d) = 9.7 nm and ν_eff(d) = 25.6 (H.1.3.2), with the sensitivity
+  // d = d̄ + d1 + d2: u(d) = 9.7 nm and ν_eff(d) = 25.6, with the sensitivity
   // coefficients given. The annex puts its rounded u(d) = 9.7 nm into eq. G.2b; the unrounded
   // 9.68 nm gives 25.45, hence a tolerance of 0.2 on ν_eff.
   const auto all = EndGaugeInputs();
@@ -93,7 +93,7 @@ TEST(GumEndGauge, ComparatorDifferenceOfH132) {
 }
 
 TEST(GumQuantiles, TDistributionAgainstTableG2) {
-  // [JCGM 100] Table G.2, to its 3 decimals (tolerance 0.0005).
+  // Tabulated two-sided t quantiles: to 2 decimals (tolerance 0.005), the normal to 3.
   using km::uncertainty::TwoSidedTQuantile;
   EXPECT_NEAR(TwoSidedTQuantile(0.95, 1), 12.71, 0.005);
   EXPECT_NEAR(TwoSidedTQuantile(0.95, 2), 4.30, 0.005);
@@ -110,7 +110,7 @@ TEST(GumQuantiles, TDistributionAgainstTableG2) {
 }
 
 TEST(GumCorrelation, FullyCorrelatedInputsAddLinearly) {
-  // y = x1 + x2, u1 = 3, u2 = 4: uncorrelated 5; r = +1 gives 7, r = −1 gives 1 (eq. 16).
+  // y = x1 + x2, u1 = 3, u2 = 4: uncorrelated 5; r = +1 gives 7, r = −1 gives 1 ([JCGM 100] §5.2).
   const auto sum = [](const std::vector<double>& x) { return x[0] + x[1]; };
   const std::vector<GumInput> in = {{"x1", 1.0, 3.0}, {"x2", 2.0, 4.0}};
   Eigen::MatrixXd r(2, 2);

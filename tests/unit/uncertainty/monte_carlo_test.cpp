@@ -143,7 +143,7 @@ TEST(MonteCarloSeed, SameSeedSameResultOtherSeedOther) {
 }
 
 TEST(MonteCarloAdaptive, StopsWhenStableToTheStatedDigits) {
-  // u = 1.5 to 3 significant digits: δ = 0.005 ([JCGM 101] 7.9.2). The procedure stops when
+  // u = 1.5 to 3 significant digits: δ = 0.005 ([JCGM 101] §7.9.2). The procedure stops when
   // twice the standard deviation of every batch average is at most δ, so the results are within
   // about δ of the truth: u within δ, the interval ends within 2δ.
   const auto id = [](std::span<const double> x, std::span<double> y) { y[0] = x[0]; };
@@ -172,7 +172,7 @@ TEST(MonteCarloAdaptive, StopsWhenStableToTheStatedDigits) {
 }
 
 TEST(MonteCarloHelpers, IntervalTolerancesAndErrors) {
-  // M = 40, p = 0.95: q = 38, r = 1: [y_(1), y_(39)] (7.7.2).
+  // M = 40, p = 0.95: q = 38, r = 1: [y_(1), y_(39)] ([JCGM 101] §7.7).
   std::vector<double> draws;
   for (int i = 40; i >= 1; --i) draws.push_back(i);
   const auto [low, high] = km::uncertainty::SymmetricCoverageInterval(draws, 0.95);
