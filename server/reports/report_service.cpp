@@ -97,9 +97,20 @@ std::string ReportService::DbbPdf(const MeasurementRecord& rec, const Cancelled&
 }
 
 std::string ReportService::ResultsPdf(const MeasurementRecord& rec, const Cancelled& cancelled) {
+  // A stop also ends a report between reading its data and laying it out (a large result takes
+  // seconds to read before the render asks).
+  const auto give_up = [&] {
+    if (cancelled && cancelled()) {
+      throw render::RenderCancelled(
+          "the report was not finished: the server is stopping; retry shortly");
+    }
+  };
   const auto ctx = ContextOf(records_, measurements_, rec);
-  render::Report report =
-      usecases::ResultsPdfReport(measurements_.Results(rec.id), SourceOf(rec), ctx);
+  give_up();
+  const nlohmann::json results = measurements_.Results(rec.id);
+  give_up();
+  render::Report report = usecases::ResultsPdfReport(results, SourceOf(rec), ctx);
+  give_up();
   return render::RenderPdf(report, Options(cancelled));
 }
 
