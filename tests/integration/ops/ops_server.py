@@ -40,17 +40,22 @@ class Server:
         self.binary, self.data_dir, self.extra = binary, data_dir, list(extra)
         self.env = dict(os.environ, KINEMETRIC_BOOTSTRAP_TOKEN=ADMIN_TOKEN, **(env or {}))
         self.proc, self.port, self.lines = None, 0, []
-        self.stderr = subprocess.DEVNULL
+        self.stderr = None  # None: kept in <data_dir>.stderr, told when the server dies
 
     def start(self, timeout=20):
         os.makedirs(self.data_dir, exist_ok=True)
         self.lines = []
         url = None if "--database" in self.extra else database_url(self.data_dir)
         database = ["--database", url] if url else []
+        err = self.stderr
+        if err is None:
+            err = open(self.data_dir.rstrip("/") + ".stderr", "a")
         self.proc = subprocess.Popen(
             [self.binary, "--listen", "127.0.0.1:0", "--data-dir", self.data_dir, "--threads",
-             "8"] + database + self.extra, stdout=subprocess.PIPE, stderr=self.stderr, text=True,
+             "8"] + database + self.extra, stdout=subprocess.PIPE, stderr=err, text=True,
             env=self.env)
+        if self.stderr is None:
+            err.close()
         deadline = time.time() + timeout
         while time.time() < deadline:
             line = self.proc.stdout.readline()
@@ -63,13 +68,22 @@ class Server:
                 break
         if not self.port:
             self.proc.kill()
-            raise RuntimeError("kinemetricd did not start: " + "".join(self.lines))
+            raise RuntimeError("kinemetricd did not start: " + "".join(self.lines) +
+                               self.stderr_tail())
         threading.Thread(target=self._drain, daemon=True).start()
         return self
 
     def _drain(self):
         for line in self.proc.stdout:
             self.lines.append(line)
+
+    def stderr_tail(self, n=4000):
+        """The end of what the server wrote to stderr (when it is kept), for a failure message."""
+        try:
+            with open(self.data_dir.rstrip("/") + ".stderr", errors="replace") as f:
+                return "\n--- kinemetricd stderr ---\n" + f.read()[-n:]
+        except OSError:
+            return ""
 
     def signal(self, sig):
         self.proc.send_signal(sig)
@@ -109,6 +123,11 @@ class Server:
             r = c.getresponse()
             data = r.read()
             return r.status, {k.lower(): v for k, v in r.getheaders()}, data
+        except ConnectionRefusedError:
+            if self.proc and self.proc.poll() is not None:
+                raise RuntimeError("kinemetricd exited (%s) before %s %s%s" % (
+                    self.proc.returncode, method, path, self.stderr_tail())) from None
+            raise
         finally:
             if conn is None:
                 c.close()
