@@ -52,7 +52,7 @@ std::vector<double> LugreForce(const LugreParameters& p, const std::vector<doubl
     }
     const double v = (x_mm[i] - x_mm[i - 1]) / dt;  // mm/s, constant over the interval
     const double vu = 1e3 * v;                      // µm/s
-    const double g = p.Fc_N + (p.Fs_N - p.Fc_N) * std::exp(-(v / p.vs_mm_s) * (v / p.vs_mm_s));
+    const double g = detail::StribeckG(p, v);
     const double a = p.sigma0_N_per_um * std::abs(vu) / g;  // 1/s
     if (a > 0.0) {
       const double z_ss = vu / a;

@@ -9,7 +9,7 @@
 //    Weighted linear least squares (samples where the acceleration changes weigh less), σ from
 //    the covariance widened by the strokes' disagreement and the slowest feed's pull.
 // 2. Reversals: the LuGre model (eqs. 4.1–4.2), dz/dt = v − σ0 |v| z / g(v),
-//    g(v) = F_c + (F_s − F_c) exp(−(v/v_s)²), F = σ0 z + σ1 dz/dt + σ2 v, with F_c and σ2 from
+//    g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ), F = σ0 z + σ1 dz/dt + σ2 v, with F_c and σ2 from
 //    step 1, integrated along the measured motion and fitted to the force less its
 //    position-dependent part and inertia around every reversal; each parameter's σ includes the
 //    ambiguity of the motion between samples, and a parameter the records do not determine is
@@ -52,6 +52,9 @@ struct Ripple {
 struct LugreParameters {
   double Fc_N = 0.0, Fs_N = 0.0, vs_mm_s = 0.0;
   double sigma0_N_per_um = 0.0, sigma1_N_s_per_mm = 0.0, sigma2_N_s_per_mm = 0.0;
+  // δ of the Stribeck rise exp(−|v/v_s|^δ): the thesis leaves g(v) open; 2 is the Gaussian of
+  // the LuGre paper, 1 the exponential. Fitted where the reversals resolve the rise's shape.
+  double stribeck_exponent = 2.0;
 };
 
 // Which LuGre parameters the records determine (a σ below a third of the value, or of a

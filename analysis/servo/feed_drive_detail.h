@@ -54,9 +54,11 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
 // How Coulomb and viscous friction of FitSteady change when the known part of every sample
 // grows by `delta` (the fit's columns held, its ripple periods fixed).
 Eigen::Vector2d SteadyShift(const Strokes& s, const std::vector<double>& delta);
-// The Stribeck rise sign(v) (F_s − F_c) exp(−(v/v_s)²) at speed v.
+// g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ), the steady sliding friction at speed v.
+double StribeckG(const LugreParameters& p, double v);
+// The Stribeck rise sign(v) (F_s − F_c) exp(−|v/v_s|^δ) at speed v.
 double StribeckRise(const LugreParameters& p, double v);
-// Sets s.known to the Stribeck rise sign(v) (F_s − F_c) exp(−(v/v_s)²) of every sample; true
+// Sets s.known to the Stribeck rise sign(v) (F_s − F_c) exp(−|v/v_s|^δ) of every sample; true
 // when it exceeds a thousandth of the noise at some steady sample.
 bool SetStribeck(Strokes& s, const LugreParameters& p);
 

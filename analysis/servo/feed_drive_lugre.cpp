@@ -8,11 +8,16 @@
 // travel, exact exponential steps of eq. 4.1 on sub-intervals of constant speed. Samples where
 // the acceleration changes weigh less (their inertia is uncertain) and a standstill counts as
 // one sample. Levenberg–Marquardt on ln F_s, ln v_s, ln σ0 and σ1 itself (the force is linear in
-// σ1, which may be zero), from six starts. The σ of each parameter is the statistical one (the
-// residual's own scatter; infinite along directions the data leave flat) and, added in
-// quadrature, its change when the motion between samples is read at constant speed: where a
-// reversal passes between few samples that second term dominates. feed_drive_lugre_judge.cpp
-// then decides which parameters are determined.
+// σ1, which may be zero), from six starts, with the Gaussian rise (δ = 2); then once more with
+// the rise's exponent δ free (ln δ in [ln 0.5, ln 6]), from δ = 2 and δ = 1. The thesis leaves
+// g(v) open, and a rise of another shape fitted as a Gaussian gives a v_s tens of σ off with a
+// tiny σ. The fitted δ is kept where the records reject δ = 2 by more than 3 σ; otherwise δ = 2,
+// each parameter's σ including its change when δ is fitted. The σ of each parameter is the
+// statistical one (the residual's own scatter, inflated by its correlation from sample to
+// sample; infinite along directions the data leave flat) and, added in quadrature, its change
+// when the motion between samples is read at constant speed: where a reversal passes between
+// few samples that second term dominates. feed_drive_lugre_judge.cpp then decides which
+// parameters are determined.
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -26,7 +31,8 @@
 namespace km::servo::detail {
 namespace {
 
-constexpr int kParams = 4;  // ln F_s, ln v_s, ln σ0, σ1
+constexpr int kParams = 5;  // ln F_s, ln v_s, ln σ0, σ1, ln δ
+constexpr int kExponent = 4;
 using Vec = Eigen::Matrix<double, kParams, 1>;
 using Mat = Eigen::Matrix<double, kParams, kParams>;
 constexpr int kSubsteps = 8;  // of one sample interval, for linear speed
@@ -59,11 +65,12 @@ LugreParameters FromVec(const Vec& q, const Sliding& sliding) {
   p.sigma0_N_per_um = std::exp(q[2]);
   p.sigma1_N_s_per_mm = q[3];
   p.sigma2_N_s_per_mm = sliding.sigma2_N_s_per_mm;
+  p.stribeck_exponent = std::exp(q[kExponent]);
   return p;
 }
 
 double Stribeck(const LugreParameters& p, double v) {
-  return p.Fc_N + (p.Fs_N - p.Fc_N) * std::exp(-(v / p.vs_mm_s) * (v / p.vs_mm_s));
+  return StribeckG(p, v);
 }
 
 // One exact step of eq. 4.1 at constant speed v (mm/s) over h seconds; z in µm.
@@ -144,12 +151,19 @@ struct Fit {
   Vec q = Vec::Zero();
   Mat jtj = Mat::Zero();
   double rss = INFINITY;
+  bool free_exponent = false;
+  std::vector<double> e;  // weighted residual √w (y − model) at q
 };
 
-// Levenberg–Marquardt from q0 on the windows' target force y.
+// The range of the Stribeck exponent δ fitted (ln δ clamped to it).
+constexpr double kMinExponent = 0.5, kMaxExponent = 6.0;
+
+// Levenberg–Marquardt from q0 on the windows' target force y; δ held at q0's unless
+// `free_exponent`.
 Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
           const std::vector<double>& w, const Sliding& sliding, Reading reading, const Vec& q0,
-          int iterations = 60) {
+          bool free_exponent, int iterations = 60) {
+  const int free = free_exponent ? kParams : kExponent;
   const std::size_t n = y.size();
   std::vector<double> model, shifted;
   const auto residual = [&](const Vec& q, std::vector<double>& m) {
@@ -160,13 +174,15 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   };
   Fit fit;
   fit.q = q0;
+  fit.free_exponent = free_exponent;
   fit.rss = residual(fit.q, model);
   double lambda = 1e-2;
   Eigen::MatrixXd jac(static_cast<Eigen::Index>(n), kParams);
   for (int it = 0; it < iterations; ++it) {
     residual(fit.q, model);
-    for (int k = 0; k < kParams; ++k) {
-      const double h = k < 3 ? 1e-5 : 1.0;  // the force is linear in σ1
+    jac.setZero();
+    for (int k = 0; k < free; ++k) {
+      const double h = k == 3 ? 1.0 : 1e-5;  // the force is linear in σ1
       Vec qk = fit.q;
       qk[k] += h;
       residual(qk, shifted);
@@ -182,9 +198,12 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
     for (int tries = 0; tries < 12 && !improved; ++tries) {
       Mat a = fit.jtj;
       a.diagonal() += lambda * fit.jtj.diagonal().cwiseMax(1e-12);
+      if (!free_exponent) a(kExponent, kExponent) = 1.0;
       Vec step = a.ldlt().solve(g);
       step.head<3>() = step.head<3>().cwiseMax(-2.0).cwiseMin(2.0);
-      const Vec qn = fit.q + step;
+      step[kExponent] = free_exponent ? std::clamp(step[kExponent], -0.5, 0.5) : 0.0;
+      Vec qn = fit.q + step;
+      qn[kExponent] = std::clamp(qn[kExponent], std::log(kMinExponent), std::log(kMaxExponent));
       const double rn = residual(qn, shifted);
       if (std::isfinite(rn) && rn < fit.rss) {
         improved = true;
@@ -198,24 +217,52 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
     }
     if (!improved || small) break;
   }
+  residual(fit.q, model);
+  fit.e.resize(n);
+  for (std::size_t i = 0; i < n; ++i) fit.e[i] = std::sqrt(w[i]) * (y[i] - model[i]);
   return fit;
 }
 
-// σ of ln F_s, ln v_s, ln σ0 and of σ1: the statistical one (the weighted residual's own scatter; a
-// direction the data leave flat has an infinite σ) and the change under the other reading of
-// the motion, added in quadrature.
-Vec Uncertainty(const Fit& fit, const Fit& other, double n) {
-  const double s2 = fit.rss / std::max(n - kParams, 1.0);
-  Vec scale;
-  for (int k = 0; k < kParams; ++k)
-    scale[k] = fit.jtj(k, k) > 0.0 ? 1.0 / std::sqrt(fit.jtj(k, k)) : 0.0;
-  const Mat c = scale.asDiagonal() * fit.jtj * scale.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Mat> eig(c);
+// How much the residual's correlation from sample to sample inflates a variance computed as if
+// the samples were independent: 1 + 2 Σ ρ_k over the lags k until the correlation ρ_k of the
+// residual with itself k samples later (within a window) stops being positive (at least 1). A
+// model that misses the drive's friction leaves residuals that run in long waves: each sample
+// then tells less than the noise suggests.
+double CorrelationFactor(const std::vector<Window>& ws, const std::vector<double>& e) {
+  constexpr std::size_t kMaxLag = 50;
+  double c0 = 0.0;
+  for (double v : e) c0 += v * v;
+  if (!(c0 > 0.0)) return 1.0;
+  double factor = 1.0;
+  for (std::size_t lag = 1; lag <= kMaxLag; ++lag) {
+    double c = 0.0;
+    std::size_t offset = 0;
+    for (const auto& w : ws) {
+      const std::size_t len = w.last - w.first + 1;
+      for (std::size_t i = offset; i + lag < offset + len; ++i) c += e[i] * e[i + lag];
+      offset += len;
+    }
+    if (!(c > 0.0)) break;
+    factor += 2.0 * c / c0;
+  }
+  return factor;
+}
+
+// σ of ln F_s, ln v_s, ln σ0, σ1 and ln δ (0 when held): the statistical one (the weighted
+// residual's own scatter, inflated by its correlation; a direction the data leave flat has an
+// infinite σ) and the change under the other reading of the motion, added in quadrature.
+Vec Uncertainty(const Fit& fit, const Fit& other, const std::vector<Window>& ws, double n) {
+  const int m = fit.free_exponent ? kParams : kExponent;
+  const double s2 = fit.rss / std::max(n - m, 1.0) * CorrelationFactor(ws, fit.e);
+  Vec scale = Vec::Zero();
+  for (int k = 0; k < m; ++k) scale[k] = fit.jtj(k, k) > 0.0 ? 1.0 / std::sqrt(fit.jtj(k, k)) : 0.0;
+  const Eigen::MatrixXd c = (scale.asDiagonal() * fit.jtj * scale.asDiagonal()).topLeftCorner(m, m);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(c);
   const double top = eig.eigenvalues().maxCoeff();
-  Vec sd;
-  for (int k = 0; k < kParams; ++k) {
+  Vec sd = Vec::Zero();
+  for (int k = 0; k < m; ++k) {
     double var = 0.0;
-    for (int j = 0; j < kParams; ++j) {
+    for (int j = 0; j < m; ++j) {
       const double vkj = eig.eigenvectors()(k, j), lambda = eig.eigenvalues()[j];
       if (lambda > 1e-12 * top) {
         var += vkj * vkj / lambda;
@@ -277,25 +324,54 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
   const Sliding sliding{r.coulomb_N, r.viscous_N_s_per_mm};
   const double sigma0 = SigmaZeroGuess(s, ws, y, r.coulomb_N);
   const double critical = 2.0 * std::sqrt(sigma0 * 1e6 * std::abs(r.moving_mass_kg)) * 1e-3;
-  Fit best;
-  if (start) {  // a fit of the same reversals before
+  const auto guess = [&](double fs, double vs, double s0, double s1, double delta) {
     Vec q0;
-    q0 << std::log(start->Fs_N), std::log(start->vs_mm_s), std::log(start->sigma0_N_per_um),
-        start->sigma1_N_s_per_mm;
-    best = Solve(s, ws, y, wt, sliding, Reading::kLinear, q0);
-  } else {  // the Stribeck speed and the damping from six starts, the best carried on
+    q0 << std::log(fs), std::log(vs), std::log(s0), s1, std::log(delta);
+    return q0;
+  };
+  // The Gaussian rise (δ = 2) first: from a fit of the same reversals before, or from six
+  // starts of the Stribeck speed and the damping, the best carried on.
+  Fit gauss;
+  if (start) {
+    gauss = Solve(
+        s, ws, y, wt, sliding, Reading::kLinear,
+        guess(start->Fs_N, start->vs_mm_s, start->sigma0_N_per_um, start->sigma1_N_s_per_mm, 2.0),
+        false);
+  } else {
     for (double vs : {0.3, 1.0, 3.0}) {
       for (double damping : {0.0, 0.5 * critical}) {
-        Vec q0;
-        q0 << std::log(1.2 * r.coulomb_N), std::log(vs), std::log(sigma0), damping;
-        Fit f = Solve(s, ws, y, wt, sliding, Reading::kLinear, q0, 12);
-        if (f.rss < best.rss) best = f;
+        Fit f = Solve(s, ws, y, wt, sliding, Reading::kLinear,
+                      guess(1.2 * r.coulomb_N, vs, sigma0, damping, 2.0), false, 12);
+        if (f.rss < gauss.rss) gauss = f;
       }
     }
-    best = Solve(s, ws, y, wt, sliding, Reading::kLinear, best.q);
+    gauss = Solve(s, ws, y, wt, sliding, Reading::kLinear, gauss.q, false);
   }
-  const Fit other = Solve(s, ws, y, wt, sliding, Reading::kConstant, best.q);
-  const Vec sd = Uncertainty(best, other, independent);
+  // Then the shape of the rise itself, from the Gaussian fit with δ = 2 and δ = 1 (and the
+  // earlier fit's δ).
+  Fit shaped;
+  std::vector<double> deltas{2.0, 1.0};
+  if (start && start->stribeck_exponent != 2.0) deltas.push_back(start->stribeck_exponent);
+  for (double delta : deltas) {
+    Vec q0 = gauss.q;
+    q0[kExponent] = std::log(delta);
+    Fit f = Solve(s, ws, y, wt, sliding, Reading::kLinear, q0, true);
+    if (f.rss < shaped.rss) shaped = f;
+  }
+  const Vec sd_gauss = Uncertainty(
+      gauss, Solve(s, ws, y, wt, sliding, Reading::kConstant, gauss.q, false), ws, independent);
+  const Vec sd_shaped = Uncertainty(
+      shaped, Solve(s, ws, y, wt, sliding, Reading::kConstant, shaped.q, true), ws, independent);
+  // The fitted shape is taken where the records reject the Gaussian (δ more than 3 σ from 2);
+  // otherwise the Gaussian, each parameter's σ including its change when δ is fitted.
+  const bool rejects = std::isfinite(sd_shaped[kExponent]) &&
+                       std::abs(shaped.q[kExponent] - std::log(2.0)) > 3.0 * sd_shaped[kExponent];
+  const Fit& best = rejects ? shaped : gauss;
+  Vec sd = rejects ? sd_shaped : sd_gauss;
+  if (!rejects) {
+    for (int k = 0; k < kExponent; ++k) sd[k] = std::hypot(sd[k], shaped.q[k] - gauss.q[k]);
+  }
+  sd[kExponent] = sd_shaped[kExponent];
   const LugreParameters p = FromVec(best.q, sliding);
   double weights = 0.0;
   for (double w : wt) weights += w;
@@ -307,6 +383,7 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
   ps.sigma0_N_per_um = sd[2] * p.sigma0_N_per_um;
   ps.sigma1_N_s_per_mm = sd[3];
   ps.sigma2_N_s_per_mm = r.viscous_sigma_N_s_per_mm;
+  ps.stribeck_exponent = sd[kExponent] * p.stribeck_exponent;
   r.lugre = p;
   r.lugre_sigma = ps;
   JudgeLugre(s, ws, y, top_speed, r);

@@ -123,6 +123,12 @@ void JudgeLugre(const Strokes& s, const std::vector<Window>& ws, const std::vect
             "Reversals through zero speed with a gentler acceleration or a faster sampling, or "
             "strokes at feeds of the order of v_s, would identify them.";
   }
+  if (p.stribeck_exponent != 2.0 && f.Fs_N) {
+    note += std::string(note.empty() ? "" : " ") +
+            "The Stribeck rise is not Gaussian: g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ) with δ " +
+            Format(p.stribeck_exponent) + " ± " + Format(e.stribeck_exponent, 2) +
+            " fitted (δ = 2 is rejected by the reversals); v_s is the speed of that shape.";
+  }
   r.lugre_note = note;
 }
 

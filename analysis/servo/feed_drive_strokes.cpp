@@ -91,9 +91,19 @@ double Strokes::Weight(std::size_t i, double mass_kg) const {
   return 1.0 / (1.0 + u * u);
 }
 
+namespace {
+double StribeckShape(const LugreParameters& p, double v) {
+  const double u = std::abs(v / p.vs_mm_s);
+  return std::exp(p.stribeck_exponent == 2.0 ? -u * u : -std::pow(u, p.stribeck_exponent));
+}
+}  // namespace
+
+double StribeckG(const LugreParameters& p, double v) {
+  return p.Fc_N + (p.Fs_N - p.Fc_N) * StribeckShape(p, v);
+}
+
 double StribeckRise(const LugreParameters& p, double v) {
-  const double u = v / p.vs_mm_s;
-  return (v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0)) * (p.Fs_N - p.Fc_N) * std::exp(-u * u);
+  return (v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0)) * (p.Fs_N - p.Fc_N) * StribeckShape(p, v);
 }
 
 bool SetStribeck(Strokes& s, const LugreParameters& p) {

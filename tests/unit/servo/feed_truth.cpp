@@ -79,7 +79,8 @@ std::vector<Phase> Phases(const Motion& m) {
 
 // dz/dt of the bristles (z in µm, v in mm/s).
 double Zdot(const Drive& d, double z, double v) {
-  const double g = d.fc_N + (d.fs_N - d.fc_N) * std::exp(-(v / d.vs_mm_s) * (v / d.vs_mm_s));
+  const double g = d.fc_N + (d.fs_N - d.fc_N) *
+                                std::exp(-std::pow(std::abs(v / d.vs_mm_s), d.stribeck_exponent));
   return 1e3 * v - d.sigma0_N_per_um * std::abs(1e3 * v) * z / g;
 }
 
