@@ -71,6 +71,47 @@ void ReadMaterial(const TextTable& t, positioning::CorrectionSettings& c) {
   c.expansion_ppm_per_k = alpha;
 }
 
+// The input uncertainties (docs/formats.md §1.8) must have a correction to act through: the air
+// ones the refractive index kinemetric applies to raw readings, the material ones the correction
+// to 20 °C. The generic reader checks each is a finite number ≥ 0; here each is also at most a
+// bound far beyond any instrument's (a larger one is a typing error, and would carry the drawn
+// readings out of the range the corrections hold for).
+void CheckUncertaintyKeys(const TextTable& t, const PositioningFile& f) {
+  struct Bound {
+    const char* key;
+    double most;
+    const char* text;
+  };
+  static const Bound kBounds[] = {
+      {"u_laser_ppm", 1000.0, "1000 ppm"},         {"u_air_temperature_c", 10.0, "10 °C"},
+      {"u_air_pressure_pa", 10000.0, "10 000 Pa"}, {"u_air_humidity_pct", 50.0, "50 %"},
+      {"u_material_temperature_c", 10.0, "10 °C"}, {"u_expansion_ppm_per_k", 50.0, "50 ppm/K"}};
+  for (const Bound& b : kBounds) {
+    const auto v = t.OptionalNumber(b.key);
+    if (v && !(*v >= 0.0 && *v <= b.most)) {
+      throw InvalidInput(t.file, t.KeyLine(b.key), b.key,
+                         std::string("a standard uncertainty must be within 0 … ") + b.text);
+    }
+  }
+  if (f.air_compensated) {
+    for (const char* key : {"u_air_temperature_c", "u_air_pressure_pa", "u_air_humidity_pct"}) {
+      if (!t.Has(key)) continue;
+      throw InvalidInput(t.file, t.KeyLine(key), key,
+                         "applies to raw readings (air_compensated: no) only; with "
+                         "air_compensated: yes the laser's own air compensation belongs in "
+                         "u_laser_ppm");
+    }
+  }
+  if (!f.corrections.material_temperature_c) {
+    for (const char* key : {"u_material_temperature_c", "u_expansion_ppm_per_k"}) {
+      if (!t.Has(key)) continue;
+      throw InvalidInput(t.file, t.KeyLine(key), key,
+                         "needs material_temperature_c and expansion_ppm_per_k: without the "
+                         "correction to 20 °C it has nothing to act through");
+    }
+  }
+}
+
 void ReadHeader(const TextTable& t, PositioningFile& f) {
   f.machine_id = t.RequireMachineId();
   f.axis = t.RequireString("axis");
@@ -92,6 +133,7 @@ void ReadHeader(const TextTable& t, PositioningFile& f) {
   f.air_compensated = t.RequireOneOf("air_compensated", {"yes", "no"}) == "yes";
   if (!f.air_compensated) f.corrections.air = ReadAir(t);
   ReadMaterial(t, f.corrections);
+  CheckUncertaintyKeys(t, f);
   f.metadata = t.Metadata();
 }
 

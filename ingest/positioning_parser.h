@@ -5,7 +5,10 @@
 // the laser was zeroed), air_compensated (yes | no); with `no` also air_temperature_c,
 // air_pressure_pa, air_humidity_pct and laser_wavelength_nm (checked against the range of the
 // refractive-index equation, analysis/positioning/air.h); optional timestamp, and
-// material_temperature_c with expansion_ppm_per_k (both or neither). Columns
+// material_temperature_c with expansion_ppm_per_k (both or neither), and the optional standard
+// uncertainties u_laser_ppm, u_air_* (raw readings only: refused with air_compensated: yes),
+// u_material_temperature_c and u_expansion_ppm_per_k (refused without the material correction),
+// kept in `metadata` (usecases/positioning_report.h reads them). Columns
 // run,direction,target_mm,measured_mm or run,direction,target_mm,deviation_um, rows in the order
 // measured; `direction` is `+` (motion towards larger coordinates) or `-`; `run` an integer.
 // Every error is a km::InvalidInput naming file, line and field. The per-target checks (both

@@ -1,7 +1,10 @@
 #include "usecases/positioning_report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
+
+#include "analysis/core/errors.h"
 
 namespace km::usecases {
 namespace {
@@ -75,7 +78,58 @@ json VdiJson(const positioning::Vdi3441Figures& v) {
           {"U_per_target_um", v.reversal_span_per_target_um}};
 }
 
+positioning::PositioningInputUncertainties InputUncertainties(
+    const std::vector<UncertaintyInput>& inputs) {
+  positioning::PositioningInputUncertainties u;
+  double* const fields[] = {&u.laser_ppm,        &u.air_temperature_c,      &u.air_pressure_pa,
+                            &u.air_humidity_pct, &u.material_temperature_c, &u.expansion_ppm_per_k};
+  for (std::size_t i = 0; i < inputs.size() && i < positioning::kPositioningInputs; ++i) {
+    *fields[i] = inputs[i].u;
+  }
+  return u;
+}
+
+// The Monte Carlo propagation of a file's stated input uncertainties through its figures, from
+// the per-target figures of the readings as recorded (before any correction).
+positioning::PositioningUncertainty PropagateFile(const ingest::PositioningFile& file,
+                                                  const std::vector<UncertaintyInput>& inputs) {
+  const auto raw = positioning::EvaluatePositioning(file.readings, file.file);
+  try {
+    return positioning::PropagatePositioningUncertainty(raw.targets, file.corrections,
+                                                        InputUncertainties(inputs));
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(file.file, 0, e.field(), e.reason());
+  }
+}
+
+json UncertaintyOf(const PositioningReport& report) {
+  if (!report.uncertainty) return NoUncertaintyJson(report.uncertainty_inputs);
+  return UncertaintyJson(report.uncertainty->mc, report.uncertainty_inputs,
+                         positioning::PositioningFigureKeys(), report.uncertainty->gum);
+}
+
 }  // namespace
+
+std::vector<UncertaintyInput> PositioningUncertaintyInputs(const ingest::PositioningFile& file) {
+  static const char* const kUnits[positioning::kPositioningInputs] = {"ppm", "°C", "Pa",
+                                                                      "%",   "°C", "ppm/K"};
+  const auto& names = positioning::PositioningInputNames();
+  std::vector<UncertaintyInput> inputs;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    UncertaintyInput in{names[i], 0.0, kUnits[i], false};
+    if (file.metadata.count(names[i])) {
+      const auto v = HeaderNumber(file.metadata, names[i]);
+      if (!v || *v < 0.0) {
+        throw InvalidInput(file.file, 0, names[i],
+                           "a standard uncertainty must be a finite number ≥ 0");
+      }
+      in.u = *v;
+      in.stated = true;
+    }
+    inputs.push_back(std::move(in));
+  }
+  return inputs;
+}
 
 PositioningReport AnalysePositioning(const ingest::PositioningFile& file) {
   PositioningReport r;
@@ -87,6 +141,10 @@ PositioningReport AnalysePositioning(const ingest::PositioningFile& file) {
   r.readings = positioning::ApplyCorrections(file.readings, file.corrections, r.corrections);
   r.figures = positioning::EvaluatePositioning(r.readings, file.file);
   r.compensation = positioning::MakeCompensation(r.figures.targets);
+  r.uncertainty_inputs = PositioningUncertaintyInputs(file);
+  const bool stated = std::any_of(r.uncertainty_inputs.begin(), r.uncertainty_inputs.end(),
+                                  [](const UncertaintyInput& in) { return in.stated; });
+  if (stated) r.uncertainty = PropagateFile(file, r.uncertainty_inputs);
   return r;
 }
 
@@ -119,6 +177,7 @@ json PositioningReportToJson(const PositioningReport& report) {
           {"material", MaterialJson(report.corrections)},
           {"compensation", CompensationJson(report.compensation)},
           {"vdi3441", VdiJson(f.vdi)},
+          {"uncertainty", UncertaintyOf(report)},
           {"analysis_version", kPositioningAnalysisVersion}};
 }
 

@@ -5,13 +5,16 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "analysis/positioning/air.h"
 #include "analysis/positioning/compensation.h"
+#include "analysis/positioning/figure_uncertainty.h"
 #include "analysis/positioning/figures.h"
 #include "ingest/positioning_parser.h"
+#include "usecases/uncertainty_json.h"
 
 namespace km::usecases {
 
@@ -27,17 +30,27 @@ struct PositioningReport {
   std::vector<positioning::Reading> readings;  // corrected deviations, file order
   positioning::PositioningFigures figures;
   positioning::CompensationTable compensation;
+  // The file's u_* keys (all six, "not stated" ones at 0) and, when it states any, the Monte
+  // Carlo propagation of them through the figures (docs/methods.md §16.3).
+  std::vector<UncertaintyInput> uncertainty_inputs;
+  std::optional<positioning::PositioningUncertainty> uncertainty;
 };
 
-// Corrects and evaluates a parsed file. Throws km::InvalidInput naming file, line and field.
+// The six input uncertainties of a positioning file as its header states them (docs/formats.md
+// §1.8), in the order of positioning::PositioningInputNames().
+std::vector<UncertaintyInput> PositioningUncertaintyInputs(const ingest::PositioningFile& file);
+
+// Corrects and evaluates a parsed file; with any u_* key stated, propagates the uncertainties
+// (kPositioningDraws draws, seed kPositioningSeed). Throws km::InvalidInput naming file, line
+// and field.
 PositioningReport AnalysePositioning(const ingest::PositioningFile& file);
 
 // The documented object: reversal_value_um, mean_reversal_value_um, repeatability_up_um,
 // repeatability_down_um, repeatability_um, systematic_deviation_up_um,
 // systematic_deviation_down_um, systematic_deviation_um, mean_deviation_range_um,
 // accuracy_up_um, accuracy_down_um, accuracy_um, iso230_2_compliant, warnings[], targets{},
-// air{}, material{}, compensation{}, vdi3441{}, and machine_id, axis, cycle, runs,
-// target_count, readings, analysis_version.
+// air{}, material{}, compensation{}, vdi3441{}, uncertainty{} (usecases/uncertainty_json.h),
+// and machine_id, axis, cycle, runs, target_count, readings, analysis_version.
 nlohmann::json PositioningReportToJson(const PositioningReport& report);
 
 // One file: the object above. Several (the same axis compared, e.g. before and after
