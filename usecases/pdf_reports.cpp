@@ -177,20 +177,29 @@ std::vector<render::ReportBlock> ConformanceBlocks(const json& c, const ReportSo
     return out;
   }
   ReportTable t;
-  t.header = {"Figure", "Tolerance of", "Value", "Tolerance", "Unit", "Verdict"};
-  t.numeric = {false, false, true, true, false, false};
+  t.header = {"Figure", "Tolerance of", "Value", "U (k = 2)", "Tolerance", "Unit", "Verdict"};
+  t.numeric = {false, false, true, true, true, false, false};
   for (const auto& f : c.value("figures", json::array())) {
+    const json& U = f.contains("U") ? f["U"] : json();
     t.rows.push_back({f.value("metric", ""), ScopeOf(f), Fixed(f.value("value", json()), 3),
+                      U.is_number() ? Fixed(U, 3) : std::string("not stated"),
                       Fixed(f.value("tolerance", json()), 3), f.value("unit", ""),
                       f.value("verdict", "")});
   }
-  out.push_back(ParagraphBlock("Judged against the " + table +
-                               "; a figure passes when its value is at most the tolerance."));
+  const json rule = c.value("decision_rule", json::object());
+  const std::string rule_text = rule.is_object() && rule.contains("description")
+                                    ? rule["description"].get<std::string>()
+                                    : std::string("simple acceptance: the value alone");
+  out.push_back(ParagraphBlock("Judged against the " + table + ". Decision rule: " + rule_text +
+                               "."));
   out.push_back(TableBlock(std::move(t)));
-  out.push_back(ParagraphBlock(
-      "Verdict: " + verdict +
-      (verdict == "pass" ? " — every figure is within its tolerance."
-                         : " — a figure is out of tolerance or the result does not hold it.")));
+  const char* why = verdict == "pass"        ? " — every figure is within its tolerance."
+                    : verdict == "undecided" ? " — a figure is within its uncertainty (guard "
+                                               "band) of its tolerance: neither conformance nor "
+                                               "non-conformance is proven."
+                                             : " — a figure is out of tolerance or the result "
+                                               "does not hold it.";
+  out.push_back(ParagraphBlock("Verdict: " + verdict + why));
   return out;
 }
 

@@ -278,6 +278,25 @@ std::optional<double> ExtractAuditMetric(const AuditMetric& metric, const json& 
   return std::nullopt;
 }
 
+std::optional<double> ExtractAuditUncertainty(const AuditMetric& metric, const json& result) {
+  if (!result.is_object()) return std::nullopt;
+  const std::string figure = metric.metric.substr(0, metric.metric.find('.'));
+  const json* holder = &result;
+  if (metric.analysis == "dbb-pair") {
+    if (!result.contains("pair") || !result["pair"].is_object()) return std::nullopt;
+    holder = &result["pair"];
+  }
+  const json::json_pointer p("/uncertainty/figures");
+  if (!holder->contains(p) || !holder->at(p).is_object()) return std::nullopt;
+  const json& figures = holder->at(p);
+  if (!figures.contains(figure) || !figures[figure].is_object()) return std::nullopt;
+  const json& f = figures[figure];
+  if (!f.contains("U_um") || !f["U_um"].is_number()) return std::nullopt;
+  const double U = f["U_um"].get<double>();
+  if (!std::isfinite(U) || U < 0) return std::nullopt;
+  return U;
+}
+
 namespace {
 
 InvalidInput RuleError(std::size_t i, const std::string& key, const std::string& why) {

@@ -50,6 +50,11 @@ const std::vector<AuditMetric>& AuditMetrics();
 std::optional<AuditMetric> FindAuditMetric(const std::string& kind, const std::string& metric);
 // The metric's value in a result of its analysis; nullopt when the result does not hold it.
 std::optional<double> ExtractAuditMetric(const AuditMetric& metric, const nlohmann::json& result);
+// The expanded uncertainty U of the metric's figure in the same result, when the result carries
+// it: /uncertainty/figures/<figure>/U_um (a pair metric: /pair/uncertainty/…), <figure> the
+// metric's name without an axis ("accuracy_um.X" → accuracy_um; docs/formats.md §3.17).
+std::optional<double> ExtractAuditUncertainty(const AuditMetric& metric,
+                                              const nlohmann::json& result);
 
 // The metric "conformance" of the measurement kinds that take tolerances: the number of figures
 // of a set-up's newest test that do not meet the machine's tolerance table

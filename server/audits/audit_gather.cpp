@@ -77,23 +77,30 @@ void LoadResults(AuditSource& service, Stored& s) {
   }
 }
 
-std::optional<double> ValueOf(AuditSource& service, const AuditMetric& m, Stored& s) {
+// The metric's value in a stored test, and its expanded uncertainty when the result has one
+// (written to *U when given).
+std::optional<double> ValueOf(AuditSource& service, const AuditMetric& m, Stored& s,
+                              std::optional<double>* U = nullptr) {
   if (s.calibration) return CalibrationMetricValue(m, *s.calibration);
   if (m.analysis == "dbb-pair") {
     try {
-      return ExtractAuditMetric(m, service.DbbPairJson(s.record.id));
+      const json pair = service.DbbPairJson(s.record.id);
+      if (U) *U = ExtractAuditUncertainty(m, pair);
+      return ExtractAuditMetric(m, pair);
     } catch (const Error&) {  // a test the pair analysis cannot take is passed over
       return std::nullopt;
     }
   }
   LoadResults(service, s);
   const json& r = m.analysis == kJointsAnalysis ? s.joints : s.result;
-  return r.is_null() ? std::nullopt : ExtractAuditMetric(m, r);
+  if (r.is_null()) return std::nullopt;
+  if (U) *U = ExtractAuditUncertainty(m, r);
+  return ExtractAuditMetric(m, r);
 }
 
 AuditValue Found(double v, const Stored& s) {
-  if (s.calibration) return {v, 0, s.time, s.calibration->job_id};
-  return {v, s.record.id, s.time};
+  if (s.calibration) return {v, 0, s.time, s.calibration->job_id, std::nullopt};
+  return {v, s.record.id, s.time, 0, std::nullopt};
 }
 
 // How far down a set-up's tests a value is looked for: machine-wide kinds take the newest that
@@ -141,7 +148,7 @@ std::optional<AuditValue> AtPreviousAudit(AuditSource& service, const json& prev
     const char* id_key = c.contains("job_id") ? "job_id" : "measurement_id";
     if (!v.is_number() || !c.contains(id_key) || !c[id_key].is_number_integer()) continue;
     if (c.value("status", "") == "stale") continue;
-    AuditValue seen{v.get<double>(), 0, c.value("measured_at", ""), 0};
+    AuditValue seen{v.get<double>(), 0, c.value("measured_at", ""), 0, std::nullopt};
     (c.contains("job_id") ? seen.job_id : seen.measurement_id) = c[id_key].get<std::int64_t>();
     if (MachineWideKind(rule.kind)) return seen;
     if (c.contains("test_id")) {  // verdicts that name their set-ups
@@ -194,13 +201,22 @@ void ConformanceOf(AuditSource& service, const ToleranceTable& table, Stored& ne
     return;
   }
   double failed = 0;
-  json figures = json::array();
+  json figures = json::array(), undecided = json::array();
   for (const auto& f : c.value("figures", json::array())) {
-    if (f.value("verdict", "") == "pass") continue;
+    const std::string v = f.value("verdict", "");
+    if (v == "pass") continue;
+    if (v == "undecided") {
+      undecided.push_back(f.value("metric", ""));
+      continue;
+    }
     ++failed;
-    figures.push_back(f.value("metric", "") + " " + f.value("verdict", ""));
+    figures.push_back(f.value("metric", "") + " " + v);
   }
   e.extra["failed_figures"] = figures;
+  if (!undecided.empty()) {
+    e.extra["undecided_figures"] = undecided;
+    e.undecided = true;
+  }
   e.newest = Found(failed, newest);
 }
 
@@ -224,8 +240,10 @@ SetUpEvidence JudgeSetUp(AuditSource& service, const AuditRule& rule, const Audi
   }
   const std::size_t depth = SearchDepth(rule, metric, group.tests.size());
   for (std::size_t k = 0; k < depth && !e.newest; ++k) {
-    if (const auto v = ValueOf(service, metric, *group.tests[k])) {
+    std::optional<double> U;
+    if (const auto v = ValueOf(service, metric, *group.tests[k], &U)) {
       e.newest = Found(*v, *group.tests[k]);
+      e.newest->U = U;
     }
   }
   if (!e.newest && MachineWideKind(rule.kind)) {

@@ -40,6 +40,7 @@ StoredAudit ReadStoredAudit(const std::string& text) {
   out.rules = doc.value("rules", json::array());
   out.policy.max_age_days = doc.value("max_age_days", out.policy.max_age_days);
   out.policy.stale_warn = doc.value("stale", std::string("ignore")) == "warn";
+  out.policy.decision_rule = ParseDecisionRule(doc.value("decision_rule", json()), "decision_rule");
   return out;
 }
 
@@ -59,6 +60,9 @@ AuditPolicy ParsePolicy(const json& body) {
     }
     p.stale_warn = v == "warn";
   }
+  if (body.contains("decision_rule")) {
+    p.decision_rule = ParseDecisionRule(body["decision_rule"], "decision_rule");
+  }
   return p;
 }
 
@@ -70,6 +74,7 @@ json ConfigJson(const AuditConfigRecord& c) {
           {"rules", stored.rules},
           {"max_age_days", stored.policy.max_age_days},
           {"stale", stored.policy.stale_warn ? "warn" : "ignore"},
+          {"decision_rule", DecisionRuleJson(stored.policy.decision_rule)},
           {"updated_at", c.updated_at},
           {"last_run_at", opt(c.last_run_at)},
           {"next_run_at", opt(c.next_run_at)}};
@@ -87,9 +92,11 @@ json PutAuditConfig(AuditSource& service, const std::string& machine_id, const j
                     std::int64_t now) {
   if (!body.is_object()) throw InvalidInput("", 0, "", "the body must be a JSON object");
   for (const auto& [key, value] : body.items()) {
-    if (key != "schedule" && key != "rules" && key != "max_age_days" && key != "stale") {
-      throw InvalidInput("", 0, key,
-                         "is not a key of an audit (schedule, rules, max_age_days, stale)");
+    if (key != "schedule" && key != "rules" && key != "max_age_days" && key != "stale" &&
+        key != "decision_rule") {
+      throw InvalidInput(
+          "", 0, key,
+          "is not a key of an audit (schedule, rules, max_age_days, stale, decision_rule)");
     }
   }
   ingest::CheckMachineId(machine_id, "", 0);
@@ -111,7 +118,8 @@ json PutAuditConfig(AuditSource& service, const std::string& machine_id, const j
   for (const auto& r : rules) stored.push_back(AuditRuleJson(r));
   c.rules_json = json{{"rules", stored},
                       {"max_age_days", policy.max_age_days},
-                      {"stale", policy.stale_warn ? "warn" : "ignore"}}
+                      {"stale", policy.stale_warn ? "warn" : "ignore"},
+                      {"decision_rule", DecisionRuleJson(policy.decision_rule)}}
                      .dump();
   if (const auto old = service.storage().GetAuditConfig(machine_id))
     c.last_run_at = old->last_run_at;
@@ -160,7 +168,8 @@ json VerdictJson(const AuditVerdictRecord& v) {
             {"checked", body.is_object() ? body.value("checked", json::array()) : json::array()}};
   // Verdicts that judge set-ups also list the stale ones and the policy they were judged under.
   if (body.is_object()) {
-    for (const char* key : {"stale", "max_age_days", "stale_policy", "checked_ok_not_listed"}) {
+    for (const char* key :
+         {"stale", "max_age_days", "stale_policy", "decision_rule", "checked_ok_not_listed"}) {
       if (body.contains(key)) j[key] = body[key];
     }
   }

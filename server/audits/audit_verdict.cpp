@@ -44,36 +44,66 @@ json SetUpJson(const AuditRule& rule, const SetUpEvidence& s) {
   return {{"set_up", SetUpOf(rule, s)}, {"test_id", s.test_id}, {"direction", s.direction}};
 }
 
-// The level a compared value earns under a rule's limits, and the limit it exceeded (0 at
-// level 1).
-std::pair<int, double> LevelOf(const AuditRule& rule, double value) {
-  if (rule.stop && value > *rule.stop) return {3, *rule.stop};
-  if (rule.warn && value > *rule.warn) return {2, *rule.warn};
-  return {1, 0.0};
+// The level a compared value earns under a rule's limits and the decision rule, the limit it
+// was judged against (0 at level 1) and the decision there.
+struct LevelDecision {
+  int level = 1;
+  double limit = 0.0;
+  Judgement judgement;
+};
+
+LevelDecision LevelOf(const AuditRule& rule, double value, std::optional<double> U,
+                      const DecisionRule& decision_rule) {
+  const bool trend = rule.change != AuditRule::Change::kNone;
+  const DecisionRule used = trend ? DecisionRule{} : decision_rule;
+  if (rule.stop) {
+    // Within U of stop says more than beyond warn: both are level 2.
+    const Judgement j = Decide(value, U, *rule.stop, used);
+    if (j.decision == Decision::kBeyond) return {3, *rule.stop, j};
+    if (j.decision == Decision::kUndecided) return {2, *rule.stop, j};
+  }
+  if (rule.warn) {
+    const Judgement j = Decide(value, U, *rule.warn, used);
+    if (j.decision != Decision::kWithin) return {2, *rule.warn, j};
+  }
+  return {};
 }
 
 std::string FindingMessage(const AuditRule& rule, const SetUpEvidence& s, double value, int level,
-                           double limit) {
+                           double limit, Decision decision) {
   const bool trend = rule.change != AuditRule::Change::kNone;
   const std::string where = MachineWideKind(rule.kind) ? "" : " in " + SetUpOf(rule, s);
   const std::string what = trend ? rule.kind + " " + rule.metric + where + " rose by " +
                                        Format(value) + " (from " + Format(s.reference->value) +
                                        " to " + Format(s.newest->value) + ")"
                                  : rule.kind + " " + rule.metric + where + " " + Format(value);
-  return what + ", above the " + (level == 3 ? "stop" : "warn") + " limit " + Format(limit) + " (" +
+  const std::string U = s.newest->U ? " ± " + Format(*s.newest->U) : "";
+  const std::string name = level == 3 || limit == rule.stop.value_or(-1.0) ? "stop" : "warn";
+  if (decision == Decision::kUndecided) {
+    return what + U + ", within its uncertainty of the " + name + " limit " + Format(limit) +
+           ": undecided (" + EvidenceName(*s.newest) + ")";
+  }
+  return what + U + ", above the " + name + " limit " + Format(limit) + " (" +
          EvidenceName(*s.newest) + ")";
 }
 
 // Judges one set-up under a rule: its `checked` entry and, above a limit, a finding; the level.
 int Judge(const AuditRule& rule, std::size_t i, const SetUpEvidence& s, json& checked,
-          json& findings) {
+          json& findings, const DecisionRule& decision_rule) {
   const bool trend = rule.change != AuditRule::Change::kNone;
   const double value = trend ? s.newest->value - s.reference->value : s.newest->value;
-  const auto [level, limit] = LevelOf(rule, value);
+  LevelDecision d = LevelOf(rule, value, trend ? std::nullopt : s.newest->U, decision_rule);
+  if (d.level == 1 && s.undecided) {
+    d = {2, 0.0, Judgement{Decision::kUndecided, 0.0, false}};
+  }
+  const int level = d.level;
+  const double limit = d.limit;
   checked["status"] = level > 1 ? "finding" : "ok";
   checked["level"] = level;
   checked.update(Evidence(*s.newest, ""));
   checked["value"] = value;
+  checked["U"] = !trend && s.newest->U ? json(*s.newest->U) : json(nullptr);
+  if (level > 1) checked["decision"] = ToString(d.judgement.decision);
   if (trend) {
     checked["newest_value"] = s.newest->value;
     checked.update(Evidence(*s.reference, "reference_"));
@@ -85,7 +115,14 @@ int Judge(const AuditRule& rule, std::size_t i, const SetUpEvidence& s, json& ch
   f["limit"] = limit;
   f.update(Evidence(*s.newest, ""));
   f["value"] = value;
-  f["message"] = FindingMessage(rule, s, value, level, limit);
+  f["U"] = checked["U"];
+  f["decision"] = ToString(d.judgement.decision);
+  if (d.judgement.guard_band > 0) f["guard_band"] = d.judgement.guard_band;
+  f["message"] = s.undecided && limit == 0.0
+                     ? rule.kind + " conformance in " + SetUpOf(rule, s) +
+                           ": figures within their uncertainty of their tolerances, undecided (" +
+                           EvidenceName(*s.newest) + ")"
+                     : FindingMessage(rule, s, value, level, limit, d.judgement.decision);
   if (trend) {
     f["newest_value"] = s.newest->value;
     f.update(Evidence(*s.reference, "reference_"));
@@ -160,7 +197,7 @@ json NotEvaluated(json c, const std::string& reason) {
 }
 
 void JudgeRule(const AuditRule& rule, std::size_t i, const AuditEvidence& ev, Tally& t,
-               StaleSetUps& stale) {
+               StaleSetUps& stale, const DecisionRule& decision_rule) {
   json base = AuditRuleJson(rule);
   base["rule"] = i;
   if (ev.set_ups.empty()) {
@@ -188,7 +225,7 @@ void JudgeRule(const AuditRule& rule, std::size_t i, const AuditEvidence& ev, Ta
       Keep(NotEvaluated(std::move(c), missing), t);
       continue;
     }
-    t.level = std::max(t.level, Judge(rule, i, s, c, t.findings));
+    t.level = std::max(t.level, Judge(rule, i, s, c, t.findings, decision_rule));
     Keep(std::move(c), t);
   }
 }
@@ -201,7 +238,8 @@ json EvaluateAudit(const std::vector<AuditRule>& rules, const std::vector<AuditE
   StaleSetUps stale;
   const AuditEvidence none;
   for (std::size_t i = 0; i < rules.size(); ++i) {
-    JudgeRule(rules[i], i, i < evidence.size() ? evidence[i] : none, t, stale);
+    JudgeRule(rules[i], i, i < evidence.size() ? evidence[i] : none, t, stale,
+              policy.decision_rule);
   }
   if (policy.stale_warn && !stale.list.empty()) {
     StaleFindings(stale, policy, t.findings);
@@ -212,7 +250,8 @@ json EvaluateAudit(const std::vector<AuditRule>& rules, const std::vector<AuditE
               {"checked", std::move(t.checked)},
               {"stale", std::move(stale.list)},
               {"max_age_days", policy.max_age_days},
-              {"stale_policy", policy.stale_warn ? "warn" : "ignore"}};
+              {"stale_policy", policy.stale_warn ? "warn" : "ignore"},
+              {"decision_rule", DecisionRuleJson(policy.decision_rule)}};
   if (t.ok_not_listed > 0) out["checked_ok_not_listed"] = t.ok_not_listed;
   return out;
 }

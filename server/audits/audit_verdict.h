@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "server/audits/accuracy_audit.h"
+#include "server/audits/decision_rule.h"
 
 namespace km::server {
 
@@ -20,6 +21,8 @@ struct AuditValue {
   std::int64_t measurement_id = 0;  // 0 when the evidence is a job
   std::string measured_at;          // measurement time, else upload time; a job's finish time
   std::int64_t job_id = 0;          // the calibration job; 0 for a measurement
+  std::optional<double> U =
+      std::nullopt;  // the value's expanded uncertainty, when its result has one
 };
 
 // What was found for a rule in one set-up: the value of its newest test and, for a trend rule,
@@ -32,7 +35,8 @@ struct SetUpEvidence {
   std::string missing;
   bool stale = false;
   double age_days = 0.0;
-  nlohmann::json extra;  // keys added to the checked entry and finding (e.g. conformance)
+  bool undecided = false;  // a conformance whose figures are within their uncertainty: level 2
+  nlohmann::json extra;    // keys added to the checked entry and finding (e.g. conformance)
 };
 
 // Every set-up a rule applies to, newest first; `missing` says why there is none.
@@ -45,6 +49,11 @@ struct AuditEvidence {
 struct AuditPolicy {
   std::int64_t max_age_days = 365;
   bool stale_warn = false;  // a stale set-up is a level-2 finding (else listed only)
+  // How an absolute rule's value and its U meet the warn and stop limits (trend rules compare
+  // by the value alone): a value proven beyond stop is level 3; one proven beyond warn, or
+  // within its uncertainty (guard band) of either limit, is level 2 ("decision": "undecided");
+  // otherwise level 1.
+  DecisionRule decision_rule;
 };
 
 // At most this many "ok" entries are listed in `checked`; the rest are counted
@@ -56,7 +65,8 @@ inline constexpr std::size_t kMaxCheckedOk = 2000;
 // "measurement_id" (or "job_id"), "measured_at", "message", …}], "checked": [{"rule", "kind",
 // "metric", …rule keys, "set_up"?, "test_id"?, "direction"?, "status": "ok" | "finding" |
 // "stale" | "not evaluated", …}], "stale": [{"kind", "set_up", "test_id", "direction",
-// "measurement_id" | "job_id", "measured_at", "age_days"}], "max_age_days", "stale_policy"}.
+// "measurement_id" | "job_id", "measured_at", "age_days"}], "max_age_days", "stale_policy",
+// "decision_rule"}.
 // Level = the worst finding, 1 without any.
 nlohmann::json EvaluateAudit(const std::vector<AuditRule>& rules,
                              const std::vector<AuditEvidence>& evidence,

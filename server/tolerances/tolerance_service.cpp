@@ -11,14 +11,13 @@
 namespace km::server {
 namespace {
 
-// The entries of a stored table, parsed again as they were validated when stored.
-std::vector<ToleranceEntry> StoredEntries(const std::string& tolerances_json) {
-  return ParseToleranceBody(
-      {{"tolerances", ingest::ParseJsonText(tolerances_json, "stored tolerance table")}});
-}
-
+// A stored table parsed again as it was validated when stored: {"tolerances", "decision_rule"},
+// or (stored before decision rules) the array of entries alone.
 ToleranceTable TableOf(const ToleranceTableRecord& r) {
-  return {r.machine_id, r.version, r.created_at, StoredEntries(r.tolerances_json)};
+  nlohmann::json stored = ingest::ParseJsonText(r.tolerances_json, "stored tolerance table");
+  if (stored.is_array()) stored = {{"tolerances", std::move(stored)}};
+  return {r.machine_id, r.version, r.created_at, ParseToleranceBody(stored),
+          ParseToleranceDecisionRule(stored)};
 }
 
 }  // namespace
@@ -34,10 +33,11 @@ std::optional<ToleranceTable> ReadToleranceTable(ToleranceStore& store,
 nlohmann::json ToleranceService::Put(const std::string& machine_id, const nlohmann::json& body) {
   ingest::CheckMachineId(machine_id, "", 0);
   const std::vector<ToleranceEntry> entries = ParseToleranceBody(body);
+  const DecisionRule rule = ParseToleranceDecisionRule(body);
   NewToleranceTable t;
   t.machine_id = machine_id;
-  t.tolerances_json = ToleranceEntriesJson(entries).dump();
-  t.sha256 = Sha256Hex(CanonicalToleranceText(entries));
+  t.tolerances_json = StoredToleranceJson(entries, rule).dump();
+  t.sha256 = Sha256Hex(CanonicalToleranceText(entries, rule));
   const auto put = store_.PutToleranceTable(t);
   nlohmann::json out = ToleranceTableJson(TableOf(put.record));
   out["created"] = put.created;

@@ -102,7 +102,10 @@ std::vector<ToleranceEntry> ParseToleranceBody(const json& body) {
   if (!body.is_object())
     throw InvalidInput("", 0, "body", "must be an object {\"tolerances\": […]}");
   for (const auto& [key, value] : body.items()) {
-    if (key != "tolerances") throw InvalidInput("", 0, key, "is not a key of a tolerance table");
+    if (key != "tolerances" && key != "decision_rule") {
+      throw InvalidInput("", 0, key,
+                         "is not a key of a tolerance table (tolerances, decision_rule)");
+    }
   }
   if (!body.contains("tolerances") || !body["tolerances"].is_array()) {
     throw InvalidInput("", 0, "tolerances", "must be an array of tolerances (may be empty)");
@@ -139,17 +142,30 @@ json ToleranceEntriesJson(const std::vector<ToleranceEntry>& entries) {
   return out;
 }
 
-std::string CanonicalToleranceText(const std::vector<ToleranceEntry>& entries) {
+DecisionRule ParseToleranceDecisionRule(const json& body) {
+  if (!body.is_object() || !body.contains("decision_rule")) return {};
+  return ParseDecisionRule(body["decision_rule"], "decision_rule");
+}
+
+std::string CanonicalToleranceText(const std::vector<ToleranceEntry>& entries,
+                                   const DecisionRule& rule) {
   std::vector<std::string> texts;
   for (const auto& e : entries) texts.push_back(ToleranceEntryJson(e).dump());
   std::sort(texts.begin(), texts.end());
+  // A simple rule adds nothing: a table stored before decision rules keeps its text.
+  if (rule.kind != DecisionRule::Kind::kSimple) texts.push_back(DecisionRuleJson(rule).dump());
   return json(texts).dump();
+}
+
+json StoredToleranceJson(const std::vector<ToleranceEntry>& entries, const DecisionRule& rule) {
+  return {{"tolerances", ToleranceEntriesJson(entries)}, {"decision_rule", DecisionRuleJson(rule)}};
 }
 
 json ToleranceTableJson(const ToleranceTable& table) {
   return {{"machine_id", table.machine_id},
           {"version", table.version},
           {"tolerances", ToleranceEntriesJson(table.entries)},
+          {"decision_rule", DecisionRuleJson(table.decision_rule)},
           {"created_at", table.created_at}};
 }
 
@@ -199,19 +215,30 @@ std::string FigureUnit(const AuditMetric& m, const json& result) {
   return "";
 }
 
-json Figure(const ToleranceEntry& e, const json& result) {
+const char* VerdictOf(Decision d) {
+  return d == Decision::kWithin ? "pass" : d == Decision::kBeyond ? "fail" : "undecided";
+}
+
+json Figure(const ToleranceEntry& e, const json& result, const DecisionRule& rule) {
   const auto metric = FindAuditMetric(e.kind, e.metric);
   json f = {{"metric", e.metric},
             {"value", nullptr},
             {"tolerance", e.tolerance},
             {"unit", metric ? FigureUnit(*metric, result) : ""},
+            {"U", nullptr},
             {"verdict", "no value"}};
   const auto value =
       metric && result.is_object() ? ExtractAuditMetric(*metric, result) : std::optional<double>();
   if (value.has_value() && std::isfinite(*value)) {
-    const double v = *value;
-    f["value"] = v;
-    f["verdict"] = v <= e.tolerance ? "pass" : "fail";
+    const auto U = ExtractAuditUncertainty(*metric, result);
+    const Judgement j = Decide(*value, U, e.tolerance, rule);
+    f["value"] = *value;
+    if (j.u_known) f["U"] = *U;
+    f["verdict"] = VerdictOf(j.decision);
+    if (rule.kind != DecisionRule::Kind::kSimple) {
+      f["guard_band"] = j.guard_band;
+      if (!j.u_known) f["note"] = "U not known (no input uncertainty stated): the value alone";
+    }
   }
   AddScopeJson(e.scope, f);
   return f;
@@ -222,14 +249,20 @@ json Figure(const ToleranceEntry& e, const json& result) {
 json Conformance(const ToleranceTable& table, const std::string& kind, const std::string& test_id,
                  const std::string& direction, const json& result) {
   json figures = json::array();
-  bool all_pass = true;
+  bool any_fail = false, any_undecided = false;
   for (const auto& e : ApplicableTolerances(table, kind, test_id, direction)) {
-    figures.push_back(Figure(e, result));
-    all_pass = all_pass && figures.back()["verdict"] == "pass";
+    figures.push_back(Figure(e, result, table.decision_rule));
+    const std::string v = figures.back()["verdict"].get<std::string>();
+    any_fail = any_fail || v == "fail" || v == "no value";
+    any_undecided = any_undecided || v == "undecided";
   }
-  const char* verdict = figures.empty() ? "no tolerance" : (all_pass ? "pass" : "fail");
+  const char* verdict = figures.empty() ? "no tolerance"
+                        : any_fail      ? "fail"
+                        : any_undecided ? "undecided"
+                                        : "pass";
   return {{"verdict", verdict},
           {"tolerance_version", table.version > 0 ? json(table.version) : json(nullptr)},
+          {"decision_rule", DecisionRuleJson(table.decision_rule)},
           {"figures", std::move(figures)}};
 }
 

@@ -25,6 +25,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "server/audits/decision_rule.h"
 #include "server/audits/set_up.h"
 
 namespace km::server {
@@ -43,6 +44,7 @@ struct ToleranceTable {
   std::int64_t version = 0;
   std::string created_at;  // ISO 8601 UTC
   std::vector<ToleranceEntry> entries;
+  DecisionRule decision_rule;  // how a figure and its U are judged against its tolerance
 };
 
 inline constexpr std::size_t kMaxTolerances = 200;
@@ -52,13 +54,22 @@ inline constexpr std::size_t kMaxTolerances = 200;
 // (a kind or metric that takes no tolerance), "tolerances[0].tolerance" (not a finite number
 // ≥ 0), "tolerances[1].axis", "tolerances[3].colour" (an unknown key), "tolerances[4]" (the
 // same kind, metric and scope as an earlier entry), "tolerances", "body".
+// The body may also give "decision_rule" (server/audits/decision_rule.h; absent: simple), read
+// by ParseToleranceDecisionRule.
 std::vector<ToleranceEntry> ParseToleranceBody(const nlohmann::json& body);
+DecisionRule ParseToleranceDecisionRule(const nlohmann::json& body);
 
 nlohmann::json ToleranceEntryJson(const ToleranceEntry& entry);
 nlohmann::json ToleranceEntriesJson(const std::vector<ToleranceEntry>& entries);
-// The same entries in any order give the same text (the key of "same table again").
-std::string CanonicalToleranceText(const std::vector<ToleranceEntry>& entries);
-// {"machine_id", "version", "tolerances", "created_at"}.
+// The same entries in any order, and the same rule, give the same text (the key of "same table
+// again").
+std::string CanonicalToleranceText(const std::vector<ToleranceEntry>& entries,
+                                   const DecisionRule& rule = {});
+// What is stored of a version: {"tolerances": […], "decision_rule": {…}} (a version stored
+// before decision rules holds the array alone, read as the simple rule).
+nlohmann::json StoredToleranceJson(const std::vector<ToleranceEntry>& entries,
+                                   const DecisionRule& rule);
+// {"machine_id", "version", "tolerances", "decision_rule", "created_at"}.
 nlohmann::json ToleranceTableJson(const ToleranceTable& table);
 
 // How specific a scope is (larger: more specific): 4 for an axis or an exact test_id, 2 for a
@@ -74,11 +85,14 @@ std::vector<ToleranceEntry> ApplicableTolerances(const ToleranceTable& table,
 
 // A measurement's conformance with `table` from its own result (docs/http.md "Tolerances and
 // conformance"): {"verdict": "pass" | "fail" | "no tolerance", "tolerance_version": N | null,
-// "figures": [{"metric", "value", "tolerance", "unit", "verdict": "pass" | "fail" | "no value",
+// "decision_rule": {…}, "figures": [{"metric", "value", "tolerance", "unit", "U" (the figure's
+// expanded uncertainty from the result's `uncertainty`, null when not known), "verdict": "pass" |
+// "fail" | "undecided" | "no value", "guard_band"? (w, under a rule other than simple),
 // "test_id"?, "direction"?, "axis"? (the scope of the entry that judged it)}]}. "no tolerance"
 // when no entry applies; "fail" when a figure fails or the result does not hold it (a figure
-// with no value is not shown to conform); else "pass". tolerance_version is null for a machine
-// without a table.
+// with no value is not shown to conform); else "undecided" when a figure is within its
+// uncertainty (or guard band) of its tolerance; else "pass". tolerance_version is null for a
+// machine without a table.
 nlohmann::json Conformance(const ToleranceTable& table, const std::string& kind,
                            const std::string& test_id, const std::string& direction,
                            const nlohmann::json& result);

@@ -140,13 +140,14 @@ function rulesTable(audit, verdict, metrics, pairNotes, compact = false) {
 function findingsList(verdict) {
   const findings = (verdict && verdict.findings) || [];
   if (!findings.length) return h('p', { class: 'note', 'data-testid': 'audit-no-findings' }, verdict ? 'No findings: every evaluated rule is within its limits.' : '');
+  const rule = verdict.decision_rule?.description;
   return h(
     'ul',
-    { class: 'findings', 'data-testid': 'audit-findings' },
+    { class: 'findings', 'data-testid': 'audit-findings', title: rule ? `Decision rule: ${rule}` : '' },
     ...findings.map((f) =>
       h(
         'li',
-        { class: `finding level-${f.level}`, 'data-testid': 'audit-finding', 'data-set-up': setUpText(f) },
+        { class: `finding level-${f.level}`, 'data-testid': 'audit-finding', 'data-set-up': setUpText(f), 'data-decision': f.decision || '' },
         h('span', { class: `level-badge level-${f.level}` }, auditWords(f.level)),
         ' ',
         f.message || `${f.kind} ${f.metric} ${fmt(f.value)}`,

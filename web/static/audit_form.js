@@ -96,6 +96,9 @@ export function ruleEditor(audit, metrics) {
   $('#audit-schedule').value = (audit && audit.schedule) || '';
   $('#audit-max-age').value = audit && Number.isInteger(audit.max_age_days) ? String(audit.max_age_days) : String(DEFAULT_MAX_AGE_DAYS);
   $('#audit-stale').value = audit && audit.stale === 'warn' ? 'warn' : 'ignore';
+  const rule = audit?.decision_rule || {};
+  $('#audit-decision-rule').value = ['guarded', 'guard_band'].includes(rule.rule) ? rule.rule : 'simple';
+  $('#audit-guard-band').value = rule.guard_band_pct ?? '';
   $('#audit-form-status').hidden = true;
   const add = $('#audit-add-rule');
   add.onclick = () => {
@@ -153,7 +156,7 @@ function readRule(row, i, metrics) {
   return { rule };
 }
 
-// Reads the form: {body: {schedule, rules, max_age_days?, stale?}} or {error: {field, detail}} for
+// Reads the form: {body: {schedule, rules, max_age_days?, stale?, decision_rule?}} or {error: {field, detail}} for
 // the first mistake (its input is marked aria-invalid).
 export function checkRules(metrics) {
   $$('#audit-form [aria-invalid]').forEach((n) => n.removeAttribute('aria-invalid'));
@@ -174,5 +177,15 @@ export function checkRules(metrics) {
   // A PUT replaces the audit: a key left out is its default (365 days, stale set-ups ignored).
   if (age.value !== DEFAULT_MAX_AGE_DAYS) body.max_age_days = age.value;
   if ($('#audit-stale').value === 'warn') body.stale = 'warn';
+  const rule = $('#audit-decision-rule').value;
+  if (rule === 'guarded') body.decision_rule = 'guarded';
+  if (rule === 'guard_band') {
+    const w = readNumberField($('#audit-guard-band'), 'the guard band', { min: 0, max: 100 });
+    if (w.error || w.value <= 0) {
+      $('#audit-guard-band').focus();
+      return { error: { field: 'decision_rule.guard_band_pct', detail: `${w.error || 'must be more than 0'} (w in % of the limit, more than 0 and at most 100).` } };
+    }
+    body.decision_rule = { rule, guard_band_pct: w.value };
+  }
   return { body };
 }

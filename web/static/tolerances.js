@@ -1,7 +1,8 @@
 // Tolerances of the selected machine (docs/http.md "Tolerances and conformance"): the newest
 // version of its table on the machine's page, an editor for engineers (a new version on save),
-// and the conformance badges the measurement list and view show (pass, fail, no tolerance; per
-// figure pass, fail, no value). Numbers typed are read by readNumberField (dom.js): "5,5" is
+// and the conformance badges the measurement list and view show (pass, fail, undecided, no
+// tolerance; per figure pass, fail, undecided, no value), with each figure's U and the decision
+// rule that judged it (ISO 14253-1). Numbers typed are read by readNumberField (dom.js): "5,5" is
 // 5.5, anything unreadable is refused naming the field and nothing is sent.
 
 import { ApiError, apiFetch } from './api.js';
@@ -11,7 +12,7 @@ import { formatNumber, formatTimestamp } from './format.js';
 import { mayDo } from './roles.js';
 
 const KINDS = ['dbb', 'straightness', 'flatness', 'parallelism', 'positioning', 'tracker'];
-const VERDICT_WORDS = { pass: 'pass', fail: 'fail', 'no tolerance': 'no tolerance', 'no value': 'no value' };
+const VERDICT_WORDS = { pass: 'pass', fail: 'fail', undecided: 'undecided', 'no tolerance': 'no tolerance', 'no value': 'no value' };
 
 const path = (machineId) => `/api/v1/machines/${encodeURIComponent(machineId)}/tolerances`;
 
@@ -38,11 +39,12 @@ export function conformancePanel(conformance) {
     'div',
     { class: 'conformance-panel', 'data-testid': 'conformance-panel', 'data-conformance': conformance.verdict },
     h('p', {}, 'Conformance: ', conformanceBadge(conformance, 'conformance-verdict'), ` (${version})`),
+    h('p', { class: 'muted small', 'data-testid': 'decision-rule' }, `Decision rule: ${(conformance.decision_rule && conformance.decision_rule.description) || 'simple acceptance: the value alone'}`),
     figures.length
       ? h(
           'table',
           { class: 'figures small', 'data-testid': 'conformance-figures' },
-          h('thead', {}, h('tr', {}, ...['Figure', 'Tolerance of', 'Value', 'Tolerance', 'Verdict'].map((t) => h('th', {}, t)))),
+          h('thead', {}, h('tr', {}, ...['Figure', 'Tolerance of', 'Value', 'U (k = 2)', 'Tolerance', 'Verdict'].map((t) => h('th', {}, t)))),
           h(
             'tbody',
             {},
@@ -53,6 +55,7 @@ export function conformancePanel(conformance) {
                 h('td', {}, f.metric),
                 h('td', {}, scopeText(f)),
                 h('td', { class: 'num' }, typeof f.value === 'number' ? `${formatNumber(f.value, f.metric)} ${f.unit || ''}` : '—'),
+                h('td', { class: 'num', 'data-testid': 'conformance-u' }, typeof f.U === 'number' ? `± ${formatNumber(f.U, f.metric)} ${f.unit || ''}` : 'not stated'),
                 h('td', { class: 'num' }, `≤ ${formatNumber(f.tolerance, f.metric)} ${f.unit || ''}`),
                 h('td', {}, conformanceBadge(f, 'conformance-figure')),
               ),
@@ -111,7 +114,31 @@ export async function showTolerances(machineId) {
 function entriesList(table) {
   const entries = table?.tolerances || [];
   if (!entries.length) return '';
-  return h('ul', { 'data-testid': 'tolerances-list' }, ...entries.map((e) => h('li', {}, `${e.kind} ${e.metric} ≤ ${e.tolerance} (${scopeText(e)})`)));
+  return h(
+    'div',
+    {},
+    h('p', { class: 'note', 'data-testid': 'tolerances-rule' }, `Decision rule: ${table.decision_rule?.description || 'simple acceptance'}`),
+    h('ul', { 'data-testid': 'tolerances-list' }, ...entries.map((e) => h('li', {}, `${e.kind} ${e.metric} ≤ ${e.tolerance} (${scopeText(e)})`))),
+  );
+}
+
+// The decision rule of the table (ISO 14253-1): simple, guarded (w = U) or a guard band of w %.
+function ruleEditor(table) {
+  const rule = table?.decision_rule || { rule: 'simple' };
+  const select = h(
+    'select',
+    { 'data-testid': 'tolerances-rule-select', 'data-key': 'decision_rule' },
+    h('option', { value: 'simple' }, 'simple: the value alone'),
+    h('option', { value: 'guarded' }, 'guarded: undecided within U of the tolerance'),
+    h('option', { value: 'guard_band' }, 'guard band: undecided within w % of the tolerance'),
+  );
+  select.value = rule.rule || 'simple';
+  const pct = h('input', { type: 'text', inputmode: 'decimal', 'data-key': 'guard_band_pct', 'data-testid': 'tolerances-guard-band', value: rule.guard_band_pct ?? '', placeholder: '10', size: 5 });
+  const pctLabel = h('label', { class: 'tol-field' }, h('span', {}, 'w (% of the tolerance)'), pct);
+  const sync = () => (pctLabel.hidden = select.value !== 'guard_band');
+  select.addEventListener('change', sync);
+  sync();
+  return h('div', { class: 'tolerance-rule', 'data-testid': 'tolerance-rule' }, h('label', { class: 'tol-field' }, h('span', {}, 'Decision rule'), select), pctLabel);
 }
 
 function cell(row, key, control) {
@@ -143,6 +170,7 @@ function editor(machineId, table, metrics) {
     'form',
     { class: 'tolerances-form', 'data-testid': 'tolerances-form', novalidate: true },
     h('datalist', { id: listId }, ...metrics.map((m) => h('option', { value: m.metric }, `${m.kind}: ${m.description} (${m.unit})`))),
+    ruleEditor(table),
     rows,
     h('button', { type: 'button', class: 'secondary', 'data-testid': 'tolerance-add', onclick: () => rows.append(entryRow({}, listId)) }, 'Add tolerance'),
     h('button', { type: 'submit', 'data-testid': 'tolerances-save' }, 'Save tolerances'),
@@ -150,7 +178,7 @@ function editor(machineId, table, metrics) {
   );
   form.addEventListener('submit', (ev) => {
     ev.preventDefault();
-    save(machineId, rows, status);
+    save(machineId, form, rows, status);
   });
   return form;
 }
@@ -172,8 +200,20 @@ function readRows(rows) {
   return { body: { tolerances } };
 }
 
-async function save(machineId, rows, status) {
+// The form's decision rule, or {error} naming its field.
+function readRule(form) {
+  const rule = form.querySelector('[data-key="decision_rule"]').value;
+  if (rule !== 'guard_band') return { value: rule };
+  const w = readNumberField(form.querySelector('[data-key="guard_band_pct"]'), 'decision_rule.guard_band_pct', { min: 0 });
+  if (w.error) return { error: w.error, field: 'decision_rule.guard_band_pct' };
+  return { value: { rule, guard_band_pct: w.value } };
+}
+
+async function save(machineId, form, rows, status) {
   const read = readRows(rows);
+  const rule = read.error ? {} : readRule(form);
+  if (rule.error) Object.assign(read, rule);
+  else if (!read.error) read.body.decision_rule = rule.value;
   if (read.error) {
     setMessage(status, 'error', ...problemContent({ title: 'Tolerances not saved', detail: read.error, field: read.field }));
     return;
