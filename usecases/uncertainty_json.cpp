@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <string_view>
 
 namespace km::usecases {
 namespace {
@@ -46,10 +47,13 @@ std::optional<double> HeaderNumber(const std::map<std::string, std::string>& met
                                    const std::string& key) {
   const auto it = metadata.find(key);
   if (it == metadata.end()) return std::nullopt;
-  const std::string& s = it->second;
+  std::string_view s = it->second;
+  if (!s.empty() && s.front() == '+') s.remove_prefix(1);  // the parsers take "+0.35" too
   double v = 0.0;
   const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-  if (ec != std::errc() || end != s.data() + s.size() || !std::isfinite(v)) return std::nullopt;
+  if (s.empty() || ec != std::errc() || end != s.data() + s.size() || !std::isfinite(v)) {
+    return std::nullopt;
+  }
   return v;
 }
 
