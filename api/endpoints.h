@@ -97,6 +97,11 @@ Endpoint AuditMetrics(const RouteContext& c);
 Endpoint PutTolerances(const RouteContext& c);
 Endpoint GetTolerances(const RouteContext& c);
 
+// The instrument register, versioned (api/instrument_routes.cpp).
+Endpoint PutInstrument(const RouteContext& c);
+Endpoint GetInstrument(const RouteContext& c);
+Endpoint ListInstruments(const RouteContext& c);
+
 // PDF reports (api/report_routes.cpp).
 Endpoint MeasurementReportPdf(const RouteContext& c);
 Endpoint JobReportPdf(const RouteContext& c);

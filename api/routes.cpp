@@ -79,6 +79,10 @@ constexpr RouteLine kRouteTable[] = {
   // Tolerance tables (api/tolerance_routes.cpp)
   {"PUT",    "/api/v1/machines/{machine_id}/tolerances",          Role::kEngineer, ep::PutTolerances},
   {"GET",    "/api/v1/machines/{machine_id}/tolerances",          Role::kViewer,   ep::GetTolerances},
+  // The instrument register (api/instrument_routes.cpp)
+  {"PUT",    "/api/v1/instruments/{serial}",                      Role::kEngineer, ep::PutInstrument},
+  {"GET",    "/api/v1/instruments/{serial}",                      Role::kViewer,   ep::GetInstrument},
+  {"GET",    "/api/v1/instruments",                               Role::kViewer,   ep::ListInstruments},
   // PDF reports (api/report_routes.cpp)
   {"GET",    "/api/v1/measurements/{id}/report.pdf",              Role::kViewer,   ep::MeasurementReportPdf},
   {"GET",    "/api/v1/jobs/{id}/report.pdf",                      Role::kViewer,   ep::JobReportPdf},

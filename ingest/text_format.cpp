@@ -4,6 +4,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 
@@ -53,6 +54,104 @@ std::optional<std::vector<double>> ParseNumberList(std::string_view text) {
     start = comma + 1;
   }
   return out;
+}
+
+std::optional<std::string> InstrumentSerialProblem(std::string_view serial) {
+  if (serial.empty()) return "is empty";
+  if (serial.size() > kMaxInstrumentSerialBytes) {
+    return "is longer than " + std::to_string(kMaxInstrumentSerialBytes) + " characters";
+  }
+  const auto alnum = [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
+  };
+  if (!alnum(serial.front())) return "does not start with a letter or a digit";
+  for (const char c : serial) {
+    if (!(alnum(c) || c == '_' || c == '.' || c == '-' || c == ':')) {
+      return "holds " + Quote(std::string_view(&c, 1)) +
+             " (a serial is letters, digits, '_', '.', '-' and ':')";
+    }
+  }
+  return std::nullopt;
+}
+
+namespace {
+
+// Days since 1970-01-01 of a day of the proleptic Gregorian calendar (H. Hinnant's
+// days_from_civil).
+std::int64_t DaysFromCivil(std::int64_t y, unsigned m, unsigned d) {
+  y -= m <= 2;
+  const std::int64_t era = (y >= 0 ? y : y - 399) / 400;
+  const auto yoe = static_cast<unsigned>(y - era * 400);
+  const unsigned doy = (153 * (m > 2 ? m - 3 : m + 9) + 2) / 5 + d - 1;
+  const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  return era * 146097 + static_cast<std::int64_t>(doe) - 719468;
+}
+
+bool IsDateDigit(char c) {
+  return c >= '0' && c <= '9';
+}
+
+}  // namespace
+
+std::optional<std::int64_t> IsoDateDays(std::string_view text) {
+  if (text.size() != 10 || text[4] != '-' || text[7] != '-') return std::nullopt;
+  constexpr std::size_t kDigitsAt[] = {0, 1, 2, 3, 5, 6, 8, 9};
+  for (const std::size_t i : kDigitsAt) {
+    if (!IsDateDigit(text[i])) return std::nullopt;
+  }
+  const auto num = [&](std::size_t at, std::size_t n) {
+    int v = 0;
+    for (std::size_t i = at; i < at + n; ++i) v = v * 10 + (text[i] - '0');
+    return v;
+  };
+  const int y = num(0, 4), m = num(5, 2), d = num(8, 2);
+  if (y < 1900 || m < 1 || m > 12 || d < 1) return std::nullopt;
+  static constexpr int kDays[] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  const bool leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+  if (d > kDays[m - 1] + (m == 2 && leap ? 1 : 0)) return std::nullopt;
+  return DaysFromCivil(y, static_cast<unsigned>(m), static_cast<unsigned>(d));
+}
+
+std::string IsoDateFromDays(std::int64_t days) {
+  // H. Hinnant's civil_from_days.
+  const std::int64_t z = days + 719468;
+  const std::int64_t era = (z >= 0 ? z : z - 146096) / 146097;
+  const auto doe = static_cast<unsigned>(z - era * 146097);
+  const unsigned yoe = (doe - doe / 1460 + doe / 36524 - doe / 146096) / 365;
+  const unsigned doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+  const unsigned mp = (5 * doy + 2) / 153;
+  const unsigned d = doy - (153 * mp + 2) / 5 + 1;
+  const unsigned m = mp < 10 ? mp + 3 : mp - 9;
+  const std::int64_t y = static_cast<std::int64_t>(yoe) + era * 400 + (m <= 2 ? 1 : 0);
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%04lld-%02u-%02u", static_cast<long long>(y), m, d);
+  return buf;
+}
+
+void CheckInstrumentHeader(const std::string& key, std::string_view value, const std::string& file,
+                           std::size_t line) {
+  if (key.rfind("u_", 0) == 0) {
+    const auto v = ParseNumber(value);
+    if (!v || *v < 0 || *v > kMaxStandardUncertainty) {
+      throw InvalidInput(
+          file, line, key,
+          Quote(value) + " is not a standard uncertainty (a decimal number from 0 to 1e6)");
+    }
+  } else if (key == "instrument_serial") {
+    if (const auto why = InstrumentSerialProblem(value)) {
+      throw InvalidInput(file, line, key, Quote(value) + " " + *why);
+    }
+  } else if (key == "instrument_calibrated") {
+    if (!IsoDateDays(value)) {
+      throw InvalidInput(file, line, key,
+                         Quote(value) + " is not a calendar date written YYYY-MM-DD");
+    }
+  } else if (key == "instrument" || key == "instrument_certificate") {
+    if (value.size() > kMaxInstrumentTextBytes) {
+      throw InvalidInput(file, line, key,
+                         "is longer than " + std::to_string(kMaxInstrumentTextBytes) + " bytes");
+    }
+  }
 }
 
 namespace {
@@ -357,6 +456,7 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
         throw InvalidInput(file, line_no, "", "a '#' line must have the form '# key: value'");
       }
       CheckHeaderText(value, file, line_no, key);
+      if (!have_columns) CheckInstrumentHeader(key, value, file, line_no);
       if (have_columns) {
         t.markers.push_back({std::move(key), std::move(value), line_no, t.row_count});
         continue;

@@ -151,6 +151,42 @@ void CheckTextLimits(std::string_view bytes, const std::string& file, const Text
 // excerpt of it.
 std::string PeekFormat(std::string_view bytes, const std::string& file);
 
+// ---- instrument keys (docs/formats.md "Instrument keys (every kind)") ----
+//
+// Every kind of file may name the instrument it was measured with and state standard
+// uncertainties; ReadTextTable checks these header keys wherever they appear before the
+// column-header row, so every parser refuses a bad one naming file, line and key:
+//   u_*                     a number from 0 to kMaxStandardUncertainty (a standard
+//                           uncertainty, k = 1)
+//   instrument              free text, at most kMaxInstrumentTextBytes
+//   instrument_serial       InstrumentSerialProblem: 1 to 64 characters A–Z a–z 0–9 '_' '.'
+//                           '-' ':', starting with a letter or digit
+//   instrument_calibrated   an ISO date YYYY-MM-DD (a real day, years 1900…9999)
+//   instrument_certificate  free text, at most kMaxInstrumentTextBytes
+// (free text, like every header value, holds no line break, control or invisible character).
+
+inline constexpr std::size_t kMaxInstrumentSerialBytes = 64;
+// The largest standard uncertainty a u_* key may state, in its own unit (1 m in µm, 100 % in
+// ppm): a larger one is no measurement's.
+inline constexpr double kMaxStandardUncertainty = 1e6;
+inline constexpr std::size_t kMaxInstrumentTextBytes = 256;
+
+// Why `serial` cannot name an instrument; nullopt when it can. A serial is copied into URLs
+// (/api/v1/instruments/{serial}), CSV and controller files, JSON and HTML: only characters that
+// mean nothing in any of them, never a leading '-' (a CSV formula) or a '.' ("." and "..").
+std::optional<std::string> InstrumentSerialProblem(std::string_view serial);
+
+// The day of an ISO date written exactly YYYY-MM-DD (a real day of a year 1900…9999), as days
+// since 1970-01-01; nullopt otherwise.
+std::optional<std::int64_t> IsoDateDays(std::string_view text);
+// YYYY-MM-DD of a day since 1970-01-01.
+std::string IsoDateFromDays(std::int64_t days);
+
+// Throws InvalidInput(file, line, key) when `value` is not what the header key `key` must hold
+// (the table above); any other key passes.
+void CheckInstrumentHeader(const std::string& key, std::string_view value, const std::string& file,
+                           std::size_t line);
+
 // Strict decimal number: the whole text must be a finite number (no NaN / Inf, no junk).
 std::optional<double> ParseNumber(std::string_view text);
 // Comma-separated list of strict numbers; nullopt if any element is bad.

@@ -5,6 +5,7 @@ namespace km::server {
 Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
     : storage_(std::move(storage)),
       tolerances_(*storage_),
+      instruments_(*storage_),
       measurements_(*storage_, UploadOptions{options.max_upload_bytes, options.upload_limits}),
       models_(*storage_),
       access_(*storage_),
@@ -18,6 +19,8 @@ Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
       audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {
   // Every answer about a measurement carries its conformance with the newest tolerances.
   measurements_.SetConformanceJudges(tolerances_.Judges());
+  // Every upload naming a registered instrument takes the register's uncertainties.
+  measurements_.SetInstrumentHook(instruments_.Hook());
 }
 
 Service::~Service() {

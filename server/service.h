@@ -12,6 +12,8 @@
 //   reports()       PDF reports of measurements, jobs and audits (server/reports/report_service.h)
 //   tolerances()    the machines' tolerance tables, versioned; the measurements are judged
 //                   against them (server/tolerances/tolerance_service.h)
+//   instruments()   the instrument register, versioned; an uploaded file naming a registered
+//                   serial takes its uncertainties (server/instruments/instrument_service.h)
 // The audit scheduler sees only the narrow AuditSource it reads (records and the DBB pair
 // analysis), not this class.
 #pragma once
@@ -21,6 +23,7 @@
 #include "server/access/access.h"
 #include "server/audits/audit_scheduler.h"
 #include "server/audits/audit_source.h"
+#include "server/instruments/instrument_service.h"
 #include "server/jobs/study_service.h"
 #include "server/measurements/measurement_service.h"
 #include "server/models/model_service.h"
@@ -65,6 +68,7 @@ class Service : public AuditSource {
   AuditScheduler& audits() { return *audits_; }
   ReportService& reports() { return reports_; }
   ToleranceService& tolerances() { return tolerances_; }
+  InstrumentService& instruments() { return instruments_; }
 
   // AuditSource: the storage itself (also for tests and tools; the routes use the services),
   // and the DBB pair analysis the audits read.
@@ -74,6 +78,7 @@ class Service : public AuditSource {
  private:
   std::unique_ptr<Storage> storage_;
   ToleranceService tolerances_;
+  InstrumentService instruments_;
   MeasurementService measurements_;
   ModelService models_;
   AccessService access_;

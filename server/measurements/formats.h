@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ingest/text_format.h"
+#include "server/measurements/instrument_hook.h"
 #include "server/storage/storage.h"
 
 namespace km::server {
@@ -28,7 +29,10 @@ struct Ingested {
 };
 
 // Parses and analyses one file of a format; throws km::InvalidInput naming file/line/field.
-using KindHandler = std::function<Ingested(std::string_view bytes, const std::string& file)>;
+// `instruments` (may be empty) completes the parsed header keys from the instrument register
+// before the analysis (server/measurements/instrument_hook.h); `metadata` keeps the file's own.
+using KindHandler = std::function<Ingested(std::string_view bytes, const std::string& file,
+                                           const InstrumentHook& instruments)>;
 
 // One format as the service knows it.
 struct FormatRegistration {

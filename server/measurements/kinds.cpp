@@ -97,8 +97,17 @@ void CheckTracker(const std::string& file, const tracker::TrackerReadings& r) {
   }
 }
 
-Ingested IngestDbb(std::string_view bytes, const std::string& file) {
-  const dbb::DbbTest test = ingest::ParseDbb(bytes, file);
+Ingested IngestDbb(std::string_view bytes, const std::string& file,
+                   const InstrumentHook& instruments) {
+  dbb::DbbTest test = ingest::ParseDbb(bytes, file);
+  Ingested in;
+  in.kind = "dbb";
+  in.machine_id = test.machine_id;
+  in.test_id = test.test_id;
+  in.direction = dbb::ToString(test.direction);
+  in.measured_at = test.timestamp;
+  for (const auto& [k, v] : test.metadata) in.metadata[k] = v;  // the file's own keys
+  const auto use = UseInstrument(instruments, test.metadata, test.timestamp);
   nlohmann::json result;
   try {
     result = usecases::DbbTestJson(test);
@@ -107,13 +116,7 @@ Ingested IngestDbb(std::string_view bytes, const std::string& file) {
     throw InvalidInput(file, e.line(), e.field(), e.reason());
   }
   RequireFiniteResult(result, file);
-  Ingested in;
-  in.kind = "dbb";
-  in.machine_id = test.machine_id;
-  in.test_id = test.test_id;
-  in.direction = dbb::ToString(test.direction);
-  in.measured_at = test.timestamp;
-  for (const auto& [k, v] : test.metadata) in.metadata[k] = v;
+  AddInstrumentUse(use, result);
   in.samples.columns = {"angle_deg", "dr_um"};
   in.samples.values.reserve(2 * test.angle_deg.size());
   for (std::size_t i = 0; i < test.angle_deg.size(); ++i) {
@@ -124,6 +127,7 @@ Ingested IngestDbb(std::string_view bytes, const std::string& file) {
   return in;
 }
 
+// The file's own header keys and time; called before the register completes the keys.
 template <typename File>
 Ingested Common(const File& f, const std::string& kind) {
   Ingested in;
@@ -146,42 +150,51 @@ SampleBlock ProfileSamples(const form::Profile& p) {
 
 constexpr const char* kFormAnalysisVersion = "form/1";
 
-Ingested IngestStraightness(std::string_view bytes, const std::string& file) {
-  const auto f = ingest::ParseStraightnessFile(bytes, file);
+Ingested IngestStraightness(std::string_view bytes, const std::string& file,
+                            const InstrumentHook& instruments) {
+  auto f = ingest::ParseStraightnessFile(bytes, file);
   CheckProfile(file, f.profile, f.row_lines);
   Ingested in = Common(f, "straightness");
+  const auto use = UseInstrument(instruments, f.metadata, in.measured_at);
   in.test_id = f.pair_id;
   in.direction = f.reversal;
   in.samples = ProfileSamples(f.profile);
-  const nlohmann::json result = usecases::StraightnessFilesToJson({f});
+  nlohmann::json result = usecases::StraightnessFilesToJson({f});
   RequireFiniteResult(result, file);
+  AddInstrumentUse(use, result);
   in.results.push_back({"straightness", kFormAnalysisVersion, result.dump()});
   return in;
 }
 
-Ingested IngestFlatness(std::string_view bytes, const std::string& file) {
-  const auto f = ingest::ParseFlatnessFile(bytes, file);
+Ingested IngestFlatness(std::string_view bytes, const std::string& file,
+                        const InstrumentHook& instruments) {
+  auto f = ingest::ParseFlatnessFile(bytes, file);
   CheckGrid(file, f.grid, f.row_lines);
   Ingested in = Common(f, "flatness");
+  const auto use = UseInstrument(instruments, f.metadata, in.measured_at);
   in.samples.columns = {"x_mm", "y_mm", "z_um"};
   for (std::size_t i = 0; i < f.grid.x_mm.size(); ++i) {
     in.samples.values.insert(in.samples.values.end(),
                              {f.grid.x_mm[i], f.grid.y_mm[i], f.grid.z_um[i]});
   }
-  const nlohmann::json result = usecases::FlatnessFileToJson(f);
+  nlohmann::json result = usecases::FlatnessFileToJson(f);
   RequireFiniteResult(result, file);
+  AddInstrumentUse(use, result);
   in.results.push_back({"flatness", kFormAnalysisVersion, result.dump()});
   return in;
 }
 
-Ingested IngestParallelism(std::string_view bytes, const std::string& file) {
-  const auto f = ingest::ParseParallelismFile(bytes, file);
+Ingested IngestParallelism(std::string_view bytes, const std::string& file,
+                           const InstrumentHook& instruments) {
+  auto f = ingest::ParseParallelismFile(bytes, file);
   CheckProfile(file, f.profile, f.row_lines);
   Ingested in = Common(f, "parallelism");
+  const auto use = UseInstrument(instruments, f.metadata, in.measured_at);
   in.test_id = f.axis;
   in.samples = ProfileSamples(f.profile);
-  const nlohmann::json result = usecases::ParallelismFileToJson(f);
+  nlohmann::json result = usecases::ParallelismFileToJson(f);
   RequireFiniteResult(result, file);
+  AddInstrumentUse(use, result);
   in.results.push_back({"parallelism", kFormAnalysisVersion, result.dump()});
   return in;
 }
@@ -190,8 +203,9 @@ constexpr const char* kTrackerAnalysisVersion = "tracker/1";
 
 // Self-calibration runs at upload (≈ 0.1 s for 1 000 points, ≈ 1 s for 10 000); an
 // unobservable set-up is refused (NotObservable → 422) and nothing is stored.
-Ingested IngestTracker(std::string_view bytes, const std::string& file) {
-  const auto f = ingest::ParseTrackerFile(bytes, file);
+Ingested IngestTracker(std::string_view bytes, const std::string& file,
+                       const InstrumentHook& instruments) {
+  auto f = ingest::ParseTrackerFile(bytes, file);
   CheckTracker(file, f.readings);
   Ingested in;
   in.kind = "tracker";
@@ -199,6 +213,7 @@ Ingested IngestTracker(std::string_view bytes, const std::string& file) {
   // The mode (simultaneous / sequential) stays in the metadata; direction is for DBB tests.
   for (const auto& [k, v] : f.metadata) in.metadata[k] = v;
   if (auto it = f.metadata.find("timestamp"); it != f.metadata.end()) in.measured_at = it->second;
+  const auto use = UseInstrument(instruments, f.metadata, in.measured_at);
   const int n = f.readings.NumTrackers();
   in.samples.columns = {"point", "x_mm", "y_mm", "z_mm"};
   for (int j = 0; j < n; ++j) in.samples.columns.push_back("d" + std::to_string(j + 1) + "_um");
@@ -217,6 +232,7 @@ Ingested IngestTracker(std::string_view bytes, const std::string& file) {
     throw InvalidInput(file, e.line(), e.field(), e.reason());  // name the file
   }
   RequireFiniteResult(result, file);
+  AddInstrumentUse(use, result);
   in.results.push_back({"tracker", kTrackerAnalysisVersion, result.dump()});
   return in;
 }

@@ -74,7 +74,7 @@ UploadOutcome MeasurementService::Upload(std::string_view bytes, const std::stri
     if (rec && judges_) out.conformance = Judge(judges_(), *rec, store_.GetResults(*existing));
     return out;
   }
-  Ingested in = it->second(bytes, file);
+  Ingested in = it->second(bytes, file, instruments_);
   NewMeasurement m;
   m.sha256 = sha;
   m.kind = in.kind;

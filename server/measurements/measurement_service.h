@@ -17,6 +17,7 @@
 #include "render/polar_plot.h"
 #include "server/measurements/conformance_hook.h"
 #include "server/measurements/formats.h"
+#include "server/measurements/instrument_hook.h"
 #include "server/storage/storage.h"
 
 namespace km::server {
@@ -66,6 +67,10 @@ class MeasurementService {
   // answer, MeasurementWithSamples, ResultsWithConformance and every item of ListMeasurements
   // carry "conformance" (server/measurements/conformance_hook.h). Set once, before serving.
   void SetConformanceJudges(ConformanceJudges judges) { judges_ = std::move(judges); }
+  // Completes each uploaded file naming an instrument from the instrument register before its
+  // analysis; its result then carries "instrument" (server/measurements/instrument_hook.h). Set
+  // once, before serving.
+  void SetInstrumentHook(InstrumentHook hook) { instruments_ = std::move(hook); }
 
   // Results as the CLI prints them (the newest analysis version of each analysis).
   nlohmann::json Results(std::int64_t id);
@@ -118,6 +123,7 @@ class MeasurementService {
   UploadOptions options_;
   std::map<std::string, KindHandler> kinds_;
   ConformanceJudges judges_;
+  InstrumentHook instruments_;
 };
 
 // The handlers of every measurement kind the product knows; call once at start-up.

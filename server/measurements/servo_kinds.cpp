@@ -7,8 +7,9 @@
 
 namespace km::server {
 
-Ingested IngestServo(std::string_view bytes, const std::string& file) {
-  const servo::ServoFile f = ingest::ParseServoFile(bytes, file);
+Ingested IngestServo(std::string_view bytes, const std::string& file,
+                     const InstrumentHook& instruments) {
+  servo::ServoFile f = ingest::ParseServoFile(bytes, file);
   Ingested in;
   in.kind = "servo";
   in.machine_id = f.machine_id;
@@ -16,6 +17,7 @@ Ingested IngestServo(std::string_view bytes, const std::string& file) {
   in.direction = f.direction;
   for (const auto& [k, v] : f.metadata) in.metadata[k] = v;
   if (auto it = f.metadata.find("timestamp"); it != f.metadata.end()) in.measured_at = it->second;
+  const auto use = UseInstrument(instruments, f.metadata, in.measured_at);
   SampleBlock& b = in.samples;
   b.columns = {"t_s"};
   if (f.hexapod) {
@@ -43,8 +45,9 @@ Ingested IngestServo(std::string_view bytes, const std::string& file) {
       }
     }
   }
-  const nlohmann::json result = usecases::ServoSummaryJson(f);
+  nlohmann::json result = usecases::ServoSummaryJson(f);
   RequireFiniteResult(result, file);
+  AddInstrumentUse(use, result);
   in.results.push_back({"servo", usecases::kServoAnalysisVersion, result.dump()});
   return in;
 }

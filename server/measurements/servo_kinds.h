@@ -12,6 +12,7 @@
 namespace km::server {
 
 // The handler of the format (server/measurements/formats.h BuiltinFormats).
-Ingested IngestServo(std::string_view bytes, const std::string& file);
+Ingested IngestServo(std::string_view bytes, const std::string& file,
+                     const InstrumentHook& instruments);
 
 }  // namespace km::server

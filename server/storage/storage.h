@@ -340,6 +340,27 @@ struct ToleranceTablePut {
   bool created = false;
 };
 
+// One version of an instrument of the register (server/instruments/instruments.h). Versions of
+// a serial are numbered 1, 2, … in the order they were stored; none is ever changed or removed.
+struct NewInstrumentVersion {
+  std::string serial;
+  std::string instrument_json;  // the entry as validated
+  std::string sha256;           // of instrument_json (the same entry again)
+};
+
+struct InstrumentVersionRecord {
+  std::string serial;
+  std::int64_t version = 0;
+  std::string created_at;
+  std::string instrument_json;
+  std::string sha256;
+};
+
+struct InstrumentVersionPut {
+  InstrumentVersionRecord record;
+  bool created = false;
+};
+
 // The storage of the service, one role a group of tables; each back-end (sqlite/, pg/)
 // implements every role in one class (Storage). A part of the service that needs one role takes
 // that role only (the job queue a JobStore, the audit scheduler an AuditStore, …).
@@ -520,6 +541,21 @@ class ToleranceStore {
       const std::string& machine_id, std::optional<std::int64_t> version) = 0;
 };
 
+// The instrument register: each instrument's uncertainties and calibration, versioned.
+class InstrumentStore {
+ public:
+  virtual ~InstrumentStore() = default;
+
+  // PutInstrument appends the next version of the serial atomically; when the newest version
+  // has the same sha256, that version is answered with created = false and nothing is written.
+  // GetInstrument: the given version, or the newest without one; nullopt when there is none.
+  // ListInstruments: the newest version of each serial, by serial.
+  virtual InstrumentVersionPut PutInstrument(const NewInstrumentVersion& instrument) = 0;
+  virtual std::optional<InstrumentVersionRecord> GetInstrument(
+      const std::string& serial, std::optional<std::int64_t> version) = 0;
+  virtual std::vector<InstrumentVersionRecord> ListInstruments() = 0;
+};
+
 // Every role, as one back-end implements them.
 class Storage : public MeasurementStore,
                 public ModelStore,
@@ -527,6 +563,7 @@ class Storage : public MeasurementStore,
                 public StreamStore,
                 public AccessStore,
                 public AuditStore,
-                public ToleranceStore {};
+                public ToleranceStore,
+                public InstrumentStore {};
 
 }  // namespace km::server

@@ -117,6 +117,11 @@ class PgStorage : public Storage {
   ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) override;
   std::optional<ToleranceTableRecord> GetToleranceTable(
       const std::string& machine_id, std::optional<std::int64_t> version) override;
+  // The instrument register: pg_instruments.cpp.
+  InstrumentVersionPut PutInstrument(const NewInstrumentVersion& instrument) override;
+  std::optional<InstrumentVersionRecord> GetInstrument(
+      const std::string& serial, std::optional<std::int64_t> version) override;
+  std::vector<InstrumentVersionRecord> ListInstruments() override;
 
  private:
   std::unique_ptr<pg::Pool> pool_;

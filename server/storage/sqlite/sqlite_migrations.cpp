@@ -222,6 +222,23 @@ CREATE TRIGGER tolerance_tables_immutable BEFORE UPDATE ON tolerance_tables
 CREATE TRIGGER tolerance_tables_kept BEFORE DELETE ON tolerance_tables
   BEGIN SELECT RAISE(ABORT, 'tolerance table versions are never deleted'); END;
 )sql",
+    // 12: the instrument register, versioned per serial: a new version is appended, none is
+    // ever changed.
+    R"sql(
+CREATE TABLE instruments (
+  id              INTEGER PRIMARY KEY,
+  serial          TEXT NOT NULL,
+  version         INTEGER NOT NULL CHECK (version >= 1),
+  created_at      TEXT NOT NULL,
+  instrument_json TEXT NOT NULL,
+  sha256          TEXT NOT NULL,
+  UNIQUE (serial, version)
+);
+CREATE TRIGGER instruments_immutable BEFORE UPDATE ON instruments
+  BEGIN SELECT RAISE(ABORT, 'instrument versions are immutable'); END;
+CREATE TRIGGER instruments_kept BEFORE DELETE ON instruments
+  BEGIN SELECT RAISE(ABORT, 'instrument versions are never deleted'); END;
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

@@ -114,6 +114,11 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) override;
   std::optional<ToleranceTableRecord> GetToleranceTable(
       const std::string& machine_id, std::optional<std::int64_t> version) override;
+  // The instrument register: sqlite_instruments.cpp.
+  InstrumentVersionPut PutInstrument(const NewInstrumentVersion& instrument) override;
+  std::optional<InstrumentVersionRecord> GetInstrument(
+      const std::string& serial, std::optional<std::int64_t> version) override;
+  std::vector<InstrumentVersionRecord> ListInstruments() override;
 
  private:
   // The connection's prepared statement of this SQL, leased until the result goes out of scope.
