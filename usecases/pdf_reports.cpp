@@ -190,8 +190,8 @@ std::vector<render::ReportBlock> ConformanceBlocks(const json& c, const ReportSo
   const std::string rule_text = rule.is_object() && rule.contains("description")
                                     ? rule["description"].get<std::string>()
                                     : std::string("simple acceptance: the value alone");
-  out.push_back(ParagraphBlock("Judged against the " + table + ". Decision rule: " + rule_text +
-                               "."));
+  out.push_back(
+      ParagraphBlock("Judged against the " + table + ". Decision rule: " + rule_text + "."));
   out.push_back(TableBlock(std::move(t)));
   const char* why = verdict == "pass"        ? " — every figure is within its tolerance."
                     : verdict == "undecided" ? " — a figure is within its uncertainty (guard "
@@ -274,6 +274,18 @@ render::Report DbbPdfReport(const dbb::DbbReport& report, const json& report_jso
   r.blocks.push_back(render::PolarBlock(render::DbbPolarPlot(report, test_index)));
   r.blocks.push_back(HeadingBlock("Figures (ISO 230-4, tool-path units)"));
   r.blocks.push_back(TableBlock(FiguresOfTests(shown, pair)));
+  for (const auto& x : shown) {
+    if (!x.contains("uncertainty")) continue;
+    for (auto& b : report_text::UncertaintyBlocks(
+             x["uncertainty"], " — " + Upper(x.value("direction", "")) + " test")) {
+      r.blocks.push_back(std::move(b));
+    }
+  }
+  if (pair.is_object() && pair.contains("uncertainty")) {
+    for (auto& b : report_text::UncertaintyBlocks(pair["uncertainty"], " — CW/CCW pair")) {
+      r.blocks.push_back(std::move(b));
+    }
+  }
   for (auto& b : DiagnosisBlocks(test, r.complete_at)) r.blocks.push_back(std::move(b));
   if (context.later) {
     for (auto& b : AsFoundAsLeft(test, *context.later, source)) r.blocks.push_back(std::move(b));
@@ -302,9 +314,15 @@ render::Report ResultsPdfReport(const json& results, const ReportSource& source,
   r.footer = report_text::Footer(what + " report " + source.machine_id, context.printed_at);
   r.complete_at = CompleteAt(source);
   r.blocks.push_back(HeadingBlock("Figures"));
-  for (auto& b : report_text::BoundedTable(report_text::FiguresTable(results),
-                                           report_text::Evenly("figures", r.complete_at))) {
+  for (auto& b :
+       report_text::BoundedTable(report_text::FiguresTable(results, {"uncertainty", "instrument"}),
+                                 report_text::Evenly("figures", r.complete_at))) {
     r.blocks.push_back(std::move(b));
+  }
+  if (results.is_object() && results.contains("uncertainty")) {
+    for (auto& b : report_text::UncertaintyBlocks(results["uncertainty"], " of the figures")) {
+      r.blocks.push_back(std::move(b));
+    }
   }
   for (auto& b : report_text::ColumnTables(results, r.complete_at)) {
     r.blocks.push_back(std::move(b));

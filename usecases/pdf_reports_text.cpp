@@ -267,4 +267,98 @@ std::string Footer(const std::string& what, const std::string& printed_at) {
   return "kinemetric · " + what + " · printed " + printed_at;
 }
 
+namespace {
+
+std::string InputsText(const json& inputs, bool stated) {
+  std::string out;
+  for (const auto& in : inputs) {
+    if (!in.is_object() || in.value("stated", false) != stated) continue;
+    out += (out.empty() ? "" : ", ") + in.value("input", std::string());
+    if (stated) out += " " + Short(in.value("u", json())) + " " + in.value("unit", std::string());
+  }
+  return out.empty() ? "none" : out;
+}
+
+// A short name of an input for a column heading ("u_air_temperature_c" → "air T").
+std::string InputLabel(const std::string& input) {
+  static const std::pair<const char*, const char*> kLabels[] = {
+      {"u_laser_ppm", "laser"},
+      {"u_air_temperature_c", "air T"},
+      {"u_air_pressure_pa", "air p"},
+      {"u_air_humidity_pct", "air RH"},
+      {"u_material_temperature_c", "part T"},
+      {"u_expansion_ppm_per_k", "expansion"},
+      {"u_reading_um", "reading"},
+      {"u_bar_length_um", "bar length"},
+      {"u_bar_temperature_c", "bar T"},
+      {"u_ranging_um", "ranging"}};
+  for (const auto& [k, v] : kLabels) {
+    if (input == k) return v;
+  }
+  return input;
+}
+
+// Figure | U | interval low, high | one column a stated input (its contribution), at most six.
+render::ReportTable UncertaintyTable(const json& figures, const json& inputs) {
+  std::vector<std::string> stated;
+  for (const auto& in : inputs) {
+    if (in.is_object() && in.value("stated", false) && stated.size() < 6) {
+      stated.push_back(in.value("input", std::string()));
+    }
+  }
+  render::ReportTable t;
+  t.header = {"Figure", "U", "95 % from", "to"};
+  for (const auto& s : stated) t.header.push_back(InputLabel(s));
+  t.numeric.assign(t.header.size(), true);
+  t.numeric[0] = false;
+  for (const auto& [key, f] : figures.items()) {
+    if (!f.is_object()) continue;
+    const json iv = f.value("interval_um", json::array());
+    std::vector<std::string> row{LabelOf(key).label, Fixed(f.value("U_um", json()), 3),
+                                 iv.size() == 2 ? Fixed(iv[0], 3) : "—",
+                                 iv.size() == 2 ? Fixed(iv[1], 3) : "—"};
+    for (const auto& s : stated) {
+      json c;
+      for (const auto& b : f.value("budget", json::array())) {
+        if (b.is_object() && b.value("input", std::string()) == s)
+          c = b.value("contribution_um", json());
+      }
+      row.push_back(Fixed(c, 3));
+    }
+    t.rows.push_back(std::move(row));
+  }
+  return t;
+}
+
+}  // namespace
+
+std::vector<render::ReportBlock> UncertaintyBlocks(const json& u, const std::string& of) {
+  std::vector<render::ReportBlock> out;
+  if (!u.is_object()) return out;
+  out.push_back(render::HeadingBlock("Uncertainty" + of));
+  const json inputs = u.value("inputs", json::array());
+  const json figures = u.value("figures", json::object());
+  if (!figures.is_object() || figures.empty()) {
+    out.push_back(render::ParagraphBlock("The file states no input uncertainty (" +
+                                         InputsText(inputs, false) +
+                                         "): the figures carry no expanded uncertainty."));
+    return out;
+  }
+  out.push_back(render::ParagraphBlock(
+      "Method: " + u.value("method", std::string()) + ", " + Short(u.value("draws", json())) +
+      " draws, seed " + Short(u.value("seed", json())) +
+      "; U = k·u with k = 2, u the standard deviation of the draws; the 95 % interval is the "
+      "probabilistically symmetric coverage interval. Inputs stated (standard uncertainties): " +
+      InputsText(inputs, true) + ". Not stated (taken as 0): " + InputsText(inputs, false) +
+      ". In µm: U (k = 2), the 95 % interval, and the budget: each figure's standard uncertainty "
+      "with one input alone (laser: reading scale; air T, p, RH: through the refractive index; "
+      "part T and expansion: through the correction to 20 °C; reading, bar length, bar T: the "
+      "ball bar's)."));
+  out.push_back(render::TableBlock(UncertaintyTable(figures, inputs)));
+  for (const auto& w : u.value("warnings", json::array())) {
+    if (w.is_string()) out.push_back(render::ParagraphBlock("Note: " + w.get<std::string>()));
+  }
+  return out;
+}
+
 }  // namespace km::usecases::report_text

@@ -81,5 +81,11 @@ std::vector<render::ReportBlock> AuditBlocks(const ReportAudit& audit, const Rep
 // Where a machine's audit rules and its verdicts are on the API.
 std::string AuditAt(const std::string& machine_id);
 std::string Footer(const std::string& what, const std::string& printed_at);
+// The uncertainty of a result's figures (docs/formats.md §3.17) under the heading "Uncertainty"
+// + `of`: the method, k and the inputs (stated, not stated), a table Figure | U | 95 % interval
+// and the budget of the stated inputs; a sentence only when the file stated none. Nothing for a
+// result without an `uncertainty` object.
+std::vector<render::ReportBlock> UncertaintyBlocks(const nlohmann::json& uncertainty,
+                                                   const std::string& of);
 
 }  // namespace km::usecases::report_text

@@ -64,7 +64,7 @@ const CAPTIONS = {
 };
 
 // Arrays drawn as charts / tables of their own rather than as rows of the figures table.
-const OWN_VIEWS = new Set(['harmonics', 'diagnosis', 'not_identifiable', 'periodic', 'references', 'measurement', 'decomposition', 'transform', 'point_ids', 'targets', 'compensation']);
+const OWN_VIEWS = new Set(['harmonics', 'diagnosis', 'not_identifiable', 'periodic', 'references', 'measurement', 'decomposition', 'transform', 'point_ids', 'targets', 'compensation', 'uncertainty', 'instrument']);
 
 // Bookkeeping of the analysis rather than figures of the machine: not rows of the table (the
 // evaluated arc is a row once, at the top level; the versions stay in the JSON and CSV).
@@ -121,8 +121,69 @@ function rowLabel(key) {
   return `${labelOf(parent)}: ${label.charAt(0).toLowerCase()}${label.slice(1)}`;
 }
 
+// The expanded uncertainty of a row's figure in an `uncertainty` object (docs/formats.md §3.17):
+// the figure by its key, else by its last part ("iso230_4.circular_deviation_um").
+function uncertaintyOf(uncertainty, key) {
+  const figures = uncertainty?.figures || {};
+  const f = figures[key] || figures[key.split('.').pop()];
+  return f && typeof f.U_um === 'number' ? f : null;
+}
+
+// " ± U" beside a value, its title naming k and the method.
+function uSpan(uncertainty, key) {
+  const f = uncertaintyOf(uncertainty, key);
+  if (!f) return '';
+  return h('span', { class: 'figure-u', 'data-testid': 'figure-u', title: `expanded uncertainty U (k = ${f.k ?? 2}), ${uncertainty.method || ''}; 95 % interval ${formatNumber(f.interval_um?.[0], key)} to ${formatNumber(f.interval_um?.[1], key)}` }, ` ± ${formatUncertainty(f.U_um)}`);
+}
+
+// The uncertainty budget of each column, folded: the method, the inputs (stated and not) and the
+// contribution of each stated input to each figure.
+function uncertaintyBudget(columns) {
+  const blocks = [];
+  for (const c of columns) {
+    const u = c.uncertainty;
+    if (!u) continue;
+    const figures = Object.entries(u.figures || {});
+    const stated = (u.inputs || []).filter((i) => i.stated);
+    const who = c.item.direction ? ` — ${formatDirection(c.item.direction)}` : '';
+    const head = figures.length ? `${u.method}, ${u.draws} draws, seed ${u.seed}, U = k·u with k = ${u.k}` : 'No input uncertainty stated in the file: the figures carry no U.';
+    blocks.push(
+      h(
+        'details',
+        { class: 'uncertainty-budget', 'data-testid': 'uncertainty-budget', 'data-direction': c.item.direction || '' },
+        h('summary', {}, `Uncertainty budget${who}`),
+        h('p', { class: 'note' }, head),
+        h('p', { class: 'note' }, `Stated: ${stated.map((i) => `${i.input} ${i.u} ${i.unit}`).join(', ') || 'none'}. Not stated (taken as 0): ${(u.not_stated || []).join(', ') || 'none'}.`),
+        ...(u.warnings || []).map((w) => h('p', { class: 'note warn' }, w)),
+        figures.length
+          ? h(
+              'table',
+              { class: 'figures small' },
+              h('thead', {}, h('tr', {}, h('th', {}, 'Figure'), h('th', { class: 'num' }, 'U (µm)'), h('th', { class: 'num' }, '95 % interval (µm)'), ...stated.map((i) => h('th', { class: 'num' }, `${i.input} (µm)`)))),
+              h(
+                'tbody',
+                {},
+                ...figures.map(([key, f]) =>
+                  h(
+                    'tr',
+                    { 'data-key': key },
+                    h('th', { scope: 'row' }, rowLabel(key)),
+                    h('td', { class: 'num' }, formatUncertainty(f.U_um)),
+                    h('td', { class: 'num' }, `${formatNumber(f.interval_um?.[0], key)} to ${formatNumber(f.interval_um?.[1], key)}`),
+                    ...stated.map((i) => h('td', { class: 'num' }, formatUncertainty((f.budget || []).find((b) => b.input === i.input)?.contribution_um))),
+                  ),
+                ),
+              ),
+            )
+          : '',
+      ),
+    );
+  }
+  return blocks;
+}
+
 export function renderFigures(fetched, { kind = 'dbb', pair = null } = {}) {
-  const columns = fetched.map((f) => ({ item: f.item, ...flattenResults(f.results) }));
+  const columns = fetched.map((f) => ({ item: f.item, uncertainty: f.results?.uncertainty || null, ...flattenResults(f.results) }));
   const lead = KIND_ROWS[kind] || [];
   // Row order: the lead rows, then every other numeric key, then other values (e.g. versions).
   const seen = new Set();
@@ -177,6 +238,7 @@ export function renderFigures(fetched, { kind = 'dbb', pair = null } = {}) {
             'td',
             { class: numeric ? 'num' : 'text', 'data-key': key, 'data-direction': c.item.direction || '', 'data-id': c.item.id },
             cellText(key, key === 'test_id' ? c.flat[key] ?? c.item.test_id : key === 'direction' ? c.flat[key] ?? c.item.direction : c.flat[key]),
+            numeric ? uSpan(c.uncertainty, key) : '',
           ),
         ),
       ),
@@ -194,7 +256,7 @@ export function renderFigures(fetched, { kind = 'dbb', pair = null } = {}) {
           { 'data-key': `pair.${k}`, class: 'lead pair-row' },
           h('th', { scope: 'row' }, labelOf(k)),
           h('td', { class: 'unit' }, unitOf(k).unit),
-          h('td', { class: 'num', colspan: columns.length, 'data-key': `pair.${k}`, 'data-testid': `pair-${k}` }, formatNumber(pair.pair[k], k)),
+          h('td', { class: 'num', colspan: columns.length, 'data-key': `pair.${k}`, 'data-testid': `pair-${k}` }, formatNumber(pair.pair[k], k), uSpan(pair.pair.uncertainty, k)),
         ),
         anchor,
       );
@@ -204,7 +266,7 @@ export function renderFigures(fetched, { kind = 'dbb', pair = null } = {}) {
   // A table wider than its column (both directions on a phone) scrolls with a visible hint.
   const box = h('div', { class: 'table-scroll' }, table);
   $('#figures').replaceChildren(box);
-  box.after(csvButton(columns, keys));
+  box.after(csvButton(columns, keys), ...uncertaintyBudget(columns));
   renderExtraTables(columns, fetched, kind);
 }
 
