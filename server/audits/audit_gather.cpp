@@ -220,6 +220,19 @@ void ConformanceOf(AuditSource& service, const ToleranceTable& table, Stored& ne
   e.newest = Found(failed, newest);
 }
 
+// The instrument of a set-up's newest test when it was measured past its calibration interval
+// (the result's `instrument`, docs/http.md "Instruments"): {serial, instrument, calibration_due};
+// null otherwise.
+json OverdueInstrument(AuditSource& service, Stored& newest) {
+  LoadResults(service, newest);
+  if (!newest.result.is_object() || !newest.result.contains("instrument")) return nullptr;
+  const json& i = newest.result["instrument"];
+  if (!i.is_object() || !i.value("overdue", false)) return nullptr;
+  return {{"serial", i.value("serial", json())},
+          {"instrument", i.value("instrument", json())},
+          {"calibration_due", i.value("calibration_due", json())}};
+}
+
 SetUpEvidence JudgeSetUp(AuditSource& service, const AuditRule& rule, const AuditMetric& metric,
                          SetUpTests& group, const AuditPolicy& policy, const json& previous,
                          std::int64_t now, const ToleranceTable& tolerances) {
@@ -234,6 +247,7 @@ SetUpEvidence JudgeSetUp(AuditSource& service, const AuditRule& rule, const Audi
     e.newest = Found(0.0, newest);
     return e;
   }
+  if (!newest.calibration) e.overdue_instrument = OverdueInstrument(service, *group.tests.front());
   if (metric.analysis == kConformanceMetric) {
     ConformanceOf(service, tolerances, *group.tests.front(), e);  // never a trend (ParseRule)
     return e;

@@ -41,6 +41,7 @@ StoredAudit ReadStoredAudit(const std::string& text) {
   out.policy.max_age_days = doc.value("max_age_days", out.policy.max_age_days);
   out.policy.stale_warn = doc.value("stale", std::string("ignore")) == "warn";
   out.policy.decision_rule = ParseDecisionRule(doc.value("decision_rule", json()), "decision_rule");
+  out.policy.instrument_overdue_warn = doc.value("instrument_overdue", std::string()) == "warn";
   return out;
 }
 
@@ -60,6 +61,13 @@ AuditPolicy ParsePolicy(const json& body) {
     }
     p.stale_warn = v == "warn";
   }
+  if (body.contains("instrument_overdue") && !body["instrument_overdue"].is_null()) {
+    const json& v = body["instrument_overdue"];
+    if (!v.is_string() || (v != "warn" && v != "ignore")) {
+      throw InvalidInput("", 0, "instrument_overdue", "must be \"warn\" or \"ignore\"");
+    }
+    p.instrument_overdue_warn = v == "warn";
+  }
   if (body.contains("decision_rule")) {
     p.decision_rule = ParseDecisionRule(body["decision_rule"], "decision_rule");
   }
@@ -75,6 +83,7 @@ json ConfigJson(const AuditConfigRecord& c) {
           {"max_age_days", stored.policy.max_age_days},
           {"stale", stored.policy.stale_warn ? "warn" : "ignore"},
           {"decision_rule", DecisionRuleJson(stored.policy.decision_rule)},
+          {"instrument_overdue", stored.policy.instrument_overdue_warn ? "warn" : "ignore"},
           {"updated_at", c.updated_at},
           {"last_run_at", opt(c.last_run_at)},
           {"next_run_at", opt(c.next_run_at)}};
@@ -93,10 +102,10 @@ json PutAuditConfig(AuditSource& service, const std::string& machine_id, const j
   if (!body.is_object()) throw InvalidInput("", 0, "", "the body must be a JSON object");
   for (const auto& [key, value] : body.items()) {
     if (key != "schedule" && key != "rules" && key != "max_age_days" && key != "stale" &&
-        key != "decision_rule") {
-      throw InvalidInput(
-          "", 0, key,
-          "is not a key of an audit (schedule, rules, max_age_days, stale, decision_rule)");
+        key != "decision_rule" && key != "instrument_overdue") {
+      throw InvalidInput("", 0, key,
+                         "is not a key of an audit (schedule, rules, max_age_days, stale, "
+                         "decision_rule, instrument_overdue)");
     }
   }
   ingest::CheckMachineId(machine_id, "", 0);
@@ -119,7 +128,8 @@ json PutAuditConfig(AuditSource& service, const std::string& machine_id, const j
   c.rules_json = json{{"rules", stored},
                       {"max_age_days", policy.max_age_days},
                       {"stale", policy.stale_warn ? "warn" : "ignore"},
-                      {"decision_rule", DecisionRuleJson(policy.decision_rule)}}
+                      {"decision_rule", DecisionRuleJson(policy.decision_rule)},
+                      {"instrument_overdue", policy.instrument_overdue_warn ? "warn" : "ignore"}}
                      .dump();
   if (const auto old = service.storage().GetAuditConfig(machine_id))
     c.last_run_at = old->last_run_at;
@@ -168,8 +178,8 @@ json VerdictJson(const AuditVerdictRecord& v) {
             {"checked", body.is_object() ? body.value("checked", json::array()) : json::array()}};
   // Verdicts that judge set-ups also list the stale ones and the policy they were judged under.
   if (body.is_object()) {
-    for (const char* key :
-         {"stale", "max_age_days", "stale_policy", "decision_rule", "checked_ok_not_listed"}) {
+    for (const char* key : {"stale", "max_age_days", "stale_policy", "decision_rule",
+                            "instrument_overdue", "instrument_policy", "checked_ok_not_listed"}) {
       if (body.contains(key)) j[key] = body[key];
     }
   }

@@ -172,6 +172,44 @@ void StaleFindings(const StaleSetUps& stale, const AuditPolicy& policy, json& fi
   }
 }
 
+// Set-ups measured with an instrument past its calibration, once however many rules cover them.
+struct OverdueSetUps {
+  std::map<SetUpKey, bool> seen;
+  json list = json::array();
+  std::vector<std::size_t> first_rule;
+};
+
+void NoteOverdue(const AuditRule& rule, std::size_t i, const SetUpEvidence& s,
+                 OverdueSetUps& overdue) {
+  if (!s.overdue_instrument.is_object() || !s.newest) return;
+  const SetUpKey key{rule.kind, s.test_id, s.direction};
+  if (!overdue.seen.emplace(key, true).second) return;
+  json j = {{"kind", rule.kind}};
+  j.update(SetUpJson(rule, s));
+  j.update(Evidence(*s.newest, ""));
+  j.erase("value");
+  j.update(s.overdue_instrument);
+  overdue.list.push_back(std::move(j));
+  overdue.first_rule.push_back(i);
+}
+
+void OverdueFindings(const OverdueSetUps& overdue, json& findings) {
+  for (std::size_t k = 0; k < overdue.list.size(); ++k) {
+    json f = overdue.list[k];
+    f["rule"] = overdue.first_rule[k];
+    f["metric"] = "instrument_overdue";
+    f["level"] = 2;
+    const auto text = [&](const char* key) {
+      return f.contains(key) && f[key].is_string() ? f[key].get<std::string>() : std::string("?");
+    };
+    f["message"] = f["kind"].get<std::string>() + " set-up " + text("set_up") +
+                   " was last measured " + text("measured_at") + " with instrument " +
+                   text("serial") + " past its calibration interval (due " +
+                   text("calibration_due") + "): its figures rest on an uncalibrated instrument";
+    findings.push_back(std::move(f));
+  }
+}
+
 struct Tally {
   json findings = json::array();
   json checked = json::array();
@@ -197,7 +235,7 @@ json NotEvaluated(json c, const std::string& reason) {
 }
 
 void JudgeRule(const AuditRule& rule, std::size_t i, const AuditEvidence& ev, Tally& t,
-               StaleSetUps& stale, const DecisionRule& decision_rule) {
+               StaleSetUps& stale, OverdueSetUps& overdue, const DecisionRule& decision_rule) {
   json base = AuditRuleJson(rule);
   base["rule"] = i;
   if (ev.set_ups.empty()) {
@@ -225,6 +263,7 @@ void JudgeRule(const AuditRule& rule, std::size_t i, const AuditEvidence& ev, Ta
       Keep(NotEvaluated(std::move(c), missing), t);
       continue;
     }
+    NoteOverdue(rule, i, s, overdue);
     t.level = std::max(t.level, Judge(rule, i, s, c, t.findings, decision_rule));
     Keep(std::move(c), t);
   }
@@ -236,10 +275,15 @@ json EvaluateAudit(const std::vector<AuditRule>& rules, const std::vector<AuditE
                    const AuditPolicy& policy) {
   Tally t;
   StaleSetUps stale;
+  OverdueSetUps overdue;
   const AuditEvidence none;
   for (std::size_t i = 0; i < rules.size(); ++i) {
-    JudgeRule(rules[i], i, i < evidence.size() ? evidence[i] : none, t, stale,
+    JudgeRule(rules[i], i, i < evidence.size() ? evidence[i] : none, t, stale, overdue,
               policy.decision_rule);
+  }
+  if (policy.instrument_overdue_warn && !overdue.list.empty()) {
+    OverdueFindings(overdue, t.findings);
+    t.level = std::max(t.level, 2);
   }
   if (policy.stale_warn && !stale.list.empty()) {
     StaleFindings(stale, policy, t.findings);
@@ -251,7 +295,9 @@ json EvaluateAudit(const std::vector<AuditRule>& rules, const std::vector<AuditE
               {"stale", std::move(stale.list)},
               {"max_age_days", policy.max_age_days},
               {"stale_policy", policy.stale_warn ? "warn" : "ignore"},
-              {"decision_rule", DecisionRuleJson(policy.decision_rule)}};
+              {"decision_rule", DecisionRuleJson(policy.decision_rule)},
+              {"instrument_overdue", std::move(overdue.list)},
+              {"instrument_policy", policy.instrument_overdue_warn ? "warn" : "ignore"}};
   if (t.ok_not_listed > 0) out["checked_ok_not_listed"] = t.ok_not_listed;
   return out;
 }

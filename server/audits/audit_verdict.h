@@ -35,6 +35,8 @@ struct SetUpEvidence {
   std::string missing;
   bool stale = false;
   double age_days = 0.0;
+  nlohmann::json overdue_instrument;  // {serial, instrument, calibration_due}: the newest test
+                                      // was measured with an instrument past its calibration
   bool undecided = false;  // a conformance whose figures are within their uncertainty: level 2
   nlohmann::json extra;    // keys added to the checked entry and finding (e.g. conformance)
 };
@@ -54,6 +56,10 @@ struct AuditPolicy {
   // within its uncertainty (guard band) of either limit, is level 2 ("decision": "undecided");
   // otherwise level 1.
   DecisionRule decision_rule;
+  // A judged set-up whose newest test was measured with an instrument past its calibration
+  // interval is listed in the verdict's `instrument_overdue`; with this set, each is also a
+  // level-2 finding (metric "instrument_overdue").
+  bool instrument_overdue_warn = false;
 };
 
 // At most this many "ok" entries are listed in `checked`; the rest are counted
@@ -66,7 +72,9 @@ inline constexpr std::size_t kMaxCheckedOk = 2000;
 // "metric", …rule keys, "set_up"?, "test_id"?, "direction"?, "status": "ok" | "finding" |
 // "stale" | "not evaluated", …}], "stale": [{"kind", "set_up", "test_id", "direction",
 // "measurement_id" | "job_id", "measured_at", "age_days"}], "max_age_days", "stale_policy",
-// "decision_rule"}.
+// "decision_rule", "instrument_overdue": [{"kind", "set_up", "test_id", "direction",
+// "measurement_id", "measured_at", "serial", "instrument", "calibration_due"}],
+// "instrument_policy": "ignore" | "warn"}.
 // Level = the worst finding, 1 without any.
 nlohmann::json EvaluateAudit(const std::vector<AuditRule>& rules,
                              const std::vector<AuditEvidence>& evidence,

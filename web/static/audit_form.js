@@ -96,6 +96,7 @@ export function ruleEditor(audit, metrics) {
   $('#audit-schedule').value = (audit && audit.schedule) || '';
   $('#audit-max-age').value = audit && Number.isInteger(audit.max_age_days) ? String(audit.max_age_days) : String(DEFAULT_MAX_AGE_DAYS);
   $('#audit-stale').value = audit && audit.stale === 'warn' ? 'warn' : 'ignore';
+  $('#audit-instrument').value = audit && audit.instrument_overdue === 'warn' ? 'warn' : 'ignore';
   const rule = audit?.decision_rule || {};
   $('#audit-decision-rule').value = ['guarded', 'guard_band'].includes(rule.rule) ? rule.rule : 'simple';
   $('#audit-guard-band').value = rule.guard_band_pct ?? '';
@@ -177,6 +178,7 @@ export function checkRules(metrics) {
   // A PUT replaces the audit: a key left out is its default (365 days, stale set-ups ignored).
   if (age.value !== DEFAULT_MAX_AGE_DAYS) body.max_age_days = age.value;
   if ($('#audit-stale').value === 'warn') body.stale = 'warn';
+  if ($('#audit-instrument').value === 'warn') body.instrument_overdue = 'warn';
   const rule = $('#audit-decision-rule').value;
   if (rule === 'guarded') body.decision_rule = 'guarded';
   if (rule === 'guard_band') {

@@ -162,3 +162,37 @@ TEST(DecisionRules, AnAuditStopsOnlyAMachineProvenBeyondStop) {
 
 }  // namespace
 }  // namespace km::server
+
+namespace km::server {
+namespace {
+
+TEST(AuditInstruments, ASetUpMeasuredWithAnOverdueInstrumentIsListedAndAFindingWhenAsked) {
+  const auto rules = ParseAuditRules(
+      json::array({{{"kind", "dbb"}, {"metric", "circularity_um"}, {"warn", 10}, {"stop", 15}},
+                   {{"kind", "dbb"}, {"metric", "circular_deviation_um"}, {"stop", 20}}}));
+  AuditEvidence e = NewestWithU(4.0, std::nullopt);
+  e.set_ups[0].overdue_instrument = {
+      {"serial", "QC20-0042"}, {"instrument", "ball bar"}, {"calibration_due", "2026-06-01"}};
+  AuditPolicy listed;
+  const json quiet = EvaluateAudit(rules, {e, e}, listed);
+  EXPECT_EQ(quiet["level"], 1);
+  ASSERT_EQ(quiet["instrument_overdue"].size(), 1u);  // once, however many rules cover it
+  EXPECT_EQ(quiet["instrument_overdue"][0]["serial"], "QC20-0042");
+  EXPECT_EQ(quiet["instrument_overdue"][0]["measurement_id"], 7);
+  EXPECT_EQ(quiet["instrument_policy"], "ignore");
+  AuditPolicy warn;
+  warn.instrument_overdue_warn = true;
+  const json loud = EvaluateAudit(rules, {e, e}, warn);
+  EXPECT_EQ(loud["level"], 2);
+  ASSERT_EQ(loud["findings"].size(), 1u);
+  EXPECT_EQ(loud["findings"][0]["metric"], "instrument_overdue");
+  EXPECT_NE(loud["findings"][0]["message"].get<std::string>().find("2026-06-01"),
+            std::string::npos);
+  // A calibrated instrument: nothing listed.
+  const json fine = EvaluateAudit(rules, {NewestWithU(4.0, std::nullopt)}, warn);
+  EXPECT_EQ(fine["level"], 1);
+  EXPECT_TRUE(fine["instrument_overdue"].empty());
+}
+
+}  // namespace
+}  // namespace km::server
