@@ -56,6 +56,8 @@ void RequireHeaderAtMost(const TextTable& t, const std::string& key, double limi
   }
 }
 
+void CheckBarUncertainty(const TextTable& t, const std::string& file);
+
 // The header lines of a DBB file: identification, geometry, feed, time and arc, each checked.
 dbb::DbbTest ReadHeader(const TextTable& t, const std::string& file) {
   dbb::DbbTest d;
@@ -125,7 +127,24 @@ dbb::DbbTest ReadHeader(const TextTable& t, const std::string& file) {
     }
     d.arc_deg = *arc;
   }
+  CheckBarUncertainty(t, file);
   return d;
+}
+
+// The ball bar's uncertainty keys beyond the generic check of every u_* key (text_format.h): the
+// bar's growth α·L·δT needs its expansion coefficient α (docs/formats.md §1.1).
+void CheckBarUncertainty(const TextTable& t, const std::string& file) {
+  const auto alpha = t.OptionalNumber("bar_expansion_ppm_per_k");
+  if (alpha && !(*alpha >= 0.0 && *alpha <= 1000.0)) {
+    throw InvalidInput(file, t.Find("bar_expansion_ppm_per_k")->line, "bar_expansion_ppm_per_k",
+                       Number(*alpha) + " is not an expansion coefficient: 0 … 1000 ppm/K");
+  }
+  if (t.Has("u_bar_temperature_c") && !alpha) {
+    throw InvalidInput(file, t.Find("u_bar_temperature_c")->line, "u_bar_temperature_c",
+                       "the bar's growth α·L·δT needs its expansion coefficient: state "
+                       "bar_expansion_ppm_per_k (e.g. 11.5 for steel, 0 for an invar or "
+                       "carbon-fibre bar)");
+  }
 }
 
 // The samples (angle_deg or t_s, and dr_um) in the order the test ran, and their coverage.

@@ -2,10 +2,16 @@
 #include "usecases/form_report.h"
 
 #include <cmath>
+#include <functional>
 #include <map>
 #include <numbers>
+#include <optional>
+#include <span>
 
 #include "analysis/core/errors.h"
+#include "analysis/uncertainty/cross_check.h"
+#include "analysis/uncertainty/monte_carlo.h"
+#include "usecases/uncertainty_json.h"
 
 namespace km::usecases {
 namespace {
@@ -60,6 +66,46 @@ form::ReversalSetup PairSetup(const ingest::StraightnessFile& first,
                            "); both profiles of a pair must state the same set-up");
   }
   return InFile(second.file, [&] { return form::ParseReversalSetup(second.reversal_setup); });
+}
+
+// The uncertainty of a form result's figures from the file's u_reading_um (each reading on its
+// own), by Monte Carlo through the same analysis (docs/methods.md §16.4): `figures` recomputes
+// the figures from the readings plus one draw of reading errors. M = 1000 draws (the standard
+// error of u within 3 % of u), seed 2304; the first-order GUM by central differences of every
+// reading while they are at most 2000 (beyond, a note).
+nlohmann::json FormUncertainty(
+    const std::map<std::string, std::string>& metadata, std::size_t readings,
+    const std::vector<std::string>& keys,
+    const std::function<void(std::span<const double>, std::span<double>)>& figures) {
+  const std::optional<double> u = HeaderNumber(metadata, "u_reading_um");
+  const std::vector<UncertaintyInput> inputs{
+      {"u_reading_um", u.value_or(0.0), "µm", u.has_value()}};
+  if (!u || !(*u > 0.0)) return NoUncertaintyJson(inputs);
+  const std::vector<uncertainty::McInput> mc_inputs{
+      uncertainty::McInput::NormalGroup("u_reading_um", 0.0, *u, readings)};
+  uncertainty::McOptions o;
+  o.draws = 1000;
+  o.seed = 2304;
+  o.budget_draws = 0;  // one input: its contribution is u itself
+  const uncertainty::McResult mc =
+      uncertainty::PropagateMonteCarlo(figures, mc_inputs, keys.size(), o);
+  uncertainty::McResult with_budget = mc;
+  for (auto& out : with_budget.outputs) out.budget = {out.u};
+  std::vector<uncertainty::GumCheck> gum;
+  if (readings <= 2000) {
+    std::vector<uncertainty::McInput> each;
+    for (std::size_t k = 0; k < readings; ++k) {
+      each.push_back(uncertainty::McInput::Normal("u_reading_um", 0.0, *u));
+    }
+    gum = uncertainty::CrossCheckGum(figures, each, mc, keys);
+  }
+  nlohmann::json j = UncertaintyJson(with_budget, inputs, keys, gum);
+  j["notes"] = nlohmann::json::array({"u_reading_um: drawn independently for each of the " +
+                                      std::to_string(readings) + " readings"});
+  if (readings > 2000) {
+    j["notes"].push_back("no first-order GUM check: more than 2000 readings");
+  }
+  return j;
 }
 
 }  // namespace
@@ -142,6 +188,23 @@ nlohmann::json StraightnessFilesToJson(const std::vector<ingest::StraightnessFil
     nlohmann::json j = InFile(
         f.file, [&] { return FormResultToJson(form::AnalyzeStraightness(f.profile, options)); });
     j["measurement"] = Measurement(f);
+    form::Profile p = f.profile;
+    form::StraightnessOptions figures_only;
+    figures_only.find_periodic = false;
+    j["uncertainty"] = InFile(f.file, [&] {
+      return FormUncertainty(
+          f.metadata, p.deviation_um.size(),
+          {"straightness_lsq_um", "straightness_min_zone_um", "straightness_end_point_um"},
+          [&](std::span<const double> e, std::span<double> y) {
+            for (std::size_t k = 0; k < e.size(); ++k) {
+              p.deviation_um[k] = f.profile.deviation_um[k] + e[k];
+            }
+            const auto r = form::AnalyzeStraightness(p, figures_only);
+            y[0] = r.straightness_lsq_um;
+            y[1] = r.straightness_min_zone_um;
+            y[2] = r.straightness_end_point_um;
+          });
+    });
     profiles.push_back(std::move(j));
   }
   if (files.size() == 1) return profiles.front();
@@ -192,6 +255,19 @@ nlohmann::json FlatnessFileToJson(const ingest::FlatnessFile& file) {
   nlohmann::json j =
       InFile(file.file, [&] { return FormResultToJson(form::AnalyzeFlatness(file.grid)); });
   j["measurement"] = {{"machine_id", file.machine_id}, {"datum", file.datum}};
+  form::Grid g = file.grid;
+  j["uncertainty"] = InFile(file.file, [&] {
+    return FormUncertainty(file.metadata, g.z_um.size(),
+                           {"flatness_lsq_um", "flatness_min_zone_um"},
+                           [&](std::span<const double> e, std::span<double> y) {
+                             for (std::size_t k = 0; k < e.size(); ++k) {
+                               g.z_um[k] = file.grid.z_um[k] + e[k];
+                             }
+                             const auto r = form::AnalyzeFlatness(g);
+                             y[0] = r.flatness_lsq_um;
+                             y[1] = r.flatness_min_zone_um;
+                           });
+  });
   return j;
 }
 
@@ -199,6 +275,19 @@ nlohmann::json ParallelismFileToJson(const ingest::ParallelismFile& file) {
   nlohmann::json j =
       InFile(file.file, [&] { return FormResultToJson(form::AnalyzeParallelism(file.profile)); });
   j["measurement"] = {{"machine_id", file.machine_id}, {"axis", file.axis}, {"datum", file.datum}};
+  form::Profile p = file.profile;
+  j["uncertainty"] = InFile(file.file, [&] {
+    return FormUncertainty(file.metadata, p.deviation_um.size(),
+                           {"parallelism_um", "straightness_lsq_um"},
+                           [&](std::span<const double> e, std::span<double> y) {
+                             for (std::size_t k = 0; k < e.size(); ++k) {
+                               p.deviation_um[k] = file.profile.deviation_um[k] + e[k];
+                             }
+                             const auto r = form::AnalyzeParallelism(p);
+                             y[0] = r.parallelism_um;
+                             y[1] = r.straightness_lsq_um;
+                           });
+  });
   return j;
 }
 

@@ -6,7 +6,11 @@
 // input at a time: each input drawn alone with the others at their estimates. The adaptive
 // procedure (§7.9) adds batches until the results are stable to the numerical tolerance of a
 // stated number of significant digits of u. Seeded std::mt19937_64: one seed, one result.
-// A pure numerical module: no I/O.
+// An input may stand for a group of `count` independent draws of one distribution (e.g. the
+// reading of an instrument, drawn anew for each of thousands of readings): the model sees all
+// of them, the budget one entry for the group. Groups draw from their own seeded stream
+// (xoshiro256**, normals by the ziggurat method [Marsaglia & Tsang 2000]), fast enough for
+// thousands of draws per evaluation. A pure numerical module: no I/O.
 #pragma once
 
 #include <cstddef>
@@ -26,21 +30,28 @@ enum class Distribution {
 };
 
 // One input quantity by its estimate and standard uncertainty (k = 1); u = 0 holds it fixed.
+// count > 1: a group of `count` independent quantities of that one distribution, drawn
+// independently of each other at every evaluation (x holds `count` values for it).
 struct McInput {
   std::string name;
   double estimate = 0.0;
   double u = 0.0;
   Distribution distribution = Distribution::kNormal;
+  std::size_t count = 1;
 
   static McInput Normal(std::string name, double x, double u);
+  // `count` independent N(x, u²) quantities, one budget entry.
+  static McInput NormalGroup(std::string name, double x, double u, std::size_t count);
   // R(low, high): estimate (low + high)/2, u = (high − low)/√12.
   static McInput Rectangular(std::string name, double low, double high);
   // Symmetric triangle of half-width a about x: u = a/√6.
   static McInput Triangular(std::string name, double x, double half_width);
 };
 
-// The model: fills y (one value per output quantity) from one draw x of the inputs. Called once
-// per draw; it should not allocate.
+// The model: fills y (one value per output quantity) from one draw x of the inputs, the inputs'
+// values in their order, a group's `count` values one after the other (InputOffset). Called
+// once per draw; it should not allocate. (The first-order check of cross_check.h evaluates
+// inputs of count 1 only: give it a model of those.)
 using VectorModel = std::function<void(std::span<const double> x, std::span<double> y)>;
 
 struct McOptions {
@@ -77,6 +88,10 @@ struct McResult {
   double tolerance = 0.0;  // adaptive: the largest δ of the outputs
   std::vector<McOutput> outputs;
 };
+
+// Number of values x holds for `inputs` (Σ count), and where input i's values start in x.
+std::size_t DrawSize(const std::vector<McInput>& inputs);
+std::size_t InputOffset(const std::vector<McInput>& inputs, std::size_t i);
 
 // Runs the propagation of `outputs` output quantities through `model`.
 McResult PropagateMonteCarlo(const VectorModel& model, const std::vector<McInput>& inputs,
