@@ -252,7 +252,11 @@ dbb::DbbTest MeasurementService::LoadDbb(std::int64_t id, MeasurementRecord* rec
     throw InvalidInput("", 0, "id", "measurement " + std::to_string(id) + " is not a DBB test");
   }
   if (record) *record = *rec;
-  return ingest::ParseDbb(store_.GetRaw(id), rec->filename);
+  dbb::DbbTest test = ingest::ParseDbb(store_.GetRaw(id), rec->filename);
+  // The analyses made again from the stored bytes (pair, trace) read the instrument register's
+  // uncertainties the way the upload did (its newest values, where the file states none).
+  UseInstrument(instruments_, test.metadata, test.timestamp);
+  return test;
 }
 
 std::optional<std::int64_t> MeasurementService::DbbPartner(const MeasurementRecord& rec) {

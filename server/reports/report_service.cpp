@@ -31,6 +31,29 @@ usecases::ReportSource SourceOf(const MeasurementRecord& r) {
   return s;
 }
 
+// The instrument line of a report from the stored result's `instrument` object (the file's keys
+// completed from the instrument register, docs/http.md "Instruments"): name, serial,
+// calibration date, certificate, when it was due and whether the register supplied values.
+void NameInstrument(usecases::ReportSource& s, const nlohmann::json& result) {
+  if (!result.is_object() || !result.contains("instrument")) return;
+  const nlohmann::json& i = result["instrument"];
+  if (!i.is_object()) return;
+  const auto text = [&](const char* key) {
+    return i.contains(key) && i[key].is_string() ? i[key].get<std::string>() : std::string();
+  };
+  std::string line = text("instrument").empty() ? "instrument" : text("instrument");
+  if (!text("serial").empty()) line += ", serial " + text("serial");
+  line += ", calibrated " + (text("calibrated").empty() ? "— (not stated)" : text("calibrated"));
+  if (!text("certificate").empty()) line += ", certificate " + text("certificate");
+  if (!text("calibration_due").empty()) line += ", due " + text("calibration_due");
+  if (i.value("overdue", false)) line += " — PAST ITS CALIBRATION INTERVAL when measured";
+  if (i.contains("register_version") && i["register_version"].is_number_integer()) {
+    line += " (instrument register version " + i["register_version"].dump() + ")";
+  }
+  if (!s.metadata.is_object()) s.metadata = nlohmann::json::object();
+  s.metadata["instrument"] = line;
+}
+
 // The machine's audit rules (null: none) and its newest verdict (null: none).
 usecases::ReportAudit AuditOf(AuditSource& records, const std::string& machine_id) {
   usecases::ReportAudit a{nullptr, nullptr};
@@ -92,8 +115,9 @@ std::string ReportService::DbbPdf(const MeasurementRecord& rec, const Cancelled&
   const nlohmann::json j = usecases::DbbReportJson(tests, report);
   usecases::ReportContext ctx = ContextOf(records_, measurements_, rec);
   ctx.partner_id = partner;
-  return render::RenderPdf(usecases::DbbPdfReport(report, j, 0, SourceOf(rec), ctx),
-                           Options(cancelled));
+  usecases::ReportSource source = SourceOf(rec);
+  NameInstrument(source, measurements_.Results(rec.id));
+  return render::RenderPdf(usecases::DbbPdfReport(report, j, 0, source, ctx), Options(cancelled));
 }
 
 std::string ReportService::ResultsPdf(const MeasurementRecord& rec, const Cancelled& cancelled) {
@@ -109,7 +133,9 @@ std::string ReportService::ResultsPdf(const MeasurementRecord& rec, const Cancel
   give_up();
   const nlohmann::json results = measurements_.Results(rec.id);
   give_up();
-  render::Report report = usecases::ResultsPdfReport(results, SourceOf(rec), ctx);
+  usecases::ReportSource source = SourceOf(rec);
+  NameInstrument(source, results);
+  render::Report report = usecases::ResultsPdfReport(results, source, ctx);
   give_up();
   return render::RenderPdf(report, Options(cancelled));
 }

@@ -16,6 +16,7 @@
 #include "api/routes.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
+#include "tests/unit/server/pdf_text.h"
 
 namespace km::api {
 namespace {
@@ -193,6 +194,33 @@ TEST_F(InstrumentRoutes, AnUploadNamingARegisteredSerialTakesItsValues) {
   EXPECT_EQ(one["metadata"]["u_reading_um"], "0.3");
   EXPECT_FALSE(one["metadata"].contains("u_bar_length_um"));
   EXPECT_FALSE(one["metadata"].contains("instrument"));
+}
+
+TEST_F(InstrumentRoutes, ThePairAndTheReportUseTheRegisterToo) {
+  ASSERT_EQ(Put("QC20-7", Ballbar()).status, 200);
+  std::int64_t cw = 0, ccw = 0;
+  Upload(WithHeader(Example("dbb_xy-r150_cw.txt"), "# instrument_serial: QC20-7\n"), &cw);
+  const json own =
+      Upload(WithHeader(Example("dbb_xy-r150_ccw.txt"), "# instrument_serial: QC20-7\n"), &ccw);
+  EXPECT_GT(own["uncertainty"]["figures"]["average_radial_error_um"]["U_um"].get<double>(), 1.3);
+  // The pair is analysed again from the stored bytes: with the register's u_bar_length_um.
+  const auto pair = Call("GET", "/api/v1/measurements/" + std::to_string(ccw) + "/pair", viewer_);
+  ASSERT_EQ(pair.status, 200) << pair.body;
+  const json p = json::parse(pair.body)["pair"]["uncertainty"];
+  bool bar = false;
+  for (const auto& in : p["inputs"]) {
+    bar = bar || (in["input"] == "u_bar_length_um" && in["stated"] == true && in["u"] == 0.7);
+  }
+  EXPECT_TRUE(bar) << p.dump();
+  EXPECT_GT(p["figures"]["circular_hysteresis_um"]["U_um"].get<double>(), 0.0);
+  // The report names the instrument as the register completes it.
+  const auto pdf =
+      Call("GET", "/api/v1/measurements/" + std::to_string(ccw) + "/report.pdf", viewer_);
+  ASSERT_EQ(pdf.status, 200);
+  const std::string text = test::PdfToText(pdf.body, (dir_ / "r.pdf").string());
+  EXPECT_NE(text.find("QC20-7"), std::string::npos) << text;
+  EXPECT_NE(text.find("2026-01-15"), std::string::npos) << text;
+  EXPECT_NE(text.find("register version 1"), std::string::npos) << text;
 }
 
 TEST_F(InstrumentRoutes, AMeasurementAfterTheCalibrationWasDueCarriesAWarning) {
