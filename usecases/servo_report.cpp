@@ -289,6 +289,14 @@ json FeedDriveAxisJson(const servo::FeedDriveResult& r) {
   };
   j["lugre"] = r.lugre ? lugre(*r.lugre) : json(nullptr);
   j["lugre_sigma"] = r.lugre_sigma ? lugre(*r.lugre_sigma) : json(nullptr);
+  if (r.lugre && r.lugre_sigma) {  // the Stribeck rise's form and exponent δ (σ 0 when held)
+    const bool lorentzian = r.lugre->stribeck_form == servo::LugreParameters::Form::kLorentzian;
+    j["lugre"]["stribeck_form"] = lorentzian ? "lorentzian" : "exponential";
+    j["lugre"]["stribeck_exponent"] = Number(r.lugre->stribeck_exponent);
+    j["lugre_sigma"]["stribeck_exponent"] = Number(r.lugre_sigma->stribeck_exponent);
+    j["lugre_form_delta_chi2"] = Number(r.lugre_form_delta_chi2);
+    j["lugre_forms_comparable"] = r.lugre_forms_comparable;
+  }
   j["lugre_identifiable"] = nullptr;
   if (r.lugre) {  // a parameter the records do not determine: null value and σ
     const auto& f = r.lugre_identifiable;

@@ -106,24 +106,63 @@ void WidenForStribeck(const detail::Strokes& s, const LugreParameters& p,
   r.viscous_sigma_N_s_per_mm = std::hypot(r.viscous_sigma_N_s_per_mm, std::sqrt(spread[1]));
 }
 
+// The form of the Stribeck rise the reversals support, between the exponential family `r`
+// (δ fitted or 2) and the Lorentzian `lorentz`: by their χ² (the weighted residual over the
+// better fit's noise of one sample, its correlation included) with 2 a fitted parameter added
+// (Akaike). One form is clearly better when the other's exceeds it by more than 9 (3 σ);
+// otherwise both fit comparably, the better one is kept and its σ cover the other's values
+// (of the LuGre parameters, Coulomb and viscous friction). `r` and `info` become the kept.
+void ChooseForm(const FeedDriveResult& lorentz, const detail::LugreFit& lorentz_info,
+                FeedDriveResult& r, detail::LugreFit& info) {
+  const bool lorentz_lower = lorentz_info.rss < info.rss;
+  const double s2 = lorentz_lower ? lorentz_info.s2 : info.s2;
+  if (!(s2 > 0.0) || !std::isfinite(lorentz_info.rss)) return;
+  const double delta =
+      (lorentz_info.rss - info.rss) / s2 + 2.0 * (lorentz_info.params - info.params);
+  const bool comparable = std::abs(delta) <= 9.0;
+  const FeedDriveResult other = delta < 0.0 ? r : lorentz;
+  if (delta < 0.0) {
+    r = lorentz;
+    info = lorentz_info;
+  }
+  r.lugre_form_delta_chi2 = delta;
+  r.lugre_forms_comparable = comparable;
+  if (!comparable) return;
+  LugreParameters& e = *r.lugre_sigma;
+  const LugreParameters& p = *r.lugre;
+  const LugreParameters& q = *other.lugre;
+  const auto widen = [](double& sd, double a, double b) { sd = std::hypot(sd, a - b); };
+  widen(e.Fs_N, p.Fs_N, q.Fs_N);
+  widen(e.vs_mm_s, p.vs_mm_s, q.vs_mm_s);
+  widen(e.sigma0_N_per_um, p.sigma0_N_per_um, q.sigma0_N_per_um);
+  widen(e.sigma1_N_s_per_mm, p.sigma1_N_s_per_mm, q.sigma1_N_s_per_mm);
+  widen(r.coulomb_sigma_N, r.coulomb_N, other.coulomb_N);
+  widen(r.viscous_sigma_N_s_per_mm, r.viscous_N_s_per_mm, other.viscous_N_s_per_mm);
+  e.Fc_N = r.coulomb_sigma_N;
+  e.sigma2_N_s_per_mm = r.viscous_sigma_N_s_per_mm;
+}
+
 }  // namespace
 
 FeedDriveResult AnalyzeFeedDrive(const std::vector<const ServoFile*>& files,
                                  const std::string& axis, const FeedDriveOptions& options) {
   options.Check();
-  detail::Strokes s = detail::CollectStrokes(files, axis, options);
-  // `first`: the LuGre fit of a first pass, whose Stribeck rise has been taken out.
-  const auto analyse = [&](const FeedDriveResult* first) {
+  const detail::Strokes collected = detail::CollectStrokes(files, axis, options);
+  using Form = LugreParameters::Form;
+  // The whole analysis with the Stribeck rise of one form. `first`: the LuGre fit of a first
+  // pass, whose Stribeck rise has been taken out of `s`.
+  const auto analyse = [&](detail::Strokes& s, const FeedDriveResult* first, Form form,
+                           detail::LugreFit& info) {
     FeedDriveResult r;
     r.axis = axis;
     r.samples = s.x.size();
     r.reversals = s.reversals.size();
     detail::FitSteady(s, options, r);
     if (first) WidenForStribeck(s, *first->lugre, *first->lugre_sigma, r);
-    if (options.fit_lugre) detail::FitLugre(s, options, r, first ? &*first->lugre : nullptr);
+    if (options.fit_lugre)
+      detail::FitLugre(s, options, r, first ? &*first->lugre : nullptr, form, &info);
     return r;
   };
-  FeedDriveResult r = analyse(nullptr);
   // Steady samples slow enough to feel the Stribeck rise (speeds of a few v_s): the rise is
   // taken out and everything fitted once more — when the fit determines F_s and v_s to a third
   // (even if the reversals' samples leave them short of identifiable).
@@ -131,9 +170,21 @@ FeedDriveResult AnalyzeFeedDrive(const std::vector<const ServoFile*>& files,
     return q.lugre && 3.0 * q.lugre_sigma->Fs_N < q.lugre->Fs_N &&
            3.0 * q.lugre_sigma->vs_mm_s < q.lugre->vs_mm_s;
   };
-  if (rise_known(r) && detail::SetStribeck(s, *r.lugre)) {
-    const FeedDriveResult first = r;
-    r = analyse(&first);
+  const auto run = [&](Form form, detail::LugreFit& info) {
+    detail::Strokes s = collected;
+    FeedDriveResult r = analyse(s, nullptr, form, info);
+    if (rise_known(r) && detail::SetStribeck(s, *r.lugre)) {
+      const FeedDriveResult first = r;
+      r = analyse(s, &first, form, info);
+    }
+    return r;
+  };
+  detail::LugreFit info, lorentz_info;
+  FeedDriveResult r = run(Form::kExponential, info);
+  if (r.lugre) {
+    const FeedDriveResult lorentz = run(Form::kLorentzian, lorentz_info);
+    if (lorentz.lugre) ChooseForm(lorentz, lorentz_info, r, info);
+    detail::DecideLugre(info, r);
   }
   if (r.lugre && r.lugre_identifiable.Fc_N && r.lugre_identifiable.sigma0_N_per_um &&
       options.radius_mm && options.feed_mm_min && options.kp_per_s) {

@@ -9,7 +9,9 @@
 //    Weighted linear least squares (samples where the acceleration changes weigh less), σ from
 //    the covariance widened by the strokes' disagreement and the slowest feed's pull.
 // 2. Reversals: the LuGre model (eqs. 4.1–4.2), dz/dt = v − σ0 |v| z / g(v),
-//    g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ), F = σ0 z + σ1 dz/dt + σ2 v, with F_c and σ2 from
+//    g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ) or the Lorentzian F_c + (F_s − F_c)/(1 + (v/v_s)²)
+//    (the whole analysis run with each, the better kept, σ covering both where they fit alike),
+//    F = σ0 z + σ1 dz/dt + σ2 v, with F_c and σ2 from
 //    step 1, integrated along the measured motion and fitted to the force less its
 //    position-dependent part and inertia around every reversal; each parameter's σ includes the
 //    ambiguity of the motion between samples, and a parameter the records do not determine is
@@ -55,6 +57,10 @@ struct LugreParameters {
   // δ of the Stribeck rise exp(−|v/v_s|^δ): the thesis leaves g(v) open; 2 is the Gaussian of
   // the LuGre paper, 1 the exponential. Fitted where the reversals resolve the rise's shape.
   double stribeck_exponent = 2.0;
+  // The form of the rise: exp(−|v/v_s|^δ), or the Lorentzian of Hess and Soom
+  // 1/(1 + (v/v_s)²) (δ then unused, 2), whose tail is long. Where both fit the reversals
+  // comparably the σ of F_s and v_s cover the spread between them.
+  enum class Form { kExponential, kLorentzian } stribeck_form = Form::kExponential;
 };
 
 // Which LuGre parameters the records determine (a σ below a third of the value, or of a
@@ -77,6 +83,11 @@ struct FeedDriveResult {
   std::optional<LugreParameters> lugre, lugre_sigma;
   LugreIdentifiable lugre_identifiable;  // with `lugre`
   double lugre_residual_rms_N = 0.0;
+  // The Lorentzian form's χ² (2 a fitted parameter added) less the exponential's: below −9 the
+  // Lorentzian fits clearly better, above 9 the exponential; between them the two fit
+  // comparably (`lugre_forms_comparable`) and the σ of the LuGre values cover both.
+  double lugre_form_delta_chi2 = 0.0;
+  bool lugre_forms_comparable = false;
   // Why LuGre was not fitted, when it was not; which parameters it leaves undetermined, why,
   // and the test that would determine them, when it was.
   std::string lugre_note;

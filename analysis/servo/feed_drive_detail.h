@@ -2,6 +2,7 @@
 // steady-motion fit with the position-dependent ripple, the LuGre fit at reversals.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -42,15 +43,31 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r);
 struct Window {
   std::size_t first = 0, last = 0;
 };
-// Flags the parameters of r.lugre that the windows leave undetermined and says in r.lugre_note
-// why and which test would determine them; y is the windows' bristle force (the force less
-// everything else), top_speed the strokes' top speed.
+// What a LuGre fit leaves for comparing the forms of the Stribeck rise and for judging which
+// parameters the reversals determine.
+struct LugreFit {
+  double rss = INFINITY;    // the weighted residual
+  double s2 = 0.0;          // the noise of one sample, its correlation included
+  int params = 0;           // fitted (4, or 5 with δ)
+  double transition = 0.0;  // samples a reversal while the friction changes sides (median)
+  double slow = 0.0;        // samples a reversal slower than 2 v_s (median)
+  double top_speed = 0.0;   // of the steady strokes
+};
+// Counts the samples of `fit` for r.lugre (y is the windows' bristle force: the force less
+// everything else; top_speed the strokes' top speed).
 void JudgeLugre(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
-                double top_speed, FeedDriveResult& r);
+                double top_speed, const FeedDriveResult& r, LugreFit& fit);
+// Flags the parameters of r.lugre that the reversals leave undetermined (σ and the counts of
+// `fit`) and says in r.lugre_note why and which test would determine them.
+void DecideLugre(const LugreFit& fit, FeedDriveResult& r);
 
-// LuGre at the reversals, from `start` (a fit of the same reversals) or from several starts.
+// LuGre at the reversals with the rise of form `form`, from `start` (a fit of the same
+// reversals) or from several starts; `info` (when given) gets what the comparison of the forms
+// needs.
 void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
-              const LugreParameters* start = nullptr);
+              const LugreParameters* start = nullptr,
+              LugreParameters::Form form = LugreParameters::Form::kExponential,
+              LugreFit* info = nullptr);
 // How Coulomb and viscous friction of FitSteady change when the known part of every sample
 // grows by `delta` (the fit's columns held, its ripple periods fixed).
 Eigen::Vector2d SteadyShift(const Strokes& s, const std::vector<double>& delta);

@@ -12,10 +12,11 @@
 // the rise's exponent δ free (ln δ in [ln 0.5, ln 6]), from δ = 2 and δ = 1. The thesis leaves
 // g(v) open, and a rise of another shape fitted as a Gaussian gives a v_s tens of σ off with a
 // tiny σ. The fitted δ is kept where the records reject δ = 2 by more than 3 σ; otherwise δ = 2,
-// each parameter's σ including its change when δ is fitted. The σ of each parameter is the
-// statistical one (the residual's own scatter, inflated by its correlation from sample to
-// sample; infinite along directions the data leave flat) and, added in quadrature, its change
-// when the motion between samples is read at constant speed: where a reversal passes between
+// each parameter's σ including its change when δ is fitted. With the Lorentzian rise
+// 1/(1 + (v/v_s)²) (feed_drive.cpp compares the forms) only the fit with δ held runs. The σ of each
+// parameter is the statistical one (the residual's own scatter, inflated by its correlation from
+// sample to sample; infinite along directions the data leave flat) and, added in quadrature, its
+// change when the motion between samples is read at constant speed: where a reversal passes between
 // few samples that second term dominates. feed_drive_lugre_judge.cpp then decides which
 // parameters are determined.
 #include <algorithm>
@@ -55,6 +56,7 @@ std::vector<Window> Windows(const Strokes& s, double window_mm) {
 // F_c and σ2 come from the steady sliding (F = ±g(v) + σ2 v, g → F_c well above v_s).
 struct Sliding {
   double Fc_N = 0.0, sigma2_N_s_per_mm = 0.0;
+  LugreParameters::Form form = LugreParameters::Form::kExponential;
 };
 
 LugreParameters FromVec(const Vec& q, const Sliding& sliding) {
@@ -66,6 +68,7 @@ LugreParameters FromVec(const Vec& q, const Sliding& sliding) {
   p.sigma1_N_s_per_mm = q[3];
   p.sigma2_N_s_per_mm = sliding.sigma2_N_s_per_mm;
   p.stribeck_exponent = std::exp(q[kExponent]);
+  p.stribeck_form = sliding.form;
   return p;
 }
 
@@ -309,7 +312,7 @@ void Targets(const Strokes& s, const std::vector<Window>& ws, const FeedDriveRes
 }  // namespace
 
 void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
-              const LugreParameters* start) {
+              const LugreParameters* start, LugreParameters::Form form, LugreFit* info) {
   const auto ws = Windows(s, o.lugre_window_mm);
   if (ws.empty() || !(r.coulomb_N > 0.0)) {
     r.lugre_note = ws.empty() ? "no reversal with samples either side" : "no positive Coulomb";
@@ -321,7 +324,8 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
   std::vector<double> y, wt;
   double independent = 0.0;
   Targets(s, ws, r, top_speed, y, wt, independent);
-  const Sliding sliding{r.coulomb_N, r.viscous_N_s_per_mm};
+  const Sliding sliding{r.coulomb_N, r.viscous_N_s_per_mm, form};
+  const bool lorentzian = form == LugreParameters::Form::kLorentzian;
   const double sigma0 = SigmaZeroGuess(s, ws, y, r.coulomb_N);
   const double critical = 2.0 * std::sqrt(sigma0 * 1e6 * std::abs(r.moving_mass_kg)) * 1e-3;
   const auto guess = [&](double fs, double vs, double s0, double s1, double delta) {
@@ -329,8 +333,8 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
     q0 << std::log(fs), std::log(vs), std::log(s0), s1, std::log(delta);
     return q0;
   };
-  // The Gaussian rise (δ = 2) first: from a fit of the same reversals before, or from six
-  // starts of the Stribeck speed and the damping, the best carried on.
+  // The Gaussian rise (δ = 2; or the Lorentzian) first: from a fit of the same reversals
+  // before, or from six starts of the Stribeck speed and the damping, the best carried on.
   Fit gauss;
   if (start) {
     gauss = Solve(
@@ -348,9 +352,10 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
     gauss = Solve(s, ws, y, wt, sliding, Reading::kLinear, gauss.q, false);
   }
   // Then the shape of the rise itself, from the Gaussian fit with δ = 2 and δ = 1 (and the
-  // earlier fit's δ).
+  // earlier fit's δ); the Lorentzian has none.
   Fit shaped;
   std::vector<double> deltas{2.0, 1.0};
+  if (lorentzian) deltas.clear();
   if (start && start->stribeck_exponent != 2.0) deltas.push_back(start->stribeck_exponent);
   for (double delta : deltas) {
     Vec q0 = gauss.q;
@@ -360,15 +365,18 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
   }
   const Vec sd_gauss = Uncertainty(
       gauss, Solve(s, ws, y, wt, sliding, Reading::kConstant, gauss.q, false), ws, independent);
-  const Vec sd_shaped = Uncertainty(
-      shaped, Solve(s, ws, y, wt, sliding, Reading::kConstant, shaped.q, true), ws, independent);
+  const Vec sd_shaped =
+      lorentzian
+          ? Vec::Zero().eval()
+          : Uncertainty(shaped, Solve(s, ws, y, wt, sliding, Reading::kConstant, shaped.q, true),
+                        ws, independent);
   // The fitted shape is taken where the records reject the Gaussian (δ more than 3 σ from 2);
   // otherwise the Gaussian, each parameter's σ including its change when δ is fitted.
-  const bool rejects = std::isfinite(sd_shaped[kExponent]) &&
+  const bool rejects = !lorentzian && std::isfinite(sd_shaped[kExponent]) &&
                        std::abs(shaped.q[kExponent] - std::log(2.0)) > 3.0 * sd_shaped[kExponent];
   const Fit& best = rejects ? shaped : gauss;
   Vec sd = rejects ? sd_shaped : sd_gauss;
-  if (!rejects) {
+  if (!rejects && !lorentzian) {
     for (int k = 0; k < kExponent; ++k) sd[k] = std::hypot(sd[k], shaped.q[k] - gauss.q[k]);
   }
   sd[kExponent] = sd_shaped[kExponent];
@@ -386,7 +394,13 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
   ps.stribeck_exponent = sd[kExponent] * p.stribeck_exponent;
   r.lugre = p;
   r.lugre_sigma = ps;
-  JudgeLugre(s, ws, y, top_speed, r);
+  LugreFit fit;
+  fit.rss = best.rss;
+  fit.params = best.free_exponent ? kParams : kExponent;
+  fit.s2 = best.rss / std::max(independent - fit.params, 1.0) * CorrelationFactor(ws, best.e);
+  JudgeLugre(s, ws, y, top_speed, r, fit);
+  DecideLugre(fit, r);
+  if (info) *info = fit;
 }
 
 }  // namespace km::servo::detail

@@ -59,7 +59,14 @@ std::string Format(double v, int digits = 3) {
 }  // namespace
 
 void JudgeLugre(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
-                double top_speed, FeedDriveResult& r) {
+                double top_speed, const FeedDriveResult& r, LugreFit& fit) {
+  fit.top_speed = top_speed;
+  fit.transition = TransitionSamples(s, ws, y, r.coulomb_N);
+  fit.slow = SlowSamples(s, ws, 2.0 * r.lugre->vs_mm_s);
+}
+
+void DecideLugre(const LugreFit& fit, FeedDriveResult& r) {
+  const double top_speed = fit.top_speed, transition = fit.transition;
   const LugreParameters& p = *r.lugre;
   const LugreParameters& e = *r.lugre_sigma;
   const double critical =
@@ -73,14 +80,13 @@ void JudgeLugre(const Strokes& s, const std::vector<Window>& ws, const std::vect
   // two a reversal, and the fit's σ0 says more about the reading of the motion between samples
   // than about the drive. σ1, and the Stribeck rise that the reversals pass right after the
   // bristles, need σ0 determined first.
-  const double transition = TransitionSamples(s, ws, y, r.coulomb_N);
   f.sigma0_N_per_um = transition >= 2.0 && ok(p.sigma0_N_per_um, e.sigma0_N_per_um, 0.0);
   f.sigma1_N_s_per_mm =
       f.sigma0_N_per_um && ok(p.sigma1_N_s_per_mm, e.sigma1_N_s_per_mm, 0.1 * critical);
   // The rise is a height F_s − F_c over a width v_s: both are determined only together, and
   // only when the reversals hold samples at speeds below 2 v_s.
-  f.Fs_N = f.vs_mm_s = f.sigma0_N_per_um && SlowSamples(s, ws, 2.0 * p.vs_mm_s) >= 2.0 &&
-                       ok(p.Fs_N, e.Fs_N, 0.0) && ok(p.vs_mm_s, e.vs_mm_s, 0.0);
+  f.Fs_N = f.vs_mm_s = f.sigma0_N_per_um && fit.slow >= 2.0 && ok(p.Fs_N, e.Fs_N, 0.0) &&
+                       ok(p.vs_mm_s, e.vs_mm_s, 0.0);
   f.sigma2_N_s_per_mm =
       ok(p.sigma2_N_s_per_mm, e.sigma2_N_s_per_mm, 0.05 * p.Fc_N / std::max(top_speed, 1e-9));
   std::string note;
@@ -123,7 +129,22 @@ void JudgeLugre(const Strokes& s, const std::vector<Window>& ws, const std::vect
             "Reversals through zero speed with a gentler acceleration or a faster sampling, or "
             "strokes at feeds of the order of v_s, would identify them.";
   }
-  if (p.stribeck_exponent != 2.0 && f.Fs_N) {
+  const bool lorentzian = p.stribeck_form == LugreParameters::Form::kLorentzian;
+  const std::string named =
+      lorentzian ? "the Lorentzian g(v) = F_c + (F_s − F_c)/(1 + (v/v_s)²)"
+                 : "g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ) with δ " + Format(p.stribeck_exponent);
+  if (r.lugre_forms_comparable) {
+    note += std::string(note.empty() ? "" : " ") +
+            "The reversals do not tell the form of the Stribeck rise: exp(−|v/v_s|^δ) and the "
+            "Lorentzian 1/(1 + (v/v_s)²) fit them comparably (Δχ² " +
+            Format(r.lugre_form_delta_chi2, 2) + "); " + named +
+            " is reported, and the σ of F_s, v_s, σ0 and σ1 include the spread between the two "
+            "forms.";
+  } else if (lorentzian && f.Fs_N) {
+    note += std::string(note.empty() ? "" : " ") + "The Stribeck rise is " + named +
+            " (Hess and Soom): it fits the reversals clearly better than exp(−|v/v_s|^δ) (Δχ² " +
+            Format(-r.lugre_form_delta_chi2, 2) + "); v_s is the speed of that shape.";
+  } else if (p.stribeck_exponent != 2.0 && f.Fs_N) {
     note += std::string(note.empty() ? "" : " ") +
             "The Stribeck rise is not Gaussian: g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ) with δ " +
             Format(p.stribeck_exponent) + " ± " + Format(e.stribeck_exponent, 2) +

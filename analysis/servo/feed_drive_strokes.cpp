@@ -94,6 +94,7 @@ double Strokes::Weight(std::size_t i, double mass_kg) const {
 namespace {
 double StribeckShape(const LugreParameters& p, double v) {
   const double u = std::abs(v / p.vs_mm_s);
+  if (p.stribeck_form == LugreParameters::Form::kLorentzian) return 1.0 / (1.0 + u * u);
   return std::exp(p.stribeck_exponent == 2.0 ? -u * u : -std::pow(u, p.stribeck_exponent));
 }
 }  // namespace

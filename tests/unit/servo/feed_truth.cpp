@@ -79,8 +79,10 @@ std::vector<Phase> Phases(const Motion& m) {
 
 // dz/dt of the bristles (z in µm, v in mm/s).
 double Zdot(const Drive& d, double z, double v) {
-  const double g = d.fc_N + (d.fs_N - d.fc_N) *
-                                std::exp(-std::pow(std::abs(v / d.vs_mm_s), d.stribeck_exponent));
+  const double u = std::abs(v / d.vs_mm_s);
+  const double shape =
+      d.lorentzian ? 1.0 / (1.0 + u * u) : std::exp(-std::pow(u, d.stribeck_exponent));
+  const double g = d.fc_N + (d.fs_N - d.fc_N) * shape;
   return 1e3 * v - d.sigma0_N_per_um * std::abs(1e3 * v) * z / g;
 }
 

@@ -2,7 +2,8 @@
 // `servo feed-drive` (analysis/servo/feed_drive.h). It shares no code with analysis/servo: the
 // motion is analytic (trapezoidal speed with constant acceleration, or cosine ramps, dwells at
 // the reversals), the LuGre bristle state of [Fujita thesis] eqs. 4.1–4.2,
-//   dz/dt = v − σ0 |v| z / g(v),  g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ),
+//   dz/dt = v − σ0 |v| z / g(v),  g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ)
+//   (or the Lorentzian of Hess and Soom, F_c + (F_s − F_c) / (1 + (v/v_s)²)),
 //   F = σ0 z + σ1 dz/dt + σ2 v + m a + c0 + c1 x + A sin(2π x / P + φ) + noise,
 // is integrated by RK4 on sub-steps of the continuous motion. It writes `kinemetric-servo/1`.
 // The thesis leaves g(v) open: δ = 2 is the Gaussian of the LuGre paper, δ = 1 the exponential.
@@ -16,6 +17,7 @@ namespace km::servo::feed_truth {
 struct Drive {
   double fc_N = 30.0, fs_N = 36.0, vs_mm_s = 2.0;
   double stribeck_exponent = 2.0;  // δ
+  bool lorentzian = false;         // g(v) = F_c + (F_s − F_c) / (1 + (v/v_s)²) instead
   double sigma0_N_per_um = 5.0, sigma1_N_s_per_mm = 8.0, sigma2_N_s_per_mm = 0.05;
   double mass_kg = 40.0;
   double offset_N = 12.0, slope_N_per_mm = 0.0;

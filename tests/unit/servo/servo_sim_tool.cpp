@@ -6,7 +6,8 @@
 // One file a circle: OUT_DIR/<test_id>_<ccw|cw>.txt; the names are printed, one a line.
 //   km_servo_sim OUT_DIR --feed-drive SPEEDS [--stroke-mm L] [--accel-mm-s2 A] [--dwell-s D]
 //                [--sample-s T] [--sigma0 S] [--sigma1 S] [--sigma2 S] [--vs V] [--fs F]
-//                [--mass M] [--noise-draw D] [--cosine 1] [--one-way 1]
+//                [--mass M] [--fc F] [--delta D] [--lorentzian 1] [--feed-noise-N S]
+//                [--noise-draw D] [--cosine 1] [--one-way 1]
 // writes instead one X feed-drive record of strokes out and back at each speed (mm/s,
 // comma-separated) by the independent feed-drive simulator (feed_truth.h): OUT_DIR/x-strokes.txt.
 #include <cstdio>
@@ -64,6 +65,14 @@ bool Parse(int argc, char** argv, Args& a) {
       a.drive.sigma2_N_s_per_mm = std::atof(v.c_str());
     } else if (k == "--vs") {
       a.drive.vs_mm_s = std::atof(v.c_str());
+    } else if (k == "--fc") {
+      a.drive.fc_N = std::atof(v.c_str());
+    } else if (k == "--delta") {
+      a.drive.stribeck_exponent = std::atof(v.c_str());
+    } else if (k == "--lorentzian") {
+      a.drive.lorentzian = v == "1";
+    } else if (k == "--feed-noise-N") {
+      a.drive.noise_N = std::atof(v.c_str());
     } else if (k == "--fs") {
       a.drive.fs_N = std::atof(v.c_str());
     } else if (k == "--mass") {
