@@ -139,6 +139,18 @@ void CheckBarUncertainty(const TextTable& t, const std::string& file) {
     throw InvalidInput(file, t.Find("bar_expansion_ppm_per_k")->line, "bar_expansion_ppm_per_k",
                        Number(*alpha) + " is not an expansion coefficient: 0 … 1000 ppm/K");
   }
+  // Plausible sizes: beyond them a value is a typing error, and the draws of a propagation would
+  // leave the circle the test describes.
+  static const std::pair<const char*, double> kMax[] = {
+      {"u_reading_um", 100.0}, {"u_bar_length_um", 1000.0}, {"u_bar_temperature_c", 10.0}};
+  for (const auto& [key, most] : kMax) {
+    const auto u = t.OptionalNumber(key);
+    if (u && *u > most) {
+      throw InvalidInput(
+          file, t.Find(key)->line, key,
+          Number(*u) + " is not a plausible standard uncertainty (at most " + Number(most) + ")");
+    }
+  }
   if (t.Has("u_bar_temperature_c") && !alpha) {
     throw InvalidInput(file, t.Find("u_bar_temperature_c")->line, "u_bar_temperature_c",
                        "the bar's growth α·L·δT needs its expansion coefficient: state "

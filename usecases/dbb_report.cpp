@@ -56,8 +56,8 @@ std::vector<std::string> Keys(const auto& list) {
 
 // tests[i].uncertainty and pairs[p].uncertainty: a pair's run gives its two tests' figures too
 // (one bar: shared draws); a test outside a pair runs alone.
-void AddUncertainty(nlohmann::json& out, const std::vector<dbb::DbbTest>& tests,
-                    const dbb::DbbReport& report) {
+void AddUncertaintyOrThrow(nlohmann::json& out, const std::vector<dbb::DbbTest>& tests,
+                           const dbb::DbbReport& report) {
   std::vector<bool> done(tests.size(), false);
   for (std::size_t p = 0; p < report.pairs.size() && p < out["pairs"].size(); ++p) {
     const auto& pr = report.pairs[p];
@@ -89,6 +89,26 @@ void AddUncertainty(nlohmann::json& out, const std::vector<dbb::DbbTest>& tests,
   for (std::size_t p = 0; p < out["pairs"].size(); ++p) {
     if (!out["pairs"][p].contains("uncertainty")) {
       out["pairs"][p]["uncertainty"] = NoUncertaintyJson(Stated(tests[report.pairs[p].cw]).inputs);
+    }
+  }
+}
+
+// The propagation of every test and pair; when it cannot be made (inputs so large that a draw
+// leaves the circle, e.g. values from an instrument register beyond what a file may state), each
+// object says so instead of failing the analysis of the figures themselves.
+void AddUncertainty(nlohmann::json& out, const std::vector<dbb::DbbTest>& tests,
+                    const dbb::DbbReport& report) {
+  try {
+    AddUncertaintyOrThrow(out, tests, report);
+  } catch (const std::exception& e) {
+    const std::string why = std::string("not computed: ") + e.what();
+    for (std::size_t i = 0; i < out["tests"].size() && i < tests.size(); ++i) {
+      out["tests"][i]["uncertainty"] = NoUncertaintyJson(Stated(tests[i]).inputs);
+      out["tests"][i]["uncertainty"]["method"] = why;
+    }
+    for (std::size_t p = 0; p < out["pairs"].size() && p < report.pairs.size(); ++p) {
+      out["pairs"][p]["uncertainty"] = NoUncertaintyJson(Stated(tests[report.pairs[p].cw]).inputs);
+      out["pairs"][p]["uncertainty"]["method"] = why;
     }
   }
 }
