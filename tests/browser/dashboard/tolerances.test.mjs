@@ -115,3 +115,37 @@ test('a viewer sees the tolerance table and the badges, not the editor', { timeo
     await page.waitForSelector('#measurements [data-testid="measurement-conformance"][data-conformance="fail"]');
   });
 });
+
+test('a guarded table: each figure with ± U, its budget, and a figure within U of its tolerance undecided', { timeout: 110_000 }, async () => {
+  await withDashboard('tolerances-guarded', async ({ api, page, open }) => {
+    const extra = ['# u_reading_um: 0.4', '# u_bar_length_um: 1.5'];
+    const a = await api.upload(dbbFile({ machine: MACHINE, test: 'xy-r150', direction: 'ccw', timestamp: '2026-04-01T08:00:00Z', extra }), 'a.txt');
+    const r = await api.get(`/api/v1/measurements/${a.id}/results`);
+    const g = r.iso230_4.circular_deviation_um;
+    const U = r.uncertainty.figures.circular_deviation_um.U_um;
+    assert.ok(U > 0.05 && U < g, `G ${g} ± ${U}`);
+
+    await open(`#/machines/${MACHINE}`);
+    await page.waitForSelector('[data-testid="tolerances-form"]');
+    await page.selectOption('[data-testid="tolerances-rule-select"]', 'guarded');
+    await page.click('[data-testid="tolerance-add"]');
+    await fillRow(page, 0, { metric: 'circular_deviation_um', tolerance: g.toFixed(3) });
+    await saveAndWait(page, 1);
+    const table = await api.get(`/api/v1/machines/${MACHINE}/tolerances`);
+    assert.equal(table.decision_rule.rule, 'guarded');
+    await page.waitForFunction(() => document.querySelector('#measurements [data-conformance="undecided"]'));
+
+    await page.click(`#measurements [data-testid="measurement-item"][data-id="${a.id}"]`);
+    await page.waitForSelector(`#detail[data-measurement-id="${a.id}"] [data-testid="conformance-panel"][data-conformance="undecided"]`);
+    const rule = await page.textContent('[data-testid="decision-rule"]');
+    assert.ok(rule.includes('guarded'), rule);
+    const uCell = await page.textContent('[data-testid="conformance-figures"] tr[data-metric="circular_deviation_um"] [data-testid="conformance-u"]');
+    assert.ok(uCell.includes('±'), uCell);
+    // ± U beside the figure in the figures table, and the budget on request.
+    const beside = await page.textContent('[data-testid="figures-table"] tr[data-key="circularity_um"] [data-testid="figure-u"]');
+    assert.match(beside, /±\s*\d/);
+    await page.click('[data-testid="uncertainty-budget"] summary');
+    const budget = await page.textContent('[data-testid="uncertainty-budget"]');
+    assert.ok(budget.includes('u_reading_um') && budget.includes('u_bar_length_um') && budget.includes('Monte Carlo'), budget);
+  });
+});
