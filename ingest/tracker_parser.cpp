@@ -166,6 +166,22 @@ std::vector<tracker::BeamBreak> BeamBreaks(
   return out;
 }
 
+// The trackers' ranging uncertainty (docs/formats.md §1.2) beyond the generic check of every u_*
+// key (text_format.h): a standard uncertainty of a reading above 1 mm is a typing error, and
+// draws of it would not describe the survey.
+constexpr double kMaxRangingUncertaintyUm = 1000.0;
+void CheckRangingUncertainty(const TextTable& t, const std::string& file) {
+  const auto u = t.OptionalNumber("u_ranging_um");
+  if (u && !(*u <= kMaxRangingUncertaintyUm)) {
+    char value[48];
+    std::snprintf(value, sizeof value, "%.6g", *u);
+    throw InvalidInput(file, t.Find("u_ranging_um")->line, "u_ranging_um",
+                       std::string(value) +
+                           " µm is not a plausible standard uncertainty of a tracker's ranging "
+                           "reading (at most 1000 µm)");
+  }
+}
+
 }  // namespace
 
 TextLimits DefaultTrackerLimits() {
@@ -211,6 +227,7 @@ TrackerFile ParseTrackerFile(std::string_view bytes, const std::string& file,
     throw InvalidInput(file, t.Find("mode")->line, "mode",
                        Quote(mode) + " is neither 'simultaneous' nor 'sequential'");
   }
+  CheckRangingUncertainty(t, file);
   r.guesses = TrackerGuesses(t, file, n);
   const ReadingColumns col = FindReadingColumns(t, file, n);
   const int cp = col.point, cx = col.x, cy = col.y, cz = col.z;

@@ -6,7 +6,9 @@
 #include <cmath>
 
 #include "analysis/core/errors.h"
+#include "analysis/tracker/selfcal_uncertainty.h"
 #include "ingest/tracker_parser.h"
+#include "usecases/uncertainty_json.h"
 
 namespace km::usecases {
 
@@ -55,6 +57,137 @@ json DecompositionToJson(const tracker::GeometricDecomposition& d) {
   return out;
 }
 
+// The tracker's one uncertainty input (docs/formats.md §1.2), as the file states it.
+UncertaintyInput RangingInput(const std::map<std::string, std::string>& metadata) {
+  const auto u = HeaderNumber(metadata, "u_ranging_um");
+  return {"u_ranging_um", u.value_or(0.0), "µm", u.has_value()};
+}
+
+// Half-width of the normal 95 % interval in standard deviations.
+constexpr double kNormal95 = 1.959964;
+
+json LeastSquaresBudget(double sigma_um, double contribution_um) {
+  return {{"input", "least squares (a-posteriori reading σ)"},
+          {"u", sigma_um},
+          {"unit", "µm"},
+          {"contribution_um", contribution_um}};
+}
+
+// Per point [U_x, U_y, U_z] (k = 2) of the volumetric error from its standard uncertainties;
+// null for a dropped point.
+json PointsU(const std::vector<Eigen::Vector3d>& u_um) {
+  json rows = json::array();
+  for (const auto& u : u_um) rows.push_back(Vec(2.0 * u));
+  return rows;
+}
+
+// The tracker coordinates the gauge leaves free (x of tracker 2, x and y of tracker 3, all of
+// the others), keyed as the Monte Carlo figures are.
+template <typename F>
+void ForFreeTrackerAxes(const tracker::SelfCalResult& r, F&& f) {
+  static const char* axis[3] = {"x", "y", "z"};
+  for (std::size_t j = 0; j < r.trackers_mm.size(); ++j) {
+    for (int a = 0; a < std::min<int>(static_cast<int>(j), 3); ++a) {
+      f("trackers_mm[" + std::to_string(j) + "]." + axis[a], j, a);
+    }
+  }
+}
+
+// No ranging uncertainty stated: the least-squares σ alone (the a-posteriori σ of the readings,
+// a Type A evaluation) gives the tracker positions and the volumetric errors a U.
+json LeastSquaresUncertainty(const tracker::SelfCalResult& r, const UncertaintyInput& input) {
+  json j = NoUncertaintyJson({input});
+  j["method"] = "least squares";
+  j["k"] = 2.0;
+  j["coverage_probability"] = 0.95;
+  json figures = json::object();
+  ForFreeTrackerAxes(r, [&](const std::string& key, std::size_t t, int a) {
+    if (t >= r.tracker_uncertainty_um.size()) return;
+    const double u = r.tracker_uncertainty_um[t](a), x = 1e3 * r.trackers_mm[t](a);
+    figures[key] = {{"u_um", u},     {"U_um", 2.0 * u},
+                    {"k", 2.0},      {"interval_um", {x - kNormal95 * u, x + kNormal95 * u}},
+                    {"u_lsq_um", u}, {"budget", json::array({LeastSquaresBudget(r.sigma_um, u)})}};
+  });
+  j["figures"] = figures;
+  j["volumetric_error_U_um"] = PointsU(r.position_uncertainty_um);
+  j["notes"] = json::array(
+      {"u_ranging_um not stated: U from the least-squares σ alone (sigma_um, the scatter of the "
+       "readings about the model), for the tracker positions and the volumetric errors"});
+  return j;
+}
+
+// u_ranging_um stated: the Monte Carlo propagation through the solve, each figure that has a
+// least-squares σ taking the larger of the two (both are the readings' scatter propagated).
+json RangingUncertaintyJson(const tracker::TrackerReadings& readings,
+                            const tracker::SelfCalResult& r,
+                            const tracker::SelfCalSolution& solution,
+                            const UncertaintyInput& input) {
+  const tracker::RangingUncertainty p =
+      tracker::PropagateRangingUncertainty(readings, r, solution, input.u);
+  const std::size_t nf = p.figure_keys.size();
+  uncertainty::McResult mc = p.mc;
+  mc.outputs.resize(nf);
+  std::vector<uncertainty::GumCheck> gum(nf);
+  for (std::size_t f = 0; f < nf; ++f) {
+    gum[f].name = p.figure_keys[f];
+    gum[f].u_gum = p.u_gum_um[f];
+    gum[f].u_mc = mc.outputs[f].u;
+    if (std::isfinite(p.u_gum_um[f]) && mc.outputs[f].u > 0) {
+      gum[f].relative_difference = std::abs(p.u_gum_um[f] - mc.outputs[f].u) / mc.outputs[f].u;
+      gum[f].differs = gum[f].relative_difference > 0.05;
+    }
+  }
+  json j = UncertaintyJson(mc, {input}, p.figure_keys, gum);
+  for (std::size_t f = 0; f < nf; ++f) {
+    json& fig = j["figures"][p.figure_keys[f]];
+    if (!std::isfinite(p.u_gum_um[f])) fig.erase("u_gum_um");
+    const int t = p.figure_tracker[f];
+    if (t < 0 || static_cast<std::size_t>(t) >= r.tracker_uncertainty_um.size()) continue;
+    const double u_lsq = r.tracker_uncertainty_um[static_cast<std::size_t>(t)](p.figure_axis[f]);
+    const double u_mc = mc.outputs[f].u;
+    fig["u_mc_um"] = u_mc;
+    fig["u_lsq_um"] = u_lsq;
+    fig["budget"].push_back(LeastSquaresBudget(r.sigma_um, u_lsq));
+    if (u_lsq > u_mc) {
+      const double x = p.figure_value_um[f];
+      fig["u_um"] = u_lsq;
+      fig["U_um"] = 2.0 * u_lsq;
+      fig["interval_um"] = {x - kNormal95 * u_lsq, x + kNormal95 * u_lsq};
+    }
+  }
+  std::vector<Eigen::Vector3d> u_points(r.position_uncertainty_um.size(),
+                                        Eigen::Vector3d::Constant(std::nan("")));
+  for (std::size_t i = 0; i < p.point_output.size() && i < u_points.size(); ++i) {
+    if (p.point_output[i] < 0) continue;
+    for (int a = 0; a < 3; ++a) {
+      const double u_mc = p.mc.outputs[static_cast<std::size_t>(p.point_output[i] + a)].u;
+      u_points[i](a) = std::max(u_mc, r.position_uncertainty_um[i](a));
+    }
+  }
+  j["volumetric_error_U_um"] = PointsU(u_points);
+  j["notes"] = json::array(
+      {"each draw adds N(0, u_ranging_um²) to every reading in use and re-solves from the "
+       "result (the readings rejected stay out)",
+       "where a figure has a least-squares σ (tracker_uncertainty_um, position_uncertainty_um) "
+       "its u is the larger of that σ and the Monte Carlo u (u_mc_um, u_lsq_um): both propagate "
+       "the scatter of the readings, so they are not added"});
+  return j;
+}
+
+json TrackerUncertainty(const ingest::TrackerFile& f, const tracker::SelfCalResult& r,
+                        const tracker::SelfCalSolution& solution) {
+  const UncertaintyInput input = RangingInput(f.metadata);
+  if (!(input.u > 0.0)) return LeastSquaresUncertainty(r, input);
+  try {
+    return RangingUncertaintyJson(f.readings, r, solution, input);
+  } catch (const DidNotConverge& e) {
+    json j = LeastSquaresUncertainty(r, input);
+    j["method"] = std::string("least squares: the Monte Carlo propagation could not be made (") +
+                  e.what() + ")";
+    return j;
+  }
+}
+
 }  // namespace
 
 json TrackerResultToJson(const tracker::TrackerReadings& readings, const tracker::SelfCalResult& r,
@@ -78,6 +211,7 @@ json TrackerResultToJson(const tracker::TrackerReadings& readings, const tracker
   out["volumetric_error_um"] = errors;
   out["position_uncertainty_um"] = sigma;
   out["residual_rms_um"] = Num(r.residual_rms_um);
+  out["volumetric_error_max_um"] = Num(tracker::VolumetricErrorMaxUm(r));
   out["condition_number"] = Num(r.condition_number);
   out["sigma_um"] = Num(r.sigma_um);
   out["readings_used"] = r.readings_used;
@@ -130,16 +264,19 @@ json TrackerResultToJson(const tracker::TrackerReadings& readings, const tracker
 
 json AnalyzeTracker(const ingest::TrackerFile& f, const tracker::SelfCalOptions& options,
                     const tracker::DecompositionOptions& decomposition) {
-  const tracker::SelfCalResult r = tracker::SelfCalibrate(f.readings, options);
+  tracker::SelfCalSolution solution;
+  const tracker::SelfCalResult r = tracker::SelfCalibrate(f.readings, options, &solution);
+  json out;
   try {
     const auto d = tracker::DecomposeVolumetricError(f.readings.commanded_mm, r.volumetric_error_um,
                                                      decomposition, &r.error_covariance);
-    return TrackerResultToJson(f.readings, r, &d);
+    out = TrackerResultToJson(f.readings, r, &d);
   } catch (const NotObservable& e) {
-    json out = TrackerResultToJson(f.readings, r, nullptr);
+    out = TrackerResultToJson(f.readings, r, nullptr);
     out["decomposition_error"] = e.what();
-    return out;
   }
+  out["uncertainty"] = TrackerUncertainty(f, r, solution);
+  return out;
 }
 
 json AnalyzeTrackerFile(std::string_view bytes, const std::string& file,

@@ -1,5 +1,7 @@
 #include "analysis/tracker/tracker_selfcal.h"
 
+#include <utility>
+
 #include "analysis/core/errors.h"
 #include "analysis/core/option_check.h"
 #include "analysis/tracker/tracker_selfcal_stages.h"
@@ -17,7 +19,8 @@ void SelfCalOptions::Check() const {
 }
 
 // The pipeline of [Tracker paper] §4 as named stages (tracker_selfcal_stages.cpp).
-SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOptions& options) {
+SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOptions& options,
+                            SelfCalSolution* solution) {
   using namespace selfcal_stages;
   options.Check();
   CheckReadings(readings);
@@ -36,6 +39,7 @@ SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOption
   const SelfCalCovariance cov = Precision(problem, state, options, res);
   AssembleResult(problem, readings, state, cov, res);
   SpatialWarning(problem, readings, state, options, res);
+  if (solution) *solution = {std::move(problem), std::move(state), solve.options};
   return res;
 }
 

@@ -43,6 +43,7 @@
 #include <Eigen/Core>
 
 #include "analysis/tracker/selfcal_problem.h"
+#include "analysis/tracker/selfcal_solver.h"
 #include "analysis/tracker/tracker_types.h"
 #include "analysis/tracker/volumetric_decomposition.h"
 
@@ -121,8 +122,19 @@ struct SelfCalResult {
   std::vector<std::string> warnings;   // solvable but weak or ambiguous set-ups
 };
 
+// The solved problem behind a result: the readings in use (rejected ones inactive), the
+// least-squares optimum in the gauge frame and the options of its last solve. What a propagation
+// of the readings' uncertainty re-solves from (selfcal_uncertainty.h).
+struct SelfCalSolution {
+  SelfCalProblem problem;
+  SelfCalState state;
+  SolveOptions solve;
+};
+
 // Throws km::NotObservable (counting condition, rank deficiency, condition number) or
-// km::InvalidInput (inconsistent readings) or km::DidNotConverge.
-SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOptions& options = {});
+// km::InvalidInput (inconsistent readings) or km::DidNotConverge. `solution` (optional) receives
+// the solved problem.
+SelfCalResult SelfCalibrate(const TrackerReadings& readings, const SelfCalOptions& options = {},
+                            SelfCalSolution* solution = nullptr);
 
 }  // namespace km::tracker
