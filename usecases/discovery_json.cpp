@@ -88,6 +88,30 @@ const hexapod::ActiveEffect* FindEffect(const hexapod::EffectFitResult& f, const
   return nullptr;
 }
 
+// What the σ of effect e of `f` covers: the statistical σ and every held input of the machine
+// file propagated into it (analysis/hexapod/effect_fit.h, docs/methods.md §5).
+void AddSigmaBudget(const hexapod::EffectFitResult& f, std::size_t e, json& entry) {
+  json includes = json::array({"statistical"}), held = json::array();
+  for (const auto& h : f.held_inputs) {
+    const double shift =
+        e < h.effect_shift.size() && !h.effect_shift[e].empty() ? h.effect_shift[e].front() : 0.0;
+    if (shift == 0.0) continue;
+    includes.push_back(h.name);
+    held.push_back({{"input", h.name},
+                    {"value", h.value},
+                    {"u", h.u},
+                    {"unit", h.unit},
+                    {"contribution", std::abs(shift)}});
+  }
+  entry["sigma_includes"] = includes;
+  if (held.empty()) return;
+  const auto& st =
+      e < f.effect_sigma_statistical.size() ? f.effect_sigma_statistical[e] : std::vector<double>{};
+  entry["sigma_statistical"] =
+      st.empty() || !std::isfinite(st.front()) ? json(nullptr) : json(st.front());
+  entry["sigma_held_inputs"] = held;
+}
+
 }  // namespace
 
 json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
@@ -145,10 +169,12 @@ json HexapodDiscoveryJson(const ingest::MachineDefinition& machine,
     if (data.problem.fixed[static_cast<std::size_t>(i)])
       kin["fixed_parameters"].push_back(hexapod::ParameterName(i));
   model.push_back(kin);
-  for (std::size_t e = 0; e < fin.effects.size(); ++e)
+  for (std::size_t e = 0; e < fin.effects.size(); ++e) {
     model.push_back(EffectModelJson(
         fin.effects[e], fin.effect_sigma[e],
         e < fin.effect_at_bound.size() ? fin.effect_at_bound[e] : std::vector<bool>{}));
+    AddSigmaBudget(fin, e, model.back());
+  }
   json last = json::array();
   for (const auto& c : r.last_candidates) {
     last.push_back({{"effect", c.effect},

@@ -252,10 +252,12 @@ void FillStatistics(const Layout& l, const Evaluation& ev, const std::vector<int
   s.k_sigma_um.setZero();
   s.effect_sigma.assign(s.effects.size(), {});
   s.effect_at_bound.assign(s.effects.size(), {});
+  s.held_inputs.clear();
   for (std::size_t e = 0; e < s.effects.size(); ++e) {
     s.effect_sigma[e].assign(s.effects[e].params.size(), 0.0);
     s.effect_at_bound[e].assign(s.effects[e].params.size(), false);
   }
+  s.effect_sigma_statistical = s.effect_sigma;
   if (p == 0) return;
   const std::vector<bool> held = AtBound(l, s);
   std::vector<int> cols;
@@ -301,6 +303,7 @@ void FillStatistics(const Layout& l, const Evaluation& ev, const std::vector<int
     s.effect_at_bound[e][q] = held[static_cast<std::size_t>(i)];
     ++i;
   }
+  s.effect_sigma_statistical = s.effect_sigma;
 }
 
 // Decrease of the cost that the linearised model predicts for a Gauss–Newton step, with the
@@ -473,6 +476,7 @@ EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult&
     s = FitOnce(data, WithStatics(data, s), options);
     s.iterations += first;
   }
+  PropagateHeldInputs(data, s);
   return s;
 }
 

@@ -44,11 +44,25 @@ EffectFitData PrepareEffectFit(const HexapodGeometry& nominal, const MachinePhys
 // Sensitivity of one residual row to the realised strut lengths and the tool length (µm/mm).
 using RowSensitivity = Eigen::Matrix<double, 7, 1>;
 
+// An input the fit holds at the machine file's value (K_stiff1, the platform's mass and centre
+// of gravity when not fitted), its standard uncertainty, and the shift of every fitted
+// parameter when the input moves by it (the refit's first-order response; added in quadrature
+// to the statistical σ).
+struct HeldInput {
+  std::string name;  // "K_stiff1_mm_per_N", "platform_mass_kg", "platform_cog_mm[2]"
+  std::string unit;
+  double value = 0.0;
+  double u = 0.0;
+  std::vector<std::vector<double>> effect_shift;  // [effect][parameter], 0 when not fitted
+};
+
 struct EffectFitResult {
   ParameterVector k_um = ParameterVector::Zero();
   ParameterVector k_sigma_um = ParameterVector::Zero();
-  std::vector<ActiveEffect> effects;  // fitted values
-  std::vector<std::vector<double>> effect_sigma;
+  std::vector<ActiveEffect> effects;              // fitted values
+  std::vector<std::vector<double>> effect_sigma;  // statistical ⊕ held inputs (below)
+  std::vector<std::vector<double>> effect_sigma_statistical;
+  std::vector<HeldInput> held_inputs;
   std::vector<Eigen::Vector3d> fixed_balls_mm;
   Eigen::VectorXd residual_um;           // all rows, tests in order
   Eigen::MatrixXd jacobian;              // n × free parameters, at the solution
@@ -93,6 +107,12 @@ struct EffectFitOptions {
 // more on the fitted geometry when the fit moved it by more than 10 µm (one refit).
 EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult& start,
                                const EffectFitOptions& options = {});
+
+// Adds to the σ of `fit` (effect and kinematic parameters) the uncertainty of the inputs its
+// effects hold at the machine file's values (MachinePhysics::u_*), each by the first-order
+// response of the refit to a change of the input by its u: δθ = −(JᵀJ)⁻¹Jᵀ ∂r/∂h·u.
+// FitWithEffects does this; nothing is added without the machine's gravity data.
+void PropagateHeldInputs(const EffectFitData& data, EffectFitResult& fit);
 
 // A starting point: kinematic parameters 0 and the effects at their defaults for this set.
 EffectFitResult StartingPoint(const EffectFitData& data,

@@ -32,6 +32,13 @@ struct MachinePhysics {
   double strut_equivalent_mass_kg = 0.0;                      // m_T
   double compliance_screw_mm_per_N = 0.0;                     // K_stiff1
   double compliance_other_mm_per_N = 0.0;                     // K_stiff2
+  // Standard uncertainties (k = 1) of the inputs a gravity fit holds at the values above: they
+  // are propagated into the σ of what it fits (docs/methods.md §5). Defaults until a machine
+  // file states its own: K_stiff1 is the report's cylinder approximation of the ball screw
+  // (§4.2.1), m_P and B_P the maker's weighing and drawing.
+  double u_compliance_screw_rel = 0.01;  // of K_stiff1
+  double u_platform_mass_rel = 0.002;    // of m_P
+  double u_platform_cog_mm = 0.5;        // each coordinate of B_P
   bool has_friction = false;
   std::array<double, 6> screw_friction_N{};  // f0_j
   double base_joint_torque_Nm = 0.0;         // t0

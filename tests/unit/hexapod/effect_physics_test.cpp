@@ -205,5 +205,33 @@ TEST(CalibrationWithEffects, AParameterOnItsBoundIsSaidToBe) {
   }
 }
 
+TEST(CalibrationWithEffects, TheHeldBallScrewComplianceIsInTheSigma) {
+  // [PM-600 report] §4.2.5: K_stiff1 and K_stiff2 act on the traces almost alike, so K_stiff1 is
+  // held at the file's value; a file 0.8 % off in it moves K_stiff2 by about −(L − l2)/l3 times
+  // the error, and the σ must say so (docs/methods.md §5).
+  const auto s = test::Simulate({{"gravity_deflection", {{0, 1.37e-5}}}}, true, 90, 11);
+  auto file = s.phys;
+  file.compliance_screw_mm_per_N *= 1.008;
+  const auto data =
+      PrepareEffectFit(s.nominal, &file, s.tests, s.starts, CalibrationMethod::kAbsolute, 0);
+  const auto fit =
+      FitWithEffects(data, StartingPoint(data, {FindHexapodEffect("gravity_deflection")}));
+  ASSERT_EQ(fit.held_inputs.size(), 5u);
+  const auto& k1 = fit.held_inputs.front();
+  EXPECT_EQ(k1.name, "K_stiff1_mm_per_N");
+  EXPECT_NEAR(k1.u, 0.01 * file.compliance_screw_mm_per_N, 1e-15);
+  const double slope = k1.effect_shift[0][0] / k1.u;
+  EXPECT_LT(slope, -0.4);
+  EXPECT_GT(slope, -0.9);
+  EXPECT_EQ(fit.held_inputs[1].name, "platform_mass_kg");
+  EXPECT_EQ(fit.held_inputs[4].name, "platform_cog_mm[2]");
+  const double k2 = fit.effects[0].params[0].value, sd = fit.effect_sigma[0][0];
+  const double st = fit.effect_sigma_statistical[0][0];
+  std::printf("K_stiff2 %.5g +- %.3g (statistical %.3g), slope %.3f\n", k2, sd, st, slope);
+  EXPECT_LT(std::abs(k2 - 1.37e-5), 3.0 * sd);
+  EXPECT_GT(sd, st);
+  EXPECT_LT(sd, 10.0 * st);
+}
+
 }  // namespace
 }  // namespace km::hexapod
