@@ -1,5 +1,6 @@
 #include "render/dbb_plot.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -47,7 +48,34 @@ std::vector<std::string> KeyFigures(const DbbReport& report, const std::vector<s
   return notes;
 }
 
+// The 1-2-5 step at least x (web/static/format.js niceStep).
+double PageStep(double x) {
+  if (!(x > 0) || !std::isfinite(x)) return 1.0;
+  const double base = std::pow(10.0, std::floor(std::log10(x)));
+  for (const double m : {1.0, 2.0, 5.0, 10.0}) {
+    if (m * base >= x * (1 - 1e-9)) return m * base;
+  }
+  return 10.0 * base;
+}
+
 }  // namespace
+
+PolarScale DbbPageScale(const DbbReport& report, std::size_t test_index) {
+  if (test_index >= report.tests.size()) throw InvalidInput("", 0, "test", "no such test");
+  std::vector<std::size_t> idx{test_index};
+  if (const auto& pair = report.tests[test_index].pair) {
+    idx = {report.pairs[*pair].ccw, report.pairs[*pair].cw};
+  }
+  double most = 0.0;
+  for (std::size_t i : idx) {
+    for (double e : report.tests[i].circular.radial_error_um) {
+      if (std::isfinite(e)) most = std::max(most, std::abs(e));
+    }
+  }
+  constexpr double kFillDivisions = 2.6;  // polar.js FILL_DIVS
+  constexpr int kRings = 3;               // polar.js RINGS
+  return {PageStep(std::max(most, 1e-3) / kFillDivisions), kRings};
+}
 
 DbbPolar DbbPolarPlot(const DbbReport& report, std::size_t test_index,
                       const PolarPlotOptions& options) {

@@ -22,6 +22,11 @@ struct DbbPolar {
 DbbPolar DbbPolarPlot(const dbb::DbbReport& report, std::size_t test_index,
                       const PolarPlotOptions& options = {});
 
+// The scale the dashboard draws the plot of a test at (web/static/polar.js chooseScale): µm a
+// division the 1-2-5 step of the largest |radial error| (about each trace's own least-squares
+// circle) of the test and its pair partner divided by 2.6, and 3 divisions each side.
+PolarScale DbbPageScale(const dbb::DbbReport& report, std::size_t test_index);
+
 // PNG bytes of DbbPolarPlot.
 std::vector<unsigned char> DbbPolarPlotPng(const dbb::DbbReport& report, std::size_t test_index,
                                            const PolarPlotOptions& options = {});

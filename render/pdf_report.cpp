@@ -97,7 +97,8 @@ std::vector<std::string> Page::Wrap(const std::string& s, double width) const {
     } else {
       if (!line.empty()) lines.push_back(line);
       line.clear();
-      // A word wider than the line is broken between code points.
+      // A word wider than the line is broken after its last '_', '/' or '-' that fits, else
+      // between code points.
       while (TextWidth(word) > width && word.size() > 1) {
         std::size_t cut = 0;
         for (std::size_t k = 0; k < word.size(); k += CodePointLength(word[k])) {
@@ -106,6 +107,8 @@ std::vector<std::string> Page::Wrap(const std::string& s, double width) const {
         }
         if (cut == 0) cut = CodePointLength(word[0]);
         cut = std::min(cut, word.size());  // a sequence cut short at the end of the text
+        const std::size_t joint = word.find_last_of("_/-", cut - 1);
+        if (joint != std::string::npos && joint > 0 && joint + 1 < word.size()) cut = joint + 1;
         lines.push_back(word.substr(0, cut));
         word = word.substr(cut);
       }
@@ -187,10 +190,19 @@ void DrawTitle(Page& p, const Report& r) {
   p.Advance(8);
 }
 
-void DrawHeading(Page& p, const std::string& text) {
+double HeadingHeight(const Page& p, const std::string& text) {
+  p.Font(12, true);
+  return 14 + 15.0 * static_cast<double>(p.Wrap(text, kWidth).size());
+}
+
+// A heading and `lead` points of what follows it (the first lines of the next block), kept on
+// one page.
+void DrawHeading(Page& p, const std::string& text, double lead) {
   p.Font(12, true);
   const auto lines = p.Wrap(text, kWidth);
-  p.Need(20 + 15.0 * static_cast<double>(lines.size()) + 30);  // keep a heading with its text
+  const double room = pdf::kPageH - 2 * kMargin;
+  p.Need(std::min(room, HeadingHeight(p, text) + std::max(lead, 30.0)));
+  p.Font(12, true);
   p.Advance(8);
   for (const auto& line : lines) {
     p.Advance(13);
@@ -210,6 +222,18 @@ void DrawParagraph(Page& p, const std::string& text) {
   p.Advance(4);
 }
 
+// The width of the widest word of a text (its parts between spaces).
+double LongestWord(const Page& p, const std::string& s) {
+  double most = 0;
+  std::size_t i = 0;
+  while (i <= s.size()) {
+    const std::size_t end = std::min(s.find(' ', i), s.size());
+    if (end > i) most = std::max(most, p.TextWidth(s.substr(i, end - i)));
+    i = end + 1;
+  }
+  return most;
+}
+
 // Column widths: each column's natural width (header and the cells of the rows a budget of
 // pages can hold), scaled to the page width when the sum is wider, no column under 45 pt.
 std::vector<double> ColumnWidths(const Page& p, const ReportTable& t) {
@@ -227,12 +251,42 @@ std::vector<double> ColumnWidths(const Page& p, const ReportTable& t) {
   }
   double sum = 0;
   for (auto& x : w) sum += (x += 8.0);
-  if (sum > kWidth) {
-    for (auto& x : w) x = std::max(45.0, x * kWidth / sum);
-    double again = 0;
-    for (double x : w) again += x;
-    for (auto& x : w) x *= kWidth / again;
+  if (sum <= kWidth) return w;
+  // Narrower columns: each keeps its longest word (a cell wraps at spaces, not inside words)
+  // when the words fit side by side.
+  std::vector<double> least(n, 0.0);
+  for (std::size_t c = 0; c < n; ++c) {
+    p.Font(8.5, true);
+    least[c] = LongestWord(p, t.header[c]);
+    p.Font(8.5);
+    for (std::size_t r = 0; r < t.rows.size() && r < kMeasuredRows; ++r) {
+      if (c < t.rows[r].size()) least[c] = std::max(least[c], LongestWord(p, t.rows[r][c]));
+    }
+    least[c] = std::min(w[c], std::max(least[c] + 8.0, 45.0));
   }
+  // Water-filling: every column up to a common level (its natural width at most, its longest
+  // word at least), the level chosen so the columns fill the page width; short cells stay on
+  // one line and the long texts share what is left.
+  double floor_sum = 0;
+  for (double x : least) floor_sum += x;
+  if (floor_sum <= kWidth) {
+    const auto filled = [&](double level) {
+      double total = 0;
+      for (std::size_t c = 0; c < n; ++c) total += std::max(least[c], std::min(w[c], level));
+      return total;
+    };
+    double lo = 0, hi = kWidth;
+    for (int k = 0; k < 50; ++k) {
+      const double mid = (lo + hi) / 2;
+      (filled(mid) > kWidth ? hi : lo) = mid;
+    }
+    for (std::size_t c = 0; c < n; ++c) w[c] = std::max(least[c], std::min(w[c], lo));
+    return w;
+  }
+  for (auto& x : w) x = std::max(45.0, x * kWidth / sum);
+  double again = 0;
+  for (double x : w) again += x;
+  for (auto& x : w) x *= kWidth / again;
   return w;
 }
 
@@ -291,16 +345,48 @@ void DrawRow(Page& p, const RowLines& row, const std::vector<double>& w,
   cairo_set_source_rgb(cr, 0, 0, 0);
 }
 
+// The rows a table keeps together at its start (with the header) and at its end, and the
+// most rows of a table that moves whole to the next page rather than break.
+constexpr std::size_t kKeepRows = 3;
+constexpr std::size_t kWholeTableRows = 12;
+
+// The height of the header and rows [from, to) of a table.
+double RowsHeight(const Page& p, const ReportTable& t, const std::vector<double>& w,
+                  std::size_t from, std::size_t to, bool header) {
+  double h = header ? WrapRow(p, t.header, w, true).height : 0.0;
+  for (std::size_t i = from; i < to && i < t.rows.size(); ++i) {
+    h += WrapRow(p, t.rows[i], w, false).height;
+  }
+  return h;
+}
+
+// What a table needs on the page it starts on: the whole of a short table (when it fits on a
+// page), else its header and first rows.
+double TableLead(const Page& p, const ReportTable& t, const std::vector<double>& w) {
+  const double room = pdf::kPageH - 2 * kMargin;
+  const std::size_t n = t.rows.size();
+  if (n <= kWholeTableRows) {
+    const double whole = RowsHeight(p, t, w, 0, n, true);
+    if (whole <= room) return whole;
+  }
+  return std::min(room, RowsHeight(p, t, w, 0, kKeepRows, true));
+}
+
 void DrawTable(Page& p, const ReportTable& t) {
   if (t.header.empty()) return;
   const auto w = ColumnWidths(p, t);
   const RowLines head = WrapRow(p, t.header, w, true);
-  p.Need(head.height + 30);
+  const double lead = TableLead(p, t, w);
+  p.Need(lead);
   DrawRow(p, head, w, t.numeric, true);
-  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+  const std::size_t n = t.rows.size();
+  // The last rows go to a new page together, never one alone.
+  const std::size_t tail = n > 2 * kKeepRows ? n - kKeepRows : n;
+  for (std::size_t i = 0; i < n; ++i) {
     const RowLines row = WrapRow(p, t.rows[i], w, false);
     const int page = p.number();
     try {
+      if (i == tail) p.Need(RowsHeight(p, t, w, i, n, false));
       p.Need(row.height);
     } catch (PageBudgetReached& cut) {
       cut.left_out = "rows " + std::to_string(i + 1) + " to " + std::to_string(t.rows.size()) +
@@ -339,10 +425,33 @@ cairo_status_t AppendBytes(void* closure, const unsigned char* data, unsigned in
   return CAIRO_STATUS_SUCCESS;
 }
 
-void DrawBlock(Page& p, const ReportBlock& b) {
+// The first lines of a block, which the heading before it keeps on its page.
+double LeadOf(const Page& p, const ReportBlock& b) {
   switch (b.kind) {
     case ReportBlock::Kind::kHeading:
-      DrawHeading(p, b.text);
+      return HeadingHeight(p, b.text);
+    case ReportBlock::Kind::kParagraph: {
+      p.Font(9.5);
+      const auto lines = std::min<std::size_t>(p.Wrap(b.text, kWidth).size(), 3);
+      return 12.5 * static_cast<double>(lines) + 4;
+    }
+    case ReportBlock::Kind::kTable:
+      return b.table.header.empty() ? 0.0 : TableLead(p, b.table, ColumnWidths(p, b.table));
+    case ReportBlock::Kind::kPolar:
+      return pdf::PolarHeight(b.polar);
+    case ReportBlock::Kind::kChart:
+      return pdf::ChartHeight(b.chart);
+    case ReportBlock::Kind::kSignature:
+      return 24.0 + 34.0 * static_cast<double>(b.signers.size());
+  }
+  return 0.0;
+}
+
+// `next`: the block after b (null: none), which a heading keeps with it.
+void DrawBlock(Page& p, const ReportBlock& b, const ReportBlock* next = nullptr) {
+  switch (b.kind) {
+    case ReportBlock::Kind::kHeading:
+      DrawHeading(p, b.text, next ? LeadOf(p, *next) : 0.0);
       break;
     case ReportBlock::Kind::kParagraph:
       DrawParagraph(p, b.text);
@@ -372,14 +481,16 @@ void DrawClosing(Page& p, const Report& r, std::size_t next, const PageBudgetRea
   note += cut.left_out.empty() ? "what follows" : cut.left_out + " and what follows them";
   note += " is left out";
   note += r.complete_at.empty() ? "." : "; the complete data is in " + r.complete_at + ".";
-  DrawHeading(p, "Report cut at its page limit");
+  DrawHeading(p, "Report cut at its page limit", 0.0);
   DrawParagraph(p, note);
   for (std::size_t i = next; i < r.blocks.size(); ++i) {
     const bool signature = r.blocks[i].kind == ReportBlock::Kind::kSignature;
     const bool its_heading = r.blocks[i].kind == ReportBlock::Kind::kHeading &&
                              i + 1 < r.blocks.size() &&
                              r.blocks[i + 1].kind == ReportBlock::Kind::kSignature;
-    if (signature || its_heading) DrawBlock(p, r.blocks[i]);
+    if (signature || its_heading) {
+      DrawBlock(p, r.blocks[i], i + 1 < r.blocks.size() ? &r.blocks[i + 1] : nullptr);
+    }
   }
 }
 
@@ -387,9 +498,9 @@ void DrawReport(Page& p, const Report& r, int max_pages) {
   std::size_t next = 0;  // the block after the one being drawn
   try {
     DrawTitle(p, r);
-    for (const auto& b : r.blocks) {
+    for (std::size_t i = 0; i < r.blocks.size(); ++i) {
       ++next;
-      DrawBlock(p, b);
+      DrawBlock(p, r.blocks[i], i + 1 < r.blocks.size() ? &r.blocks[i + 1] : nullptr);
     }
   } catch (const PageBudgetReached& cut) {
     DrawClosing(p, r, next, cut, max_pages);

@@ -3,9 +3,12 @@
 // pdftotext gives the numbers back). A report is a title, lines that identify what it is about,
 // and a list of blocks — headings, paragraphs, tables, the polar plot of a DBB test, line charts,
 // a signature block — laid out top to bottom on A4 pages; the foot of every page repeats the
-// report's footer line with the page number. No file I/O: the PDF comes back as bytes.
-// A report is bounded: at most RenderOptions::max_pages pages (what would go beyond is left out
-// and the last page says so), the lines of a chart or polar plot drawn from at most a few
+// report's footer line with the page number. A heading stays on the page of the first lines of
+// what follows it, a table keeps at least its header and first 3 rows together and never leaves
+// fewer than 3 rows alone on a page (a short table moves whole), and a table cell wraps at
+// spaces, then after '_', '/' or '-', before it breaks a word. No file I/O: the PDF comes back as
+// bytes. A report is bounded: at most RenderOptions::max_pages pages (what would go beyond is left
+// out and the last page says so), the lines of a chart or polar plot drawn from at most a few
 // thousand points (each run of samples by its smallest and largest value, so no peak is lost),
 // and a render asks RenderOptions::cancelled between blocks, rows and pages and gives up.
 #pragma once
@@ -32,10 +35,17 @@ struct ReportSeries {
   std::string label;
   std::vector<double> x, y;
 };
+// A band between two lines over x (e.g. a mean ± 2s), filled lightly in the colour of the
+// series `series` (its index in ReportChart::series).
+struct ReportBand {
+  std::vector<double> x, lo, hi;
+  std::size_t series = 0;
+};
 struct ReportChart {
   std::string title, x_label, y_label;
   std::vector<ReportSeries> series;
   std::vector<std::pair<std::string, double>> limits;
+  std::vector<ReportBand> bands;  // drawn under the series
 };
 
 struct ReportBlock {

@@ -71,5 +71,8 @@ class Page {
 // The polar plot of a DBB test and a line chart, drawn at the cursor (pdf_report_plots.cpp).
 void DrawPolar(Page& page, const DbbPolar& polar);
 void DrawChart(Page& page, const ReportChart& chart);
+// The heights they take on the page.
+double PolarHeight(const DbbPolar& polar);
+double ChartHeight(const ReportChart& chart);
 
 }  // namespace km::render::pdf

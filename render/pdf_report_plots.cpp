@@ -49,14 +49,24 @@ std::vector<double> Ticks(double lo, double hi, int count) {
   return out;
 }
 
+constexpr double kPolarSize = 300.0;
+constexpr double kChartH = 200.0;
+
 }  // namespace
+
+double PolarHeight(const DbbPolar& polar) {
+  return kPolarSize + 44 + 12.0 * static_cast<double>(polar.options.notes.size());
+}
+
+double ChartHeight(const ReportChart& chart) {
+  return kChartH + 16.0 * static_cast<double>(chart.series.size() / 4 + 1) + 10;
+}
 
 void DrawPolar(Page& p, const DbbPolar& polar) {
   const auto& o = polar.options;
   const auto [div, ndiv] = ChoosePolarScale(polar.traces, polar.zone, o);
-  const double size = 300.0;
-  const double notes_h = 12.0 * static_cast<double>(o.notes.size());
-  p.Need(size + 44 + notes_h);
+  const double size = kPolarSize;
+  p.Need(PolarHeight(polar));
   cairo_t* cr = p.cr();
   p.Font(10, true);
   p.Text(kMargin, p.y() + 10, o.title);
@@ -155,12 +165,20 @@ void DrawChart(Page& p, const ReportChart& chart) {
     ylo = std::min(ylo, v);
     yhi = std::max(yhi, v);
   }
+  for (const auto& b : chart.bands) {
+    for (std::size_t i = 0; i < b.x.size() && i < b.lo.size() && i < b.hi.size(); ++i) {
+      if (!std::isfinite(b.x[i]) || !std::isfinite(b.lo[i]) || !std::isfinite(b.hi[i])) continue;
+      ylo = std::min(ylo, b.lo[i]);
+      yhi = std::max(yhi, b.hi[i]);
+    }
+  }
   if (xhi <= xlo) xhi = xlo + 1;
   const double pad = (yhi - ylo) * 0.08 + (yhi > ylo ? 0 : 0.5);
   ylo -= pad;
   yhi += pad;
-  const double H = 190, L = 58, R = 12, T = 18, B = 32;
-  p.Need(H + 16.0 * static_cast<double>(chart.series.size() / 4 + 1) + 10);
+  // The title on its line, the y axis label under it at the top of the axis.
+  const double H = kChartH, L = 58, R = 12, T = 30, B = 32;
+  p.Need(ChartHeight(chart));
   cairo_t* cr = p.cr();
   const double top = p.y();
   const auto px = [&](double x) {
@@ -192,6 +210,26 @@ void DrawChart(Page& p, const ReportChart& chart) {
   }
   const Rgb palette[] = {{0.04, 0.36, 0.68}, {0.71, 0.33, 0.04}, {0.06, 0.46, 0.43},
                          {0.49, 0.23, 0.93}, {0.62, 0.09, 0.30}, {0.30, 0.49, 0.06}};
+  for (const auto& b : chart.bands) {
+    const std::size_t n = std::min({b.x.size(), b.lo.size(), b.hi.size()});
+    std::vector<std::size_t> at;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (std::isfinite(b.x[i]) && std::isfinite(b.lo[i]) && std::isfinite(b.hi[i])) {
+        at.push_back(i);
+      }
+    }
+    if (at.size() < 2) continue;
+    cairo_new_path(cr);
+    for (std::size_t k = 0; k < at.size(); ++k) {
+      cairo_line_to(cr, px(b.x[at[k]]), py(b.hi[at[k]]));
+    }
+    for (std::size_t k = at.size(); k-- > 0;) cairo_line_to(cr, px(b.x[at[k]]), py(b.lo[at[k]]));
+    cairo_close_path(cr);
+    const Rgb c = palette[b.series % 6];
+    cairo_set_source_rgba(cr, c.r, c.g, c.b, 0.16);
+    cairo_fill(cr);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+  }
   double lx = kMargin + L, ly = top + H + 10;
   for (std::size_t k = 0; k < chart.series.size(); ++k) {
     const auto& s = chart.series[k];

@@ -27,6 +27,12 @@ std::string Meta(const json& m, const char* key, const std::string& fallback = "
   return m.contains(key) && m[key].is_string() ? m[key].get<std::string>() : fallback;
 }
 
+// A header value with its unit ("20.4 °C"), "—" alone when the file does not state it.
+std::string MetaIn(const json& m, const char* key, const char* unit) {
+  const std::string v = Meta(m, key);
+  return v == "—" ? v : v + " " + unit;
+}
+
 // The set-up of the test as its file states it.
 ReportTable SetUpTable(const json& test, const json& meta) {
   ReportTable t;
@@ -35,11 +41,13 @@ ReportTable SetUpTable(const json& test, const json& meta) {
             {"Direction", Upper(test.value("direction", ""))},
             {"Bar length", Fixed(test.value("bar_length_mm", json()), 3) + " mm"},
             {"Circle radius", Fixed(test.value("radius_mm", json()), 3) + " mm"},
-            {"Centre", Meta(meta, "centre_mm") + " mm"},
-            {"Feed", Meta(meta, "feed_mm_min") + " mm/min"},
-            {"Evaluation", test.value("mode", "") + ", over " + test.value("evaluated_over", "") +
+            {"Centre", MetaIn(meta, "centre_mm", "mm")},
+            {"Feed", MetaIn(meta, "feed_mm_min", "mm/min")},
+            {"Evaluation", report_text::Readable(test.value("mode", "")) + ", over " +
+                               (test.value("evaluated_over", "") == "full_turn" ? "a full turn"
+                                                                                : "a partial arc") +
                                " (" + Fixed(test.value("evaluated_arc_deg", json()), 0) + "°)"},
-            {"Temperature", Meta(meta, "temperature_c") + " °C"}};
+            {"Temperature", MetaIn(meta, "temperature_c", "°C")}};
   return t;
 }
 
@@ -108,11 +116,14 @@ std::vector<render::ReportBlock> DiagnosisBlocks(const json& test, const std::st
     t.header = {"Effect", "Value", "± σ", "Unit", "Share of circularity"};
     t.numeric = {false, true, true, false, true};
     for (const auto& e : d) {
-      std::string name = e.value("effect", "");
-      for (auto& c : name) c = c == '_' ? ' ' : c;
-      t.rows.push_back({name, Fixed(e.value("value", json()), 3),
-                        Fixed(e.value("uncertainty", json()), 3), e.value("unit", ""),
-                        Fixed(e.value("contribution_pct", json()), 1) + " %"});
+      const json& v = e.contains("value") ? e["value"] : json();
+      const json& u = e.contains("uncertainty") ? e["uncertainty"] : json();
+      t.rows.push_back(
+          {report_text::Capitalised(report_text::Readable(e.value("effect", ""))),
+           v.is_array() ? report_text::Readable(report_text::Short(v)) : Fixed(v, 3),
+           u.is_array() ? report_text::Readable(report_text::Short(u)) : report_text::Sigma(u),
+           report_text::Readable(e.value("unit", "")),
+           Fixed(e.value("contribution_pct", json()), 1) + " %"});
     }
     for (auto& b : report_text::BoundedTable(std::move(t), report_text::Evenly("effects", where))) {
       out.push_back(std::move(b));
@@ -121,7 +132,9 @@ std::vector<render::ReportBlock> DiagnosisBlocks(const json& test, const std::st
   const auto& ni = test.value("not_identifiable", json::array());
   if (!ni.empty()) {
     std::string s = "Not identifiable from this test: ";
-    for (std::size_t i = 0; i < ni.size(); ++i) s += (i ? "; " : "") + report_text::Short(ni[i]);
+    for (std::size_t i = 0; i < ni.size(); ++i) {
+      s += (i ? "; " : "") + report_text::Readable(report_text::Short(ni[i]));
+    }
     out.push_back(ParagraphBlock(s + "."));
   }
   return out;
@@ -138,9 +151,9 @@ std::vector<render::ReportBlock> AsFoundAsLeft(const json& test, const ReportLat
   t.rows.push_back({"Measured", report_text::When(source.measured_at),
                     report_text::When(later.measured_at), ""});
   for (const char* key : {"circularity_um", "min_zone_circularity_um", "average_radial_error_um"}) {
-    const auto l = report_text::LabelOf(key);
-    t.rows.push_back(
-        {l.label, Fixed(test.value(key, json())), Fixed(after.value(key, json())), l.unit});
+    t.rows.push_back({report_text::Capitalised(report_text::FigureName(key)),
+                      Fixed(test.value(key, json())), Fixed(after.value(key, json())),
+                      report_text::LabelOf(key).unit});
   }
   return {HeadingBlock("As found / as left"),
           ParagraphBlock("The newest later test of the same set-up (machine, test and "
@@ -153,7 +166,7 @@ std::string ScopeOf(const json& figure) {
   std::string out;
   const auto add = [&](const std::string& s) { out += (out.empty() ? "" : ", ") + s; };
   if (figure.contains("axis")) add("axis " + figure["axis"].get<std::string>());
-  if (figure.contains("test_id")) add("test_id " + figure["test_id"].get<std::string>());
+  if (figure.contains("test_id")) add("test " + figure["test_id"].get<std::string>());
   if (figure.contains("direction")) add(Upper(figure["direction"].get<std::string>()));
   return out.empty() ? "every set-up" : out;
 }
@@ -181,7 +194,8 @@ std::vector<render::ReportBlock> ConformanceBlocks(const json& c, const ReportSo
   t.numeric = {false, false, true, true, true, false, false};
   for (const auto& f : c.value("figures", json::array())) {
     const json& U = f.contains("U") ? f["U"] : json();
-    t.rows.push_back({f.value("metric", ""), ScopeOf(f), Fixed(f.value("value", json()), 3),
+    t.rows.push_back({report_text::Capitalised(report_text::FigureName(f.value("metric", ""))),
+                      ScopeOf(f), Fixed(f.value("value", json()), 3),
                       U.is_number() ? Fixed(U, 3) : std::string("not stated"),
                       Fixed(f.value("tolerance", json()), 3), f.value("unit", ""),
                       f.value("verdict", "")});
@@ -234,7 +248,8 @@ void AddNotes(render::Report& r, const json& results) {
   if (!results.contains("warnings") || !results["warnings"].is_array()) return;
   const json& warnings = results["warnings"];
   for (std::size_t i = 0; i < warnings.size() && i < report_text::kMaxNotes; ++i) {
-    r.blocks.push_back(ParagraphBlock("Note: " + report_text::Short(warnings[i])));
+    r.blocks.push_back(
+        ParagraphBlock("Note: " + report_text::Readable(report_text::Short(warnings[i]))));
   }
   if (warnings.size() > report_text::kMaxNotes) {
     r.blocks.push_back(ParagraphBlock(
@@ -271,7 +286,14 @@ render::Report DbbPdfReport(const dbb::DbbReport& report, const json& report_jso
   r.complete_at = report_text::ResultAt(source);
   r.blocks.push_back(TableBlock(SetUpTable(test, source.metadata)));
   r.blocks.push_back(HeadingBlock("Polar plot"));
-  r.blocks.push_back(render::PolarBlock(render::DbbPolarPlot(report, test_index)));
+  // At the scale the page draws it (web/static/polar.js), its key figures in µm.
+  const render::PolarScale scale = render::DbbPageScale(report, test_index);
+  render::PolarPlotOptions plot;
+  plot.um_per_div = scale.um_per_div;
+  plot.divisions = scale.divisions;
+  render::DbbPolar polar = render::DbbPolarPlot(report, test_index, plot);
+  for (auto& note : polar.options.notes) note = report_text::Readable(note);
+  r.blocks.push_back(render::PolarBlock(std::move(polar)));
   r.blocks.push_back(HeadingBlock("Figures (ISO 230-4, tool-path units)"));
   r.blocks.push_back(TableBlock(FiguresOfTests(shown, pair)));
   for (const auto& x : shown) {
@@ -313,6 +335,14 @@ render::Report ResultsPdfReport(const json& results, const ReportSource& source,
   r.identification = report_text::Identification(source);
   r.footer = report_text::Footer(what + " report " + source.machine_id, context.printed_at);
   r.complete_at = CompleteAt(source);
+  if (source.kind == "positioning") {
+    for (auto& b : report_text::PositioningBlocks(results, r.complete_at)) {
+      r.blocks.push_back(std::move(b));
+    }
+    AddNotes(r, results);
+    AddClosing(r, source, context);
+    return r;
+  }
   r.blocks.push_back(HeadingBlock("Figures"));
   for (auto& b :
        report_text::BoundedTable(report_text::FiguresTable(results, {"uncertainty", "instrument"}),

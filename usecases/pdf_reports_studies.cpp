@@ -34,11 +34,29 @@ std::string AuditLevelWords(int level) {
 
 namespace {
 
+// The unit of a rule's metric ("circularity_um" → "µm"; "" when the metric does not say it).
+std::string UnitOf(const json& rule) {
+  const std::string unit = report_text::LabelOf(rule.value("metric", "")).unit;
+  return unit.empty() ? "" : " " + unit;
+}
+
+// A limit with at most 3 decimals and no trailing zeros: "7.5", "20".
+std::string LimitValue(const json& v) {
+  std::string s = Fixed(v, 3);
+  if (s.find('.') != std::string::npos) {
+    s.erase(s.find_last_not_of('0') + 1);
+    if (s.ends_with('.')) s.pop_back();
+  }
+  return s;
+}
+
 std::string Limits(const json& rule) {
   std::string s;
-  if (rule.contains("warn") && rule["warn"].is_number()) s += "warn " + Short(rule["warn"]);
+  const std::string unit = UnitOf(rule);
+  if (rule.contains("warn") && rule["warn"].is_number())
+    s += "warn " + LimitValue(rule["warn"]) + unit;
   if (rule.contains("stop") && rule["stop"].is_number()) {
-    s += (s.empty() ? "" : ", ") + std::string("stop ") + Short(rule["stop"]);
+    s += (s.empty() ? "" : ", ") + std::string("stop ") + LimitValue(rule["stop"]) + unit;
   }
   const std::string change = rule.value("change", "");
   if (change == "previous_audit") s = "increase since the previous audit: " + s;
@@ -50,7 +68,8 @@ std::string Status(const json& c) {
   const std::string st = c.value("status", "");
   if (st == "finding") return AuditLevelWords(c.value("level", 0));
   if (st == "ok") return "within limits";
-  return "not evaluated" + (c.contains("reason") ? ": " + Short(c["reason"]) : std::string());
+  return "not evaluated" +
+         (c.contains("reason") ? ": " + report_text::Readable(Short(c["reason"])) : std::string());
 }
 
 std::string Evidence(const json& x) {
@@ -82,10 +101,25 @@ std::string SetUpCell(const json& c) {
   return c.value("set_up", "—");
 }
 
+// "DBB circularity F (least squares)" for a rule's kind and metric.
+std::string RuleName(const json& rule) {
+  const std::string kind = rule.value("kind", "");
+  return (kind == "dbb" ? std::string("DBB") : report_text::Capitalised(kind)) + " " +
+         report_text::FigureName(rule.value("metric", ""));
+}
+
+// "on request" or "scheduled": what started an audit.
+std::string TriggerWords(const json& v) {
+  const std::string trigger = v.value("trigger", "");
+  if (trigger == "schedule") return "scheduled";
+  if (trigger == "manual" || trigger.empty()) return "on request";
+  return report_text::Readable(trigger);
+}
+
 // The rows of a rule: one per set-up it judged (of the filter's set-up only, when it is one).
 void RuleRows(const json& rule, std::size_t i, const json& checked, const SetUpFilter& f,
               ReportTable& t, std::vector<std::size_t>& finding_rows) {
-  const std::string what = rule.value("kind", "") + " " + rule.value("metric", "");
+  const std::string what = RuleName(rule);
   bool any = false;
   for (const auto& c : checked) {
     if (c.value("rule", -1) != static_cast<int>(i) || !JudgedSetUp(c, f)) continue;
@@ -120,7 +154,7 @@ std::string VerdictLine(const json& v) {
   if (!v.is_object()) return "No audit has run yet.";
   return "Verdict: " + AuditLevelWords(v.value("level", 0)) + " (audit #" +
          Short(v.value("id", json())) + " of " + v.value("created_at", "") + ", " +
-         (v.value("trigger", "") == "schedule" ? "scheduled" : "on request") + ").";
+         TriggerWords(v) + ").";
 }
 
 // The rules table, at most report_text::kMaxTextTableRows rows, keeping the rules with a finding.
@@ -177,7 +211,8 @@ std::vector<render::ReportBlock> FindingsTable(const json& findings, const std::
   std::vector<std::size_t> keep;
   for (const auto& x : findings) {
     if (x.value("level", 0) == highest) keep.push_back(f.rows.size());
-    f.rows.push_back({AuditLevelWords(x.value("level", 0)), x.value("message", ""), Evidence(x)});
+    f.rows.push_back({AuditLevelWords(x.value("level", 0)),
+                      report_text::Readable(x.value("message", "")), Evidence(x)});
   }
   return report_text::BoundedTable(
       std::move(f), {"findings", where, std::move(keep), "findings of the highest level",
@@ -256,7 +291,7 @@ render::Report AuditPdfReport(const std::string& machine_id, const json& config,
   for (std::size_t i = 0; verdicts.is_array() && i < verdicts.size() && i < 50; ++i) {
     const json& v = verdicts[i];
     h.rows.push_back({"#" + Short(v.value("id", json())), v.value("created_at", ""),
-                      v.value("trigger", ""), AuditLevelWords(v.value("level", 0)),
+                      TriggerWords(v), AuditLevelWords(v.value("level", 0)),
                       std::to_string(v.value("findings", json::array()).size())});
   }
   r.blocks.push_back(TableBlock(std::move(h)));

@@ -15,7 +15,10 @@ std::string Fixed(double v, int decimals) {
   if (!std::isfinite(v)) return "—";
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
-  return buf;
+  std::string out = buf;
+  // No "-0.00": a value that rounds to zero is zero.
+  if (out.starts_with('-') && out.find_first_not_of("0.", 1) == std::string::npos) out.erase(0, 1);
+  return out;
 }
 
 std::string Fixed(const json& v, int decimals) {
@@ -23,11 +26,22 @@ std::string Fixed(const json& v, int decimals) {
 }
 
 KeyLabel LabelOf(const std::string& key) {
-  static const std::vector<std::pair<std::string, std::string>> kUnits = {
-      {"_um_per_m", "µm/m"}, {"_um", "µm"},   {"_mm_min", "mm/min"}, {"_mm", "mm"},
-      {"_deg", "°"},         {"_pct", "%"},   {"_ms", "ms"},         {"_s", "s"},
-      {"_nm", "nm"},         {"_Nm", "N·m"},  {"_N", "N"},           {"_c", "°C"},
-      {"_pa", "Pa"},         {"_ppm", "ppm"}, {"_per_k", "1/K"}};
+  static const std::vector<std::pair<std::string, std::string>> kUnits = {{"_ppm_per_k", "ppm/K"},
+                                                                          {"_um_per_m", "µm/m"},
+                                                                          {"_um", "µm"},
+                                                                          {"_mm_min", "mm/min"},
+                                                                          {"_mm", "mm"},
+                                                                          {"_deg", "°"},
+                                                                          {"_pct", "%"},
+                                                                          {"_ms", "ms"},
+                                                                          {"_s", "s"},
+                                                                          {"_nm", "nm"},
+                                                                          {"_Nm", "N·m"},
+                                                                          {"_N", "N"},
+                                                                          {"_c", "°C"},
+                                                                          {"_pa", "Pa"},
+                                                                          {"_ppm", "ppm"},
+                                                                          {"_per_k", "1/K"}};
   KeyLabel out{key, ""};
   for (const auto& [suffix, unit] : kUnits) {
     if (key.size() > suffix.size() && key.ends_with(suffix)) {
@@ -207,35 +221,50 @@ std::size_t ColumnRows(const json& v) {
 
 }  // namespace
 
+std::vector<render::ReportBlock> ColumnTable(
+    const json& v, const std::vector<std::pair<std::string, std::string>>& columns,
+    const std::string& noun, const std::string& where) {
+  const std::size_t n = ColumnRows(v);
+  if (n == 0) return {};
+  render::ReportTable t;
+  std::vector<std::string> keys;
+  for (const auto& [k, header] : columns) {
+    if (!v.contains(k)) continue;
+    keys.push_back(k);
+    t.header.push_back(header);
+    t.numeric.push_back(true);
+  }
+  // Only the rows shown are written out (a table may hold 100 000 rows).
+  const Shown shown = Summarise(n, {noun, where, ExtremeRows(v, n),
+                                    noun + " with the largest or smallest value of a column"});
+  for (std::size_t i : shown.rows) {
+    std::vector<std::string> row;
+    for (const auto& k : keys) row.push_back(Short(v[k][i]));
+    t.rows.push_back(std::move(row));
+  }
+  std::vector<render::ReportBlock> out;
+  out.push_back(render::HeadingBlock(Capitalised(noun)));
+  out.push_back(render::TableBlock(std::move(t)));
+  if (!shown.sentence.empty()) out.push_back(render::ParagraphBlock(shown.sentence));
+  return out;
+}
+
 std::vector<render::ReportBlock> ColumnTables(const json& object, const std::string& where) {
   std::vector<render::ReportBlock> out;
   if (!object.is_object()) return out;
   for (const auto& [key, v] : object.items()) {
-    const std::size_t n = ColumnRows(v);
-    if (n == 0) continue;
+    if (ColumnRows(v) == 0) continue;
     // The position (target_mm, position_mm, …) first, then the other columns by name.
     std::vector<std::string> keys;
     for (const auto& [k, col] : v.items()) keys.push_back(k);
     std::stable_partition(keys.begin(), keys.end(),
                           [](const std::string& k) { return k.ends_with("_mm"); });
-    render::ReportTable t;
+    std::vector<std::pair<std::string, std::string>> columns;
     for (const auto& k : keys) {
       const KeyLabel l = LabelOf(k);
-      t.header.push_back(l.unit.empty() ? l.label : l.label + " (" + l.unit + ")");
-      t.numeric.push_back(true);
+      columns.push_back({k, l.unit.empty() ? l.label : l.label + " (" + l.unit + ")"});
     }
-    // Only the rows shown are written out (a table may hold 100 000 rows).
-    const std::string noun = LabelOf(key).label;
-    const Shown shown = Summarise(n, {noun, where, ExtremeRows(v, n),
-                                      noun + " with the largest or smallest value of a column"});
-    for (std::size_t i : shown.rows) {
-      std::vector<std::string> row;
-      for (const auto& k : keys) row.push_back(Short(v[k][i]));
-      t.rows.push_back(std::move(row));
-    }
-    out.push_back(render::HeadingBlock(noun));
-    out.push_back(render::TableBlock(std::move(t)));
-    if (!shown.sentence.empty()) out.push_back(render::ParagraphBlock(shown.sentence));
+    for (auto& b : ColumnTable(v, columns, LabelOf(key).label, where)) out.push_back(std::move(b));
   }
   return out;
 }
@@ -273,7 +302,7 @@ std::string InputsText(const json& inputs, bool stated) {
   std::string out;
   for (const auto& in : inputs) {
     if (!in.is_object() || in.value("stated", false) != stated) continue;
-    out += (out.empty() ? "" : ", ") + in.value("input", std::string());
+    out += (out.empty() ? "" : ", ") + InputName(in.value("input", std::string()));
     if (stated) out += " " + Short(in.value("u", json())) + " " + in.value("unit", std::string());
   }
   return out.empty() ? "none" : out;
@@ -295,7 +324,7 @@ std::string InputLabel(const std::string& input) {
   for (const auto& [k, v] : kLabels) {
     if (input == k) return v;
   }
-  return input;
+  return InputName(input);
 }
 
 // Figure | U | interval low, high | one column a stated input (its contribution), at most six.
@@ -307,14 +336,22 @@ render::ReportTable UncertaintyTable(const json& figures, const json& inputs) {
     }
   }
   render::ReportTable t;
-  t.header = {"Figure", "U", "95 % from", "to"};
+  t.header = {"Figure", "U (k = 2)", "95 % from", "to"};
   for (const auto& s : stated) t.header.push_back(InputLabel(s));
   t.numeric.assign(t.header.size(), true);
   t.numeric[0] = false;
+  // The figures in the order the reports name them (ISO 230-2's for a laser test).
+  std::vector<std::string> keys;
   for (const auto& [key, f] : figures.items()) {
-    if (!f.is_object()) continue;
+    if (f.is_object()) keys.push_back(key);
+  }
+  std::stable_sort(keys.begin(), keys.end(), [](const std::string& a, const std::string& b) {
+    return FigureRank(a) < FigureRank(b);
+  });
+  for (const auto& key : keys) {
+    const json& f = figures[key];
     const json iv = f.value("interval_um", json::array());
-    std::vector<std::string> row{LabelOf(key).label, Fixed(f.value("U_um", json()), 3),
+    std::vector<std::string> row{Capitalised(FigureName(key)), Fixed(f.value("U_um", json()), 3),
                                  iv.size() == 2 ? Fixed(iv[0], 3) : "—",
                                  iv.size() == 2 ? Fixed(iv[1], 3) : "—"};
     for (const auto& s : stated) {
@@ -356,7 +393,8 @@ std::vector<render::ReportBlock> UncertaintyBlocks(const json& u, const std::str
       "ball bar's)."));
   out.push_back(render::TableBlock(UncertaintyTable(figures, inputs)));
   for (const auto& w : u.value("warnings", json::array())) {
-    if (w.is_string()) out.push_back(render::ParagraphBlock("Note: " + w.get<std::string>()));
+    if (w.is_string())
+      out.push_back(render::ParagraphBlock("Note: " + Readable(w.get<std::string>())));
   }
   return out;
 }

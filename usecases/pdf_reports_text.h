@@ -16,6 +16,23 @@ namespace km::usecases::report_text {
 // v with `decimals` decimals; "—" for a missing, non-numeric or non-finite value.
 std::string Fixed(const nlohmann::json& v, int decimals = 2);
 std::string Fixed(double v, int decimals = 2);
+// An uncertainty as the page prints it (web/static/format.js formatUncertainty): 2 significant
+// digits, "0.00030", "0.016", "1.2", "15"; "—" for a missing or non-finite value.
+std::string Sigma(const nlohmann::json& v);
+// The name a reader knows a result's figure by, from its JSON key or path ("accuracy_up_um" →
+// "unidirectional accuracy of positioning A↑", "vdi3441.P_um" → "position uncertainty P
+// (VDI/DGQ 3441)", "circular_hysteresis_um" → "circular hysteresis H"); an unknown key with its
+// underscores as spaces.
+std::string FigureName(const std::string& key);
+// Where a figure comes in the reports' order (ISO 230-2's A, A↑, A↓, E, …, then the others).
+std::size_t FigureRank(const std::string& key);
+// The name of an input uncertainty ("u_air_temperature_c" → "air temperature").
+std::string InputName(const std::string& input);
+// Free text from a result or the service as a report prints it: identifiers (snake_case words)
+// as words or the figure's name, "um" as "µm", numbers with at most 3 decimals, no "-0.00".
+std::string Readable(const std::string& text);
+// The text with its first letter upper-case.
+std::string Capitalised(std::string s);
 // "circularity_um" → {"circularity", "µm"}; "angle_deg" → {"angle", "°"}.
 struct KeyLabel {
   std::string label, unit;
@@ -72,6 +89,17 @@ std::string ResultAt(const ReportSource& s);
 // and then a sentence naming `where` the full table is.
 std::vector<render::ReportBlock> ColumnTables(const nlohmann::json& object,
                                               const std::string& where);
+// The table of the columns `columns` ({key, header}, in that order) of a column object (see
+// ColumnTables), summarised the same way with `noun` ("targets") naming its rows.
+std::vector<render::ReportBlock> ColumnTable(
+    const nlohmann::json& object, const std::vector<std::pair<std::string, std::string>>& columns,
+    const std::string& noun, const std::string& where);
+// A laser positioning result (docs/formats.md §3) as a laser calibration report shows it: the
+// chart of the mean deviations ±2s per direction, the ISO 230-2 figures in the standard's order
+// with their letters, units and U, the VDI/DGQ 3441 figures, the conditions and corrections,
+// the uncertainty of the figures and the targets (usecases/pdf_reports_positioning.cpp).
+std::vector<render::ReportBlock> PositioningBlocks(const nlohmann::json& results,
+                                                   const std::string& where);
 // The identification lines every measurement report starts with.
 std::vector<std::pair<std::string, std::string>> Identification(const ReportSource& s);
 // The audit section of a measurement report: the rules of its kind with their limits, and the

@@ -118,7 +118,7 @@ test('landing, unknown addresses, audit view and form, trends per test', { timeo
     // The audit as a PDF: machine, every rule, the level.
     const auditPdf = await pdfText(page, '[data-testid="audit-report-pdf"]');
     assert.match(auditPdf, new RegExp(MACHINE));
-    assert.match(auditPdf, /circularity_um/);
+    assert.match(auditPdf, /DBB circularity F/);
     assert.match(auditPdf, new RegExp(`level ${judgedLevel} — `));
 
     // Beside the machine's list: level, rules, finding links.

@@ -82,7 +82,7 @@ TEST_F(ReportServiceTest, ADbbReportNamesMachineDateFiguresAuditAndAsLeft) {
   for (const std::string& s : std::vector<std::string>{
            "report-vmc", "xy-r150", "2026-04-01T08:00:00Z", "10.00", "A. Smith",
            "ballbar QC-7 serial 1234", "Circularity F (least squares)", "level 2 — warn",
-           "warn 7.500, stop 20", "measurement #" + std::to_string(cw), "Signature",
+           "warn 7.5 µm, stop 20 µm", "measurement #" + std::to_string(cw), "Signature",
            "Polar plot"}) {
     EXPECT_NE(text.find(s), std::string::npos) << "missing '" << s << "' in:\n" << text;
   }
@@ -132,8 +132,8 @@ TEST_F(ReportServiceTest, TheAuditReportListsRulesValuesFindingsAndHistory) {
   RunAccuracyAudit(*svc_, "report-vmc", "manual", 1'775'000'100);
   const std::string text = Text(svc_->reports().AuditPdf("report-vmc"));
   for (const std::string& s : std::vector<std::string>{
-           "Accuracy audit — report-vmc", "level 2 — warn", "dbb circularity_um",
-           "dbb centre_offset_um", "10.000", "within limits", "measurement #" + std::to_string(id),
+           "Accuracy audit — report-vmc", "level 2 — warn", "DBB circularity F",
+           "DBB centre offset", "10.000", "within limits", "measurement #" + std::to_string(id),
            "every 24h", "History"}) {
     EXPECT_NE(text.find(s), std::string::npos) << "missing '" << s << "' in:\n" << text;
   }

@@ -143,7 +143,7 @@ TEST_F(ToleranceServiceTest, MeasurementsAreJudgedOnTheFlyFromTheNewestTable) {
   const std::string text = PdfText(svc_->reports().MeasurementPdf(up.id));
   EXPECT_TRUE(test::Contains(text, "Conformance with the tolerances")) << text;
   EXPECT_TRUE(test::Contains(text, "tolerance table version 2")) << text;
-  EXPECT_TRUE(test::Contains(text, "circular_deviation_um")) << text;
+  EXPECT_TRUE(test::Contains(text, "Circular deviation G")) << text;
   EXPECT_TRUE(test::Contains(text, "Verdict: fail")) << text;
 
   // A table of another set-up only: no tolerance applies.
