@@ -13,7 +13,9 @@
 #include "analysis/core/errors.h"
 #include "analysis/dbb/iso230.h"
 #include "analysis/geometry/circle_fit.h"
+#include "analysis/geometry/circle_fit_radial.h"
 #include "analysis/geometry/min_zone_circle.h"
+#include "analysis/geometry/min_zone_radial.h"
 
 namespace km::dbb {
 namespace {
@@ -22,190 +24,126 @@ using Eigen::Vector2d;
 using Eigen::Vector3d;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// The normal equations of one Gauss–Newton step of the orthogonal-distance circle fit
-// (geometry::CircleGaussNewton's, circle_fit.h) in one pass without temporaries.
-geometry::CircleNormalEquations NormalEquations(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y,
-                                                const Vector3d& c) {
-  double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, n = 0, bx = 0, by = 0, b = 0;
-  for (Eigen::Index k = 0; k < x.size(); ++k) {
-    const double vx = x[k] - c[0], vy = y[k] - c[1];
-    const double dist = std::sqrt(vx * vx + vy * vy);
-    if (!(dist > 0.0)) continue;
-    const double ux = vx / dist, uy = vy / dist, d = dist - c[2];
-    sxx += ux * ux;
-    sxy += ux * uy;
-    syy += uy * uy;
-    sx += ux;
-    sy += uy;
-    n += 1.0;
-    bx -= ux * d;
-    by -= uy * d;
-    b -= d;
-  }
-  geometry::CircleNormalEquations ne;
-  ne.jtj << sxx, sxy, sx, sxy, syy, sy, sx, sy, n;
-  ne.jtd << bx, by, b;
-  return ne;
-}
+}  // namespace
 
-// The least-squares circle (centre x, y, radius) of the points (x, y): Gauss–Newton on the
-// orthogonal distances from `c`, the unperturbed circle a fraction of a micrometre away, until a
-// step is below 1e-12 of the radius (as iso230.cpp's common circle).
-Vector3d LeastSquaresCircleFrom(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y, Vector3d c) {
-  for (int it = 0; it < 30; ++it) {
-    const geometry::CircleNormalEquations ne = NormalEquations(x, y, c);
-    const Vector3d step = -ne.jtj.ldlt().solve(ne.jtd);
-    c += step;
-    if (step.norm() <= 1e-12 * c[2]) return c;
-  }
-  throw DidNotConverge("uncertainty: the least-squares circle of a draw did not converge");
-}
-
-// The minimum zone of points that differ from known ones by radial changes Δ_k, exactly: the
-// zone of the points near the known zone's circles (and a few spread around), then every point
-// checked against it; points outside are added and the zone solved again. The zone of a subset
-// is never wider than that of all points, and one that holds every point is theirs.
-class WarmMinZone {
- public:
-  void Init(const std::vector<Vector2d>& pts, const Vector2d& centre, double band_um) {
-    centre_ = centre;
-    band_ = band_um;
-    d0_.resize(pts.size());
-    for (std::size_t k = 0; k < pts.size(); ++k) d0_[k] = (pts[k] - centre).norm();
-    in_.assign(pts.size(), 0);
-    const std::size_t step = std::max<std::size_t>(1, pts.size() / 16);
-    skeleton_.clear();
-    for (std::size_t k = 0; k < pts.size(); k += step) skeleton_.push_back(k);
-  }
-
-  // Width of the zone of `pts` (µm); `shift` the radial change of each point since Init.
-  double Width(const std::vector<Vector2d>& pts, std::span<const double> shift) {
-    const std::size_t n = pts.size();
-    double hi = -std::numeric_limits<double>::infinity(), lo = -hi;
-    for (std::size_t k = 0; k < n; ++k) {
-      const double v = d0_[k] + shift[k];
-      hi = std::max(hi, v);
-      lo = std::min(lo, v);
-    }
-    cand_.clear();
-    for (std::size_t k : skeleton_) Add(k);
-    for (std::size_t k = 0; k < n; ++k) {
-      const double v = d0_[k] + shift[k];
-      if (v >= hi - band_ || v <= lo + band_) Add(k);
-    }
-    double width = 0.0;
-    for (int round = 0; round < 50; ++round) {
-      sub_.resize(cand_.size());
-      for (std::size_t j = 0; j < cand_.size(); ++j) sub_[j] = pts[cand_[j]];
-      const geometry::MinZoneCircleResult z = geometry::FitMinZoneCircle(sub_, centre_);
-      width = z.width;
-      const double tol = 1e-7;
-      const std::size_t before = cand_.size();
-      for (std::size_t k = 0; k < n; ++k) {
-        if (in_[k]) continue;
-        const double d = (pts[k] - z.centre).norm();
-        if (d > z.outer_radius + tol || d < z.inner_radius - tol) Add(k);
-      }
-      if (cand_.size() == before) break;
-    }
-    for (std::size_t k : cand_) in_[k] = 0;
-    return width;
-  }
-
- private:
-  void Add(std::size_t k) {
-    if (in_[k]) return;
-    in_[k] = 1;
-    cand_.push_back(k);
-  }
-  Vector2d centre_ = Vector2d::Zero();
-  double band_ = 0.0;
-  std::vector<double> d0_;
-  std::vector<char> in_;
-  std::vector<std::size_t> skeleton_, cand_;
-  std::vector<Vector2d> sub_;
-};
+// The draw's models (named: DbbPairModel::Impl holds them).
+namespace mc_model {
 
 // One test's figures for a draw: the tool-path deviations of the evaluated turn plus
-// f·(u_r·z_k + c), c the shared bar error (µm of bar).
+// s_k = f·(u_r·z_k + c), c the shared bar error (µm of bar). The readings move along their
+// angles only, so the least-squares circle is the base fit's linearisation
+// (geometry/circle_fit_radial.h) and the minimum zone a warm start from the base zone that is
+// checked against every point (geometry/min_zone_radial.h).
 class TestModel {
  public:
   void Init(const DbbTestReport& rep, double u_reading) {
-    base_ = &rep.circular;
-    r_ = rep.circular;
-    dev0_ = DeviationAboutNominalCentre(rep.circular);
-    n_ = dev0_.size();
-    rn_ = NominalRadiusUm(rep.circular);
-    f_ = rep.circular.deviation_factor;
+    const CircularTestResult& r = rep.circular;
+    const std::vector<double> dev0 = DeviationAboutNominalCentre(r);
+    n_ = dev0.size();
+    rn_ = NominalRadiusUm(r);
+    f_ = r.deviation_factor;
     u_ = u_reading;
-    circle0_ = Vector3d(r_.centre_offset_um[0], r_.centre_offset_um[1], r_.fitted_radius_mm * 1e3);
-    dev_.resize(n_);
-    shift_.resize(n_);
-    x_.resize(static_cast<Eigen::Index>(n_));
-    y_.resize(static_cast<Eigen::Index>(n_));
+    for (auto* v : {&x0_, &y0_, &cos_, &sin_}) v->resize(n_);
     pts_.resize(n_);
-    Fill(std::span<const double>(), 0.0);
+    for (std::size_t k = 0; k < n_; ++k) {
+      cos_[k] = CosAngle(r, k);
+      sin_[k] = SinAngle(r, k);
+      const double rho = rn_ + (dev0[k] + 0.0);
+      x0_[k] = rho * cos_[k];
+      y0_[k] = rho * sin_[k];
+      pts_[k] = Vector2d(x0_[k], y0_[k]);
+    }
+    fit_.Init(x0_, y0_, cos_, sin_,
+              Vector3d(r.centre_offset_um[0], r.centre_offset_um[1], r.fitted_radius_mm * 1e3));
     // Band of the candidates of the minimum zone: the zone's centre moves about as much as its
     // contact readings do; the check against every point makes it exact whatever the band.
-    mz_.Init(pts_, rep.min_zone.centre, f_ * u_ + 1e-3);
+    mz_.Init(x0_, y0_, cos_, sin_, rep.min_zone.centre, f_ * u_ + 1e-3);
   }
 
   std::size_t size() const { return n_; }
-  const CircularTestResult& result() const { return r_; }
-  const std::vector<double>& deviations() const { return dev_; }
-  const std::vector<Vector2d>& points() const { return pts_; }
+  const std::vector<Vector2d>& points() const { return pts_; }  // the unperturbed points
+  std::span<const double> x0() const { return x0_; }
+  std::span<const double> y0() const { return y0_; }
+  std::span<const double> cos() const { return cos_; }
+  std::span<const double> sin() const { return sin_; }
+  const Vector3d& circle() const { return fit_.base(); }
   double factor() const { return f_; }
   double reading_u() const { return u_; }
-  WarmMinZone& min_zone() { return mz_; }
+  geometry::RadialMinZone& min_zone() { return mz_; }
 
-  // y[0..3]: circularity, G, minimum zone, average radial error. z: n standard normals (empty:
-  // none), c: the shared bar error in µm.
-  void Evaluate(std::span<const double> z, double c, std::span<double> y) {
-    Fill(z, c);
-    const Vector3d circle = LeastSquaresCircleFrom(x_, y_, circle0_);
-    r_.centre_offset_um = {circle[0], circle[1]};
-    r_.fitted_radius_mm = circle[2] / 1e3;
-    r_.average_radial_error_um = circle[2] - rn_;
-    double mn = std::numeric_limits<double>::infinity(), mx = -mn;
-    for (std::size_t k = 0; k < n_; ++k) {
-      const auto i = static_cast<Eigen::Index>(k);
-      const double dx = x_[i] - circle[0], dy = y_[i] - circle[1];
-      const double e = std::sqrt(dx * dx + dy * dy) - circle[2];
-      r_.radial_error_um[k] = e;
-      mn = std::min(mn, e);
-      mx = std::max(mx, e);
+  // The moves of a draw into s: z n standard normals (empty: none), c the shared bar error.
+  void Shift(std::span<const double> z, double c, std::span<double> s) const {
+    if (z.empty()) {
+      std::fill(s.begin(), s.end(), f_ * (0.0 + c));
+      return;
     }
-    r_.circularity_um = mx - mn;  // circular_test.cpp: eq. 4.8, the range about the fit
-    y[0] = r_.circularity_um;
-    y[1] = ComputeIso230(r_).circular_deviation_um;
-    y[2] = mz_.Width(pts_, shift_);
-    y[3] = r_.average_radial_error_um;
+    for (std::size_t k = 0; k < n_; ++k) s[k] = f_ * (u_ * z[k] + c);
+  }
+
+  // y[0..3]: circularity, G, minimum zone, average radial error, for the moves s.
+  void Evaluate(std::span<const double> s, std::span<double> y) {
+    const geometry::RadialCircleFit::Result fit = fit_.Fit(s, {});
+    y[0] = fit.max - fit.min;  // circular_test.cpp: eq. 4.8, the range about the fit
+    y[1] = y[0];               // ComputeIso230: G, the range of the same residuals (iso230.h)
+    y[2] = mz_.Width(s);
+    y[3] = fit.circle[2] - rn_;
   }
 
  private:
-  void Fill(std::span<const double> z, double c) {
-    for (std::size_t k = 0; k < n_; ++k) {
-      const double d = f_ * ((z.empty() ? 0.0 : u_ * z[k]) + c);
-      shift_[k] = d;
-      dev_[k] = dev0_[k] + d;
-      const double rho = rn_ + dev_[k];
-      const auto i = static_cast<Eigen::Index>(k);
-      x_[i] = rho * CosAngle(*base_, k);
-      y_[i] = rho * SinAngle(*base_, k);
-      pts_[k] = Vector2d(x_[i], y_[i]);
-    }
-  }
-
-  const CircularTestResult* base_ = nullptr;
-  CircularTestResult r_;
-  std::vector<double> dev0_, dev_, shift_;
   std::size_t n_ = 0;
   double rn_ = 0.0, f_ = 1.0, u_ = 0.0;
-  Vector3d circle0_ = Vector3d::Zero();
-  Eigen::ArrayXd x_, y_;
+  std::vector<double> x0_, y0_, cos_, sin_;
   std::vector<Vector2d> pts_;
-  WarmMinZone mz_;
+  geometry::RadialCircleFit fit_;
+  geometry::RadialMinZone mz_;
 };
+
+// A pair's H and G(b) for a draw: both traces' moves s (cw, then ccw), their common circle
+// linearised as each test's own (geometry/circle_fit_radial.h), H through the pair's geometry
+// built once (iso230.h: the angles do not change between draws).
+class PairModel {
+ public:
+  PairModel(const CircularTestResult& rcw, const CircularTestResult& rccw, const TestModel& a,
+            const TestModel& b)
+      : geometry_(rcw, rccw) {
+    std::vector<double> x, y, c, s;
+    for (const TestModel* m : {&a, &b}) {
+      x.insert(x.end(), m->x0().begin(), m->x0().end());
+      y.insert(y.end(), m->y0().begin(), m->y0().end());
+      c.insert(c.end(), m->cos().begin(), m->cos().end());
+      s.insert(s.end(), m->sin().begin(), m->sin().end());
+    }
+    // Started from the traces' own circles weighted by their samples (as ComputeIso230Pair).
+    const double n = static_cast<double>(x.size());
+    const Vector3d start = static_cast<double>(a.size()) / n * a.circle() +
+                           static_cast<double>(b.size()) / n * b.circle();
+    common_.Init(x, y, c, s, start);
+    na_ = a.size();
+    res_.resize(x.size());
+  }
+
+  // y[0]: H, y[1]: G(b) for the moves s of both traces.
+  void Evaluate(std::span<const double> s, std::span<double> y) {
+    const geometry::RadialCircleFit::Result fit = common_.Fit(s, res_);
+    const std::span<const double> res(res_);
+    double arc = 0.0;
+    y[0] = geometry_.Hysteresis(res.first(na_), res.subspan(na_), &arc);
+    y[1] = fit.max - fit.min;
+  }
+
+ private:
+  Iso230PairGeometry geometry_;
+  geometry::RadialCircleFit common_;
+  std::size_t na_ = 0;
+  std::vector<double> res_;
+};
+
+}  // namespace mc_model
+
+using mc_model::PairModel;
+using mc_model::TestModel;
+
+namespace {
 
 // The shared bar error of a draw in µm of bar: δL + α·L·δT (α in ppm/K, L in mm, δT in K).
 double SharedBarError(std::span<const double> x, std::size_t at, double alpha_l) {
@@ -376,6 +314,44 @@ std::string Text(const char* format, double a, double b) {
 
 }  // namespace
 
+struct DbbPairModel::Impl {
+  Impl(const DbbTestReport& rcw, const DbbTestReport& rccw, double ucw, double uccw) {
+    a.Init(rcw, ucw);
+    b.Init(rccw, uccw);
+    pair = std::make_unique<PairModel>(rcw.circular, rccw.circular, a, b);
+    shift.resize(a.size() + b.size());
+  }
+  TestModel a, b;
+  std::unique_ptr<PairModel> pair;
+  std::vector<double> shift;
+};
+
+DbbPairModel::DbbPairModel(const DbbTestReport& rcw, const DbbTestReport& rccw, double u_reading_cw,
+                           double u_reading_ccw)
+    : impl_(std::make_unique<Impl>(rcw, rccw, u_reading_cw, u_reading_ccw)) {}
+
+DbbPairModel::~DbbPairModel() = default;
+
+std::size_t DbbPairModel::cw_size() const {
+  return impl_->a.size();
+}
+
+std::size_t DbbPairModel::ccw_size() const {
+  return impl_->b.size();
+}
+
+void DbbPairModel::Evaluate(std::span<const double> z, double c, std::span<double> y) {
+  Impl& m = *impl_;
+  const std::size_t na = m.a.size();
+  const std::span<double> sa = std::span<double>(m.shift).first(na);
+  const std::span<double> sb = std::span<double>(m.shift).subspan(na);
+  m.a.Shift(z.first(na), c, sa);
+  m.b.Shift(z.subspan(na, m.b.size()), c, sb);
+  m.a.Evaluate(sa, y.first(4));
+  m.b.Evaluate(sb, y.subspan(4, 4));
+  m.pair->Evaluate(m.shift, y.subspan(8, 2));
+}
+
 DbbUncertainty PropagateDbbTest(const DbbTest& test, const DbbTestReport& report,
                                 const DbbInputUncertainty& u,
                                 const DbbUncertaintyOptions& options) {
@@ -384,8 +360,10 @@ DbbUncertainty PropagateDbbTest(const DbbTest& test, const DbbTestReport& report
   const std::size_t n = m.size();
   const double alpha_l = u.expansion_ppm_per_k * test.bar_length_mm * 1e-3;  // µm per K
   const auto inputs = Inputs(n, u.reading_um, u);
+  std::vector<double> shift(n);
   const uncertainty::VectorModel model = [&](std::span<const double> x, std::span<double> y) {
-    m.Evaluate(x.first(n), SharedBarError(x, n, alpha_l), y);
+    m.Shift(x.first(n), SharedBarError(x, n, alpha_l), shift);
+    m.Evaluate(shift, y);
   };
   DbbUncertainty out;
   out.figure_keys.assign(kDbbTestFigureKeys.begin(), kDbbTestFigureKeys.end());
@@ -424,20 +402,14 @@ DbbUncertainty PropagateDbbPair(const DbbTest& cw, const DbbTest& ccw, const Dbb
         "the cw and ccw files state different bar uncertainties; one bar serves both: the larger "
         "of each is drawn once for both tests");
   }
-  TestModel a, b;
-  a.Init(rcw, ucw.reading_um);
-  b.Init(rccw, uccw.reading_um);
+  DbbPairModel pm(rcw, rccw, ucw.reading_um, uccw.reading_um);
+  TestModel& a = pm.impl_->a;
+  TestModel& b = pm.impl_->b;
   const std::size_t na = a.size(), nb = b.size();
   const double alpha_l = shared.expansion_ppm_per_k * cw.bar_length_mm * 1e-3;
   const auto inputs = Inputs(na + nb, std::max(ucw.reading_um, uccw.reading_um), shared);
   const uncertainty::VectorModel model = [&](std::span<const double> x, std::span<double> y) {
-    const double c = SharedBarError(x, na + nb, alpha_l);
-    a.Evaluate(x.first(na), c, y.first(4));
-    b.Evaluate(x.subspan(na, nb), c, y.subspan(4, 4));
-    const Iso230PairFigures p =
-        ComputeIso230Pair(a.result(), b.result(), a.deviations(), b.deviations(), 1);
-    y[8] = p.circular_hysteresis_um;
-    y[9] = p.bidirectional_circular_deviation_um;
+    pm.Evaluate(x.first(na + nb), SharedBarError(x, na + nb, alpha_l), y);
   };
   for (const char* k : kDbbTestFigureKeys) out.figure_keys.push_back(std::string("cw.") + k);
   for (const char* k : kDbbTestFigureKeys) out.figure_keys.push_back(std::string("ccw.") + k);

@@ -11,13 +11,16 @@
 // The machine's own scatter (the trace itself) is what the figures describe: it is not an input.
 // Each draw adds f·(u_r·z_n + δL + α·L·δT) to the test's tool-path deviations (f = R_DBB / R,
 // circular_test.h) and recomputes the figures exactly as the analysis does:
-//   the least-squares circle (Gauss–Newton on the orthogonal distances, geometry/circle_fit.h,
-//   started from the unperturbed circle and run to convergence), circularity = circular
-//   deviation G = the range of the residuals (ComputeIso230), the average radial error R0 − R;
-//   the minimum zone (geometry/min_zone_circle.h) solved on the points near the unperturbed
-//   zone's circles and then checked against every point (points outside the zone are added and
-//   it is solved again), so it equals the minimum zone of all points;
-//   for a pair, H and G(b) by ComputeIso230Pair on both perturbed traces.
+//   the least-squares circle (Gauss–Newton on the orthogonal distances, geometry/circle_fit.h):
+//   two steps from the unperturbed fit with its design (geometry/circle_fit_radial.h: the
+//   readings move along their fixed angles only), within 10⁻⁸ µm of the fit run to convergence,
+//   and the full fit when a bound on what that leaves out exceeds 10⁻⁷ µm; circularity =
+//   circular deviation G = the range of the residuals (ComputeIso230), the average radial error
+//   R0 − R; the minimum zone (geometry/min_zone_radial.h) solved on the points near the
+//   unperturbed zone's circles and then checked against every point (points outside the zone
+//   are added and it is solved again), so it equals the minimum zone of all points;
+//   for a pair, G(b) about the common circle (linearised as above) and H through the pair's
+//   Iso230PairGeometry (iso230.h), built once: the angles do not change between draws.
 // A pair shares the bar: one δL and one δT for both tests; its run also gives both tests'
 // figures (one set of draws for the ten figures).
 //
@@ -32,6 +35,8 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -88,5 +93,32 @@ DbbUncertainty PropagateDbbPair(const DbbTest& cw, const DbbTest& ccw, const Dbb
                                 const DbbTestReport& rccw, const DbbPairReport& pair,
                                 const DbbInputUncertainty& ucw, const DbbInputUncertainty& uccw,
                                 const DbbUncertaintyOptions& options = {});
+
+// The model PropagateDbbPair evaluates at every draw, for a draw given by its values: z, one
+// standard normal per reading (cw then ccw, the evaluated turns' samples in time order), c the
+// shared bar error in µm of bar; each reading moves by f·(u_r·z + c) (u_r its test's
+// u_reading_um). Built once per pair: the angles, their orders and interpolation (H), the base
+// fits and zones; a draw costs a few passes over the readings.
+class DbbPairModel {
+ public:
+  DbbPairModel(const DbbTestReport& rcw, const DbbTestReport& rccw, double u_reading_cw,
+               double u_reading_ccw);
+  ~DbbPairModel();
+  DbbPairModel(const DbbPairModel&) = delete;
+  DbbPairModel& operator=(const DbbPairModel&) = delete;
+
+  std::size_t cw_size() const;
+  std::size_t ccw_size() const;
+  // The ten figures in the order of PropagateDbbPair's outputs.
+  void Evaluate(std::span<const double> z, double c, std::span<double> y);
+
+ private:
+  friend DbbUncertainty PropagateDbbPair(const DbbTest&, const DbbTest&, const DbbTestReport&,
+                                         const DbbTestReport&, const DbbPairReport&,
+                                         const DbbInputUncertainty&, const DbbInputUncertainty&,
+                                         const DbbUncertaintyOptions&);
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace km::dbb

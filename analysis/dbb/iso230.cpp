@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
+#include <span>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -59,17 +61,10 @@ TurnOrder RotationOrder(const std::vector<double>& angle_rad) {
   return o;
 }
 
-// The samples sorted by angle in [0, 2π): in the order `o` when it is not empty, otherwise
-// sorted by angle, then value, keeping the first of equal angles.
-PeriodicTrace MakePeriodic(const std::vector<double>& angle_rad, const std::vector<double>& val,
-                           const TurnOrder& o) {
+// The samples sorted by angle in [0, 2π), sorted by angle, then value, keeping the first of
+// equal angles (when the turn is not in rotation order: which sample is kept depends on values).
+PeriodicTrace MakePeriodic(const std::vector<double>& angle_rad, std::span<const double> val) {
   PeriodicTrace p;
-  if (!o.index.empty()) {
-    p.a = o.a;
-    p.v.reserve(o.index.size());
-    for (std::size_t i : o.index) p.v.push_back(val[i]);
-    return p;
-  }
   std::vector<std::pair<double, double>> s(angle_rad.size());
   for (std::size_t i = 0; i < s.size(); ++i) s[i] = {WrapTurn(angle_rad[i]), val[i]};
   std::sort(s.begin(), s.end());
@@ -83,30 +78,74 @@ PeriodicTrace MakePeriodic(const std::vector<double>& angle_rad, const std::vect
   return p;
 }
 
-// max |q.v − src(q.a)| over the samples of q, with src interpolated periodically; both sorted,
-// so one merge walk suffices.
-double MaxDifference(const PeriodicTrace& q, const PeriodicTrace& src) {
-  const std::size_t n = src.a.size();
-  double h = 0.0;
+// Where the angle t falls among the sorted periodic angles a (hi: the first angle > t): the two
+// samples around it and the weight of the second.
+struct Bracket {
+  std::size_t i0, i1;
+  double w;
+};
+
+Bracket PeriodicBracket(const std::vector<double>& a, std::size_t hi, double t) {
+  const std::size_t n = a.size();
+  const std::size_t i1 = hi % n;
+  const std::size_t i0 = (hi + n - 1) % n;
+  double a0 = a[i0], a1 = a[i1];
+  if (hi == 0) a0 -= 2.0 * std::numbers::pi;
+  if (hi == n) a1 += 2.0 * std::numbers::pi;
+  const double span = a1 - a0;
+  return {i0, i1, span > 0.0 ? (t - a0) / span : 0.0};
+}
+
+// |q − the interpolated value|: one term of H (both ways of computing H use this).
+double Gap(double q, double v0, double v1, double w) {
+  return std::abs(q - (v0 * (1.0 - w) + v1 * w));
+}
+
+// Calls visit(i, bracket) for each of the sorted angles qa in the sorted periodic angles sa: one
+// merge walk.
+template <class Visit>
+void WalkPeriodic(const std::vector<double>& qa, const std::vector<double>& sa, Visit&& visit) {
   std::size_t hi = 0;  // first src angle > query angle
-  for (std::size_t i = 0; i < q.a.size(); ++i) {
-    const double t = q.a[i];
-    while (hi < n && src.a[hi] <= t) ++hi;
-    const std::size_t i1 = hi % n;
-    const std::size_t i0 = (hi + n - 1) % n;
-    double a0 = src.a[i0], a1 = src.a[i1];
-    if (hi == 0) a0 -= 2.0 * std::numbers::pi;
-    if (hi == n) a1 += 2.0 * std::numbers::pi;
-    const double span = a1 - a0;
-    const double w = span > 0.0 ? (t - a0) / span : 0.0;
-    h = std::max(h, std::abs(q.v[i] - (src.v[i0] * (1.0 - w) + src.v[i1] * w)));
+  for (std::size_t i = 0; i < qa.size(); ++i) {
+    const double t = qa[i];
+    while (hi < sa.size() && sa[hi] <= t) ++hi;
+    visit(i, PeriodicBracket(sa, hi, t));
   }
+}
+
+// max |q.v − src(q.a)| over the samples of q, with src interpolated periodically.
+double MaxDifference(const PeriodicTrace& q, const PeriodicTrace& src) {
+  double h = 0.0;
+  WalkPeriodic(q.a, src.a, [&](std::size_t i, const Bracket& b) {
+    h = std::max(h, Gap(q.v[i], src.v[b.i0], src.v[b.i1], b.w));
+  });
+  return h;
+}
+
+// The same walk for turns in rotation order, kept as sample indices in time order.
+std::vector<Iso230PairGeometry::Interpolation> InterpolationTable(const TurnOrder& q,
+                                                                  const TurnOrder& src) {
+  std::vector<Iso230PairGeometry::Interpolation> t;
+  t.reserve(q.a.size());
+  WalkPeriodic(q.a, src.a, [&](std::size_t i, const Bracket& b) {
+    t.push_back({static_cast<std::uint32_t>(q.index[i]),
+                 static_cast<std::uint32_t>(src.index[b.i0]),
+                 static_cast<std::uint32_t>(src.index[b.i1]), b.w});
+  });
+  return t;
+}
+
+// MaxDifference through a table: vq and vsrc in time order.
+double MaxDifference(const std::vector<Iso230PairGeometry::Interpolation>& table,
+                     std::span<const double> vq, std::span<const double> vsrc) {
+  double h = 0.0;
+  for (const auto& e : table) h = std::max(h, Gap(vq[e.q], vsrc[e.i0], vsrc[e.i1], e.w));
   return h;
 }
 
 // Samples of a trace over a partial arc, sorted by angle (radians) unwrapped about `mid`:
 // t ↦ mid + wrap(t − mid) in [mid − π, mid + π).
-PeriodicTrace MakeLinear(const std::vector<double>& angle_rad, const std::vector<double>& val,
+PeriodicTrace MakeLinear(const std::vector<double>& angle_rad, std::span<const double> val,
                          double mid) {
   std::vector<std::pair<double, double>> s(angle_rad.size());
   for (std::size_t i = 0; i < s.size(); ++i) {
@@ -140,7 +179,7 @@ double MaxDifferenceOverlap(const PeriodicTrace& q, const PeriodicTrace& src) {
     const std::size_t i1 = std::min(hi, src.a.size() - 1), i0 = i1 - 1;
     const double span = src.a[i1] - src.a[i0];
     const double w = span > 0.0 ? (t - src.a[i0]) / span : 0.0;
-    h = std::max(h, std::abs(q.v[i] - (src.v[i0] * (1.0 - w) + src.v[i1] * w)));
+    h = std::max(h, Gap(q.v[i], src.v[i0], src.v[i1], w));
   }
   return h;
 }
@@ -149,45 +188,6 @@ std::vector<double> AnglesRad(const CircularTestResult& r) {
   std::vector<double> a(r.angle_deg.size());
   for (std::size_t i = 0; i < a.size(); ++i) a[i] = r.angle_deg[i] * kDeg;
   return a;
-}
-
-// The angles (radians) of a pair's traces and, for full turns, their periodic orders
-// (RotationOrder), shared by the two hysteresis figures.
-struct PairAngles {
-  std::vector<double> cw, ccw;
-  TurnOrder order_cw, order_ccw;
-};
-
-PairAngles MakePairAngles(const CircularTestResult& cw, const CircularTestResult& ccw) {
-  PairAngles a{AnglesRad(cw), AnglesRad(ccw), {}, {}};
-  if (cw.full_turn && ccw.full_turn) {
-    a.order_cw = RotationOrder(a.cw);
-    a.order_ccw = RotationOrder(a.ccw);
-  }
-  return a;
-}
-
-// H of two traces given as radial deviations vcw, vccw at their angles: full turns compared
-// periodically, otherwise only where both arcs have samples (the common arc in *arc_deg).
-double Hysteresis(const CircularTestResult& cw, const CircularTestResult& ccw, const PairAngles& an,
-                  const std::vector<double>& vcw, const std::vector<double>& vccw,
-                  double* arc_deg) {
-  if (cw.full_turn && ccw.full_turn) {
-    const PeriodicTrace pcw = MakePeriodic(an.cw, vcw, an.order_cw);
-    const PeriodicTrace pccw = MakePeriodic(an.ccw, vccw, an.order_ccw);
-    *arc_deg = 360.0;
-    return std::max(MaxDifference(pccw, pcw), MaxDifference(pcw, pccw));
-  }
-  const double mid = 0.5 * (ccw.turn_start_deg + ccw.turn_end_deg) * kDeg;
-  const PeriodicTrace pcw = MakeLinear(an.cw, vcw, mid);
-  const PeriodicTrace pccw = MakeLinear(an.ccw, vccw, mid);
-  *arc_deg = std::max(
-      0.0,
-      (std::min(pcw.a.back(), pccw.a.back()) - std::max(pcw.a.front(), pccw.a.front())) / kDeg);
-  if (*arc_deg <= 0.0) {
-    throw InvalidInput("", 0, "angle_deg", "the cw and ccw arcs of the pair do not overlap");
-  }
-  return std::max(MaxDifferenceOverlap(pccw, pcw), MaxDifferenceOverlap(pcw, pccw));
 }
 
 // Common least-squares circle (centre x, y, radius) of the points (x, y): Gauss–Newton on the
@@ -245,6 +245,19 @@ std::vector<double> AboutOwnCentre(const CircularTestResult& r) {
   return v;
 }
 
+// The checks of a pair (iso230.h).
+void CheckPair(const CircularTestResult& cw, const CircularTestResult& ccw) {
+  if (cw.direction != Direction::kCw || ccw.direction != Direction::kCcw) {
+    throw InvalidInput("", 0, "direction", "a pair needs one cw and one ccw test");
+  }
+  if (cw.test_id != ccw.test_id) {
+    throw InvalidInput("", 0, "test_id", "a pair needs the same test_id");
+  }
+  if (cw.units != ccw.units) {
+    throw InvalidInput("", 0, "units", "the cw and ccw results are in different units");
+  }
+}
+
 }  // namespace
 
 double NominalRadiusUm(const CircularTestResult& r) {
@@ -293,27 +306,61 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
                            DeviationAboutNominalCentre(ccw));
 }
 
-Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw,
-                                    const std::vector<double>& dcw, const std::vector<double>& dccw,
-                                    unsigned threads) {
+Iso230PairGeometry::Iso230PairGeometry(const CircularTestResult& cw,
+                                       const CircularTestResult& ccw) {
+  CheckPair(cw, ccw);
+  full_turn_ = cw.full_turn && ccw.full_turn;
+  cw_rad_ = AnglesRad(cw);
+  ccw_rad_ = AnglesRad(ccw);
+  mid_rad_ = 0.5 * (ccw.turn_start_deg + ccw.turn_end_deg) * kDeg;
+  if (!full_turn_) return;
+  const TurnOrder ocw = RotationOrder(cw_rad_), occw = RotationOrder(ccw_rad_);
+  if (ocw.index.empty() || occw.index.empty()) return;  // sorted at each call
+  ccw_on_cw_ = InterpolationTable(occw, ocw);
+  cw_on_ccw_ = InterpolationTable(ocw, occw);
+}
+
+double Iso230PairGeometry::Hysteresis(std::span<const double> vcw, std::span<const double> vccw,
+                                      double* arc_deg) const {
+  if (vcw.size() != cw_rad_.size() || vccw.size() != ccw_rad_.size()) {
+    throw InvalidInput("", 0, "dr_um", "deviation and angle sizes differ");
+  }
+  if (full_turn_) {
+    *arc_deg = 360.0;
+    if (!ccw_on_cw_.empty()) {
+      return std::max(MaxDifference(ccw_on_cw_, vccw, vcw), MaxDifference(cw_on_ccw_, vcw, vccw));
+    }
+    const PeriodicTrace pcw = MakePeriodic(cw_rad_, vcw);
+    const PeriodicTrace pccw = MakePeriodic(ccw_rad_, vccw);
+    return std::max(MaxDifference(pccw, pcw), MaxDifference(pcw, pccw));
+  }
+  const PeriodicTrace pcw = MakeLinear(cw_rad_, vcw, mid_rad_);
+  const PeriodicTrace pccw = MakeLinear(ccw_rad_, vccw, mid_rad_);
+  *arc_deg = std::max(
+      0.0,
+      (std::min(pcw.a.back(), pccw.a.back()) - std::max(pcw.a.front(), pccw.a.front())) / kDeg);
+  if (*arc_deg <= 0.0) {
+    throw InvalidInput("", 0, "angle_deg", "the cw and ccw arcs of the pair do not overlap");
+  }
+  return std::max(MaxDifferenceOverlap(pccw, pcw), MaxDifferenceOverlap(pcw, pccw));
+}
+
+namespace {
+
+// The pair's figures with the geometry given, or built beside the common circle (`made`).
+Iso230PairFigures PairFigures(const Iso230PairGeometry* given, const CircularTestResult& cw,
+                              const CircularTestResult& ccw, const std::vector<double>& dcw,
+                              const std::vector<double>& dccw, unsigned threads) {
   if (dcw.size() != cw.angle_deg.size() || dccw.size() != ccw.angle_deg.size()) {
     throw InvalidInput("", 0, "dr_um", "deviation and angle sizes differ");
   }
-  if (cw.direction != Direction::kCw || ccw.direction != Direction::kCcw) {
-    throw InvalidInput("", 0, "direction", "a pair needs one cw and one ccw test");
-  }
-  if (cw.test_id != ccw.test_id) {
-    throw InvalidInput("", 0, "test_id", "a pair needs the same test_id");
-  }
-  if (cw.units != ccw.units) {
-    throw InvalidInput("", 0, "units", "the cw and ccw results are in different units");
-  }
+  CheckPair(cw, ccw);
   Iso230PairFigures f;
   f.units = ccw.units;
   // The common circle and the H about each own centre at once; then H about the common
   // centre (the ISO 230-4 figure, iso230.h) from the residuals and the shared angle order.
   std::vector<double> res;
-  PairAngles angles;
+  std::optional<Iso230PairGeometry> made;
   ParallelFor(
       2,
       [&](std::size_t k) {
@@ -321,18 +368,33 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
           res = CommonResiduals(cw, ccw, dcw, dccw, f);
           return;
         }
-        angles = MakePairAngles(cw, ccw);
+        if (given == nullptr) made.emplace(cw, ccw);
         double arc = 0.0;
         f.circular_hysteresis_own_centres_um =
-            Hysteresis(cw, ccw, angles, AboutOwnCentre(cw), AboutOwnCentre(ccw), &arc);
+            (given ? *given : *made).Hysteresis(AboutOwnCentre(cw), AboutOwnCentre(ccw), &arc);
       },
       threads);
-  const auto ncw = static_cast<long>(dcw.size());
-  const std::vector<double> rcw(res.begin(), res.begin() + ncw);
-  const std::vector<double> rccw(res.begin() + ncw, res.end());
-  f.circular_hysteresis_um = Hysteresis(cw, ccw, angles, rcw, rccw, &f.evaluated_arc_deg);
+  const std::span<const double> all(res);
+  f.circular_hysteresis_um =
+      (given ? *given : *made)
+          .Hysteresis(all.first(dcw.size()), all.subspan(dcw.size()), &f.evaluated_arc_deg);
   f.full_turn = cw.full_turn && ccw.full_turn;
   return f;
+}
+
+}  // namespace
+
+Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw,
+                                    const std::vector<double>& dcw, const std::vector<double>& dccw,
+                                    unsigned threads) {
+  return PairFigures(nullptr, cw, ccw, dcw, dccw, threads);
+}
+
+Iso230PairFigures ComputeIso230Pair(const Iso230PairGeometry& geometry,
+                                    const CircularTestResult& cw, const CircularTestResult& ccw,
+                                    const std::vector<double>& dcw,
+                                    const std::vector<double>& dccw) {
+  return PairFigures(&geometry, cw, ccw, dcw, dccw, 1);
 }
 
 }  // namespace km::dbb

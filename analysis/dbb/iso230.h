@@ -34,6 +34,8 @@
 // pair states the length of that common arc.
 #pragma once
 
+#include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -77,5 +79,42 @@ Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const Circular
 Iso230PairFigures ComputeIso230Pair(const CircularTestResult& cw, const CircularTestResult& ccw,
                                     const std::vector<double>& dev_cw_um,
                                     const std::vector<double>& dev_ccw_um, unsigned threads = 1);
+
+// What a pair's hysteresis needs of the angles alone: their orders and, for two full turns in
+// rotation order (one turn in time order, the usual case), where each sample of one trace falls
+// between two samples of the other and the weight of the linear interpolation there. Built once
+// for a pair and reused for any deviations at the same angles (a Monte Carlo run changes only
+// the deviations); ComputeIso230Pair builds and uses the same, so both give the same H.
+class Iso230PairGeometry {
+ public:
+  // Checks the pair as ComputeIso230Pair does (km::InvalidInput).
+  Iso230PairGeometry(const CircularTestResult& cw, const CircularTestResult& ccw);
+
+  // H of two traces given by their radial values at their samples in time order (both about
+  // one reference); `arc_deg` receives the arc compared. Throws km::InvalidInput when partial
+  // arcs do not overlap.
+  double Hysteresis(std::span<const double> vcw, std::span<const double> vccw,
+                    double* arc_deg) const;
+
+  // One query sample q of a trace against the other trace interpolated between samples i0 and
+  // i1 with weight w (indices of the samples in time order).
+  struct Interpolation {
+    std::uint32_t q, i0, i1;
+    double w;
+  };
+
+ private:
+  bool full_turn_ = true;
+  double mid_rad_ = 0.0;  // partial arcs: the angles unwrapped about it
+  std::vector<double> cw_rad_, ccw_rad_;
+  // Full turns in rotation order: the ccw samples against the cw trace and the other way.
+  std::vector<Interpolation> ccw_on_cw_, cw_on_ccw_;
+};
+
+// Same as ComputeIso230Pair(cw, ccw, dev_cw_um, dev_ccw_um) with the pair's geometry built once.
+Iso230PairFigures ComputeIso230Pair(const Iso230PairGeometry& geometry,
+                                    const CircularTestResult& cw, const CircularTestResult& ccw,
+                                    const std::vector<double>& dev_cw_um,
+                                    const std::vector<double>& dev_ccw_um);
 
 }  // namespace km::dbb
