@@ -131,10 +131,10 @@ TEST_F(ReportServiceTest, TheAuditReportListsRulesValuesFindingsAndHistory) {
                  1'775'000'000);
   RunAccuracyAudit(*svc_, "report-vmc", "manual", 1'775'000'100);
   const std::string text = Text(svc_->reports().AuditPdf("report-vmc"));
-  for (const std::string& s : std::vector<std::string>{
-           "Accuracy audit — report-vmc", "level 2 — warn", "DBB circularity F",
-           "DBB centre offset", "10.000", "within limits", "measurement #" + std::to_string(id),
-           "every 24h", "History"}) {
+  for (const std::string& s :
+       std::vector<std::string>{"Accuracy audit — report-vmc", "level 2 — warn",
+                                "DBB circularity F", "DBB centre offset", "10.000", "within limits",
+                                "measurement #" + std::to_string(id), "every 24h", "History"}) {
     EXPECT_NE(text.find(s), std::string::npos) << "missing '" << s << "' in:\n" << text;
   }
   EXPECT_THROW(svc_->reports().AuditPdf("no-such-machine"), NotFound);
