@@ -43,8 +43,11 @@ std::vector<HeldChange> HeldChanges(const EffectFitResult& fit, const MachinePhy
   }
   const double k1 = m.compliance_screw_mm_per_N;
   if (compliance && k1 != 0.0 && m.u_compliance_screw_rel > 0.0)
-    out.insert(out.begin(),
-               {{"K_stiff1_mm_per_N", "mm/N", k1, m.u_compliance_screw_rel * std::abs(k1), {}}});
+    out.insert(
+        out.begin(),
+        HeldChange{{"K_stiff1_mm_per_N", "mm/N", k1, m.u_compliance_screw_rel * std::abs(k1), {}},
+                   -1,
+                   -1});
   return out;
 }
 
