@@ -181,6 +181,12 @@ std::optional<std::string> InstrumentSerialProblem(std::string_view serial);
 std::optional<std::int64_t> IsoDateDays(std::string_view text);
 // YYYY-MM-DD of a day since 1970-01-01.
 std::string IsoDateFromDays(std::int64_t days);
+// The civil date (proleptic Gregorian) of a day since 1970-01-01 (H. Hinnant's civil_from_days).
+struct CivilDate {
+  std::int64_t year;
+  unsigned month, day;
+};
+CivilDate CivilFromDays(std::int64_t days);
 
 // Throws InvalidInput(file, line, key) when `value` is not what the header key `key` must hold
 // (the table above); any other key passes.

@@ -8,6 +8,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/iso8601.h"
+#include "ingest/text_format.h"
 
 namespace km::server {
 namespace {
@@ -18,22 +19,8 @@ constexpr std::int64_t kDay = 86400;
 constexpr std::int64_t kHorizonDays = 9 * 366;
 
 // The civil date (proleptic Gregorian) of a day number since 1970-01-01.
-struct Civil {
-  std::int64_t year;
-  unsigned month, day;
-};
-
-Civil CivilFromDays(std::int64_t z) {
-  z += 719468;
-  const std::int64_t era = (z >= 0 ? z : z - 146096) / 146097;
-  const auto doe = static_cast<unsigned>(z - era * 146097);
-  const unsigned yoe = (doe - doe / 1460 + doe / 36524 - doe / 146096) / 365;
-  const unsigned doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-  const unsigned mp = (5 * doy + 2) / 153;
-  const unsigned d = doy - (153 * mp + 2) / 5 + 1;
-  const unsigned m = mp < 10 ? mp + 3 : mp - 9;
-  return {static_cast<std::int64_t>(yoe) + era * 400 + (m <= 2), m, d};
-}
+using Civil = ingest::CivilDate;
+using ingest::CivilFromDays;
 
 std::int64_t FloorDiv(std::int64_t a, std::int64_t b) {
   return a / b - ((a % b != 0) && ((a < 0) != (b < 0)));
