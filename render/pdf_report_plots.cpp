@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "render/chart_ticks.h"
 #include "render/pdf_report_page.h"
 #include "render/polar_plot.h"
 
@@ -35,18 +36,37 @@ void Stroke(cairo_t* cr, Rgb c, double width, bool dashed = false) {
 
 const Rgb kGreen{0.16, 0.63, 0.16};
 
-// 1-2-5 ticks covering [lo, hi], about `count` of them.
-std::vector<double> Ticks(double lo, double hi, int count) {
-  const double span = hi - lo;
-  if (!(span > 0) || !std::isfinite(span)) return {lo};
-  const double raw = span / count;
-  const double e = std::pow(10.0, std::floor(std::log10(raw)));
-  const double m = raw / e;
-  const double step = (m <= 1 ? 1 : m <= 2 ? 2 : m <= 5 ? 5 : 10) * e;
-  std::vector<double> out;
-  for (double v = std::ceil(lo / step) * step; v <= hi + 1e-9 * step; v += step)
-    out.push_back(std::abs(v) < 1e-12 * step ? 0.0 : v);
-  return out;
+// The value of a limit line in its label: 3 significant digits, whole numbers from 100 up.
+std::string LimitValue(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), std::fabs(v) >= 99.95 ? "%.0f" : "%.3g", v);
+  return buf;
+}
+
+// The unit of a chart's y axis from its label: "gap rms (µm)" → " µm"; "" when it names none.
+std::string UnitOfLabel(const std::string& label) {
+  const auto open = label.rfind('(');
+  if (open == std::string::npos || !label.ends_with(')')) return "";
+  return " " + label.substr(open + 1, label.size() - open - 2);
+}
+
+void TextCentred(const Page& p, double x, double baseline, const std::string& s) {
+  p.Text(x - p.TextWidth(s) / 2, baseline, s);
+}
+
+// Whether every finite x of the chart's series and bands is a whole number (a step number).
+bool WholeX(const ReportChart& chart) {
+  const auto whole = [](const std::vector<double>& xs) {
+    return std::all_of(xs.begin(), xs.end(),
+                       [](double x) { return !std::isfinite(x) || x == std::round(x); });
+  };
+  for (const auto& s : chart.series) {
+    if (!whole(s.x)) return false;
+  }
+  for (const auto& b : chart.bands) {
+    if (!whole(b.x)) return false;
+  }
+  return true;
 }
 
 constexpr double kPolarSize = 300.0;
@@ -149,6 +169,37 @@ void DrawPolar(Page& p, const DbbPolar& polar) {
   p.Advance(12);
 }
 
+namespace {
+
+// Each limit's label above its line, at the right end (`right`) unless the series pass there,
+// else at the left (`left`); on a white ground so a line under it does not cross its letters.
+template <class Px, class Py>
+void LimitLabels(Page& p, const ReportChart& chart, double left, double right, Px px, Py py) {
+  cairo_t* cr = p.cr();
+  for (const auto& [label, v] : chart.limits) {
+    const std::string text = label + " " + LimitValue(v) + UnitOfLabel(chart.y_label);
+    const double w = p.TextWidth(text), base = py(v) - 2;
+    const auto crowded = [&](double x0) {
+      for (const auto& s : chart.series) {
+        for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+          const double x = px(s.x[i]), y = py(s.y[i]);
+          if (x >= x0 - 4 && x <= x0 + w + 4 && y >= base - 12 && y <= base + 4) return true;
+        }
+      }
+      return false;
+    };
+    double x0 = right - w;
+    if (crowded(x0) && !crowded(left)) x0 = left;
+    cairo_rectangle(cr, x0 - 1, base - 8, w + 2, 10);
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_fill(cr);
+    p.Text(x0, base, text, {0.7, 0.12, 0.07});
+    cairo_set_source_rgb(cr, 0, 0, 0);
+  }
+}
+
+}  // namespace
+
 void DrawChart(Page& p, const ReportChart& chart) {
   double xlo = std::numeric_limits<double>::infinity(), xhi = -xlo, ylo = xlo, yhi = -xlo;
   for (const auto& s : chart.series) {
@@ -176,8 +227,8 @@ void DrawChart(Page& p, const ReportChart& chart) {
   const double pad = (yhi - ylo) * 0.08 + (yhi > ylo ? 0 : 0.5);
   ylo -= pad;
   yhi += pad;
-  // The title on its line, the y axis label under it at the top of the axis.
-  const double H = kChartH, L = 58, R = 12, T = 30, B = 32;
+  // The title, the y axis label on a line of its own (clear of the top tick's label), the plot.
+  const double H = kChartH, L = 58, R = 12, T = 36, B = 32;
   p.Need(ChartHeight(chart));
   cairo_t* cr = p.cr();
   const double top = p.y();
@@ -188,25 +239,26 @@ void DrawChart(Page& p, const ReportChart& chart) {
   p.Font(10, true);
   p.Text(kMargin, top + 11, chart.title);
   p.Font(7.5);
-  for (double v : Ticks(ylo, yhi, 5)) {
+  const auto yt = AxisTicks(ylo, yhi, 5);
+  for (double v : yt) {
     cairo_move_to(cr, kMargin + L, py(v));
     cairo_line_to(cr, kMargin + kWidth - R, py(v));
     Stroke(cr, {0.88, 0.88, 0.88}, 0.4);
-    p.TextRight(kMargin + L - 4, py(v) + 2.5, Num(v));
+    p.TextRight(kMargin + L - 4, py(v) + 2.5, TickLabel(v, yt.size() > 1 ? yt[1] - yt[0] : 1));
   }
-  for (double v : Ticks(xlo, xhi, 8)) {
-    p.Text(px(v) - p.TextWidth(Num(v)) / 2, top + H - B + 10, Num(v));
+  const auto xt = AxisTicks(xlo, xhi, 8, WholeX(chart));
+  for (double v : xt) {
+    TextCentred(p, px(v), top + H - B + 10, TickLabel(v, xt.size() > 1 ? xt[1] - xt[0] : 1));
   }
   cairo_rectangle(cr, kMargin + L, top + T, kWidth - L - R, H - T - B);
   Stroke(cr, {0.5, 0.5, 0.5}, 0.6);
   p.Font(8);
   p.Text(kMargin + L, top + H - 6, chart.x_label);
-  p.Text(kMargin, top + T - 3, chart.y_label);
+  p.Text(kMargin, top + 24, chart.y_label);
   for (const auto& [label, v] : chart.limits) {
     cairo_move_to(cr, kMargin + L, py(v));
     cairo_line_to(cr, kMargin + kWidth - R, py(v));
     Stroke(cr, {0.7, 0.12, 0.07}, 0.8, true);
-    p.TextRight(kMargin + kWidth - R - 3, py(v) - 2, label + " " + Num(v));
   }
   const Rgb palette[] = {{0.04, 0.36, 0.68}, {0.71, 0.33, 0.04}, {0.06, 0.46, 0.43},
                          {0.49, 0.23, 0.93}, {0.62, 0.09, 0.30}, {0.30, 0.49, 0.06}};
@@ -264,12 +316,42 @@ void DrawChart(Page& p, const ReportChart& chart) {
     p.Text(lx + 18, ly, s.label);
     lx += 24 + std::max(80.0, p.TextWidth(s.label));
   }
+  LimitLabels(p, chart, kMargin + L + 3, kMargin + kWidth - R - 3, px, py);
   p.Advance(ly - top + 12);
 }
 
 }  // namespace km::render::pdf
 
 namespace km::render {
+
+std::vector<double> AxisTicks(double lo, double hi, int count, bool whole_numbers) {
+  const double span = hi - lo;
+  if (!(span > 0) || !std::isfinite(span) || count < 1) return {lo};
+  const double raw = span / count;
+  const double e = std::pow(10.0, std::floor(std::log10(raw)));
+  const double m = raw / e;
+  double step = (m <= 1 ? 1 : m <= 2 ? 2 : m <= 5 ? 5 : 10) * e;
+  if (whole_numbers) step = std::max(step, 1.0);
+  std::vector<double> out;
+  const double first = std::ceil(lo / step - 1e-9);
+  for (double k = first; k * step <= hi + 1e-9 * step; k += 1) {
+    const double v = k * step;
+    out.push_back(std::abs(v) < 1e-12 * step ? 0.0 : v);
+  }
+  return out;
+}
+
+std::string TickLabel(double v, double step) {
+  const int decimals =
+      step > 0 && std::isfinite(step)
+          ? std::clamp(-static_cast<int>(std::floor(std::log10(step) + 1e-9)), 0, 9)
+          : 3;
+  char buf[48];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  std::string s = buf;
+  if (s.starts_with('-') && s.find_first_not_of("0.", 1) == std::string::npos) s.erase(0, 1);
+  return s;
+}
 
 std::vector<std::size_t> PlotPoints(const std::vector<double>& y, std::size_t max_points) {
   const std::size_t n = y.size();

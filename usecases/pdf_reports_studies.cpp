@@ -1,7 +1,9 @@
 // The PDF reports of an accuracy audit and of a calibration or discovery job, and the audit
 // section of a measurement report (usecases/pdf_reports.h).
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
+#include <cstdio>
 #include <string>
 #include <utility>
 #include <vector>
@@ -302,9 +304,92 @@ render::Report AuditPdfReport(const std::string& machine_id, const json& config,
 
 namespace {
 
-// A discovery: each step's added effect and the gap before and after it, as a table and a chart.
+// A figure of a job report to 3 significant digits, whole numbers from 100 up (as the job's
+// verdict reasons print them): "0.0801", "12.3", "178483"; "—" when missing or not finite.
+std::string Sig3(const json& v) {
+  if (v.is_number_integer()) return std::to_string(v.get<long long>());
+  if (!v.is_number()) return "—";
+  const double x = v.get<double>();
+  if (!std::isfinite(x)) return "—";
+  const double a = std::fabs(x);
+  if (a >= 99.95 || a == 0.0) return Fixed(x, 0);
+  if (a < 1e-3) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%.2e", x);
+    return buf;
+  }
+  int decimals = 2 - static_cast<int>(std::floor(std::log10(a)));
+  const double rounded = std::round(a * std::pow(10.0, decimals)) / std::pow(10.0, decimals);
+  decimals = 2 - static_cast<int>(std::floor(std::log10(rounded)));  // 9.996 → "10.0"
+  return Fixed(x, std::max(decimals, 0));
+}
+
+// A value to the decimals of its σ (2 significant digits, report_text::Sigma), else Sig3.
+std::string ValueTo(const json& value, const json& sigma) {
+  if (!value.is_number()) return "—";
+  if (!sigma.is_number() || !(sigma.get<double>() > 0) || !std::isfinite(sigma.get<double>())) {
+    return Sig3(value);
+  }
+  const std::string s = report_text::Sigma(sigma);
+  const auto dot = s.find('.');
+  return Fixed(value, dot == std::string::npos ? 0 : static_cast<int>(s.size() - dot - 1));
+}
+
+std::string SigmaText(const json& sigma) {
+  return sigma.is_number() ? report_text::Sigma(sigma) : "—";
+}
+
+// An effect or parameter name as words: "servo_mismatch" → "servo mismatch".
+std::string Words(const std::string& name) {
+  return report_text::Readable(name);
+}
+
+// Rows Quantity | Value | σ | Unit of a value that is a number or an array of numbers (one row a
+// component, named by `parts`, e.g. the plane's axes "XY"); one "—" with the reason when absent.
+void ValueRows(ReportTable& t, const std::string& name, const json& value, const json& sigma,
+               const std::string& unit, const std::string& parts) {
+  if (value.is_number()) {
+    t.rows.push_back({name, ValueTo(value, sigma), SigmaText(sigma), unit});
+    return;
+  }
+  if (!value.is_array() || value.empty()) {
+    t.rows.push_back({name + " (not estimated)", "—", "", ""});
+    return;
+  }
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    const json s = sigma.is_array() && i < sigma.size() ? sigma[i] : json();
+    const std::string part =
+        value.size() == parts.size() ? std::string(1, parts[i]) : std::to_string(i + 1);
+    ValueRows(t, name + " " + part, value[i], s, unit, parts.size() == 3 ? parts : "xyz");
+  }
+}
+
+// The kinematic parameters of a hexapod ({strut_offset_um[6], base_joint_offset_um[6][3]}) with
+// their σ of the same shape: one row a strut, and a base joint's x, y and z.
+void KinematicRows(ReportTable& t, const json& params, const json& sigma) {
+  if (!params.is_object()) return;
+  std::vector<std::string> keys;  // the struts first, then the base joints and any other
+  for (const auto& [key, v] : params.items()) {
+    keys.insert(key == "strut_offset_um" ? keys.begin() : keys.end(), key);
+  }
+  for (const auto& key : keys) {
+    const auto l = report_text::LabelOf(key);
+    const json s = sigma.is_object() && sigma.contains(key) ? sigma[key] : json();
+    ValueRows(t, l.label, params[key], s, l.unit, "");
+  }
+}
+
+// A discovery: its verdict, each step's added effect and the gap before and after it, as a
+// table and a chart.
 void DiscoverySteps(render::Report& r, const json& result) {
   const json steps = result.value("steps", json::array());
+  if (result.contains("verdict") && result["verdict"].is_string()) {
+    std::string verdict = "Verdict of the study: " + result["verdict"].get<std::string>();
+    if (result.contains("stop_reason") && result["stop_reason"].is_string()) {
+      verdict += " — " + Words(result["stop_reason"].get<std::string>());
+    }
+    r.blocks.push_back(ParagraphBlock(verdict + "."));
+  }
   r.blocks.push_back(HeadingBlock("Steps: the effect added and the gap it closed"));
   ReportTable t;
   t.header = {"Step", "Effect added", "Gap before (µm)", "Gap after (µm)", "Evidence"};
@@ -317,9 +402,10 @@ void DiscoverySteps(render::Report& r, const json& result) {
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const json& s = steps[i];
     const json ev = s.value("evidence", json::object());
-    t.rows.push_back({std::to_string(i + 1), s.value("added_effect", ""),
-                      Fixed(s.value("gap_rms_before_um", json()), 3),
-                      Fixed(s.value("gap_rms_after_um", json()), 3), ev.value("sentence", "")});
+    t.rows.push_back({std::to_string(i + 1), Words(s.value("added_effect", "")),
+                      Sig3(s.value("gap_rms_before_um", json())),
+                      Sig3(s.value("gap_rms_after_um", json())),
+                      Words(ev.is_object() ? ev.value("sentence", "") : "")});
     if (i == 0) {
       gap.x.push_back(0);
       gap.y.push_back(s.value("gap_rms_before_um", 0.0));
@@ -340,37 +426,99 @@ void DiscoverySteps(render::Report& r, const json& result) {
   if (!steps.empty()) r.blocks.push_back(render::ChartBlock(std::move(c)));
 }
 
-// The fitted values with their σ: a discovery's final model, a calibration's parameters.
+// The fitted values with their σ: a discovery's final model, a calibration's parameters and
+// effects.
 void FittedValues(render::Report& r, const json& result) {
   r.blocks.push_back(HeadingBlock("Fitted values"));
   ReportTable t;
   t.header = {"Quantity", "Value", "σ", "Unit"};
   t.numeric = {false, true, true, false};
+  const std::string plane =
+      result.value("plane", json()).is_string() ? result.value("plane", "") : std::string();
   for (const auto& m : result.value("final_model", json::array())) {
+    const std::string name = Words(m.value("effect", ""));
     if (m.contains("value")) {
-      t.rows.push_back({m.value("effect", ""), Fixed(m["value"], 4),
-                        Fixed(m.value("sigma", json()), 4), m.value("unit", "")});
+      ValueRows(t, name, m["value"], m.value("sigma", json()), m.value("unit", ""), plane);
     } else if (m.contains("parameters")) {
-      t.rows.push_back({m.value("effect", ""), Short(m["parameters"]),
-                        Short(m.value("uncertainty", json())), ""});
+      KinematicRows(t, m["parameters"], m.value("uncertainty", json()));
     }
   }
-  const json params = result.value("parameters", json::object());
-  const json sigma = result.value("parameter_uncertainty_um", json::object());
-  for (const auto& [key, v] : params.items()) {
-    const auto l = report_text::LabelOf(key);
-    for (std::size_t i = 0; v.is_array() && i < v.size(); ++i) {
-      const json s = sigma.contains(key) && sigma[key].is_array() && i < sigma[key].size()
-                         ? sigma[key][i]
-                         : json();
-      t.rows.push_back({l.label + " " + std::to_string(i + 1), Short(v[i]), Short(s), l.unit});
+  KinematicRows(t, result.value("parameters", json::object()),
+                result.value("parameter_uncertainty_um", json::object()));
+  for (const auto& e : result.value("effects", json::array())) {
+    if (!e.is_object()) continue;
+    const json u = e.value("uncertainty", json::object());
+    const json p = e.value("parameters", json::object());
+    for (const auto& [key, v] : p.items()) {
+      const auto l = report_text::LabelOf(key);
+      ValueRows(t, Words(e.value("effect", "")) + ": " + l.label, v,
+                u.is_object() && u.contains(key) ? u[key] : json(), l.unit, "");
     }
   }
-  if (t.rows.empty()) t.rows.push_back({"—", "", "", ""});
+  if (t.rows.empty()) t.rows.push_back({"no fitted value in the result", "", "", ""});
   for (auto& b : report_text::BoundedTable(std::move(t),
                                            report_text::Evenly("fitted values", r.complete_at))) {
     r.blocks.push_back(std::move(b));
   }
+}
+
+// Rows Figure | Value | Unit of the numbers (and arrays of up to 3 numbers) and yes/no answers of
+// a result and of its objects one level down, to 3 significant digits.
+void FigureRows(ReportTable& t, const json& object, const std::string& prefix, int depth) {
+  static const std::vector<std::string> kSkip = {
+      "parameters", "parameter_uncertainty_um", "steps",          "final_model",
+      "effects",    "calibrated_machine",       "updated_machine"};
+  for (const auto& [key, v] : object.items()) {
+    if (std::find(kSkip.begin(), kSkip.end(), key) != kSkip.end() && depth == 0) continue;
+    const auto l = report_text::LabelOf(key);
+    const std::string name = prefix + l.label;
+    if (v.is_boolean()) {
+      t.rows.push_back({name, v.get<bool>() ? "yes" : "no", ""});
+    } else if (v.is_number()) {
+      t.rows.push_back({name, Sig3(v), l.unit});
+    } else if (v.is_array() && !v.empty() && v.size() <= 3 &&
+               std::all_of(v.begin(), v.end(), [](const json& x) { return x.is_number(); })) {
+      std::string s = "(";
+      for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + Sig3(v[i]);
+      t.rows.push_back({name, s + ")", l.unit});
+    } else if (v.is_object() && depth < 1) {
+      FigureRows(t, v, name + ": ", depth + 1);
+    }
+  }
+}
+
+// The machine a job is of: the job's machine_id (GET /api/v1/jobs/{id}), else the one its
+// request or its result names.
+std::string JobMachine(const json& job, const json& request, const json& result) {
+  for (const json* o : {&job, &request, &result}) {
+    if (o->is_object() && o->contains("machine_id") && (*o)["machine_id"].is_string() &&
+        !(*o)["machine_id"].get<std::string>().empty()) {
+      return (*o)["machine_id"].get<std::string>();
+    }
+  }
+  return "— (not recorded with the job)";
+}
+
+// "Discovery — done"; a job not finished says its stage too: "Calibration — running
+// (calibrating)".
+std::string JobState(const json& job, bool discovery) {
+  const std::string status =
+      job.value("status", json()).is_string() ? job.value("status", "") : std::string("unknown");
+  const std::string stage =
+      job.value("stage", json()).is_string() ? job.value("stage", "") : std::string();
+  std::string s = std::string(discovery ? "Discovery" : "Calibration") + " — " + status;
+  if (!stage.empty() && stage != status && status != "done" && status != "cancelled") {
+    s += " (" + stage + ")";
+  }
+  return s;
+}
+
+std::string MeasurementList(const json& request) {
+  const json ids = request.is_object() ? request.value("measurement_ids", json()) : json();
+  if (!ids.is_array() || ids.empty()) return "—";
+  std::string s;
+  for (const auto& id : ids) s += (s.empty() ? "#" : ", #") + Short(id);
+  return s;
 }
 
 }  // namespace
@@ -380,24 +528,25 @@ render::Report JobPdfReport(const json& job, const std::string& printed_at) {
   const bool discovery = kind.find("discovery") != std::string::npos;
   const json request = job.value("request", json::object());
   const json result = job.value("result", json::object());
+  const std::string status =
+      job.value("status", json()).is_string() ? job.value("status", "") : std::string();
+  const bool finished = status == "done" || status == "failed" || status == "cancelled";
   render::Report r;
   r.title = std::string(discovery ? "Model-gap discovery" : "Hexapod calibration") + " — job #" +
             Short(job.value("id", json()));
-  r.identification = {
-      {"Machine", request.is_object() ? request.value("machine_id", "—") : "—"},
-      {"Job", kind + ", " + job.value("status", "") + " (" + job.value("stage", "") + ")"},
-      {"Verdict", job.contains("verdict") && job["verdict"].is_string()
-                      ? job["verdict"].get<std::string>()
-                      : "—"},
-      {"Submitted", job.value("created_at", "")},
-      {"Finished", job.value("updated_at", "")},
-      {"Measurements",
-       request.is_object() ? Short(request.value("measurement_ids", json())) : "—"}};
+  r.identification = {{"Machine", JobMachine(job, request, result)},
+                      {"Job", JobState(job, discovery)},
+                      {"Verdict", job.contains("verdict") && job["verdict"].is_string()
+                                      ? job["verdict"].get<std::string>()
+                                      : "—"},
+                      {"Submitted", job.value("created_at", "")},
+                      {finished ? "Finished" : "Last updated", job.value("updated_at", "")},
+                      {"Measurements", MeasurementList(request)}};
   r.footer = report_text::Footer("job report #" + Short(job.value("id", json())), printed_at);
   r.complete_at = "the job's result (GET /api/v1/jobs/" + Short(job.value("id", json())) + ")";
   const json reasons = job.value("verdict_reasons", json::array());
   for (std::size_t i = 0; i < reasons.size() && i < report_text::kMaxNotes; ++i) {
-    r.blocks.push_back(ParagraphBlock(Short(reasons[i])));
+    r.blocks.push_back(ParagraphBlock(Words(Short(reasons[i]))));
   }
   if (reasons.size() > report_text::kMaxNotes) {
     r.blocks.push_back(ParagraphBlock(std::to_string(report_text::kMaxNotes) + " of " +
@@ -411,15 +560,21 @@ render::Report JobPdfReport(const json& job, const std::string& printed_at) {
     if (discovery) DiscoverySteps(r, result);
     FittedValues(r, result);
     r.blocks.push_back(HeadingBlock("Figures"));
-    for (auto& b : report_text::BoundedTable(
-             report_text::FiguresTable(
-                 result, {"parameters", "parameter_uncertainty_um", "steps", "final_model"}),
-             report_text::Evenly("figures", r.complete_at))) {
+    ReportTable figures;
+    figures.header = {"Figure", "Value", "Unit"};
+    figures.numeric = {false, true, false};
+    FigureRows(figures, result, "", 0);
+    for (auto& b : report_text::BoundedTable(std::move(figures),
+                                             report_text::Evenly("figures", r.complete_at))) {
       r.blocks.push_back(std::move(b));
     }
   }
   r.blocks.push_back(HeadingBlock("Signatures"));
-  r.blocks.push_back(render::SignatureBlock({"Calibrated by", "Approved by"}));
+  // A discovery is an analysis a second person reviews; a calibration is signed by who
+  // calibrated the machine.
+  r.blocks.push_back(
+      render::SignatureBlock(discovery ? std::vector<std::string>{"Analysed by", "Reviewed by"}
+                                       : std::vector<std::string>{"Calibrated by", "Approved by"}));
   return r;
 }
 

@@ -186,7 +186,8 @@ nlohmann::json StudyService::RunCalibrationJob(const nlohmann::json& plan_json,
 nlohmann::json StudyService::Job(std::int64_t id) {
   const auto job = job_store_.GetJob(id);
   if (!job) throw NotFound("job " + std::to_string(id) + " does not exist");
-  return JobJson(*job);
+  std::map<std::int64_t, std::string> machine_of;
+  return AnsweredJob(*job, machine_of);
 }
 
 nlohmann::json StudyService::CancelJob(std::int64_t id, const JobCanceller& by) {
@@ -210,8 +211,9 @@ nlohmann::json StudyService::CancelJob(std::int64_t id, const JobCanceller& by) 
 
 nlohmann::json StudyService::Jobs(std::int64_t limit) {
   nlohmann::json items = nlohmann::json::array();
+  std::map<std::int64_t, std::string> machine_of;  // measurement id → machine, looked up once
   for (const auto& j : job_store_.ListJobs(limit)) {
-    nlohmann::json x = JobJson(j);
+    nlohmann::json x = AnsweredJob(j, machine_of);
     x.erase("result");  // the list stays small; GET /api/v1/jobs/{id} has the result
     items.push_back(x);
   }

@@ -28,30 +28,45 @@ StudyService::StudyService(MeasurementStore& measurement_store, JobStore& job_st
   queue_.Start();
 }
 
+std::string StudyService::TestsMachine(const nlohmann::json& req,
+                                       std::map<std::int64_t, std::string>& machine_of) {
+  if (!req.is_object() || !req.contains("measurement_ids") || !req["measurement_ids"].is_array() ||
+      req["measurement_ids"].empty() || !req["measurement_ids"][0].is_number_integer()) {
+    return "";
+  }
+  const auto id = req["measurement_ids"][0].get<std::int64_t>();
+  auto it = machine_of.find(id);
+  if (it == machine_of.end()) {
+    const auto rec = measurement_store_.GetMeasurement(id);
+    it = machine_of.emplace(id, rec ? rec->machine_id : std::string()).first;
+  }
+  return it->second;
+}
+
+nlohmann::json StudyService::AnsweredJob(const JobRecord& job,
+                                         std::map<std::int64_t, std::string>& machine_of) {
+  nlohmann::json j = JobJson(job);
+  const nlohmann::json req = j.value("request", nlohmann::json());
+  const std::string machine =
+      req.is_object() && req.contains("machine_id") && req["machine_id"].is_string()
+          ? req["machine_id"].get<std::string>()
+          : TestsMachine(req, machine_of);
+  j["machine_id"] = machine.empty() ? nlohmann::json(nullptr) : nlohmann::json(machine);
+  return j;
+}
+
 nlohmann::json StudyService::JobsOfMachine(const std::string& machine_id, std::int64_t limit,
                                            std::int64_t scan) {
   std::map<std::int64_t, std::string> machine_of;  // measurement id → machine, looked up once
-  const auto test_machine = [&](std::int64_t id) -> const std::string& {
-    auto it = machine_of.find(id);
-    if (it == machine_of.end()) {
-      const auto rec = measurement_store_.GetMeasurement(id);
-      it = machine_of.emplace(id, rec ? rec->machine_id : std::string()).first;
-    }
-    return it->second;
-  };
   nlohmann::json items = nlohmann::json::array();
   for (const auto& j : job_store_.ListJobs(scan)) {
     if (static_cast<std::int64_t>(items.size()) >= limit) break;
     // The request decides; only the jobs of the machine are turned into JSON (with the verdict).
     const auto req = ingest::ParseJsonTextOrDiscarded(j.request_json);
-    bool mine = req.is_object() && req.value("machine_id", std::string()) == machine_id;
-    if (!mine && req.is_object() && req.contains("measurement_ids") &&
-        req["measurement_ids"].is_array() && !req["measurement_ids"].empty() &&
-        req["measurement_ids"][0].is_number_integer()) {
-      mine = test_machine(req["measurement_ids"][0].get<std::int64_t>()) == machine_id;
-    }
+    const bool mine = (req.is_object() && req.value("machine_id", std::string()) == machine_id) ||
+                      TestsMachine(req, machine_of) == machine_id;
     if (!mine) continue;
-    nlohmann::json x = JobJson(j);
+    nlohmann::json x = AnsweredJob(j, machine_of);
     x.erase("result");  // as Jobs: GET /api/v1/jobs/{id} has the result
     items.push_back(std::move(x));
   }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -99,6 +100,14 @@ class StudyService {
                                                 std::int64_t& version);
   nlohmann::json RunCalibrationJob(const nlohmann::json& plan, const ProgressFn& p);
   nlohmann::json RunDiscoveryJob(const nlohmann::json& plan, const ProgressFn& p);
+  // The job as GET /api/v1/jobs/{id} answers it: JobJson with "machine_id", the machine the job
+  // is of — the one its request names, else that of its first DBB test (a serial discovery);
+  // null when neither is known. `machine_of` keeps the tests' machines looked up (a list asks
+  // for many jobs of the same tests).
+  nlohmann::json AnsweredJob(const JobRecord& job, std::map<std::int64_t, std::string>& machine_of);
+  // The machine of the first DBB test a job's request lists; "" when unknown.
+  std::string TestsMachine(const nlohmann::json& request,
+                           std::map<std::int64_t, std::string>& machine_of);
 
   MeasurementStore& measurement_store_;
   JobStore& job_store_;

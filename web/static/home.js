@@ -15,7 +15,12 @@ function activityList(title, testid, items, item) {
 const isDiscovery = (j) => String(j.kind).includes('discovery');
 const jobWords = (j) => (isDiscovery(j) ? 'discovery' : 'calibration');
 const jobLink = (j) => (isDiscovery(j) ? `#/discoveries/${j.id}` : jobHash(j.id));
-const jobMachine = (j) => (j.request && typeof j.request.machine_id === 'string' ? j.request.machine_id : '');
+// The machine a job is of: the job's machine_id (its request's stored model, else the machine of
+// its DBB tests), else — an answer of an older server — the model its request names.
+const jobMachine = (j) => {
+  if (typeof j.machine_id === 'string' && j.machine_id) return j.machine_id;
+  return j.request && typeof j.request.machine_id === 'string' ? j.request.machine_id : '';
+};
 
 // unknown: the address that named nothing (shown as a message), or null.
 export async function showHome(unknown = null) {
@@ -29,7 +34,7 @@ export async function showHome(unknown = null) {
     box.replaceChildren(
       activityList('Newest uploads', 'home-uploads', meas.items || [], (m) => [h('a', { href: measurementHash(m.id) }, `${m.kind} #${m.id}`), ` ${m.test_id || ''}${m.direction ? ` ${m.direction.toUpperCase()}` : ''} of `, h('a', { href: machineHash(m.machine_id) }, m.machine_id), `, uploaded ${formatTimestamp(m.uploaded_at)}`]),
       activityList('Newest audits', 'home-audits', audits.audits || [], (a) => [h('span', { class: `level-badge level-${a.level}` }, auditWords(a.level)), ' ', h('a', { href: auditHash(a.machine_id) }, a.machine_id), `, ${formatTimestamp(a.created_at)}`]),
-      activityList('Newest studies', 'home-jobs', jobs.items || [], (j) => [h('a', { href: jobLink(j) }, `${jobWords(j)} #${j.id}`), ` ${j.status}${jobMachine(j) ? ` — ${jobMachine(j)}` : ''}, ${formatTimestamp(j.updated_at || j.created_at)}`]),
+      activityList('Newest studies', 'home-jobs', jobs.items || [], (j) => [h('a', { href: jobLink(j) }, `${jobWords(j)} #${j.id}`), ' of ', jobMachine(j) ? h('a', { href: machineHash(jobMachine(j)) }, jobMachine(j)) : 'a machine not recorded', `, ${j.status}, ${formatTimestamp(j.updated_at || j.created_at)}`]),
     );
   } catch (err) {
     if (!handleAuth(err)) box.replaceChildren(errorBox(err));
