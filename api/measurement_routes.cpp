@@ -1,6 +1,10 @@
 // Endpoints of uploads and stored measurements (list, one with its samples, results), and of the
 // views recomputed from a stored measurement: the DBB trace, CW/CCW pair and polar plot, the
 // straightness reversal, the positioning compensation table (api/endpoints.h).
+#include <charconv>
+#include <cmath>
+#include <system_error>
+
 #include "analysis/core/errors.h"
 #include "api/endpoints.h"
 #include "api/route_util.h"
@@ -16,6 +20,30 @@ server::MeasurementFilter::Order MeasurementOrder(const Request& req) {
   if (*order == "newest") return Order::kNewest;
   if (*order == "uploaded") return Order::kUploaded;
   throw InvalidInput("", 0, "order", "'" + *order + "' is none of oldest, newest, uploaded");
+}
+
+// A decimal query value in [0, most] (0 when absent): "0.5", "2"; anything else is refused
+// naming the parameter.
+double QueryMicrometres(const Request& req, const std::string& key, double most) {
+  const auto v = req.Query(key);
+  if (!v) return 0.0;
+  double out = 0.0;
+  const char* end = v->data() + v->size();
+  const auto [ptr, ec] = std::from_chars(v->data(), end, out);
+  if (ec != std::errc() || ptr != end || !std::isfinite(out) || out < 0.0 || out > most) {
+    throw InvalidInput(
+        "", 0, key,
+        "'" + *v + "' is not a number from 0 to " + std::to_string(static_cast<int>(most)));
+  }
+  return out;
+}
+
+// The name a browser saves a compensation table under: kinemetric-<id>-compensation with the
+// extension of its format (LinuxCNC's .comp file of COMP_FILE_TYPE, SINUMERIK's .spf
+// subprogram, .csv); letters, digits, '.', '-' and '_' only. Called after the format was accepted.
+std::string CompensationFileName(std::int64_t id, const std::string& format) {
+  const char* ext = format == "linuxcnc" ? ".comp" : format == "sinumerik" ? ".spf" : ".csv";
+  return "kinemetric-" + std::to_string(id) + "-compensation" + ext;
 }
 
 }  // namespace
@@ -154,9 +182,12 @@ Endpoint PositioningCompensation(const RouteContext& c) {
   return {"Laser positioning: the compensation table a controller loads (LinuxCNC, SINUMERIK, CSV)",
           [svc](const Request& req) {
             const std::string format = req.Query("format").value_or("csv");
+            const auto id = req.PathId("id");
             Response r;
             r.content_type = format == "csv" ? "text/csv" : "text/plain; charset=utf-8";
-            r.body = svc->measurements().PositioningCompensation(req.PathId("id"), format);
+            r.body = svc->measurements().PositioningCompensation(id, format);
+            r.headers["Content-Disposition"] =
+                "attachment; filename=\"" + CompensationFileName(id, format) + "\"";
             return r;
           },
           {{"parameters",
@@ -164,7 +195,11 @@ Endpoint PositioningCompensation(const RouteContext& c) {
                                "linuxcnc (nominal forward-trim reverse-trim per target), sinumerik "
                                "($AA_ENC_COMP part program), csv (default); docs/formats.md "
                                "§3.15")})},
-           {"responses", {{"200", {{"description", "the table as text"}}}}}}};
+           {"responses",
+            {{"200",
+              {{"description",
+                "the table as text, Content-Disposition: attachment; filename=\"kinemetric-{id}-"
+                "compensation.comp|.spf|.csv\""}}}}}}};
 }
 
 Endpoint DbbPlotPng(const RouteContext& c) {
@@ -172,7 +207,7 @@ Endpoint DbbPlotPng(const RouteContext& c) {
   return {"DBB: polar plot (both directions when the partner test is stored)",
           [svc](const Request& req) {
             render::PolarPlotOptions o;
-            o.um_per_div = static_cast<double>(QueryInt(req, "um_per_div", 0, 0, 10000));
+            o.um_per_div = QueryMicrometres(req, "um_per_div", 10000.0);
             o.divisions = static_cast<int>(QueryInt(req, "divisions", 0, 0, 50));
             if ((o.um_per_div > 0.0) != (o.divisions > 0)) {
               throw InvalidInput("", 0, o.divisions > 0 ? "um_per_div" : "divisions",
@@ -184,8 +219,9 @@ Endpoint DbbPlotPng(const RouteContext& c) {
             return r;
           },
           {{"parameters",
-            json::array({Param("um_per_div", "integer",
-                               "fixed scale: micrometres per division (with divisions)"),
+            json::array({Param("um_per_div", "number",
+                               "fixed scale: micrometres per division, a decimal such as 0.5 (with "
+                               "divisions)"),
                          Param("divisions", "integer",
                                "fixed scale: divisions of the band (with um_per_div); plots "
                                "with the same pair share one magnification")})},

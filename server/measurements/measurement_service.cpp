@@ -237,8 +237,20 @@ nlohmann::json MeasurementService::MeasurementWithSamples(std::int64_t id) {
     samples[block.columns[c]] = block.Column(c);
   }
   j["samples"] = samples;
+  j["partner_id"] = nlohmann::json(nullptr);
+  if (const auto partner = PartnerOf(*rec)) j["partner_id"] = *partner;
   if (judges_) j["conformance"] = Judge(judges_(), *rec, store_.GetResults(id));
   return j;
+}
+
+std::optional<std::int64_t> MeasurementService::PartnerOf(const MeasurementRecord& rec) {
+  if (rec.kind == "dbb" && (rec.direction == "ccw" || rec.direction == "cw")) {
+    return DbbPartner(rec);
+  }
+  if (rec.kind == "straightness" && (rec.direction == "a" || rec.direction == "b")) {
+    return NearestPartner(rec, rec.direction == "a" ? "b" : "a");
+  }
+  return std::nullopt;
 }
 
 std::vector<MachineSummary> MeasurementService::Machines() {

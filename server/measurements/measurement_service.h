@@ -82,8 +82,8 @@ class MeasurementService {
   // Measurement metadata matching the filter: {"items": [MeasurementJson… + "key_result",
   // "conformance"], "total"}.
   nlohmann::json ListMeasurements(const MeasurementFilter& filter);
-  // One measurement: MeasurementJson plus "metadata", "samples" (one array per column) and
-  // "conformance"; NotFound when there is none.
+  // One measurement: MeasurementJson plus "metadata", "samples" (one array per column),
+  // "partner_id" (PartnerOf, or null) and "conformance"; NotFound when there is none.
   nlohmann::json MeasurementWithSamples(std::int64_t id);
   // Machines with stored measurements or a stored model.
   std::vector<MachineSummary> Machines();
@@ -110,6 +110,9 @@ class MeasurementService {
   // The stored opposite-direction test of a DBB test (same machine and test, nearest in time);
   // none when there is none.
   std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
+  // The measurement GET …/pair (a DBB test) or GET …/reversal (a straightness set-up a or b)
+  // pairs this one with; none for other kinds or when the partner is not stored.
+  std::optional<std::int64_t> PartnerOf(const MeasurementRecord& rec);
 
  private:
   std::optional<std::int64_t> NearestPartner(const MeasurementRecord& rec,
