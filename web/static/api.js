@@ -121,6 +121,23 @@ export async function apiFetchBlob(path, accept = 'image/png') {
   return response.blob();
 }
 
+// A file the server offers for saving (Content-Disposition: attachment; filename="…"):
+// {blob, filename}, the name kept to letters, digits, '.', '-' and '_' (else `fallback`).
+export async function apiFetchFile(path, fallback, accept = 'text/plain') {
+  const headers = { Accept: accept };
+  const token = currentToken();
+  if (token) headers.Authorization = `Bearer ${token}`;
+  let response;
+  try {
+    response = await fetch(path, { headers, cache: 'no-store' });
+  } catch (err) {
+    throw new ApiError(0, { title: 'Server not reachable', detail: `Could not contact the kinemetric server (${err.message}).` });
+  }
+  if (!response.ok) throw new ApiError(response.status, await readProblem(response));
+  const named = /filename="([\w.-]+)"/.exec(response.headers.get('Content-Disposition') || '');
+  return { blob: await response.blob(), filename: named ? named[1] : fallback };
+}
+
 export const api = {
   machines: () => apiFetch('/api/v1/machines'),
   // One page of a machine's measurements; filters: kind, test_id, from, to (ISO 8601), q (free
@@ -141,7 +158,11 @@ export const api = {
     }),
   // The straightness reversal of a set-up with the other of its pair (404 when that is not stored).
   reversal: (id) => apiFetch(`/api/v1/measurements/${encodeURIComponent(id)}/reversal`),
-  plotPng: (id) => apiFetchBlob(`/api/v1/measurements/${encodeURIComponent(id)}/plot.png`),
+  // The server's polar plot; at the page's scale (µm a division, divisions each side) when given.
+  plotPng: (id, scale = null) => {
+    const fixed = scale && scale.umPerDiv > 0 && scale.divisions > 0 ? `?${new URLSearchParams({ um_per_div: String(scale.umPerDiv), divisions: String(scale.divisions) })}` : '';
+    return apiFetchBlob(`/api/v1/measurements/${encodeURIComponent(id)}/plot.png${fixed}`);
+  },
   // Hexapod calibration study → 202 {job_id}; the job is polled with job(id).
   calibrate: (body) =>
     apiFetch('/api/v1/calibrations', {

@@ -120,6 +120,13 @@ async function applyHome(unknown) {
   await showHome(unknown);
 }
 
+// On a narrow screen the access-token form is folded behind the top bar's button (open while no
+// token is set); on a wide one the button is not shown and the form always is.
+function setTokenMenu(open) {
+  $('.topbar').classList.toggle('menu-open', open);
+  $('#menu-button').setAttribute('aria-expanded', String(open));
+}
+
 function onTokenSubmit(event) {
   event.preventDefault();
   const value = $('#token-input').value.trim();
@@ -129,12 +136,14 @@ function onTokenSubmit(event) {
   }
   setToken(value);
   $('#token-input').value = '';
+  setTokenMenu(false);
   tokenChanged();
   start2();
 }
 
 function onTokenForget() {
   setToken('');
+  setTokenMenu(true);
   tokenChanged();
   state.machines = [];
   state.machineId = null;
@@ -164,6 +173,8 @@ function start() {
   updateTokenStatus();
   $('#token-form').addEventListener('submit', onTokenSubmit);
   $('#token-forget').addEventListener('click', onTokenForget);
+  $('#menu-button').addEventListener('click', () => setTokenMenu(!$('.topbar').classList.contains('menu-open')));
+  setTokenMenu(!getToken());
   $('#machines-refresh').addEventListener('click', () => loadMachines());
   initUpload();
   initMeasurementList();

@@ -10,7 +10,7 @@
 import { ApiError, api } from './api.js';
 import { handleAuth } from './auth.js';
 import { $, asProblem, errorBox, h, problemContent, setMessage } from './dom.js';
-import { auditWords, formatDirection, formatTimestamp } from './format.js';
+import { auditWords, formatDirection, formatTimestamp, plural } from './format.js';
 import { auditHash, jobHash, measurementHash, trendsHash } from './router.js';
 import { refusalContent } from './roles.js';
 import { checkRules, DEFAULT_MAX_AGE_DAYS, metricUnit, ruleEditor } from './audit_form.js';
@@ -92,7 +92,7 @@ function limitsText(rule, unit) {
   if (num(rule.stop) !== null) parts.push(`stop ${fmt(rule.stop)}`);
   const u = unit ? ` ${unit}` : '';
   if (rule.change === 'previous_audit') return `increase since the previous audit: ${parts.join(', ')}${u}`;
-  if (rule.change === 'days') return `increase over ${rule.days} days: ${parts.join(', ')}${u}`;
+  if (rule.change === 'days') return `increase over ${plural(rule.days, 'day')}: ${parts.join(', ')}${u}`;
   return `${parts.join(', ')}${u}`;
 }
 
@@ -109,7 +109,7 @@ function ruleRow(rule, index, checked, metrics, pairNotes, compact) {
   const entries = (checked || []).filter((x) => x.rule === index);
   const c = worstOf(entries);
   const scope = scopeText(rule);
-  const where = c && entries.length > 1 && setUpText(c) ? ` (${setUpText(c)}, the worst of ${entries.length} set-ups)` : c && setUpText(c) ? ` (${setUpText(c)})` : '';
+  const where = c && entries.length > 1 && setUpText(c) ? ` (${setUpText(c)}, the worst of ${plural(entries.length, 'set-up')})` : c && setUpText(c) ? ` (${setUpText(c)})` : '';
   const cells = [
     h('th', { scope: 'row' }, `${rule.kind} ${rule.metric}`, scope ? h('span', { class: 'rule-scope', 'data-testid': 'audit-rule-scope' }, ` — ${scope}`) : ''),
     h('td', {}, limitsText(rule, unit)),
@@ -202,7 +202,7 @@ function staleList(verdict, audit) {
     'div',
     { class: 'audit-stale', 'data-testid': 'audit-stale' },
     h('h3', {}, 'Stale set-ups'),
-    h('p', { class: 'note' }, `Their newest test is older than ${days} days: measure them again. ${warns ? 'The audit counts each as a level-2 finding.' : 'The audit lists them without a finding.'}`),
+    h('p', { class: 'note' }, `Their newest test is older than ${plural(days, 'day')}: measure them again. ${warns ? 'The audit counts each as a level-2 finding.' : 'The audit lists them without a finding.'}`),
     h(
       'ul',
       { class: 'findings' },
@@ -325,7 +325,7 @@ export async function showAudit(machineId) {
         levelBadge(data.latest),
         data.latest ? ` — audit #${data.latest.id} of ${formatTimestamp(data.latest.created_at)} (${data.latest.trigger === 'schedule' ? 'scheduled' : 'on request'})` : '',
         data.audit ? ` · schedule: ${data.audit.schedule || 'on request only'}` : '',
-        data.audit ? ` · stale after ${Number.isInteger(data.audit.max_age_days) ? data.audit.max_age_days : DEFAULT_MAX_AGE_DAYS} days${data.audit.stale === 'warn' ? ' (level 2)' : ''}` : '',
+        data.audit ? ` · stale after ${plural(Number.isInteger(data.audit.max_age_days) ? data.audit.max_age_days : DEFAULT_MAX_AGE_DAYS, 'day')}${data.audit.stale === 'warn' ? ' (level 2)' : ''}` : '',
         data.audit && data.audit.next_run_at ? `, next ${formatTimestamp(data.audit.next_run_at)}` : '',
         ' · ',
         h('a', { href: trendsHash(machineId), 'data-testid': 'audit-trends-link' }, 'trends'),

@@ -7,7 +7,7 @@ import { api, ApiError } from './api.js';
 import { handleAuth } from './auth.js';
 import { JOB_STATUS, JOB_VERDICT } from './contract.js';
 import { $, asProblem, downloadText, errorBox, h, keepFocus, problemContent, setMessage } from './dom.js';
-import { formatDirection, formatMode, formatNumber, formatTimestamp, formatUncertainty } from './format.js';
+import { formatDirection, formatMode, formatNumber, formatTimestamp, formatUncertainty, plural } from './format.js';
 import { cancelledContent, jobCancelControl } from './job_cancel.js';
 import { pollJob, selectMachineOfJob } from './job_poll.js';
 import { jobHash, navigate } from './router.js';
@@ -153,7 +153,7 @@ export async function loadJobHistory() {
                 `${KIND_WORDS[j.kind] || String(j.kind).replace(/_/g, ' ')} #${j.id}`,
                 h('span', { class: `badge job-${j.verdict || j.status}` }, j.verdict || j.status),
               ),
-              h('span', { class: 'item-meta' }, `${(j.request?.measurement_ids || []).length} tests · ${formatTimestamp(j.created_at)}`),
+              h('span', { class: 'item-meta' }, `${plural((j.request?.measurement_ids || []).length, 'test')} · ${formatTimestamp(j.created_at)}`),
             ),
           ),
         ),

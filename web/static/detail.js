@@ -9,13 +9,13 @@ import { $, downloadText, errorBox, h, toCsv } from './dom.js';
 import { renderAnalysis, resetAnalysis } from './diagnosis.js';
 import { renderFigures } from './figures.js';
 import { formatDirection, formatNumber, formatTimestamp } from './format.js';
-import { renderFormPlot, renderTrackerPlot } from './formplots.js';
+import { formSetup, renderFormPlot, renderTrackerPlot } from './formplots.js';
 import { resetReversal, showReversal } from './reversal.js';
 import { markCurrent } from './measurements.js';
 import { renderPolarPlot } from './polar.js';
 import { renderServoForce } from './servo.js';
 import { shell } from './shell.js';
-import { renderPositioningPlot } from './positioning.js';
+import { compensationBlock, positioningConditions, renderPositioningPlot } from './positioning.js';
 import { FORM_KINDS, WIDE_KINDS, state } from './state.js';
 import { conformancePanel } from './tolerances.js';
 
@@ -163,11 +163,18 @@ async function showOther(seq, item, measurement) {
   }
   renderFigures(fetched, { kind: item.kind });
   renderConditions([{ item, metadata: measurement.metadata || {} }]);
+  if (FORM_KINDS.includes(item.kind)) $('#conditions').prepend(formSetup(item, measurement.metadata || {}, results));
+  if (item.kind === 'positioning') {
+    $('#conditions').append(positioningConditions(results));
+    $('#figures-extra').prepend(compensationBlock(item));
+  }
 }
 
-// The test and, when the server pairs it, exactly the partner /pair names.
+// The test and, when the server pairs it, exactly the partner /pair names. /pair is asked only
+// when the measurement names a partner (partner_id; a server without it is asked anyway).
 async function showDbb(seq, item, measurement) {
-  const [own, pair] = await Promise.all([fetchDbbFile(item.id, measurement), api.pair(item.id).catch((err) => ({ error: err }))]);
+  const paired = measurement.partner_id !== null;
+  const [own, pair] = await Promise.all([fetchDbbFile(item.id, measurement), paired ? api.pair(item.id).catch((err) => ({ error: err })) : null]);
   if (seq !== state.selectSeq) return;
   const pairError = pair && pair.error ? pair.error : null;
   if (pairError && handleAuth(pairError)) return;
@@ -343,7 +350,8 @@ async function openPlotPng() {
   if (!id) return;
   button.disabled = true;
   try {
-    const blob = await api.plotPng(id);
+    const svg = $('#polar-plot svg.polar');
+    const blob = await api.plotPng(id, svg ? { umPerDiv: Number(svg.dataset.umPerDiv), divisions: Number(svg.dataset.divisions) } : null);
     if (state.pngUrl) URL.revokeObjectURL(state.pngUrl);
     state.pngUrl = URL.createObjectURL(blob);
     const img = $('#png-image');
@@ -399,6 +407,10 @@ async function savePlotPng() {
   if (!svg) return;
   const copy = svg.cloneNode(true);
   inlineStyles(svg, copy);
+  // A margin round the drawing, so that no label at its edge ("180°") is cut off.
+  const [x0, y0, w0, h0] = svg.getAttribute('viewBox').split(/\s+/).map(Number);
+  const margin = 0.08 * w0;
+  copy.setAttribute('viewBox', `${x0 - margin} ${y0 - margin} ${w0 + 2 * margin} ${h0 + 2 * margin}`);
   const W = 900;
   const plotH = 900;
   const lines = [$('#detail-heading').textContent, ...keyFigureLines()];

@@ -10,7 +10,7 @@ import { renderGapChart } from './discovery_chart.js';
 import { $, asProblem, h, problemContent, setMessage } from './dom.js';
 import { ctx, newFormHash } from './discovery_ctx.js';
 import { effectInText, effectLabel, fixedText, pValueNodes, parameterWords, pct, plain, um, valuePm, variantWords } from './discovery_words.js';
-import { displayUnit, effectWords, formatDirection } from './format.js';
+import { displayUnit, effectWords, formatDirection, plural } from './format.js';
 
 const result = { jsonUrl: null }; // object URL of the result JSON offered for download
 
@@ -269,7 +269,7 @@ function testGapsBox(r) {
   return h(
     'details',
     { class: 'disc-more', 'data-testid': 'disc-test-gaps' },
-    h('summary', {}, `Gap of each test at each step (${base.length} tests)`),
+    h('summary', {}, `Gap of each test at each step (${plural(base.length, 'test')})`),
     h(
       'div',
       { class: 'table-scroll' },

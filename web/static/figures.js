@@ -2,7 +2,7 @@
 // figures, and the tables of arrays in the results (periodic components, decomposition, …).
 
 import { $, downloadText, h, toCsv } from './dom.js';
-import { formatDirection, formatMode, formatNumber, formatUncertainty, fullLabelOf, labelOf, unitOf } from './format.js';
+import { formatDirection, formatMode, formatNumber, formatTimestamp, formatUncertainty, fullLabelOf, labelOf, unitOf } from './format.js';
 
 export const LEAD_ROWS = ['test_id', 'direction', 'mode', 'centre_offset_x_um', 'centre_offset_y_um', 'average_radial_error_um', 'circularity_um'];
 
@@ -66,16 +66,20 @@ const CAPTIONS = {
 // Arrays drawn as charts / tables of their own rather than as rows of the figures table.
 const OWN_VIEWS = new Set(['harmonics', 'diagnosis', 'not_identifiable', 'periodic', 'references', 'measurement', 'decomposition', 'transform', 'point_ids', 'targets', 'compensation', 'uncertainty', 'instrument']);
 
+// Objects of a kind's results shown in a block of their own (the conditions of a positioning
+// test: air and material, positioning.js), not as rows of the figures table.
+const OWN_BLOCKS = { positioning: new Set(['air', 'material', 'warnings']) };
+
 // Bookkeeping of the analysis rather than figures of the machine: not rows of the table (the
 // evaluated arc is a row once, at the top level; the versions stay in the JSON and CSV).
 const INTERNAL = new Set(['analysis_version', 'iso230_4.evaluated_arc_deg', 'iso230_4.deviation_units', 'iso230_4.radial_reference', 'iso230_4.evaluated_over']);
 
 // Flattens one results object into {key: value} rows; arrays of objects are returned apart.
-function flattenResults(results) {
+function flattenResults(results, kind) {
   const flat = {};
   const tables = {};
   for (const [key, value] of Object.entries(results || {})) {
-    if (OWN_VIEWS.has(key) || INTERNAL.has(key)) continue;
+    if (OWN_VIEWS.has(key) || INTERNAL.has(key) || OWN_BLOCKS[kind]?.has(key)) continue;
     if (key === 'rejected_readings' && Array.isArray(value)) {
       flat.rejected_readings_count = value.length; // the list itself is a table below
       if (value.length && value.every((v) => v && typeof v === 'object')) tables[key] = value;
@@ -103,6 +107,8 @@ function cellText(key, value) {
   if (value === undefined || value === null) return '—';
   if (key === 'direction') return formatDirection(value);
   if (key === 'mode') return formatMode(value);
+  if (typeof value === 'boolean') return value ? 'yes' : 'no';
+  if (key === 'timestamp') return formatTimestamp(value);
   if (typeof value === 'number') return formatNumber(value, key.split('.').pop());
   if (Array.isArray(value)) {
     const leaf = key.split('.').pop();
@@ -183,7 +189,7 @@ function uncertaintyBudget(columns) {
 }
 
 export function renderFigures(fetched, { kind = 'dbb', pair = null } = {}) {
-  const columns = fetched.map((f) => ({ item: f.item, uncertainty: f.results?.uncertainty || null, ...flattenResults(f.results) }));
+  const columns = fetched.map((f) => ({ item: f.item, uncertainty: f.results?.uncertainty || null, ...flattenResults(f.results, kind) }));
   const lead = KIND_ROWS[kind] || [];
   // Row order: the lead rows, then every other numeric key, then other values (e.g. versions).
   const seen = new Set();

@@ -67,6 +67,26 @@ const LABELS = {
   readings_used: 'Readings used',
   unknowns: 'Unknowns',
   iterations: 'Iterations',
+  // Laser positioning (ISO 230-2): the letters of the standard after the words.
+  axis: 'Axis',
+  accuracy_um: 'Accuracy A',
+  reversal_value_um: 'Reversal value B',
+  systematic_deviation_um: 'Systematic positioning error E',
+  mean_deviation_range_um: 'Range of the mean bidirectional deviation M',
+  repeatability_um: 'Repeatability R',
+  accuracy_up_um: 'Accuracy A↑ (towards +)',
+  accuracy_down_um: 'Accuracy A↓ (towards −)',
+  repeatability_up_um: 'Repeatability R↑ (towards +)',
+  repeatability_down_um: 'Repeatability R↓ (towards −)',
+  systematic_deviation_up_um: 'Systematic positioning error E↑ (towards +)',
+  systematic_deviation_down_um: 'Systematic positioning error E↓ (towards −)',
+  mean_reversal_value_um: 'Mean reversal value B̄',
+  iso230_2_compliant: 'ISO 230-2 compliant',
+  runs: 'Runs',
+  target_count: 'Targets',
+  readings: 'Readings',
+  cycle: 'Cycle',
+  timestamp: 'Measured at',
 };
 
 // Dotted keys (nested objects of the results) whose label is not "parent: leaf".
@@ -77,6 +97,10 @@ const FULL_LABELS = {
   'min_zone_plane.slope_x_um_per_m': 'Minimum-zone plane: slope in X',
   'min_zone_plane.slope_y_um_per_m': 'Minimum-zone plane: slope in Y',
   'min_zone_plane.offset_um': 'Minimum-zone plane: height at x = y = 0',
+  'vdi3441.P_um': 'VDI 3441 P (position uncertainty)',
+  'vdi3441.Pa_um': 'VDI 3441 Pa (positional deviation)',
+  'vdi3441.Ps_um': 'VDI 3441 Ps (positional scatter)',
+  'vdi3441.U_um': 'VDI 3441 U (reversal span)',
 };
 
 export function fullLabelOf(key) {
@@ -173,6 +197,12 @@ export function formatDirection(d) {
 
 export function formatMode(m) {
   return MODE_LABELS[m] || (m ? String(m) : '—');
+}
+
+// A count with its noun in the right number: plural(1, 'gap') → "1 gap", plural(3, 'gap') →
+// "3 gaps", plural(2, 'entry', 'entries'); `text` writes the number (e.g. with thin spaces).
+export function plural(n, one, many = `${one}s`, text = String) {
+  return `${text(n)} ${Number(n) === 1 ? one : many}`;
 }
 
 // Every time the page shows, in UTC and saying so, as the PDF reports print them:

@@ -7,6 +7,32 @@ import { $, h } from './dom.js';
 import { formatNumber } from './format.js';
 import { renderTrackerVectorPlot } from './tracker.js';
 
+// The set-up of a form measurement from its header (docs/formats.md §1.3–1.5) and result:
+// the travel axis, the direction of the error, the sensor, the artefact read, the reference of
+// the figures. A flatness grid has no axis: its plane is XY, its error Z (columns x, y, z).
+const words = (v) => (v === undefined || v === null || v === '' ? null : String(v).replace(/_/g, ' '));
+
+export function formSetup(item, meta, results) {
+  const m = { ...(results?.measurement || {}), ...meta };
+  const flat = item.kind === 'flatness';
+  const reversal = m.reversal ? `set-up ${m.reversal} of pair “${m.pair_id || ''}”${m.reversal_setup === 'artefact_and_sensor' ? ' (artefact and sensor turned over)' : ''}` : null;
+  const rows = [
+    ['axis', flat ? 'Plane' : 'Axis (travel)', flat ? 'XY' : words(m.axis)],
+    ['error_direction', 'Error direction', flat ? 'Z (height)' : words(m.error_direction)],
+    ['sensor', 'Sensor', words(m.sensor) || 'not stated in the file'],
+    ['reference', 'Reference (artefact read)', words(m.reference ?? m.artefact) || (m.datum ? `the ${words(m.datum)}` : 'not stated in the file')],
+    ['datum', 'Datum', flat || item.kind === 'parallelism' ? words(m.datum) || 'not stated in the file' : null],
+    ['figures_reference', 'Figures about', words(results?.reference)],
+    ['reversal', 'Reversal', reversal],
+  ].filter((r) => r[2]);
+  return h(
+    'table',
+    { class: 'figures small form-setup', 'data-testid': 'form-setup' },
+    h('caption', {}, 'Set-up'),
+    h('tbody', {}, ...rows.map(([key, label, v]) => h('tr', { 'data-key': key }, h('th', { scope: 'row' }, label), h('td', { class: 'text' }, v)))),
+  );
+}
+
 function sampleColumns(f) {
   const s = f?.measurement?.samples || {};
   return s;

@@ -13,12 +13,15 @@ const PX_PER_DIV = 36; // ring spacing, px
 const RINGS = 3; // rings on each side of the nominal circle
 const FILL_DIVS = 2.6; // the largest |error| uses at most this many divisions
 
+// The colours of the server's plot (render/dbb_plot.cpp: CCW blue, CW red), so that the page's
+// plot, its saved PNG and the server's PNG and PDF read alike.
 export const DIRECTION_STYLE = {
-  ccw: { colour: '#0b5cad', dash: '', label: 'CCW (counter-clockwise)' },
-  cw: { colour: '#c2410c', dash: '7 4', label: 'CW (clockwise)' },
+  ccw: { colour: '#143cc8', dash: '', label: 'CCW (counter-clockwise)' },
+  cw: { colour: '#d21e1e', dash: '7 4', label: 'CW (clockwise)' },
 };
 
-// Chooses the scale shared by all traces: µm per division from the 1-2-5 series.
+// Chooses the scale shared by all traces: µm per division from the 1-2-5 series (the server's
+// render::DbbPageScale is the same rule, for the PDF; the server's PNG is asked at this scale).
 export function chooseScale(traces) {
   let maxAbs = 0;
   for (const t of traces) {
@@ -57,6 +60,7 @@ export function renderPolarPlot(traces, { title = 'DBB polar plot' } = {}) {
     role: 'img',
     class: 'polar',
     'data-um-per-div': umPerDiv,
+    'data-divisions': RINGS,
     'data-px-per-um': pxPerUm,
     'data-nominal-px': R0,
     'data-magnification': mag ? r2(mag) : '',

@@ -3,9 +3,11 @@
 // and the axis figures A, B, E, M, R written on the chart. Data attributes carry the plotted
 // numbers so the chart can be checked against the API.
 
+import { apiFetchFile } from './api.js';
+import { handleAuth } from './auth.js';
 import { axesGrid, el, r2, ticks } from './charts.js';
-import { $, h } from './dom.js';
-import { formatNumber } from './format.js';
+import { $, asProblem, h, problemContent, setMessage } from './dom.js';
+import { formatNumber, plural } from './format.js';
 
 const DIRS = [
   { key: 'up', arrow: '↑', cls: 'dir-up' },
@@ -114,6 +116,93 @@ export function renderPositioningPlot(item, f) {
   if (r.material?.applied) corrections.push(`material to 20 °C: ${formatNumber(r.material.correction_at_end_um)} µm at the end`);
   note.textContent =
     `ISO 230-2 ${r.iso230_2_compliant ? '' : '(not compliant: ' + (r.warnings || []).join('; ') + ') '}` +
-    `— ${r.runs} runs, ${r.target_count} targets, ${r.cycle} cycle` +
+    `— ${plural(r.runs, 'run')}, ${plural(r.target_count, 'target')}, ${r.cycle} cycle` +
     (corrections.length ? `; corrections applied: ${corrections.join('; ')}` : '; no corrections applied') + '.';
+}
+
+// ---------------------------------------------------------------- conditions, compensation
+
+const fixedOr = (v, d) => (typeof v === 'number' && Number.isFinite(v) ? v.toFixed(d) : '—');
+
+// The air and the material during the test and the corrections made of them, in words and
+// units (as the PDF report's conditions): a block of its own, not rows of the figures.
+export function positioningConditions(r) {
+  const air = r?.air || {};
+  const mat = r?.material || {};
+  const rows = [
+    ['air_temperature_c', 'Air temperature', fixedOr(air.air_temperature_c, 2), '°C'],
+    ['air_pressure_pa', 'Air pressure', fixedOr(air.air_pressure_pa / 100, 1), 'hPa'],
+    ['air_humidity_pct', 'Air humidity (relative)', fixedOr(air.air_humidity_pct, 1), '%'],
+    ['co2_ppm', 'CO₂ content of the air', fixedOr(air.co2_ppm, 0), 'ppm'],
+    ['laser_wavelength_nm', 'Laser wavelength (vacuum)', fixedOr(air.laser_wavelength_nm, 3), 'nm'],
+    ['refractive_index', 'Refractive index of the air', fixedOr(air.refractive_index, 9), ''],
+    ['material_temperature_c', 'Material temperature', fixedOr(mat.material_temperature_c, 2), '°C'],
+    ['reference_temperature_c', 'Reference temperature', fixedOr(mat.reference_temperature_c, 2), '°C'],
+    ['expansion_ppm_per_k', 'Expansion coefficient α', fixedOr(mat.expansion_ppm_per_k, 2), 'µm/(m·K)'],
+  ].filter(([key]) => typeof (key in air ? air : mat)[key] === 'number');
+  const correction = (o, what) => [what, o.applied ? 'yes' : 'no', o.applied ? `${formatNumber(o.correction_at_end_um, '_um')} µm at ${formatNumber(o.end_of_axis_mm, '_mm')} mm` : '—'];
+  const corrections = [];
+  if (r?.air) corrections.push(['air', ...correction(air, 'Air: the laser wavelength in the air (refractive index)')]);
+  if (r?.material) corrections.push(['material', ...correction(mat, 'Material: the length at the reference temperature (expansion)')]);
+  return h(
+    'section',
+    { class: 'positioning-conditions', 'data-testid': 'positioning-conditions' },
+    h('h3', {}, 'Conditions of the measurement'),
+    h(
+      'table',
+      { class: 'figures small' },
+      h('thead', {}, h('tr', {}, h('th', { scope: 'col' }, 'Condition'), h('th', { scope: 'col', class: 'num' }, 'Value'), h('th', { scope: 'col', class: 'unit' }, 'Unit'))),
+      h('tbody', {}, ...rows.map(([key, label, v, unit]) => h('tr', { 'data-key': key }, h('th', { scope: 'row' }, label), h('td', { class: 'num' }, v), h('td', { class: 'unit' }, unit)))),
+    ),
+    air.equation ? h('p', { class: 'note' }, `The refractive index of the air from the ${air.equation}.`) : '',
+    corrections.length
+      ? h(
+          'table',
+          { class: 'figures small', 'data-testid': 'positioning-corrections' },
+          h('thead', {}, h('tr', {}, h('th', { scope: 'col' }, 'Correction of the readings'), h('th', { scope: 'col' }, 'Applied'), h('th', { scope: 'col', class: 'num' }, 'At the end of the axis'))),
+          h('tbody', {}, ...corrections.map(([key, what, applied, size]) => h('tr', { 'data-key': key }, h('th', { scope: 'row' }, what), h('td', { 'data-key': 'applied' }, applied), h('td', { class: 'num' }, size)))),
+        )
+      : '',
+  );
+}
+
+// The compensation table a controller loads (GET …/compensation?format=), saved under the
+// server's file name.
+const COMPENSATION_FORMATS = [
+  ['linuxcnc', 'LinuxCNC (.comp)', 'kinemetric-compensation.comp'],
+  ['sinumerik', 'SINUMERIK (.spf)', 'kinemetric-compensation.spf'],
+  ['csv', 'CSV', 'kinemetric-compensation.csv'],
+];
+
+async function saveCompensation(id, format, fallback, status) {
+  try {
+    const { blob, filename } = await apiFetchFile(`/api/v1/measurements/${encodeURIComponent(id)}/compensation?format=${format}`, fallback);
+    const url = URL.createObjectURL(blob);
+    const a = h('a', { href: url, download: filename, hidden: true });
+    document.body.append(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 30_000);
+    setMessage(status, 'success', `Saved as ${filename}.`);
+  } catch (err) {
+    if (!handleAuth(err)) setMessage(status, 'error', ...problemContent(asProblem(err, 'No compensation table')));
+  }
+}
+
+export function compensationBlock(item) {
+  const status = h('div', { class: 'message', 'data-testid': 'compensation-status', 'aria-live': 'polite', hidden: true });
+  return h(
+    'section',
+    { class: 'compensation-downloads no-print', 'data-testid': 'compensation-downloads' },
+    h('h3', {}, 'Compensation table for the controller'),
+    h('p', { class: 'note' }, 'The trims of each target, as the control loads them: LinuxCNC screw compensation (COMP_FILE_TYPE 1), a SINUMERIK leadscrew error compensation program, or CSV.'),
+    h(
+      'p',
+      { class: 'dialog-actions' },
+      ...COMPENSATION_FORMATS.map(([format, label, fallback]) =>
+        h('button', { type: 'button', class: 'secondary small', 'data-testid': `compensation-${format}`, 'data-format': format, onclick: () => saveCompensation(item.id, format, fallback, status) }, label),
+      ),
+    ),
+    status,
+  );
 }

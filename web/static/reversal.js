@@ -56,10 +56,13 @@ export async function showReversal(item, measurement, isCurrent) {
   box.hidden = true;
   if (item.kind !== 'straightness' || !measurement?.metadata?.reversal) return;
   let out = null;
-  try {
-    out = await api.reversal(item.id);
-  } catch (err) {
-    if (!(err instanceof ApiError) || err.status !== 404) throw err;
+  // Asked only when the measurement names the other set-up (partner_id null: not stored).
+  if (measurement.partner_id !== null) {
+    try {
+      out = await api.reversal(item.id);
+    } catch (err) {
+      if (!(err instanceof ApiError) || err.status !== 404) throw err;
+    }
   }
   if (!isCurrent()) return;
   if (!out || !out.reversal) {

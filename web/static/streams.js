@@ -6,9 +6,9 @@
 import { apiFetch } from './api.js';
 import { shell } from './shell.js';
 import { mayDo } from './roles.js';
-import { axesGrid, el, r2, ticks } from './charts.js';
+import { axesGrid, chartWidth, el, r2, ticks } from './charts.js';
 import { $, asProblem, h, problemContent, readNumberField, setMessage } from './dom.js';
-import { formatTimestamp } from './format.js';
+import { formatTimestamp, plural } from './format.js';
 
 const state = { streams: [], selected: null, stream: null, channel: null, timer: null, busy: false };
 
@@ -131,9 +131,11 @@ function channelInfo(stream, channel) {
 }
 
 function renderChart(data, gaps, channel, streamId, info = channelInfo(null, channel)) {
-  const W = 900;
+  // Drawn at the width of its box, so that its text keeps its size in CSS pixels on a phone.
+  const W = chartWidth($('#stream-chart'));
+  const narrow = W < 600;
   const H = 300;
-  const L = 70;
+  const L = narrow ? 62 : 70;
   const R = 16;
   const T = 20;
   const B = 50;
@@ -169,9 +171,9 @@ function renderChart(data, gaps, channel, streamId, info = channelInfo(null, cha
     'data-points': t.length,
     'data-downsampled': String(data.downsampled),
     'data-samples': data.samples_in_range,
-    'aria-label': `${info.label}: value in ${info.unit} against time, ${data.samples_in_range} samples${data.downsampled ? ` in ${t.length} buckets` : ''}.`,
+    'aria-label': `${info.label}: value in ${info.unit} against time, ${plural(data.samples_in_range, 'sample')}${data.downsampled ? ` in ${plural(t.length, 'bucket')}` : ''}.`,
   });
-  svg.append(axesGrid({ W, H, L, R, T, B, px, py, xt: ticks(xmin, xmax, 8), yt: ticks(ylo, yhi, 6) }));
+  svg.append(axesGrid({ W, H, L, R, T, B, px, py, xt: ticks(xmin, xmax, narrow ? 4 : 8), yt: ticks(ylo, yhi, 6) }));
   // Recorded gaps of this channel, shaded where they fall in the plotted span.
   const gapLayer = el('g', { class: 'gaps' });
   for (const g of gaps) {
@@ -181,7 +183,7 @@ function renderChart(data, gaps, channel, streamId, info = channelInfo(null, cha
     if (b < xmin || a > xmax) continue;
     gapLayer.append(
       el('rect', { x: r2(px(a)), y: T, width: Math.max(2, r2(px(b) - px(a))), height: H - T - B, class: 'gap', 'data-missing': g.missing },
-        el('title', {}, `gap: ${g.missing} samples missing from counter ${g.first_missing}`)),
+        el('title', {}, `gap: ${plural(g.missing, 'sample')} missing from counter ${g.first_missing}`)),
     );
   }
   svg.append(gapLayer);
@@ -212,8 +214,8 @@ function renderChart(data, gaps, channel, streamId, info = channelInfo(null, cha
   const my = r2((T + H - B) / 2);
   svg.append(el('text', { x: 16, y: my, 'text-anchor': 'middle', class: 'axis-title', transform: `rotate(-90 16 ${my})`, 'data-testid': 'stream-axis-title' }, `${info.name} (${info.unit})`));
   const caption = data.downsampled
-    ? `${fmtInt(data.samples_in_range)} samples shown as ${t.length} time buckets: band = min … max of each bucket, line = mean.`
-    : `${fmtInt(data.samples_in_range)} samples, every one drawn.`;
+    ? `${plural(data.samples_in_range, 'sample', 'samples', fmtInt)} shown as ${plural(t.length, 'time bucket')}: band = min … max of each bucket, line = mean.`
+    : `${plural(data.samples_in_range, 'sample', 'samples', fmtInt)}, every one drawn.`;
   fig.replaceChildren(svg, h('figcaption', { class: 'note' }, caption));
 }
 
@@ -257,7 +259,7 @@ async function refreshSelected() {
   }
   if (state.channel !== null) sel.value = String(state.channel);
   $('#stream-title').textContent = `Stream #${s.id} — ${s.machine_id}${s.name ? `, ${s.name}` : ''} (${s.source})`;
-  const summary = s.channels.map((c) => `${channelInfo(s, c.channel).label}: ${fmtInt(c.samples)} samples, ${c.gaps} gaps`).join(' · ');
+  const summary = s.channels.map((c) => `${channelInfo(s, c.channel).label}: ${plural(c.samples, 'sample', 'samples', fmtInt)}, ${plural(c.gaps, 'gap')}`).join(' · ');
   $('#stream-summary').textContent = summary || 'no samples yet';
   const gaps = (await apiFetch(`/api/v1/streams/${id}/gaps?limit=1000`)).items;
   if (state.selected !== id) return;

@@ -6,7 +6,7 @@
 import { api } from './api.js';
 import { handleAuth } from './auth.js';
 import { $, asProblem, errorBox, h, problemContent, setMessage } from './dom.js';
-import { formatTimestamp } from './format.js';
+import { formatTimestamp, plural } from './format.js';
 import { currentRole, refusalContent } from './roles.js';
 
 function tokenRow(t) {
@@ -67,7 +67,7 @@ function auditLogTable(log) {
         ),
       ),
     ),
-    log.total > items.length ? h('p', { class: 'note' }, `The newest ${items.length} of ${log.total} entries.`) : '',
+    log.total > items.length ? h('p', { class: 'note' }, `The newest ${items.length} of ${plural(log.total, 'entry', 'entries')}.`) : '',
   );
 }
 
@@ -92,6 +92,33 @@ export async function showTokens() {
   }
 }
 
+// The secret with a Copy button: the clipboard where the browser allows it (a secure page),
+// else the secret selected for Ctrl+C / long press, and said so.
+function secretWithCopy(secret) {
+  const code = h('code', { class: 'token-secret', 'data-testid': 'token-secret' }, secret);
+  const said = h('span', { class: 'copy-status', 'data-testid': 'token-copy-status', 'aria-live': 'polite' });
+  const select = () => {
+    const range = document.createRange();
+    range.selectNodeContents(code);
+    const sel = window.getSelection();
+    sel.removeAllRanges();
+    sel.addRange(range);
+  };
+  const copy = async () => {
+    try {
+      if (!navigator.clipboard?.writeText) throw new Error('no clipboard');
+      await navigator.clipboard.writeText(secret);
+      said.dataset.copied = 'clipboard';
+      said.textContent = 'Copied to the clipboard.';
+    } catch {
+      select();
+      said.dataset.copied = 'selected';
+      said.textContent = 'Selected: press Ctrl+C (or Copy) to copy it.';
+    }
+  };
+  return h('span', { class: 'token-secret-line' }, code, h('button', { type: 'button', class: 'secondary small', 'data-testid': 'token-copy', onclick: copy }, 'Copy'), said);
+}
+
 async function onCreate(event) {
   event.preventDefault();
   const status = $('#token-create-status');
@@ -112,7 +139,7 @@ async function onCreate(event) {
       status,
       'success',
       h('strong', { class: 'problem-title' }, `Token “${made.name}” (${made.role}) made — copy it now, it is not shown again:`),
-      h('code', { class: 'token-secret', 'data-testid': 'token-secret' }, made.token),
+      secretWithCopy(made.token),
       h('span', {}, made.expires_at ? `It expires ${formatTimestamp(made.expires_at)}.` : 'It does not expire.'),
     );
     $('#token-create-name').value = '';

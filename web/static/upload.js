@@ -5,6 +5,7 @@
 import { api, ApiError } from './api.js';
 import { clearAuthProblem, showAuthProblem } from './auth.js';
 import { $, h, problemContent, setMessage } from './dom.js';
+import { plural } from './format.js';
 import { loadMachines, refreshMachine } from './machines.js';
 import { refusalContent } from './roles.js';
 import { measurementHash, navigate } from './router.js';
@@ -66,7 +67,7 @@ export async function uploadFiles(files) {
         ? `Uploaded “${stored[0].file.name}” — stored as measurement #${stored[0].res.id}.`
         : `“${stored[0].file.name}” was already stored (identical file) as measurement #${stored[0].res.id}.`
       : null
-    : `${stored.length} of ${outcomes.length} files stored${refused.length ? `, ${refused.length} refused` : ''}.`;
+    : `${stored.length} of ${plural(outcomes.length, 'file')} stored${refused.length ? `, ${refused.length} refused` : ''}.`;
   const parts = [];
   if (summary) parts.push(h('span', { class: 'upload-summary' }, summary));
   if (single && !stored.length) parts.push(...(refusalContent(refused[0].err, 'upload measurements') || problemContent(refused[0].err instanceof ApiError ? refused[0].err : { title: 'Upload failed', detail: String(refused[0].err) })));

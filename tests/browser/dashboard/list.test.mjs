@@ -105,6 +105,7 @@ test('210 uploads: newest first, paged, filtered, reachable in one click', { tim
     await page.click(`#measurements [data-id="${newest.id}"]`);
     await page.waitForSelector(`#detail[data-measurement-id="${newest.id}"] #polar-plot svg`);
     await assertNoHorizontalOverflow(page, '400 px, DBB view');
+    await page.click('[data-testid="menu-button"]'); // the token form folded behind the top bar's button
     const tokenBox = await page.locator('#token-save').boundingBox();
     assert.ok(tokenBox && tokenBox.x >= 0 && tokenBox.x + tokenBox.width <= 400, `token button on screen: ${JSON.stringify(tokenBox)}`);
     await page.screenshot({ path: join(outDir, 'views-list-400px.png'), fullPage: false });
