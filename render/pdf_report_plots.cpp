@@ -37,7 +37,7 @@ void Stroke(cairo_t* cr, Rgb c, double width, bool dashed = false) {
 const Rgb kGreen{0.16, 0.63, 0.16};
 
 // The value of a limit line in its label: 3 significant digits, whole numbers from 100 up.
-std::string LimitValue(double v) {
+std::string LimitText(double v) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), std::fabs(v) >= 99.95 ? "%.0f" : "%.3g", v);
   return buf;
@@ -177,7 +177,7 @@ template <class Px, class Py>
 void LimitLabels(Page& p, const ReportChart& chart, double left, double right, Px px, Py py) {
   cairo_t* cr = p.cr();
   for (const auto& [label, v] : chart.limits) {
-    const std::string text = label + " " + LimitValue(v) + UnitOfLabel(chart.y_label);
+    const std::string text = label + " " + LimitText(v) + UnitOfLabel(chart.y_label);
     const double w = p.TextWidth(text), base = py(v) - 2;
     const auto crowded = [&](double x0) {
       for (const auto& s : chart.series) {

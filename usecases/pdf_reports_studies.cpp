@@ -339,8 +339,8 @@ std::string SigmaText(const json& sigma) {
   return sigma.is_number() ? report_text::Sigma(sigma) : "—";
 }
 
-// An effect or parameter name as words: "servo_mismatch" → "servo mismatch".
-std::string Words(const std::string& name) {
+// Effect names as words, alone or in a sentence: "servo_mismatch" → "servo mismatch".
+std::string EffectWords(const std::string& name) {
   return report_text::Readable(name);
 }
 
@@ -386,7 +386,7 @@ void DiscoverySteps(render::Report& r, const json& result) {
   if (result.contains("verdict") && result["verdict"].is_string()) {
     std::string verdict = "Verdict of the study: " + result["verdict"].get<std::string>();
     if (result.contains("stop_reason") && result["stop_reason"].is_string()) {
-      verdict += " — " + Words(result["stop_reason"].get<std::string>());
+      verdict += " — " + EffectWords(result["stop_reason"].get<std::string>());
     }
     r.blocks.push_back(ParagraphBlock(verdict + "."));
   }
@@ -402,10 +402,10 @@ void DiscoverySteps(render::Report& r, const json& result) {
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const json& s = steps[i];
     const json ev = s.value("evidence", json::object());
-    t.rows.push_back({std::to_string(i + 1), Words(s.value("added_effect", "")),
+    t.rows.push_back({std::to_string(i + 1), EffectWords(s.value("added_effect", "")),
                       Sig3(s.value("gap_rms_before_um", json())),
                       Sig3(s.value("gap_rms_after_um", json())),
-                      Words(ev.is_object() ? ev.value("sentence", "") : "")});
+                      EffectWords(ev.is_object() ? ev.value("sentence", "") : "")});
     if (i == 0) {
       gap.x.push_back(0);
       gap.y.push_back(s.value("gap_rms_before_um", 0.0));
@@ -436,7 +436,7 @@ void FittedValues(render::Report& r, const json& result) {
   const std::string plane =
       result.value("plane", json()).is_string() ? result.value("plane", "") : std::string();
   for (const auto& m : result.value("final_model", json::array())) {
-    const std::string name = Words(m.value("effect", ""));
+    const std::string name = EffectWords(m.value("effect", ""));
     if (m.contains("value")) {
       ValueRows(t, name, m["value"], m.value("sigma", json()), m.value("unit", ""), plane);
     } else if (m.contains("parameters")) {
@@ -451,7 +451,7 @@ void FittedValues(render::Report& r, const json& result) {
     const json p = e.value("parameters", json::object());
     for (const auto& [key, v] : p.items()) {
       const auto l = report_text::LabelOf(key);
-      ValueRows(t, Words(e.value("effect", "")) + ": " + l.label, v,
+      ValueRows(t, EffectWords(e.value("effect", "")) + ": " + l.label, v,
                 u.is_object() && u.contains(key) ? u[key] : json(), l.unit, "");
     }
   }
@@ -546,7 +546,7 @@ render::Report JobPdfReport(const json& job, const std::string& printed_at) {
   r.complete_at = "the job's result (GET /api/v1/jobs/" + Short(job.value("id", json())) + ")";
   const json reasons = job.value("verdict_reasons", json::array());
   for (std::size_t i = 0; i < reasons.size() && i < report_text::kMaxNotes; ++i) {
-    r.blocks.push_back(ParagraphBlock(Words(Short(reasons[i]))));
+    r.blocks.push_back(ParagraphBlock(EffectWords(Short(reasons[i]))));
   }
   if (reasons.size() > report_text::kMaxNotes) {
     r.blocks.push_back(ParagraphBlock(std::to_string(report_text::kMaxNotes) + " of " +
