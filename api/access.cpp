@@ -118,7 +118,10 @@ std::string AuditSubject(const Route* route, const Request& req, const Response&
   if (res.status >= 200 && res.status < 300 && res.content_type == "application/json") {
     const auto j = json::parse(res.body, nullptr, false);
     if (j.is_object()) {
-      if (j.contains("findings") && j.contains("id")) {
+      if (j.contains("certificate") && j.contains("approved_by")) {  // a report approved
+        parts.push_back("certificate " + j["certificate"].get<std::string>() + " revision " +
+                        j["revision"].dump() + " approved");
+      } else if (j.contains("findings") && j.contains("id")) {
         parts.push_back("audit " + j["id"].dump());  // an accuracy-audit run
       } else if (j.contains("job_id")) {
         parts.push_back("job " + j["job_id"].dump());

@@ -106,6 +106,12 @@ Endpoint ListInstruments(const RouteContext& c);
 Endpoint MeasurementReportPdf(const RouteContext& c);
 Endpoint JobReportPdf(const RouteContext& c);
 Endpoint AuditReportPdf(const RouteContext& c);
+Endpoint MeasurementReportRevisions(const RouteContext& c);
+Endpoint JobReportRevisions(const RouteContext& c);
+Endpoint AuditReportRevisions(const RouteContext& c);
+Endpoint ApproveMeasurementReport(const RouteContext& c);
+Endpoint ApproveJobReport(const RouteContext& c);
+Endpoint ApproveAuditReport(const RouteContext& c);
 
 // The caller, access tokens and the audit log (api/access_routes.cpp).
 Endpoint WhoAmI(const RouteContext& c);

@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "analysis/core/errors.h"
+#include "server/base/conflict.h"
 #include "server/storage/storage.h"
 
 namespace km::api {
@@ -207,6 +208,8 @@ Response ErrorResponse(std::exception_ptr error, const Request& req) {
     Response r = Problem(503, "Service Unavailable", e.what());
     r.headers["Retry-After"] = "1";
     return r;
+  } catch (const server::Conflict& e) {
+    return Problem(409, "Conflict", e.what());
   } catch (const NotObservable& e) {
     return Problem(422, "Not observable", e.what());
   } catch (const DidNotConverge& e) {

@@ -87,6 +87,12 @@ constexpr RouteLine kRouteTable[] = {
   {"GET",    "/api/v1/measurements/{id}/report.pdf",              Role::kViewer,   ep::MeasurementReportPdf},
   {"GET",    "/api/v1/jobs/{id}/report.pdf",                      Role::kViewer,   ep::JobReportPdf},
   {"GET",    "/api/v1/machines/{machine_id}/audit/report.pdf",    Role::kViewer,   ep::AuditReportPdf},
+  {"GET",    "/api/v1/measurements/{id}/report/revisions",        Role::kViewer,   ep::MeasurementReportRevisions},
+  {"GET",    "/api/v1/jobs/{id}/report/revisions",                Role::kViewer,   ep::JobReportRevisions},
+  {"GET",    "/api/v1/machines/{machine_id}/audit/report/revisions", Role::kViewer, ep::AuditReportRevisions},
+  {"POST",   "/api/v1/measurements/{id}/report/approve",          Role::kEngineer, ep::ApproveMeasurementReport},
+  {"POST",   "/api/v1/jobs/{id}/report/approve",                  Role::kEngineer, ep::ApproveJobReport},
+  {"POST",   "/api/v1/machines/{machine_id}/audit/report/approve", Role::kEngineer, ep::ApproveAuditReport},
   // The caller, tokens and the audit log (api/access_routes.cpp)
   {"GET",    "/api/v1/whoami",                                    Role::kViewer,   ep::WhoAmI},
   {"POST",   "/api/v1/tokens",                                    Role::kAdmin,    ep::CreateToken},

@@ -15,7 +15,7 @@ Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
           *storage_, *storage_, measurements_, models_,
           StudyOptions{options.max_calibration_tests, options.max_calibration_samples,
                        options.jobs})),
-      reports_(*this, measurements_, *studies_),
+      reports_(*this, measurements_, *studies_, *storage_),
       audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {
   // Every answer about a measurement carries its conformance with the newest tolerances.
   measurements_.SetConformanceJudges(tolerances_.Judges());

@@ -1,6 +1,8 @@
 #include "usecases/pdf_reports.h"
 
+#include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -140,7 +142,70 @@ std::vector<render::ReportBlock> DiagnosisBlocks(const json& test, const std::st
   return out;
 }
 
-std::vector<render::ReportBlock> AsFoundAsLeft(const json& test, const ReportLater& later,
+// The figures certified of a result: its uncertainty figures (ISO's first), else `fallback`.
+std::vector<std::string> CertifiedKeys(const json& holder, std::vector<std::string> fallback) {
+  const json figures =
+      holder.is_object()
+          ? holder.value("uncertainty", json::object()).value("figures", json::object())
+          : json::object();
+  if (!figures.is_object() || figures.empty()) return fallback;
+  std::vector<std::string> keys;
+  for (const auto& [key, f] : figures.items()) {
+    if (f.is_object()) keys.push_back(key);
+  }
+  std::stable_sort(keys.begin(), keys.end(), [](const std::string& a, const std::string& b) {
+    return report_text::FigureRank(a) < report_text::FigureRank(b);
+  });
+  return keys;
+}
+
+// A figure of a result by its key: the key itself, a path ("vdi3441.P_um") or the key inside one
+// of the result's objects (a DBB test's "iso230_4"); null when the result does not hold it.
+json FigureValue(const json& holder, const std::string& key) {
+  if (!holder.is_object()) return nullptr;
+  std::string path = "/" + key;
+  std::replace(path.begin(), path.end(), '.', '/');
+  const json::json_pointer p(path);
+  if (holder.contains(p) && holder.at(p).is_number()) return holder.at(p);
+  for (const auto& [k, v] : holder.items()) {
+    if (v.is_object() && v.contains(key) && v[key].is_number()) return v[key];
+  }
+  return nullptr;
+}
+
+// Target | compensation as found (forward, reverse) | as left, in µm, for a laser test: the table
+// loaded into the controller after the first test beside what remained after it.
+std::vector<render::ReportBlock> CompensationBeforeAfter(const json& found, const json& left) {
+  const json a = found.value("compensation", json::object());
+  const json b = left.value("compensation", json::object());
+  const json ta = a.value("target_mm", json::array());
+  if (ta.empty()) return {};
+  ReportTable t;
+  t.header = {"Target (mm)", "As found fwd (µm)", "As found rev (µm)", "As left fwd (µm)",
+              "As left rev (µm)"};
+  t.numeric.assign(t.header.size(), true);
+  const json tb = b.value("target_mm", json::array());
+  for (std::size_t i = 0; i < ta.size(); ++i) {
+    std::vector<std::string> row{Fixed(ta[i], 3), Fixed(a.value("forward_um", json::array())[i]),
+                                 Fixed(a.value("reverse_um", json::array())[i])};
+    std::size_t j = 0;
+    while (j < tb.size() && !(tb[j].is_number() && ta[i].is_number() &&
+                              std::abs(tb[j].get<double>() - ta[i].get<double>()) < 1e-6)) {
+      ++j;
+    }
+    const bool has = j < tb.size();
+    row.push_back(has ? Fixed(b.value("forward_um", json::array()).at(j)) : "—");
+    row.push_back(has ? Fixed(b.value("reverse_um", json::array()).at(j)) : "—");
+    t.rows.push_back(std::move(row));
+  }
+  return {HeadingBlock("Compensation tables, as found and as left"),
+          ParagraphBlock("The correction per target (−mean deviation, ISO 230-2 order) of each "
+                         "test: as found is the table derived before the adjustment, as left what "
+                         "the second test still asks for."),
+          TableBlock(std::move(t))};
+}
+
+std::vector<render::ReportBlock> AsFoundAsLeft(const json& found, const ReportLater& later,
                                                const ReportSource& source) {
   ReportTable t;
   t.header = {"Figure", "As found", "As left", "Unit"};
@@ -150,14 +215,70 @@ std::vector<render::ReportBlock> AsFoundAsLeft(const json& test, const ReportLat
                     "#" + std::to_string(later.measurement_id), ""});
   t.rows.push_back({"Measured", report_text::When(source.measured_at),
                     report_text::When(later.measured_at), ""});
-  for (const char* key : {"circularity_um", "min_zone_circularity_um", "average_radial_error_um"}) {
-    t.rows.push_back({report_text::Capitalised(report_text::FigureName(key)),
-                      Fixed(test.value(key, json())), Fixed(after.value(key, json())),
-                      report_text::LabelOf(key).unit});
+  for (const auto& key :
+       CertifiedKeys(found, {"circularity_um", "min_zone_circularity_um", "average_radial_error_um",
+                             "accuracy_um", "repeatability_um", "reversal_value_um"})) {
+    const json a = FigureValue(found, key);
+    const json b = FigureValue(after, key);
+    if (a.is_null() && b.is_null()) continue;
+    t.rows.push_back({report_text::Capitalised(report_text::FigureName(key)), Fixed(a, 3),
+                      Fixed(b, 3), report_text::LabelOf(key).unit});
   }
-  return {HeadingBlock("As found / as left"),
-          ParagraphBlock("The newest later test of the same set-up (machine, test and "
-                         "direction) is the machine as left."),
+  std::vector<render::ReportBlock> out{
+      HeadingBlock("As found / as left"),
+      ParagraphBlock("The two tests of one set-up chosen as the machine before and after its "
+                     "adjustment."),
+      TableBlock(std::move(t))};
+  if (source.kind == "positioning") {
+    for (auto& b : CompensationBeforeAfter(found, after)) out.push_back(std::move(b));
+  }
+  return out;
+}
+
+// The conformance entry of a figure (its metric's base name is the key), or null.
+json ConformanceOf(const json& conformance, const std::string& key) {
+  if (!conformance.is_object()) return nullptr;
+  for (const auto& f : conformance.value("figures", json::array())) {
+    const std::string m = f.value("metric", "");
+    if (m.substr(0, m.find('.')) == key) return f;
+  }
+  return nullptr;
+}
+
+// A coverage factor as printed: "2", "2.26".
+std::string Coverage(const json& k) {
+  if (!k.is_number()) return "—";
+  const double v = k.get<double>();
+  return Fixed(v, v == std::round(v) ? 0 : 2);
+}
+
+// Figure | value | U | k | tolerance | decision | unit: each figure of the result with its
+// expanded uncertainty and the decision against its tolerance under the rule in force.
+std::vector<render::ReportBlock> CertifiedFigures(
+    const std::vector<std::pair<std::string, const json*>>& holders, const json& conformance) {
+  ReportTable t;
+  t.header = {"Figure", "Value", "U", "k", "Tolerance", "Decision", "Unit"};
+  t.numeric = {false, true, true, true, true, false, false};
+  for (const auto& [label, holder] : holders) {
+    const json figures =
+        holder->value("uncertainty", json::object()).value("figures", json::object());
+    for (const auto& key : CertifiedKeys(*holder, {})) {
+      const json& f = figures[key];
+      const json c = ConformanceOf(conformance, key);
+      const json k = f.value("k", json(2));
+      t.rows.push_back({report_text::Capitalised(report_text::FigureName(key)) + label,
+                        Fixed(FigureValue(*holder, key), 3),
+                        report_text::Sigma(f.value("U_um", json())), Coverage(k),
+                        c.is_null() ? "—" : Fixed(c.value("tolerance", json()), 3),
+                        c.is_null() ? "no tolerance" : c.value("verdict", std::string("—")), "µm"});
+    }
+  }
+  if (t.rows.empty()) return {};
+  return {HeadingBlock("Figures with their uncertainty and decision"),
+          ParagraphBlock("U is the expanded uncertainty (coverage factor k, about 95 %) of each "
+                         "figure, with two significant digits; the decision compares the value "
+                         "with its tolerance under the "
+                         "decision rule of the tolerance table (below)."),
           TableBlock(std::move(t))};
 }
 
@@ -196,7 +317,7 @@ std::vector<render::ReportBlock> ConformanceBlocks(const json& c, const ReportSo
     const json& U = f.contains("U") ? f["U"] : json();
     t.rows.push_back({report_text::Capitalised(report_text::FigureName(f.value("metric", ""))),
                       ScopeOf(f), Fixed(f.value("value", json()), 3),
-                      U.is_number() ? Fixed(U, 3) : std::string("not stated"),
+                      U.is_number() ? report_text::Sigma(U) : std::string("not stated"),
                       Fixed(f.value("tolerance", json()), 3), f.value("unit", ""),
                       f.value("verdict", "")});
   }
@@ -217,7 +338,9 @@ std::vector<render::ReportBlock> ConformanceBlocks(const json& c, const ReportSo
   return out;
 }
 
-void AddClosing(render::Report& r, const ReportSource& source, const ReportContext& context) {
+void AddClosing(render::Report& r, const ReportSource& source, const ReportContext& context,
+                const std::vector<std::pair<std::string, const json*>>& holders) {
+  for (auto& b : CertifiedFigures(holders, context.conformance)) r.blocks.push_back(std::move(b));
   if (context.conformance.is_object()) {
     for (auto& b : ConformanceBlocks(context.conformance, source)) r.blocks.push_back(std::move(b));
   }
@@ -312,7 +435,10 @@ render::Report DbbPdfReport(const dbb::DbbReport& report, const json& report_jso
   if (context.later) {
     for (auto& b : AsFoundAsLeft(test, *context.later, source)) r.blocks.push_back(std::move(b));
   }
-  AddClosing(r, source, context);
+  std::vector<std::pair<std::string, const json*>> holders;
+  for (const auto& x : shown) holders.push_back({" — " + Upper(x.value("direction", "")), &x});
+  if (pair.is_object()) holders.push_back({" — pair", &pair});
+  AddClosing(r, source, context, holders);
   return r;
 }
 
@@ -340,7 +466,12 @@ render::Report ResultsPdfReport(const json& results, const ReportSource& source,
       r.blocks.push_back(std::move(b));
     }
     AddNotes(r, results);
-    AddClosing(r, source, context);
+    if (context.later) {
+      for (auto& b : AsFoundAsLeft(results, *context.later, source)) {
+        r.blocks.push_back(std::move(b));
+      }
+    }
+    AddClosing(r, source, context, {{"", &results}});
     return r;
   }
   r.blocks.push_back(HeadingBlock("Figures"));
@@ -358,8 +489,31 @@ render::Report ResultsPdfReport(const json& results, const ReportSource& source,
     r.blocks.push_back(std::move(b));
   }
   AddNotes(r, results);
-  AddClosing(r, source, context);
+  if (context.later) {
+    for (auto& b : AsFoundAsLeft(results, *context.later, source)) r.blocks.push_back(std::move(b));
+  }
+  AddClosing(r, source, context, {{"", &results}});
   return r;
+}
+
+void AddCertificate(render::Report& r, const ReportCertificate& c) {
+  const std::string number = c.number + ", revision " + std::to_string(c.revision);
+  const bool approved = !c.approved_by.empty();
+  std::vector<std::pair<std::string, std::string>> head{
+      {"Certificate", number},
+      {"Approval", approved
+                       ? "approved by " + c.approved_by + " at " + report_text::When(c.approved_at)
+                       : "draft — revision " + std::to_string(c.revision) + " is not approved"}};
+  if (!c.supersedes.empty()) head.push_back({"Supersedes", c.supersedes});
+  r.identification.insert(r.identification.begin(), head.begin(), head.end());
+  r.footer += " · certificate " + number + (approved ? " (approved)" : " (draft)");
+  r.blocks.push_back(ParagraphBlock(
+      approved ? "Approved by " + c.approved_by + " at " + report_text::When(c.approved_at) +
+                     ", recorded in the service's audit log. This revision is frozen: a later "
+                     "change to what it certifies makes a new revision, never an edit of this one."
+               : "Draft: revision " + std::to_string(c.revision) + " of certificate " + c.number +
+                     " is not approved. It becomes a certificate when an engineer approves it; a "
+                     "later change to what it certifies makes a new revision."));
 }
 
 }  // namespace km::usecases

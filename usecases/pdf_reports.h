@@ -37,11 +37,23 @@ struct ReportAudit {
   nlohmann::json verdict;
 };
 
-// A later test of the same set-up (as left), with its result object.
+// The machine as left: a later test of the same set-up that the user chose (before and after an
+// adjustment), with its result object.
 struct ReportLater {
   std::int64_t measurement_id = 0;
   std::string measured_at;
   nlohmann::json results;
+};
+
+// The certificate a report is (server/reports/certificates.h): its number, the revision printed
+// and its approval.
+struct ReportCertificate {
+  std::string number;  // e.g. "KM-M000042"
+  std::int64_t revision = 1;
+  std::string approved_by;  // empty: a draft, not approved
+  std::string approved_at;  // ISO 8601 UTC
+  // The newest earlier approved revision ("revision 1, approved by … at …"); empty: none.
+  std::string supersedes;
 };
 
 struct ReportContext {
@@ -71,6 +83,10 @@ render::Report AuditPdfReport(const std::string& machine_id, const nlohmann::jso
 
 // A calibration or discovery job as GET /api/v1/jobs/{id} answers it.
 render::Report JobPdfReport(const nlohmann::json& job, const std::string& printed_at);
+
+// The certificate number and revision under the title, and the approval (or that the revision
+// is a draft) under the signatures.
+void AddCertificate(render::Report& report, const ReportCertificate& certificate);
 
 // "level 2 — warn" for an audit level.
 std::string AuditLevelWords(int level);

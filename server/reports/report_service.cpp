@@ -1,5 +1,6 @@
 #include "server/reports/report_service.h"
 
+#include <memory>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -9,6 +10,7 @@
 #include "ingest/json_text.h"
 #include "render/pdf_report.h"
 #include "server/audits/audit_service.h"
+#include "server/base/conflict.h"
 #include "server/base/time_util.h"
 #include "usecases/dbb_report.h"
 #include "usecases/pdf_reports.h"
@@ -66,33 +68,53 @@ usecases::ReportAudit AuditOf(AuditSource& records, const std::string& machine_i
   return a;
 }
 
-// The newest test of the same set-up (machine, kind, test and direction) measured after `r`: the
-// machine as left.
-std::optional<usecases::ReportLater> LaterOf(AuditSource& records, MeasurementService& ms,
-                                             const MeasurementRecord& r) {
-  MeasurementFilter f;
-  f.machine_id = r.machine_id;
-  f.kind = r.kind;
-  f.test_id = r.test_id;
-  if (!r.direction.empty()) f.direction = r.direction;
-  f.order = MeasurementFilter::Order::kNewest;
-  f.limit = 1;
-  const auto page = records.storage().ListMeasurements(f);
-  if (page.items.empty() || page.items.front().id == r.id) return std::nullopt;
-  const auto& n = page.items.front();
-  const std::string then = n.measured_at.value_or(n.uploaded_at);
-  if (then <= r.measured_at.value_or(r.uploaded_at)) return std::nullopt;
-  return usecases::ReportLater{n.id, then, ms.Results(n.id)};
+// The test the user chose as the machine as left: another test of the same set-up (machine,
+// kind, test and direction) measured after `r`; InvalidInput naming `as_left` otherwise.
+usecases::ReportLater ChosenLater(AuditSource& records, MeasurementService& ms,
+                                  const MeasurementRecord& r, std::int64_t as_left) {
+  const auto refuse = [&](const std::string& why) {
+    return InvalidInput("", 0, "as_left", "measurement " + std::to_string(as_left) + " " + why);
+  };
+  const auto n = records.storage().GetMeasurement(as_left);
+  if (!n) throw refuse("does not exist");
+  if (n->id == r.id) throw refuse("is the as-found test itself; choose a later test");
+  if (n->machine_id != r.machine_id || n->kind != r.kind || n->test_id != r.test_id ||
+      n->direction != r.direction) {
+    throw refuse("is not a test of the same set-up (machine " + r.machine_id + ", " + r.kind +
+                 " test " + r.test_id + (r.direction.empty() ? "" : " " + r.direction) + ")");
+  }
+  const std::string then = n->measured_at.value_or(n->uploaded_at);
+  if (then <= r.measured_at.value_or(r.uploaded_at)) {
+    throw refuse("was not measured after the as-found test (" + then + ")");
+  }
+  return usecases::ReportLater{n->id, then, ms.Results(n->id)};
 }
 
 usecases::ReportContext ContextOf(AuditSource& records, MeasurementService& ms,
-                                  const MeasurementRecord& r) {
+                                  const MeasurementRecord& r,
+                                  std::optional<usecases::ReportLater> later) {
   usecases::ReportContext c;
   c.printed_at = NowUtcIso8601();
   c.audit = AuditOf(records, r.machine_id);
-  c.later = LaterOf(records, ms, r);
+  c.later = std::move(later);
   c.conformance = ms.Conformance(r.id);
   return c;
+}
+
+// What a measurement's certificate summarises: the ids and versions it was made from.
+nlohmann::json SummaryOf(const MeasurementRecord& r, const nlohmann::json& results,
+                         const nlohmann::json& conformance,
+                         const std::optional<usecases::ReportLater>& later) {
+  nlohmann::json s{{"measurement_id", r.id}};
+  if (later) s["as_left_id"] = later->measurement_id;
+  if (conformance.is_object() && conformance.contains("tolerance_version")) {
+    s["tolerance_version"] = conformance["tolerance_version"];
+  }
+  if (results.is_object() && results.contains("instrument") && results["instrument"].is_object() &&
+      results["instrument"].contains("register_version")) {
+    s["instrument_register_version"] = results["instrument"]["register_version"];
+  }
+  return s;
 }
 
 }  // namespace
@@ -107,68 +129,182 @@ render::RenderOptions Options(const std::function<bool()>& cancelled) {
 
 }  // namespace
 
-std::string ReportService::DbbPdf(const MeasurementRecord& rec, const Cancelled& cancelled) {
-  std::vector<dbb::DbbTest> tests{measurements_.LoadDbb(rec.id)};
-  const auto partner = measurements_.DbbPartner(rec);
-  if (partner) tests.push_back(measurements_.LoadDbb(*partner));
-  const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
-  const nlohmann::json j = usecases::DbbReportJson(tests, report);
-  usecases::ReportContext ctx = ContextOf(records_, measurements_, rec);
-  ctx.partner_id = partner;
-  usecases::ReportSource source = SourceOf(rec);
-  NameInstrument(source, measurements_.Results(rec.id));
-  return render::RenderPdf(usecases::DbbPdfReport(report, j, 0, source, ctx), Options(cancelled));
-}
-
-std::string ReportService::ResultsPdf(const MeasurementRecord& rec, const Cancelled& cancelled) {
-  // A stop also ends a report between reading its data and laying it out (a large result takes
-  // seconds to read before the render asks).
-  const auto give_up = [&] {
-    if (cancelled && cancelled()) {
-      throw render::RenderCancelled(
-          "the report was not finished: the server is stopping; retry shortly");
+ReportService::Prepared ReportService::PrepareMeasurement(std::int64_t id,
+                                                          std::optional<std::int64_t> as_left) {
+  auto found = records_.storage().GetMeasurement(id);
+  if (!found) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  MeasurementRecord rec = std::move(*found);
+  std::optional<usecases::ReportLater> later;
+  if (as_left) later = ChosenLater(records_, measurements_, rec, *as_left);
+  auto ctx = std::make_shared<usecases::ReportContext>(
+      ContextOf(records_, measurements_, rec, std::move(later)));
+  auto results = std::make_shared<nlohmann::json>(measurements_.Results(rec.id));
+  Prepared p;
+  p.subject = MeasurementCertificate(id, as_left);
+  p.content = {
+      {"measurement", rec.sha256}, {"results", *results}, {"conformance", ctx->conformance}};
+  if (ctx->later) {
+    p.content["as_left"] = {{"id", ctx->later->measurement_id}, {"results", ctx->later->results}};
+  }
+  if (rec.kind == "dbb") {
+    ctx->partner_id = measurements_.DbbPartner(rec);
+    if (ctx->partner_id) {
+      p.content["partner"] = {{"id", *ctx->partner_id},
+                              {"results", measurements_.Results(*ctx->partner_id)}};
     }
+  }
+  p.summary = SummaryOf(rec, *results, ctx->conformance, ctx->later);
+  p.build = [this, rec = std::move(rec), ctx, results](const Cancelled&) {
+    usecases::ReportSource source = SourceOf(rec);
+    NameInstrument(source, *results);
+    if (rec.kind != "dbb") return usecases::ResultsPdfReport(*results, source, *ctx);
+    std::vector<dbb::DbbTest> tests{measurements_.LoadDbb(rec.id)};
+    if (ctx->partner_id) tests.push_back(measurements_.LoadDbb(*ctx->partner_id));
+    const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
+    nlohmann::json j = usecases::DbbReportJson(tests, report);
+    // Each test's uncertainty as its stored result gives it (the API, the page and the
+    // conformance read that one; the pair's own draws would differ within the Monte Carlo's
+    // precision).
+    const auto stored_u = [&](std::size_t i, const nlohmann::json& r) {
+      if (r.is_object() && r.contains("uncertainty") && i < j["tests"].size()) {
+        j["tests"][i]["uncertainty"] = r["uncertainty"];
+      }
+    };
+    stored_u(0, *results);
+    if (ctx->partner_id) stored_u(1, measurements_.Results(*ctx->partner_id));
+    return usecases::DbbPdfReport(report, j, 0, source, *ctx);
   };
-  const auto ctx = ContextOf(records_, measurements_, rec);
-  give_up();
-  const nlohmann::json results = measurements_.Results(rec.id);
-  give_up();
-  usecases::ReportSource source = SourceOf(rec);
-  NameInstrument(source, results);
-  render::Report report = usecases::ResultsPdfReport(results, source, ctx);
-  give_up();
-  return render::RenderPdf(report, Options(cancelled));
+  return p;
 }
 
-std::string ReportService::MeasurementPdf(std::int64_t id) {
-  auto rec = records_.storage().GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
-  return gate_.Run([this, rec = std::move(*rec)](const Cancelled& cancelled) {
-    return rec.kind == "dbb" ? DbbPdf(rec, cancelled) : ResultsPdf(rec, cancelled);
-  });
+ReportService::Prepared ReportService::PrepareJob(std::int64_t id) {
+  nlohmann::json job = studies_.Job(id);
+  Prepared p;
+  p.subject = JobCertificate(id);
+  p.content = {{"id", id}};
+  for (const char* key : {"kind", "status", "request", "result", "error", "verdict"}) {
+    if (job.contains(key)) p.content[key] = job[key];
+  }
+  p.summary = {{"job_id", id}, {"status", job.value("status", "")}};
+  p.build = [job = std::move(job)](const Cancelled&) {
+    return usecases::JobPdfReport(job, NowUtcIso8601());
+  };
+  return p;
 }
 
-std::string ReportService::JobPdf(std::int64_t id) {
-  return gate_.Run([this, id](const Cancelled& cancelled) {
-    return render::RenderPdf(usecases::JobPdfReport(studies_.Job(id), NowUtcIso8601()),
-                             Options(cancelled));
-  });
+ReportService::Prepared ReportService::PrepareAudit(const std::string& machine_id) {
+  const auto a = AuditOf(records_, machine_id);
+  AuditVerdictFilter f;
+  f.machine_id = machine_id;
+  f.limit = 50;
+  nlohmann::json verdicts = ListAccuracyAudits(records_, f).at("audits");
+  if (a.config.is_null() && verdicts.empty()) {
+    throw NotFound("machine '" + machine_id + "' has no accuracy audit");
+  }
+  Prepared p;
+  p.subject = AuditCertificate(machine_id);
+  const nlohmann::json newest = verdicts.empty() ? nlohmann::json() : verdicts.at(0);
+  p.content = {{"machine_id", machine_id}, {"config", a.config}, {"newest_verdict", newest}};
+  p.summary = {{"machine_id", machine_id},
+               {"newest_verdict_id",
+                newest.is_object() ? newest.value("id", nlohmann::json()) : nlohmann::json()}};
+  p.build = [machine_id, config = a.config, verdicts = std::move(verdicts)](const Cancelled&) {
+    return usecases::AuditPdfReport(machine_id, config, verdicts, NowUtcIso8601());
+  };
+  return p;
 }
 
-std::string ReportService::AuditPdf(const std::string& machine_id) {
-  return gate_.Run([this, machine_id](const Cancelled& cancelled) {
-    const auto a = AuditOf(records_, machine_id);
-    AuditVerdictFilter f;
-    f.machine_id = machine_id;
-    f.limit = 50;
-    const auto verdicts = ListAccuracyAudits(records_, f).at("audits");
-    if (a.config.is_null() && verdicts.empty()) {
-      throw NotFound("machine '" + machine_id + "' has no accuracy audit");
+std::string ReportService::Pdf(const std::function<Prepared()>& prepare,
+                               std::optional<std::int64_t> revision) {
+  // By value: a stopping server answers the caller before the gate's thread has finished.
+  return gate_.Run([this, prepare, revision](const Cancelled& cancelled) {
+    const Prepared p = prepare();
+    const ReportRevisionRecord current = certificates_.Current(p.subject, p.content, p.summary);
+    if (revision && *revision != current.revision) {
+      return certificates_.ApprovedPdf(p.subject, *revision, current.revision);
     }
-    return render::RenderPdf(
-        usecases::AuditPdfReport(machine_id, a.config, verdicts, NowUtcIso8601()),
-        Options(cancelled));
+    if (current.approval) return certificates_.ApprovedPdf(p.subject, current.revision, 0);
+    render::Report r = p.build(cancelled);
+    usecases::AddCertificate(r, certificates_.Printed(p.subject, current));
+    return render::RenderPdf(r, Options(cancelled));
   });
+}
+
+nlohmann::json ReportService::Approve(const std::function<Prepared()>& prepare,
+                                      std::optional<std::int64_t> revision,
+                                      const ReportApprover& by) {
+  return nlohmann::json::parse(gate_.Run([this, prepare, revision, by](const Cancelled& cancelled) {
+    const Prepared p = prepare();
+    const ReportRevisionRecord current = certificates_.Current(p.subject, p.content, p.summary);
+    certificates_.CheckApprovable(p.subject, current, revision);
+    const std::string at = NowUtcIso8601();
+    usecases::ReportCertificate c = certificates_.Printed(p.subject, current);
+    c.approved_by = by.name;
+    c.approved_at = at;
+    render::Report r = p.build(cancelled);
+    usecases::AddCertificate(r, c);
+    return certificates_
+        .Approve(p.subject, current, by, at, render::RenderPdf(r, Options(cancelled)))
+        .dump();
+  }));
+}
+
+nlohmann::json ReportService::Revisions(const Prepared& p) {
+  return certificates_.Revisions(p.subject, certificates_.Current(p.subject, p.content, p.summary));
+}
+
+std::string ReportService::MeasurementPdf(std::int64_t id, const ReportRequest& q) {
+  return Pdf([this, id, as_left = q.as_left] { return PrepareMeasurement(id, as_left); },
+             q.revision);
+}
+
+std::string ReportService::JobPdf(std::int64_t id, std::optional<std::int64_t> revision) {
+  return Pdf([this, id] { return PrepareJob(id); }, revision);
+}
+
+std::string ReportService::AuditPdf(const std::string& machine_id,
+                                    std::optional<std::int64_t> revision) {
+  return Pdf([this, machine_id] { return PrepareAudit(machine_id); }, revision);
+}
+
+nlohmann::json ReportService::MeasurementRevisions(std::int64_t id,
+                                                   std::optional<std::int64_t> as_left) {
+  return Revisions(PrepareMeasurement(id, as_left));
+}
+
+nlohmann::json ReportService::JobRevisions(std::int64_t id) {
+  return Revisions(PrepareJob(id));
+}
+
+nlohmann::json ReportService::AuditRevisions(const std::string& machine_id) {
+  return Revisions(PrepareAudit(machine_id));
+}
+
+nlohmann::json ReportService::ApproveMeasurement(std::int64_t id,
+                                                 std::optional<std::int64_t> as_left,
+                                                 std::optional<std::int64_t> revision,
+                                                 const ReportApprover& by) {
+  return Approve([this, id, as_left] { return PrepareMeasurement(id, as_left); }, revision, by);
+}
+
+nlohmann::json ReportService::ApproveJob(std::int64_t id, std::optional<std::int64_t> revision,
+                                         const ReportApprover& by) {
+  return Approve(
+      [this, id] {
+        Prepared p = PrepareJob(id);
+        if (p.content.value("status", "") != "done") {
+          throw Conflict("job " + std::to_string(id) + " is " + p.content.value("status", "") +
+                         ": a job's report is approved when the job is done");
+        }
+        return p;
+      },
+      revision, by);
+}
+
+nlohmann::json ReportService::ApproveAudit(const std::string& machine_id,
+                                           std::optional<std::int64_t> revision,
+                                           const ReportApprover& by) {
+  return Approve([this, machine_id] { return PrepareAudit(machine_id); }, revision, by);
 }
 
 }  // namespace km::server

@@ -16,23 +16,50 @@
 #include "server/audits/audit_source.h"
 #include "server/jobs/study_service.h"
 #include "server/measurements/measurement_service.h"
+#include "server/reports/certificates.h"
 #include "server/reports/render_gate.h"
 
 namespace km::server {
 
+// Which report of a measurement: the as-left test the user chose (another test of the same
+// set-up measured later), and an earlier revision (only approved ones are kept as printed).
+struct ReportRequest {
+  std::optional<std::int64_t> as_left;
+  std::optional<std::int64_t> revision;
+};
+
 class ReportService {
  public:
   ReportService(AuditSource& records, MeasurementService& measurements, StudyService& studies,
-                RenderGateOptions gate = {})
-      : records_(records), measurements_(measurements), studies_(studies), gate_(gate) {}
+                ReportStore& certificates, RenderGateOptions gate = {})
+      : records_(records),
+        measurements_(measurements),
+        studies_(studies),
+        certificates_(certificates),
+        gate_(gate) {}
 
-  // GET /api/v1/measurements/{id}/report.pdf; NotFound for an unknown measurement.
-  std::string MeasurementPdf(std::int64_t id);
+  // GET /api/v1/measurements/{id}/report.pdf; NotFound for an unknown measurement, InvalidInput
+  // naming `as_left` for a test that is not a later test of the same set-up.
+  std::string MeasurementPdf(std::int64_t id, const ReportRequest& request = {});
   // GET /api/v1/jobs/{id}/report.pdf; NotFound for an unknown job.
-  std::string JobPdf(std::int64_t id);
+  std::string JobPdf(std::int64_t id, std::optional<std::int64_t> revision = std::nullopt);
   // GET /api/v1/machines/{machine_id}/audit/report.pdf; NotFound for a machine with neither
   // an audit nor a verdict.
-  std::string AuditPdf(const std::string& machine_id);
+  std::string AuditPdf(const std::string& machine_id,
+                       std::optional<std::int64_t> revision = std::nullopt);
+
+  // GET …/report/revisions: the certificate's revisions (Certificates::Revisions).
+  nlohmann::json MeasurementRevisions(std::int64_t id, std::optional<std::int64_t> as_left);
+  nlohmann::json JobRevisions(std::int64_t id);
+  nlohmann::json AuditRevisions(const std::string& machine_id);
+  // POST …/report/approve: approves the current revision (`revision`, when given, must be it;
+  // Conflict otherwise or when it is already approved) and freezes its PDF.
+  nlohmann::json ApproveMeasurement(std::int64_t id, std::optional<std::int64_t> as_left,
+                                    std::optional<std::int64_t> revision, const ReportApprover& by);
+  nlohmann::json ApproveJob(std::int64_t id, std::optional<std::int64_t> revision,
+                            const ReportApprover& by);
+  nlohmann::json ApproveAudit(const std::string& machine_id, std::optional<std::int64_t> revision,
+                              const ReportApprover& by);
 
   // The server is stopping: reports asked for or waiting from now on are refused (503), the
   // ones being made give up at `cancel_at` (before the server's shutdown deadline).
@@ -40,11 +67,23 @@ class ReportService {
 
  private:
   using Cancelled = std::function<bool()>;
-  std::string DbbPdf(const MeasurementRecord& rec, const Cancelled& cancelled);
-  std::string ResultsPdf(const MeasurementRecord& rec, const Cancelled& cancelled);
+  // A report ready to be certified: what it certifies, and how it is drawn.
+  struct Prepared {
+    CertificateSubject subject;
+    nlohmann::json content, summary;
+    std::function<render::Report(const Cancelled&)> build;
+  };
+  Prepared PrepareMeasurement(std::int64_t id, std::optional<std::int64_t> as_left);
+  Prepared PrepareJob(std::int64_t id);
+  Prepared PrepareAudit(const std::string& machine_id);
+  std::string Pdf(const std::function<Prepared()>& prepare, std::optional<std::int64_t> revision);
+  nlohmann::json Approve(const std::function<Prepared()>& prepare,
+                         std::optional<std::int64_t> revision, const ReportApprover& by);
+  nlohmann::json Revisions(const Prepared& p);
   AuditSource& records_;
   MeasurementService& measurements_;
   StudyService& studies_;
+  Certificates certificates_;
   RenderGate gate_;  // last: its threads stop before the services they use go
 };
 

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "analysis/core/errors.h"
+#include "server/storage/report_store.h"
 
 namespace km::server {
 
@@ -564,6 +565,7 @@ class Storage : public MeasurementStore,
                 public AccessStore,
                 public AuditStore,
                 public ToleranceStore,
-                public InstrumentStore {};
+                public InstrumentStore,
+                public ReportStore {};
 
 }  // namespace km::server

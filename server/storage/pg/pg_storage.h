@@ -122,6 +122,12 @@ class PgStorage : public Storage {
   std::optional<InstrumentVersionRecord> GetInstrument(
       const std::string& serial, std::optional<std::int64_t> version) override;
   std::vector<InstrumentVersionRecord> ListInstruments() override;
+  // Report revisions and approvals: pg_reports.cpp.
+  ReportRevisionPut PutReportRevision(const NewReportRevision& revision) override;
+  std::vector<ReportRevisionRecord> ListReportRevisions(const std::string& subject) override;
+  bool AddReportApproval(const ReportApprovalRecord& approval) override;
+  std::optional<std::string> ReportApprovalPdf(const std::string& subject,
+                                               std::int64_t revision) override;
 
  private:
   std::unique_ptr<pg::Pool> pool_;

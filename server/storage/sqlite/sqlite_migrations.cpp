@@ -239,6 +239,36 @@ CREATE TRIGGER instruments_immutable BEFORE UPDATE ON instruments
 CREATE TRIGGER instruments_kept BEFORE DELETE ON instruments
   BEGIN SELECT RAISE(ABORT, 'instrument versions are never deleted'); END;
 )sql",
+    // 13: the revisions of signed reports and their approvals: appended, never changed.
+    R"sql(
+CREATE TABLE report_revisions (
+  id             INTEGER PRIMARY KEY,
+  subject        TEXT NOT NULL,
+  revision       INTEGER NOT NULL CHECK (revision >= 1),
+  created_at     TEXT NOT NULL,
+  content_sha256 TEXT NOT NULL,
+  summary_json   TEXT NOT NULL,
+  UNIQUE (subject, revision)
+);
+CREATE TRIGGER report_revisions_immutable BEFORE UPDATE ON report_revisions
+  BEGIN SELECT RAISE(ABORT, 'report revisions are immutable'); END;
+CREATE TRIGGER report_revisions_kept BEFORE DELETE ON report_revisions
+  BEGIN SELECT RAISE(ABORT, 'report revisions are never deleted'); END;
+CREATE TABLE report_approvals (
+  id          INTEGER PRIMARY KEY,
+  subject     TEXT NOT NULL,
+  revision    INTEGER NOT NULL,
+  approved_by TEXT NOT NULL,
+  token_id    INTEGER NOT NULL,
+  approved_at TEXT NOT NULL,
+  pdf         BLOB NOT NULL,
+  UNIQUE (subject, revision)
+);
+CREATE TRIGGER report_approvals_immutable BEFORE UPDATE ON report_approvals
+  BEGIN SELECT RAISE(ABORT, 'report approvals are immutable'); END;
+CREATE TRIGGER report_approvals_kept BEFORE DELETE ON report_approvals
+  BEGIN SELECT RAISE(ABORT, 'report approvals are never deleted'); END;
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

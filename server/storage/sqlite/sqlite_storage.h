@@ -119,6 +119,12 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::optional<InstrumentVersionRecord> GetInstrument(
       const std::string& serial, std::optional<std::int64_t> version) override;
   std::vector<InstrumentVersionRecord> ListInstruments() override;
+  // Report revisions and approvals: sqlite_reports.cpp.
+  ReportRevisionPut PutReportRevision(const NewReportRevision& revision) override;
+  std::vector<ReportRevisionRecord> ListReportRevisions(const std::string& subject) override;
+  bool AddReportApproval(const ReportApprovalRecord& approval) override;
+  std::optional<std::string> ReportApprovalPdf(const std::string& subject,
+                                               std::int64_t revision) override;
 
  private:
   // The connection's prepared statement of this SQL, leased until the result goes out of scope.

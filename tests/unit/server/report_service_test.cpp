@@ -87,9 +87,11 @@ TEST_F(ReportServiceTest, ADbbReportNamesMachineDateFiguresAuditAndAsLeft) {
     EXPECT_NE(text.find(s), std::string::npos) << "missing '" << s << "' in:\n" << text;
   }
   EXPECT_EQ(text.find("As found"), std::string::npos) << "no later test yet";
-  // A later CCW test of the same set-up, after a repair: as found 10.00, as left 4.00 µm.
+  // A later CCW test of the same set-up, after a repair: as found 10.00, as left 4.00 µm. The
+  // user chooses it; a later test alone does not make the report an as-found / as-left one.
   const auto after = m.Upload(OvalDbb("ccw", "2026-05-01T08:00:00Z", 2.0), "after.txt").id;
-  const std::string again = Text(svc_->reports().MeasurementPdf(ccw));
+  EXPECT_EQ(Text(svc_->reports().MeasurementPdf(ccw)).find("As found"), std::string::npos);
+  const std::string again = Text(svc_->reports().MeasurementPdf(ccw, {after, std::nullopt}));
   EXPECT_NE(again.find("As found / as left"), std::string::npos) << again;
   EXPECT_NE(again.find("#" + std::to_string(after)), std::string::npos) << again;
   EXPECT_NE(again.find("4.00"), std::string::npos) << again;

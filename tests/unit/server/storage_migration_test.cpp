@@ -333,6 +333,19 @@ TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
       EXPECT_FALSE(s.GetToleranceTable("old-vmc", std::nullopt));
       EXPECT_EQ(s.PutToleranceTable({"old-vmc", "[]", std::string(64, 'e')}).record.version, 1);
       EXPECT_EQ(s.ListMachines().size(), 2u);
+      // The instrument register (version 12) keeps its rows.
+      if (v >= 12) {
+        const auto i = s.GetInstrument("QC20-4711", std::nullopt);
+        ASSERT_TRUE(i);
+        EXPECT_EQ(i->version, 1);
+        EXPECT_EQ(i->created_at, "2025-11-01T08:00:00Z");
+      }
+      // Report revisions (version 13) are usable at once.
+      EXPECT_EQ(s.PutReportRevision({"measurement 1", std::string(64, 'f'), "{}"}).record.revision,
+                1);
+      EXPECT_TRUE(
+          s.AddReportApproval({"measurement 1", 1, "ann", 1, "", std::string("%PDF\0x", 6)}));
+      EXPECT_EQ(s.ReportApprovalPdf("measurement 1", 1), std::string("%PDF\0x", 6));
       if (v < 2) {
         EXPECT_TRUE(s.ListJobs(10).empty());
       }
