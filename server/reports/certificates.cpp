@@ -106,13 +106,26 @@ std::string Certificates::ApprovedPdf(const CertificateSubject& s, std::int64_t 
                  std::to_string(current));
 }
 
+void Certificates::CheckNamedRevision(const CertificateSubject& s, std::int64_t revision) {
+  const auto list = store_.ListReportRevisions(s.subject);
+  for (const auto& e : list) {
+    if (e.revision == revision && e.approval) {
+      throw Conflict(Name(s, revision) + " is already approved by " + e.approval->approved_by +
+                     " at " + e.approval->approved_at);
+    }
+  }
+  if (!list.empty() && revision < list.back().revision) {
+    throw Conflict(Name(s, revision) + " is not the current revision (" +
+                   std::to_string(list.back().revision) + " is)");
+  }
+}
+
 void Certificates::CheckApprovable(const CertificateSubject& s, const ReportRevisionRecord& current,
                                    std::optional<std::int64_t> expected) {
   if (expected && *expected != current.revision) {
     throw Conflict(Name(s, *expected) + " is not the current revision (" +
                    std::to_string(current.revision) +
-                   " is): what it certifies has changed; read the current revision and approve "
-                   "that");
+                   " is); read the current revision and approve that one");
   }
   if (current.approval) {
     throw Conflict(Name(s, current.revision) + " is already approved by " +

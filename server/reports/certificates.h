@@ -54,6 +54,9 @@ class Certificates {
   // The approved PDF of an earlier revision; NotFound when that revision was never approved (only
   // approved revisions are kept as printed) or does not exist.
   std::string ApprovedPdf(const CertificateSubject& s, std::int64_t revision, std::int64_t current);
+  // A revision an approver names, checked against the stored revisions before the report is
+  // made again: Conflict when it is already approved or not the newest stored.
+  void CheckNamedRevision(const CertificateSubject& s, std::int64_t revision);
   // Checks that `expected` (when given) is the current revision and that it is not approved yet
   // (Conflict otherwise, naming the revision and who approved it).
   void CheckApprovable(const CertificateSubject& s, const ReportRevisionRecord& current,

@@ -230,9 +230,13 @@ std::string ReportService::Pdf(const std::function<Prepared()>& prepare,
   });
 }
 
-nlohmann::json ReportService::Approve(const std::function<Prepared()>& prepare,
+nlohmann::json ReportService::Approve(const CertificateSubject& subject,
+                                      const std::function<Prepared()>& prepare,
                                       std::optional<std::int64_t> revision,
                                       const ReportApprover& by) {
+  // Before the report is made again (in the render gate): a revision already approved or
+  // superseded is answered at once.
+  if (revision) certificates_.CheckNamedRevision(subject, *revision);
   return nlohmann::json::parse(gate_.Run([this, prepare, revision, by](const Cancelled& cancelled) {
     const Prepared p = prepare();
     const ReportRevisionRecord current = certificates_.Current(p.subject, p.content, p.summary);
@@ -284,12 +288,15 @@ nlohmann::json ReportService::ApproveMeasurement(std::int64_t id,
                                                  std::optional<std::int64_t> as_left,
                                                  std::optional<std::int64_t> revision,
                                                  const ReportApprover& by) {
-  return Approve([this, id, as_left] { return PrepareMeasurement(id, as_left); }, revision, by);
+  return Approve(
+      MeasurementCertificate(id, as_left),
+      [this, id, as_left] { return PrepareMeasurement(id, as_left); }, revision, by);
 }
 
 nlohmann::json ReportService::ApproveJob(std::int64_t id, std::optional<std::int64_t> revision,
                                          const ReportApprover& by) {
   return Approve(
+      JobCertificate(id),
       [this, id] {
         Prepared p = PrepareJob(id);
         if (p.content.value("status", "") != "done") {
@@ -304,7 +311,9 @@ nlohmann::json ReportService::ApproveJob(std::int64_t id, std::optional<std::int
 nlohmann::json ReportService::ApproveAudit(const std::string& machine_id,
                                            std::optional<std::int64_t> revision,
                                            const ReportApprover& by) {
-  return Approve([this, machine_id] { return PrepareAudit(machine_id); }, revision, by);
+  return Approve(
+      AuditCertificate(machine_id), [this, machine_id] { return PrepareAudit(machine_id); },
+      revision, by);
 }
 
 }  // namespace km::server

@@ -77,7 +77,8 @@ class ReportService {
   Prepared PrepareJob(std::int64_t id);
   Prepared PrepareAudit(const std::string& machine_id);
   std::string Pdf(const std::function<Prepared()>& prepare, std::optional<std::int64_t> revision);
-  nlohmann::json Approve(const std::function<Prepared()>& prepare,
+  nlohmann::json Approve(const CertificateSubject& subject,
+                         const std::function<Prepared()>& prepare,
                          std::optional<std::int64_t> revision, const ReportApprover& by);
   nlohmann::json Revisions(const Prepared& p);
   AuditSource& records_;
