@@ -94,13 +94,23 @@ std::string Figure(const json& v, const std::string& unit) {
 
 void AddFigures(render::ReportTable& t, const json& object, const std::string& prefix,
                 const std::vector<std::string>& skip, int depth) {
-  for (const auto& [key, v] : object.items()) {
+  // The figures the reports know by name first, in the reports' order.
+  std::vector<std::string> keys;
+  for (const auto& [key, v] : object.items()) keys.push_back(key);
+  std::stable_sort(keys.begin(), keys.end(), [](const std::string& a, const std::string& b) {
+    return FigureRank(a) < FigureRank(b);
+  });
+  for (const auto& key : keys) {
+    const json& v = object[key];
     bool skipped = false;
     for (const auto& s : skip) skipped = skipped || s == key;
     if (skipped) continue;
     const KeyLabel l = LabelOf(key);
     if ((v.is_number() && !v.is_boolean()) || SmallNumberArray(v)) {
-      t.rows.push_back({prefix + l.label, v.is_array() ? Short(v) : Figure(v, l.unit), l.unit});
+      // A figure the reports know by name is printed so; another by its key in words.
+      const std::string name = FigureRank(key) < FigureRank("") ? FigureName(key) : l.label;
+      t.rows.push_back({prefix + (prefix.empty() ? Capitalised(name) : name),
+                        v.is_array() ? Short(v) : Figure(v, l.unit), l.unit});
     } else if (v.is_object() && depth < 1) {
       AddFigures(t, v, prefix + l.label + ": ", skip, depth + 1);
     }
@@ -269,6 +279,34 @@ std::vector<render::ReportBlock> ColumnTables(const json& object, const std::str
   return out;
 }
 
+namespace {
+
+// The conditions of the measurement as its file states them: "temperature 20.4 °C" (a DBB or
+// form file), "air 21.3 °C, 100850 Pa, 44 % RH; material 22.1 °C" (a laser file).
+std::string Environment(const json& m) {
+  const auto value = [&](const char* key, const char* unit) {
+    return m.contains(key) && m[key].is_string() ? m[key].get<std::string>() + " " + unit
+                                                 : std::string();
+  };
+  std::vector<std::string> parts;
+  const auto add = [&](const std::string& what, std::vector<std::string> v) {
+    std::string joined;
+    for (const auto& x : v) {
+      if (!x.empty()) joined += (joined.empty() ? "" : ", ") + x;
+    }
+    if (!joined.empty()) parts.push_back(what + joined);
+  };
+  add("temperature ", {value("temperature_c", "°C")});
+  add("air ", {value("air_temperature_c", "°C"), value("air_pressure_pa", "Pa"),
+               value("air_humidity_pct", "% RH")});
+  add("material ", {value("material_temperature_c", "°C")});
+  std::string out;
+  for (const auto& p : parts) out += (out.empty() ? "" : "; ") + p;
+  return out.empty() ? "— (not in the file)" : out;
+}
+
+}  // namespace
+
 std::vector<std::pair<std::string, std::string>> Identification(const ReportSource& s) {
   std::vector<std::pair<std::string, std::string>> id;
   id.push_back({"Machine", s.machine_id});
@@ -289,6 +327,7 @@ std::vector<std::pair<std::string, std::string>> Identification(const ReportSour
   };
   id.push_back({"Operator", meta("operator")});
   id.push_back({"Instrument", meta("instrument")});
+  id.push_back({"Environment", Environment(s.metadata)});
   return id;
 }
 

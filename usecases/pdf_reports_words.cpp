@@ -67,6 +67,15 @@ constexpr Name kFigureNames[] = {
     {"flatness_lsq_um", "flatness (least squares)"},
     {"flatness_min_zone_um", "flatness (minimum zone)"},
     {"parallelism_um", "parallelism"},
+    {"straightness_end_point_um", "straightness (end-point reference)"},
+    {"range_um", "range of the readings"},
+    {"slope_um_per_m", "slope of the least-squares line"},
+    {"end_point_slope_um_per_m", "slope of the end-point line"},
+    {"min_zone_slope_um_per_m", "slope of the minimum-zone lines"},
+    {"slope_with_periodic_um_per_m", "slope with the periodic error fitted"},
+    {"intercept_um", "intercept of the least-squares line"},
+    {"length_mm", "length measured"},
+    {"points", "points measured"},
 };
 
 // VDI/DGQ 3441 figures, under vdi3441.
