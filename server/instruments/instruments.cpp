@@ -227,6 +227,7 @@ InstrumentUse ApplyInstrument(std::map<std::string, std::string>& metadata,
   const bool overdue = due_day && std::floor(t / 86400.0) > static_cast<double>(*due_day);
   const std::string due = due_day ? ingest::IsoDateFromDays(*due_day) : "";
   use.block = {{"instrument", TextOrNull(metadata, "instrument")},
+               {"kind", registered ? json(registered->kind) : json(nullptr)},
                {"serial", TextOrNull(metadata, "instrument_serial")},
                {"calibrated", TextOrNull(metadata, "instrument_calibrated")},
                {"certificate", TextOrNull(metadata, "instrument_certificate")},

@@ -44,6 +44,7 @@ void NameInstrument(usecases::ReportSource& s, const nlohmann::json& result) {
     return i.contains(key) && i[key].is_string() ? i[key].get<std::string>() : std::string();
   };
   std::string line = text("instrument").empty() ? "instrument" : text("instrument");
+  if (!text("kind").empty()) line += " (" + text("kind") + ")";
   if (!text("serial").empty()) line += ", serial " + text("serial");
   line += ", calibrated " + (text("calibrated").empty() ? "— (not stated)" : text("calibrated"));
   if (!text("certificate").empty()) line += ", certificate " + text("certificate");

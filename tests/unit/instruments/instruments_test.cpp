@@ -272,6 +272,7 @@ TEST(ApplyInstrument, TheRegisterFillsWhatTheFileDoesNotState) {
   EXPECT_EQ(b["calibrated"], "2025-03-01");
   EXPECT_EQ(b["certificate"], "UKAS 0123 / 2025-117");
   EXPECT_EQ(b["register_version"], 3);
+  EXPECT_FALSE(b["kind"].is_null());  // the register's kind of instrument
   EXPECT_EQ(
       b["sources"],
       json({{"u_reading_um", "file"}, {"u_bar_length_um", "register"}, {"u_spindle_um", "file"}}));
