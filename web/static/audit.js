@@ -12,6 +12,7 @@ import { handleAuth } from './auth.js';
 import { $, asProblem, errorBox, h, problemContent, setMessage } from './dom.js';
 import { auditWords, formatDirection, formatTimestamp, plural } from './format.js';
 import { auditHash, jobHash, measurementHash, trendsHash } from './router.js';
+import { hideCertificate, showAuditCertificate } from './reports.js';
 import { refusalContent } from './roles.js';
 import { checkRules, DEFAULT_MAX_AGE_DAYS, metricUnit, ruleEditor } from './audit_form.js';
 import { state } from './state.js';
@@ -309,6 +310,7 @@ export async function showAudit(machineId) {
   $('#audit-heading').textContent = `Accuracy audit — ${machineId}`;
   $('#machine-audit-summary').replaceChildren(); // the view shows it in full
   $('#audit-report-pdf').hidden = true; // offered once the machine's audit is known to exist
+  hideCertificate('audit');
   const body = $('#audit-body');
   body.setAttribute('aria-busy', 'true');
   try {
@@ -318,6 +320,7 @@ export async function showAudit(machineId) {
     view.dataset.auditLevel = data.latest ? String(data.latest.level) : 'none';
     $('#audit-run').hidden = !data.audit;
     $('#audit-report-pdf').hidden = !data.audit; // no audit: its report is a 404
+    if (data.audit) showAuditCertificate(machineId);
     body.replaceChildren(
       h(
         'p',

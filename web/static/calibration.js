@@ -10,6 +10,7 @@ import { $, asProblem, downloadText, errorBox, h, keepFocus, problemContent, set
 import { formatDirection, formatMode, formatNumber, formatTimestamp, formatUncertainty, plural } from './format.js';
 import { cancelledContent, jobCancelControl } from './job_cancel.js';
 import { pollJob, selectMachineOfJob } from './job_poll.js';
+import { hideCertificate, showJobCertificate } from './reports.js';
 import { jobHash, navigate } from './router.js';
 import { state } from './state.js';
 
@@ -171,6 +172,7 @@ let showCancel = () => {}; // the view's Cancel button (initCalibration)
 export async function showJob(jobId) {
   const seq = ++state.jobSeq;
   showCancel(null);
+  hideCertificate('job'); // asked once the job has ended (its report changes while it runs)
   const view = $('#job-view');
   view.dataset.jobId = String(jobId);
   view.dataset.jobVerdict = '';
@@ -205,6 +207,7 @@ export async function showJob(jobId) {
         setMessage(status, null);
         renderJob(job);
       }
+      showJobCertificate('job', job);
       loadJobHistory();
     },
     waiting: (job) => setMessage(status, 'info', ...jobStatusContent(job)),

@@ -18,6 +18,7 @@ import { shell } from './shell.js';
 import { compensationBlock, positioningConditions, renderPositioningPlot } from './positioning.js';
 import { FORM_KINDS, WIDE_KINDS, state } from './state.js';
 import { conformancePanel } from './tolerances.js';
+import { hideCertificate, showMeasurementCertificate } from './reports.js';
 
 export function resetDetail() {
   const view = $('#detail');
@@ -37,6 +38,7 @@ export function resetDetail() {
   $('#figures').replaceChildren(h('p', { class: 'placeholder' }, 'Figures appear here.'));
   $('#figures-extra').replaceChildren();
   renderConformance(null);
+  hideCertificate('measurement');
   resetReversal();
   resetAnalysis();
   setDetailLayout(null);
@@ -116,12 +118,14 @@ export async function showMeasurement(id) {
     if (seq !== state.selectSeq) return;
     view.dataset.measurementId = String(id);
     $('#detail-actions').hidden = false;
+    showMeasurementCertificate(item); // the report exists: its certificate beside its button
     if (state.scrollToDetail) {
       state.scrollToDetail = false;
       view.scrollIntoView({ block: 'start' });
     }
   } catch (err) {
     if (seq !== state.selectSeq) return;
+    hideCertificate('measurement');
     if (!handleAuth(err)) {
       view.dataset.view = 'error';
       $('#polar-plot').replaceChildren(errorBox(err));

@@ -19,6 +19,7 @@ import { effectInText } from './discovery_words.js';
 import { formatDirection, formatTimestamp } from './format.js';
 import { cancelledContent, jobCancelControl } from './job_cancel.js';
 import { pollJob, selectMachineOfJob } from './job_poll.js';
+import { hideCertificate, showJobCertificate } from './reports.js';
 
 // The engine's default maximum number of steps (analysis/discovery/engine.h, EngineOptions): the
 // job reports its progress as step / (max_steps + 1). Used only when the stage text does not
@@ -523,6 +524,7 @@ let showCancel = () => {}; // the view's Cancel button (initDiscovery)
 
 async function showJob(jobId, seq) {
   showCancel(null);
+  hideCertificate('disc'); // asked once the job has ended
   const status = $('#disc-status');
   const result = $('#disc-result');
   result.replaceChildren();
@@ -559,6 +561,7 @@ async function showJob(jobId, seq) {
     ended: (job) => {
       if (job.status === JOB_STATUS.cancelled) setMessage(status, 'info', ...cancelledContent(job));
       else shown(job);
+      showJobCertificate('disc', job);
       refreshDiscoveryList();
     },
     waiting: (job) => setMessage(status, 'info', ...jobStatusContent(job)),
