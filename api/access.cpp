@@ -12,7 +12,7 @@
 #include "api/route_util.h"
 #include "api/routes.h"
 #include "server/access/access.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/base/sha256.h"
 
 namespace km::api {
@@ -71,7 +71,7 @@ RequestHook TokenHookOver(std::function<server::Caller(const std::string&)> auth
     if (need == Role::kPublic) return;
     const auto auth = req.Header("authorization");
     const auto token = auth ? BearerToken(*auth) : std::nullopt;
-    if (!token) throw Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
+    if (!token) throw server::Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
     // Looked up by the SHA-256 of the secret: no byte of a stored secret is ever compared.
     const std::string sha = server::Sha256Hex(*token);
     auto caller = cache->Find(sha);
@@ -84,9 +84,9 @@ RequestHook TokenHookOver(std::function<server::Caller(const std::string&)> auth
     req.token_name = caller->name;
     req.token_role = server::RoleName(caller->role);
     if (caller->role < need) {
-      throw Forbidden(req.method + " " + route.pattern + " needs a token of role '" +
-                      server::RoleName(need) + "' or above; this token's role is '" +
-                      req.token_role + "'");
+      throw server::Forbidden(req.method + " " + route.pattern + " needs a token of role '" +
+                              server::RoleName(need) + "' or above; this token's role is '" +
+                              req.token_role + "'");
     }
   };
 }

@@ -3,7 +3,7 @@
 #include "api/endpoints.h"
 #include "api/route_util.h"
 #include "server/access/access.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 
 namespace km::api::endpoints {
 
@@ -53,11 +53,7 @@ Endpoint RevokeToken(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Revoke an access token at once",
           [svc](const Request& req) {
-            try {
-              return Response::Json(svc->access().RevokeToken(req.PathId("id")));
-            } catch (const server::Conflict& e) {
-              return Problem(409, "Conflict", e.what());
-            }
+            return Response::Json(svc->access().RevokeToken(req.PathId("id")));
           },
           {{"responses",
             {{"200", JsonResponse("{id, revoked_at}")},

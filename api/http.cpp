@@ -5,7 +5,7 @@
 #include <iostream>
 
 #include "analysis/core/errors.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/storage/storage.h"
 
 namespace km::api {
@@ -198,11 +198,11 @@ Response ErrorResponse(std::exception_ptr error, const Request& req) {
     return Problem(400, "Invalid input", e.what(), extra);
   } catch (const NotFound& e) {
     return Problem(404, "Not Found", e.what());
-  } catch (const Unauthorized& e) {
+  } catch (const server::Unauthorized& e) {
     Response r = Problem(401, "Unauthorized", e.what());
     r.headers["WWW-Authenticate"] = "Bearer";
     return r;
-  } catch (const Forbidden& e) {
+  } catch (const server::Forbidden& e) {
     return Problem(403, "Forbidden", e.what());
   } catch (const Unavailable& e) {
     Response r = Problem(503, "Service Unavailable", e.what());

@@ -7,7 +7,7 @@
 #include "api/endpoints.h"
 #include "api/route_util.h"
 #include "server/audits/fleet_service.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/base/request_json.h"
 
 namespace km::api::endpoints {
@@ -76,11 +76,7 @@ Endpoint CancelJob(const RouteContext& c) {
   return {"Cancel a queued or running job (its owner, the token that submitted it, or an admin)",
           [svc](const Request& req) {
             const server::JobCanceller by{req.token_id, req.token_name, req.token_role == "admin"};
-            try {
-              return Response::Json(svc->studies().CancelJob(req.PathId("id"), by));
-            } catch (const server::Conflict& e) {
-              return Problem(409, "Conflict", e.what());
-            }
+            return Response::Json(svc->studies().CancelJob(req.PathId("id"), by));
           },
           {{"responses",
             {{"200", JsonResponse("the job, status cancelled; a running job stops at its next "
@@ -212,12 +208,8 @@ Endpoint SaveJobMachine(const RouteContext& c) {
           }
           note = server::request::OptionalString(body, "note", "");
         }
-        try {
-          const auto out = svc->studies().SaveJobMachine(req.PathId("id"), note);
-          return Response::Json(StoredJson(out), out.created ? 201 : 200);
-        } catch (const server::Conflict& e) {
-          return Problem(409, "Conflict", e.what());
-        }
+        const auto out = svc->studies().SaveJobMachine(req.PathId("id"), note);
+        return Response::Json(StoredJson(out), out.created ? 201 : 200);
       },
       {{"requestBody",
         JsonRequestBody({{"type", "object"}, {"properties", {{"note", {{"type", "string"}}}}}},

@@ -39,12 +39,8 @@ int RunDbbAnalyze(const Args& args, std::ostream& out) {
     tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
   }
   for (std::size_t i = 0; i < tests.size(); ++i) {
-    try {
-      // Check each file on its own first so that an analysis error names its file.
-      (void)dbb::AnalyzeCircularTest(tests[i]);
-    } catch (const InvalidInput& e) {
-      throw InvalidInput(args.positional[i], e.line(), e.field(), e.reason());
-    }
+    // Check each file on its own first so that an analysis error names its file.
+    (void)InFile(args.positional[i], [&] { return dbb::AnalyzeCircularTest(tests[i]); });
   }
   const dbb::DbbReport analysis = dbb::AnalyzeDbbSet(tests);
   const nlohmann::json report = usecases::DbbReportJson(tests, analysis);

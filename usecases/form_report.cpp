@@ -16,17 +16,6 @@
 namespace km::usecases {
 namespace {
 
-// Analysis errors carry no file name; add it.
-template <typename F>
-auto InFile(const std::string& file, F&& f) {
-  try {
-    return f();
-  } catch (const InvalidInput& e) {
-    if (!e.file().empty()) throw;
-    throw InvalidInput(file, e.line(), e.field(), e.reason());
-  }
-}
-
 nlohmann::json Plane(const form::PlaneReport& p) {
   return {{"slope_x_um_per_m", p.slope_x_um_per_m},
           {"slope_y_um_per_m", p.slope_y_um_per_m},

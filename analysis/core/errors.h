@@ -57,22 +57,22 @@ class NotFound : public Error {
   using Error::Error;
 };
 
-// The caller is not authenticated (no token, or an unknown one).
-class Unauthorized : public Error {
- public:
-  using Error::Error;
-};
-
-// The caller is authenticated but its role does not allow the request.
-class Forbidden : public Error {
- public:
-  using Error::Error;
-};
-
 // The service is busy (a queue is full); the same request may succeed a little later.
 class Unavailable : public Error {
  public:
   using Error::Error;
 };
+
+// Runs f(); an InvalidInput it throws without a file is thrown again naming `file` (its line,
+// field and reason kept), so that an error found in the analysis of a file names that file.
+template <class F>
+auto InFile(const std::string& file, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const InvalidInput& e) {
+    if (!e.file().empty() || dynamic_cast<const TooLarge*>(&e) != nullptr) throw;
+    throw InvalidInput(file, e.line(), e.field(), e.reason());
+  }
+}
 
 }  // namespace km

@@ -8,7 +8,7 @@
 #include <unordered_map>
 
 #include "analysis/core/errors.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/base/request_json.h"
 #include "server/base/sha256.h"
 #include "server/base/utf8.h"

@@ -12,7 +12,7 @@
 #include "ingest/dbb_parser.h"
 #include "ingest/json_text.h"
 #include "ingest/machine_json.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/jobs/study_service.h"
 #include "usecases/calibration_study.h"
 

@@ -9,7 +9,7 @@
 #include "analysis/core/errors.h"
 #include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/jobs/study_service.h"
 #include "usecases/discovery_report.h"
 

@@ -6,7 +6,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/json_text.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 
 namespace km::server {
 

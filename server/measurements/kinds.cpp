@@ -108,13 +108,8 @@ Ingested IngestDbb(std::string_view bytes, const std::string& file,
   in.measured_at = test.timestamp;
   for (const auto& [k, v] : test.metadata) in.metadata[k] = v;  // the file's own keys
   const auto use = UseInstrument(instruments, test.metadata, test.timestamp);
-  nlohmann::json result;
-  try {
-    result = usecases::DbbTestJson(test);
-  } catch (const InvalidInput& e) {
-    // Analysis-level problems name the file too.
-    throw InvalidInput(file, e.line(), e.field(), e.reason());
-  }
+  // Analysis-level problems name the file too.
+  nlohmann::json result = InFile(file, [&] { return usecases::DbbTestJson(test); });
   RequireFiniteResult(result, file);
   AddInstrumentUse(use, result);
   in.samples.columns = {"angle_deg", "dr_um"};
@@ -224,13 +219,7 @@ Ingested IngestTracker(std::string_view bytes, const std::string& file,
     }
     for (int j = 0; j < n; ++j) in.samples.values.push_back(f.readings.displacement_um(i, j));
   }
-  nlohmann::json result;
-  try {
-    result = usecases::AnalyzeTracker(f);
-  } catch (const InvalidInput& e) {
-    if (!e.file().empty()) throw;
-    throw InvalidInput(file, e.line(), e.field(), e.reason());  // name the file
-  }
+  nlohmann::json result = InFile(file, [&] { return usecases::AnalyzeTracker(f); });
   RequireFiniteResult(result, file);
   AddInstrumentUse(use, result);
   in.results.push_back({"tracker", kTrackerAnalysisVersion, result.dump()});

@@ -39,13 +39,8 @@ Ingested IngestPositioning(std::string_view bytes, const std::string& file,
       UseInstrument(instruments, f.metadata,
                     f.timestamp.empty() ? std::nullopt : std::optional<std::string>(f.timestamp));
   DropInapplicableRegisterKeys(f, use);
-  usecases::PositioningReport report;
-  try {
-    report = usecases::AnalysePositioning(f);
-  } catch (const InvalidInput& e) {
-    if (!e.file().empty()) throw;
-    throw InvalidInput(file, e.line(), e.field(), e.reason());  // name the file
-  }
+  const usecases::PositioningReport report =
+      InFile(file, [&] { return usecases::AnalysePositioning(f); });
   nlohmann::json result = usecases::PositioningReportToJson(report);
   RequireFiniteResult(result, file);
   AddInstrumentUse(use, result);

@@ -3,7 +3,7 @@
 #include <cstdio>
 
 #include "analysis/core/errors.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/base/sha256.h"
 #include "server/base/time_util.h"
 

@@ -10,7 +10,7 @@
 #include "ingest/json_text.h"
 #include "render/pdf_report.h"
 #include "server/audits/audit_service.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/base/time_util.h"
 #include "usecases/dbb_report.h"
 #include "usecases/pdf_reports.h"

@@ -6,6 +6,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/json_text.h"
+#include "server/base/errors.h"
 #include "server/base/net_ranges.h"
 
 namespace km::server {

@@ -19,6 +19,7 @@
 #include "api/http_framing.h"
 #include "api/http_server.h"
 #include "api/http_session.h"
+#include "server/base/errors.h"
 #include "tests/unit/api/loopback_server.h"
 #include "tests/unit/api/raw_client.h"
 
@@ -138,7 +139,7 @@ class FramingServer : public ::testing::Test {
                       }});
     router_.SetHook([](const Request& req, const Route& route) {
       if (route.needs_token && req.Header("authorization") != "Bearer good") {
-        throw Unauthorized("token needed");
+        throw server::Unauthorized("token needed");
       }
     });
     server_ = std::make_unique<test::LoopbackServer>(router_, o);

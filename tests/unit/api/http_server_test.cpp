@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "analysis/core/errors.h"
+#include "server/base/errors.h"
 #include "tests/unit/api/loopback_server.h"
 #include "tests/unit/api/raw_client.h"
 
@@ -88,7 +89,7 @@ class HttpServerTest : public ::testing::Test {
     router_.Add(std::move(stream));
     router_.SetHook([](const Request& req, const Route& route) {
       if (route.needs_token && req.Header("authorization") != "Bearer good") {
-        throw Unauthorized("token needed");
+        throw server::Unauthorized("token needed");
       }
     });
     server_ = std::make_unique<test::LoopbackServer>(router_, o);

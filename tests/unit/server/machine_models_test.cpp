@@ -13,7 +13,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/machine_json.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/expect_error.h"

@@ -19,7 +19,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/text_format.h"
-#include "server/base/conflict.h"
+#include "server/base/errors.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/expect_error.h"
