@@ -1,0 +1,73 @@
+// `kinemetric rotary analyze FILE [--json]` (docs/formats.md §3.18): the eight location errors
+// of a trunnion table's rotary axes from an R-test file (§1.10). Parsing in
+// ingest/rotary/rotary_parser, numerics in analysis/rotary, JSON in usecases/rotary/rotary_report.
+#include <cstdio>
+#include <ostream>
+#include <string>
+
+#include "analysis/core/errors.h"
+#include "cli/command.h"
+#include "usecases/rotary/rotary_report.h"
+
+namespace km::cli {
+namespace {
+
+using usecases::RotaryReport;
+
+std::string RotaryLine(const char* format, double a, double b) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, format, a, b);
+  return buf;
+}
+
+void PrintRotaryErrors(std::ostream& out, const RotaryReport& r) {
+  const auto k = r.result.kinematics;
+  const auto& names = rotary::LocationErrorNames(k);
+  for (std::size_t i = 0; i < rotary::kLocationErrorCount; ++i) {
+    const auto& e = r.result.errors[i];
+    const char* unit = rotary::IsAngularError(i) ? "urad" : "um";
+    out << "  " << names[i] << " ";
+    if (e.identifiable) {
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "%10.2f %-4s  sigma %6.2f\n", e.value, unit, e.sigma);
+      out << buf;
+    } else {
+      out << "  not identifiable from these poses\n";
+    }
+  }
+}
+
+void PrintRotary(std::ostream& out, const RotaryReport& r) {
+  const auto& res = r.result;
+  out << "rotary axes (" << rotary::KinematicsName(res.kinematics) << "), " << r.file.file << ": "
+      << res.poses << " poses\n";
+  out << "location errors (ISO 230-1):\n";
+  PrintRotaryErrors(out, r);
+  out << "  rank " << res.rank << " of " << rotary::kLocationErrorCount;
+  if (res.condition) out << RotaryLine(", condition %.3g", *res.condition, 0.0);
+  out << "\n";
+  if (res.not_separable.empty())
+    out << "  all eight location errors are determined by these poses\n";
+  out << RotaryLine("  RMS before %.3f um, after %.3f um", res.measured_rms_um, res.residual_rms_um)
+      << RotaryLine(" (s = %.3f um)\n", res.sigma_um, 0.0);
+  for (const auto& w : r.warnings) out << "  warning: " << w << "\n";
+}
+
+int RunRotaryAnalyze(const Args& args, std::ostream& out) {
+  if (args.positional.size() != 1) throw InvalidInput("", 0, "FILE", "give exactly one file");
+  const std::string& path = args.positional.front();
+  const RotaryReport r =
+      usecases::AnalyseRotary(ingest::ParseRotaryFile(ReadFileBytes(path), path));
+  if (args.json) {
+    out << usecases::RotaryReportToJson(r).dump(2) << "\n";
+    return 0;
+  }
+  PrintRotary(out, r);
+  return 0;
+}
+
+}  // namespace
+
+KM_CLI_COMMAND("rotary analyze", "FILE [--json]", {}, RunRotaryAnalyze);
+
+}  // namespace km::cli

@@ -1,0 +1,120 @@
+#!/usr/bin/python3
+"""Independent truth simulator of R-test files of a trunnion table's rotary axes
+(`# format: kinemetric-rotary/1`, docs/formats.md §1.10), written straight from the definitions
+of the location errors in the issue and docs/methods.md §17 with Rodrigues rotation matrices.
+Shares no code with analysis/rotary/.
+
+Definitions (machine coordinates, mm; errors µm and µrad):
+  AC: the actual A line crosses X = 0 at (0, y_A + YOA, z_A + ZOA), direction (1, COA, -BOA)
+  BC: the actual B line crosses Y = 0 at (x_B + XOB, 0, z_B + ZOB), direction (-COB, 1, AOB)
+  C:  at zero tilt the actual C line crosses Z = 0 at (x_C + XOC, y_C + YOC, 0),
+      direction (BOC, -AOC, 1)
+  directions normalised; a positive angle turns the table right-handed about the axis.
+  sphere(t, c) = T_tilt(t)(T_C(c)(s)), T(x) = q + R(u, angle)(x - q); the nest is at the same
+  composition about the nominal lines; the reading is 1000 (actual - nominal) µm + noise, and 0 at
+  the first pose (zero angles), where the sensors are zeroed.
+
+usage: rotary_truth.py --kinematics AC|BC --poses full|tilt0|on_axis|random
+                       [--seed N] [--noise UM] [--count N] --out FILE
+Writes FILE and prints the true errors as JSON: {"errors": {"YOA": 13.7, ...}}.
+"""
+import argparse
+import json
+import math
+
+import numpy as np
+
+TRUTH = {
+    "AC": {"YOA": 13.7, "ZOA": -8.4, "BOA": -23.1, "COA": 17.6,
+           "XOC": -11.3, "YOC": 7.9, "AOC": 19.4, "BOC": -14.2},
+    "BC": {"XOB": -9.6, "ZOB": 12.3, "AOB": 21.7, "COB": -16.8,
+           "XOC": 6.4, "YOC": -12.9, "AOC": -18.3, "BOC": 11.1},
+}
+SETUP = {
+    "AC": {"tilt": (8.25, 61.4), "c": (1.7, -2.35), "sphere": (148.6, 23.9, 118.2)},
+    "BC": {"tilt": (-5.15, 57.3), "c": (3.2, -1.45), "sphere": (-41.7, 156.3, 108.9)},
+}
+
+
+def rodrigues(u, angle):
+    u = np.asarray(u, dtype=float)
+    u = u / np.linalg.norm(u)
+    k = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+
+
+def lines(kin, setup, e):
+    """(point, direction) of the tilt line and of the C line for errors e (µm, µrad)."""
+    t, c = setup["tilt"], setup["c"]
+    if kin == "AC":
+        tilt = (np.array([0.0, t[0] + 1e-3 * e["YOA"], t[1] + 1e-3 * e["ZOA"]]),
+                np.array([1.0, 1e-6 * e["COA"], -1e-6 * e["BOA"]]))
+    else:
+        tilt = (np.array([t[0] + 1e-3 * e["XOB"], 0.0, t[1] + 1e-3 * e["ZOB"]]),
+                np.array([-1e-6 * e["COB"], 1.0, 1e-6 * e["AOB"]]))
+    cline = (np.array([c[0] + 1e-3 * e["XOC"], c[1] + 1e-3 * e["YOC"], 0.0]),
+             np.array([1e-6 * e["BOC"], -1e-6 * e["AOC"], 1.0]))
+    return tilt, cline
+
+
+def turn(line, angle, x):
+    q, u = line
+    return q + rodrigues(u, angle) @ (x - q)
+
+
+def position(kin, setup, e, tilt_deg, c_deg):
+    tilt, cline = lines(kin, setup, e)
+    s = np.array(setup["sphere"], dtype=float)
+    return turn(tilt, math.radians(tilt_deg), turn(cline, math.radians(c_deg), s))
+
+
+def poses(kind, rng, count):
+    cs = [30.0 * i for i in range(12)]
+    if kind == "full":
+        out = [(t, c) for t in (-90.0, -45.0, 0.0, 45.0, 90.0) for c in cs]
+    elif kind in ("tilt0", "on_axis"):
+        out = [(0.0, c) for c in cs] if kind == "tilt0" else \
+              [(t, c) for t in (-90.0, -45.0, 0.0, 45.0, 90.0) for c in cs]
+    else:  # random poses over the working range
+        out = [(rng.uniform(-110.0, 110.0), rng.uniform(-360.0, 360.0)) for _ in range(count)]
+    out = [p for p in out if p != (0.0, 0.0)]
+    return [(0.0, 0.0)] + out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--kinematics", choices=["AC", "BC"], required=True)
+    ap.add_argument("--poses", choices=["full", "tilt0", "on_axis", "random"], default="full")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--noise", type=float, default=0.5)
+    ap.add_argument("--count", type=int, default=1000)
+    ap.add_argument("--out", required=True)
+    a = ap.parse_args()
+    kin = a.kinematics
+    setup = dict(SETUP[kin])
+    if a.poses == "on_axis":  # the sphere on the C line: its height cannot be told from XOC, YOC
+        setup["sphere"] = (setup["c"][0], setup["c"][1], setup["sphere"][2])
+    truth = TRUTH[kin]
+    zero = {k: 0.0 for k in truth}
+    rng = np.random.default_rng(a.seed)
+    tilt = "a" if kin == "AC" else "b"
+    text = ["# format: kinemetric-rotary/1", "# machine_id: sim-%s" % kin.lower(),
+            "# test_id: %s-%s-%d" % (kin, a.poses, a.seed), "# timestamp: 2026-03-01T10:00:00Z",
+            "# kinematics: %s-trunnion" % kin,
+            "# %s_axis_mm: %.4f, %.4f" % (tilt, *setup["tilt"]),
+            "# c_axis_mm: %.4f, %.4f" % setup["c"],
+            "# sphere_mm: %.4f, %.4f, %.4f" % tuple(setup["sphere"]),
+            "# instrument: simulated R-test", "# u_reading_um: %g" % a.noise,
+            "%s_deg,c_deg,dx_um,dy_um,dz_um,time_s" % tilt]
+    for i, (t, c) in enumerate(poses(a.poses, rng, a.count)):
+        d = 1e3 * (position(kin, setup, truth, t, c) - position(kin, setup, zero, t, c))
+        if i > 0:
+            d = d + rng.normal(0.0, a.noise, 3)
+        text.append("%.6f,%.6f,%.5f,%.5f,%.5f,%.1f" % (t, c, d[0], d[1], d[2], 2.0 * i))
+    with open(a.out, "w", encoding="utf-8") as f:
+        f.write("\n".join(text) + "\n")
+    print(json.dumps({"errors": truth, "sphere_mm": list(setup["sphere"])}))
+
+
+if __name__ == "__main__":
+    main()
