@@ -94,7 +94,12 @@ std::vector<NullSpaceGroup> DescribeNullSpace(Kinematics k, const Eigen::MatrixX
                                               double share_tolerance) {
   const Eigen::MatrixXd projector = null_basis * null_basis.transpose();
   std::vector<NullSpaceGroup> out;
+  NullSpaceGroup alone;  // the errors no pose is moved by, in one sentence
   for (const auto& members : NullGroups(projector, share_tolerance)) {
+    if (members.size() == 1) {
+      alone.errors.push_back(members[0]);
+      continue;
+    }
     double dims = 0.0;
     std::vector<std::string> names;
     for (std::size_t i : members) {
@@ -108,9 +113,7 @@ std::vector<NullSpaceGroup> DescribeNullSpace(Kinematics k, const Eigen::MatrixX
     }
     NullSpaceGroup g;
     g.errors = members;
-    if (members.size() == 1) {
-      g.sentence = names[0] + " is not determined by these poses: no pose is moved by it";
-    } else if (null_dims >= members.size()) {
+    if (null_dims >= members.size()) {
       g.sentence = JoinNames(names) + " are not determined by these poses";
     } else {
       const std::size_t known = members.size() - null_dims;
@@ -119,6 +122,14 @@ std::vector<NullSpaceGroup> DescribeNullSpace(Kinematics k, const Eigen::MatrixX
                    " of them " + (known == 1 ? "is" : "are") + " determined";
     }
     out.push_back(g);
+  }
+  if (!alone.errors.empty()) {
+    std::vector<std::string> names;
+    for (std::size_t i : alone.errors) names.push_back(ErrorName(k, i));
+    alone.sentence = JoinNames(names) + (names.size() == 1 ? " is" : " are") +
+                     " not determined by these poses: no pose is moved by " +
+                     (names.size() == 1 ? "it" : "them");
+    out.insert(out.begin(), alone);
   }
   return out;
 }

@@ -1,6 +1,7 @@
 // The location errors a pose set cannot determine, named in words (docs/methods.md §17.4): from
 // the null space of the column-scaled first-order Jacobian (rotary_identify.h). Errors that share
-// a null direction form a group; a group of one is "not determined by these poses", a group of
+// a null direction form a group; the errors linked to no other are named together
+// ("YOA, ZOA, BOA and COA are not determined by these poses"), a group of
 // two with one null direction names the one combination that is determined, e.g.
 // "XOC and BOC cannot be separated by these poses: only XOC + 150 mm × BOC is determined" (the
 // coefficient of a µrad error beside a µm one is a lever arm: µm per µrad = m). No value is ever
