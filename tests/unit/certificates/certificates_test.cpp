@@ -9,68 +9,27 @@
 // both compensation tables), refused naming `as_left` otherwise; job and audit reports are
 // certificates too.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
-#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <regex>
 #include <sstream>
 
-#include "api/http_target.h"
-#include "api/routes.h"
-#include "server/service.h"
-#include "server/storage/sqlite/sqlite_storage.h"
+#include "tests/unit/api/token_routes.h"
 #include "tests/unit/server/pdf_text.h"
 
 namespace km::api {
 namespace {
 
-namespace fs = std::filesystem;
 using nlohmann::json;
 
-class Certificates : public ::testing::Test {
+class Certificates : public test::TokenRoutesTest {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("km-certificates-" + std::to_string(::getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    svc_ = std::make_unique<server::Service>(
-        std::make_unique<server::SqliteStorage>((dir_ / "km.db").string()),
-        server::ServiceOptions{});
-    server::RegisterBuiltinKinds(svc_->measurements());
-    AddRoutes(router_, *svc_);
-    router_.SetHook(TokenHook(*svc_));
-    router_.SetObserver(AuditHook(*svc_));
-    ASSERT_EQ(svc_->access().EnsureAdminToken("boot"), "");
+    TokenRoutesTest::SetUp();
     viewer_ = Token("viewer", "vera");
     operator_ = Token("operator", "otto");
     engineer_ = Token("engineer", "erin");
-  }
-  void TearDown() override {
-    svc_.reset();
-    fs::remove_all(dir_);
-  }
-  Response Call(const std::string& method, const std::string& path, const std::string& token,
-                const std::string& body = "") {
-    Request req;
-    req.method = method;
-    std::string error;
-    const auto target = ParseTarget(path, error);
-    EXPECT_TRUE(target) << error;
-    req.path = target->path;
-    req.query = target->query;
-    req.headers["authorization"] = "Bearer " + token;
-    req.body = body;
-    return router_.Dispatch(req);
-  }
-  std::string Token(const std::string& role, const std::string& name) {
-    const auto r =
-        Call("POST", "/api/v1/tokens", "boot", json{{"name", name}, {"role", role}}.dump());
-    EXPECT_EQ(r.status, 201) << r.body;
-    return json::parse(r.body)["token"].get<std::string>();
   }
   std::int64_t Upload(const std::string& bytes) {
     const auto r = Call("POST", "/api/v1/measurements", operator_, bytes);
@@ -83,7 +42,7 @@ class Certificates : public ::testing::Test {
     return r.body;
   }
   std::string Text(const std::string& pdf) {
-    return test::PdfToText(pdf, (dir_ / "report.pdf").string());
+    return ::km::test::PdfToText(pdf, Path("report.pdf"));
   }
   void Tolerances(double g_um) {
     const json body{{"tolerances",
@@ -93,9 +52,6 @@ class Certificates : public ::testing::Test {
     const auto r = Call("PUT", "/api/v1/machines/vmc-3axis/tolerances", engineer_, body.dump());
     ASSERT_EQ(r.status, 200) << r.body;
   }
-  fs::path dir_;
-  std::unique_ptr<server::Service> svc_;
-  Router router_;
   std::string viewer_, operator_, engineer_;
 };
 

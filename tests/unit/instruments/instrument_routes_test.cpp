@@ -6,62 +6,26 @@
 // after the calibration was due carries a warning; the stored file is never changed; hostile
 // serials and bodies are refused, never a 500.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
-#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <sstream>
 
-#include "api/routes.h"
-#include "server/service.h"
-#include "server/storage/sqlite/sqlite_storage.h"
+#include "tests/unit/api/token_routes.h"
 #include "tests/unit/server/pdf_text.h"
 
 namespace km::api {
 namespace {
 
-namespace fs = std::filesystem;
 using nlohmann::json;
 
-class InstrumentRoutes : public ::testing::Test {
+class InstrumentRoutes : public test::TokenRoutesTest {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("km-instrument-routes-" + std::to_string(::getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    svc_ = std::make_unique<server::Service>(
-        std::make_unique<server::SqliteStorage>((dir_ / "km.db").string()),
-        server::ServiceOptions{});
-    server::RegisterBuiltinKinds(svc_->measurements());
-    AddRoutes(router_, *svc_);
-    router_.SetHook(TokenHook(*svc_));
-    router_.SetObserver(AuditHook(*svc_));
-    ASSERT_EQ(svc_->access().EnsureAdminToken("boot"), "");
+    TokenRoutesTest::SetUp();
     viewer_ = Token("viewer");
     operator_ = Token("operator");
     engineer_ = Token("engineer");
-  }
-  void TearDown() override {
-    svc_.reset();
-    fs::remove_all(dir_);
-  }
-  Response Call(const std::string& method, const std::string& path, const std::string& token,
-                const std::string& body = "") {
-    Request req;
-    req.method = method;
-    req.path = path;
-    req.headers["authorization"] = "Bearer " + token;
-    req.body = body;
-    return router_.Dispatch(req);
-  }
-  std::string Token(const std::string& role) {
-    const auto r =
-        Call("POST", "/api/v1/tokens", "boot", json{{"name", role}, {"role", role}}.dump());
-    EXPECT_EQ(r.status, 201) << r.body;
-    return json::parse(r.body)["token"].get<std::string>();
   }
   Response Put(const std::string& serial, const json& body, const std::string& token = "") {
     return Call("PUT", "/api/v1/instruments/" + serial, token.empty() ? engineer_ : token,
@@ -76,9 +40,6 @@ class InstrumentRoutes : public ::testing::Test {
     return json::parse(
         Call("GET", "/api/v1/measurements/" + std::to_string(stored) + "/results", viewer_).body);
   }
-  fs::path dir_;
-  std::unique_ptr<server::Service> svc_;
-  Router router_;
   std::string viewer_, operator_, engineer_;
 };
 
@@ -217,7 +178,7 @@ TEST_F(InstrumentRoutes, ThePairAndTheReportUseTheRegisterToo) {
   const auto pdf =
       Call("GET", "/api/v1/measurements/" + std::to_string(ccw) + "/report.pdf", viewer_);
   ASSERT_EQ(pdf.status, 200);
-  const std::string text = test::PdfToText(pdf.body, (dir_ / "r.pdf").string());
+  const std::string text = ::km::test::PdfToText(pdf.body, Path("r.pdf"));
   EXPECT_NE(text.find("QC20-7"), std::string::npos) << text;
   EXPECT_NE(text.find("2026-01-15"), std::string::npos) << text;
   EXPECT_NE(text.find("register version 1"), std::string::npos) << text;

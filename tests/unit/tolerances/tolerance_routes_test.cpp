@@ -4,69 +4,29 @@
 // every PUT is in the audit log; the upload answer and the list carry each measurement's
 // conformance, which follows the newest table.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
-#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <sstream>
 
-#include "api/routes.h"
-#include "server/service.h"
-#include "server/storage/sqlite/sqlite_storage.h"
+#include "tests/unit/api/token_routes.h"
 
 namespace km::api {
 namespace {
 
-namespace fs = std::filesystem;
 using nlohmann::json;
 
-class ToleranceRoutes : public ::testing::Test {
+class ToleranceRoutes : public test::TokenRoutesTest {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("km-tolerance-routes-" + std::to_string(::getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    svc_ = std::make_unique<server::Service>(
-        std::make_unique<server::SqliteStorage>((dir_ / "km.db").string()),
-        server::ServiceOptions{});
-    server::RegisterBuiltinKinds(svc_->measurements());
-    AddRoutes(router_, *svc_);
-    router_.SetHook(TokenHook(*svc_));
-    router_.SetObserver(AuditHook(*svc_));
-    ASSERT_EQ(svc_->access().EnsureAdminToken("boot"), "");
+    TokenRoutesTest::SetUp();
     viewer_ = Token("viewer");
     engineer_ = Token("engineer");
-  }
-  void TearDown() override {
-    svc_.reset();
-    fs::remove_all(dir_);
-  }
-  Response Call(const std::string& method, const std::string& path, const std::string& token,
-                const std::string& body = "", const std::string& version = "") {
-    Request req;
-    req.method = method;
-    req.path = path;
-    if (!version.empty()) req.query.emplace("version", version);
-    req.headers["authorization"] = "Bearer " + token;
-    req.body = body;
-    return router_.Dispatch(req);
-  }
-  std::string Token(const std::string& role) {
-    const auto r =
-        Call("POST", "/api/v1/tokens", "boot", json{{"name", role}, {"role", role}}.dump());
-    EXPECT_EQ(r.status, 201) << r.body;
-    return json::parse(r.body)["token"].get<std::string>();
   }
   Response Put(const json& tolerances, const std::string& token) {
     return Call("PUT", "/api/v1/machines/vmc-3axis/tolerances", token,
                 json{{"tolerances", tolerances}}.dump());
   }
-  fs::path dir_;
-  std::unique_ptr<server::Service> svc_;
-  Router router_;
   std::string viewer_, engineer_;
 };
 
@@ -98,11 +58,12 @@ TEST_F(ToleranceRoutes, RolesVersionsErrorsAndTheAuditLog) {
   ASSERT_EQ(got.status, 200);
   EXPECT_EQ(json::parse(got.body)["version"], 2);
   EXPECT_EQ(json::parse(got.body)["tolerances"][0]["tolerance"], 12.0);
-  EXPECT_EQ(json::parse(Call("GET", kPath, viewer_, "", "1").body)["tolerances"][0]["tolerance"],
+  EXPECT_EQ(json::parse(Call("GET", std::string(kPath) + "?version=1", viewer_)
+                            .body)["tolerances"][0]["tolerance"],
             15.0);
-  EXPECT_EQ(Call("GET", kPath, viewer_, "", "3").status, 404);
+  EXPECT_EQ(Call("GET", std::string(kPath) + "?version=3", viewer_).status, 404);
   for (const char* bad : {"0", "x", "1.5"}) {
-    const auto r = Call("GET", kPath, viewer_, "", bad);
+    const auto r = Call("GET", std::string(kPath) + "?version=" + bad, viewer_);
     EXPECT_EQ(r.status, 400) << bad;
     EXPECT_EQ(json::parse(r.body).value("field", ""), "version");
   }
