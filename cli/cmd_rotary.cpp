@@ -1,12 +1,15 @@
 // `kinemetric rotary analyze FILE [--json]` (docs/formats.md §3.18): the eight location errors
-// of a trunnion table's rotary axes from an R-test file (§1.10). Parsing in
-// ingest/rotary/rotary_parser, numerics in analysis/rotary, JSON in usecases/rotary/rotary_report.
+// of a trunnion table's rotary axes from an R-test file (§1.10); `kinemetric rotary discover
+// FILE [--json]`: the position-dependent errors beside them, named one step at a time
+// (docs/methods.md §17.6). Parsing in ingest/rotary/rotary_parser, numerics in analysis/rotary,
+// JSON in usecases/rotary/.
 #include <cstdio>
 #include <ostream>
 #include <string>
 
 #include "analysis/core/errors.h"
 #include "cli/command.h"
+#include "usecases/rotary/rotary_discover_report.h"
 #include "usecases/rotary/rotary_report.h"
 
 namespace km::cli {
@@ -66,8 +69,43 @@ int RunRotaryAnalyze(const Args& args, std::ostream& out) {
   return 0;
 }
 
+void PrintNamedEffects(std::ostream& out, const usecases::RotaryDiscoveryReport& r) {
+  const auto& d = r.result;
+  for (rotary::RotaryEffect e : d.named) {
+    out << "named: " << rotary::EffectName(d.kinematics, e) << "\n";
+    const rotary::ParameterRange range = rotary::EffectRange(e);
+    for (std::size_t j = range.first; j < range.first + range.count; ++j) {
+      out << "  " << rotary::ParameterKey(d.kinematics, j);
+      if (d.final_fit.determined[j]) {
+        out << RotaryLine(" %.3f +- %.3f\n", d.final_fit.value[j], d.final_fit.sigma[j]);
+      } else {
+        out << " not determined by these poses\n";
+      }
+    }
+  }
+  if (d.named.empty()) out << "nothing named beside the location errors\n";
+}
+
+int RunRotaryDiscover(const Args& args, std::ostream& out) {
+  if (args.positional.size() != 1) throw InvalidInput("", 0, "FILE", "give exactly one file");
+  const std::string& path = args.positional.front();
+  const auto r = usecases::DiscoverRotary(ingest::ParseRotaryFile(ReadFileBytes(path), path));
+  if (args.json) {
+    out << usecases::RotaryDiscoveryToJson(r).dump(2) << "\n";
+    return 0;
+  }
+  out << "missing effects, rotary axes (" << rotary::KinematicsName(r.result.kinematics) << "), "
+      << path << "\n";
+  for (const auto& s : usecases::RotaryDiscoverySteps(r)) out << "  " << s << "\n";
+  PrintNamedEffects(out, r);
+  out << "verdict: " << r.result.verdict << "\n";
+  if (!r.result.misfit.empty()) out << "  " << r.result.misfit << "\n";
+  return 0;
+}
+
 }  // namespace
 
 KM_CLI_COMMAND("rotary analyze", "FILE [--json]", {}, RunRotaryAnalyze);
+KM_CLI_COMMAND("rotary discover", "FILE [--json]", {}, RunRotaryDiscover);
 
 }  // namespace km::cli

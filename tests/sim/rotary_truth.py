@@ -14,9 +14,17 @@ Definitions (machine coordinates, mm; errors µm and µrad):
   composition about the nominal lines; the reading is 1000 (actual - nominal) µm + noise, and 0 at
   the first pose (zero angles), where the sensors are zeroed.
 
+Hidden position-dependent errors (--hidden, docs/methods.md §17.6, written from the physical
+definitions there):
+  c_angle: the C axis turns to c + e(c), e(c) = 18.3 cos c - 12.7 sin 2c + 9.1 c  µrad (c in rad)
+  drift:   the C line's crossing point moves by (+7.3, -5.1) µm per hour of time_s (XOC, YOC)
+  the sensors are zeroed at the first pose: every reading is the displacement minus the
+  displacement at the first pose.
+
 usage: rotary_truth.py --kinematics AC|BC --poses full|tilt0|on_axis|random
-                       [--seed N] [--noise UM] [--count N] --out FILE
-Writes FILE and prints the true errors as JSON: {"errors": {"YOA": 13.7, ...}}.
+                       [--seed N] [--noise UM] [--count N] [--hidden c_angle,drift]
+                       [--dt SECONDS] --out FILE
+Writes FILE and prints the true errors as JSON: {"errors": {"YOA": 13.7, ...}, "hidden": {...}}.
 """
 import argparse
 import json
@@ -57,15 +65,44 @@ def lines(kin, setup, e):
     return tilt, cline
 
 
+HIDDEN = {"c_angle": {"cos1_urad": 18.3, "sin2_urad": -12.7, "scale_urad_per_rad": 9.1},
+          "drift": {"XOC_um_per_h": 7.3, "YOC_um_per_h": -5.1}}
+
+
+def c_angle_error(hidden, c_rad):
+    """Angular positioning error of C, rad."""
+    if "c_angle" not in hidden:
+        return 0.0
+    h = HIDDEN["c_angle"]
+    return 1e-6 * (h["cos1_urad"] * math.cos(c_rad) + h["sin2_urad"] * math.sin(2.0 * c_rad)
+                   + h["scale_urad_per_rad"] * c_rad)
+
+
+def drifted(errors, hidden, hours):
+    e = dict(errors)
+    if "drift" in hidden:
+        e["XOC"] = e["XOC"] + HIDDEN["drift"]["XOC_um_per_h"] * hours
+        e["YOC"] = e["YOC"] + HIDDEN["drift"]["YOC_um_per_h"] * hours
+    return e
+
+
 def turn(line, angle, x):
     q, u = line
     return q + rodrigues(u, angle) @ (x - q)
 
 
-def position(kin, setup, e, tilt_deg, c_deg):
+def position(kin, setup, e, tilt_deg, c_deg, c_error=0.0):
     tilt, cline = lines(kin, setup, e)
     s = np.array(setup["sphere"], dtype=float)
-    return turn(tilt, math.radians(tilt_deg), turn(cline, math.radians(c_deg), s))
+    c = math.radians(c_deg) + c_error
+    return turn(tilt, math.radians(tilt_deg), turn(cline, c, s))
+
+
+def displacement(kin, setup, truth, zero, hidden, t, c, hours):
+    """µm, actual - nominal, with the hidden effects at this pose and time."""
+    actual = position(kin, setup, drifted(truth, hidden, hours), t, c,
+                      c_angle_error(hidden, math.radians(c)))
+    return 1e3 * (actual - position(kin, setup, zero, t, c))
 
 
 def poses(kind, rng, count):
@@ -88,6 +125,9 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--noise", type=float, default=0.5)
     ap.add_argument("--count", type=int, default=1000)
+    ap.add_argument("--hidden", default="")
+    ap.add_argument("--dt", type=float, default=2.0)
+    ap.add_argument("--truth", choices=["default", "zero"], default="default")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     kin = a.kinematics
@@ -95,6 +135,9 @@ def main():
     if a.poses == "on_axis":  # the sphere on the C line: its height cannot be told from XOC, YOC
         setup["sphere"] = (setup["c"][0], setup["c"][1], setup["sphere"][2])
     truth = TRUTH[kin]
+    if a.truth == "zero":
+        truth = {k: 0.0 for k in truth}
+    hidden = [h for h in a.hidden.split(",") if h]
     zero = {k: 0.0 for k in truth}
     rng = np.random.default_rng(a.seed)
     tilt = "a" if kin == "AC" else "b"
@@ -106,14 +149,19 @@ def main():
             "# sphere_mm: %.4f, %.4f, %.4f" % tuple(setup["sphere"]),
             "# instrument: simulated R-test", "# u_reading_um: %g" % a.noise,
             "%s_deg,c_deg,dx_um,dy_um,dz_um,time_s" % tilt]
+    first = None
     for i, (t, c) in enumerate(poses(a.poses, rng, a.count)):
-        d = 1e3 * (position(kin, setup, truth, t, c) - position(kin, setup, zero, t, c))
+        time_s = a.dt * i
+        d = displacement(kin, setup, truth, zero, hidden, t, c, time_s / 3600.0)
+        first = d if first is None else first
+        d = d - first  # the sensors are zeroed at the first pose
         if i > 0:
             d = d + rng.normal(0.0, a.noise, 3)
-        text.append("%.6f,%.6f,%.5f,%.5f,%.5f,%.1f" % (t, c, d[0], d[1], d[2], 2.0 * i))
+        text.append("%.6f,%.6f,%.5f,%.5f,%.5f,%.1f" % (t, c, d[0], d[1], d[2], time_s))
     with open(a.out, "w", encoding="utf-8") as f:
         f.write("\n".join(text) + "\n")
-    print(json.dumps({"errors": truth, "sphere_mm": list(setup["sphere"])}))
+    print(json.dumps({"errors": truth, "sphere_mm": list(setup["sphere"]),
+                      "hidden": {h: HIDDEN[h] for h in hidden}}))
 
 
 if __name__ == "__main__":
