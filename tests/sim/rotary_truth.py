@@ -18,6 +18,9 @@ Hidden position-dependent errors (--hidden, docs/methods.md §17.6, written from
 definitions there):
   c_angle: the C axis turns to c + e(c), e(c) = 18.3 cos c - 12.7 sin 2c + 9.1 c  µrad (c in rad)
   drift:   the C line's crossing point moves by (+7.3, -5.1) µm per hour of time_s (XOC, YOC)
+  x_scale: not a rotary-axis effect (no candidate models it): the X axis holding the nest
+           reads 30 µm/m long, the X reading gains 0.03 µm per mm of the nest's X travel
+  tilt_radial: not a candidate either: the tilt line's point moves along Z by 3 µm × sin 3t
   the sensors are zeroed at the first pose: every reading is the displacement minus the
   displacement at the first pose.
 
@@ -100,9 +103,17 @@ def position(kin, setup, e, tilt_deg, c_deg, c_error=0.0):
 
 def displacement(kin, setup, truth, zero, hidden, t, c, hours):
     """µm, actual - nominal, with the hidden effects at this pose and time."""
-    actual = position(kin, setup, drifted(truth, hidden, hours), t, c,
+    e = drifted(truth, hidden, hours)
+    if "tilt_radial" in hidden:
+        z = "ZOA" if kin == "AC" else "ZOB"
+        e[z] = e[z] + 3.0 * math.sin(3.0 * math.radians(t))
+    actual = position(kin, setup, e, t, c,
                       c_angle_error(hidden, math.radians(c)))
-    return 1e3 * (actual - position(kin, setup, zero, t, c))
+    nominal = position(kin, setup, zero, t, c)
+    d = 1e3 * (actual - nominal)
+    if "x_scale" in hidden:
+        d[0] += 0.03 * (nominal[0] - setup["sphere"][0])
+    return d
 
 
 def poses(kind, rng, count):
@@ -161,7 +172,7 @@ def main():
     with open(a.out, "w", encoding="utf-8") as f:
         f.write("\n".join(text) + "\n")
     print(json.dumps({"errors": truth, "sphere_mm": list(setup["sphere"]),
-                      "hidden": {h: HIDDEN[h] for h in hidden}}))
+                      "hidden": {h: HIDDEN.get(h, {}) for h in hidden}}))
 
 
 if __name__ == "__main__":

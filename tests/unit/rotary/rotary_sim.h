@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -15,20 +16,23 @@ namespace km::rotary::test {
 struct SimulatedFile {
   std::string path;
   std::map<std::string, double> truth;  // µm, µrad by name
+  nlohmann::json hidden;                // the hidden effects and their values, by name
 };
 
-// kinematics "AC" or "BC"; poses "full", "tilt0", "on_axis" or "random".
+// kinematics "AC" or "BC"; poses "full", "tilt0", "on_axis" or "random"; `extra` more options
+// of the simulator (e.g. "--hidden c_angle,drift --dt 60").
 inline SimulatedFile Simulate(const std::string& kinematics, const std::string& poses, int seed,
-                              int count = 1000) {
+                              int count = 1000, const std::string& extra = "") {
   const auto dir = std::filesystem::temp_directory_path() / "km_rotary_test";
   std::filesystem::create_directories(dir);
   SimulatedFile f;
-  f.path = (dir / (kinematics + "_" + poses + "_" + std::to_string(seed) + "_" +
-                   std::to_string(count) + ".txt"))
-               .string();
+  f.path =
+      (dir / (kinematics + "_" + poses + "_" + std::to_string(seed) + "_" + std::to_string(count) +
+              "_" + std::to_string(std::hash<std::string>{}(extra)) + ".txt"))
+          .string();
   const std::string cmd = "/usr/bin/python3 tests/sim/rotary_truth.py --kinematics " + kinematics +
                           " --poses " + poses + " --seed " + std::to_string(seed) + " --count " +
-                          std::to_string(count) + " --out '" + f.path + "'";
+                          std::to_string(count) + " " + extra + " --out '" + f.path + "'";
   FILE* p = popen(cmd.c_str(), "r");
   EXPECT_NE(p, nullptr);
   std::string out;
@@ -38,6 +42,7 @@ inline SimulatedFile Simulate(const std::string& kinematics, const std::string& 
   const nlohmann::json truth = nlohmann::json::parse(out);
   for (const auto& [name, value] : truth.at("errors").items()) f.truth[name] = value.get<double>();
   EXPECT_EQ(f.truth.size(), 8u) << out;
+  f.hidden = truth.at("hidden");
   return f;
 }
 
