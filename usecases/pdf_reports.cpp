@@ -450,6 +450,7 @@ render::Report ResultsPdfReport(const json& results, const ReportSource& source,
       {"parallelism", "Parallelism"},
       {"tracker", "Laser-tracker self-calibration"},
       {"positioning", "Linear positioning (ISO 230-2)"},
+      {"rotary", "Rotary axes: location errors (R-test, ISO 10791-6)"},
       {"servo", "Servo loads"}};
   std::string what = source.kind;
   for (const auto& [k, v] : kTitles) {
@@ -471,6 +472,26 @@ render::Report ResultsPdfReport(const json& results, const ReportSource& source,
         r.blocks.push_back(std::move(b));
       }
     }
+    AddClosing(r, source, context, {{"", &results}});
+    return r;
+  }
+  if (source.kind == "rotary") {
+    for (auto& b : report_text::RotaryBlocks(results, r.complete_at)) {
+      r.blocks.push_back(std::move(b));
+    }
+    json rest = results;  // the sentences of what the poses cannot separate are shown above
+    if (rest.is_object() && rest.contains("warnings") && rest["warnings"].is_array()) {
+      json kept = json::array();
+      for (const auto& w : rest["warnings"]) {
+        bool shown = false;
+        for (const auto& g : results.value("not_separable", json::array())) {
+          shown = shown || (g.is_object() && g.value("sentence", json()) == w);
+        }
+        if (!shown) kept.push_back(w);
+      }
+      rest["warnings"] = kept;
+    }
+    AddNotes(r, rest);
     AddClosing(r, source, context, {{"", &results}});
     return r;
   }

@@ -4,6 +4,7 @@
 // figures in the standard's order with their letters, units and expanded uncertainty, the
 // VDI/DGQ 3441 figures, the uncertainty of the figures, the conditions of the measurement with
 // the corrections applied, and the table of the targets.
+#include <cmath>
 #include <cstdio>
 #include <limits>
 #include <string>
@@ -213,6 +214,103 @@ std::vector<render::ReportBlock> PositioningBlocks(const json& r, const std::str
                              "targets", where)) {
     out.push_back(std::move(b));
   }
+  return out;
+}
+
+// The R-test of a trunnion table's rotary axes (docs/formats.md §3.18): the eight location
+// errors with σ, the rank and condition of the pose set, what the poses do not determine in
+// words, the RMS before and after the fit and the displacement per pose, measured and residual.
+namespace {
+
+// |v| of a 3-vector of numbers, NaN otherwise.
+double Norm3(const json& v) {
+  if (!v.is_array() || v.size() != 3) return std::numeric_limits<double>::quiet_NaN();
+  double sum = 0.0;
+  for (const auto& c : v) {
+    if (!c.is_number()) return std::numeric_limits<double>::quiet_NaN();
+    sum += c.get<double>() * c.get<double>();
+  }
+  return std::sqrt(sum);
+}
+
+render::ReportTable LocationErrorTable(const json& errors) {
+  render::ReportTable t;
+  t.header = {"Location error (ISO 230-1)", "Value", "σ", "Unit"};
+  t.numeric = {false, true, true, false};
+  if (!errors.is_object()) return t;
+  // ISO 230-1's order: the tilt axis (A of an AC table, B of a BC one), then C.
+  static const char* const kOrder[] = {"YOA_um", "ZOA_um", "BOA_urad", "COA_urad",
+                                       "XOB_um", "ZOB_um", "AOB_urad", "COB_urad",
+                                       "XOC_um", "YOC_um", "AOC_urad", "BOC_urad"};
+  for (const char* key : kOrder) {
+    if (!errors.contains(key)) continue;
+    const json& e = errors[key];
+    const bool known = e.is_object() && e.value("identifiable", false);
+    t.rows.push_back({FigureName(key),
+                      known ? Fixed(e.value("value", json()), 2) : "not determined",
+                      known ? Sigma(e.value("sigma", json())) : "—", LabelOf(key).unit});
+  }
+  return t;
+}
+
+render::ReportChart PoseChart(const json& residuals) {
+  render::ReportChart c;
+  c.title = "Sphere displacement per pose: measured and after the fit";
+  c.x_label = "Pose (file order)";
+  c.y_label = "Length of the displacement (µm)";
+  render::ReportSeries measured{"measured", {}, {}};
+  render::ReportSeries residual{"residual (measured − model)", {}, {}};
+  for (std::size_t i = 0; residuals.is_array() && i < residuals.size(); ++i) {
+    const double x = static_cast<double>(i + 1);
+    measured.x.push_back(x);
+    measured.y.push_back(Norm3(residuals[i].value("measured_um", json())));
+    residual.x.push_back(x);
+    residual.y.push_back(Norm3(residuals[i].value("residual_um", json())));
+  }
+  c.series = {measured, residual};
+  return c;
+}
+
+}  // namespace
+
+std::vector<render::ReportBlock> RotaryBlocks(const json& r, const std::string& where) {
+  std::vector<render::ReportBlock> out;
+  const std::string sphere = Short(r.value("sphere_mm", json()));
+  out.push_back(render::ParagraphBlock(
+      r.value("kinematics", std::string("trunnion")) + " table, sphere at " + sphere + " mm; " +
+      Short(r.value("poses", json())) + " poses, " + Short(r.value("observations", json())) +
+      " readings. The location errors are those of the exact model of the two rotary axes "
+      "fitted to the sphere's displacement at every pose (Gauss–Newton); σ is each error's "
+      "standard uncertainty from the residual."));
+  out.push_back(render::HeadingBlock("Location errors"));
+  out.push_back(render::TableBlock(LocationErrorTable(r.value("location_errors", json()))));
+  const json cond = r.value("condition", json());
+  out.push_back(render::ParagraphBlock(
+      "Rank of the pose set: " + Short(r.value("rank", json())) + " of " +
+      Short(r.value("parameters", json(8))) + " errors; condition " +
+      (cond.is_number() ? Fixed(cond, 1) : std::string("— (no error determined)")) +
+      (r.value("converged", true) ? "." : "; the identification did not converge.")));
+  const json groups = r.value("not_separable", json::array());
+  if (groups.is_array() && !groups.empty()) {
+    out.push_back(render::HeadingBlock("What these poses do not determine"));
+    for (const auto& g : groups) {
+      out.push_back(render::ParagraphBlock(g.value("sentence", std::string()) + "."));
+    }
+  }
+  out.push_back(render::HeadingBlock("Residual"));
+  render::ReportTable t;
+  t.header = {"Figure", "Value", "Unit"};
+  t.numeric = {false, true, false};
+  t.rows = {
+      {"RMS of the readings (before the fit)", Fixed(r.value("measured_rms_um", json()), 3), "µm"},
+      {"RMS of the residual (after the fit)", Fixed(r.value("residual_rms_um", json()), 3), "µm"},
+      {"Standard deviation of one reading s", Fixed(r.value("sigma_um", json()), 3), "µm"},
+      {"Reading uncertainty stated in the file", Fixed(r.value("u_reading_um", json()), 3), "µm"}};
+  out.push_back(render::TableBlock(std::move(t)));
+  out.push_back(render::HeadingBlock("Displacement per pose"));
+  out.push_back(render::ChartBlock(PoseChart(r.value("residuals", json::array()))));
+  out.push_back(render::ParagraphBlock(
+      "The displacement of every pose, measured and residual, is in " + where + "."));
   return out;
 }
 

@@ -26,22 +26,16 @@ std::string Fixed(const json& v, int decimals) {
 }
 
 KeyLabel LabelOf(const std::string& key) {
-  static const std::vector<std::pair<std::string, std::string>> kUnits = {{"_ppm_per_k", "ppm/K"},
-                                                                          {"_um_per_m", "µm/m"},
-                                                                          {"_um", "µm"},
-                                                                          {"_mm_min", "mm/min"},
-                                                                          {"_mm", "mm"},
-                                                                          {"_deg", "°"},
-                                                                          {"_pct", "%"},
-                                                                          {"_ms", "ms"},
-                                                                          {"_s", "s"},
-                                                                          {"_nm", "nm"},
-                                                                          {"_Nm", "N·m"},
-                                                                          {"_N", "N"},
-                                                                          {"_c", "°C"},
-                                                                          {"_pa", "Pa"},
-                                                                          {"_ppm", "ppm"},
-                                                                          {"_per_k", "1/K"}};
+  static const std::vector<std::pair<std::string, std::string>> kUnits = {
+      {"_urad", "µrad"},     {"_ppm_per_k", "ppm/K"},
+      {"_um_per_m", "µm/m"}, {"_um", "µm"},
+      {"_mm_min", "mm/min"}, {"_mm", "mm"},
+      {"_deg", "°"},         {"_pct", "%"},
+      {"_ms", "ms"},         {"_s", "s"},
+      {"_nm", "nm"},         {"_Nm", "N·m"},
+      {"_N", "N"},           {"_c", "°C"},
+      {"_pa", "Pa"},         {"_ppm", "ppm"},
+      {"_per_k", "1/K"}};
   KeyLabel out{key, ""};
   for (const auto& [suffix, unit] : kUnits) {
     if (key.size() > suffix.size() && key.ends_with(suffix)) {

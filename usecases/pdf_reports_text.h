@@ -100,6 +100,11 @@ std::vector<render::ReportBlock> ColumnTable(
 // the uncertainty of the figures and the targets (usecases/pdf_reports_positioning.cpp).
 std::vector<render::ReportBlock> PositioningBlocks(const nlohmann::json& results,
                                                    const std::string& where);
+// The report of a rotary-axis R-test (docs/formats.md §3.18): the location errors with σ and
+// units, rank and condition, what the poses do not determine, the residual RMS and the
+// displacement per pose (usecases/pdf_reports_positioning.cpp).
+std::vector<render::ReportBlock> RotaryBlocks(const nlohmann::json& results,
+                                              const std::string& where);
 // The identification lines every measurement report starts with.
 std::vector<std::pair<std::string, std::string>> Identification(const ReportSource& s);
 // The audit section of a measurement report: the rules of its kind with their limits, and the

@@ -76,6 +76,18 @@ constexpr Name kFigureNames[] = {
     {"intercept_um", "intercept of the least-squares line"},
     {"length_mm", "length measured"},
     {"points", "points measured"},
+    {"YOA_um", "YOA, position error of the A axis line in Y"},
+    {"ZOA_um", "ZOA, position error of the A axis line in Z"},
+    {"BOA_urad", "BOA, orientation error of the A axis line about Y"},
+    {"COA_urad", "COA, orientation error of the A axis line about Z"},
+    {"XOB_um", "XOB, position error of the B axis line in X"},
+    {"ZOB_um", "ZOB, position error of the B axis line in Z"},
+    {"AOB_urad", "AOB, orientation error of the B axis line about X"},
+    {"COB_urad", "COB, orientation error of the B axis line about Z"},
+    {"XOC_um", "XOC, position error of the C axis line in X"},
+    {"YOC_um", "YOC, position error of the C axis line in Y"},
+    {"AOC_urad", "AOC, orientation error of the C axis line about X"},
+    {"BOC_urad", "BOC, orientation error of the C axis line about Y"},
 };
 
 // VDI/DGQ 3441 figures, under vdi3441.

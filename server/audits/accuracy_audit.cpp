@@ -168,6 +168,57 @@ const std::vector<Entry>& Table() {
   return table;
 }
 
+// The rotary-axis location errors of an R-test (docs/formats.md §3.18), magnitudes of the
+// values; an error the poses do not determine has value null, so its rule is not evaluated for
+// that set-up. AC tables name YOA … COA, BC tables XOB … COB, both XOC … BOC.
+const std::vector<Entry>& RotaryTable() {
+  static const std::vector<Entry> table = [] {
+    struct Error {
+      const char* key;
+      const char* what;
+    };
+    static const Error kErrors[] = {
+        {"YOA_um", "Y position error of the A axis line (AC table)"},
+        {"ZOA_um", "Z position error of the A axis line (AC table)"},
+        {"BOA_urad", "orientation error of the A axis line about Y (AC table)"},
+        {"COA_urad", "orientation error of the A axis line about Z (AC table)"},
+        {"XOB_um", "X position error of the B axis line (BC table)"},
+        {"ZOB_um", "Z position error of the B axis line (BC table)"},
+        {"AOB_urad", "orientation error of the B axis line about X (BC table)"},
+        {"COB_urad", "orientation error of the B axis line about Z (BC table)"},
+        {"XOC_um", "X position error of the C axis line"},
+        {"YOC_um", "Y position error of the C axis line"},
+        {"AOC_urad", "orientation error of the C axis line about X"},
+        {"BOC_urad", "orientation error of the C axis line about Y"},
+    };
+    std::vector<Entry> out;
+    for (const auto& e : kErrors) {
+      const std::string key = e.key;
+      const bool angular = key.size() > 5 && key.substr(key.size() - 5) == "_urad";
+      const std::string pointer = "/location_errors/" + key + "/value";
+      out.push_back(
+          {{"rotary", key, "", angular ? "µrad" : "µm",
+            std::string("rotary-axis location error ") + key.substr(0, key.find('_')) + ": " +
+                e.what + " (ISO 230-1; not evaluated when the poses do not determine it)",
+            "|" + pointer + "|"},
+           At(pointer.c_str())});
+    }
+    return out;
+  }();
+  return table;
+}
+
+// Every metric with a fixed name: the table, then the rotary location errors.
+const std::vector<Entry>& AllEntries() {
+  static const std::vector<Entry> all = [] {
+    std::vector<Entry> out = Table();
+    const auto& rotary = RotaryTable();
+    out.insert(out.end(), rotary.begin(), rotary.end());
+    return out;
+  }();
+  return all;
+}
+
 // Effect names a DBB diagnosis reports (docs/formats.md §4), the axis letters of any plane.
 bool KnownEffect(const std::string& name) {
   static const char* const kPlain[] = {"centre_offset",  "radius_error", "servo_lag",
@@ -196,7 +247,7 @@ bool MachineWideKind(const std::string& kind) {
 const std::vector<AuditMetric>& AuditMetrics() {
   static const std::vector<AuditMetric> metrics = [] {
     std::vector<AuditMetric> out;
-    for (const auto& e : Table()) out.push_back(e.metric);
+    for (const auto& e : AllEntries()) out.push_back(e.metric);
     return out;
   }();
   return metrics;
@@ -204,7 +255,7 @@ const std::vector<AuditMetric>& AuditMetrics() {
 
 static bool TakesTolerances(const std::string& kind) {
   return kind == "dbb" || kind == "straightness" || kind == "flatness" || kind == "parallelism" ||
-         kind == "positioning" || kind == "tracker";
+         kind == "positioning" || kind == "tracker" || kind == "rotary";
 }
 
 std::optional<AuditMetric> FindAuditMetric(const std::string& kind, const std::string& metric) {
@@ -243,7 +294,7 @@ std::optional<AuditMetric> FindAuditMetric(const std::string& kind, const std::s
     m->description += " of axis " + axis;
     return m;
   }
-  for (const auto& e : Table()) {
+  for (const auto& e : AllEntries()) {
     if (e.extract && e.metric.kind == kind && e.metric.metric == metric) return e.metric;
   }
   return std::nullopt;
@@ -270,7 +321,7 @@ std::optional<double> ExtractAuditMetric(const AuditMetric& metric, const json& 
   const std::string base = AuditMetricTestId(metric).empty()
                                ? metric.metric
                                : metric.metric.substr(0, metric.metric.find('.'));
-  for (const auto& e : Table()) {
+  for (const auto& e : AllEntries()) {
     if (e.extract && e.metric.kind == metric.kind && e.metric.metric == base) {
       return e.extract(result);
     }

@@ -281,7 +281,7 @@ json AuditMetricsJson() {
   json items = json::array();
   std::vector<AuditMetric> metrics = AuditMetrics();
   for (const char* kind :
-       {"dbb", "straightness", "flatness", "parallelism", "positioning", "tracker"}) {
+       {"dbb", "straightness", "flatness", "parallelism", "positioning", "tracker", "rotary"}) {
     metrics.push_back(*FindAuditMetric(kind, kConformanceMetric));
   }
   for (const auto& m : metrics) {

@@ -10,12 +10,14 @@
 #include "ingest/form_parsers.h"
 #include "ingest/iso8601.h"
 #include "ingest/positioning_parser.h"
+#include "ingest/rotary/rotary_parser.h"
 #include "ingest/servo_parser.h"
 #include "ingest/tracker_parser.h"
 #include "render/dbb_plot.h"
 #include "server/base/finite_result.h"
 #include "server/measurements/measurement_service.h"
 #include "server/measurements/positioning_kinds.h"
+#include "server/measurements/rotary_kinds.h"
 #include "server/measurements/servo_kinds.h"
 #include "usecases/dbb_json.h"
 #include "usecases/dbb_report.h"
@@ -253,6 +255,7 @@ std::vector<FormatRegistration> BuiltinFormats() {
       {std::string(ingest::kParallelismFormat), Limits(1'000'000, 16), IngestParallelism},
       {ingest::kServoFormat, Limits(500'000, 32), IngestServo},
       {std::string(ingest::kPositioningFormat), Limits(1'000'000, 16), IngestPositioning},
+      {std::string(ingest::kRotaryFormat), Limits(100'000, 16), IngestRotary},
   };
 }
 

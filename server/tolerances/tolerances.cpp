@@ -46,7 +46,7 @@ AuditMetric EntryMetric(const std::string& kind, const std::string& metric, std:
     RefuseEntry(i, "kind",
                 "'" + kind +
                     "' takes no tolerances (dbb, straightness, flatness, parallelism, "
-                    "positioning, tracker)");
+                    "positioning, tracker, rotary)");
   }
   RefuseEntry(i, "metric",
               "'" + metric + "' is not a figure of a " + kind +
