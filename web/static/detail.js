@@ -9,7 +9,7 @@ import { $, downloadText, errorBox, h, toCsv } from './dom.js';
 import { renderAnalysis, resetAnalysis } from './diagnosis.js';
 import { renderFigures } from './figures.js';
 import { formatDirection, formatNumber, formatTimestamp } from './format.js';
-import { formSetup, renderFormPlot, renderTrackerPlot } from './formplots.js';
+import { formSetup, renderFormPlot, renderRotaryView, renderTrackerPlot } from './formplots.js';
 import { resetReversal, showReversal } from './reversal.js';
 import { markCurrent } from './measurements.js';
 import { renderPolarPlot } from './polar.js';
@@ -160,6 +160,7 @@ async function showOther(seq, item, measurement) {
   if (FORM_KINDS.includes(item.kind)) renderFormPlot(item, fetched[0]);
   else if (item.kind === 'tracker') renderTrackerPlot(item, fetched[0]);
   else if (item.kind === 'positioning') renderPositioningPlot(item, fetched[0]);
+  else if (item.kind === 'rotary') renderRotaryView(item, fetched[0]);
   else if (item.kind === 'servo' && results.record === 'hexapod') await renderServoForce(item, () => seq === state.selectSeq);
   else {
     $('#polar-plot').replaceChildren(h('p', { class: 'placeholder' }, `No plot for ${String(item.kind).toUpperCase()} measurements yet.`));

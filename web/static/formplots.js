@@ -1,7 +1,9 @@
-// Plots of form measurements (straightness and parallelism profiles, flatness colour map) and
-// of a laser-tracker survey (volumetric error vectors, error components).
+// Plots of form measurements (straightness and parallelism profiles, flatness colour map), of a
+// laser-tracker survey (volumetric error vectors, error components) and of a rotary-axis R-test
+// (location errors with σ, what the poses do not determine, displacement per pose before and
+// after the fit; docs/formats.md §3.18).
 
-import { renderColourMap, renderProfilePlot } from './charts.js';
+import { axesGrid, el, r2, renderColourMap, renderProfilePlot, ticks } from './charts.js';
 import { renderComponentCharts } from './components.js';
 import { $, h } from './dom.js';
 import { formatNumber } from './format.js';
@@ -177,4 +179,120 @@ export function renderTrackerPlot(item, f) {
   note.textContent =
     'Volumetric error at each commanded point (arrow, magnified) after the best-fit placement of the machine frame' +
     (dropped ? `; ${dropped} point${dropped === 1 ? '' : 's'} dropped (hollow).` : '.');
+}
+
+// ---------------------------------------------------------------- rotary axes (R-test)
+
+// ISO 230-1's order: the tilt axis (A of an AC table, B of a BC one), then C.
+const ROTARY_ERRORS = [
+  ['YOA_um', 'position of the A axis line in Y'],
+  ['ZOA_um', 'position of the A axis line in Z'],
+  ['BOA_urad', 'orientation of the A axis line about Y'],
+  ['COA_urad', 'orientation of the A axis line about Z'],
+  ['XOB_um', 'position of the B axis line in X'],
+  ['ZOB_um', 'position of the B axis line in Z'],
+  ['AOB_urad', 'orientation of the B axis line about X'],
+  ['COB_urad', 'orientation of the B axis line about Z'],
+  ['XOC_um', 'position of the C axis line in X'],
+  ['YOC_um', 'position of the C axis line in Y'],
+  ['AOC_urad', 'orientation of the C axis line about X'],
+  ['BOC_urad', 'orientation of the C axis line about Y'],
+];
+const fixed = (v, d) => (typeof v === 'number' && Number.isFinite(v) ? v.toFixed(d).replace('-', '−') : '—');
+const norm3 = (v) => (Array.isArray(v) && v.length === 3 ? Math.hypot(v[0], v[1], v[2]) : NaN);
+
+function rotaryErrorTable(r) {
+  const rows = ROTARY_ERRORS.filter(([key]) => r.location_errors?.[key]).map(([key, what]) => {
+    const e = r.location_errors[key];
+    const name = key.slice(0, key.indexOf('_'));
+    const unit = key.endsWith('_urad') ? 'µrad' : 'µm';
+    const known = e.identifiable && typeof e.value === 'number';
+    return h(
+      'tr',
+      { 'data-error': name, class: known ? '' : 'not-determined' },
+      h('th', { scope: 'row' }, `${name} `, h('span', { class: 'muted' }, what)),
+      h('td', { class: 'num' }, known ? fixed(e.value, 2) : 'not determined'),
+      h('td', { class: 'num' }, known ? `± ${fixed(e.sigma, 2)}` : '—'),
+      h('td', { class: 'unit' }, unit),
+    );
+  });
+  return h(
+    'table',
+    { class: 'figures small', 'data-testid': 'rotary-errors' },
+    h('caption', {}, `Location errors (ISO 230-1), ${r.kinematics || 'trunnion'} table`),
+    h('thead', {}, h('tr', {}, h('th', { scope: 'col' }, 'Error'), h('th', { scope: 'col', class: 'num' }, 'Value'), h('th', { scope: 'col', class: 'num' }, 'σ'), h('th', { scope: 'col', class: 'unit' }, 'Unit'))),
+    h('tbody', {}, ...rows),
+  );
+}
+
+// The length of the sphere's displacement at each pose, measured (before) and residual (after).
+function rotaryPoseChart(poses) {
+  const W = 900, H = 320, L = 64, R = 16, T = 36, B = 52;
+  const measured = poses.map((p) => norm3(p.measured_um));
+  const residual = poses.map((p) => norm3(p.residual_um));
+  const ymax = Math.max(1e-3, ...measured.filter(Number.isFinite), ...residual.filter(Number.isFinite)) * 1.08;
+  const n = Math.max(poses.length, 2);
+  const px = (i) => L + (i / (n - 1)) * (W - L - R);
+  const py = (v) => T + (1 - v / ymax) * (H - T - B);
+  const svg = el('svg', { viewBox: `0 0 ${W} ${H}`, role: 'img', class: 'chart rotary-poses', 'data-testid': 'rotary-pose-chart', 'aria-label': `Displacement per pose: measured and residual after the fit, ${poses.length} poses.` });
+  svg.append(el('title', {}, 'Displacement per pose, measured and after the fit'));
+  const xt = ticks(1, n, 8);
+  svg.append(axesGrid({ W, H, L, R, T, B, px: (v) => px(v - 1), py, xt, yt: ticks(0, ymax, 5) }));
+  const series = [
+    ['measured', measured, '#1f5fa8'],
+    ['residual (measured − model)', residual, '#c0392b'],
+  ];
+  series.forEach(([label, ys, colour], k) => {
+    const pts = ys.map((y, i) => (Number.isFinite(y) ? `${r2(px(i))},${r2(py(y))}` : null)).filter(Boolean);
+    svg.append(el('polyline', { points: pts.join(' '), fill: 'none', stroke: colour, 'stroke-width': 2, 'data-series': k === 0 ? 'measured' : 'residual' }));
+    svg.append(el('rect', { x: L + 8 + k * 240, y: 10, width: 14, height: 14, fill: colour }));
+    svg.append(el('text', { x: L + 28 + k * 240, y: 17, dy: '0.35em', class: 'legend' }, label));
+  });
+  svg.append(el('text', { x: (L + W - R) / 2, y: H - 12, 'text-anchor': 'middle', class: 'axis-title' }, 'Pose (file order)'));
+  svg.append(el('text', { x: 16, y: (T + H - B) / 2, transform: `rotate(-90 16 ${(T + H - B) / 2})`, 'text-anchor': 'middle', class: 'axis-title' }, 'Length (µm)'));
+  return h('figure', { class: 'chart-box' }, svg, h('figcaption', {}, 'Length of the displacement at each pose: measured, and what the fitted location errors leave (the residual).'));
+}
+
+function rotaryPoseTable(r) {
+  const tilt = r.kinematics === 'BC-trunnion' ? 'B' : 'A';
+  const c3 = (v) => (Array.isArray(v) ? v.map((x) => h('td', { class: 'num' }, fixed(x, 2))) : [h('td'), h('td'), h('td')]);
+  const head = ['Pose', `${tilt} (°)`, 'C (°)', 'dx', 'dy', 'dz', 'dx after', 'dy after', 'dz after'];
+  return h(
+    'details',
+    { class: 'rotary-poses-table' },
+    h('summary', {}, `Displacement per pose, measured and after the fit (µm, ${(r.residuals || []).length} poses)`),
+    h(
+      'div',
+      { class: 'table-scroll' },
+      h(
+        'table',
+        { class: 'figures small', 'data-testid': 'rotary-poses' },
+        h('thead', {}, h('tr', {}, ...head.map((t) => h('th', { scope: 'col', class: 'num' }, t)))),
+        h('tbody', {}, ...(r.residuals || []).map((p, i) => h('tr', {}, h('td', { class: 'num' }, String(i + 1)), h('td', { class: 'num' }, fixed(p.a_deg ?? p.b_deg, 1)), h('td', { class: 'num' }, fixed(p.c_deg, 1)), ...c3(p.measured_um), ...c3(p.residual_um)))),
+      ),
+    ),
+  );
+}
+
+export function renderRotaryView(item, f) {
+  const container = $('#polar-plot');
+  const r = f?.results || {};
+  if (!r.location_errors) {
+    container.replaceChildren(h('p', { class: 'placeholder' }, 'No location errors for this measurement.'));
+    $('#plot-note').textContent = '';
+    return;
+  }
+  const sentences = (r.not_separable || []).map((g) => h('p', { class: 'note' }, `${g.sentence}.`));
+  container.replaceChildren(
+    h(
+      'div',
+      { class: 'rotary-view', 'data-testid': 'rotary-view' },
+      h('div', { class: 'table-scroll' }, rotaryErrorTable(r)),
+      h('p', { 'data-testid': 'rotary-rank' }, `Rank of the pose set ${r.rank} of ${r.parameters}, condition ${r.condition === null ? '—' : fixed(r.condition, 1)}; RMS ${fixed(r.measured_rms_um, 3)} µm before the fit, ${fixed(r.residual_rms_um, 3)} µm after.`),
+      ...sentences,
+      rotaryPoseChart(r.residuals || []),
+      rotaryPoseTable(r),
+    ),
+  );
+  $('#plot-note').textContent = `R-test of ${item.test_id || 'the rotary axes'}: ${formatNumber(r.poses)} poses, the sphere at (${(r.sphere_mm || []).map((v) => fixed(v, 1)).join(', ')}) mm.`;
 }

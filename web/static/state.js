@@ -23,5 +23,5 @@ export const state = {
 // Kinds drawn by the page, by family.
 export const FORM_KINDS = ['straightness', 'parallelism', 'flatness'];
 // Kinds drawn wide (plot above the figures); they need the stored samples as well.
-export const WIDE_KINDS = [...FORM_KINDS, 'tracker', 'servo', 'positioning'];
+export const WIDE_KINDS = [...FORM_KINDS, 'tracker', 'servo', 'positioning', 'rotary'];
 export const KINDS = ['dbb', 'tracker', 'straightness', 'flatness', 'parallelism', 'positioning'];
