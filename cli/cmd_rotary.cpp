@@ -1,8 +1,9 @@
 // `kinemetric rotary analyze FILE [--json]` (docs/formats.md §3.18): the eight location errors
 // of a trunnion table's rotary axes from an R-test file (§1.10); `kinemetric rotary discover
 // FILE [--json]`: the position-dependent errors beside them, named one step at a time
-// (docs/methods.md §17.6). Parsing in ingest/rotary/rotary_parser, numerics in analysis/rotary,
-// JSON in usecases/rotary/.
+// (docs/methods.md §17.6); `kinemetric rotary export FILE --format linuxcnc|csv`: the pivot
+// parameters of LinuxCNC's trunnion kinematics corrected (§17.7). Parsing in
+// ingest/rotary/rotary_parser, numerics in analysis/rotary, JSON in usecases/rotary/.
 #include <cstdio>
 #include <ostream>
 #include <string>
@@ -10,6 +11,7 @@
 #include "analysis/core/errors.h"
 #include "cli/command.h"
 #include "usecases/rotary/rotary_discover_report.h"
+#include "usecases/rotary/rotary_export.h"
 #include "usecases/rotary/rotary_report.h"
 
 namespace km::cli {
@@ -103,9 +105,19 @@ int RunRotaryDiscover(const Args& args, std::ostream& out) {
   return 0;
 }
 
+int RunRotaryExport(const Args& args, std::ostream& out) {
+  if (args.positional.size() != 1) throw InvalidInput("", 0, "FILE", "give exactly one file");
+  const std::string& path = args.positional.front();
+  const RotaryReport r =
+      usecases::AnalyseRotary(ingest::ParseRotaryFile(ReadFileBytes(path), path));
+  out << usecases::ExportRotary(r, args.Get("--format").value_or("linuxcnc"));
+  return 0;
+}
+
 }  // namespace
 
 KM_CLI_COMMAND("rotary analyze", "FILE [--json]", {}, RunRotaryAnalyze);
 KM_CLI_COMMAND("rotary discover", "FILE [--json]", {}, RunRotaryDiscover);
+KM_CLI_COMMAND("rotary export", "FILE [--format linuxcnc|csv]", {"--format"}, RunRotaryExport);
 
 }  // namespace km::cli
