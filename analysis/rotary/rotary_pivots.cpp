@@ -1,5 +1,7 @@
 #include "analysis/rotary/rotary_pivots.h"
 
+#include <utility>
+
 namespace km::rotary {
 namespace {
 

@@ -1,7 +1,7 @@
-// `kinemetric rotary analyze` end to end through the command registry (cli/cmd_rotary.cpp is
-// compiled into this test): a simulated file gives exit status 0 and the documented JSON
-// (docs/formats.md §3.18); a bad file is bad input (exit status 2 in main) naming file, line and
-// field.
+// `kinemetric rotary analyze`, `discover` and `export` end to end through the command registry
+// (cli/cmd_rotary.cpp is compiled into this test): a simulated file gives exit status 0 and the
+// documented JSON (docs/formats.md §3.18); a bad file is bad input (exit status 2 in main) naming
+// file, line and field.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -76,6 +76,39 @@ TEST_F(RotaryCli, BadFileIsBadInputNamingLineAndField) {
     EXPECT_EQ(e.line(), 11u);
     EXPECT_EQ(e.field(), "b_deg");
   }
+}
+
+TEST_F(RotaryCli, DiscoverNamesAHiddenCAngleError) {
+  const auto f = rotary::test::Simulate("AC", "full", 25, 1000, "--hidden c_angle --dt 60");
+  std::ostringstream out;
+  ASSERT_EQ(Registry().at("rotary discover").run(JsonArgs({f.path}), out), 0);
+  const auto j = nlohmann::json::parse(out.str());
+  EXPECT_EQ(j["analysis_version"], "rotary-discover/1");
+  ASSERT_EQ(j["named"].size(), 1u);
+  EXPECT_EQ(j["named"][0]["effect"], "c_angular_positioning");
+  EXPECT_EQ(j["verdict"], "complete");
+  Args text;
+  text.positional = {f.path};
+  std::ostringstream plain;
+  ASSERT_EQ(Registry().at("rotary discover").run(text, plain), 0);
+  EXPECT_NE(plain.str().find("angular positioning error of C named"), std::string::npos);
+}
+
+TEST_F(RotaryCli, ExportPrintsHalLinesAndACsvTable) {
+  const auto f = rotary::test::Simulate("BC", "full", 26);
+  Args args;
+  args.positional = {f.path};
+  std::ostringstream hal;
+  ASSERT_EQ(Registry().at("rotary export").run(args, hal), 0);
+  EXPECT_NE(hal.str().find("setp xyzbc-trt-kins.x-offset "), std::string::npos);
+  args.options["--format"] = "csv";
+  std::ostringstream csv;
+  ASSERT_EQ(Registry().at("rotary export").run(args, csv), 0);
+  EXPECT_EQ(csv.str().rfind("parameter,nominal_mm,delta_mm,corrected_mm\n", 0), 0u);
+  EXPECT_NE(csv.str().find("AOB,"), std::string::npos);
+  args.options["--format"] = "fanuc";
+  std::ostringstream bad;
+  EXPECT_THROW(Registry().at("rotary export").run(args, bad), InvalidInput);
 }
 
 }  // namespace
