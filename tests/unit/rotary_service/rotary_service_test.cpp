@@ -6,12 +6,14 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "api/http.h"
 #include "api/routes.h"
 #include "ingest/rotary/rotary_parser.h"
 #include "server/audits/audit_service.h"
+#include "server/audits/fleet_service.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "tests/unit/rotary/rotary_sim.h"
@@ -160,6 +162,21 @@ TEST_F(RotaryService, AnAuditOnYoaJudgesEachSetUpAndLeavesAnUndeterminedOneUnjud
   EXPECT_EQ(status["AC-full-11"], "finding") << verdict.dump();
   EXPECT_EQ(status["rtest-better"], "ok") << verdict.dump();
   EXPECT_EQ(status["AC-tilt0-12"], "not evaluated") << verdict.dump();
+  // Tolerances read the same metric: the worse set-up fails, the better one passes.
+  svc_->tolerances().Put(
+      "sim-ac",
+      {{"tolerances", {{{"kind", "rotary"}, {"metric", "YOA_um"}, {"tolerance", 10.0}}}}});
+  std::map<std::string, std::string> conformance;
+  const json list = svc_->measurements().ListMeasurements({});
+  for (const auto& i : list["items"]) {
+    conformance[i["test_id"].get<std::string>()] = i["conformance"].value("verdict", "");
+  }
+  EXPECT_EQ(conformance["AC-full-11"], "fail") << list.dump();
+  EXPECT_EQ(conformance["rtest-better"], "pass");
+  // The trend of a set-up holds its values; the undetermined one has none.
+  const json trend = Trends(*svc_, "sim-ac", "YOA_um");
+  EXPECT_EQ(trend["unit"], "µm");
+  ASSERT_EQ(trend["points"].size(), 2u) << trend.dump();
   // A metric no result holds by that name is refused.
   EXPECT_FALSE(FindAuditMetric("rotary", "YOA"));
   EXPECT_TRUE(FindAuditMetric("rotary", "BOC_urad"));
