@@ -95,7 +95,7 @@ std::vector<std::string> RotaryDiscoverySteps(const RotaryDiscoveryReport& r) {
       }
       out.push_back("step " + std::to_string(i) + ": " +
                     rotary::EffectName(d.kinematics, *s.named) + " named (F = " + Num("%.1f", f) +
-                    Num(", p = %.2g): ", p) + gap);
+                    (p < 1e-300 ? std::string(", p < 1e-300): ") : Num(", p = %.2g): ", p)) + gap);
     } else {
       out.push_back("step " + std::to_string(i) + ": no candidate passes");
     }
