@@ -191,6 +191,7 @@ constexpr KeyFigure kKeyFigures[] = {
     {"flatness", "flatness", "flatness_min_zone_um", "flatness (minimum zone)"},
     {"tracker", "tracker", "residual_rms_um", "residual RMS"},
     {"positioning", "positioning", "accuracy_um", "positioning accuracy A (ISO 230-2)"},
+    {"rotary", "rotary", "residual_rms_um", "residual RMS after the location errors"},
 };
 
 // {"name", "label", "value", "unit"} from the measurement's own result (of `analysis`, parsed),

@@ -111,6 +111,9 @@ TEST_F(RotaryService, AnUploadStoresTheResultTheCommandPrintsAndThePoses) {
   EXPECT_NEAR(stored["location_errors"]["YOA_um"]["value"].get<double>(), 13.7, 0.5);
   EXPECT_NEAR(stored["location_errors"]["BOA_urad"]["value"].get<double>(), -23.1, 2.0);
   EXPECT_EQ(stored["rank"], 8);
+  const json list = svc_->measurements().ListMeasurements({});
+  EXPECT_EQ(list["items"][0]["key_result"]["name"], "residual_rms_um");
+  EXPECT_EQ(list["items"][0]["key_result"]["value"], stored["residual_rms_um"]);
   const json m = svc_->measurements().MeasurementWithSamples(id);
   EXPECT_EQ(m["test_id"], "rtest-ac");
   EXPECT_EQ(m["samples"]["dx_um"].size(), stored["poses"].get<std::size_t>());
