@@ -225,9 +225,15 @@ test('token copy button; the saved DBB PNG keeps its labels, in the server’s c
       await page.fill('[data-testid="token-create-name"]', `tablet ${width}`);
       await page.click('[data-testid="token-create"]');
       const secret = await page.textContent('[data-testid="token-secret"]');
+      // What the page writes to the clipboard, recorded in the page: the system clipboard is
+      // shared with every other browser test running at the same time.
+      await page.evaluate(() => {
+        window.copiedTexts = [];
+        navigator.clipboard.writeText = (text) => { window.copiedTexts.push(text); return Promise.resolve(); };
+      });
       await page.click('[data-testid="token-copy"]');
       await page.waitForSelector('[data-testid="token-copy-status"][data-copied="clipboard"]');
-      assert.equal(await page.evaluate(() => navigator.clipboard.readText()), secret);
+      assert.deepEqual(await page.evaluate(() => window.copiedTexts), [secret]);
       // Without a clipboard: the secret selected.
       await page.evaluate(() => Object.defineProperty(navigator, 'clipboard', { value: undefined, configurable: true }));
       await page.click('[data-testid="token-copy"]');
