@@ -105,6 +105,11 @@ export async function apiFetch(path, { method = 'GET', body, headers = {} } = {}
 // Binary resources (the PNG plot, PDF reports): an <img src> or a link cannot send the
 // Authorization header, so they are fetched here and shown or saved through an object URL.
 export async function apiFetchBlob(path, accept = 'image/png') {
+  return (await fetchAuthorised(path, accept)).blob();
+}
+
+// A GET of `path` with the token; the response when it is ok, else an ApiError of its problem.
+async function fetchAuthorised(path, accept) {
   const headers = { Accept: accept };
   const token = currentToken();
   if (token) headers.Authorization = `Bearer ${token}`;
@@ -118,22 +123,13 @@ export async function apiFetchBlob(path, accept = 'image/png') {
     });
   }
   if (!response.ok) throw new ApiError(response.status, await readProblem(response));
-  return response.blob();
+  return response;
 }
 
 // A file the server offers for saving (Content-Disposition: attachment; filename="…"):
 // {blob, filename}, the name kept to letters, digits, '.', '-' and '_' (else `fallback`).
 export async function apiFetchFile(path, fallback, accept = 'text/plain') {
-  const headers = { Accept: accept };
-  const token = currentToken();
-  if (token) headers.Authorization = `Bearer ${token}`;
-  let response;
-  try {
-    response = await fetch(path, { headers, cache: 'no-store' });
-  } catch (err) {
-    throw new ApiError(0, { title: 'Server not reachable', detail: `Could not contact the kinemetric server (${err.message}).` });
-  }
-  if (!response.ok) throw new ApiError(response.status, await readProblem(response));
+  const response = await fetchAuthorised(path, accept);
   const named = /filename="([\w.-]+)"/.exec(response.headers.get('Content-Disposition') || '');
   return { blob: await response.blob(), filename: named ? named[1] : fallback };
 }

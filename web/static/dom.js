@@ -91,14 +91,20 @@ export function keepFocus(container, build) {
   if (again) again.focus();
 }
 
-// A file download of text made in the page (CSV, JSON): an <a download> with an object URL.
-export function downloadText(text, filename, type = 'text/plain') {
-  const url = URL.createObjectURL(new Blob([text], { type }));
+// A file download of a blob (a PDF or a table the server made): an <a download> with an object
+// URL, revoked once the browser has had time to save it.
+export function downloadBlob(blob, filename) {
+  const url = URL.createObjectURL(blob);
   const a = h('a', { href: url, download: filename, hidden: true });
   document.body.append(a);
   a.click();
   a.remove();
-  setTimeout(() => URL.revokeObjectURL(url), 10_000);
+  setTimeout(() => URL.revokeObjectURL(url), 30_000);
+}
+
+// A file download of text made in the page (CSV, JSON).
+export function downloadText(text, filename, type = 'text/plain') {
+  downloadBlob(new Blob([text], { type }), filename);
 }
 
 // A finite decimal number written as text: optional sign, digits with at most one '.', an

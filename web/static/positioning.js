@@ -6,7 +6,7 @@
 import { apiFetchFile } from './api.js';
 import { handleAuth } from './auth.js';
 import { axesGrid, el, r2, ticks } from './charts.js';
-import { $, asProblem, h, problemContent, setMessage } from './dom.js';
+import { $, asProblem, downloadBlob, h, problemContent, setMessage } from './dom.js';
 import { formatNumber, plural } from './format.js';
 
 const DIRS = [
@@ -177,12 +177,7 @@ const COMPENSATION_FORMATS = [
 async function saveCompensation(id, format, fallback, status) {
   try {
     const { blob, filename } = await apiFetchFile(`/api/v1/measurements/${encodeURIComponent(id)}/compensation?format=${format}`, fallback);
-    const url = URL.createObjectURL(blob);
-    const a = h('a', { href: url, download: filename, hidden: true });
-    document.body.append(a);
-    a.click();
-    a.remove();
-    setTimeout(() => URL.revokeObjectURL(url), 30_000);
+    downloadBlob(blob, filename);
     setMessage(status, 'success', `Saved as ${filename}.`);
   } catch (err) {
     if (!handleAuth(err)) setMessage(status, 'error', ...problemContent(asProblem(err, 'No compensation table')));

@@ -14,19 +14,13 @@
 import { api, apiFetch, apiFetchBlob } from './api.js';
 import { JOB_STATUS } from './contract.js';
 import { handleAuth } from './auth.js';
-import { $, h, problemContent, asProblem, setMessage } from './dom.js';
+import { $, downloadBlob, h, problemContent, asProblem, setMessage } from './dom.js';
 import { formatDirection, formatTimestamp } from './format.js';
 import { mayDo, refusalContent } from './roles.js';
 
 async function savePdf(path, filename, status) {
   try {
-    const blob = await apiFetchBlob(path, 'application/pdf');
-    const url = URL.createObjectURL(blob);
-    const a = h('a', { href: url, download: filename, hidden: true });
-    document.body.append(a);
-    a.click();
-    a.remove();
-    setTimeout(() => URL.revokeObjectURL(url), 30_000);
+    downloadBlob(await apiFetchBlob(path, 'application/pdf'), filename);
     if (status) setMessage(status, 'success', `Report saved as ${filename}.`);
   } catch (err) {
     if (handleAuth(err)) return;

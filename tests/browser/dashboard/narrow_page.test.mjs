@@ -222,8 +222,14 @@ test('token copy button; the saved DBB PNG keeps its labels, in the server’s c
     for (const width of WIDTHS) {
       await page.setViewportSize({ width, height: 900 });
       await open('#/tokens');
+      // The secret of this token, not the one the previous width's token left on the page.
+      const before = await page.$eval('[data-testid="token-secret"]', (n) => n.textContent).catch(() => null);
       await page.fill('[data-testid="token-create-name"]', `tablet ${width}`);
       await page.click('[data-testid="token-create"]');
+      await page.waitForFunction((old) => {
+        const n = document.querySelector('[data-testid="token-secret"]');
+        return n && n.textContent && n.textContent !== old;
+      }, before);
       const secret = await page.textContent('[data-testid="token-secret"]');
       // What the page writes to the clipboard, recorded in the page: the system clipboard is
       // shared with every other browser test running at the same time.
