@@ -1,6 +1,8 @@
 #include "analysis/rotary/rotary_identify.h"
 
 #include <cmath>
+#include <memory>
+#include <utility>
 
 #include <Eigen/Dense>
 
@@ -10,7 +12,8 @@
 #include "analysis/rotary/rotary_model.h"
 
 namespace km::rotary {
-namespace {
+// Named rather than anonymous: Reidentification::Impl holds these types.
+namespace identify_detail {
 
 using Eigen::Index;
 using Eigen::MatrixXd;
@@ -109,12 +112,12 @@ struct Solution {
   bool converged = false;
 };
 
-// Gauss–Newton over the determined directions: each step the least-squares solution of
-// (J D⁻¹ V_r) z = measured − model, x += D⁻¹ V_r z.
-Solution Solve(const PreparedTest& p, const RotarySetup& setup, const Identifiability& id,
-               const IdentifyOptions& o) {
-  Solution s;
-  s.at = Linearise(p, setup, s.x);
+// Gauss–Newton over the determined directions from `start` (x and the model there): each step
+// the least-squares solution of (J D⁻¹ V_r) z = measured − model, x += D⁻¹ V_r z.
+Solution GaussNewton(const PreparedTest& p, const RotarySetup& setup, const Identifiability& id,
+                     const IdentifyOptions& o, const VectorXd& measured_um, Solution s) {
+  s.iterations = 0;
+  s.converged = false;
   const MatrixXd to_x = id.scale.cwiseInverse().asDiagonal() * id.kept;  // z → x
   if (id.rank == 0) {
     s.converged = true;
@@ -122,7 +125,7 @@ Solution Solve(const PreparedTest& p, const RotarySetup& setup, const Identifiab
   }
   for (s.iterations = 1; s.iterations <= o.max_iterations; ++s.iterations) {
     const MatrixXd jr = s.at.jacobian * to_x;
-    const VectorXd z = jr.colPivHouseholderQr().solve(p.measured_um - s.at.model_um);
+    const VectorXd z = jr.colPivHouseholderQr().solve(measured_um - s.at.model_um);
     s.x += to_x * z;
     s.at = Linearise(p, setup, s.x);
     const double size = (id.scale.asDiagonal() * s.x).norm();
@@ -133,6 +136,16 @@ Solution Solve(const PreparedTest& p, const RotarySetup& setup, const Identifiab
   }
   s.iterations = std::min(s.iterations, o.max_iterations);
   return s;
+}
+
+// D⁻¹ V_r (J_rᵀ J_r)⁻¹ V_rᵀ D⁻¹ at the solution: the covariance of the determined errors for
+// readings of unit variance.
+MatrixXd UnitCovariance(const Identifiability& id, const Solution& s) {
+  if (id.rank == 0) return MatrixXd::Zero(kN, kN);
+  const MatrixXd to_x = id.scale.cwiseInverse().asDiagonal() * id.kept;
+  const MatrixXd jr = s.at.jacobian * to_x;
+  const MatrixXd inv = (jr.transpose() * jr).ldlt().solve(MatrixXd::Identity(jr.cols(), jr.cols()));
+  return to_x * inv * to_x.transpose();
 }
 
 double Rms(const VectorXd& v) {
@@ -147,14 +160,7 @@ void Report(const PreparedTest& p, const Identifiability& id, const Solution& s,
   out.sigma_um = std::sqrt(residual.squaredNorm() / double(dof));
   out.measured_rms_um = Rms(p.measured_um);
   out.residual_rms_um = Rms(residual);
-  MatrixXd cov = MatrixXd::Zero(kN, kN);
-  if (id.rank > 0) {
-    const MatrixXd to_x = id.scale.cwiseInverse().asDiagonal() * id.kept;
-    const MatrixXd jr = s.at.jacobian * to_x;
-    const MatrixXd inv =
-        (jr.transpose() * jr).ldlt().solve(MatrixXd::Identity(jr.cols(), jr.cols()));
-    cov = out.sigma_um * out.sigma_um * to_x * inv * to_x.transpose();
-  }
+  const MatrixXd cov = out.sigma_um * out.sigma_um * UnitCovariance(id, s);
   for (Index j = 0; j < kN; ++j) {
     auto& e = out.errors[std::size_t(j)];
     e.identifiable = id.null.row(j).squaredNorm() <= o.null_share_tolerance;
@@ -168,7 +174,9 @@ void Report(const PreparedTest& p, const Identifiability& id, const Solution& s,
   }
 }
 
-}  // namespace
+}  // namespace identify_detail
+
+using namespace identify_detail;
 
 void IdentifyOptions::Check() const {
   KM_OPTION_GE(max_iterations, 1);
@@ -180,9 +188,10 @@ void IdentifyOptions::Check() const {
 RotaryIdentification IdentifyLocationErrors(const RotaryTest& test, const IdentifyOptions& o) {
   o.Check();
   const PreparedTest p = Prepare(test);
-  const Identifiability id =
-      Analyse(Linearise(p, test.setup, VectorXd::Zero(kN)).jacobian, o.rank_tolerance);
-  const Solution s = Solve(p, test.setup, id, o);
+  Solution start;
+  start.at = Linearise(p, test.setup, start.x);
+  const Identifiability id = Analyse(start.at.jacobian, o.rank_tolerance);
+  const Solution s = GaussNewton(p, test.setup, id, o, p.measured_um, std::move(start));
   RotaryIdentification out;
   out.kinematics = test.setup.kinematics;
   out.poses = test.poses.size();
@@ -196,6 +205,67 @@ RotaryIdentification IdentifyLocationErrors(const RotaryTest& test, const Identi
   out.iterations = s.iterations;
   out.converged = s.converged;
   Report(p, id, s, o, out);
+  return out;
+}
+
+struct Reidentification::Impl {
+  RotarySetup setup;
+  IdentifyOptions options;
+  PreparedTest prepared;
+  Identifiability id;
+  Solution base;
+};
+
+Reidentification::Reidentification(const RotaryTest& test, const IdentifyOptions& o)
+    : impl_(std::make_unique<Impl>()) {
+  o.Check();
+  Impl& m = *impl_;
+  m.setup = test.setup;
+  m.options = o;
+  m.prepared = Prepare(test);
+  Solution start;
+  start.at = Linearise(m.prepared, m.setup, start.x);
+  m.id = Analyse(start.at.jacobian, o.rank_tolerance);
+  m.base = GaussNewton(m.prepared, m.setup, m.id, o, m.prepared.measured_um, std::move(start));
+}
+
+Reidentification::~Reidentification() = default;
+
+std::size_t Reidentification::Readings() const {
+  return std::size_t(impl_->prepared.measured_um.size());
+}
+
+std::vector<double> Reidentification::MeasuredUm() const {
+  const VectorXd& v = impl_->prepared.measured_um;
+  return {v.data(), v.data() + v.size()};
+}
+
+std::array<bool, kLocationErrorCount> Reidentification::Identifiable() const {
+  std::array<bool, kLocationErrorCount> out{};
+  for (Index j = 0; j < kN; ++j) {
+    out[std::size_t(j)] =
+        impl_->id.null.row(j).squaredNorm() <= impl_->options.null_share_tolerance;
+  }
+  return out;
+}
+
+LocationErrors Reidentification::Solve(std::span<const double> measured_um, bool* converged) const {
+  const Impl& m = *impl_;
+  if (measured_um.size() != Readings()) {
+    throw InvalidInput("", 0, "readings", "3 readings per pose are needed");
+  }
+  const VectorXd measured = Eigen::Map<const VectorXd>(measured_um.data(), Index(Readings()));
+  const Solution s = GaussNewton(m.prepared, m.setup, m.id, m.options, measured, m.base);
+  if (converged) *converged = s.converged;
+  LocationErrors out{};
+  for (Index j = 0; j < kN; ++j) out[std::size_t(j)] = s.x(j);
+  return out;
+}
+
+LocationErrors Reidentification::SigmaPerUnitReading() const {
+  const MatrixXd cov = UnitCovariance(impl_->id, impl_->base);
+  LocationErrors out{};
+  for (Index j = 0; j < kN; ++j) out[std::size_t(j)] = std::sqrt(std::max(0.0, cov(j, j)));
   return out;
 }
 

@@ -13,7 +13,9 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -60,6 +62,34 @@ struct RotaryIdentification {
 // Throws InvalidInput for bad options or a test with fewer than 4 poses or non-finite values.
 RotaryIdentification IdentifyLocationErrors(const RotaryTest& test,
                                             const IdentifyOptions& options = {});
+
+// The identification repeated on other readings of the same poses (the Monte Carlo draws of
+// rotary_uncertainty.h). What the poses determine depends on the poses alone: it is found once,
+// with the solution of the file's own readings; each Solve is the same Gauss–Newton over the
+// same determined directions, warm-started from that solution.
+class Reidentification {
+ public:
+  // Throws as IdentifyLocationErrors.
+  explicit Reidentification(const RotaryTest& test, const IdentifyOptions& options = {});
+  ~Reidentification();
+  Reidentification(const Reidentification&) = delete;
+  Reidentification& operator=(const Reidentification&) = delete;
+
+  std::size_t Readings() const;            // 3 per pose
+  std::vector<double> MeasuredUm() const;  // the file's readings, x, y, z per pose
+  std::array<bool, kLocationErrorCount> Identifiable() const;
+  // The eight errors (those not identifiable meaningless) from `measured_um` (Readings()
+  // values); `converged` (optional) tells whether the Gauss–Newton converged.
+  LocationErrors Solve(std::span<const double> measured_um, bool* converged = nullptr) const;
+  // √diag of D⁻¹V_r (J_rᵀJ_r)⁻¹V_rᵀD⁻¹ at the solution of the file's readings: the first-order
+  // standard uncertainty of each determined error per µm of reading uncertainty (µm/µm,
+  // µrad/µm); σ of IdentifyLocationErrors is s times it.
+  LocationErrors SigmaPerUnitReading() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 // The model's displacement (µm) at every pose for given location errors (e.g. the result's,
 // the undetermined ones at 0).

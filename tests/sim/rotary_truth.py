@@ -24,10 +24,16 @@ definitions there):
   the sensors are zeroed at the first pose: every reading is the displacement minus the
   displacement at the first pose.
 
+First-order uncertainty (--gum-u U, docs/methods.md §17.8): J, the derivatives of the 3N
+readings with respect to the eight errors, by central differences of this file's own forward model
+at the truth (step 0.1 µm / µrad), and u_gum = U sqrt(diag((J^T J)^-1)) for readings of standard
+uncertainty U each (all eight errors must be determined by the poses).
+
 usage: rotary_truth.py --kinematics AC|BC --poses full|tilt0|on_axis|random
                        [--seed N] [--noise UM] [--count N] [--hidden c_angle,drift]
-                       [--dt SECONDS] --out FILE
-Writes FILE and prints the true errors as JSON: {"errors": {"YOA": 13.7, ...}, "hidden": {...}}.
+                       [--dt SECONDS] [--gum-u UM] --out FILE
+Writes FILE and prints the true errors as JSON: {"errors": {"YOA": 13.7, ...}, "hidden": {...}}
+(with --gum-u also "u_gum": {"YOA": 0.21, ...}).
 """
 import argparse
 import json
@@ -129,6 +135,27 @@ def poses(kind, rng, count):
     return [(0.0, 0.0)] + out
 
 
+def first_order_u(kin, setup, truth, pose_list, u):
+    """u * sqrt(diag((J^T J)^-1)), J by central differences of the zeroed readings."""
+    zero = {k: 0.0 for k in truth}
+    names = list(truth)
+
+    def readings(e):
+        d = [displacement(kin, setup, e, zero, [], t, c, 0.0) for t, c in pose_list]
+        return np.concatenate([x - d[0] for x in d])
+
+    h = 0.1
+    cols = []
+    for n in names:
+        up, down = dict(truth), dict(truth)
+        up[n] += h
+        down[n] -= h
+        cols.append((readings(up) - readings(down)) / (2.0 * h))
+    j = np.column_stack(cols)
+    cov = np.linalg.inv(j.T @ j)
+    return {n: u * math.sqrt(cov[i, i]) for i, n in enumerate(names)}
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--kinematics", choices=["AC", "BC"], required=True)
@@ -139,6 +166,7 @@ def main():
     ap.add_argument("--hidden", default="")
     ap.add_argument("--dt", type=float, default=2.0)
     ap.add_argument("--truth", choices=["default", "zero"], default="default")
+    ap.add_argument("--gum-u", type=float, default=None)
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     kin = a.kinematics
@@ -161,7 +189,8 @@ def main():
             "# instrument: simulated R-test", "# u_reading_um: %g" % a.noise,
             "%s_deg,c_deg,dx_um,dy_um,dz_um,time_s" % tilt]
     first = None
-    for i, (t, c) in enumerate(poses(a.poses, rng, a.count)):
+    pose_list = poses(a.poses, rng, a.count)
+    for i, (t, c) in enumerate(pose_list):
         time_s = a.dt * i
         d = displacement(kin, setup, truth, zero, hidden, t, c, time_s / 3600.0)
         first = d if first is None else first
@@ -171,8 +200,11 @@ def main():
         text.append("%.6f,%.6f,%.5f,%.5f,%.5f,%.1f" % (t, c, d[0], d[1], d[2], time_s))
     with open(a.out, "w", encoding="utf-8") as f:
         f.write("\n".join(text) + "\n")
-    print(json.dumps({"errors": truth, "sphere_mm": list(setup["sphere"]),
-                      "hidden": {h: HIDDEN.get(h, {}) for h in hidden}}))
+    out = {"errors": truth, "sphere_mm": list(setup["sphere"]),
+           "hidden": {h: HIDDEN.get(h, {}) for h in hidden}}
+    if a.gum_u is not None:
+        out["u_gum"] = first_order_u(kin, setup, truth, pose_list, a.gum_u)
+    print(json.dumps(out))
 
 
 if __name__ == "__main__":

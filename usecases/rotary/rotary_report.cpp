@@ -1,10 +1,13 @@
 #include "usecases/rotary/rotary_report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <utility>
 
 #include "analysis/core/errors.h"
+#include "analysis/rotary/rotary_uncertainty.h"
+#include "usecases/uncertainty_json.h"
 
 namespace km::usecases {
 namespace {
@@ -78,6 +81,83 @@ json PosesJson(const RotaryReport& r) {
   return out;
 }
 
+// The errors the poses do not determine, in words ("YOA, ZOA, BOA and COA"), empty when none.
+std::string Undetermined(const RotaryReport& r) {
+  const auto& names = rotary::LocationErrorNames(r.result.kinematics);
+  std::vector<std::string> list;
+  for (std::size_t i = 0; i < rotary::kLocationErrorCount; ++i) {
+    if (!r.result.errors[i].identifiable) list.emplace_back(names[i]);
+  }
+  std::string out;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    out += (i == 0 ? "" : i + 1 == list.size() ? " and " : ", ") + list[i];
+  }
+  return out;
+}
+
+// u_reading_um propagated through the identification (docs/methods.md §17.8): one figure per
+// determined error, keyed as in location_errors; an angle error's u_um, U_um, interval_um and
+// u_gum_um are in µrad, as its `unit` says.
+json RotaryUncertaintyJson(const RotaryReport& r) {
+  const auto& u = r.file.u_reading_um;
+  const UncertaintyInput input{"u_reading_um", u.value_or(0.0), "µm", u.has_value()};
+  json notes = json::array();
+  const std::string undetermined = Undetermined(r);
+  if (!undetermined.empty()) {
+    notes.push_back(undetermined + (undetermined.find(' ') == std::string::npos ? " is" : " are") +
+                    " not determined by these poses: no uncertainty is given for them");
+  }
+  if (!u || !(*u > 0.0)) {
+    json j = NoUncertaintyJson({input});
+    if (u) j["method"] = "none: u_reading_um is 0";
+    if (!notes.empty()) j["notes"] = notes;
+    return j;
+  }
+  const rotary::ReadingUncertainty p = rotary::PropagateReadingUncertainty(r.file.test, *u);
+  std::vector<std::string> keys;
+  std::vector<uncertainty::GumCheck> gum;
+  for (std::size_t k = 0; k < p.errors.size(); ++k) {
+    keys.push_back(LocationErrorKey(r.result.kinematics, p.errors[k]));
+    uncertainty::GumCheck g;
+    g.name = keys.back();
+    g.u_gum = p.u_gum[k];
+    g.u_mc = p.mc.outputs[k].u;
+    if (g.u_mc > 0.0) g.relative_difference = std::abs(g.u_gum - g.u_mc) / g.u_mc;
+    gum.push_back(g);  // differs stays false: the warning is written below, in the figure's unit
+  }
+  json j = UncertaintyJson(p.mc, {input}, keys, gum);
+  // Beyond 5 %, and beyond three standard errors of the Monte Carlo u (1/√(2M) each): with
+  // M = 500 a linear figure's two u differ by 3.2 % by chance alone (docs/methods.md §17.8).
+  const double tolerance =
+      std::max(0.05, 3.0 / std::sqrt(2.0 * double(std::max<std::size_t>(p.mc.draws, 1))));
+  for (std::size_t k = 0; k < p.errors.size(); ++k) {
+    const char* unit = rotary::IsAngularError(p.errors[k]) ? "µrad" : "µm";
+    j["figures"][keys[k]]["unit"] = unit;
+    if (gum[k].relative_difference <= tolerance) continue;
+    char text[256];
+    std::snprintf(text, sizeof text,
+                  "%s: the first-order GUM gives u = %.4g %s, Monte Carlo %.4g %s (%.0f %% apart): "
+                  "the identification is not linear in the readings here; the Monte Carlo value "
+                  "is reported",
+                  keys[k].c_str(), gum[k].u_gum, unit, gum[k].u_mc, unit,
+                  100.0 * gum[k].relative_difference);
+    j["warnings"].push_back(text);
+  }
+  notes.insert(notes.begin(),
+               "each draw adds N(0, u_reading_um²) to each of dx, dy, dz of every pose and "
+               "identifies the location errors again; the residual scatter of this test (sigma "
+               "of location_errors) is what the errors describe, not an input");
+  notes.insert(notes.begin() + 1,
+               "an angle error's u_um, U_um, interval_um, u_gum_um and contribution_um are in "
+               "µrad (its unit)");
+  if (p.unconverged_draws > 0) {
+    j["warnings"].push_back(std::to_string(p.unconverged_draws) +
+                            " draws did not converge within the iteration limit");
+  }
+  j["notes"] = notes;
+  return j;
+}
+
 }  // namespace
 
 std::string LocationErrorKey(rotary::Kinematics k, std::size_t index) {
@@ -94,6 +174,7 @@ RotaryReport AnalyseRotary(ingest::RotaryFile file) {
   }
   r.file = std::move(file);
   r.warnings = RotaryWarnings(r);
+  r.uncertainty = RotaryUncertaintyJson(r);
   return r;
 }
 
@@ -124,6 +205,7 @@ json RotaryReportToJson(const RotaryReport& r) {
   j["iterations"] = res.iterations;
   j["converged"] = res.converged;
   j["residuals"] = PosesJson(r);
+  j["uncertainty"] = r.uncertainty;
   j["warnings"] = r.warnings;
   return j;
 }

@@ -18,6 +18,9 @@ struct RotaryReport {
   ingest::RotaryFile file;
   rotary::RotaryIdentification result;
   std::vector<std::string> warnings;
+  // The `uncertainty` object (docs/formats.md §3.17): u_reading_um propagated by Monte Carlo
+  // through the identification (analysis/rotary/rotary_uncertainty.h), or method "none".
+  nlohmann::json uncertainty;
 };
 
 RotaryReport AnalyseRotary(ingest::RotaryFile file);

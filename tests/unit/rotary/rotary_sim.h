@@ -17,6 +17,7 @@ struct SimulatedFile {
   std::string path;
   std::map<std::string, double> truth;  // µm, µrad by name
   nlohmann::json hidden;                // the hidden effects and their values, by name
+  std::string output;                   // the simulator's whole JSON output (e.g. "u_gum")
 };
 
 // kinematics "AC" or "BC"; poses "full", "tilt0", "on_axis" or "random"; `extra` more options
@@ -43,6 +44,7 @@ inline SimulatedFile Simulate(const std::string& kinematics, const std::string& 
   for (const auto& [name, value] : truth.at("errors").items()) f.truth[name] = value.get<double>();
   EXPECT_EQ(f.truth.size(), 8u) << out;
   f.hidden = truth.at("hidden");
+  f.output = out;
   return f;
 }
 
