@@ -1,5 +1,6 @@
 #include "analysis/rotary/rotary_uncertainty.h"
 
+#include <algorithm>
 #include <cmath>
 #include <span>
 
@@ -11,10 +12,12 @@ namespace km::rotary {
 void ReadingUncertaintyOptions::Check() const {
   KM_OPTION_GE(draws, 20u);
   KM_OPTION_GE(large_draws, 20u);
+  KM_OPTION_GE(min_draws, 20u);
 }
 
 std::size_t ReadingDraws(std::size_t poses, const ReadingUncertaintyOptions& o) {
-  return poses > o.large_poses ? o.large_draws : o.draws;
+  if (poses <= o.large_poses) return o.draws;
+  return std::max(o.min_draws, std::min(o.large_draws, o.max_pose_draws / poses));
 }
 
 ReadingUncertainty PropagateReadingUncertainty(const RotaryTest& test, double u_reading_um,

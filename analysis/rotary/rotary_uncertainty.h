@@ -24,12 +24,15 @@
 namespace km::rotary {
 
 struct ReadingUncertaintyOptions {
-  // M = 500 draws (the standard error of u about 1/√(2M) = 3.2 % of u), M = 200 above
-  // `large_poses` poses (4.9 %): a re-identification costs about 0.7 µs a pose, so 1 000 poses
-  // take about 0.35 s and 5 000 (M = 200) 0.7 s.
+  // M = 500 draws (the standard error of u about 1/√(2M) = 3.2 % of u); above `large_poses`
+  // poses M = 200 (4.9 %), fewer where M × poses would pass `max_pose_draws`, never below
+  // `min_draws` (10 %): a re-identification costs about 0.7 µs a pose, so 1 000 poses take about
+  // 0.35 s, 5 000 (M = 200) 0.7 s and 20 000 (M = 50) 0.7 s.
   std::size_t draws = 500;
   std::size_t large_draws = 200;
   std::size_t large_poses = 2000;
+  std::size_t max_pose_draws = 1'000'000;
+  std::size_t min_draws = 50;
   std::uint64_t seed = 1710;
   void Check() const;
 };

@@ -181,7 +181,7 @@ void CheckPoseSet(const TextTable& t, const RotaryFile& f) {
 
 TextLimits DefaultRotaryLimits() {
   TextLimits l;
-  l.max_rows = 100'000;
+  l.max_rows = 20'000;
   l.max_columns = 16;
   return l;
 }

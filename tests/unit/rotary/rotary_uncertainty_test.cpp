@@ -12,6 +12,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "analysis/rotary/rotary_uncertainty.h"
 #include "ingest/rotary/rotary_parser.h"
 #include "tests/unit/rotary/rotary_sim.h"
 #include "usecases/rotary/rotary_report.h"
@@ -127,6 +128,19 @@ TEST(RotaryUncertainty, UndeterminedErrorsGetNoEntry) {
   EXPECT_EQ(u["notes"].back(),
             "YOA, ZOA, BOA and COA are not determined by these poses: no uncertainty is given for "
             "them");
+}
+
+// The draws of a file: 500 up to 2 000 poses, then 200, fewer where M × poses would pass 10⁶,
+// never below 50 — so the largest file an upload accepts costs about as much as 1 400 poses.
+TEST(RotaryUncertainty, DrawsFallWithThePosesWithinABudget) {
+  EXPECT_EQ(ReadingDraws(60), 500u);
+  EXPECT_EQ(ReadingDraws(2000), 500u);
+  EXPECT_EQ(ReadingDraws(2001), 200u);
+  EXPECT_EQ(ReadingDraws(5000), 200u);
+  EXPECT_EQ(ReadingDraws(10000), 100u);
+  EXPECT_EQ(ReadingDraws(20000), 50u);
+  EXPECT_EQ(ReadingDraws(100000), 50u);
+  EXPECT_LE(ReadingDraws(20000) * 20000, 1'000'000u);
 }
 
 }  // namespace
