@@ -96,7 +96,7 @@ void Uncertainty(const EffectPoses& p, const Directions& d, EffectFit& f) {
   const MatrixXd cov = f.s_um * f.s_um * to_x * inv * to_x.transpose();
   for (std::size_t k = 0; k < f.free.size(); ++k) {
     const std::size_t j = f.free[k];
-    f.determined[j] = d.null.row(Index(k)).squaredNorm() <= 1e-6;
+    f.determined[j] = d.null.cols() == 0 || d.null.row(Index(k)).squaredNorm() <= 1e-6;
     f.sigma[j] = f.determined[j] ? std::sqrt(std::max(0.0, cov(Index(k), Index(k)))) : 0.0;
   }
 }

@@ -163,7 +163,9 @@ void Report(const PreparedTest& p, const Identifiability& id, const Solution& s,
   const MatrixXd cov = out.sigma_um * out.sigma_um * UnitCovariance(id, s);
   for (Index j = 0; j < kN; ++j) {
     auto& e = out.errors[std::size_t(j)];
-    e.identifiable = id.null.row(j).squaredNorm() <= o.null_share_tolerance;
+    // Every error is determined when no direction is undetermined (a row of an empty matrix
+    // would point into no storage).
+    e.identifiable = id.null.cols() == 0 || id.null.row(j).squaredNorm() <= o.null_share_tolerance;
     if (!e.identifiable) continue;
     e.value = s.x(j);
     e.sigma = std::sqrt(std::max(0.0, cov(j, j)));
@@ -243,8 +245,8 @@ std::vector<double> Reidentification::MeasuredUm() const {
 std::array<bool, kLocationErrorCount> Reidentification::Identifiable() const {
   std::array<bool, kLocationErrorCount> out{};
   for (Index j = 0; j < kN; ++j) {
-    out[std::size_t(j)] =
-        impl_->id.null.row(j).squaredNorm() <= impl_->options.null_share_tolerance;
+    out[std::size_t(j)] = impl_->id.null.cols() == 0 || impl_->id.null.row(j).squaredNorm() <=
+                                                            impl_->options.null_share_tolerance;
   }
   return out;
 }

@@ -15,7 +15,7 @@ cd "$(dirname "$0")/../.." || exit 1
 
 build=${KINEMETRIC_FUZZ_BUILD:-build-fuzz}
 seconds=${KINEMETRIC_FUZZ_SECONDS:-10}
-all_targets=(dbb tracker straightness flatness parallelism servo positioning upload machine_json modbus_config
+all_targets=(dbb tracker straightness flatness parallelism servo positioning rotary upload machine_json modbus_config
   stream_frames request time api)
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then targets=("${all_targets[@]}"); fi
