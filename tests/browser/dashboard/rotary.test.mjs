@@ -43,6 +43,12 @@ test('rotary: location errors with σ, the displacement per pose before and afte
         assert.equal(r.cells[2], key.endsWith('_urad') ? 'µrad' : 'µm');
       }
       assert.match(await page.textContent('[data-testid="rotary-rank"]'), /Rank of the pose set 8 of 8/);
+      // The same measurement is opened again at the second width: wait for its chart to be laid
+      // out (a slow server, e.g. under the sanitizers, answers after the view has been replaced).
+      await page.waitForFunction(() => {
+        const svg = document.querySelector('[data-testid="rotary-pose-chart"]');
+        return svg && svg.isConnected && svg.getBoundingClientRect().width > 0;
+      });
       const chart = await page.$eval('[data-testid="rotary-pose-chart"]', (svg) => ({
         series: [...svg.querySelectorAll('polyline[data-series]')].map((p) => [p.dataset.series, p.getAttribute('points').trim().split(/\s+/).length]),
         width: svg.getBoundingClientRect().width,
