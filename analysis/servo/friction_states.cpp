@@ -25,13 +25,23 @@ JointStates FirstSwing(const FrictionPath& path) {
   return r;
 }
 
-void StepJoints(const FrictionPath& path, std::size_t i, double ramp, JointStates& r) {
+}  // namespace
+
+void StepJointStates(const FrictionPath& path, std::size_t i, double joint_ramp_mm,
+                     JointStates& r) {
   for (int j = 0; j < 6; ++j) {
-    r[j] = hexapod::StepSwingState(r[j], path.unit[i][j], path.swing_mm[i][j], ramp);
+    r[j] = hexapod::StepSwingState(r[j], path.unit[i][j], path.swing_mm[i][j], joint_ramp_mm);
   }
 }
 
-}  // namespace
+JointStates InitialJointStates(const FrictionPath& path, double joint_ramp_mm) {
+  if (!path.closed) return FirstSwing(path);
+  JointStates jr;
+  jr.fill(Eigen::Vector3d::Zero());
+  for (std::size_t i = 0; i < path.swing_mm.size(); ++i)
+    StepJointStates(path, i, joint_ramp_mm, jr);
+  return jr;
+}
 
 FrictionPath PathOf(const std::vector<MotionSample>& motion) {
   const std::size_t n = motion.size();
@@ -69,15 +79,9 @@ FrictionPath PathOf(const std::vector<MotionSample>& motion) {
 std::vector<JointStates> JointFrictionStates(const FrictionPath& path, double joint_ramp_mm) {
   const std::size_t n = path.swing_mm.size();
   std::vector<JointStates> r(n);
-  JointStates jr;
-  jr.fill(Eigen::Vector3d::Zero());
-  if (path.closed) {
-    for (std::size_t i = 0; i < n; ++i) StepJoints(path, i, joint_ramp_mm, jr);
-  } else {
-    jr = FirstSwing(path);
-  }
+  JointStates jr = InitialJointStates(path, joint_ramp_mm);
   for (std::size_t i = 0; i < n; ++i) {
-    StepJoints(path, i, joint_ramp_mm, jr);
+    StepJointStates(path, i, joint_ramp_mm, jr);
     r[i] = jr;
   }
   return r;

@@ -37,4 +37,10 @@ void FrictionStates(const FrictionPath& path, double joint_ramp_mm, double screw
 // The joint states alone (the screws' are not needed by the joint ramp search).
 std::vector<JointStates> JointFrictionStates(const FrictionPath& path, double joint_ramp_mm);
 
+// The joint states before the first sample (JointFrictionStates: a closed path after one pass
+// of its own motion, an open one in the direction of each joint's first swing), and one step
+// of them at sample i — for a search that needs them once, sample by sample.
+JointStates InitialJointStates(const FrictionPath& path, double joint_ramp_mm);
+void StepJointStates(const FrictionPath& path, std::size_t i, double joint_ramp_mm, JointStates& r);
+
 }  // namespace km::servo

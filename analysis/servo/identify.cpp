@@ -14,6 +14,7 @@ struct Track {
   const ServoFile* file = nullptr;
   std::vector<MotionSample> motion;
   std::vector<RowUse> moving;
+  std::vector<SampleLoads> loads;  // the θ-free parts of the model at each sample
   FrictionPath path;
   std::vector<JointStates> states;  // the joints' ramp states; empty: unit(swing)
   const JointStates* StatesAt(std::size_t i) const { return states.empty() ? nullptr : &states[i]; }
@@ -27,8 +28,8 @@ void SetRamp(std::vector<Track>& tracks, double ramp_mm) {
   }
 }
 
-std::vector<Track> Tracks(const hexapod::HexapodGeometry& g, const std::vector<ServoFile>& files,
-                          const IdentifyOptions& o) {
+std::vector<Track> Tracks(const hexapod::HexapodGeometry& g, const hexapod::MachinePhysics& m,
+                          const std::vector<ServoFile>& files, const IdentifyOptions& o) {
   std::vector<Track> tracks;
   for (const auto& f : files) {
     if (!f.hexapod) {
@@ -39,54 +40,76 @@ std::vector<Track> Tracks(const hexapod::HexapodGeometry& g, const std::vector<S
     t.motion = TrackMotion(g, f.samples, f.tool_length_mm);
     t.moving = UsableRows(t.motion, o.min_rate_fraction, o.reversal_skip_mm);
     t.path = PathOf(t.motion);
+    t.loads.reserve(t.motion.size());
+    for (const auto& s : t.motion) t.loads.push_back(PrepareSampleLoads(m, s, f.tool_length_mm));
     tracks.push_back(std::move(t));
   }
   return tracks;
 }
 
 // ĝ_j of eq. 3.12 (tension positive) with θ, and which joints carry friction with θ's t0, t1.
-JointLoads Loads(const hexapod::MachinePhysics& m, const LoadVector& theta, const MotionSample& s,
-                 double tool_length_mm) {
-  return JointLoadsOf(StaticGravity(m, theta, s, tool_length_mm), theta[kT0], theta[kT1]);
+JointLoads Loads(const SampleLoads& p, const LoadVector& theta) {
+  return JointLoadsOf(StaticGravity(p, theta), theta[kT0], theta[kT1]);
+}
+
+// The rows of sample i of t with θ: `a` and the force less the known part `b`, the rows not
+// used zero. Returns how many rows are used.
+int SampleRows(const Track& t, std::size_t i, const LoadVector& theta, bool inertia, LoadRows& a,
+               hexapod::Vector6d& b) {
+  const RowUse& use = t.moving[i];
+  if (!use.joints) return 0;
+  const SampleLoads& p = t.loads[i];
+  LoadRegressor(p, t.motion[i], Loads(p, theta), use, inertia, a, b, t.StatesAt(i));
+  int used = 0;
+  for (int j = 0; j < 6; ++j) {
+    if (use.Row(j)) {
+      b[j] = t.file->samples[i].force_N[j] - b[j];
+      ++used;
+    } else {
+      a.row(j).setZero();
+      b[j] = 0.0;
+    }
+  }
+  return used;
 }
 
 // Normal equations over every usable row with ĝ from θ. A strut's row is used when it moves.
-NormalEquations Accumulate(const hexapod::MachinePhysics& m, const std::vector<Track>& tracks,
-                           const LoadVector& theta, bool inertia) {
+NormalEquations Accumulate(const std::vector<Track>& tracks, const LoadVector& theta,
+                           bool inertia) {
+  // Fixed-size sums (the rows of a sample at once; unused rows are zero).
+  Eigen::Matrix<double, kNumLoadParams, kNumLoadParams> ata =
+      Eigen::Matrix<double, kNumLoadParams, kNumLoadParams>::Zero();
+  LoadVector atb = LoadVector::Zero();
   NormalEquations ne(kNumLoadParams);
   LoadRows a;
-  hexapod::Vector6d c;
+  hexapod::Vector6d b;
   for (const auto& t : tracks) {
     for (std::size_t i = 0; i < t.motion.size(); ++i) {
-      const auto& row_use = t.moving[i];
-      MotionSample s = t.motion[i];
-      if (!inertia) s.accel_mm_s2.setZero();
-      LoadRegressor(m, s, t.file->tool_length_mm, Loads(m, theta, s, t.file->tool_length_mm),
-                    row_use, a, c, t.StatesAt(i));
-      for (int j = 0; j < 6; ++j) {
-        if (!row_use.Row(j)) continue;
-        ne.Add(a.row(j), Eigen::Matrix<double, 1, 1>(t.file->samples[i].force_N[j] - c[j]));
-      }
+      const int used = SampleRows(t, i, theta, inertia, a, b);
+      if (used == 0) continue;
+      ata.noalias() += a.transpose().lazyProduct(a);
+      atb.noalias() += a.transpose().lazyProduct(b);
+      ne.btb += b.squaredNorm();
+      ne.rows += static_cast<std::size_t>(used);
     }
   }
+  ne.ata = ata;
+  ne.atb = atb;
   return ne;
 }
 
-void Residuals(const hexapod::MachinePhysics& m, const std::vector<Track>& tracks,
-               const LoadVector& theta, bool inertia, IdentifyResult& r) {
+void Residuals(const std::vector<Track>& tracks, const LoadVector& theta, bool inertia,
+               IdentifyResult& r) {
   std::array<double, 6> ss{};
   LoadRows a;
-  hexapod::Vector6d c;
+  hexapod::Vector6d b;
   for (const auto& t : tracks) {
     for (std::size_t i = 0; i < t.motion.size(); ++i) {
-      MotionSample s = t.motion[i];
-      if (!inertia) s.accel_mm_s2.setZero();
-      LoadRegressor(m, s, t.file->tool_length_mm, Loads(m, theta, s, t.file->tool_length_mm),
-                    t.moving[i], a, c, t.StatesAt(i));
-      const hexapod::Vector6d model = a * theta + c;
+      if (SampleRows(t, i, theta, inertia, a, b) == 0) continue;
+      const hexapod::Vector6d e_all = b - a * theta;
       for (int j = 0; j < 6; ++j) {
         if (!t.moving[i].Row(j)) continue;
-        const double e = t.file->samples[i].force_N[j] - model[j];
+        const double e = e_all[j];
         ss[j] += e * e;
         ++r.rows_used[j];
       }
@@ -137,7 +160,7 @@ Fit Solve(const hexapod::MachinePhysics& machine, const std::vector<Track>& trac
   Fit f;
   f.theta = theta0;
   for (f.iterations = 1; f.iterations <= iterations; ++f.iterations) {
-    const NormalEquations ne = Accumulate(machine, tracks, f.theta, options.inertia);
+    const NormalEquations ne = Accumulate(tracks, f.theta, options.inertia);
     f.sol = SolveLeastSquares(ne, prior, hold, options.min_singular_ratio);
     const LoadVector next = f.sol.x;
     const bool settled = ((next - f.theta).cwiseAbs().array() <=
@@ -192,7 +215,7 @@ IdentifyResult IdentifyLoads(const hexapod::HexapodGeometry& geometry,
                              const std::vector<ServoFile>& files, const IdentifyOptions& options) {
   options.Check();
   if (files.empty()) throw InvalidInput("", 0, "FILE", "no servo file given");
-  std::vector<Track> tracks = Tracks(geometry, files, options);
+  std::vector<Track> tracks = Tracks(geometry, machine, files, options);
   IdentifyResult r;
   for (const auto& t : tracks) r.samples += t.motion.size();
   Fit fit = Solve(machine, tracks, ParametersOf(machine), options.max_iterations, options);
@@ -201,8 +224,10 @@ IdentifyResult IdentifyLoads(const hexapod::HexapodGeometry& geometry,
     const double coarse = ProfileRamp(machine, tracks, fit.theta, options);
     SetRamp(tracks, coarse);
     const Fit at = Solve(machine, tracks, fit.theta, options.max_iterations, options);
-    r.joint_ramp = EstimateJointRamp(geometry, WithParameters(machine, at.theta), files,
-                                     options.min_rate_fraction, options.reversal_skip_mm);
+    std::vector<RampRecord> records;
+    for (const auto& t : tracks)
+      records.push_back({t.file, &t.motion, &t.moving, &t.loads, &t.path});
+    r.joint_ramp = EstimateJointRamp(at.theta, records);
     SetRamp(tracks, r.joint_ramp->ramp_mm);
     fit = Solve(machine, tracks, at.theta, options.max_iterations, options);
   }
@@ -216,7 +241,7 @@ IdentifyResult IdentifyLoads(const hexapod::HexapodGeometry& geometry,
   for (int p : sol.held) r.fixed.push_back({LoadParamName(p), HeldReason(p)});
   r.identified = WithParameters(machine, theta);
   CogSigma(sol, r);
-  Residuals(machine, tracks, theta, options.inertia, r);
+  Residuals(tracks, theta, options.inertia, r);
   return r;
 }
 

@@ -4,69 +4,65 @@
 #include <cmath>
 
 #include <Eigen/Geometry>
-#include <Eigen/LU>
 
 #include "analysis/core/errors.h"
 #include "analysis/hexapod/joint_swing.h"
-#include "analysis/servo/friction_states.h"
-#include "analysis/servo/hexapod_motion.h"
-#include "analysis/servo/load_model.h"
 
 namespace km::servo {
 namespace {
 
-using StateMap = Eigen::Matrix<double, 6, 18>;  // strut forces of the 6 × 3 joint states
-
-// One record prepared for the search: per sample the residual without joint friction, and the
-// strut forces of each joint's friction, linear in its direction state r_j (3 components), at
-// the identified torque f_t,j = t0 + t1·ĝ_j.
+// One record prepared for the search: per sample the residual without joint friction, and
+// the force per unit of each joint's direction state r_j (3 components), f_t,j / L_j at the
+// identified torque f_t,j = t0 + t1·ĝ_j; its wrench reaches the struts through Γ⁻¹.
 struct Prepared {
   std::vector<hexapod::Vector6d> residual;
   std::vector<std::array<bool, 6>> row;
-  std::vector<StateMap> state_forces;
-  FrictionPath path;
+  std::vector<std::array<double, 6>> per_state;
+  RampRecord record;
 };
 
-// The strut forces of the joint friction per component of the states r_j (6 × 18).
-StateMap StateForces(const LoadVector& theta, const MotionSample& s,
-                     const std::array<double, 6>& gravity) {
-  StateMap w;
-  for (int j = 0; j < 6; ++j) {
-    const double torque = hexapod::JointFrictionTorque(theta[kT0], theta[kT1], gravity[j]);
-    w.middleCols<3>(3 * j) = torque * JointFrictionWrenchMap(s, j);
-  }
-  return Eigen::PartialPivLU<hexapod::Matrix6d>(s.frame.gamma).solve(w);
-}
-
-Prepared Prepare(const hexapod::HexapodGeometry& g, const hexapod::MachinePhysics& m,
-                 const ServoFile& f, double min_rate_fraction, double skip) {
-  const auto motion = TrackMotion(g, f.samples, f.tool_length_mm);
-  const auto use = UsableRows(motion, min_rate_fraction, skip);
-  const LoadVector theta = ParametersOf(m);
+Prepared Prepare(const LoadVector& theta, const RampRecord& rec) {
+  const auto& motion = *rec.motion;
   const std::size_t n = motion.size();
   Prepared p;
+  p.record = rec;
   p.residual.resize(n);
   p.row.resize(n);
-  p.state_forces.resize(n);
+  p.per_state.resize(n);
   LoadRows a;
   hexapod::Vector6d c;
   for (std::size_t i = 0; i < n; ++i) {
     const MotionSample& s = motion[i];
-    const JointLoads loads =
-        JointLoadsOf(StaticGravity(m, theta, s, f.tool_length_mm), theta[kT0], theta[kT1]);
-    RowUse u = use[i];
+    const SampleLoads& sl = (*rec.loads)[i];
+    const JointLoads loads = JointLoadsOf(StaticGravity(sl, theta), theta[kT0], theta[kT1]);
+    RowUse u = (*rec.use)[i];
     u.joints = false;  // joint friction modelled here
-    LoadRegressor(m, s, f.tool_length_mm, loads, u, a, c);
+    LoadRegressor(sl, s, loads, u, true, a, c);
     const hexapod::Vector6d model = a * theta + c;
     for (int j = 0; j < 6; ++j) {
-      p.residual[i][j] = f.samples[i].force_N[j] - model[j];
+      p.residual[i][j] = rec.file->samples[i].force_N[j] - model[j];
       // Settled screw friction and a moving tool tip (the joints' own ramps are the subject).
-      p.row[i][j] = use[i].screw[j] && s.tip_speed_mm_s > 0.0;
+      p.row[i][j] = (*rec.use)[i].screw[j] && s.tip_speed_mm_s > 0.0;
+      const double torque =
+          hexapod::JointFrictionTorque(theta[kT0], theta[kT1], loads.gravity_N[j]);
+      p.per_state[i][j] = torque * (1e3 / s.frame.length_mm[j]);
     }
-    p.state_forces[i] = StateForces(theta, s, loads.gravity_N);
   }
-  p.path = PathOf(motion);
   return p;
+}
+
+// The strut forces of the joints' friction with the states r at sample i of p.
+hexapod::Vector6d JointForces(const Prepared& p, std::size_t i, const JointStates& r) {
+  const auto& frame = (*p.record.motion)[i].frame;
+  Eigen::Vector3d force = Eigen::Vector3d::Zero(), moment = Eigen::Vector3d::Zero();
+  for (int j = 0; j < 6; ++j) {
+    const Eigen::Vector3d fj = -p.per_state[i][j] * r[j];
+    force += fj;
+    moment += frame.lever_mm[j].cross(fj);
+  }
+  hexapod::Vector6d w;
+  w << force, moment;
+  return (*p.record.loads)[i].gamma_inv * w;
 }
 
 // Residual sum of squares with ramp λ (λ ≤ 0: the direction of the swing at once).
@@ -74,13 +70,15 @@ double Rss(const std::vector<Prepared>& recs, double lambda, std::size_t* rows) 
   double ss = 0.0;
   std::size_t count = 0;
   for (const auto& p : recs) {
-    const auto states = JointFrictionStates(p.path, lambda);
+    const FrictionPath& path = *p.record.path;
+    JointStates states = InitialJointStates(path, lambda);
     for (std::size_t i = 0; i < p.residual.size(); ++i) {
-      Eigen::Matrix<double, 18, 1> r;
-      for (int j = 0; j < 6; ++j) r.segment<3>(3 * j) = states[i][j];
-      const hexapod::Vector6d e = p.residual[i] - p.state_forces[i] * r;
+      StepJointStates(path, i, lambda, states);
+      const auto& row = p.row[i];
+      if (std::none_of(row.begin(), row.end(), [](bool b) { return b; })) continue;
+      const hexapod::Vector6d e = p.residual[i] - JointForces(p, i, states);
       for (int j = 0; j < 6; ++j) {
-        if (!p.row[i][j]) continue;
+        if (!row[j]) continue;
         ss += e[j] * e[j];
         ++count;
       }
@@ -90,16 +88,56 @@ double Rss(const std::vector<Prepared>& recs, double lambda, std::size_t* rows) 
   return ss;
 }
 
+// Golden-section search of the RSS over log λ in [a, b].
+double GoldenSection(const std::vector<Prepared>& recs, double a, double b) {
+  const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
+  double m1 = b - gr * (b - a), m2 = a + gr * (b - a);
+  double f1 = Rss(recs, std::exp(m1), nullptr), f2 = Rss(recs, std::exp(m2), nullptr);
+  for (int it = 0; it < 30; ++it) {
+    if (f1 < f2) {
+      b = m2;
+      m2 = m1;
+      f2 = f1;
+      m1 = b - gr * (b - a);
+      f1 = Rss(recs, std::exp(m1), nullptr);
+    } else {
+      a = m1;
+      m1 = m2;
+      f1 = f2;
+      m2 = a + gr * (b - a);
+      f2 = Rss(recs, std::exp(m2), nullptr);
+    }
+  }
+  return 0.5 * (a + b);
+}
+
 }  // namespace
 
 RampEstimate EstimateJointRamp(const hexapod::HexapodGeometry& geometry,
                                const hexapod::MachinePhysics& physics,
                                const std::vector<ServoFile>& files, double min_rate_fraction,
                                double reversal_skip_mm) {
-  std::vector<Prepared> recs;
-  for (const auto& f : files) {
-    recs.push_back(Prepare(geometry, physics, f, min_rate_fraction, reversal_skip_mm));
+  const std::size_t n = files.size();
+  std::vector<std::vector<MotionSample>> motion(n);
+  std::vector<std::vector<RowUse>> use(n);
+  std::vector<std::vector<SampleLoads>> loads(n);
+  std::vector<FrictionPath> paths(n);
+  std::vector<RampRecord> records(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const ServoFile& f = files[k];
+    motion[k] = TrackMotion(geometry, f.samples, f.tool_length_mm);
+    use[k] = UsableRows(motion[k], min_rate_fraction, reversal_skip_mm);
+    for (const auto& s : motion[k])
+      loads[k].push_back(PrepareSampleLoads(physics, s, f.tool_length_mm));
+    paths[k] = PathOf(motion[k]);
+    records[k] = {&f, &motion[k], &use[k], &loads[k], &paths[k]};
   }
+  return EstimateJointRamp(ParametersOf(physics), records);
+}
+
+RampEstimate EstimateJointRamp(const LoadVector& theta, const std::vector<RampRecord>& records) {
+  std::vector<Prepared> recs;
+  for (const auto& r : records) recs.push_back(Prepare(theta, r));
   RampEstimate out;
   const double step = Rss(recs, 0.0, &out.rows);
   if (out.rows == 0) throw NotObservable("servo loads: no moving sample for the joint ramp");
@@ -115,18 +153,8 @@ RampEstimate EstimateJointRamp(const hexapod::HexapodGeometry& geometry,
       best = k;
     }
   }
-  double a = lo + (hi - lo) * std::max(best - 1, 0) / grid;
-  double b = lo + (hi - lo) * std::min(best + 1, grid) / grid;
-  const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
-  for (int it = 0; it < 30; ++it) {
-    const double m1 = b - gr * (b - a), m2 = a + gr * (b - a);
-    if (Rss(recs, std::exp(m1), nullptr) < Rss(recs, std::exp(m2), nullptr)) {
-      b = m2;
-    } else {
-      a = m1;
-    }
-  }
-  const double x = 0.5 * (a + b);
+  const double x = GoldenSection(recs, lo + (hi - lo) * std::max(best - 1, 0) / grid,
+                                 lo + (hi - lo) * std::min(best + 1, grid) / grid);
   out.ramp_mm = std::exp(x);
   const double rss = Rss(recs, out.ramp_mm, nullptr);
   const double rows = static_cast<double>(out.rows);

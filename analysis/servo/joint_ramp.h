@@ -13,6 +13,9 @@
 #include <vector>
 
 #include "analysis/hexapod/statics.h"
+#include "analysis/servo/friction_states.h"
+#include "analysis/servo/hexapod_motion.h"
+#include "analysis/servo/load_model.h"
 #include "analysis/servo/servo_types.h"
 
 namespace km::servo {
@@ -30,5 +33,18 @@ RampEstimate EstimateJointRamp(const hexapod::HexapodGeometry& geometry,
                                const hexapod::MachinePhysics& physics,
                                const std::vector<ServoFile>& files, double min_rate_fraction,
                                double reversal_skip_mm);
+
+// One record as the identification has prepared it: its motion, usable rows (TrackMotion,
+// UsableRows), the θ-free parts of its model (PrepareSampleLoads with the machine `theta`
+// below belongs to) and its friction path (PathOf).
+struct RampRecord {
+  const ServoFile* file = nullptr;
+  const std::vector<MotionSample>* motion = nullptr;
+  const std::vector<RowUse>* use = nullptr;
+  const std::vector<SampleLoads>* loads = nullptr;
+  const FrictionPath* path = nullptr;
+};
+// The same estimate with the identified parameters θ. Throws km::NotObservable as above.
+RampEstimate EstimateJointRamp(const LoadVector& theta, const std::vector<RampRecord>& records);
 
 }  // namespace km::servo

@@ -175,4 +175,48 @@ hexapod::Vector6d StaticGravity(const hexapod::MachinePhysics& m, const LoadVect
   return x;
 }
 
+SampleLoads PrepareSampleLoads(const hexapod::MachinePhysics& m, const MotionSample& s,
+                               double tool_length_mm) {
+  const auto& f = s.frame;
+  const Eigen::PartialPivLU<hexapod::Matrix6d> lu(f.gamma);
+  SampleLoads p;
+  Eigen::Matrix<double, 6, 5> gw;
+  Wrench known;
+  GravityColumns(m, s, tool_length_mm, m.g_m_s2 - s.accel_mm_s2 * 1e-3, gw, known);
+  p.effective = lu.solve(gw);
+  p.known = lu.solve(known);
+  GravityColumns(m, s, tool_length_mm, m.g_m_s2, gw, known);
+  p.gravity = lu.solve(gw);
+  for (int j = 0; j < 6; ++j) p.strut[j] = -m.g_m_s2.dot(f.unit[j]);
+  p.gamma_inv = lu.inverse();
+  return p;
+}
+
+hexapod::Vector6d StaticGravity(const SampleLoads& p, const LoadVector& theta) {
+  return p.gravity * theta.head<5>() + p.known + theta[kStrutMass] * p.strut;
+}
+
+void LoadRegressor(const SampleLoads& p, const MotionSample& s, const JointLoads& loads,
+                   const RowUse& use, bool inertia, LoadRows& a, hexapod::Vector6d& c,
+                   const std::array<Eigen::Vector3d, 6>* joint_states) {
+  a.setZero();
+  a.leftCols<5>() = inertia ? p.effective : p.gravity;
+  a.col(kStrutMass) = p.strut;
+  Wrench w0 = Wrench::Zero(), w1 = Wrench::Zero();
+  for (int j = 0; use.joints && j < 6; ++j) {
+    if (!loads.active[j]) continue;
+    const Wrench per_torque =
+        joint_states ? JointFrictionWrench(s, j, (*joint_states)[j]) : JointFrictionWrench(s, j);
+    w0 += per_torque;
+    w1 += loads.gravity_N[j] * per_torque;
+  }
+  a.col(kT0) = p.gamma_inv * w0;
+  a.col(kT1) = p.gamma_inv * w1;
+  for (int j = 0; j < 6; ++j) {
+    const double r = s.strut_rate_mm_s[j];
+    if (use.screw[j]) a(j, kScrew1 + j) = r > 0.0 ? -1.0 : (r < 0.0 ? 1.0 : 0.0);  // eq. 3.10
+  }
+  c = p.known;
+}
+
 }  // namespace km::servo

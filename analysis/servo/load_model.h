@@ -88,4 +88,24 @@ Eigen::Matrix<double, 6, 3> JointFrictionWrenchMap(const MotionSample& s, int j)
 hexapod::Vector6d StaticGravity(const hexapod::MachinePhysics& m, const LoadVector& theta,
                                 const MotionSample& s, double tool_length_mm);
 
+// The parts of one sample's model that do not depend on θ nor on the joints' friction
+// directions, with Γ⁻¹ applied once: for fits that evaluate the model at many θ or ramps.
+struct SampleLoads {
+  Eigen::Matrix<double, 6, 5> gravity;    // columns m_P, m_PΔc, m_S with gravity g (for ĝ)
+  Eigen::Matrix<double, 6, 5> effective;  // the same with the effective gravity g − a
+  hexapod::Vector6d known;                // c
+  hexapod::Vector6d strut;                // the m_T column, −g·l_j
+  hexapod::Matrix6d gamma_inv;            // Γ⁻¹ (wrench → strut forces)
+};
+SampleLoads PrepareSampleLoads(const hexapod::MachinePhysics& m, const MotionSample& s,
+                               double tool_length_mm);
+
+// StaticGravity from the prepared parts.
+hexapod::Vector6d StaticGravity(const SampleLoads& p, const LoadVector& theta);
+
+// LoadRegressor from the prepared parts; `inertia` false: the acceleration taken as zero.
+void LoadRegressor(const SampleLoads& p, const MotionSample& s, const JointLoads& loads,
+                   const RowUse& use, bool inertia, LoadRows& a, hexapod::Vector6d& c,
+                   const std::array<Eigen::Vector3d, 6>* joint_states = nullptr);
+
 }  // namespace km::servo
