@@ -1,6 +1,7 @@
 #include "analysis/dbb/diagnosis_fit.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <Eigen/Cholesky>
@@ -8,6 +9,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/core/parallel.h"
+#include "analysis/dbb/column_dots.h"
 
 namespace km::dbb::diag {
 
@@ -92,6 +94,24 @@ struct Gram {
   VectorXd rhs;
 };
 
+// The missing inner products from k on (before end) that share k's first column, up to
+// kMaxColumnDots of them at once (column_dots.h: each as Eigen's dot); returns how many.
+std::size_t DotsOfOneColumn(const FitContext& ctx, const Gram& gr,
+                            const std::vector<std::pair<int, int>>& missing, std::size_t k,
+                            std::size_t end, std::vector<double>& val) {
+  const int a = missing[k].first;
+  const VectorXd& x = *gr.all[static_cast<std::size_t>(a)];
+  std::array<const double*, kMaxColumnDots> ys{};
+  std::size_t count = 0;
+  for (; count < ys.size() && k + count < end && missing[k + count].first == a; ++count) {
+    const int b = missing[k + count].second;
+    const VectorXd& y = b < 0 ? *ctx.e0 : *gr.all[static_cast<std::size_t>(b)];
+    ys[count] = y.data();
+  }
+  ColumnDots(x.data(), ys.data(), static_cast<int>(count), x.size(), &val[k]);
+  return count;
+}
+
 // The inner products of the columns and with the data, from the cache where known; the
 // missing ones are computed in parallel (blocks of dot products) and cached unless read-only.
 void FillInnerProducts(const FitContext& ctx, const std::vector<int>& ids, Gram& gr) {
@@ -117,12 +137,9 @@ void FillInnerProducts(const FitContext& ctx, const std::vector<int>& ids, Gram&
   std::vector<double> val(missing.size());
   ParallelFor((missing.size() + kBlock - 1) / kBlock,
               [&](std::size_t blk) {
-                for (std::size_t k = blk * kBlock; k < std::min(missing.size(), (blk + 1) * kBlock);
-                     ++k) {
-                  const auto [a, b] = missing[k];
-                  const VectorXd& other = b < 0 ? *ctx.e0 : *gr.all[static_cast<std::size_t>(b)];
-                  val[k] = gr.all[static_cast<std::size_t>(a)]->dot(other);
-                }
+                const std::size_t end = std::min(missing.size(), (blk + 1) * kBlock);
+                for (std::size_t k = blk * kBlock; k < end;)
+                  k += DotsOfOneColumn(ctx, gr, missing, k, end, val);
               },
               missing.size() >= 2 * kBlock ? ctx.threads : 1);
   for (std::size_t k = 0; k < missing.size(); ++k) {

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "analysis/core/angles.h"
+#include "analysis/dbb/spike_decay.h"
 
 namespace km::dbb::diag {
 
@@ -133,12 +134,10 @@ double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w,
   const double phimax = SpikeReach(w, exponent);
   const Eigen::Index len =
       std::upper_bound(f.phi.data(), f.phi.data() + f.phi.size(), phimax) - f.phi.data();
-  // The decay of reversal_spike.h, vectorised for its two shapes (x = φ / w).
-  const auto x = f.phi.head(len).array() / w;
-  if (exponent == 1.0) {
-    v = f.factor.head(len).array() * (-x).exp();
-  } else if (exponent == 2.0) {
-    v = f.factor.head(len).array() * (-0.5 * x.square()).exp();
+  // The decay of reversal_spike.h, vectorised for its two shapes (spike_decay.h).
+  if (exponent == 1.0 || exponent == 2.0) {
+    v.resize(len);
+    SpikeDecays(f.phi.data(), f.factor.data(), len, w, exponent == 2.0, v.data());
   } else {
     v.resize(len);
     for (Eigen::Index k = 0; k < len; ++k)

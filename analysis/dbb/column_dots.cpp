@@ -1,0 +1,85 @@
+#include "analysis/dbb/column_dots.h"
+
+#include <cstdint>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define KM_COLUMN_DOTS_AVX2 1
+#endif
+
+namespace km::dbb::diag {
+
+namespace {
+
+using ConstMap = Eigen::Map<const Eigen::VectorXd>;
+
+void DotsEigen(const double* x, const double* const* ys, int count, Eigen::Index n, double* out) {
+  for (int j = 0; j < count; ++j) out[j] = ConstMap(x, n).dot(ConstMap(ys[j], n));
+}
+
+#if KM_COLUMN_DOTS_AVX2
+
+// Eigen's LinearVectorizedTraversal sum of the products with SSE2 packets of two: partial sums
+// p0 (elements 4m, 4m+1) and p1 (4m+2, 4m+3) started from the first two packets, joined as
+// p0 + p1, then the pair left over (if any), then lane 0 + lane 1, then the odd last element.
+// One AVX2 register holds p0 and p1 side by side. Needs n ≥ 8.
+__attribute__((target("avx2"))) double Finish(__m256d acc, const double* x, const double* y,
+                                              Eigen::Index n) {
+  const Eigen::Index end4 = n & ~Eigen::Index{3};
+  __m128d p = _mm_add_pd(_mm256_castpd256_pd128(acc), _mm256_extractf128_pd(acc, 1));
+  if ((n & ~Eigen::Index{1}) > end4)
+    p = _mm_add_pd(p, _mm_mul_pd(_mm_load_pd(x + end4), _mm_load_pd(y + end4)));
+  double r = _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
+  if (n & 1) r = r + x[n - 1] * y[n - 1];
+  return r;
+}
+
+template <int K>
+__attribute__((target("avx2"))) void DotsAvx2(const double* x, const double* const* ys,
+                                              Eigen::Index n, double* out) {
+  __m256d acc[K];
+  const __m256d x0 = _mm256_loadu_pd(x);
+  for (int j = 0; j < K; ++j) acc[j] = _mm256_mul_pd(x0, _mm256_loadu_pd(ys[j]));
+  const Eigen::Index end4 = n & ~Eigen::Index{3};
+  for (Eigen::Index i = 4; i < end4; i += 4) {
+    const __m256d xi = _mm256_loadu_pd(x + i);
+    for (int j = 0; j < K; ++j)
+      acc[j] = _mm256_add_pd(acc[j], _mm256_mul_pd(xi, _mm256_loadu_pd(ys[j] + i)));
+  }
+  for (int j = 0; j < K; ++j) out[j] = Finish(acc[j], x, ys[j], n);
+}
+
+bool HasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+
+bool Aligned16(const double* p) {
+  return (reinterpret_cast<std::uintptr_t>(p) & 15u) == 0;
+}
+
+#endif
+
+}  // namespace
+
+void ColumnDots(const double* x, const double* const* ys, int count, Eigen::Index n, double* out) {
+#if KM_COLUMN_DOTS_AVX2
+  bool fast = HasAvx2() && n >= 8 && count >= 1 && count <= kMaxColumnDots && Aligned16(x);
+  for (int j = 0; fast && j < count; ++j) fast = Aligned16(ys[j]);
+  if (fast) {
+    switch (count) {
+      case 1:
+        return DotsAvx2<1>(x, ys, n, out);
+      case 2:
+        return DotsAvx2<2>(x, ys, n, out);
+      case 3:
+        return DotsAvx2<3>(x, ys, n, out);
+      default:
+        return DotsAvx2<4>(x, ys, n, out);
+    }
+  }
+#endif
+  DotsEigen(x, ys, count, n, out);
+}
+
+}  // namespace km::dbb::diag

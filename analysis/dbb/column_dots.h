@@ -1,0 +1,18 @@
+// Several dot products of one column with others at once, for the Gram matrices of the
+// diagnosis fits (diagnosis_fit.cpp): out[j] = x·ys[j], j < count.
+// Bit for bit what Eigen's x.dot(y) gives for 16-byte aligned columns (VectorXd): the same
+// products summed in the same order (four interleaved partial sums, joined as Eigen joins them).
+// A single dot is bound by the latency of its additions; several at once fill the pipeline, four
+// lanes wide with AVX2 where the processor has it. Otherwise (or for unaligned or short
+// columns) Eigen's dot, one at a time.
+#pragma once
+
+#include <Eigen/Core>
+
+namespace km::dbb::diag {
+
+inline constexpr int kMaxColumnDots = 4;
+
+void ColumnDots(const double* x, const double* const* ys, int count, Eigen::Index n, double* out);
+
+}  // namespace km::dbb::diag

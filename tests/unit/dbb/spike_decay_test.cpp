@@ -1,0 +1,67 @@
+// The vectorised spike decays of the width search (analysis/dbb/spike_decay.h) are bit for bit
+// the Eigen array expressions they replace, for every length (the four-lane part, the last pair
+// and an odd last element) and both decay shapes, over the whole range the search evaluates.
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <Eigen/Core>
+
+#include "analysis/dbb/spike_decay.h"
+
+namespace km::dbb::diag {
+namespace {
+
+Eigen::ArrayXd Reference(const Eigen::ArrayXd& phi, const Eigen::ArrayXd& factor, double w,
+                         bool gaussian) {
+  const auto x = phi / w;
+  Eigen::VectorXd v;  // a plain vector, as the search's work space
+  if (gaussian)
+    v = factor * (-0.5 * x.square()).exp();
+  else
+    v = factor * (-x).exp();
+  return v.array();
+}
+
+TEST(SpikeDecay, EqualsTheEigenExpressionBitForBit) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const bool gaussian : {false, true}) {
+    for (Eigen::Index n = 0; n <= 41; ++n) {
+      const double w = 0.001 + 0.2 * unit(rng);
+      // Up to the search's reach: e^−7 (φ/w ≤ 7, or (φ/w)²/2 ≤ 7).
+      const double reach = gaussian ? std::sqrt(14.0) * w : 7.0 * w;
+      Eigen::ArrayXd phi(n), factor(n);
+      for (Eigen::Index k = 0; k < n; ++k) {
+        phi[k] = reach * unit(rng);
+        factor[k] = 2.0 * unit(rng) - 1.0;
+      }
+      if (n > 0) phi[0] = 0.0;
+      const Eigen::ArrayXd want = Reference(phi, factor, w, gaussian);
+      Eigen::VectorXd got(n);
+      SpikeDecays(phi.data(), factor.data(), n, w, gaussian, got.data());
+      for (Eigen::Index k = 0; k < n; ++k) {
+        EXPECT_EQ(std::memcmp(&want[k], &got[k], sizeof(double)), 0)
+            << "n " << n << " k " << k << " gaussian " << gaussian << ": " << want[k] << " vs "
+            << got[k];
+      }
+    }
+  }
+}
+
+TEST(SpikeDecay, DecaysAsTheModel) {
+  const Eigen::ArrayXd phi = Eigen::ArrayXd::LinSpaced(9, 0.0, 0.08);
+  const Eigen::ArrayXd factor = Eigen::ArrayXd::Constant(9, -2.0);
+  Eigen::VectorXd e(9), g(9);
+  SpikeDecays(phi.data(), factor.data(), 9, 0.02, false, e.data());
+  SpikeDecays(phi.data(), factor.data(), 9, 0.02, true, g.data());
+  for (Eigen::Index k = 0; k < 9; ++k) {
+    const double x = phi[k] / 0.02;
+    EXPECT_NEAR(e[k], -2.0 * std::exp(-x), 1e-15);
+    EXPECT_NEAR(g[k], -2.0 * std::exp(-0.5 * x * x), 1e-15);
+  }
+}
+
+}  // namespace
+}  // namespace km::dbb::diag
