@@ -7,7 +7,7 @@
 #include "analysis/core/errors.h"
 #include "analysis/dbb/full_analysis.h"
 #include "cli/command.h"
-#include "ingest/dbb_parser.h"
+#include "ingest/file_formats.h"
 #include "render/dbb_plot.h"
 #include "usecases/dbb_report.h"
 
@@ -36,7 +36,7 @@ int RunDbbAnalyze(const Args& args, std::ostream& out) {
   if (args.positional.empty()) throw InvalidInput("", 0, "FILE", "no DBB file given");
   std::vector<dbb::DbbTest> tests;
   for (const auto& path : args.positional) {
-    tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
+    tests.push_back(ingest::ReadDbb(ReadFileBytes(path), path));
   }
   for (std::size_t i = 0; i < tests.size(); ++i) {
     // Check each file on its own first so that an analysis error names its file.

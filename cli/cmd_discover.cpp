@@ -15,7 +15,7 @@
 
 #include "analysis/core/errors.h"
 #include "cli/command.h"
-#include "ingest/dbb_parser.h"
+#include "ingest/file_formats.h"
 #include "ingest/machine_json.h"
 #include "render/polar_plot.h"
 #include "usecases/discovery_report.h"
@@ -108,7 +108,7 @@ int RunDiscover(const Args& args, std::ostream& out) {
     throw InvalidInput("", 0, "--samples", "must be a whole number of samples per test (0: all)");
   study.max_samples_per_test = static_cast<int>(samples);
   for (const auto& path : args.positional) {
-    study.tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
+    study.tests.push_back(ingest::ReadDbb(ReadFileBytes(path), path));
     study.names.push_back(path);
   }
   const auto outcome = usecases::RunDiscoveryStudy(study);

@@ -17,7 +17,7 @@
 #include "analysis/core/errors.h"
 #include "analysis/hexapod/calibration.h"
 #include "cli/command.h"
-#include "ingest/dbb_parser.h"
+#include "ingest/file_formats.h"
 #include "ingest/machine_json.h"
 #include "usecases/calibration_study.h"
 
@@ -34,7 +34,7 @@ int RunHexapodCalibrate(const Args& args, std::ostream& out) {
   usecases::CalibrationStudy study;
   study.machine = machine;
   for (const auto& path : args.positional) {
-    study.tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
+    study.tests.push_back(ingest::ReadDbb(ReadFileBytes(path), path));
     study.names.push_back(path);
   }
   if (const auto m = args.Get("--method"))

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <ctime>
 #include <fstream>
+#include <map>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -12,7 +13,7 @@
 #include "analysis/core/errors.h"
 #include "analysis/dbb/full_analysis.h"
 #include "cli/command.h"
-#include "ingest/dbb_parser.h"
+#include "ingest/file_formats.h"
 #include "ingest/form_parsers.h"
 #include "ingest/positioning_parser.h"
 #include "ingest/text_format.h"
@@ -37,19 +38,13 @@ std::string NowIso() {
 }
 
 // Where the report's measurement came from: the file's header keys.
-usecases::ReportSource SourceOf(const std::string& bytes, const std::string& path,
-                                const std::string& kind) {
-  // The header is what is wanted; the data rows are checked, not kept (a positioning file's
-  // direction column holds the words + and -).
-  ingest::ReadOptions options;
-  options.keep_column = [](std::string_view) { return false; };
-  if (kind == "positioning") options.word_columns["direction"] = {{"+", 1.0}, {"-", -1.0}};
-  const auto table = ingest::ReadTextTable(bytes, path, options);
+usecases::ReportSource SourceOf(const std::map<std::string, std::string>& metadata,
+                                const std::string& path, const std::string& kind) {
   usecases::ReportSource s;
   s.kind = kind;
   s.filename = path;
   s.metadata = nlohmann::json::object();
-  for (const auto& [k, v] : table.Metadata()) s.metadata[k] = v;
+  for (const auto& [k, v] : metadata) s.metadata[k] = v;
   const auto get = [&](const char* key) {
     return s.metadata.contains(key) ? s.metadata[key].get<std::string>() : std::string();
   };
@@ -62,20 +57,31 @@ usecases::ReportSource SourceOf(const std::string& bytes, const std::string& pat
   return s;
 }
 
+usecases::ReportSource SourceOf(const std::string& bytes, const std::string& path,
+                                const std::string& kind) {
+  // The header is what is wanted; the data rows are checked, not kept (a positioning file's
+  // direction column holds the words + and -).
+  ingest::ReadOptions options;
+  options.keep_column = [](std::string_view) { return false; };
+  if (kind == "positioning") options.word_columns["direction"] = {{"+", 1.0}, {"-", -1.0}};
+  return SourceOf(ingest::ReadTextTable(bytes, path, options).Metadata(), path, kind);
+}
+
 render::Report DbbReport(const Args& args, const std::string& printed_at) {
   if (args.positional.size() > 2) {
     throw InvalidInput("", 0, "FILE", "a DBB report takes one test and at most its partner");
   }
   std::vector<dbb::DbbTest> tests;
   for (const auto& path : args.positional) {
-    tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
+    tests.push_back(ingest::ReadDbb(ReadFileBytes(path), path));
   }
   const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
   const auto j = usecases::DbbReportJson(tests, report);
   const auto& first = args.positional.front();
   usecases::ReportContext ctx;
   ctx.printed_at = printed_at;
-  return usecases::DbbPdfReport(report, j, 0, SourceOf(ReadFileBytes(first), first, "dbb"), ctx);
+  // The source from the test read (any DBB format): its header keys are the file's.
+  return usecases::DbbPdfReport(report, j, 0, SourceOf(tests.front().metadata, first, "dbb"), ctx);
 }
 
 // The result object of one file of another kind, as `kinemetric … --json` prints it.
@@ -115,9 +121,10 @@ int RunReport(const Args& args, std::ostream& out) {
   const std::string printed_at = NowIso();
   const auto& first = args.positional.front();
   const std::string bytes = ReadFileBytes(first);
-  const std::string format = ingest::PeekFormat(bytes, first);
+  const ingest::FileFormat& recognised = ingest::RecogniseFormat(bytes, first);
+  const std::string format(recognised.name);
   render::Report report;
-  if (format == ingest::kDbbFormat) {
+  if (recognised.kind == "dbb") {
     report = DbbReport(args, printed_at);
   } else {
     if (args.positional.size() > 1) {

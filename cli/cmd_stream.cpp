@@ -1,7 +1,7 @@
 // `kinemetric stream profile FRAMES …`: a captured stream (binary frames or NDJSON, the HTTP
 // stream formats of docs/streams.md) turned into a straightness profile and analysed offline —
 // the same path as POST /api/v1/streams/{id}/profile, without a server. Gaps and duplicates
-// are judged like the server does (ingest/stream_counters.h) and reported.
+// are judged like the server does (ingest/stream/stream_counters.h) and reported.
 #include <algorithm>
 #include <fstream>
 #include <map>
@@ -10,8 +10,8 @@
 #include "analysis/core/errors.h"
 #include "cli/command.h"
 #include "ingest/form_parsers.h"
-#include "ingest/stream_counters.h"
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_counters.h"
+#include "ingest/stream/stream_frames.h"
 #include "usecases/form_report.h"
 #include "usecases/stream_profile.h"
 

@@ -227,16 +227,22 @@ dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
   ReadOptions ro;
   ro.max_bytes = options.max_bytes;
   ro.max_rows = options.max_samples;
-  ro.keep_column = [](std::string_view c) {
-    return c == "angle_deg" || c == "t_s" || c == "dr_um";
-  };
+  ro.keep_column = IsDbbColumn;
   const TextTable t = ReadTextTable(bytes, file, ro);
   if (t.format != kDbbFormat) {
     throw InvalidInput(file, t.format_line, "format",
                        "unknown format '" + t.format + "'; expected '" + kDbbFormat + "'");
   }
-  dbb::DbbTest d = ReadHeader(t, file);
-  ReadSamples(t, file, d);
+  return DbbFromTable(t);
+}
+
+bool IsDbbColumn(std::string_view c) {
+  return c == "angle_deg" || c == "t_s" || c == "dr_um";
+}
+
+dbb::DbbTest DbbFromTable(const TextTable& t) {
+  dbb::DbbTest d = ReadHeader(t, t.file);
+  ReadSamples(t, t.file, d);
   return d;
 }
 

@@ -24,4 +24,16 @@ struct DbbParseOptions {
 dbb::DbbTest ParseDbb(std::string_view bytes, const std::string& file,
                       const DbbParseOptions& options = {});
 
+struct TextTable;
+
+// The one validator of every DBB format: the header keys of §1.1 (identification, geometry,
+// feed, time, arc, the bar's uncertainties) and the samples (angle_deg or t_s, and dr_um; order,
+// magnitudes, coverage), each error a km::InvalidInput naming the file, the line and the field.
+// `table` is what a DBB reader built from its file, whatever the file's own syntax
+// (kinemetric-dbb/1: ReadTextTable; dbb-csv: ingest/dbb_csv_parser.h); its format is not read.
+dbb::DbbTest DbbFromTable(const TextTable& table);
+
+// The columns a DBB reader keeps (the others are checked, not kept).
+bool IsDbbColumn(std::string_view column);
+
 }  // namespace km::ingest

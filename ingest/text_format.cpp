@@ -10,6 +10,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/identifiers.h"
+#include "ingest/text_lines.h"
 
 namespace km::ingest {
 
@@ -227,55 +228,6 @@ std::string FormatFromLine(std::string_view line, const std::string& file, std::
   return value;
 }
 
-// Walks the lines of a text (after an optional byte-order mark). Each line is found without
-// reading more than the line limit ahead, so a line beyond it is refused where it starts.
-class LineCursor {
- public:
-  LineCursor(std::string_view bytes, std::size_t max_line_bytes)
-      : bytes_(bytes), max_line_(max_line_bytes) {
-    if (bytes_.substr(0, 3) == "\xEF\xBB\xBF") pos_ = 3;  // UTF-8 byte-order mark
-  }
-  bool Done() const { return pos_ > bytes_.size(); }
-  std::size_t line() const { return line_no_; }
-  std::size_t pos() const { return pos_; }  // start of the next line
-
-  // The next line without its line break. Throws TooLarge for a line beyond the limit.
-  std::string_view Next(const std::string& file) {
-    ++line_no_;
-    const std::size_t remaining = bytes_.size() - pos_;
-    // A line of max_line_ bytes may be followed by "\r\n".
-    const std::size_t window = std::min(remaining, max_line_ + 2);
-    const char* start = bytes_.data() + pos_;
-    const void* nl = window ? std::memchr(start, '\n', window) : nullptr;
-    std::size_t len = 0;
-    std::size_t next = 0;
-    if (nl) {
-      len = static_cast<std::size_t>(static_cast<const char*>(nl) - start);
-      next = pos_ + len + 1;
-    } else {
-      // The last line (no line break after it), or a line beyond the limit: no '\n' within
-      // the window. Either way the length check below decides.
-      len = remaining;
-      next = bytes_.size() + 1;
-    }
-    std::string_view line(start, len);
-    const std::size_t content = !line.empty() && line.back() == '\r' ? len - 1 : len;
-    if (content > max_line_) {
-      throw TooLarge(file, line_no_, "",
-                     "the line is longer than " + std::to_string(max_line_) +
-                         " bytes (the limit for one line)");
-    }
-    pos_ = next;
-    return line;
-  }
-
- private:
-  std::string_view bytes_;
-  std::size_t max_line_;
-  std::size_t pos_ = 0;
-  std::size_t line_no_ = 0;
-};
-
 bool IsBlankOrSpace(char c) {
   return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v';
 }
@@ -291,25 +243,13 @@ LineKind KindOf(std::string_view raw) {
   return LineKind::kBlank;
 }
 
-void CheckSize(std::string_view bytes, const std::string& file, std::size_t max_bytes) {
-  if (bytes.size() > max_bytes) {
-    throw TooLarge(file, 0, "",
-                   "the file is " + std::to_string(bytes.size()) + " bytes; the limit is " +
-                       std::to_string(max_bytes));
-  }
-  // Row and line numbers are kept in 32 bits (RowLines).
-  if (bytes.size() >= UINT32_MAX) {
-    throw TooLarge(file, 0, "", "the file is larger than 4 GiB");
-  }
-}
-
 struct TextScan {
   std::size_t data_rows = 0;
 };
 
 // One pass over the lines checking every limit; parses nothing, keeps nothing.
 TextScan ScanText(std::string_view bytes, const std::string& file, const TextLimits& limits) {
-  CheckSize(bytes, file, limits.max_bytes);
+  CheckTextSize(bytes, file, limits.max_bytes);
   TextScan scan;
   LineCursor cur(bytes, limits.max_line_bytes);
   std::size_t header_lines = 0, markers = 0, columns = 0;
@@ -359,31 +299,6 @@ TextScan ScanText(std::string_view bytes, const std::string& file, const TextLim
   return scan;
 }
 
-// Strict UTF-8 and no NUL byte; errors name line and byte column and show the bytes escaped.
-void CheckText(std::string_view bytes, const std::string& file) {
-  std::size_t bad_at = 0;
-  std::string reason;
-  if (!ValidUtf8(bytes, bad_at, &reason)) {
-    const auto [line, column] = LineAndColumn(bytes, bad_at);
-    std::string shown;
-    for (std::size_t k = bad_at; k < bytes.size() && k < bad_at + 4; ++k) {
-      shown += HexByte(static_cast<unsigned char>(bytes[k]));
-    }
-    throw InvalidInput(file, line, "",
-                       "the file is not valid UTF-8 text: byte column " + std::to_string(column) +
-                           " (bytes " + shown + ") is " + reason);
-  }
-  if (const void* nul = std::memchr(bytes.data(), '\0', bytes.size())) {
-    const auto offset = static_cast<std::size_t>(static_cast<const char*>(nul) - bytes.data());
-    const auto [line, column] = LineAndColumn(bytes, offset);
-    throw InvalidInput(file, line, "",
-                       "the file contains a NUL byte (byte column " + std::to_string(column) +
-                           "); it is not a text file");
-  }
-}
-
-using WordMap = std::map<std::string, double, std::less<>>;
-
 // The word map of each column (nullptr: a numeric column).
 std::vector<const WordMap*> WordColumns(const ReadOptions& options,
                                         const std::vector<std::string>& columns) {
@@ -406,6 +321,41 @@ double WordValue(const WordMap& words, std::string_view cell, const std::string&
 }
 
 }  // namespace
+
+void CheckTextSize(std::string_view bytes, const std::string& file, std::size_t max_bytes) {
+  if (bytes.size() > max_bytes) {
+    throw TooLarge(file, 0, "",
+                   "the file is " + std::to_string(bytes.size()) + " bytes; the limit is " +
+                       std::to_string(max_bytes));
+  }
+  // Row and line numbers are kept in 32 bits (RowLines).
+  if (bytes.size() >= UINT32_MAX) {
+    throw TooLarge(file, 0, "", "the file is larger than 4 GiB");
+  }
+}
+
+// Strict UTF-8 and no NUL byte; errors name line and byte column and show the bytes escaped.
+void CheckTextBytes(std::string_view bytes, const std::string& file) {
+  std::size_t bad_at = 0;
+  std::string reason;
+  if (!ValidUtf8(bytes, bad_at, &reason)) {
+    const auto [line, column] = LineAndColumn(bytes, bad_at);
+    std::string shown;
+    for (std::size_t k = bad_at; k < bytes.size() && k < bad_at + 4; ++k) {
+      shown += HexByte(static_cast<unsigned char>(bytes[k]));
+    }
+    throw InvalidInput(file, line, "",
+                       "the file is not valid UTF-8 text: byte column " + std::to_string(column) +
+                           " (bytes " + shown + ") is " + reason);
+  }
+  if (const void* nul = std::memchr(bytes.data(), '\0', bytes.size())) {
+    const auto offset = static_cast<std::size_t>(static_cast<const char*>(nul) - bytes.data());
+    const auto [line, column] = LineAndColumn(bytes, offset);
+    throw InvalidInput(file, line, "",
+                       "the file contains a NUL byte (byte column " + std::to_string(column) +
+                           "); it is not a text file");
+  }
+}
 
 std::string PeekFormat(std::string_view bytes, const std::string& file) {
   // The first line is read up to the default line limit; it is checked before anything uses it.
@@ -431,19 +381,89 @@ void CheckTextLimits(std::string_view bytes, const std::string& file, const Text
   ScanText(bytes, file, limits);
 }
 
+std::vector<std::string> ReadColumnNames(std::string_view line, const std::string& file,
+                                         std::size_t line_no) {
+  std::vector<std::string> columns;
+  std::set<std::string_view> names;
+  std::size_t start = 0;
+  while (true) {
+    const auto comma = line.find(',', start);
+    const auto c =
+        Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
+    if (c.empty()) throw InvalidInput(file, line_no, "", "empty column name in header row");
+    const bool ident = (std::isalpha(static_cast<unsigned char>(c.front())) || c.front() == '_') &&
+                       std::all_of(c.begin(), c.end(), [](char ch) {
+                         return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_';
+                       });
+    if (!ident) {
+      throw InvalidInput(file, line_no, "",
+                         "expected the CSV column-header row (names such as angle_deg,dr_um), "
+                         "found " +
+                             Quote(line, 60));
+    }
+    if (!names.insert(c).second) {
+      throw InvalidInput(file, line_no, std::string(c), "duplicated column name");
+    }
+    columns.emplace_back(c);
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return columns;
+}
+
+void StartColumns(TextTable& t, std::string_view line, std::size_t line_no,
+                  const ReadOptions& options, std::size_t data_rows, TableColumns& cols) {
+  t.columns = ReadColumnNames(line, t.file, line_no);
+  t.columns_line = line_no;
+  const std::size_t ncols = t.columns.size();
+  cols.keep.assign(ncols, 1);
+  cols.words = WordColumns(options, t.columns);
+  t.values.resize(ncols);
+  for (std::size_t c = 0; c < ncols; ++c) {
+    if (options.keep_column && !options.keep_column(t.columns[c])) cols.keep[c] = 0;
+    // The scan counted the data rows: each kept column is allocated once, to size.
+    if (cols.keep[c]) t.values[c].reserve(data_rows);
+  }
+}
+
+void ReadDataRow(TextTable& t, std::string_view line, std::size_t line_no,
+                 const TableColumns& cols) {
+  const std::size_t ncols = t.columns.size();
+  const std::size_t found = 1 + static_cast<std::size_t>(std::count(line.begin(), line.end(), ','));
+  if (found != ncols) {
+    throw InvalidInput(
+        t.file, line_no, "",
+        "expected " + std::to_string(ncols) + " values, found " + std::to_string(found));
+  }
+  std::size_t start = 0;
+  for (std::size_t c = 0; c < ncols; ++c) {
+    const auto comma = c + 1 < ncols ? line.find(',', start) : std::string_view::npos;
+    const auto cell =
+        line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
+    const auto v = cols.words[c] ? WordValue(*cols.words[c], cell, t.file, line_no, t.columns[c])
+                                 : ParseNumber(cell);
+    if (!v) {
+      throw InvalidInput(t.file, line_no, t.columns[c],
+                         Quote(Trim(cell)) + " is not a finite decimal number");
+    }
+    if (cols.keep[c]) t.values[c].push_back(*v);
+    start = comma + 1;
+  }
+  t.row_lines.push_back(line_no);
+  ++t.row_count;
+}
+
 TextTable ReadTextTable(std::string_view bytes, const std::string& file,
                         const ReadOptions& options) {
   // Limits first (one cheap pass), then the text itself, then the content.
   const TextScan scan = ScanText(bytes, file, options);
-  CheckText(bytes, file);
+  CheckTextBytes(bytes, file);
   TextTable t;
   t.file = file;
   LineCursor cur(bytes, options.max_line_bytes);
   bool have_columns = false;
   std::set<std::string> seen;
-  std::vector<char> keep;
-  std::vector<const WordMap*> words;
-  std::size_t ncols = 0;
+  TableColumns cols;
   while (!cur.Done()) {
     const auto raw = cur.Next(file);
     const std::size_t line_no = cur.line();
@@ -479,67 +499,11 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
       continue;
     }
     if (!have_columns) {
-      std::set<std::string_view> names;
-      std::size_t start = 0;
-      while (true) {
-        const auto comma = line.find(',', start);
-        const auto c =
-            Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
-        if (c.empty()) throw InvalidInput(file, line_no, "", "empty column name in header row");
-        const bool ident =
-            (std::isalpha(static_cast<unsigned char>(c.front())) || c.front() == '_') &&
-            std::all_of(c.begin(), c.end(), [](char ch) {
-              return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_';
-            });
-        if (!ident) {
-          throw InvalidInput(file, line_no, "",
-                             "expected the CSV column-header row (names such as angle_deg,dr_um), "
-                             "found " +
-                                 Quote(line, 60));
-        }
-        if (!names.insert(c).second) {
-          throw InvalidInput(file, line_no, std::string(c), "duplicated column name");
-        }
-        t.columns.emplace_back(c);
-        if (comma == std::string_view::npos) break;
-        start = comma + 1;
-      }
-      t.columns_line = line_no;
+      StartColumns(t, line, line_no, options, scan.data_rows, cols);
       have_columns = true;
-      ncols = t.columns.size();
-      keep.assign(ncols, 1);
-      words = WordColumns(options, t.columns);
-      t.values.resize(ncols);
-      for (std::size_t c = 0; c < ncols; ++c) {
-        if (options.keep_column && !options.keep_column(t.columns[c])) keep[c] = 0;
-        // The scan counted the data rows: each kept column is allocated once, to size.
-        if (keep[c]) t.values[c].reserve(scan.data_rows);
-      }
       continue;
     }
-    const std::size_t found =
-        1 + static_cast<std::size_t>(std::count(line.begin(), line.end(), ','));
-    if (found != ncols) {
-      throw InvalidInput(
-          file, line_no, "",
-          "expected " + std::to_string(ncols) + " values, found " + std::to_string(found));
-    }
-    std::size_t start = 0;
-    for (std::size_t c = 0; c < ncols; ++c) {
-      const auto comma = c + 1 < ncols ? line.find(',', start) : std::string_view::npos;
-      const auto cell =
-          line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
-      const auto v =
-          words[c] ? WordValue(*words[c], cell, file, line_no, t.columns[c]) : ParseNumber(cell);
-      if (!v) {
-        throw InvalidInput(file, line_no, t.columns[c],
-                           Quote(Trim(cell)) + " is not a finite decimal number");
-      }
-      if (keep[c]) t.values[c].push_back(*v);
-      start = comma + 1;
-    }
-    t.row_lines.push_back(line_no);
-    ++t.row_count;
+    ReadDataRow(t, line, line_no, cols);
   }
   if (t.format.empty()) throw InvalidInput(file, 0, "format", "the file is empty");
   if (!have_columns) throw InvalidInput(file, cur.line(), "", "no CSV column-header row");

@@ -145,6 +145,33 @@ TextTable ReadTextTable(std::string_view bytes, const std::string& file,
 // is refused before any parsing. Throws TooLarge naming file and line.
 void CheckTextLimits(std::string_view bytes, const std::string& file, const TextLimits& limits);
 
+// ---- the pieces every text reader shares (ReadTextTable and the readers of formats without a
+// `# format:` line, e.g. ingest/dbb_csv_parser.h) ----
+
+// The whole file at most max_bytes (and under 4 GiB); TooLarge otherwise.
+void CheckTextSize(std::string_view bytes, const std::string& file, std::size_t max_bytes);
+// Strict UTF-8 without NUL bytes; InvalidInput naming line and byte column otherwise.
+void CheckTextBytes(std::string_view bytes, const std::string& file);
+// The names of a CSV column-header row: identifiers, none twice.
+std::vector<std::string> ReadColumnNames(std::string_view line, const std::string& file,
+                                         std::size_t line_no);
+
+using WordMap = std::map<std::string, double, std::less<>>;
+
+// What a reader keeps of each column (set by StartColumns).
+struct TableColumns {
+  std::vector<char> keep;
+  std::vector<const WordMap*> words;  // nullptr: a numeric column
+};
+
+// Reads the column-header row into `t` (columns, columns_line, values reserved for data_rows).
+void StartColumns(TextTable& t, std::string_view line, std::size_t line_no,
+                  const ReadOptions& options, std::size_t data_rows, TableColumns& cols);
+// Reads one data row into `t`: as many cells as columns, each a strict number (or a word of a
+// word column); InvalidInput naming file, line and column otherwise.
+void ReadDataRow(TextTable& t, std::string_view line, std::size_t line_no,
+                 const TableColumns& cols);
+
 // The format line only (`# format: NAME/VERSION`, NAME of letters, digits, '.', '_', '-',
 // VERSION of digits), e.g. to dispatch on the kind of file. Throws InvalidInput when the first
 // non-blank line is not such a line; the message never repeats more than a short, escaped

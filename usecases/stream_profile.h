@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "analysis/form/profile.h"
-#include "ingest/stream_record.h"
+#include "ingest/stream/stream_record.h"
 
 namespace km::usecases {
 

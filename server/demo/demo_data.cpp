@@ -7,7 +7,7 @@
 
 #include "analysis/dbb/serial_sim.h"
 #include "ingest/dbb_writer.h"
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 #include "server/streams/stream_service.h"
 
 namespace km::server {

@@ -1,4 +1,5 @@
-// The measurement kinds the server accepts, one handler per format (docs/formats.md §1).
+// The measurement kinds the server accepts, one handler and the upload limits per format
+// (docs/formats.md §1); the formats themselves are recognised by ingest/file_formats.h.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -6,7 +7,9 @@
 #include "analysis/core/errors.h"
 #include "analysis/dbb/circular_test.h"
 #include "analysis/dbb/full_analysis.h"
+#include "ingest/dbb_csv_parser.h"
 #include "ingest/dbb_parser.h"
+#include "ingest/file_formats.h"
 #include "ingest/form_parsers.h"
 #include "ingest/iso8601.h"
 #include "ingest/positioning_parser.h"
@@ -101,7 +104,7 @@ void CheckTracker(const std::string& file, const tracker::TrackerReadings& r) {
 
 Ingested IngestDbb(std::string_view bytes, const std::string& file,
                    const InstrumentHook& instruments) {
-  dbb::DbbTest test = ingest::ParseDbb(bytes, file);
+  dbb::DbbTest test = ingest::ReadDbb(bytes, file);  // any DBB format
   Ingested in;
   in.kind = "dbb";
   in.machine_id = test.machine_id;
@@ -229,7 +232,8 @@ Ingested IngestTracker(std::string_view bytes, const std::string& file,
 }
 
 // Upload limits: data rows and columns, lines of at most 4 KiB, 1 000 header lines and 1 000
-// '#' lines among the data (what each format's analysis costs: service.h DefaultUploadLimits).
+// '#' lines among the data (what each format's analysis costs: measurement_service.h
+// DefaultUploadLimits).
 ingest::TextLimits Limits(std::size_t rows, std::size_t columns, std::size_t cells = 0) {
   ingest::TextLimits l;
   l.max_rows = rows;
@@ -250,6 +254,7 @@ std::vector<FormatRegistration> BuiltinFormats() {
   return {
       {std::string(ingest::kTrackerFormat), Limits(10'000, 24, 80'000), IngestTracker},
       {ingest::kDbbFormat, Limits(500'000, 16), IngestDbb},
+      {ingest::kDbbCsvFormat, Limits(500'000, 16), IngestDbb},
       {std::string(ingest::kStraightnessFormat), Limits(100'000, 16), IngestStraightness},
       {std::string(ingest::kFlatnessFormat), Limits(1'000'000, 16), IngestFlatness},
       {std::string(ingest::kParallelismFormat), Limits(1'000'000, 16), IngestParallelism},

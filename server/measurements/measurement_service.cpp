@@ -7,7 +7,7 @@
 #include "analysis/core/errors.h"
 #include "analysis/dbb/circular_test.h"
 #include "analysis/dbb/full_analysis.h"
-#include "ingest/dbb_parser.h"
+#include "ingest/file_formats.h"
 #include "ingest/form_parsers.h"
 #include "ingest/iso8601.h"
 #include "ingest/json_text.h"
@@ -51,8 +51,10 @@ UploadOutcome MeasurementService::Upload(std::string_view bytes, const std::stri
                    "the upload is " + std::to_string(bytes.size()) + " bytes; the limit is " +
                        std::to_string(options_.max_upload_bytes));
   }
-  // The format line is checked before it is used (a short name of plain characters).
-  const std::string format = ingest::PeekFormat(bytes, file);
+  // The format, recognised from the bytes (ingest/file_formats.h): the same bytes are always
+  // read again the same way, so the stored format names how they were read.
+  const ingest::FileFormat& recognised = ingest::RecogniseFormat(bytes, file);
+  const std::string format(recognised.name);
   const auto it = kinds_.find(format);
   if (it == kinds_.end()) {
     std::string known;
@@ -66,7 +68,7 @@ UploadOutcome MeasurementService::Upload(std::string_view bytes, const std::stri
     limits = l->second;
   }
   limits.max_bytes = options_.max_upload_bytes;
-  ingest::CheckTextLimits(bytes, file, limits);
+  recognised.check_limits(bytes, file, limits);
   const std::string sha = Sha256Hex(bytes);
   if (const auto existing = store_.FindBySha256(sha)) {
     const auto rec = store_.GetMeasurement(*existing);
@@ -265,7 +267,7 @@ dbb::DbbTest MeasurementService::LoadDbb(std::int64_t id, MeasurementRecord* rec
     throw InvalidInput("", 0, "id", "measurement " + std::to_string(id) + " is not a DBB test");
   }
   if (record) *record = *rec;
-  dbb::DbbTest test = ingest::ParseDbb(store_.GetRaw(id), rec->filename);
+  dbb::DbbTest test = ingest::ReadDbb(store_.GetRaw(id), rec->filename);
   // The analyses made again from the stored bytes (pair, trace) read the instrument register's
   // uncertainties the way the upload did (its newest values, where the file states none).
   UseInstrument(instruments_, test.metadata, test.timestamp);

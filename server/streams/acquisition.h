@@ -1,5 +1,5 @@
 // Modbus TCP acquisition in the server: the configured devices, each polled by its own thread
-// (ingest/modbus_device.h) into its own stream (server/streams/streams.h).
+// (ingest/modbus/modbus_device.h) into its own stream (server/streams/streams.h).
 //
 // A device entry is the ingest device object (docs/modbus.md) plus the server's key
 // "machine_id" (the machine the sensors measure). Each time a device starts — at server start
@@ -18,7 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ingest/modbus_device.h"
+#include "ingest/modbus/modbus_device.h"
 #include "server/streams/streams.h"
 
 namespace km::server {

@@ -14,7 +14,7 @@
 #include <cstddef>
 #include <string>
 
-#include "ingest/stream_record.h"
+#include "ingest/stream/stream_record.h"
 #include "server/storage/storage.h"
 
 namespace km::server {

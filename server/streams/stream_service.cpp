@@ -5,7 +5,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/json_text.h"
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 #include "server/base/request_json.h"
 #include "server/base/time_util.h"
 #include "server/streams/stream_chunks.h"

@@ -1,7 +1,7 @@
 // Capacitance-sensor streams in the server: where HTTP stream frames and Modbus polls arrive.
 //
-// Every arriving run of samples (ingest/stream_record.h) is checked against the channel's next
-// expected counter:
+// Every arriving run of samples (ingest/stream/stream_record.h) is checked against the channel's
+// next expected counter:
 //   counter == next  → appended;
 //   counter  > next  → the counters in between never arrived: a gap {first_missing, missing,
 //                      t_before_us, t_after_us} is recorded, then the run is appended;
@@ -28,8 +28,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ingest/stream_counters.h"
-#include "ingest/stream_record.h"
+#include "ingest/stream/stream_counters.h"
+#include "ingest/stream/stream_record.h"
 #include "server/storage/storage.h"
 
 namespace km::server {

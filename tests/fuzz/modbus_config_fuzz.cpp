@@ -1,6 +1,6 @@
-// Modbus TCP device configuration (ingest/modbus_config.h): every accepted device has a read
+// Modbus TCP device configuration (ingest/modbus/modbus_config.h): every accepted device has a read
 // plan, and its JSON form parses back to the same device.
-#include "ingest/modbus_config.h"
+#include "ingest/modbus/modbus_config.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace {

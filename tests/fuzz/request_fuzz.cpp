@@ -8,7 +8,7 @@
 #include <limits>
 
 #include "ingest/json_text.h"
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 #include "server/base/request_json.h"
 #include "tests/fuzz/fuzz_service.h"
 #include "tests/fuzz/fuzz_util.h"

@@ -1,5 +1,5 @@
-// Incremental decoder of sensor-stream frames, binary and NDJSON (ingest/stream_frames.h). The
-// last bytes of the input choose the format, the per-frame sample limit and how the rest is cut
+// Incremental decoder of sensor-stream frames, binary and NDJSON (ingest/stream/stream_frames.h).
+// The last bytes of the input choose the format, the per-frame sample limit and how the rest is cut
 // into pieces; the rest is the body, fed piece by piece as it would arrive over HTTP. Every
 // delivered run must be self-consistent and within the limit.
 #include <fuzzer/FuzzedDataProvider.h>
@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 #include "tests/fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

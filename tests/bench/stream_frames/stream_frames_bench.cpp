@@ -1,5 +1,5 @@
-// Decoding throughput of HTTP stream frames (ingest/stream_frames.h): binary frames and NDJSON
-// lines of 1000 samples, whole buffers and 4 KiB network-sized pieces. items/s = samples/s.
+// Decoding throughput of HTTP stream frames (ingest/stream/stream_frames.h): binary frames and
+// NDJSON lines of 1000 samples, whole buffers and 4 KiB network-sized pieces. items/s = samples/s.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <string>
 
 #include "ingest/crc32.h"
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 
 namespace km::ingest {
 namespace {

@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <thread>
 
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 #include "server/service.h"
 #include "server/storage/sqlite/sqlite_storage.h"
 #include "server/streams/streams.h"

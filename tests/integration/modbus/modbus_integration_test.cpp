@@ -1,4 +1,4 @@
-// Modbus TCP acquisition (ingest/modbus_device.h) against real servers started by the tests.
+// Modbus TCP acquisition (ingest/modbus/modbus_device.h) against real servers started by the tests.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -13,8 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ingest/modbus_config.h"
-#include "ingest/modbus_device.h"
+#include "ingest/modbus/modbus_config.h"
+#include "ingest/modbus/modbus_device.h"
 #include "tests/integration/modbus/modbus_pattern.h"
 #include "tests/integration/modbus/modbus_process.h"
 

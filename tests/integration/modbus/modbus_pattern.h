@@ -1,7 +1,7 @@
 // The register pattern served by km_modbus_test_server (and, re-encoded independently in
 // Python, by pymodbus_server.py) and expected by the tests. Register words are built here by
 // hand from the value's bytes — A B C D, most significant first — laid out on the wire as
-// ABCD / CDAB / BADC / DCBA (docs/modbus.md), independently of ingest/modbus_decode.
+// ABCD / CDAB / BADC / DCBA (docs/modbus.md), independently of ingest/modbus/modbus_decode.
 #pragma once
 
 #include <array>

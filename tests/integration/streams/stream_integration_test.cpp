@@ -16,7 +16,7 @@
 #include <string>
 #include <thread>
 
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 #include "tests/integration/server/server_process.h"
 
 namespace {

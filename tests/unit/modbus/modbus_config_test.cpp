@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/errors.h"
-#include "ingest/modbus_config.h"
+#include "ingest/modbus/modbus_config.h"
 
 namespace km::ingest::modbus {
 namespace {

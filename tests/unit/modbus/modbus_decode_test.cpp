@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "ingest/modbus_decode.h"
+#include "ingest/modbus/modbus_decode.h"
 #include "tests/integration/modbus/modbus_pattern.h"
 
 namespace km::ingest::modbus {

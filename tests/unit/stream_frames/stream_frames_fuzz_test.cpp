@@ -13,7 +13,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/crc32.h"
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 #include "tests/unit/stream_frames/stream_frames_test_util.h"
 
 namespace km::ingest {

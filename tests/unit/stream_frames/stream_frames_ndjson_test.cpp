@@ -1,6 +1,6 @@
-// NDJSON stream frames (ingest/stream_frames.h, docs/formats.md): shapes, round trips, split
+// NDJSON stream frames (ingest/stream/stream_frames.h, docs/formats.md): shapes, round trips, split
 // feeding, counters, every error with its line and field, line length and truncation.
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 
 #include <gtest/gtest.h>
 

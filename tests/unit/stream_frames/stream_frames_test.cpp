@@ -1,4 +1,4 @@
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 
 #include <gtest/gtest.h>
 

@@ -14,7 +14,7 @@
 
 #include "analysis/core/errors.h"
 #include "ingest/crc32.h"
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 
 namespace km::ingest::test {
 

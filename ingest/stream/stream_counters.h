@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <optional>
 
-#include "ingest/stream_record.h"
+#include "ingest/stream/stream_record.h"
 
 namespace km::ingest {
 

@@ -34,7 +34,7 @@
 #include <string>
 #include <string_view>
 
-#include "ingest/stream_record.h"
+#include "ingest/stream/stream_record.h"
 
 namespace km::ingest {
 

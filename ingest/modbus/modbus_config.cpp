@@ -1,4 +1,4 @@
-#include "ingest/modbus_config.h"
+#include "ingest/modbus/modbus_config.h"
 
 #include <algorithm>
 #include <cmath>

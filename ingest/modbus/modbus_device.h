@@ -30,8 +30,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ingest/modbus_config.h"
-#include "ingest/stream_record.h"
+#include "ingest/modbus/modbus_config.h"
+#include "ingest/stream/stream_record.h"
 
 namespace km::ingest::modbus {
 

@@ -1,4 +1,4 @@
-// Encoders of stream frames (ingest/stream_frames.h): binary frames and NDJSON lines.
+// Encoders of stream frames (ingest/stream/stream_frames.h): binary frames and NDJSON lines.
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -7,8 +7,8 @@
 #include <stdexcept>
 
 #include "ingest/crc32.h"
-#include "ingest/stream_frames.h"
-#include "ingest/stream_frames_bytes.h"
+#include "ingest/stream/stream_frames.h"
+#include "ingest/stream/stream_frames_bytes.h"
 
 namespace km::ingest {
 

@@ -1,4 +1,4 @@
-#include "ingest/modbus_device.h"
+#include "ingest/modbus/modbus_device.h"
 
 #include <modbus/modbus.h>
 

@@ -1,4 +1,4 @@
-#include "ingest/modbus_decode.h"
+#include "ingest/modbus/modbus_decode.h"
 
 #include <algorithm>
 #include <bit>

@@ -4,7 +4,7 @@
 //                "table":"holding","reconnect":{"initial_ms":100,"max_ms":5000},
 //                "channels":[{"channel":1,"name":"gap_x","address":0,"type":"float32",
 //                             "byte_order":"big","word_order":"big","scale":1.0,"offset":0.0}]}]}
-// Each channel's reading is value_um = raw · scale + offset (ingest/modbus_decode.h).
+// Each channel's reading is value_um = raw · scale + offset (ingest/modbus/modbus_decode.h).
 // Every error is a km::InvalidInput naming the file and the JSON path of the field
 // ("devices[0].channels[1].type"); JSON syntax errors name the line.
 #pragma once
@@ -16,7 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ingest/modbus_decode.h"
+#include "ingest/modbus/modbus_decode.h"
 
 namespace km::ingest::modbus {
 

@@ -1,4 +1,4 @@
-#include "ingest/stream_frames.h"
+#include "ingest/stream/stream_frames.h"
 
 #include <algorithm>
 #include <bit>
@@ -14,7 +14,7 @@
 #include "analysis/core/errors.h"
 #include "ingest/crc32.h"
 #include "ingest/json_text.h"
-#include "ingest/stream_frames_bytes.h"
+#include "ingest/stream/stream_frames_bytes.h"
 
 namespace km::ingest {
 namespace {
