@@ -95,10 +95,13 @@ double Step(const LugreParameters& p, double z, double v, double h) {
 enum class Reading { kLinear, kConstant };
 
 // σ0 z + σ1 dz/dt at every sample of the windows (one after the other), each window starting in
-// steady sliding; z integrated in exact steps over sub-intervals of constant speed.
+// steady sliding; z integrated in exact steps over sub-intervals of constant speed. `damping`
+// (when given) gets the force per unit σ1, 10⁻³ dz/dt (z does not depend on σ1).
 void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
-                  Reading reading, std::vector<double>& out) {
+                  Reading reading, std::vector<double>& out,
+                  std::vector<double>* damping = nullptr) {
   out.clear();
+  if (damping) damping->clear();
   for (const auto& w : ws) {
     const double v0 = s.v[w.first];
     double z = (v0 > 0.0 ? 1.0 : -1.0) * Stribeck(p, v0) / p.sigma0_N_per_um;
@@ -121,6 +124,7 @@ void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugrePa
       const double zdot =
           v == 0.0 ? 0.0 : vu - p.sigma0_N_per_um * std::abs(vu) * z / Stribeck(p, v);  // µm/s
       out.push_back(p.sigma0_N_per_um * z + p.sigma1_N_s_per_mm * 1e-3 * zdot);
+      if (damping) damping->push_back(1e-3 * zdot);
     }
   }
 }
@@ -168,9 +172,10 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
           bool free_exponent, int iterations = 60) {
   const int free = free_exponent ? kParams : kExponent;
   const std::size_t n = y.size();
-  std::vector<double> model, shifted;
-  const auto residual = [&](const Vec& q, std::vector<double>& m) {
-    BristleForce(s, ws, FromVec(q, sliding), reading, m);
+  std::vector<double> model, shifted, damping;
+  const auto residual = [&](const Vec& q, std::vector<double>& m,
+                            std::vector<double>* d = nullptr) {
+    BristleForce(s, ws, FromVec(q, sliding), reading, m, d);
     double ss = 0.0;
     for (std::size_t i = 0; i < n; ++i) ss += w[i] * (y[i] - m[i]) * (y[i] - m[i]);
     return ss;
@@ -182,10 +187,15 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   double lambda = 1e-2;
   Eigen::MatrixXd jac(static_cast<Eigen::Index>(n), kParams);
   for (int it = 0; it < iterations; ++it) {
-    residual(fit.q, model);
+    residual(fit.q, model, &damping);
     jac.setZero();
     for (int k = 0; k < free; ++k) {
-      const double h = k == 3 ? 1.0 : 1e-5;  // the force is linear in σ1
+      if (k == 3) {  // the force is linear in σ1
+        for (std::size_t i = 0; i < n; ++i)
+          jac(static_cast<Eigen::Index>(i), k) = std::sqrt(w[i]) * damping[i];
+        continue;
+      }
+      const double h = 1e-5;
       Vec qk = fit.q;
       qk[k] += h;
       residual(qk, shifted);

@@ -29,19 +29,23 @@ struct Component {
 template <typename Cols>
 Eigen::VectorXd Solve(const Strokes& s, int p, double mass, Cols cols, Eigen::MatrixXd* cov,
                       double* rms) {
-  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
-  Eigen::VectorXd atb = Eigen::VectorXd::Zero(p);
+  // The rows scaled by √w, their products formed at once.
+  const auto rows = static_cast<Eigen::Index>(std::count(s.steady.begin(), s.steady.end(), true));
+  Eigen::MatrixXd a(rows, p);
+  Eigen::VectorXd y(rows);
   double n = 0.0, weights = 0.0, btb = 0.0;
+  Eigen::Index r = 0;
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     if (!s.steady[i]) continue;
-    const Column c = cols(i);
-    const double w = s.Weight(i, mass), b = s.f[i] - s.Known(i);
-    ata.noalias() += w * c * c.transpose();
-    atb.noalias() += (w * b) * c;
+    const double w = s.Weight(i, mass), b = s.f[i] - s.Known(i), sw = std::sqrt(w);
+    a.row(r) = sw * cols(i).transpose();
+    y[r++] = sw * b;
     btb += w * b * b;
     weights += w;
     n += 1.0;
   }
+  const Eigen::MatrixXd ata = a.transpose() * a;
+  const Eigen::VectorXd atb = a.transpose() * y;
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(ata);
   const Eigen::VectorXd x = ldlt.solve(atb);
   const double wss = std::max(0.0, btb - x.dot(atb));  // Σ w e², as A x = b in the mean
