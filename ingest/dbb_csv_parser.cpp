@@ -130,10 +130,14 @@ std::size_t ScanDbbCsv(std::string_view bytes, const std::string& file, const Te
                        "the column-header row has " + std::to_string(columns) +
                            " columns; the limit is " + std::to_string(limits.max_columns));
       }
-    } else if (++rows > limits.max_rows || rows > limits.max_cells / columns) {
+    } else if (++rows > limits.max_rows) {
       throw TooLarge(file, cur.line(), "",
-                     "more than " + std::to_string(std::min(limits.max_rows, limits.max_cells)) +
+                     "more than " + std::to_string(limits.max_rows) +
                          " data rows (the limit for this kind of file)");
+    } else if (rows > limits.max_cells / columns) {
+      throw TooLarge(file, cur.line(), "",
+                     "more than " + std::to_string(limits.max_cells) +
+                         " data values (rows × columns; the limit for this kind of file)");
     }
   }
   return rows;

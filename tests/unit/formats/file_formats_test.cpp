@@ -186,6 +186,12 @@ TEST(DbbCsv, KeepsTheLimitsOfTheKinemetricFormat) {
   limits.max_header_lines = 3;
   EXPECT_THROW(CheckDbbCsvLimits(Csv(kHeader), "f", limits), TooLarge);
   EXPECT_NO_THROW(CheckDbbCsvLimits(Csv(kHeader), "f", TextLimits{}));
+  limits = TextLimits{};
+  limits.max_cells = 70;  // 36 rows of 2 values
+  const auto cells = Expect<TooLarge>([&] { CheckDbbCsvLimits(Csv(kHeader), "f", limits); });
+  EXPECT_EQ(cells.line(), 43u);  // the 36th data row
+  limits.max_cells = 72;
+  EXPECT_NO_THROW(CheckDbbCsvLimits(Csv(kHeader), "f", limits));
 }
 
 }  // namespace
