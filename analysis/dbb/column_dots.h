@@ -1,5 +1,6 @@
 // Several dot products of one column with others at once, for the Gram matrices of the
-// diagnosis fits (diagnosis_fit.cpp): out[j] = x·ys[j], j < count.
+// diagnosis fits (diagnosis_fit.cpp) and the sums of the harmonics (harmonics.cpp):
+// out[j] = x·ys[j], j < count.
 // Bit for bit what Eigen's x.dot(y) gives for 16-byte aligned columns (VectorXd): the same
 // products summed in the same order (four interleaved partial sums, joined as Eigen joins them).
 // A single dot is bound by the latency of its additions; several at once fill the pipeline, four

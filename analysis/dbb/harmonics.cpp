@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include "analysis/core/errors.h"
+#include "analysis/dbb/column_dots.h"
 
 namespace km::dbb {
 
@@ -32,17 +33,24 @@ HarmonicSums SumHarmonics(const Eigen::Ref<const ArrayXd>& c1, const Eigen::Ref<
   h.c[0] = static_cast<double>(c1.size());
   h.atb[0] = r.sum();
   ArrayXd ck = c1, sk = s1, next;
+  // Σ cos qθ and Σ sin qθ at once, Σ r cos kθ and Σ r sin kθ at once (column_dots.h: each sum
+  // as Eigen's; a sum is the inner product with ones, the products by 1 exact).
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(c1.size());
+  double sums[2];
   for (std::size_t q = 1; q <= top; ++q) {
     if (q > 1) {
       next = ck * c1 - sk * s1;
       sk = sk * c1 + ck * s1;
       ck.swap(next);
     }
-    h.c[q] = ck.sum();
-    h.s[q] = sk.sum();
+    const double* both[2] = {ck.data(), sk.data()};
+    diag::ColumnDots(ones.data(), both, 2, ck.size(), sums);
+    h.c[q] = sums[0];
+    h.s[q] = sums[1];
     if (q <= static_cast<std::size_t>(max_order)) {
-      h.atb[static_cast<Eigen::Index>(2 * q - 1)] = (r * ck).sum();
-      h.atb[static_cast<Eigen::Index>(2 * q)] = (r * sk).sum();
+      diag::ColumnDots(r.data(), both, 2, ck.size(), sums);
+      h.atb[static_cast<Eigen::Index>(2 * q - 1)] = sums[0];
+      h.atb[static_cast<Eigen::Index>(2 * q)] = sums[1];
     }
   }
   return h;
