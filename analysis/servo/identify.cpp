@@ -55,11 +55,11 @@ JointLoads Loads(const SampleLoads& p, const LoadVector& theta) {
 // The rows of sample i of t with θ: `a` and the force less the known part `b`, the rows not
 // used zero. Returns how many rows are used.
 int SampleRows(const Track& t, std::size_t i, const LoadVector& theta, bool inertia, LoadRows& a,
-               hexapod::Vector6d& b) {
+               hexapod::Vector6d& b, const JointStates* states) {
   const RowUse& use = t.moving[i];
   if (!use.joints) return 0;
   const SampleLoads& p = t.loads[i];
-  LoadRegressor(p, t.motion[i], Loads(p, theta), use, inertia, a, b, t.StatesAt(i));
+  LoadRegressor(p, t.motion[i], Loads(p, theta), use, inertia, a, b, states);
   int used = 0;
   for (int j = 0; j < 6; ++j) {
     if (use.Row(j)) {
@@ -85,7 +85,7 @@ NormalEquations Accumulate(const std::vector<Track>& tracks, const LoadVector& t
   hexapod::Vector6d b;
   for (const auto& t : tracks) {
     for (std::size_t i = 0; i < t.motion.size(); ++i) {
-      const int used = SampleRows(t, i, theta, inertia, a, b);
+      const int used = SampleRows(t, i, theta, inertia, a, b, t.StatesAt(i));
       if (used == 0) continue;
       ata.noalias() += a.transpose().lazyProduct(a);
       atb.noalias() += a.transpose().lazyProduct(b);
@@ -105,7 +105,7 @@ void Residuals(const std::vector<Track>& tracks, const LoadVector& theta, bool i
   hexapod::Vector6d b;
   for (const auto& t : tracks) {
     for (std::size_t i = 0; i < t.motion.size(); ++i) {
-      if (SampleRows(t, i, theta, inertia, a, b) == 0) continue;
+      if (SampleRows(t, i, theta, inertia, a, b, t.StatesAt(i)) == 0) continue;
       const hexapod::Vector6d e_all = b - a * theta;
       for (int j = 0; j < 6; ++j) {
         if (!t.moving[i].Row(j)) continue;
@@ -173,21 +173,74 @@ Fit Solve(const hexapod::MachinePhysics& machine, const std::vector<Track>& trac
   return f;
 }
 
+// The normal equations at θ with the joints' states of each ramp (0: unit(swing)), as
+// Accumulate after SetRamp. Only the t0 and t1 columns depend on the ramp: the products of
+// the other columns are summed once.
+std::vector<NormalEquations> AccumulateRamps(const std::vector<Track>& tracks,
+                                             const LoadVector& theta, bool inertia,
+                                             const std::vector<double>& ramps) {
+  static_assert(kT1 == kT0 + 1 && kNumLoadParams == kT1 + 1, "t0, t1 are the last columns");
+  constexpr int kFixed = kT0;
+  const std::size_t nr = ramps.size();
+  Eigen::Matrix<double, kFixed, kFixed> ff = Eigen::Matrix<double, kFixed, kFixed>::Zero();
+  Eigen::Matrix<double, kFixed, 1> fb = Eigen::Matrix<double, kFixed, 1>::Zero();
+  std::vector<Eigen::Matrix<double, kFixed, 2>> fj(nr, Eigen::Matrix<double, kFixed, 2>::Zero());
+  std::vector<Eigen::Matrix2d> jj(nr, Eigen::Matrix2d::Zero());
+  std::vector<Eigen::Vector2d> jb(nr, Eigen::Vector2d::Zero());
+  NormalEquations sums(kNumLoadParams);
+  LoadRows a;
+  hexapod::Vector6d b;
+  std::vector<std::vector<JointStates>> states(nr);
+  for (const auto& t : tracks) {
+    for (std::size_t r = 0; r < nr; ++r) {
+      states[r].clear();
+      if (ramps[r] > 0.0) states[r] = JointFrictionStates(t.path, ramps[r]);
+    }
+    for (std::size_t i = 0; i < t.motion.size(); ++i) {
+      for (std::size_t r = 0; r < nr; ++r) {
+        const JointStates* st = states[r].empty() ? nullptr : &states[r][i];
+        const int used = SampleRows(t, i, theta, inertia, a, b, st);
+        if (used == 0) break;
+        const auto fixed = a.leftCols<kFixed>();
+        const auto joint = a.rightCols<2>();
+        if (r == 0) {
+          ff.noalias() += fixed.transpose().lazyProduct(fixed);
+          fb.noalias() += fixed.transpose().lazyProduct(b);
+          sums.btb += b.squaredNorm();
+          sums.rows += static_cast<std::size_t>(used);
+        }
+        fj[r].noalias() += fixed.transpose().lazyProduct(joint);
+        jj[r].noalias() += joint.transpose().lazyProduct(joint);
+        jb[r].noalias() += joint.transpose().lazyProduct(b);
+      }
+    }
+  }
+  std::vector<NormalEquations> out(nr, sums);
+  for (std::size_t r = 0; r < nr; ++r) {
+    out[r].ata << ff, fj[r], fj[r].transpose(), jj[r];
+    out[r].atb << fb, jb[r];
+  }
+  return out;
+}
+
 // The joint ramp whose states, with θ refitted (ĝ held), leave the least residual over the
 // identification's rows: a grid over log λ and the step. On circles no joint reverses, but the
 // friction direction lags the turning swing by λ/(2 × the turn's radius); fitting θ with the
 // swing's direction at once would bias the masses, and a ramp searched with θ held would then
 // follow that bias.
-double ProfileRamp(const hexapod::MachinePhysics& machine, std::vector<Track>& tracks,
+double ProfileRamp(const hexapod::MachinePhysics& machine, const std::vector<Track>& tracks,
                    const LoadVector& theta0, const IdentifyOptions& options) {
+  const std::vector<double> ramps{0.0, 0.02, 0.05, 0.1, 0.2, 0.3,  0.5, 0.7,
+                                  1.0, 1.5,  2.0,  3.0, 5.0, 10.0, 20.0};
+  const std::vector<NormalEquations> ne = AccumulateRamps(tracks, theta0, options.inertia, ramps);
+  const LoadVector prior = ParametersOf(machine);
+  const std::vector<bool> hold(kNumLoadParams, false);
   double best = 0.0, best_rss = INFINITY;
-  for (const double ramp :
-       {0.0, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0, 5.0, 10.0, 20.0}) {
-    SetRamp(tracks, ramp);
-    const double rss = Solve(machine, tracks, theta0, 1, options).sol.rss;
+  for (std::size_t r = 0; r < ramps.size(); ++r) {
+    const double rss = SolveLeastSquares(ne[r], prior, hold, options.min_singular_ratio).rss;
     if (rss < best_rss) {
       best_rss = rss;
-      best = ramp;
+      best = ramps[r];
     }
   }
   return best;
