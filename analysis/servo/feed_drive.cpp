@@ -151,13 +151,20 @@ FeedDriveResult AnalyzeFeedDrive(const std::vector<const ServoFile*>& files,
   using Form = LugreParameters::Form;
   // The whole analysis with the Stribeck rise of one form. `first`: the LuGre fit of a first
   // pass, whose Stribeck rise has been taken out of `s`.
-  const auto analyse = [&](detail::Strokes& s, const FeedDriveResult* first, Form form,
-                           detail::LugreFit& info) {
+  const auto steady_fit = [&](detail::Strokes& s) {
     FeedDriveResult r;
     r.axis = axis;
     r.samples = s.x.size();
     r.reversals = s.reversals.size();
     detail::FitSteady(s, options, r);
+    return r;
+  };
+  // The first steady fit does not depend on the form of the rise: once for both forms.
+  detail::Strokes fitted = collected;
+  const FeedDriveResult steady = steady_fit(fitted);
+  const auto analyse = [&](detail::Strokes& s, const FeedDriveResult* first, Form form,
+                           detail::LugreFit& info) {
+    FeedDriveResult r = first ? steady_fit(s) : steady;
     if (first) WidenForStribeck(s, *first->lugre, *first->lugre_sigma, r);
     if (options.fit_lugre)
       detail::FitLugre(s, options, r, first ? &*first->lugre : nullptr, form, &info);
@@ -171,7 +178,7 @@ FeedDriveResult AnalyzeFeedDrive(const std::vector<const ServoFile*>& files,
            3.0 * q.lugre_sigma->vs_mm_s < q.lugre->vs_mm_s;
   };
   const auto run = [&](Form form, detail::LugreFit& info) {
-    detail::Strokes s = collected;
+    detail::Strokes s = fitted;  // as steady_fit left it
     FeedDriveResult r = analyse(s, nullptr, form, info);
     if (rise_known(r) && detail::SetStribeck(s, *r.lugre)) {
       const FeedDriveResult first = r;

@@ -109,7 +109,10 @@ void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugrePa
       double v = s.v[i];
       if (i > w.first) {
         const double dt = s.t[i] - s.t[i - 1], mean = (s.x[i] - s.x[i - 1]) / dt;
-        if (reading == Reading::kLinear) {
+        const bool standing = s.v[i - 1] == 0.0 && s.v[i] == 0.0 && mean == 0.0;
+        if (standing) {
+          v = 0.0;  // every sub-interval stands: z holds
+        } else if (reading == Reading::kLinear) {
           const double shift = mean - 0.5 * (s.v[i - 1] + s.v[i]);
           for (int k = 0; k < kSubsteps; ++k) {
             const double u = (k + 0.5) / kSubsteps;
