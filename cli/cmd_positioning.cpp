@@ -18,8 +18,8 @@ namespace {
 
 using usecases::PositioningReport;
 
-PositioningReport Analyse(const std::string& path) {
-  return usecases::AnalysePositioning(ingest::ParsePositioningFile(ReadFileBytes(path), path));
+PositioningReport Analyze(const std::string& path) {
+  return usecases::AnalyzePositioning(ingest::ParsePositioningFile(ReadFileBytes(path), path));
 }
 
 std::string Cell(double v) {
@@ -75,7 +75,7 @@ void PrintTable(std::ostream& out, const std::vector<PositioningReport>& reports
 int RunAnalyze(const Args& args, std::ostream& out) {
   if (args.positional.empty()) throw InvalidInput("", 0, "FILE", "give one or more files");
   std::vector<PositioningReport> reports;
-  for (const auto& path : args.positional) reports.push_back(Analyse(path));
+  for (const auto& path : args.positional) reports.push_back(Analyze(path));
   if (args.json) {
     out << usecases::PositioningFilesToJson(reports).dump(2) << "\n";
     return 0;
@@ -88,7 +88,7 @@ int RunExport(const Args& args, std::ostream& out) {
   if (args.positional.size() != 1) throw InvalidInput("", 0, "FILE", "give exactly one file");
   const auto format = args.Get("--format");
   if (!format) throw InvalidInput("", 0, "--format", "give --format linuxcnc, sinumerik or csv");
-  out << usecases::ExportCompensation(Analyse(args.positional.front()), *format);
+  out << usecases::ExportCompensation(Analyze(args.positional.front()), *format);
   return 0;
 }
 

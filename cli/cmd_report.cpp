@@ -102,7 +102,7 @@ nlohmann::json ResultOf(const std::string& format, const std::string& bytes,
   if (format == ingest::kPositioningFormat) {
     kind = "positioning";
     return usecases::PositioningReportToJson(
-        usecases::AnalysePositioning(ingest::ParsePositioningFile(bytes, path)));
+        usecases::AnalyzePositioning(ingest::ParsePositioningFile(bytes, path)));
   }
   if (format == ingest::kTrackerFormat) {
     kind = "tracker";

@@ -62,7 +62,7 @@ int RunRotaryAnalyze(const Args& args, std::ostream& out) {
   if (args.positional.size() != 1) throw InvalidInput("", 0, "FILE", "give exactly one file");
   const std::string& path = args.positional.front();
   const RotaryReport r =
-      usecases::AnalyseRotary(ingest::ParseRotaryFile(ReadFileBytes(path), path));
+      usecases::AnalyzeRotary(ingest::ParseRotaryFile(ReadFileBytes(path), path));
   if (args.json) {
     out << usecases::RotaryReportToJson(r).dump(2) << "\n";
     return 0;
@@ -109,7 +109,7 @@ int RunRotaryExport(const Args& args, std::ostream& out) {
   if (args.positional.size() != 1) throw InvalidInput("", 0, "FILE", "give exactly one file");
   const std::string& path = args.positional.front();
   const RotaryReport r =
-      usecases::AnalyseRotary(ingest::ParseRotaryFile(ReadFileBytes(path), path));
+      usecases::AnalyzeRotary(ingest::ParseRotaryFile(ReadFileBytes(path), path));
   out << usecases::ExportRotary(r, args.Get("--format").value_or("linuxcnc"));
   return 0;
 }

@@ -131,7 +131,7 @@ std::vector<UncertaintyInput> PositioningUncertaintyInputs(const ingest::Positio
   return inputs;
 }
 
-PositioningReport AnalysePositioning(const ingest::PositioningFile& file) {
+PositioningReport AnalyzePositioning(const ingest::PositioningFile& file) {
   PositioningReport r;
   r.file = file.file;
   r.machine_id = file.machine_id;

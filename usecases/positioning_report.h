@@ -43,7 +43,7 @@ std::vector<UncertaintyInput> PositioningUncertaintyInputs(const ingest::Positio
 // Corrects and evaluates a parsed file; with any u_* key stated, propagates the uncertainties
 // (kPositioningDraws draws, seed kPositioningSeed). Throws km::InvalidInput naming file, line
 // and field.
-PositioningReport AnalysePositioning(const ingest::PositioningFile& file);
+PositioningReport AnalyzePositioning(const ingest::PositioningFile& file);
 
 // The documented object: reversal_value_um, mean_reversal_value_um, repeatability_up_um,
 // repeatability_down_um, repeatability_um, systematic_deviation_up_um,

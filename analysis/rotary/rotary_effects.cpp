@@ -72,7 +72,7 @@ struct Directions {
   std::size_t rank = 0;
 };
 
-Directions Analyse(const MatrixXd& j0) {
+Directions Analyze(const MatrixXd& j0) {
   Directions d;
   d.scale = j0.colwise().norm().transpose();
   for (Index k = 0; k < d.scale.size(); ++k) {
@@ -179,7 +179,7 @@ VectorXd EffectReadings(const EffectPoses& p, const EffectParameters& x) {
 EffectFit FitEffects(const EffectPoses& p, const std::vector<std::size_t>& free) {
   EffectFit f;
   f.free = free;
-  const Directions d = Analyse(Jacobian(p, f.value, free));
+  const Directions d = Analyze(Jacobian(p, f.value, free));
   const MatrixXd to_x = d.scale.cwiseInverse().asDiagonal() * d.kept;
   VectorXd r = p.measured_um - EffectReadings(p, f.value);
   for (int it = 0; it < 20 && d.rank > 0; ++it) {

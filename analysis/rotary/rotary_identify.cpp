@@ -86,7 +86,7 @@ struct Identifiability {
   std::size_t rank = 0;
 };
 
-Identifiability Analyse(const MatrixXd& j0, double rank_tolerance) {
+Identifiability Analyze(const MatrixXd& j0, double rank_tolerance) {
   Identifiability id;
   id.scale = j0.colwise().norm().transpose();
   for (Index j = 0; j < kN; ++j) {
@@ -192,7 +192,7 @@ RotaryIdentification IdentifyLocationErrors(const RotaryTest& test, const Identi
   const PreparedTest p = Prepare(test);
   Solution start;
   start.at = Linearise(p, test.setup, start.x);
-  const Identifiability id = Analyse(start.at.jacobian, o.rank_tolerance);
+  const Identifiability id = Analyze(start.at.jacobian, o.rank_tolerance);
   const Solution s = GaussNewton(p, test.setup, id, o, p.measured_um, std::move(start));
   RotaryIdentification out;
   out.kinematics = test.setup.kinematics;
@@ -227,7 +227,7 @@ Reidentification::Reidentification(const RotaryTest& test, const IdentifyOptions
   m.prepared = Prepare(test);
   Solution start;
   start.at = Linearise(m.prepared, m.setup, start.x);
-  m.id = Analyse(start.at.jacobian, o.rank_tolerance);
+  m.id = Analyze(start.at.jacobian, o.rank_tolerance);
   m.base = GaussNewton(m.prepared, m.setup, m.id, o, m.prepared.measured_um, std::move(start));
 }
 

@@ -391,7 +391,7 @@ std::string MeasurementService::PositioningCompensation(std::int64_t id,
                        "measurement " + std::to_string(id) + " is not a laser positioning test");
   }
   const auto report =
-      usecases::AnalysePositioning(ingest::ParsePositioningFile(store_.GetRaw(id), rec->filename));
+      usecases::AnalyzePositioning(ingest::ParsePositioningFile(store_.GetRaw(id), rec->filename));
   try {
     return usecases::ExportCompensation(report, format);
   } catch (const InvalidInput& e) {

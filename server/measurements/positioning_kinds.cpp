@@ -40,7 +40,7 @@ Ingested IngestPositioning(std::string_view bytes, const std::string& file,
                     f.timestamp.empty() ? std::nullopt : std::optional<std::string>(f.timestamp));
   DropInapplicableRegisterKeys(f, use);
   const usecases::PositioningReport report =
-      InFile(file, [&] { return usecases::AnalysePositioning(f); });
+      InFile(file, [&] { return usecases::AnalyzePositioning(f); });
   nlohmann::json result = usecases::PositioningReportToJson(report);
   RequireFiniteResult(result, file);
   AddInstrumentUse(use, result);

@@ -27,7 +27,7 @@ Ingested IngestRotary(std::string_view bytes, const std::string& file,
                              {p.tilt_deg, p.c_deg, p.d_um[0], p.d_um[1], p.d_um[2]});
   }
   const usecases::RotaryReport report =
-      InFile(file, [&] { return usecases::AnalyseRotary(std::move(f)); });
+      InFile(file, [&] { return usecases::AnalyzeRotary(std::move(f)); });
   nlohmann::json result = usecases::RotaryReportToJson(report);
   RequireFiniteResult(result, file);
   AddInstrumentUse(use, result);

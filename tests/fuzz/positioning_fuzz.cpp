@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       km::fuzz::Check(std::isfinite(r.target_mm) && std::isfinite(r.deviation_um), "finite");
       km::fuzz::Check(r.direction == 1 || r.direction == -1, "direction");
     }
-    const auto report = km::usecases::AnalysePositioning(f);
+    const auto report = km::usecases::AnalyzePositioning(f);
     const auto& iso = report.figures.iso;
     km::fuzz::Check(std::isfinite(iso.accuracy_um), "finite A");
     km::fuzz::Check(iso.accuracy_um + 1e-9 >= iso.systematic_deviation_um, "A >= E");

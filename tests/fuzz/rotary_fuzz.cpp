@@ -13,7 +13,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   km::fuzz::Guarded([&] {
     auto f = km::ingest::ParseRotaryFile(km::fuzz::AsText(data, size), "fuzz.txt");
     const std::size_t poses = f.lines.size();
-    const auto report = km::usecases::AnalyseRotary(std::move(f));
+    const auto report = km::usecases::AnalyzeRotary(std::move(f));
     const auto& r = report.result;
     km::fuzz::Check(std::isfinite(r.measured_rms_um) && std::isfinite(r.residual_rms_um),
                     "finite RMS");

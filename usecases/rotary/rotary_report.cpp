@@ -165,7 +165,7 @@ std::string LocationErrorKey(rotary::Kinematics k, std::size_t index) {
          (rotary::IsAngularError(index) ? "_urad" : "_um");
 }
 
-RotaryReport AnalyseRotary(ingest::RotaryFile file) {
+RotaryReport AnalyzeRotary(ingest::RotaryFile file) {
   RotaryReport r;
   try {
     r.result = rotary::IdentifyLocationErrors(file.test);

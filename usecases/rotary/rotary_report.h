@@ -23,7 +23,7 @@ struct RotaryReport {
   nlohmann::json uncertainty;
 };
 
-RotaryReport AnalyseRotary(ingest::RotaryFile file);
+RotaryReport AnalyzeRotary(ingest::RotaryFile file);
 
 // `<name>_um` / `<name>_urad` of a location error ("YOA_um", "BOA_urad").
 std::string LocationErrorKey(rotary::Kinematics k, std::size_t index);

@@ -42,7 +42,7 @@ BENCHMARK(BM_AnalyseReadings)->Unit(benchmark::kMillisecond);
 void BM_WholeFile(benchmark::State& state) {
   const std::string text = km::positioning::test::SimulateFile(BenchTruth());
   for (auto _ : state) {
-    auto r = km::usecases::AnalysePositioning(km::ingest::ParsePositioningFile(text, "bench.txt"));
+    auto r = km::usecases::AnalyzePositioning(km::ingest::ParsePositioningFile(text, "bench.txt"));
     auto j = km::usecases::PositioningReportToJson(r);
     benchmark::DoNotOptimize(j);
   }
@@ -78,7 +78,7 @@ BENCHMARK(BM_Uncertainty)->Unit(benchmark::kMillisecond);
 void BM_WholeFileWithUncertainty(benchmark::State& state) {
   const std::string text = UncertainFile();
   for (auto _ : state) {
-    auto r = km::usecases::AnalysePositioning(km::ingest::ParsePositioningFile(text, "bench.txt"));
+    auto r = km::usecases::AnalyzePositioning(km::ingest::ParsePositioningFile(text, "bench.txt"));
     auto j = km::usecases::PositioningReportToJson(r);
     benchmark::DoNotOptimize(j);
   }

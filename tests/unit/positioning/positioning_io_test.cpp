@@ -33,12 +33,12 @@ const char* kHeader =
     "# air_compensated: yes\n"                 // 6
     "run,direction,target_mm,deviation_um\n";  // 7
 
-usecases::PositioningReport Analyse(const std::string& text, const std::string& name = "p.txt") {
-  return usecases::AnalysePositioning(ingest::ParsePositioningFile(text, name));
+usecases::PositioningReport Analyze(const std::string& text, const std::string& name = "p.txt") {
+  return usecases::AnalyzePositioning(ingest::ParsePositioningFile(text, name));
 }
 
 InvalidInput Refused(const std::string& text) {
-  return Expect<InvalidInput>([&] { Analyse(text); });
+  return Expect<InvalidInput>([&] { Analyze(text); });
 }
 
 TEST(PositioningParser, HumidityOutOfRangeNamesFieldAndLine) {
@@ -110,7 +110,7 @@ TEST(PositioningCompensation, LinuxCncTableRemovesTheSystematicDeviation) {
   t.targets_mm = {0, 90, 200, 330, 410, 500, 640, 700, 820, 1000};  // uneven
   t.reversal_um = 6.0;
   t.amplitude_um = 5.0;
-  const usecases::PositioningReport r = Analyse(test::SimulateFile(t));
+  const usecases::PositioningReport r = Analyze(test::SimulateFile(t));
   const std::string text = usecases::ExportLinuxCnc(r);
   const auto table = ParseLinuxCnc(text);
   ASSERT_EQ(table.size(), t.targets_mm.size());
@@ -138,7 +138,7 @@ TEST(PositioningCompensation, SignsFromFirstPrinciples) {
       }
     }
   }
-  const usecases::PositioningReport r = Analyse(text);
+  const usecases::PositioningReport r = Analyze(text);
   EXPECT_DOUBLE_EQ(r.compensation.forward_um[1], -10.0);
   EXPECT_DOUBLE_EQ(r.compensation.reverse_um[1], -10.0);
   EXPECT_TRUE(Contains(usecases::ExportLinuxCnc(r), "100.000000 -0.010000 -0.010000\n"));
@@ -150,7 +150,7 @@ TEST(PositioningCompensation, SignsFromFirstPrinciples) {
 TEST(PositioningCompensation, SinumerikEvenGrid) {
   test::Truth t;
   t.targets_mm = {0, 100, 250, 400};  // uneven: 4 points 133.33 mm apart
-  const usecases::PositioningReport r = Analyse(test::SimulateFile(t));
+  const usecases::PositioningReport r = Analyze(test::SimulateFile(t));
   const std::string s = usecases::ExportSinumerik(r);
   EXPECT_TRUE(Contains(s, "not evenly spaced")) << s;
   EXPECT_TRUE(Contains(s, "$AA_ENC_COMP_STEP[0,AX1]=133.333333\n")) << s;
@@ -207,7 +207,7 @@ TEST(PositioningControllerText, ExportsCarryOnlySafeNames) {
         text += std::to_string(run) + "," + dir + "," + p + ",1\n";
     }
   }
-  usecases::PositioningReport r = Analyse(text);
+  usecases::PositioningReport r = Analyze(text);
   EXPECT_TRUE(Contains(usecases::ExportSinumerik(r), "machine m1, axis X"));
   r.machine_id = "vmc\r$AA_ENC_COMP[0,0,AX1]=9.999\rM30";
   r.axis = "X\x0BM30";

@@ -53,7 +53,7 @@ json Independent(const std::string& path) {
 
 json Product(const std::string& name, const std::string& text) {
   return usecases::PositioningReportToJson(
-      usecases::AnalysePositioning(ingest::ParsePositioningFile(text, name)));
+      usecases::AnalyzePositioning(ingest::ParsePositioningFile(text, name)));
 }
 
 void ExpectSameFigures(const json& got, const json& want) {

@@ -40,9 +40,9 @@ std::string WithHeader(const Truth& t, const std::string& lines) {
   return text.insert(at, lines);
 }
 
-json Analyse(const std::string& text, const std::string& name = "u.txt") {
+json Analyze(const std::string& text, const std::string& name = "u.txt") {
   return usecases::PositioningReportToJson(
-      usecases::AnalysePositioning(ingest::ParsePositioningFile(text, name)));
+      usecases::AnalyzePositioning(ingest::ParsePositioningFile(text, name)));
 }
 
 double FigureU(const json& j, const std::string& key) {
@@ -72,7 +72,7 @@ Truth Axis1000() {
 }
 
 TEST(PositioningUncertainty, NothingStatedNothingPropagated) {
-  const json j = Analyse(test::SimulateFile(Axis1000()));
+  const json j = Analyze(test::SimulateFile(Axis1000()));
   const json& u = j["uncertainty"];
   EXPECT_EQ(u["method"], "none: no input uncertainty stated");
   EXPECT_TRUE(u["figures"].empty());
@@ -85,7 +85,7 @@ TEST(PositioningUncertainty, NothingStatedNothingPropagated) {
 // R·u_ε ≈ 10⁻⁶ µm. Tolerance 2 %: more than 3 times the statistical error of u from 15 000 draws.
 TEST(PositioningUncertainty, LaserScaleMovesTheSpan) {
   const double u_ppm = 0.5;
-  const json j = Analyse(WithHeader(Axis1000(), "# u_laser_ppm: 0.5\n"));
+  const json j = Analyze(WithHeader(Axis1000(), "# u_laser_ppm: 0.5\n"));
   const json& u = j["uncertainty"];
   EXPECT_EQ(u["method"], "Monte Carlo (JCGM 101)");
   EXPECT_EQ(u["draws"], kPositioningDraws);
@@ -120,7 +120,7 @@ TEST(PositioningUncertainty, MachineTemperatureMovesTheSpan) {
   Truth t = Axis1000();
   t.warm = true;  // 23 °C, α = 11.5 ppm/K
   const double alpha = t.expansion_ppm_per_k, dt = t.material_t_c - 20.0;
-  const json jt = Analyse(WithHeader(t, "# u_material_temperature_c: 0.2\n"));
+  const json jt = Analyze(WithHeader(t, "# u_material_temperature_c: 0.2\n"));
   const double span = std::abs(ExtremeDistanceUm(jt, {"mean_up_um", "mean_down_um"}, 0.0));
   const double want_t = alpha * 0.2 * span * 1e-6;  // about 2.3 µm over 1000 mm
   EXPECT_NEAR(FigureU(jt, "systematic_deviation_um"), want_t, 0.02 * want_t);
@@ -131,7 +131,7 @@ TEST(PositioningUncertainty, MachineTemperatureMovesTheSpan) {
   EXPECT_TRUE(jt["uncertainty"]["warnings"].empty()) << jt["uncertainty"]["warnings"].dump();
 
   const json jb =
-      Analyse(WithHeader(t, "# u_material_temperature_c: 0.2\n# u_expansion_ppm_per_k: 0.8\n"));
+      Analyze(WithHeader(t, "# u_material_temperature_c: 0.2\n# u_expansion_ppm_per_k: 0.8\n"));
   const double want_a = 0.8 * dt * span * 1e-6;
   const json& e = jb["uncertainty"]["figures"]["systematic_deviation_um"];
   ASSERT_EQ(e["budget"].size(), 2u);
@@ -154,7 +154,7 @@ TEST(PositioningUncertainty, ModelAtTheEstimatesIsTheAnalysis) {
   t.deviation_column = false;
   t.refractive_index = RefractiveIndexOfAir({t.air_t_c, t.air_p_pa, t.air_rh_pct, 632.991});
   const auto file = ingest::ParsePositioningFile(test::SimulateFile(t), "raw.txt");
-  const auto report = usecases::AnalysePositioning(file);
+  const auto report = usecases::AnalyzePositioning(file);
   const auto raw = EvaluatePositioning(file.readings);
   const auto inputs = PositioningMcInputs(file.corrections, {});
   std::vector<double> x, y(PositioningFigureKeys().size());
@@ -171,7 +171,7 @@ TEST(PositioningUncertainty, ModelAtTheEstimatesIsTheAnalysis) {
 
 TEST(PositioningUncertainty, SameFileSameNumbers) {
   const std::string text = WithHeader(Axis1000(), "# u_laser_ppm: 0.3\n");
-  EXPECT_EQ(Analyse(text)["uncertainty"], Analyse(text)["uncertainty"]);
+  EXPECT_EQ(Analyze(text)["uncertainty"], Analyze(text)["uncertainty"]);
 }
 
 // The air inputs act through the refractive index kinemetric applies to raw readings, the
@@ -244,7 +244,7 @@ TEST(PositioningUncertainty, EveryFigureAgainstAnIndependentMonteCarlo) {
                                       "# u_air_pressure_pa: 35\n# u_air_humidity_pct: 6\n"
                                       "# u_material_temperature_c: 0.15\n"
                                       "# u_expansion_ppm_per_k: 0.6\n");
-  const json got = Analyse(text, "acceptance.txt")["uncertainty"];
+  const json got = Analyze(text, "acceptance.txt")["uncertainty"];
   const json want = IndependentMonteCarlo(text);
   EXPECT_TRUE(got["not_stated"].empty());
   for (const auto& key : PositioningFigureKeys()) {

@@ -106,7 +106,7 @@ TEST(RotaryPivots, TrueCorrectionsLeaveExactlyTheDirectionErrors) {
 TEST(RotaryPivots, IdentifiedCorrectionsRemoveThePositionErrorsToTheirSigma) {
   for (const char* k : {"AC", "BC"}) {
     const Case c = Load(k);
-    const auto report = usecases::AnalyseRotary(c.file);
+    const auto report = usecases::AnalyzeRotary(c.file);
     const PivotCorrection p = usecases::RotaryPivots(report);
     const RotarySetup& setup = c.file.test.setup;
     const AxisLines machine = ActualLines(setup, c.truth);
@@ -123,7 +123,7 @@ TEST(RotaryPivots, IdentifiedCorrectionsRemoveThePositionErrorsToTheirSigma) {
 
 TEST(RotaryPivots, LinuxCncLinesNameTheModulesPins) {
   const Case c = Load("AC");
-  const std::string text = usecases::ExportRotary(usecases::AnalyseRotary(c.file), "linuxcnc");
+  const std::string text = usecases::ExportRotary(usecases::AnalyzeRotary(c.file), "linuxcnc");
   std::printf("%s", text.c_str());
   for (const char* pin : {"x-rot-point", "y-rot-point", "z-rot-point", "y-offset", "z-offset"}) {
     EXPECT_NE(text.find(std::string("setp xyzac-trt-kins.") + pin + " "), std::string::npos) << pin;
@@ -132,7 +132,7 @@ TEST(RotaryPivots, LinuxCncLinesNameTheModulesPins) {
     EXPECT_NE(text.find(std::string("# ") + e), std::string::npos) << e;
   }
   EXPECT_NE(text.find("adjust mechanically"), std::string::npos);
-  EXPECT_THROW(usecases::ExportRotary(usecases::AnalyseRotary(c.file), "fanuc"), InvalidInput);
+  EXPECT_THROW(usecases::ExportRotary(usecases::AnalyzeRotary(c.file), "fanuc"), InvalidInput);
 }
 
 }  // namespace

@@ -16,12 +16,12 @@
 namespace km::rotary {
 namespace {
 
-nlohmann::json Analyse(const std::string& path) {
+nlohmann::json Analyze(const std::string& path) {
   std::ifstream in(path);
   std::stringstream text;
   text << in.rdbuf();
   return usecases::RotaryReportToJson(
-      usecases::AnalyseRotary(ingest::ParseRotaryFile(text.str(), path)));
+      usecases::AnalyzeRotary(ingest::ParseRotaryFile(text.str(), path)));
 }
 
 // Every error outside `absent` recovered; those in `absent` reported without a number.
@@ -52,7 +52,7 @@ void ExpectRecovered(const nlohmann::json& j, const test::SimulatedFile& f,
 
 TEST(RotaryTruth, AcFullPoseSet) {
   const auto f = test::Simulate("AC", "full", 11);
-  const auto j = Analyse(f.path);
+  const auto j = Analyze(f.path);
   ExpectRecovered(j, f, {});
   EXPECT_EQ(j["rank"], 8);
   EXPECT_TRUE(j["not_separable"].empty());
@@ -62,7 +62,7 @@ TEST(RotaryTruth, AcFullPoseSet) {
 
 TEST(RotaryTruth, BcFullPoseSet) {
   const auto f = test::Simulate("BC", "full", 12);
-  const auto j = Analyse(f.path);
+  const auto j = Analyze(f.path);
   ExpectRecovered(j, f, {});
   EXPECT_EQ(j["rank"], 8);
 }
@@ -70,7 +70,7 @@ TEST(RotaryTruth, BcFullPoseSet) {
 TEST(RotaryTruth, RandomPosesOfBothKinematics) {
   for (const char* k : {"AC", "BC"}) {
     const auto f = test::Simulate(k, "random", 13, 200);
-    ExpectRecovered(Analyse(f.path), f, {});
+    ExpectRecovered(Analyze(f.path), f, {});
   }
 }
 
@@ -78,7 +78,7 @@ TEST(RotaryTruth, TiltAtZeroOnlyLeavesTheTiltAxisUndetermined) {
   // C through a turn at A = 0 only: no pose turns the tilt axis, so none of its four errors is
   // determined; the C errors are.
   const auto f = test::Simulate("AC", "tilt0", 14);
-  const auto j = Analyse(f.path);
+  const auto j = Analyze(f.path);
   ExpectRecovered(j, f, {"YOA", "ZOA", "BOA", "COA"});
   EXPECT_EQ(j["rank"], 4);
   ASSERT_EQ(j["not_separable"].size(), 1u);
@@ -86,7 +86,7 @@ TEST(RotaryTruth, TiltAtZeroOnlyLeavesTheTiltAxisUndetermined) {
             "YOA, ZOA, BOA and COA are not determined by these poses: no pose is moved by them");
   EXPECT_TRUE(j["not_separable"][0]["determined"].is_null());
   const auto g = test::Simulate("BC", "tilt0", 15);
-  ExpectRecovered(Analyse(g.path), g, {"XOB", "ZOB", "AOB", "COB"});
+  ExpectRecovered(Analyze(g.path), g, {"XOB", "ZOB", "AOB", "COB"});
 }
 
 TEST(RotaryTruth, SphereOnTheCLineCannotSeparatePositionFromDirection) {
@@ -94,7 +94,7 @@ TEST(RotaryTruth, SphereOnTheCLineCannotSeparatePositionFromDirection) {
   // XOC + h·BOC and YOC − h·AOC (µm per µrad = m: h in mm).
   for (const char* k : {"AC", "BC"}) {
     const auto f = test::Simulate(k, "on_axis", 16);
-    const auto j = Analyse(f.path);
+    const auto j = Analyze(f.path);
     ExpectRecovered(j, f, {"XOC", "YOC", "AOC", "BOC"});
     EXPECT_EQ(j["rank"], 6);
     ASSERT_EQ(j["not_separable"].size(), 2u) << j["not_separable"].dump();

@@ -27,8 +27,8 @@ std::string Read(const std::string& path) {
   return text.str();
 }
 
-nlohmann::json AnalyseText(const std::string& text, const std::string& path) {
-  return usecases::RotaryReportToJson(usecases::AnalyseRotary(ingest::ParseRotaryFile(text, path)));
+nlohmann::json AnalyzeText(const std::string& text, const std::string& path) {
+  return usecases::RotaryReportToJson(usecases::AnalyzeRotary(ingest::ParseRotaryFile(text, path)));
 }
 
 std::string Key(const std::string& name) {
@@ -39,7 +39,7 @@ std::string Key(const std::string& name) {
 void ExpectConsistent(const char* kinematics, const std::string& poses, int seed, int count) {
   const auto f = test::Simulate(kinematics, poses, seed, count, "--noise 0.5 --gum-u 0.5");
   const auto t0 = std::chrono::steady_clock::now();
-  const auto j = AnalyseText(Read(f.path), f.path);
+  const auto j = AnalyzeText(Read(f.path), f.path);
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::printf("  %s %s: %zu poses, analysis with uncertainty %.0f ms\n", kinematics, poses.c_str(),
@@ -92,7 +92,7 @@ TEST(RotaryUncertainty, MonteCarloAgreesWithFirstOrderAndResidualSigmaBc) {
 TEST(RotaryUncertainty, SameFileSameNumbers) {
   const auto f = test::Simulate("AC", "full", 23);
   const std::string text = Read(f.path);
-  const auto a = AnalyseText(text, f.path), b = AnalyseText(text, f.path);
+  const auto a = AnalyzeText(text, f.path), b = AnalyzeText(text, f.path);
   EXPECT_EQ(a["uncertainty"].dump(), b["uncertainty"].dump());
   EXPECT_EQ(a["uncertainty"]["seed"], 1710);
 }
@@ -103,7 +103,7 @@ TEST(RotaryUncertainty, WithoutReadingUncertaintyNothingIsPropagated) {
   const auto at = text.find("# u_reading_um:");
   ASSERT_NE(at, std::string::npos);
   text.erase(at, text.find('\n', at) + 1 - at);
-  const auto j = AnalyseText(text, f.path);
+  const auto j = AnalyzeText(text, f.path);
   const auto& u = j["uncertainty"];
   EXPECT_EQ(u["method"], "none: no input uncertainty stated");
   EXPECT_TRUE(u["figures"].empty());
@@ -114,7 +114,7 @@ TEST(RotaryUncertainty, WithoutReadingUncertaintyNothingIsPropagated) {
 
 TEST(RotaryUncertainty, UndeterminedErrorsGetNoEntry) {
   const auto f = test::Simulate("AC", "tilt0", 25);
-  const auto j = AnalyseText(Read(f.path), f.path);
+  const auto j = AnalyzeText(Read(f.path), f.path);
   const auto& u = j["uncertainty"];
   ASSERT_EQ(u["method"], "Monte Carlo (JCGM 101)");
   EXPECT_EQ(u["figures"].size(), 4u);

@@ -104,7 +104,7 @@ TEST_F(RotaryService, AnUploadStoresTheResultTheCommandPrintsAndThePoses) {
   const std::int64_t id = created["id"].get<std::int64_t>();
   json stored = svc_->measurements().Results(id);
   const json cli = usecases::RotaryReportToJson(
-      usecases::AnalyseRotary(ingest::ParseRotaryFile(bytes, "rotary_ac-trunnion.txt")));
+      usecases::AnalyzeRotary(ingest::ParseRotaryFile(bytes, "rotary_ac-trunnion.txt")));
   stored.erase("instrument");  // the instrument the file names (docs/http.md "Instruments")
   EXPECT_EQ(stored, cli);
   // The simulator's truth (tests/sim/rotary_truth.py): YOA 13.7 µm, BOA −23.1 µrad.

@@ -80,7 +80,7 @@ TEST_F(PositioningService, AnUploadStoresTheResultTheCommandPrints) {
   EXPECT_EQ(out.kind, "positioning");
   const auto stored = svc_->measurements().Results(out.id);
   const auto cli = usecases::PositioningReportToJson(
-      usecases::AnalysePositioning(ingest::ParsePositioningFile(bytes, "positioning_x.txt")));
+      usecases::AnalyzePositioning(ingest::ParsePositioningFile(bytes, "positioning_x.txt")));
   // The service adds the instrument the file names (docs/http.md "Instruments"); the rest is
   // the command's object.
   EXPECT_EQ(stored["instrument"]["instrument"], "laser interferometer, linear optics");
@@ -144,7 +144,7 @@ TEST_F(PositioningService, TheApiGivesTheCompensationTableOfTheCommand) {
     return router.Dispatch(req);
   };
   const auto report =
-      usecases::AnalysePositioning(ingest::ParsePositioningFile(bytes, "positioning_x.txt"));
+      usecases::AnalyzePositioning(ingest::ParsePositioningFile(bytes, "positioning_x.txt"));
   const auto linuxcnc = get("linuxcnc");
   ASSERT_EQ(linuxcnc.status, 200) << linuxcnc.body;
   EXPECT_EQ(linuxcnc.body, usecases::ExportLinuxCnc(report));

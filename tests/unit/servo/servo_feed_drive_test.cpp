@@ -108,7 +108,7 @@ TEST(ServoFeedDrive, SeparatesRippleCoulombViscousAndLugre) {
 
 namespace ft = feed_truth;
 
-FeedDriveResult Analyse(const ft::Drive& d, const ft::Motion& m, unsigned seed) {
+FeedDriveResult Analyze(const ft::Drive& d, const ft::Motion& m, unsigned seed) {
   const ServoFile f = ingest::ParseServoFile(ft::ServoText(ft::Simulate(d, m, seed)), "x.txt");
   return AnalyzeFeedDrive({&f}, "X");
 }
@@ -162,7 +162,7 @@ TEST(ServoFeedDrive, StrokesAtThreeFeedsInOneRecord) {
   m.accel_mm_s2 = 300.0;
   m.dwell_s = 1.6;
   m.sample_s = 2e-3;
-  const FeedDriveResult r = Analyse(d, m, 11);
+  const FeedDriveResult r = Analyze(d, m, 11);
   EXPECT_GT(r.samples, 40000u);
   EXPECT_EQ(r.reversals, 5u);
   // The cruise of every stroke is steady (not only of the fastest).
@@ -193,7 +193,7 @@ TEST(ServoFeedDrive, DeclaresTheMicroDampingOfCoarseReversalsNotIdentifiable) {
   ft::Motion m = ft::BackAndForth(200.0, {10.0, 20.0, 40.0});
   m.accel_mm_s2 = 1000.0;
   m.sample_s = 10e-3;
-  const FeedDriveResult r = Analyse(d, m, 12);
+  const FeedDriveResult r = Analyze(d, m, 12);
   EXPECT_NEAR(r.coulomb_N, d.fc_N, 3.0 * r.coulomb_sigma_N);
   ASSERT_FALSE(r.ripple.empty());
   EXPECT_NEAR(r.ripple[0].period_mm, d.ripple_mm, 0.02 * d.ripple_mm);
@@ -227,7 +227,7 @@ TEST(ServoFeedDrive, EveryLugreValueIsRightWithinThreeSigmaOrDeclared) {
     m.dwell_s = c.dwell;
     m.sample_s = c.sample;
     m.cosine_ramps = c.cosine;
-    const FeedDriveResult r = Analyse(d, m, ++seed);
+    const FeedDriveResult r = Analyze(d, m, ++seed);
     const std::string tag = "accel " + std::to_string(c.accel) + ", sample " +
                             std::to_string(c.sample) + ", sigma1 " + std::to_string(c.sigma1);
     EXPECT_NEAR(r.coulomb_N, d.fc_N, 3.0 * r.coulomb_sigma_N) << tag;

@@ -40,7 +40,7 @@ ft::Drive SlowRiseDrive(double exponent) {
   return d;
 }
 
-FeedDriveResult AnalyseSlowReversals(const ft::Drive& d, unsigned seed,
+FeedDriveResult AnalyzeSlowReversals(const ft::Drive& d, unsigned seed,
                                      const std::vector<double>& speeds = {6.0, 15.0, 40.0}) {
   ft::Motion m = ft::BackAndForth(100.0, speeds);
   m.accel_mm_s2 = 20.0;
@@ -69,7 +69,7 @@ void ExpectWithinThreeSigma(const FeedDriveResult& r, const ft::Drive& d, const 
 // An exponential rise (δ = 1): read as a Gaussian, v_s came out 0.86 ± 0.005 mm/s (+70 σ).
 TEST(ServoStribeck, ExponentialRiseRecoversItsSpeed) {
   const ft::Drive d = SlowRiseDrive(1.0);
-  const FeedDriveResult r = AnalyseSlowReversals(d, 31);
+  const FeedDriveResult r = AnalyzeSlowReversals(d, 31);
   ExpectWithinThreeSigma(r, d, "exponent 1");
   ASSERT_TRUE(r.lugre.has_value());
   EXPECT_NEAR(r.lugre->stribeck_exponent, 1.0, 3.0 * r.lugre_sigma->stribeck_exponent);
@@ -79,7 +79,7 @@ TEST(ServoStribeck, ExponentialRiseRecoversItsSpeed) {
 // A rise steeper than a Gaussian (δ = 4): read as a Gaussian, v_s came out 0.39 mm/s, F_s high.
 TEST(ServoStribeck, SteepRiseRecoversItsSpeed) {
   const ft::Drive d = SlowRiseDrive(4.0);
-  const FeedDriveResult r = AnalyseSlowReversals(d, 32);
+  const FeedDriveResult r = AnalyzeSlowReversals(d, 32);
   ExpectWithinThreeSigma(r, d, "exponent 4");
   ASSERT_TRUE(r.lugre.has_value());
   EXPECT_NEAR(r.lugre->stribeck_exponent, 4.0, 3.0 * r.lugre_sigma->stribeck_exponent);
@@ -88,7 +88,7 @@ TEST(ServoStribeck, SteepRiseRecoversItsSpeed) {
 // The Gaussian rise of the LuGre paper stays a Gaussian: δ = 2 reported, v_s right.
 TEST(ServoStribeck, GaussianRiseStaysGaussian) {
   const ft::Drive d = SlowRiseDrive(2.0);
-  const FeedDriveResult r = AnalyseSlowReversals(d, 33);
+  const FeedDriveResult r = AnalyzeSlowReversals(d, 33);
   ExpectWithinThreeSigma(r, d, "exponent 2");
   ASSERT_TRUE(r.lugre.has_value());
   EXPECT_NEAR(r.lugre->stribeck_exponent, 2.0, 3.0 * r.lugre_sigma->stribeck_exponent);
@@ -101,7 +101,7 @@ TEST(ServoStribeck, GaussianRiseStaysGaussian) {
 TEST(ServoStribeck, LorentzianRiseIsRecognised) {
   ft::Drive d = SlowRiseDrive(2.0);
   d.lorentzian = true;
-  const FeedDriveResult r = AnalyseSlowReversals(d, 5);
+  const FeedDriveResult r = AnalyzeSlowReversals(d, 5);
   ExpectWithinThreeSigma(r, d, "lorentzian");
   ASSERT_TRUE(r.lugre.has_value());
   EXPECT_EQ(r.lugre->stribeck_form, LugreParameters::Form::kLorentzian);
@@ -116,7 +116,7 @@ TEST(ServoStribeck, SlowStrokesDetermineTheRise) {
   for (const bool lorentzian : {false, true}) {
     ft::Drive d = SlowRiseDrive(2.0);
     d.lorentzian = lorentzian;
-    const FeedDriveResult r = AnalyseSlowReversals(d, lorentzian ? 33 : 31, {4.0, 8.0, 16.0});
+    const FeedDriveResult r = AnalyzeSlowReversals(d, lorentzian ? 33 : 31, {4.0, 8.0, 16.0});
     ExpectWithinThreeSigma(r, d, lorentzian ? "slow lorentzian" : "slow gaussian");
   }
 }
