@@ -27,7 +27,7 @@ km::positioning::test::Truth BenchTruth() {
   return t;
 }
 
-void BM_AnalyseReadings(benchmark::State& state) {
+void BM_AnalyzeReadings(benchmark::State& state) {
   const auto file = km::ingest::ParsePositioningFile(
       km::positioning::test::SimulateFile(BenchTruth()), "bench.txt");
   for (auto _ : state) {
@@ -37,7 +37,7 @@ void BM_AnalyseReadings(benchmark::State& state) {
   }
   state.counters["readings"] = double(file.readings.size());
 }
-BENCHMARK(BM_AnalyseReadings)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_AnalyzeReadings)->Unit(benchmark::kMillisecond);
 
 void BM_WholeFile(benchmark::State& state) {
   const std::string text = km::positioning::test::SimulateFile(BenchTruth());
