@@ -12,6 +12,7 @@
 #include <Eigen/SVD>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 #include "analysis/core/parallel.h"
 
 namespace km::hexapod {
@@ -467,8 +468,15 @@ EffectFitResult FitOnce(const EffectFitData& data, const EffectFitResult& start,
 
 }  // namespace
 
+void EffectFitOptions::Check() const {
+  KM_OPTION_GE(max_iterations, 1);
+  KM_OPTION_IN_OPEN(relative_tolerance, 0.0, 1.0);
+  KM_OPTION_IN_OPEN(stall_tolerance, 0.0, 1.0);
+}
+
 EffectFitResult FitWithEffects(const EffectFitData& data, const EffectFitResult& start,
                                const EffectFitOptions& options) {
+  options.Check();
   if (!data.prepared.setup.physics) return FitOnce(data, start, options);
   EffectFitResult s = FitOnce(data, WithStatics(data, start), options);
   if ((s.k_um - start.k_um).cwiseAbs().maxCoeff() > 10.0) {

@@ -99,6 +99,7 @@ struct EffectFitOptions {
   // When no step lowers the cost: a minimum if the linear model predicts a decrease below this
   // fraction of the cost, else "stalled" (converged false).
   double stall_tolerance = 1e-4;
+  void Check() const;  // throws km::InvalidInput naming the option out of its range
 };
 
 // Fits from `start` (k and effect values; balls from the data). The effects in `start` with

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 
 namespace km::hexapod {
 
@@ -154,9 +155,17 @@ double JacobianConditionNumber(const HexapodGeometry& g, const Pose& pose, doubl
   return ScaledCondition(PoseJacobian(g, pose, tool_length_mm), CharacteristicLengthMm(g));
 }
 
+void ForwardOptions::Check() const {
+  KM_OPTION_GE(max_iterations, 1);
+  KM_OPTION_GT(strut_tolerance_mm, 0.0);
+  KM_OPTION_GT(step_tolerance_mm, 0.0);
+  KM_OPTION_GT(max_condition_number, 1.0);
+}
+
 ForwardResult ForwardKinematics(const HexapodGeometry& g, const Vector6d& struts_mm,
                                 double tool_length_mm, const Pose& initial,
                                 const ForwardOptions& options) {
+  options.Check();
   const double char_len = CharacteristicLengthMm(g);
   Vector6d T = initial.AsVector();
   Vector6d s;

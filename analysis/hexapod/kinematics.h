@@ -77,6 +77,7 @@ struct ForwardOptions {
   double step_tolerance_mm = 1e-9;       // last position step (angles × characteristic length)
   double max_condition_number = 1e5;     // above this (1-norm estimate) the pose is refused
   bool report_condition_number = false;  // also compute the 2-norm figure (an SVD, ~µs)
+  void Check() const;  // throws km::InvalidInput naming the option out of its range
 };
 
 struct ForwardResult {

@@ -8,6 +8,7 @@
 #include <span>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 #include "analysis/tracker/selfcal_solver.h"
 #include "analysis/tracker/tracker_selfcal_stages.h"
 
@@ -111,10 +112,15 @@ double VolumetricErrorMaxUm(const SelfCalResult& result) {
   return largest;
 }
 
+void RangingUncertaintyOptions::Check() const {
+  KM_OPTION_GE(draws, 20u);
+}
+
 RangingUncertainty PropagateRangingUncertainty(const TrackerReadings& readings,
                                                const SelfCalResult& result,
                                                const SelfCalSolution& solution, double u_ranging_um,
                                                const RangingUncertaintyOptions& options) {
+  options.Check();
   if (!(u_ranging_um > 0.0 && std::isfinite(u_ranging_um))) {
     throw InvalidInput("", 0, "u_ranging_um", "must be a finite number > 0 to be propagated");
   }

@@ -34,6 +34,8 @@ struct RangingUncertaintyOptions {
   // 1 000 (docs/methods.md §16.5).
   std::size_t draws = 500;
   std::uint64_t seed = 3817;
+  // The 95 % interval needs M ≥ 1/(1 − p) = 20 draws ([JCGM 101] §7.2).
+  void Check() const;  // throws km::InvalidInput naming the option out of its range
 };
 
 struct RangingUncertainty {

@@ -188,16 +188,7 @@ void CheckRun(const VectorModel& model, const std::vector<McInput>& inputs, std:
     }
     if (in.count == 0) throw InvalidInput("", 0, in.name, "a group of no draws");
   }
-  if (!(o.p > 0.0 && o.p < 1.0)) throw InvalidInput("", 0, "p", "must be within (0, 1)");
-  // The interval needs M ≥ 1/(1 − p) draws ([JCGM 101] §7.2); a batch as much.
-  const double least = 1.0 / (1.0 - o.p);
-  const std::size_t m = o.adaptive ? o.batch : o.draws;
-  if (static_cast<double>(m) < least) {
-    throw InvalidInput("", 0, o.adaptive ? "batch" : "draws", "fewer than 1/(1 − p) draws");
-  }
-  if (o.adaptive && (o.significant_digits < 1 || o.max_draws < 2 * o.batch)) {
-    throw InvalidInput("", 0, "adaptive", "needs 1+ significant digits and two batches");
-  }
+  o.Check();
 }
 
 // Appends `count` evaluations of the model to columns[j], one column per output. The buffers
@@ -344,6 +335,20 @@ McResult RunAdaptive(const VectorModel& model, const std::vector<McInput>& input
 }
 
 }  // namespace
+
+void McOptions::Check() const {
+  if (!(p > 0.0 && p < 1.0)) throw InvalidInput("", 0, "p", "must be within (0, 1)");
+  if (!(k > 0.0 && std::isfinite(k))) throw InvalidInput("", 0, "k", "must be a finite number > 0");
+  // The interval needs M ≥ 1/(1 − p) draws ([JCGM 101] §7.2); a batch as much.
+  const double least = 1.0 / (1.0 - p);
+  const std::size_t m = adaptive ? batch : draws;
+  if (static_cast<double>(m) < least) {
+    throw InvalidInput("", 0, adaptive ? "batch" : "draws", "fewer than 1/(1 − p) draws");
+  }
+  if (adaptive && (significant_digits < 1 || max_draws < 2 * batch)) {
+    throw InvalidInput("", 0, "adaptive", "needs 1+ significant digits and two batches");
+  }
+}
 
 McInput McInput::Normal(std::string name, double x, double u) {
   return {std::move(name), x, u, Distribution::kNormal, 1};

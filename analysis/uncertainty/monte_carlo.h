@@ -67,6 +67,9 @@ struct McOptions {
   std::size_t batch = 10'000;
   int significant_digits = 2;
   std::size_t max_draws = 10'000'000;
+  // Throws km::InvalidInput naming the option: p in (0, 1), k > 0, a run (or a batch) of at
+  // least 1/(1 − p) draws ([JCGM 101] §7.2), an adaptive run of 1+ digits and two batches.
+  void Check() const;
 };
 
 // The results for one output quantity.
