@@ -11,7 +11,12 @@
 
 #include <cairo.h>
 
-#include "render/pdf_report.h"
+// The blocks drawn here are the whole report's (render/pdf_report.h); the page needs only their
+// names, so it does not include the report it is a part of.
+namespace km::render {
+struct DbbPolar;
+struct ReportChart;
+}  // namespace km::render
 
 namespace km::render::pdf {
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "render/chart_ticks.h"
+#include "render/pdf_report.h"
 #include "render/pdf_report_page.h"
 #include "render/polar_plot.h"
 

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/pdf_report.h"
-#include "usecases/pdf_reports.h"
+#include "usecases/report_inputs.h"
 
 namespace km::usecases::report_text {
 

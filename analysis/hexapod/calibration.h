@@ -37,6 +37,7 @@
 
 #include "analysis/core/progress.h"
 #include "analysis/dbb/dbb_types.h"
+#include "analysis/hexapod/calibration_sample.h"
 #include "analysis/hexapod/kinematics.h"
 
 namespace km::hexapod {
@@ -75,12 +76,6 @@ struct CalibrationOptions {
   // Throws km::InvalidInput naming the bad option (analysis/core/option_check.h). The Ceres
   // solver options are made from these in calibration_ceres.cpp (CalibrationSolverOptions).
   void Check() const;
-};
-
-struct CalibrationSample {
-  Pose commanded;
-  Vector6d strut_command_mm;  // IK of the nominal model
-  double measured_bar_mm = 0.0;
 };
 
 struct CalibrationTestData {

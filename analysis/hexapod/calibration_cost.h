@@ -12,7 +12,7 @@
 #include <Eigen/Dense>
 
 #include "analysis/core/errors.h"
-#include "analysis/hexapod/calibration.h"
+#include "analysis/hexapod/calibration_sample.h"
 #include "analysis/hexapod/kinematics.h"
 
 namespace km::hexapod {

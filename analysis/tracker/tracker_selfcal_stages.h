@@ -9,8 +9,9 @@
 #include <Eigen/Core>
 
 #include "analysis/tracker/selfcal_problem.h"
+#include "analysis/tracker/selfcal_result.h"
 #include "analysis/tracker/selfcal_solver.h"
-#include "analysis/tracker/tracker_selfcal.h"
+#include "analysis/tracker/tracker_types.h"
 
 namespace km::tracker::selfcal_stages {
 
