@@ -38,23 +38,11 @@ struct WebhookOptions {
   bool allow_private = false;
 };
 
-// Checks a webhook signing secret (16–1024 bytes); km::InvalidInput naming `field` otherwise.
-void CheckWebhookSecret(const std::string& secret, const std::string& field);
-
 // The headers of one delivery attempt of verdict `id` sent at Unix time `unix_s`.
 std::vector<std::pair<std::string, std::string>> WebhookHeaders(const WebhookOptions& options,
                                                                 std::int64_t id, int attempt,
                                                                 std::int64_t unix_s,
                                                                 const std::string& body);
-
-// Checks a webhook URL (http:// only); km::InvalidInput naming `field` when it is not one.
-void CheckWebhookUrl(const std::string& url, const std::string& field);
-// Checks that a webhook URL's host is not a loopback or private address written as such
-// (127.0.0.1, [::1], localhost, 10.1.2.3, …) unless `allow_private`; km::InvalidInput naming
-// `field` (in `file`, when not empty) and the setting that allows it. A host name is checked
-// when it is resolved, at every delivery.
-void CheckWebhookTarget(const std::string& url, bool allow_private, const std::string& file,
-                        const std::string& field);
 
 class WebhookSender {
  public:

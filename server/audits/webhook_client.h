@@ -12,13 +12,9 @@
 #include <utility>
 #include <vector>
 
-namespace km::server {
+#include "server/base/webhook_url.h"
 
-struct WebhookTarget {
-  std::string host;  // a name or a numeric address (IPv6 without brackets)
-  int port = 80;
-  std::string path = "/";
-};
+namespace km::server {
 
 struct WebhookPostResult {
   int status = 0;        // the answer's HTTP status; 0: no answer (see error)

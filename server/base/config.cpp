@@ -10,9 +10,9 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/errors.h"
-#include "server/audits/webhook.h"
 #include "server/base/database_url.h"
 #include "server/base/net_ranges.h"
+#include "server/base/webhook_url.h"
 
 namespace km::server {
 namespace {
