@@ -180,6 +180,9 @@ export async function withDashboard(name, fn, { viewport = { width: 1280, height
       if (msg.type() === 'error' && !/Failed to load resource/.test(msg.text())) errors.push(msg.text());
     });
     const open = async (hash = '') => {
+      // A fresh document every time: a goto that changes only the hash would keep the old view,
+      // and a wait for its selector would find the previous rendering, about to be replaced.
+      if (page.url().startsWith(server.base)) await page.goto('about:blank');
       await page.goto(`${server.base}/#token=${encodeURIComponent(server.token)}`);
       await page.waitForSelector('body[data-ready="true"]');
       if (hash) {
