@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/errors.h"
+#include "ingest/file_formats.h"
 #include "server/base/database_url.h"
 #include "server/base/net_ranges.h"
 #include "server/base/webhook_url.h"
@@ -187,15 +188,23 @@ std::size_t ingest::TextLimits::*LimitField(const std::string& name) {
   return nullptr;
 }
 
+bool IsFileFormat(const std::string& name) {
+  for (const auto& f : ingest::FileFormats()) {
+    if (f.name == name) return true;
+  }
+  return false;
+}
+
 void ReadUploadLimits(ServerConfig& cfg, const nlohmann::json& v, const std::string& path) {
   if (!v.is_object()) {
     throw InvalidInput(path, 0, "upload_limits", "must be an object of formats");
   }
   for (const auto& [format, fields] : v.items()) {
     const std::string where = "upload_limits." + format;
-    if (format.find('/') == std::string::npos || !fields.is_object()) {
-      throw InvalidInput(path, 0, where, "expected \"NAME/VERSION\": {limits}");
+    if (!IsFileFormat(format)) {
+      throw InvalidInput(path, 0, where, "not a file format; known: " + ingest::KnownFormats());
     }
+    if (!fields.is_object()) throw InvalidInput(path, 0, where, "expected {limits}");
     for (const auto& [name, n] : fields.items()) {
       if (!LimitField(name)) throw InvalidInput(path, 0, where + "." + name, "unknown limit");
       cfg.upload_limits[format][name] =

@@ -101,7 +101,14 @@ TEST_F(ServerConfigTest, UploadLimitsPerFormat) {
   EXPECT_EQ(limits["kinemetric-dbb/1"].max_line_bytes, 200u);
   EXPECT_EQ(limits["kinemetric-dbb/1"].max_columns, 7u);  // not given: kept
   EXPECT_EQ(c.max_calibration_tests, 20u);
+  // Every file format is named as the table names it, a versionless one too.
+  const auto csv =
+      ParseServerArgs({"--config", File(R"({"upload_limits": {"dbb-csv": {"max_rows": 50}}})")});
+  ApplyUploadLimits(csv, limits);
+  EXPECT_EQ(limits["dbb-csv"].max_rows, 50u);
   for (const char* bad : {R"({"upload_limits": 5})", R"({"upload_limits": {"dbb": {}}})",
+                          R"({"upload_limits": {"kinemetric-dbb/9": {"max_rows": 5}}})",
+                          R"({"upload_limits": {"dbb-csv": 5}})",
                           R"({"upload_limits": {"kinemetric-dbb/1": {"max_rowz": 5}}})",
                           R"({"upload_limits": {"kinemetric-dbb/1": {"max_rows": 0}}})",
                           R"({"upload_limits": {"kinemetric-dbb/1": {"max_rows": -5}}})"}) {
