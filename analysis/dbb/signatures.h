@@ -45,6 +45,7 @@ struct StackedTraces {
   std::vector<effects::EffectContext> ctx;
   std::vector<Eigen::Matrix3d> setup_inv;  // (S_tᵀ S_t)⁻¹
   Eigen::VectorXd cos_a, sin_a, theta;     // cos θ, sin θ, θ of the samples (contiguous)
+  Eigen::VectorXd ones;                    // 1 per sample (sums as inner products)
   Eigen::VectorXd y;
   int n = 0;
   int traces = 0;
