@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -175,7 +176,8 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
           bool free_exponent, int iterations = 60) {
   const int free = free_exponent ? kParams : kExponent;
   const std::size_t n = y.size();
-  std::vector<double> model, shifted, damping;
+  // model and damping: at fit.q throughout (a trial's kept when it is accepted).
+  std::vector<double> model, shifted, damping, trial_damping;
   const auto residual = [&](const Vec& q, std::vector<double>& m,
                             std::vector<double>* d = nullptr) {
     BristleForce(s, ws, FromVec(q, sliding), reading, m, d);
@@ -186,11 +188,10 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   Fit fit;
   fit.q = q0;
   fit.free_exponent = free_exponent;
-  fit.rss = residual(fit.q, model);
+  fit.rss = residual(fit.q, model, &damping);
   double lambda = 1e-2;
   Eigen::MatrixXd jac(static_cast<Eigen::Index>(n), kParams);
   for (int it = 0; it < iterations; ++it) {
-    residual(fit.q, model, &damping);
     jac.setZero();
     for (int k = 0; k < free; ++k) {
       if (k == 3) {  // the force is linear in σ1
@@ -220,9 +221,11 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
       step[kExponent] = free_exponent ? std::clamp(step[kExponent], -0.5, 0.5) : 0.0;
       Vec qn = fit.q + step;
       qn[kExponent] = std::clamp(qn[kExponent], std::log(kMinExponent), std::log(kMaxExponent));
-      const double rn = residual(qn, shifted);
+      const double rn = residual(qn, shifted, &trial_damping);
       if (std::isfinite(rn) && rn < fit.rss) {
         improved = true;
+        std::swap(model, shifted);
+        std::swap(damping, trial_damping);
         small = fit.rss - rn < 1e-10 * fit.rss;
         fit.q = qn;
         fit.rss = rn;
@@ -233,7 +236,6 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
     }
     if (!improved || small) break;
   }
-  residual(fit.q, model);
   fit.e.resize(n);
   for (std::size_t i = 0; i < n; ++i) fit.e[i] = std::sqrt(w[i]) * (y[i] - model[i]);
   return fit;
