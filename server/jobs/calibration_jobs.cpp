@@ -9,7 +9,6 @@
 #include <memory>
 
 #include "analysis/core/errors.h"
-#include "ingest/dbb_parser.h"
 #include "ingest/json_text.h"
 #include "ingest/machine_json.h"
 #include "server/base/errors.h"

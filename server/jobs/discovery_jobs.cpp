@@ -7,7 +7,6 @@
 #include <optional>
 
 #include "analysis/core/errors.h"
-#include "ingest/dbb_parser.h"
 #include "ingest/machine_json.h"
 #include "server/base/errors.h"
 #include "server/jobs/study_service.h"
