@@ -14,13 +14,6 @@ namespace {
 using server::Role;
 namespace ep = endpoints;
 
-struct RouteLine {
-  const char* method;
-  const char* path;
-  Role role;
-  EndpointFn endpoint;
-};
-
 // clang-format off
 constexpr RouteLine kRouteTable[] = {
   // method   path                                                role             endpoint
@@ -125,21 +118,23 @@ Endpoint OpenApi(const RouteContext& c) {
 
 }  // namespace endpoints
 
+void AddRoute(Router& router, const RouteContext& context, const RouteLine& line) {
+  Endpoint e = line.endpoint(context);
+  Route r{line.method,
+          line.path,
+          std::move(e.summary),
+          line.role != Role::kPublic,
+          std::move(e.handler),
+          std::move(e.openapi),
+          std::move(e.open_body),
+          e.max_body_bytes,
+          line.role};
+  router.Add(std::move(r));
+}
+
 void AddRoutes(Router& router, server::Service& service) {
   const RouteContext context{service, router};
-  for (const auto& line : kRouteTable) {
-    Endpoint e = line.endpoint(context);
-    Route r{line.method,
-            line.path,
-            std::move(e.summary),
-            line.role != Role::kPublic,
-            std::move(e.handler),
-            std::move(e.openapi),
-            std::move(e.open_body),
-            e.max_body_bytes,
-            line.role};
-    router.Add(std::move(r));
-  }
+  for (const auto& line : kRouteTable) AddRoute(router, context, line);
 }
 
 std::string EnsureAdminToken(server::AccessStore& storage, const std::string& bootstrap) {

@@ -3,16 +3,30 @@
 // GET /api/v1/openapi.json lists them all.
 #pragma once
 
+#include "api/endpoints.h"
 #include "api/http.h"
+#include "server/access/roles.h"
 #include "server/service.h"
 
 namespace km::api {
 
 inline constexpr const char* kApiVersion = "0.1.0";
 
+// One line of the route table: method, path pattern, the least role a token needs
+// (server::Role::kPublic: no token) and the endpoint (api/endpoints.h).
+struct RouteLine {
+  const char* method;
+  const char* path;
+  server::Role role;
+  EndpointFn endpoint;
+};
+
 // Adds every route of the table (api/routes.cpp) to the router, each endpoint bound to the
 // service.
 void AddRoutes(Router& router, server::Service& service);
+// Adds the route of one line, its endpoint bound to `context`: what AddRoutes does for every line
+// of the table (docs/architecture.md "Recipe: a new HTTP route").
+void AddRoute(Router& router, const RouteContext& context, const RouteLine& line);
 
 // Access control (api/access.cpp): every route that needs a token checks `Authorization: Bearer
 // TOKEN` against the stored token hashes (through the service; the Storage overload serves tests
