@@ -49,6 +49,39 @@ __attribute__((target("avx2"))) void DotsAvx2(const double* x, const double* con
   for (int j = 0; j < K; ++j) out[j] = Finish(acc[j], x, ys[j], n);
 }
 
+// coef[j]·cols[j] at the samples i … i + 3.
+__attribute__((target("avx2"))) inline __m256d Term(const double* const* cols, const double* coef,
+                                                    int j, Eigen::Index i) {
+  return _mm256_mul_pd(_mm256_set1_pd(coef[j]), _mm256_loadu_pd(cols[j] + i));
+}
+
+__attribute__((target("avx2"))) void CombineAvx2(const double* const* cols, const double* coef,
+                                                 int count, Eigen::Index n, double* out) {
+  Eigen::Index i = 0;
+  for (; i + 4 <= n; i += 4) {
+    __m256d v = Term(cols, coef, 0, i);
+    int m = 1;
+    for (; m + 3 < count; m += 4) {
+      __m256d s = _mm256_add_pd(Term(cols, coef, m, i), Term(cols, coef, m + 1, i));
+      s = _mm256_add_pd(_mm256_add_pd(s, Term(cols, coef, m + 2, i)), Term(cols, coef, m + 3, i));
+      v = _mm256_add_pd(v, s);
+    }
+    for (; m < count; ++m) v = _mm256_add_pd(v, Term(cols, coef, m, i));
+    _mm256_storeu_pd(out + i, v);
+  }
+  for (; i < n; ++i) {
+    double v = coef[0] * cols[0][i];
+    int m = 1;
+    for (; m + 3 < count; m += 4) {
+      v = v +
+          (((coef[m] * cols[m][i] + coef[m + 1] * cols[m + 1][i]) + coef[m + 2] * cols[m + 2][i]) +
+           coef[m + 3] * cols[m + 3][i]);
+    }
+    for (; m < count; ++m) v = v + coef[m] * cols[m][i];
+    out[i] = v;
+  }
+}
+
 bool HasAvx2() {
   static const bool has = __builtin_cpu_supports("avx2");
   return has;
@@ -80,6 +113,22 @@ void ColumnDots(const double* x, const double* const* ys, int count, Eigen::Inde
   }
 #endif
   DotsEigen(x, ys, count, n, out);
+}
+
+void CombineColumns(const double* const* cols, const double* coef, int count, Eigen::Index n,
+                    double* out) {
+#if KM_COLUMN_DOTS_AVX2
+  if (HasAvx2()) return CombineAvx2(cols, coef, count, n, out);
+#endif
+  using Map = Eigen::Map<const Eigen::VectorXd>;
+  Eigen::Map<Eigen::VectorXd> v(out, n);
+  v = coef[0] * Map(cols[0], n);
+  int m = 1;
+  for (; m + 3 < count; m += 4) {
+    v += coef[m] * Map(cols[m], n) + coef[m + 1] * Map(cols[m + 1], n) +
+         coef[m + 2] * Map(cols[m + 2], n) + coef[m + 3] * Map(cols[m + 3], n);
+  }
+  for (; m < count; ++m) v += coef[m] * Map(cols[m], n);
 }
 
 }  // namespace km::dbb::diag

@@ -16,4 +16,10 @@ inline constexpr int kMaxColumnDots = 4;
 
 void ColumnDots(const double* x, const double* const* ys, int count, Eigen::Index n, double* out);
 
+// The combination out = Σ_j coef[j]·cols[j] (count ≥ 1) in one pass over the samples, bit for
+// bit what FitResult::Combine's Eigen expressions give: coef[0]·cols[0], then four columns a
+// step, ((c₁ + c₂) + c₃) + c₄ added to the sum, then the columns left one by one.
+void CombineColumns(const double* const* cols, const double* coef, int count, Eigen::Index n,
+                    double* out);
+
 }  // namespace km::dbb::diag

@@ -71,15 +71,12 @@ std::vector<Candidate> MakeCandidates(const Problem& p, const std::vector<Candid
 
 VectorXd FitResult::Combine(int off, int count, Eigen::Index n) const {
   if (count <= 0) return VectorXd::Zero(n);
-  auto col = [&](int m) -> const VectorXd& { return *a[static_cast<std::size_t>(m)]; };
-  const int end = off + count;
-  int m = off;
-  // Four columns a pass: one sweep over the samples instead of four.
-  VectorXd v = x[m] * col(m);
-  for (++m; m + 3 < end; m += 4) {
-    v += x[m] * col(m) + x[m + 1] * col(m + 1) + x[m + 2] * col(m + 2) + x[m + 3] * col(m + 3);
-  }
-  for (; m < end; ++m) v += x[m] * col(m);
+  // One sweep over the samples for all the columns (column_dots.h).
+  std::vector<const double*> cols(static_cast<std::size_t>(count));
+  for (int m = 0; m < count; ++m)
+    cols[static_cast<std::size_t>(m)] = a[static_cast<std::size_t>(off + m)]->data();
+  VectorXd v(n);
+  CombineColumns(cols.data(), x.data() + off, count, n, v.data());
   return v;
 }
 

@@ -1,5 +1,6 @@
 // Several dot products at once (analysis/dbb/column_dots.h) are bit for bit Eigen's x.dot(y),
-// for every length (the four-lane sums, a pair left over, an odd last element) and every count.
+// for every length (the four-lane sums, a pair left over, an odd last element) and every count;
+// the combinations of columns are bit for bit the Eigen expressions they replace.
 #include <cstring>
 #include <random>
 #include <vector>
@@ -32,6 +33,44 @@ TEST(ColumnDots, EqualEigensDotBitForBit) {
         EXPECT_EQ(std::memcmp(&want, &out[static_cast<std::size_t>(j)], sizeof(double)), 0)
             << "n " << n << " count " << count << " j " << j << ": " << want << " vs "
             << out[static_cast<std::size_t>(j)];
+      }
+    }
+  }
+}
+
+// The Eigen expressions CombineColumns replaces (diagnosis_fit.cpp FitResult::Combine).
+Eigen::VectorXd CombineAsEigen(const std::vector<Eigen::VectorXd>& cols, const double* coef,
+                               int count) {
+  Eigen::VectorXd v = coef[0] * cols[0];
+  int m = 1;
+  for (; m + 3 < count; m += 4) {
+    const auto j = static_cast<std::size_t>(m);
+    v += coef[m] * cols[j] + coef[m + 1] * cols[j + 1] + coef[m + 2] * cols[j + 2] +
+         coef[m + 3] * cols[j + 3];
+  }
+  for (; m < count; ++m) v += coef[m] * cols[static_cast<std::size_t>(m)];
+  return v;
+}
+
+TEST(ColumnDots, CombinationEqualsEigensBitForBit) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (const Eigen::Index n : {1, 2, 3, 5, 8, 13, 64, 101}) {
+    for (int count = 1; count <= 11; ++count) {
+      std::vector<Eigen::VectorXd> cols(static_cast<std::size_t>(count), Eigen::VectorXd(n));
+      std::vector<const double*> ptr;
+      std::vector<double> coef;
+      for (auto& c : cols) {
+        for (Eigen::Index i = 0; i < n; ++i) c[i] = g(rng);
+        ptr.push_back(c.data());
+        coef.push_back(g(rng) * 10.0);
+      }
+      const Eigen::VectorXd want = CombineAsEigen(cols, coef.data(), count);
+      Eigen::VectorXd got(n);
+      CombineColumns(ptr.data(), coef.data(), count, n, got.data());
+      for (Eigen::Index i = 0; i < n; ++i) {
+        EXPECT_EQ(std::memcmp(&want[i], &got[i], sizeof(double)), 0)
+            << "n " << n << " count " << count << " i " << i;
       }
     }
   }
