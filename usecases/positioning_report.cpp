@@ -94,12 +94,10 @@ positioning::PositioningInputUncertainties InputUncertainties(
 positioning::PositioningUncertainty PropagateFile(const ingest::PositioningFile& file,
                                                   const std::vector<UncertaintyInput>& inputs) {
   const auto raw = positioning::EvaluatePositioning(file.readings, file.file);
-  try {
+  return InFile(file.file, [&] {
     return positioning::PropagatePositioningUncertainty(raw.targets, file.corrections,
                                                         InputUncertainties(inputs));
-  } catch (const InvalidInput& e) {
-    throw InvalidInput(file.file, 0, e.field(), e.reason());
-  }
+  });
 }
 
 json UncertaintyOf(const PositioningReport& report) {

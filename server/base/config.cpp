@@ -256,11 +256,7 @@ std::string NonEmpty(const std::string& v, const std::string& where, const std::
 // check(value, field) for a value of the configuration file `path`; its error names the file.
 void CheckInFile(const std::string& path, void (*check)(const std::string&, const std::string&),
                  const std::string& value, const std::string& field) {
-  try {
-    check(value, field);
-  } catch (const InvalidInput& e) {
-    throw InvalidInput(path, 0, e.field(), e.reason());
-  }
+  InFile(path, [&] { check(value, field); });
 }
 
 // The secret from the environment when the config has none, and the URL's host checked

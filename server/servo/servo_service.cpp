@@ -171,11 +171,7 @@ nlohmann::json ServoService::Joints(const nlohmann::json& request) {
   if (request.contains("previous")) {
     o.previous_Nm = usecases::PreviousResistances(request["previous"].dump(), "request previous");
   }
-  try {
-    o.Check();
-  } catch (const InvalidInput& e) {
-    throw InvalidInput(req::kFile, 0, e.field(), e.reason());
-  }
+  InFile(req::kFile, [&] { o.Check(); });
   const auto r = servo::EstimateJointResistance(
       in.machine.geometry, in.machine.physics.value_or(hexapod::MachinePhysics{}), in.files, o);
   nlohmann::json j = usecases::ServoJointsJson(in.machine.machine_id, r, o);
