@@ -11,7 +11,7 @@
 
 #include "analysis/core/errors.h"
 #include "cli/command.h"
-#include "ingest/dbb_parser.h"
+#include "ingest/file_formats.h"
 #include "ingest/machine_json.h"
 #include "ingest/servo_parser.h"
 #include "usecases/servo_report.h"
@@ -170,7 +170,7 @@ int RunFeedDrive(const Args& args, std::ostream& out) {
     std::stringstream ss(*dbb);
     for (std::string path; std::getline(ss, path, ',');) {
       if (path.empty()) continue;
-      tests.push_back(ingest::ParseDbb(ReadFileBytes(path), path));
+      tests.push_back(ingest::ReadDbb(ReadFileBytes(path), path));
       names.push_back(path);
     }
     j["dbb_comparison"] =

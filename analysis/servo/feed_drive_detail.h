@@ -9,7 +9,8 @@
 
 #include <Eigen/Core>
 
-#include "analysis/servo/feed_drive.h"
+#include "analysis/servo/feed_drive_types.h"
+#include "analysis/servo/servo_types.h"
 
 namespace km::servo::detail {
 

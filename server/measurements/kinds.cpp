@@ -18,7 +18,7 @@
 #include "ingest/tracker_parser.h"
 #include "render/dbb_plot.h"
 #include "server/base/finite_result.h"
-#include "server/measurements/measurement_service.h"
+#include "server/measurements/kinds.h"
 #include "server/measurements/positioning_kinds.h"
 #include "server/measurements/rotary_kinds.h"
 #include "server/measurements/servo_kinds.h"
@@ -262,10 +262,6 @@ std::vector<FormatRegistration> BuiltinFormats() {
       {std::string(ingest::kPositioningFormat), Limits(1'000'000, 16), IngestPositioning},
       {std::string(ingest::kRotaryFormat), Limits(100'000, 16), IngestRotary},
   };
-}
-
-void RegisterBuiltinKinds(MeasurementService& measurements) {
-  for (auto& f : BuiltinFormats()) measurements.RegisterKind(f.format, std::move(f.handler));
 }
 
 }  // namespace km::server

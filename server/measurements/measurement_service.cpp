@@ -17,6 +17,7 @@
 #include "server/base/sha256.h"
 #include "server/base/time_util.h"
 #include "server/measurements/analyses.h"
+#include "server/measurements/kinds.h"
 #include "usecases/dbb_json.h"
 #include "usecases/dbb_report.h"
 #include "usecases/form_report.h"
@@ -397,6 +398,10 @@ std::string MeasurementService::PositioningCompensation(std::int64_t id,
   } catch (const InvalidInput& e) {
     throw InvalidInput("", 0, "format", e.reason());
   }
+}
+
+void RegisterBuiltinKinds(MeasurementService& measurements) {
+  for (auto& f : BuiltinFormats()) measurements.RegisterKind(f.format, std::move(f.handler));
 }
 
 }  // namespace km::server

@@ -16,7 +16,7 @@
 #include "ingest/text_format.h"
 #include "render/polar_plot.h"
 #include "server/measurements/conformance_hook.h"
-#include "server/measurements/formats.h"
+#include "server/measurements/ingested.h"
 #include "server/measurements/instrument_hook.h"
 #include "server/storage/storage.h"
 

@@ -7,11 +7,11 @@
 #include <string>
 #include <string_view>
 
-#include "server/measurements/formats.h"
+#include "server/measurements/ingested.h"
 
 namespace km::server {
 
-// The handler of the format (server/measurements/formats.h BuiltinFormats).
+// The handler of the format (server/measurements/kinds.h BuiltinFormats).
 Ingested IngestPositioning(std::string_view bytes, const std::string& file,
                            const InstrumentHook& instruments);
 

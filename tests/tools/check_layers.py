@@ -4,8 +4,12 @@
   * C++: a folder includes only its own layer and those below it,
         analysis < ingest, render < usecases < server < api, cli (cli beside api, without
         server);
-    and no circle between modules (a module = x.h, x.cpp and its parts x_<part>.h/.cpp in the
-    same folder), so no include runs back up inside a layer either.
+    and no circle between modules (a module = x.h, x.cpp and the parts x_<part>.cpp without a
+    header of their own in the same folder), so no include runs back up inside a layer either;
+    a part with its own header (x_<part>.h) is a module of its own, so a part never includes
+    its whole (x_<part>.h including x.h while x.cpp includes x_<part>.h is a circle: the
+    types both need go to a header of their own). The floor of a layer (analysis/core,
+    server/base) includes nothing else of its layer: every room of the layer stands on it.
   * The web page (web/static/*.js): no circle of imports, static or dynamic (import('./x.js')).
   * No source folder (tests included) holds more than 40 source files, and no tracked source
     file (C++, JavaScript, Python, shell) is longer than 600 lines.
@@ -17,6 +21,7 @@ import sys
 from collections import defaultdict
 
 LAYERS = {"analysis": 0, "ingest": 1, "render": 1, "usecases": 2, "server": 3, "api": 4, "cli": 4}
+FLOORS = {"analysis/core", "server/base"}
 FORBIDDEN = {("cli", "server"), ("cli", "api"), ("api", "cli"), ("ingest", "render"),
              ("render", "ingest")}
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
@@ -35,26 +40,20 @@ def sources(repo, exts):
                     yield os.path.relpath(os.path.join(root, f), repo)
 
 
-def modules(files, includes):
+def modules(files):
     """Module of each file: its path without extension, or the module it is a part of — the
     longest name m in the same folder with path = m_<part> when the part has no header of its
-    own (feed_drive_lugre.cpp) or when m and the part include each other (diagnosis_fit.h
-    includes diagnosis.h and diagnosis.cpp includes diagnosis_fit.h: one module in two
-    files)."""
+    own (feed_drive_lugre.cpp). A part with a header is its own module: were a part and its
+    whole one module when they include each other, the circle would be hidden."""
     names = {os.path.splitext(f)[0] for f in files}
     headers = {os.path.splitext(f)[0] for f in files if f.endswith(".h")}
-    uses = defaultdict(set)  # name → names its files include
-    for f in files:
-        for inc in includes[f]:
-            uses[os.path.splitext(f)[0]].add(os.path.splitext(inc)[0])
     out = {}
     for f in files:
         mod = name = os.path.splitext(f)[0]
         base = name
         while "_" in os.path.basename(base):
             base = base.rsplit("_", 1)[0]
-            if base in names and (name not in headers or
-                                  (base in uses[name] and name in uses[base])):
+            if base in names and name not in headers:
                 mod = base
                 break
         out[f] = mod
@@ -107,7 +106,7 @@ def check_cpp(repo, problems):
     for f in files:
         with open(os.path.join(repo, f), encoding="utf-8") as fh:
             includes[f] = [i for i in INCLUDE.findall(fh.read()) if i.split("/")[0] in LAYERS]
-    module = modules(files, includes)
+    module = modules(files)
     by_name = {os.path.splitext(f)[0]: m for f, m in module.items()}
     graph = defaultdict(set)
     for f in files:
@@ -117,6 +116,10 @@ def check_cpp(repo, problems):
             itop = inc.split("/")[0]
             if LAYERS[itop] > LAYERS[top] or (top, itop) in FORBIDDEN:
                 problems.append("%s includes %s: %s may not include %s" % (f, inc, top, itop))
+            floor = os.path.dirname(f)
+            if floor in FLOORS and itop == top and os.path.dirname(inc) != floor:
+                problems.append("%s includes %s: the floor %s includes nothing above it" %
+                                (f, inc, floor))
             target = by_name.get(os.path.splitext(inc)[0], os.path.splitext(inc)[0])
             if target != module[f]:
                 graph[module[f]].add(target)

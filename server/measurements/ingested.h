@@ -1,7 +1,5 @@
-// The measurement formats the service takes (docs/formats.md §1): one registration record a
-// format — its name (ingest's constant), what an upload of it may hold by default, and the
-// handler that parses, analyses and turns a file into what is stored. A new format is one line
-// of BuiltinFormats (server/measurements/kinds.cpp).
+// What the handler of a kind of measurement makes of one file before it is stored (the upload,
+// server/measurements/kinds.h): the record, its samples and the results computed at upload.
 #pragma once
 
 #include <functional>
@@ -12,7 +10,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ingest/text_format.h"
 #include "server/measurements/instrument_hook.h"
 #include "server/storage/storage.h"
 
@@ -33,16 +30,5 @@ struct Ingested {
 // before the analysis (server/measurements/instrument_hook.h); `metadata` keeps the file's own.
 using KindHandler = std::function<Ingested(std::string_view bytes, const std::string& file,
                                            const InstrumentHook& instruments)>;
-
-// One format as the service knows it.
-struct FormatRegistration {
-  std::string format;         // e.g. "kinemetric-dbb/1"
-  ingest::TextLimits limits;  // default upload limits (ServiceOptions::upload_limits)
-  KindHandler handler;
-};
-
-// Every built-in format, one record each (tracker, DBB, straightness, flatness, parallelism,
-// servo loads).
-std::vector<FormatRegistration> BuiltinFormats();
 
 }  // namespace km::server
