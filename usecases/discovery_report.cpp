@@ -9,8 +9,8 @@
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/discovery/hexapod_family.h"
 #include "analysis/discovery/serial_family.h"
-#include "analysis/effects/registry.h"
 #include "analysis/hexapod/dbb_geometry.h"
+#include "analysis/serial_effects/registry.h"
 #include "ingest/iso8601.h"
 #include "usecases/discovery_json.h"
 #include "usecases/effect_calibration.h"
@@ -131,15 +131,15 @@ json SerialDiscoveryJson(const discovery::SerialFamily& family, const discovery:
                      {"gap_rms_after_um", s.gap_rms_after_um}});
   }
   const auto& fin = history.back();
-  const std::string um = effects::Info(effects::EffectId::kCentreOffset).unit;
+  const std::string um = serial_effects::Info(serial_effects::EffectId::kCentreOffset).unit;
   json model = json::array();
-  model.push_back({{"effect", family.Name(effects::EffectId::kCentreOffset)},
+  model.push_back({{"effect", family.Name(serial_effects::EffectId::kCentreOffset)},
                    {"value", {fin.centre_um[0], fin.centre_um[1]}},
                    {"unit", um},
                    {"sigma", {fin.centre_sigma_um[0], fin.centre_sigma_um[1]}}});
-  model.push_back({{"effect", family.Name(effects::EffectId::kRadiusError)},
+  model.push_back({{"effect", family.Name(serial_effects::EffectId::kRadiusError)},
                    {"value", fin.radius_um},
-                   {"unit", effects::Info(effects::EffectId::kRadiusError).unit},
+                   {"unit", serial_effects::Info(serial_effects::EffectId::kRadiusError).unit},
                    {"sigma", fin.radius_sigma_um}});
   for (const auto& e : fin.effects) {
     json x = {{"effect", e.name},

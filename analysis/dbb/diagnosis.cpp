@@ -26,8 +26,8 @@ namespace km::dbb {
 namespace {
 
 using namespace diag;  // NOLINT(google-build-using-namespace): the diagnosis' own internals
-using effects::EffectId;
 using Eigen::VectorXd;
+using serial_effects::EffectId;
 
 // Sample steps a spike must cover above e⁻² of its height to be named (DiagnosisRun::Screen).
 constexpr double kSpikeMinSamples = 3.0;
@@ -60,7 +60,7 @@ double MedianStepDeg(const std::vector<DiagnosisTrace>& traces) {
 // kept). Effects with a shape (spikes, stick-slip, cyclic errors) join after their search.
 std::vector<EffectId> FixedShapeEffects() {
   std::vector<EffectId> ids;
-  for (const auto& info : effects::AllEffects()) {
+  for (const auto& info : serial_effects::AllEffects()) {
     if (info.in_form && info.linear_fit && info.num_params == info.num_linear) {
       ids.push_back(info.id);
     }
@@ -133,7 +133,7 @@ DiagnosisResult DiagnosisRun::Run() {
 void DiagnosisRun::AddSpikes(const FitResult& f1) {
   if (order_.empty()) {
     for (EffectId id : {EffectId::kReversalSpikeU, EffectId::kReversalSpikeV}) {
-      not_assessed_.push_back(effects::EffectName(id, first_, second_) +
+      not_assessed_.push_back(serial_effects::EffectName(id, first_, second_) +
                               " (samples too far apart to resolve a spike)");
     }
     return;
@@ -330,8 +330,8 @@ DiagnosisEntry DiagnosisRun::SetupEntry(EffectId id, std::vector<double> value,
                                         std::vector<double> sigma) const {
   DiagnosisEntry e;
   e.id = id;
-  e.effect = effects::EffectName(id, first_, second_);
-  e.unit = effects::Info(id).unit;
+  e.effect = serial_effects::EffectName(id, first_, second_);
+  e.unit = serial_effects::Info(id).unit;
   e.value = std::move(value);
   e.params = e.value;
   e.uncertainty = std::move(sigma);
@@ -361,11 +361,11 @@ void DiagnosisRun::AddSetupEntries(const FitResult& f4, DiagnosisResult& res) co
 void DiagnosisRun::RankNamed(const VectorXd& final_res, DiagnosisResult& res) const {
   std::vector<DiagnosisEntry*> ptrs;
   for (auto& e : res.named)
-    if (effects::Info(e.id).in_form) ptrs.push_back(&e);
+    if (serial_effects::Info(e.id).in_form) ptrs.push_back(&e);
   Normalise(p_, ptrs, final_res);
   res.named.erase(std::remove_if(res.named.begin(), res.named.end(),
                                  [&](const DiagnosisEntry& e) {
-                                   return effects::Info(e.id).in_form &&
+                                   return serial_effects::Info(e.id).in_form &&
                                           e.MaxContribution() < opt_.min_contribution_pct;
                                  }),
                   res.named.end());

@@ -7,7 +7,7 @@
 //   y_t(θ) = c_u,t cos θ + c_v,t sin θ + ρ_t                           (set-up: centre, radius)
 //          + Σ_k Σ_j x_kj · s_kj(θ; s_t, V_t, R_t, shape_k)  + noise
 //
-// s_kj = radial signature of the registry effect k (analysis/effects, e(θ) projected on the
+// s_kj = radial signature of the registry effect k (analysis/serial_effects, e(θ) projected on the
 // radial direction) for the trace's direction s_t, feed V_t and radius R_t. Shape parameters
 // that are not linear are FITTED:
 //  * reversal spikes: the width w (decay constant of an exponential decay exp(−φ/w), standard

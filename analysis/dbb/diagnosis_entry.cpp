@@ -11,8 +11,8 @@
 
 namespace km::dbb::diag {
 
-using effects::EffectId;
 using Eigen::VectorXd;
+using serial_effects::EffectId;
 
 // |value| / σ, finite also for noise-free data (σ = 0).
 double ZScore(double value, double sigma) {
@@ -54,10 +54,10 @@ void AddSpikeFigures(const Problem& p, const Candidate& c, DiagnosisEntry& en) {
 // Entry of a fitted candidate: value, uncertainty, contributions.
 DiagnosisEntry MakeEntry(const Problem& p, const Candidate& c, const FitResult& f, std::size_t j,
                          char first, char second) {
-  const auto& info = effects::Info(c.id);
+  const auto& info = serial_effects::Info(c.id);
   DiagnosisEntry en;
   en.id = c.id;
-  en.effect = effects::EffectName(c.id, first, second);
+  en.effect = serial_effects::EffectName(c.id, first, second);
   en.unit = info.unit;
   const int nl = info.num_linear;
   const int off = f.first_col[j];

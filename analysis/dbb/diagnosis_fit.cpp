@@ -13,9 +13,9 @@
 
 namespace km::dbb::diag {
 
-using effects::EffectId;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
+using serial_effects::EffectId;
 
 bool IsSpike(EffectId id) {
   return id == EffectId::kReversalSpikeU || id == EffectId::kReversalSpikeV;
@@ -218,8 +218,8 @@ std::string Refusal(const FitContext& ctx, const std::vector<const Candidate*>& 
       if (culprit < 0) return " ";
       std::size_t owner = 0;
       while (owner + 1 < cands.size() && gr.cand_first[owner + 1] <= culprit) ++owner;
-      return " (confounded with " + effects::EffectName(cands[owner]->id, ctx.first, ctx.second) +
-             ")";
+      return " (confounded with " +
+             serial_effects::EffectName(cands[owner]->id, ctx.first, ctx.second) + ")";
     }
     trial.push_back(j);
   }
@@ -235,7 +235,7 @@ std::vector<int> SelectColumns(const FitContext& ctx, const std::vector<const Ca
   // Keep at least max(5, N/10) degrees of freedom for the noise estimate.
   const int max_cols = p.n - 3 * p.traces - std::max(5, p.n / 10);
   for (std::size_t k = 0; k < cands.size(); ++k) {
-    std::string name = effects::EffectName(cands[k]->id, ctx.first, ctx.second);
+    std::string name = serial_effects::EffectName(cands[k]->id, ctx.first, ctx.second);
     if (static_cast<int>(kcols.size() + cands[k]->cols.size()) > max_cols) {
       f.dropped.push_back(name + " (too few samples)");
       continue;

@@ -17,9 +17,9 @@
 
 namespace km::dbb::diag {
 
-bool IsSpike(effects::EffectId id);
+bool IsSpike(serial_effects::EffectId id);
 // Effects whose (first) shape parameter the diagnosis fits: spike width, stick-slip period.
-bool HasFittedShape(effects::EffectId id);
+bool HasFittedShape(serial_effects::EffectId id);
 
 // Stacked traces (signatures.h) plus the ids handed out to candidate columns (Gram cache keys).
 struct Problem : StackedTraces {
@@ -27,7 +27,7 @@ struct Problem : StackedTraces {
 };
 
 struct Candidate {
-  effects::EffectId id;
+  serial_effects::EffectId id;
   std::vector<double> shape;
   std::vector<Eigen::VectorXd> cols;  // orthogonalised signatures of the linear parameters
   std::vector<int> ids;               // column ids (copies of a candidate share them)
@@ -42,11 +42,11 @@ struct Candidate {
   std::array<double, 2> spike_widths{0.0, 0.0};
 };
 
-Candidate MakeCandidate(const Problem& p, effects::EffectId id, std::vector<double> shape);
+Candidate MakeCandidate(const Problem& p, serial_effects::EffectId id, std::vector<double> shape);
 // Several candidates at once, their signatures computed on up to `threads` threads; the column
 // ids are given in list order, as MakeCandidate one after another would give them.
 struct CandidateSpec {
-  effects::EffectId id;
+  serial_effects::EffectId id;
   std::vector<double> shape;
 };
 std::vector<Candidate> MakeCandidates(const Problem& p, const std::vector<CandidateSpec>& specs,

@@ -19,9 +19,9 @@ VectorXd ShapeDerivative(const Problem& p, const Candidate& c) {
   params[1].v[0] = 1.0;
   for (int i = 0; i < p.n; ++i) {
     const auto& s = p.samples[static_cast<std::size_t>(i)];
-    const effects::Angle<J> a{J(s.a.theta), J(s.a.c), J(s.a.s)};
+    const serial_effects::Angle<J> a{J(s.a.theta), J(s.a.c), J(s.a.s)};
     J e[2];
-    effects::PositionErrorT<J>(c.id, p.ctx[static_cast<std::size_t>(s.trace)], a, params, e);
+    serial_effects::PositionErrorT<J>(c.id, p.ctx[static_cast<std::size_t>(s.trace)], a, params, e);
     d[i] = e[0].v[0] * s.a.c + e[1].v[0] * s.a.s;
   }
   p.RemoveSetup(d);

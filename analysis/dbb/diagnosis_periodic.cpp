@@ -38,7 +38,7 @@ bool DiagnosisRun::StickSlipAssessed() {
   const double lo = std::max(opt_.stick_slip_min_period_deg, 3.0 * median_step_);
   const double hi = opt_.stick_slip_max_period_deg;
   if (!(hi > lo && median_step_ <= opt_.stick_slip_max_step_deg)) {
-    not_assessed_.push_back(effects::EffectName(EffectId::kStickSlip, first_, second_) +
+    not_assessed_.push_back(serial_effects::EffectName(EffectId::kStickSlip, first_, second_) +
                             " (samples too far apart to resolve its teeth)");
     return false;
   }

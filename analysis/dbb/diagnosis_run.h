@@ -16,8 +16,8 @@
 
 namespace km::dbb::diag {
 
-using effects::EffectId;
 using Eigen::VectorXd;
+using serial_effects::EffectId;
 
 // Smallest radius (mm) and largest angular step (rad) of the traces.
 struct Spacing {

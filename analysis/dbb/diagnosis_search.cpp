@@ -14,8 +14,8 @@
 
 namespace km::dbb::diag {
 
-using effects::EffectId;
 using Eigen::VectorXd;
+using serial_effects::EffectId;
 
 namespace {}  // namespace
 
@@ -29,7 +29,7 @@ namespace {
 // reversal (reversal_spike.h).
 template <int Axis>
 std::vector<ReversalOrder::Entry> SpikeFactors(const Problem& p, double max_phi) {
-  using Spike = effects::ReversalSpike<Axis>;
+  using Spike = serial_effects::ReversalSpike<Axis>;
   std::vector<ReversalOrder::Entry> e;
   e.reserve(static_cast<std::size_t>(p.n));
   for (int i = 0; i < p.n; ++i) {
@@ -141,7 +141,7 @@ double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w,
   } else {
     v.resize(len);
     for (Eigen::Index k = 0; k < len; ++k)
-      v[k] = f.factor[k] * effects::ReversalSpike<0>::Decay(f.phi[k], w, exponent);
+      v[k] = f.factor[k] * serial_effects::ReversalSpike<0>::Decay(f.phi[k], w, exponent);
   }
   const VectorXd h = f.a.topRows(len).transpose() * v;  // Aᵀs, S_tᵀs, rᵀs
   const double raw = v.squaredNorm();
@@ -278,13 +278,13 @@ StickZones MakeStickZones(const Problem& p) {
     const auto& s = p.samples[static_cast<std::size_t>(i)];
     const int dir = p.ctx[static_cast<std::size_t>(s.trace)].direction;
     for (int ax = 0; ax < 2; ++ax) {
-      const double va = effects::internal::AxisUnitVelocity(ax, dir, s.a);
-      if (std::abs(va) >= effects::StickSlip::kZone) continue;
+      const double va = serial_effects::internal::AxisUnitVelocity(ax, dir, s.a);
+      if (std::abs(va) >= serial_effects::StickSlip::kZone) continue;
       z.idx.push_back(i);
-      z.phi_deg.push_back(effects::internal::AngleSinceReversal(
-                              s.a.theta, effects::internal::AxisReversalAngle(ax), dir) /
+      z.phi_deg.push_back(serial_effects::internal::AngleSinceReversal(
+                              s.a.theta, serial_effects::internal::AxisReversalAngle(ax), dir) /
                           kDeg);
-      z.weight.push_back(-effects::internal::SignOf(va) * (ax == 0 ? s.a.c : s.a.s));
+      z.weight.push_back(-serial_effects::internal::SignOf(va) * (ax == 0 ? s.a.c : s.a.s));
     }
   }
   return z;
@@ -301,7 +301,7 @@ void StickColumn(const Problem& p, const StickZones& z, double period_deg, Spars
     if (i == last) continue;
     last = i;
     const auto& s = p.samples[static_cast<std::size_t>(i)];
-    const double v = effects::RadialSignature(
+    const double v = serial_effects::RadialSignature(
         EffectId::kStickSlip, p.ctx[static_cast<std::size_t>(s.trace)], s.a, params);
     if (v != 0.0) {
       out.idx.push_back(i);

@@ -29,7 +29,7 @@ struct ReversalOrder {
 };
 // Only the samples within max_phi (rad) of the reversal are kept: a spike search over widths up
 // to hi degrees reads those within SpikeMaxReach(hi).
-ReversalOrder MakeReversalOrder(const Problem& p, effects::EffectId id, double max_phi);
+ReversalOrder MakeReversalOrder(const Problem& p, serial_effects::EffectId id, double max_phi);
 double SpikeMaxReach(double hi_deg);
 
 // A spike shape with its residual-sum-of-squares reduction against the base and its height

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "analysis/dbb/dbb_types.h"
-#include "analysis/effects/registry.h"
+#include "analysis/serial_effects/registry.h"
 
 namespace km::dbb {
 
@@ -44,7 +44,7 @@ struct DiagnosisOptions {
 };
 
 struct DiagnosisEntry {
-  effects::EffectId id = effects::EffectId::kCentreOffset;
+  serial_effects::EffectId id = serial_effects::EffectId::kCentreOffset;
   std::string effect;  // contract name for the plane
   std::string unit;
   std::vector<double> value;              // one value, or [u, v] for centre_offset

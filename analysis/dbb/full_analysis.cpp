@@ -16,7 +16,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/core/parallel.h"
-#include "analysis/effects/registry.h"
+#include "analysis/serial_effects/registry.h"
 
 namespace km::dbb {
 
@@ -28,7 +28,7 @@ struct Unit {
   DiagnosisResult result;
 };
 
-DiagnosisEntry* FindEntry(std::vector<DiagnosisEntry>& v, effects::EffectId id) {
+DiagnosisEntry* FindEntry(std::vector<DiagnosisEntry>& v, serial_effects::EffectId id) {
   for (auto& e : v)
     if (e.id == id) return &e;
   return nullptr;
@@ -51,14 +51,14 @@ void SeparateServoLag(const std::vector<DbbTest>& tests, std::vector<Unit>& unit
     std::vector<double> g, m, s;
     for (std::size_t u : members) {
       const DbbTest& t = tests[units[u].tests.front()];
-      effects::EffectContext ctx;
+      serial_effects::EffectContext ctx;
       ctx.radius_mm = t.radius_mm;
       ctx.feed_mm_min = t.feed_mm_min;
       const DiagnosisEntry* r = nullptr;
       for (const auto& e : units[u].result.candidates)
-        if (e.id == effects::EffectId::kRadiusError) r = &e;
+        if (e.id == serial_effects::EffectId::kRadiusError) r = &e;
       if (!r) continue;
-      g.push_back(effects::ServoLag::Gain(ctx));
+      g.push_back(serial_effects::ServoLag::Gain(ctx));
       m.push_back(r->value[0]);
       s.push_back(r->uncertainty[0]);
     }
@@ -86,7 +86,7 @@ void SeparateServoLag(const std::vector<DbbTest>& tests, std::vector<Unit>& unit
       auto& cands = unit.result.candidates;
       auto& named = unit.result.named;
       // radius_error = ρ; servo_lag = c·g_k.
-      DiagnosisEntry* rc = FindEntry(cands, effects::EffectId::kRadiusError);
+      DiagnosisEntry* rc = FindEntry(cands, serial_effects::EffectId::kRadiusError);
       if (!rc) continue;
       DiagnosisEntry re = *rc;
       re.value = {x[0]};
@@ -95,9 +95,9 @@ void SeparateServoLag(const std::vector<DbbTest>& tests, std::vector<Unit>& unit
       re.significance = std::min(std::abs(x[0]) / std::max(re.uncertainty[0], 1e-300), 1e9);
       re.named = re.significance > opt.significance;
       DiagnosisEntry sl = re;
-      sl.id = effects::EffectId::kServoLag;
-      sl.effect = effects::EffectName(sl.id);
-      sl.unit = effects::Info(sl.id).unit;
+      sl.id = serial_effects::EffectId::kServoLag;
+      sl.effect = serial_effects::EffectName(sl.id);
+      sl.unit = serial_effects::Info(sl.id).unit;
       sl.value = {x[1] * g[k]};
       sl.params = {x[1]};
       sl.uncertainty = {std::abs(g[k]) * std::sqrt(cov(1, 1))};
@@ -107,7 +107,7 @@ void SeparateServoLag(const std::vector<DbbTest>& tests, std::vector<Unit>& unit
       cands.push_back(sl);
       named.erase(std::remove_if(named.begin(), named.end(),
                                  [](const DiagnosisEntry& e) {
-                                   return e.id == effects::EffectId::kRadiusError;
+                                   return e.id == serial_effects::EffectId::kRadiusError;
                                  }),
                   named.end());
       if (re.named) named.push_back(re);

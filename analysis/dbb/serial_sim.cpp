@@ -12,7 +12,7 @@ namespace km::dbb {
 namespace {
 
 std::vector<double> FullParams(const SimEffect& e) {
-  const auto& info = effects::Info(e.id);
+  const auto& info = serial_effects::Info(e.id);
   std::vector<double> p = e.params;
   if (static_cast<int>(p.size()) < info.num_linear) {
     throw InvalidInput("", 0, "effects", "too few parameters for " + info.base_name);
@@ -26,16 +26,16 @@ std::vector<double> FullParams(const SimEffect& e) {
 }  // namespace
 
 std::array<double, 2> SimulatedPositionErrorUm(const SerialDbbSimOptions& o, double theta) {
-  effects::EffectContext ctx;
+  serial_effects::EffectContext ctx;
   ctx.radius_mm = o.radius_mm;
   ctx.feed_mm_min = o.feed_mm_min;
   ctx.direction = o.direction == Direction::kCcw ? 1 : -1;
-  const auto a = effects::MakeAngle(theta);
+  const auto a = serial_effects::MakeAngle(theta);
   std::array<double, 2> sum{0.0, 0.0};
   for (const auto& eff : o.effects) {
     const auto p = FullParams(eff);
     double e[2];
-    effects::PositionErrorT<double>(eff.id, ctx, a, p.data(), e);
+    serial_effects::PositionErrorT<double>(eff.id, ctx, a, p.data(), e);
     sum[0] += e[0];
     sum[1] += e[1];
   }

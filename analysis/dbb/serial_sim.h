@@ -1,6 +1,6 @@
 // Synthetic DBB circular tests of a serial (3-axis) machine, for tests, demos and benchmarks.
 //
-// The machine position error is the sum of the registry effects (analysis/effects, forward
+// The machine position error is the sum of the registry effects (analysis/serial_effects, forward
 // models e(θ) in the plane axes); the bar length is computed EXACTLY in 3-D,
 //   bar = |C + R n(θ) + z_offset·normal + e(θ) − F|,   F = C + fixed-ball set-up offset,
 // so the linearised radial signatures used by the diagnosis are tested against the exact
@@ -14,12 +14,12 @@
 #include <vector>
 
 #include "analysis/dbb/dbb_types.h"
-#include "analysis/effects/registry.h"
+#include "analysis/serial_effects/registry.h"
 
 namespace km::dbb {
 
 struct SimEffect {
-  effects::EffectId id;
+  serial_effects::EffectId id;
   std::vector<double> params;  // all parameters (linear then shape); shape defaults if short
 };
 

@@ -67,7 +67,7 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_
       throw InvalidInput("", 0, "dr_um", "diagnosis needs at least 16 samples per trace");
     }
     if (!(tr.radius_mm > 0.0)) throw InvalidInput("", 0, "radius_mm", "must be positive");
-    effects::EffectContext c;
+    serial_effects::EffectContext c;
     c.radius_mm = tr.radius_mm;
     c.feed_mm_min = tr.feed_mm_min;
     c.direction = tr.direction == Direction::kCcw ? 1 : -1;
@@ -79,10 +79,10 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_
         tr.cos_angle.size() == tr.angle_rad.size() && tr.sin_angle.size() == tr.angle_rad.size();
     for (std::size_t i = 0; i < tr.angle_rad.size(); ++i) {
       const double th = tr.angle_rad[i];
-      if (leave_out_reversals && effects::internal::AtAxisReversal(th)) continue;
-      const effects::Angle<double> a =
-          cached ? effects::Angle<double>{th, tr.cos_angle[i], tr.sin_angle[i]}
-                 : effects::MakeAngle(th);
+      if (leave_out_reversals && serial_effects::internal::AtAxisReversal(th)) continue;
+      const serial_effects::Angle<double> a =
+          cached ? serial_effects::Angle<double>{th, tr.cos_angle[i], tr.sin_angle[i]}
+                 : serial_effects::MakeAngle(th);
       cc += a.c * a.c;
       cs += a.c * a.s;
       c1 += a.c;
@@ -114,9 +114,9 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_
   return p;
 }
 
-EffectColumns SignatureShell(const StackedTraces& p, effects::EffectId id,
+EffectColumns SignatureShell(const StackedTraces& p, serial_effects::EffectId id,
                              std::vector<double> shape) {
-  const auto& info = effects::Info(id);
+  const auto& info = serial_effects::Info(id);
   EffectColumns c;
   c.id = id;
   // Shape parameters not given take the registry defaults (e.g. a spike width alone: the
@@ -137,7 +137,7 @@ namespace {
 
 // Rows [from, to) of the signature columns of model M at the shape `shape`.
 template <typename M>
-void SignatureRows(const StackedTraces& p, effects::EffectId id, int from, int to,
+void SignatureRows(const StackedTraces& p, serial_effects::EffectId id, int from, int to,
                    const std::vector<double>& shape, std::vector<VectorXd>& cols) {
   if constexpr (M::kNumLinear == 1) {
     // One linear parameter: the signature at p_0 = 1 is the column (plain doubles).
@@ -156,7 +156,7 @@ void SignatureRows(const StackedTraces& p, effects::EffectId id, int from, int t
     const double* th = p.theta.data();
     double* col = cols[0].data();
     for (int i = from; i < to; ++i) {
-      const effects::Angle<double> a{th[i], cs[i], sn[i]};
+      const serial_effects::Angle<double> a{th[i], cs[i], sn[i]};
       double e[2];
       M::template PositionError<double>(ctx, a, params, e);
       col[i] = e[0] * a.c + e[1] * a.s;
@@ -171,16 +171,16 @@ void SignatureRows(const StackedTraces& p, effects::EffectId id, int from, int t
                        work.data(), work.data() + len, work.data() + 2 * len, cols[0].data() + from,
                        cols[1].data() + from);
   } else {
-    // Several linear parameters: all columns in one evaluation (effects::RadialBasis, its
+    // Several linear parameters: all columns in one evaluation (serial_effects::RadialBasis, its
     // closed form inlined when the model has one).
-    double basis[effects::kMaxLinearParams];
+    double basis[serial_effects::kMaxLinearParams];
     for (int i = from; i < to; ++i) {
       const auto& s = p.samples[static_cast<std::size_t>(i)];
       const auto& ctx = p.ctx[static_cast<std::size_t>(s.trace)];
-      if constexpr (effects::HasLinearBasis<M>) {
-        effects::ClosedFormBasis<M>(ctx, s.a, shape.data(), basis);
+      if constexpr (serial_effects::HasLinearBasis<M>) {
+        serial_effects::ClosedFormBasis<M>(ctx, s.a, shape.data(), basis);
       } else {
-        effects::RadialBasis(id, ctx, s.a, shape.data(), basis);
+        serial_effects::RadialBasis(id, ctx, s.a, shape.data(), basis);
       }
       for (int j = 0; j < M::kNumLinear; ++j) cols[static_cast<std::size_t>(j)][i] = basis[j];
     }
@@ -193,13 +193,13 @@ void SignatureOfTrace(const StackedTraces& p, int t, EffectColumns& c) {
   const auto ts = static_cast<std::size_t>(t);
   const int from = static_cast<int>(p.begin[ts]), to = static_cast<int>(p.begin[ts + 1]);
   // One dispatch for the rows: the model's loop is compiled for its own type.
-  effects::VisitEffect(c.id,
-                       [&]<typename M>() { SignatureRows<M>(p, c.id, from, to, c.shape, c.cols); });
+  serial_effects::VisitEffect(
+      c.id, [&]<typename M>() { SignatureRows<M>(p, c.id, from, to, c.shape, c.cols); });
   for (std::size_t j = 0; j < c.cols.size(); ++j)
     c.setup_part[j][ts] = p.RemoveSetupOfTrace(c.cols[j], t);
 }
 
-EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
+EffectColumns SetupFreeSignature(const StackedTraces& p, serial_effects::EffectId id,
                                  std::vector<double> shape) {
   EffectColumns c = SignatureShell(p, id, std::move(shape));
   for (int t = 0; t < p.traces; ++t) SignatureOfTrace(p, t, c);
@@ -335,10 +335,10 @@ double RefinePeriod(const StackedTraces& p, const VectorXd& r, int axis, double 
   return 0.5 * (lo + hi);
 }
 
-EffectEstimate EstimateEffect(const StackedTraces& p, effects::EffectId id,
+EffectEstimate EstimateEffect(const StackedTraces& p, serial_effects::EffectId id,
                               const std::vector<double>& shape, const VectorXd& x,
                               const Eigen::MatrixXd& cov, int off) {
-  const auto& info = effects::Info(id);
+  const auto& info = serial_effects::Info(id);
   const int nl = info.num_linear;
   EffectEstimate v;
   v.params.assign(static_cast<std::size_t>(info.num_params), 0.0);
@@ -346,8 +346,8 @@ EffectEstimate EstimateEffect(const StackedTraces& p, effects::EffectId id,
   for (std::size_t k = 0; k < shape.size(); ++k)
     v.params[static_cast<std::size_t>(nl) + k] = shape[k];
   const auto& ctx = p.ctx[0];
-  v.value = effects::Value(id, ctx, v.params.data());
-  const Eigen::MatrixXd jac = effects::ValueJacobian(id, ctx, v.params.data()).leftCols(nl);
+  v.value = serial_effects::Value(id, ctx, v.params.data());
+  const Eigen::MatrixXd jac = serial_effects::ValueJacobian(id, ctx, v.params.data()).leftCols(nl);
   const Eigen::MatrixXd cv = jac * cov.block(off, off, nl, nl) * jac.transpose();
   double vnorm = 0.0, snorm = 0.0;
   for (std::size_t m = 0; m < v.value.size(); ++m) {

@@ -6,8 +6,8 @@
 // nominal centre, µm). Each trace has its own set-up columns S_t = {cos θ, sin θ, 1} (centre
 // offset and radius change: the linearised least-squares circle, [PM-600 report] eq. 2.6). A
 // registry effect k with fixed shape parameters contributes the columns s_kj(θ; s_t, V_t, R_t) =
-// ∂Δr/∂p_j of its linear parameters (effects::RadialBasis). RemoveSetup projects a column on the
-// orthogonal complement of the set-up columns, trace by trace:
+// ∂Δr/∂p_j of its linear parameters (serial_effects::RadialBasis). RemoveSetup projects a column on
+// the orthogonal complement of the set-up columns, trace by trace:
 //
 //   c ← c − S_t (S_tᵀ S_t)⁻¹ S_tᵀ c,
 //
@@ -26,7 +26,7 @@
 #include <Eigen/Core>
 
 #include "analysis/dbb/diagnosis_types.h"
-#include "analysis/effects/registry.h"
+#include "analysis/serial_effects/registry.h"
 
 namespace km::dbb {
 
@@ -34,7 +34,7 @@ inline constexpr int kCyclicBins = 1024;  // bins of the axis position for the p
 inline constexpr int kCyclicFft = 8192;   // zero-padded transform length
 
 struct SignatureSample {
-  effects::Angle<double> a;
+  serial_effects::Angle<double> a;
   int trace = 0;
 };
 
@@ -42,7 +42,7 @@ struct SignatureSample {
 struct StackedTraces {
   std::vector<SignatureSample> samples;
   std::vector<std::size_t> begin;  // first sample of each trace (plus end)
-  std::vector<effects::EffectContext> ctx;
+  std::vector<serial_effects::EffectContext> ctx;
   std::vector<Eigen::Matrix3d> setup_inv;  // (S_tᵀ S_t)⁻¹
   Eigen::VectorXd cos_a, sin_a, theta;     // cos θ, sin θ, θ of the samples (contiguous)
   Eigen::VectorXd ones;                    // 1 per sample (sums as inner products)
@@ -59,8 +59,8 @@ struct StackedTraces {
 
 // Validates and stacks the traces (≥ 16 samples each, positive radius, going around the
 // circle); throws km::InvalidInput otherwise. With `leave_out_reversals`, samples at an axis
-// reversal itself (effects::internal::AtAxisReversal) are not stacked: there a reversal spike
-// jumps from nothing to its height and a backlash from one side to the other, and which value
+// reversal itself (serial_effects::internal::AtAxisReversal) are not stacked: there a reversal
+// spike jumps from nothing to its height and a backlash from one side to the other, and which value
 // such a sample shows depends on how the instant of the reversal was rounded (by the control's
 // interpolation, the logger, a simulation), not on the machine.
 StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces,
@@ -70,17 +70,17 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces,
 // trailing ones: the registry defaults, also in the returned shape) and the set-up part removed
 // from each column (per trace).
 struct EffectColumns {
-  effects::EffectId id = effects::EffectId::kSquareness;
+  serial_effects::EffectId id = serial_effects::EffectId::kSquareness;
   std::vector<double> shape;
   std::vector<Eigen::VectorXd> cols;                     // one per linear parameter
   std::vector<std::vector<Eigen::Vector3d>> setup_part;  // [column][trace]
 };
-EffectColumns SetupFreeSignature(const StackedTraces& p, effects::EffectId id,
+EffectColumns SetupFreeSignature(const StackedTraces& p, serial_effects::EffectId id,
                                  std::vector<double> shape);
 // The same in parts, e.g. the traces on several threads: SignatureShell gives the columns
 // (sized, not yet computed) with the shape completed, SignatureOfTrace fills the rows of trace t
 // and its set-up part. Shell plus every trace equals SetupFreeSignature.
-EffectColumns SignatureShell(const StackedTraces& p, effects::EffectId id,
+EffectColumns SignatureShell(const StackedTraces& p, serial_effects::EffectId id,
                              std::vector<double> shape);
 void SignatureOfTrace(const StackedTraces& p, int t, EffectColumns& c);
 
@@ -114,7 +114,7 @@ struct EffectEstimate {
   std::vector<double> sigma;
   double z = 0.0;
 };
-EffectEstimate EstimateEffect(const StackedTraces& p, effects::EffectId id,
+EffectEstimate EstimateEffect(const StackedTraces& p, serial_effects::EffectId id,
                               const std::vector<double>& shape, const Eigen::VectorXd& x,
                               const Eigen::MatrixXd& cov, int off);
 

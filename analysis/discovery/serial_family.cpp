@@ -18,9 +18,9 @@
 namespace km::discovery {
 namespace {
 
-using effects::EffectId;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
+using serial_effects::EffectId;
 using util::Format;
 using util::IsCyclic;
 using util::IsSpike;
@@ -174,7 +174,7 @@ SerialFamily::SerialFamily(const std::vector<dbb::DiagnosisTrace>& traces,
 
 std::string SerialFamily::Name(EffectId id) const {
   const auto [a, b] = dbb::AxisLetters(plane_);
-  return effects::EffectName(id, a, b);
+  return serial_effects::EffectName(id, a, b);
 }
 
 // Least squares of e0 on the terms' columns with the physical lower bounds (active set: a
@@ -294,7 +294,7 @@ SerialModel SerialFamily::MakeModel(const std::vector<Term>& terms, const Bounde
   int off = 0;
   const auto& ctx = p_.ctx[0];
   for (const auto& t : terms) {
-    const auto& info = effects::Info(t.sig.id);
+    const auto& info = serial_effects::Info(t.sig.id);
     const int nl = info.num_linear;
     SerialEffectFit e;
     e.id = t.sig.id;
@@ -315,8 +315,8 @@ SerialModel SerialFamily::MakeModel(const std::vector<Term>& terms, const Bounde
     for (int j = 0; j < info.num_params; ++j)
       e.parameters[info.param_names[static_cast<std::size_t>(j)]] =
           params[static_cast<std::size_t>(j)];
-    e.value = effects::Value(t.sig.id, ctx, params.data());
-    const MatrixXd jac = effects::ValueJacobian(t.sig.id, ctx, params.data()).leftCols(nl);
+    e.value = serial_effects::Value(t.sig.id, ctx, params.data());
+    const MatrixXd jac = serial_effects::ValueJacobian(t.sig.id, ctx, params.data()).leftCols(nl);
     const MatrixXd cv = jac * cov.block(off, off, nl, nl) * jac.transpose();
     double vnorm = 0.0, snorm = 0.0;
     for (std::size_t v = 0; v < e.value.size(); ++v) {
@@ -416,7 +416,7 @@ std::vector<Candidate> SerialFamily::Candidates(const FitState& fit) {
                        [&](const auto& w) { return w.first == step && w.second == Name(id); });
   };
   int order = 0;
-  for (const auto& info : effects::AllEffects()) {
+  for (const auto& info : serial_effects::AllEffects()) {
     ++order;
     if (!info.in_form || !info.linear_fit || in_model(info.id) || withheld(info.id)) continue;
     if (IsSpike(info.id)) {
@@ -477,7 +477,7 @@ std::vector<Candidate> SerialFamily::Candidates(const FitState& fit) {
   }
   std::vector<Candidate> out;
   for (const auto& t : pending_) {
-    const auto& info = effects::Info(t.sig.id);
+    const auto& info = serial_effects::Info(t.sig.id);
     Candidate c;
     c.effect = Name(t.sig.id);
     c.variant = VariantOf(t.sig);
@@ -509,7 +509,7 @@ bool SerialFamily::Physical(const Candidate& c, const VectorXd& x, std::string* 
   }
   const Term* t = Find(c);
   if (!t) return false;
-  const auto& info = effects::Info(t->sig.id);
+  const auto& info = serial_effects::Info(t->sig.id);
   for (int j = 0; j < static_cast<int>(x.size()); ++j) {
     if (x[j] < LowerBound(t->sig.id, j)) {
       *why = info.param_names[static_cast<std::size_t>(j)] + " = " + Format("%.4g", x[j]) + " < " +
@@ -543,7 +543,7 @@ bool SerialFamily::Physical(const Candidate& c, const VectorXd& x, std::string* 
       const double lb = LowerBound(m.sig.id, j);
       if (!now.effects[mi].at_bound && xj[off + j] < lb) {
         *why = "it would make " + Name(m.sig.id) + " " +
-               effects::Info(m.sig.id).param_names[static_cast<std::size_t>(j)] + " = " +
+               serial_effects::Info(m.sig.id).param_names[static_cast<std::size_t>(j)] + " = " +
                Format("%.4g", xj[off + j]) + " < " + Format("%g", lb);
         return false;
       }

@@ -1,6 +1,6 @@
 // The serial-machine (3-axis) model family of the discovery engine (engine.h): DBB circular
-// tests of one plane, effects of the registry analysis/effects (effect_list.h), signatures of
-// analysis/dbb/signatures.h.
+// tests of one plane, effects of the registry analysis/serial_effects (effect_list.h), signatures
+// of analysis/dbb/signatures.h.
 //
 // Rows: the stacked in-plane radial deviations about the nominal centre of every trace
 // (diagnosis.h MakeDiagnosisTrace). Groups: one per trace, with its LOCAL set-up columns
@@ -32,7 +32,7 @@
 // (servo_lag.h) is a radius change per test and stays in the set-up terms.
 //
 // Physical bounds (Physical(), and every refit is a bounded least-squares fit): the signs the
-// physics of an effect fixes, with the value conventions of analysis/effects/models:
+// physics of an effect fixes, with the value conventions of analysis/serial_effects/models:
 //   reversal_spike_<a>  height h ≥ 0 (the axis sticks, then follows: an outward spike)
 //   lateral_play_<a>    play p ≥ 0 (a clearance: the peak size of the sideways shift)
 //   stick_slip          amplitude ≥ 0 (not a linear candidate; listed for completeness)
@@ -59,7 +59,7 @@
 #include "analysis/dbb/diagnosis.h"
 #include "analysis/dbb/signatures.h"
 #include "analysis/discovery/engine.h"
-#include "analysis/effects/registry.h"
+#include "analysis/serial_effects/registry.h"
 
 namespace km::discovery {
 
@@ -80,7 +80,7 @@ struct SerialFamilyOptions {
 
 // One effect of a fitted model.
 struct SerialEffectFit {
-  effects::EffectId id = effects::EffectId::kSquareness;
+  serial_effects::EffectId id = serial_effects::EffectId::kSquareness;
   std::string name;                  // contract name with the plane's axis letters
   std::vector<double> shape;         // fixed shape parameters (registry order)
   std::vector<double> linear;        // fitted linear parameters
@@ -137,7 +137,7 @@ class SerialFamily final : public ModelFamily {
   double ResolutionUm() const { return resolution_um_; }
   // True when the traces were split into interleaved sub-traces (one test_id only).
   bool SplitIntoSubTraces() const { return split_; }
-  std::string Name(effects::EffectId id) const;
+  std::string Name(serial_effects::EffectId id) const;
   dbb::Plane Plane() const { return plane_; }
 
  private:
@@ -152,7 +152,7 @@ class SerialFamily final : public ModelFamily {
     std::vector<bool> at_bound;
   };
   // Lower bound of the j-th linear parameter of an effect (−∞ when free).
-  double LowerBound(effects::EffectId id, int j) const;
+  double LowerBound(serial_effects::EffectId id, int j) const;
   Bounded Fit(const std::vector<const Term*>& terms) const { return FitTo(e0_, terms); }
   Bounded FitTo(const Eigen::VectorXd& e0, const std::vector<const Term*>& terms) const;
   SerialModel MakeModel(const std::vector<Term>& terms, const Bounded& b) const;

@@ -12,8 +12,8 @@
 namespace km::discovery {
 namespace {
 
-using effects::EffectId;
 using Eigen::VectorXd;
+using serial_effects::EffectId;
 using util::Format;
 
 constexpr double kGolden = 0.6180339887498949;
@@ -31,7 +31,7 @@ std::vector<dbb::DiagnosisTrace> SerialFamily::OffReversals(
   for (auto& g : groups) {
     std::size_t kept = 0;
     for (std::size_t i = 0; i < g.angle_rad.size(); ++i) {
-      if (effects::internal::AtAxisReversal(g.angle_rad[i])) continue;
+      if (serial_effects::internal::AtAxisReversal(g.angle_rad[i])) continue;
       g.angle_rad[kept] = g.angle_rad[i];
       g.dev_um[kept++] = g.dev_um[i];
     }
@@ -145,7 +145,7 @@ std::vector<Candidate> SerialFamily::DelayCandidate(int step) {
   delay_offered_ms_ = best;
   Candidate c;
   c.effect = name;
-  c.priority = static_cast<int>(effects::AllEffects().size()) + 1;
+  c.priority = static_cast<int>(serial_effects::AllEffects().size()) + 1;
   delay_offered_col_ = DelayColumn(0.0, best);
   c.columns = delay_offered_col_;
   c.parameter_names = {"delay_ms"};

@@ -15,8 +15,8 @@
 namespace km::discovery {
 namespace {
 
-using effects::EffectId;
 using Eigen::VectorXd;
+using serial_effects::EffectId;
 using util::Format;
 using util::IsCyclic;
 using util::IsSpike;
@@ -42,7 +42,7 @@ double SerialFamily::LowerBound(EffectId id, int j) const {
 }
 
 std::string SerialFamily::VariantOf(const dbb::EffectColumns& sig) const {
-  const auto& info = effects::Info(sig.id);
+  const auto& info = serial_effects::Info(sig.id);
   std::string v;
   for (std::size_t k = 0; k < sig.shape.size(); ++k) {
     if (!v.empty()) v += ", ";
@@ -112,7 +112,7 @@ Evidence SerialFamily::Describe(const FitState& before, const Candidate& c,
   const VectorXd gap = -before.residual;  // measured − model
   const Term* term = Find(c);
   const EffectId id = term ? term->sig.id : EffectId::kSquareness;
-  const auto& info = effects::Info(id);
+  const auto& info = serial_effects::Info(id);
   // Even / odd parts over the cw/ccw pairs of one test id (1° bins of the commanded angle).
   constexpr int kBins = 360;
   std::vector<std::vector<double>> sum(traces_.size(), std::vector<double>(kBins, 0.0));

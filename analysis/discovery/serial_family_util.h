@@ -8,16 +8,18 @@
 
 #include <Eigen/Core>
 
-#include "analysis/effects/registry.h"
+#include "analysis/serial_effects/registry.h"
 
 namespace km::discovery::util {
 
-inline bool IsSpike(effects::EffectId id) {
-  return id == effects::EffectId::kReversalSpikeU || id == effects::EffectId::kReversalSpikeV;
+inline bool IsSpike(serial_effects::EffectId id) {
+  return id == serial_effects::EffectId::kReversalSpikeU ||
+         id == serial_effects::EffectId::kReversalSpikeV;
 }
 
-inline bool IsCyclic(effects::EffectId id) {
-  return id == effects::EffectId::kCyclicErrorU || id == effects::EffectId::kCyclicErrorV;
+inline bool IsCyclic(serial_effects::EffectId id) {
+  return id == serial_effects::EffectId::kCyclicErrorU ||
+         id == serial_effects::EffectId::kCyclicErrorV;
 }
 
 inline double Rms(const Eigen::VectorXd& v) {

@@ -52,10 +52,10 @@ std::vector<DemoFile> DemoDbbFiles() {
       o.feed_mm_min = t.feed_mm_min;
       o.noise_um = 0.08;
       o.seed = seed++;
-      o.effects = {{effects::EffectId::kSquareness, {t.squareness_um_per_m}},
-                   {effects::EffectId::kServoMismatch, {t.mismatch_ms}},
-                   {effects::EffectId::kBacklashU, {t.backlash_um}},
-                   {effects::EffectId::kScaleMismatch, {t.scale_ppm}}};
+      o.effects = {{serial_effects::EffectId::kSquareness, {t.squareness_um_per_m}},
+                   {serial_effects::EffectId::kServoMismatch, {t.mismatch_ms}},
+                   {serial_effects::EffectId::kBacklashU, {t.backlash_um}},
+                   {serial_effects::EffectId::kScaleMismatch, {t.scale_ppm}}};
       dbb::DbbTest test = dbb::SimulateSerialDbbTest(o);
       test.timestamp = t.timestamp;
       test.temperature_c = 20.4;

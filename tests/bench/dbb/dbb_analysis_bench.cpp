@@ -12,7 +12,7 @@
 namespace km::dbb {
 namespace {
 
-using effects::EffectId;
+using serial_effects::EffectId;
 
 std::vector<DbbTest> Pair(std::vector<SimEffect> eff) {
   SerialDbbSimOptions o;

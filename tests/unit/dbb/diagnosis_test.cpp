@@ -12,7 +12,7 @@
 namespace km::dbb {
 namespace {
 
-using effects::EffectId;
+using serial_effects::EffectId;
 using test::Describe;
 
 struct Case {
@@ -38,7 +38,7 @@ TEST_P(SingleEffect, RankedFirstAndRecovered) {
     o.fixed_ball_offset_um = {0.0, 0.0};
     o.effects = {{c.id, c.params}};
     const auto r = test::DiagnoseTests(test::SimulatePair(o));
-    const std::string name = effects::EffectName(c.id, 'x', 'y');
+    const std::string name = serial_effects::EffectName(c.id, 'x', 'y');
     ASSERT_FALSE(r.named.empty()) << name << " seed " << seed;
     EXPECT_EQ(r.named.front().effect, name) << Describe(r);
     const DiagnosisEntry* e = Find(r, name);

@@ -1,6 +1,6 @@
 // Effect registry: names, parameter bookkeeping, Jet evaluation = double evaluation, and the
 // radial signatures against the closed forms documented in the model headers.
-#include "analysis/effects/registry.h"
+#include "analysis/serial_effects/registry.h"
 
 #include <cmath>
 #include <numbers>
@@ -9,7 +9,7 @@
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
-namespace km::effects {
+namespace km::serial_effects {
 namespace {
 
 std::vector<double> Params(EffectId id, double value) {
@@ -209,4 +209,4 @@ TEST(EffectRegistry, SquarenessSignMeansObtuseAngle) {
 }
 
 }  // namespace
-}  // namespace km::effects
+}  // namespace km::serial_effects

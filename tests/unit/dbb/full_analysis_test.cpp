@@ -19,7 +19,7 @@
 namespace km::dbb {
 namespace {
 
-using effects::EffectId;
+using serial_effects::EffectId;
 
 const DiagnosisEntry* Find(const DbbTestReport& t, const std::string& name) {
   for (const auto& e : t.diagnosis)

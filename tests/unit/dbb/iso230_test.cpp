@@ -14,7 +14,7 @@
 namespace km::dbb {
 namespace {
 
-using effects::EffectId;
+using serial_effects::EffectId;
 
 TEST(Iso230, ClosedFormsForScaleAndServoMismatch) {
   for (double dk : {20.0, -35.0}) {

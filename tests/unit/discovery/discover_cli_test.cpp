@@ -21,7 +21,7 @@
 namespace km::cli {
 namespace {
 
-using effects::EffectId;
+using serial_effects::EffectId;
 
 std::set<std::string> Keys(const nlohmann::json& j) {
   std::set<std::string> k;

@@ -12,9 +12,9 @@
 // by the simulation.
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 struct StickSlip {
   static constexpr const char* kBaseName = "stick_slip";
@@ -51,4 +51,4 @@ struct StickSlip {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

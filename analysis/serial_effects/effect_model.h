@@ -29,7 +29,7 @@
 
 #include <Eigen/Core>
 
-namespace km::effects {
+namespace km::serial_effects {
 
 // Commanded angle θ with its cosine and sine (computed once per sample; T may be a Jet).
 template <typename T>
@@ -138,4 +138,4 @@ inline Eigen::MatrixXd IdentityValueJacobian(int n_values, int n_params) {
   return j;
 }
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

@@ -6,9 +6,9 @@
 // this separates it from squareness. With V in mm/s and Δτ in ms, V·Δτ is in µm.
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 struct ServoMismatch {
   static constexpr const char* kBaseName = "servo_mismatch";
@@ -35,4 +35,4 @@ struct ServoMismatch {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

@@ -7,9 +7,9 @@
 // so the two are separated only by tests at different feeds.
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 struct ServoLag {
   static constexpr const char* kBaseName = "servo_lag";
@@ -41,4 +41,4 @@ struct ServoLag {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

@@ -5,9 +5,9 @@
 // for b > 0 (b < 0: over-compensated backlash, inward step).
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 template <int Axis>
 struct Backlash {
@@ -33,4 +33,4 @@ struct Backlash {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

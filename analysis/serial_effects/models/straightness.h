@@ -7,9 +7,9 @@
 // Value S (µm, peak size; positive = middle of the travel displaced towards + other axis).
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 template <int Axis>
 struct Straightness {
@@ -35,4 +35,4 @@ struct Straightness {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

@@ -10,9 +10,9 @@
 
 #include <Eigen/Core>
 
-#include "analysis/effects/effect_list.h"
+#include "analysis/serial_effects/effect_list.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 enum class EffectId {
 #define KM_EFFECT_ENUM(id, type) id,
@@ -115,4 +115,4 @@ void PositionErrorT(EffectId id, const EffectContext& ctx, const Angle<T>& a, co
   }
 }
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

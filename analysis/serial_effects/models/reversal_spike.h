@@ -12,9 +12,9 @@
 // only the width gets k = 1, the former exponential model). k ≤ 0 is read as 1.
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 template <int Axis>
 struct ReversalSpike {
@@ -74,4 +74,4 @@ struct ReversalSpike {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

@@ -6,9 +6,9 @@
 #pragma once
 
 #include "analysis/core/sincos.h"
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 template <int Axis>
 struct CyclicError {
@@ -73,4 +73,4 @@ struct CyclicError {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

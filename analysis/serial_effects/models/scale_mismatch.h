@@ -3,9 +3,9 @@
 //   e_u = +(Δk/2)·1e-6·u,  e_v = −(Δk/2)·1e-6·v,   Δr = (Δk/2)·1e-6·R cos 2θ  (same in cw, ccw).
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 struct ScaleMismatch {
   static constexpr const char* kBaseName = "scale_mismatch";
@@ -30,4 +30,4 @@ struct ScaleMismatch {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

@@ -3,9 +3,9 @@
 //   e_u = −α v = −α R sin θ,  e_v = 0,   Δr = −(α R/2) sin 2θ   (same in cw and ccw).
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 struct Squareness {
   static constexpr const char* kBaseName = "squareness";
@@ -30,4 +30,4 @@ struct Squareness {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

@@ -2,9 +2,9 @@
 // common scale error of both axes, or a bar-calibration error):  e = ρ·n,  Δr = ρ.
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 struct RadiusError {
   static constexpr const char* kBaseName = "radius_error";
@@ -28,4 +28,4 @@ struct RadiusError {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

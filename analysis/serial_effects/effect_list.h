@@ -4,18 +4,18 @@
 // apart from the available data (the earlier one is kept).
 #pragma once
 
-#include "analysis/effects/models/backlash.h"
-#include "analysis/effects/models/centre_offset.h"
-#include "analysis/effects/models/cyclic_error.h"
-#include "analysis/effects/models/lateral_play.h"
-#include "analysis/effects/models/radius_error.h"
-#include "analysis/effects/models/reversal_spike.h"
-#include "analysis/effects/models/scale_mismatch.h"
-#include "analysis/effects/models/servo_lag.h"
-#include "analysis/effects/models/servo_mismatch.h"
-#include "analysis/effects/models/squareness.h"
-#include "analysis/effects/models/stick_slip.h"
-#include "analysis/effects/models/straightness.h"
+#include "analysis/serial_effects/models/backlash.h"
+#include "analysis/serial_effects/models/centre_offset.h"
+#include "analysis/serial_effects/models/cyclic_error.h"
+#include "analysis/serial_effects/models/lateral_play.h"
+#include "analysis/serial_effects/models/radius_error.h"
+#include "analysis/serial_effects/models/reversal_spike.h"
+#include "analysis/serial_effects/models/scale_mismatch.h"
+#include "analysis/serial_effects/models/servo_lag.h"
+#include "analysis/serial_effects/models/servo_mismatch.h"
+#include "analysis/serial_effects/models/squareness.h"
+#include "analysis/serial_effects/models/stick_slip.h"
+#include "analysis/serial_effects/models/straightness.h"
 
 // X(id, model type)
 #define KM_SERIAL_EFFECT_LIST(X)       \

@@ -2,9 +2,9 @@
 //   e = (c_u, c_v),  Δr = c_u cos θ + c_v sin θ  (same in both directions; first harmonic).
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 struct CentreOffset {
   static constexpr const char* kBaseName = "centre_offset";
@@ -28,4 +28,4 @@ struct CentreOffset {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

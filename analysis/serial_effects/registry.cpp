@@ -1,10 +1,10 @@
-#include "analysis/effects/registry.h"
+#include "analysis/serial_effects/registry.h"
 
 #include <cmath>
 
 #include "analysis/core/errors.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 namespace {
 
@@ -114,4 +114,4 @@ Eigen::MatrixXd ValueJacobian(EffectId id, const EffectContext& ctx, const doubl
   }
 }
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

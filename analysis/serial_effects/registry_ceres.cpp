@@ -3,9 +3,9 @@
 #include <ceres/jet.h>
 
 #include "analysis/core/errors.h"
-#include "analysis/effects/registry.h"
+#include "analysis/serial_effects/registry.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 namespace {
 
@@ -45,4 +45,4 @@ void RadialBasis(EffectId id, const EffectContext& ctx, const Angle<double>& a, 
   }
 }
 
-}  // namespace km::effects
+}  // namespace km::serial_effects

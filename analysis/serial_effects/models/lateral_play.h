@@ -7,9 +7,9 @@
 // size (µm).
 #pragma once
 
-#include "analysis/effects/effect_model.h"
+#include "analysis/serial_effects/effect_model.h"
 
-namespace km::effects {
+namespace km::serial_effects {
 
 template <int Axis>
 struct LateralPlay {
@@ -35,4 +35,4 @@ struct LateralPlay {
   }
 };
 
-}  // namespace km::effects
+}  // namespace km::serial_effects
