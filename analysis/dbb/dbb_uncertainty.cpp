@@ -11,6 +11,7 @@
 #include <Eigen/LU>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 #include "analysis/dbb/iso230.h"
 #include "analysis/geometry/circle_fit.h"
 #include "analysis/geometry/circle_fit_radial.h"
@@ -265,6 +266,14 @@ std::vector<uncertainty::McInput> Inputs(std::size_t readings, double u_reading,
                           shared.expansion_ppm_per_k > 0.0 ? shared.bar_temperature_c : 0.0)};
 }
 
+}  // namespace
+
+void DbbUncertaintyOptions::Check() const {
+  KM_OPTION_GE(draws, 20u);
+}
+
+namespace {
+
 uncertainty::McOptions McOptionsOf(const DbbUncertaintyOptions& o) {
   uncertainty::McOptions mo;
   mo.draws = o.draws;
@@ -355,6 +364,7 @@ void DbbPairModel::Evaluate(std::span<const double> z, double c, std::span<doubl
 DbbUncertainty PropagateDbbTest(const DbbTest& test, const DbbTestReport& report,
                                 const DbbInputUncertainty& u,
                                 const DbbUncertaintyOptions& options) {
+  options.Check();
   TestModel m;
   m.Init(report, u.reading_um);
   const std::size_t n = m.size();
@@ -391,6 +401,7 @@ DbbUncertainty PropagateDbbPair(const DbbTest& cw, const DbbTest& ccw, const Dbb
                                 const DbbTestReport& rccw, const DbbPairReport& pair,
                                 const DbbInputUncertainty& ucw, const DbbInputUncertainty& uccw,
                                 const DbbUncertaintyOptions& options) {
+  options.Check();
   DbbUncertainty out;
   DbbInputUncertainty shared = ucw;
   shared.bar_length_um = std::max(ucw.bar_length_um, uccw.bar_length_um);

@@ -72,6 +72,8 @@ struct DbbUncertaintyOptions {
   std::uint64_t seed = 2304;
   std::size_t budget_draws = 200;  // per stated input (σ of a contribution to ~5 %)
   bool gum_check = true;
+  // The 95 % interval needs M ≥ 1/(1 − p) = 20 draws ([JCGM 101] §7.2).
+  void Check() const;  // throws km::InvalidInput naming the option out of its range
 };
 
 struct DbbUncertainty {

@@ -15,6 +15,7 @@
 #include <Eigen/LU>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/option_check.h"
 #include "analysis/core/parallel.h"
 #include "analysis/serial_effects/registry.h"
 
@@ -301,9 +302,14 @@ std::vector<Unit> PairsAndDiagnoses(const std::vector<DbbTest>& tests, DbbReport
 
 }  // namespace
 
+void DbbAnalysisOptions::Check() const {
+  KM_OPTION_GE(harmonic_orders, 1);
+  diagnosis.Check();
+}
+
 DbbReport AnalyzeDbbSet(const std::vector<DbbTest>& tests, const DbbAnalysisOptions& opt) {
   if (tests.empty()) throw InvalidInput("", 0, "tests", "no DBB test given");
-  opt.diagnosis.Check();
+  opt.Check();
   DbbReport rep;
   rep.tests.resize(tests.size());
   std::vector<std::vector<double>> devs(tests.size());  // deviation about the nominal centre

@@ -69,6 +69,7 @@ struct DbbAnalysisOptions {
   // Threads for the independent parts (the tests' figures, the pairs, the diagnosis units):
   // 0 = the machine's cores, 1 = in order on the calling thread. The result is the same.
   unsigned threads = 0;
+  void Check() const;  // throws km::InvalidInput naming the option out of its range
 };
 
 // Throws km::InvalidInput for unusable tests (the message names the test_id).

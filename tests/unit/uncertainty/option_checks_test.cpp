@@ -1,6 +1,7 @@
 // Every options struct of an analysis refuses nonsense before any work, naming the option: the
-// Monte Carlo ([JCGM 101] §7.2: M ≥ 1/(1 − p)), the tracker's ranging propagation, the hexapod's
-// effect fit and forward kinematics. The defaults pass.
+// DBB analysis and its uncertainty, the Monte Carlo ([JCGM 101] §7.2: M ≥ 1/(1 − p)), the
+// tracker's ranging propagation, the hexapod's effect fit and forward kinematics. The defaults
+// pass.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,6 +9,8 @@
 #include <string>
 
 #include "analysis/core/errors.h"
+#include "analysis/dbb/dbb_uncertainty.h"
+#include "analysis/dbb/full_analysis.h"
 #include "analysis/hexapod/effect_fit.h"
 #include "analysis/hexapod/kinematics.h"
 #include "analysis/tracker/selfcal_uncertainty.h"
@@ -62,6 +65,15 @@ TEST(OptionChecks, HexapodForwardKinematics) {
   EXPECT_EQ(RefusedField(O{}, [](O& o) { o.strut_tolerance_mm = 0.0; }), "strut_tolerance_mm");
   EXPECT_EQ(RefusedField(O{}, [](O& o) { o.step_tolerance_mm = kNaN; }), "step_tolerance_mm");
   EXPECT_EQ(RefusedField(O{}, [](O& o) { o.max_condition_number = 1.0; }), "max_condition_number");
+}
+
+TEST(OptionChecks, DbbAnalysisAndUncertainty) {
+  using A = dbb::DbbAnalysisOptions;
+  EXPECT_NO_THROW(A{}.Check());
+  EXPECT_EQ(RefusedField(A{}, [](A& o) { o.harmonic_orders = 0; }), "harmonic_orders");
+  using U = dbb::DbbUncertaintyOptions;
+  EXPECT_NO_THROW(U{}.Check());
+  EXPECT_EQ(RefusedField(U{}, [](U& o) { o.draws = 19; }), "draws");
 }
 
 }  // namespace
