@@ -180,9 +180,15 @@ export async function withDashboard(name, fn, { viewport = { width: 1280, height
       if (msg.type() === 'error' && !/Failed to load resource/.test(msg.text())) errors.push(msg.text());
     });
     const open = async (hash = '') => {
-      // A fresh document every time: a goto that changes only the hash would keep the old view,
-      // and a wait for its selector would find the previous rendering, about to be replaced.
-      if (page.url().startsWith(server.base)) await page.goto('about:blank');
+      // A goto that changes only the hash keeps the document and its view: the measurement view
+      // loses its marker first, so a wait for it finds the new rendering, not the previous one
+      // about to be replaced. (A fresh document would abort the old one's requests in flight.)
+      if (page.url().startsWith(server.base)) {
+        await page.evaluate(() => {
+          const detail = document.querySelector('#detail');
+          if (detail) delete detail.dataset.measurementId;
+        });
+      }
       await page.goto(`${server.base}/#token=${encodeURIComponent(server.token)}`);
       await page.waitForSelector('body[data-ready="true"]');
       if (hash) {

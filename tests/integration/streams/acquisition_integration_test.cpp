@@ -194,7 +194,10 @@ TEST(Acquisition, ModbusDevicePolledIntoAStreamSurvivesAServerRestart) {
     EXPECT_EQ(api.Delete("/api/v1/devices/dead-rig")->status, 404);
 
     // Stored: per channel, every tick is either a sample or inside a recorded gap, and the
-    // outage is recorded as a gap on both channels.
+    // outage is recorded as a gap on both channels. The device is removed first, so the stream
+    // stops growing and its counts are read between flushes, not across one (a live stream's
+    // sample count and next counter come from two writes of the flush).
+    ASSERT_EQ(api.Delete("/api/v1/devices/cap-rig")->status, 200);
     std::this_thread::sleep_for(1200ms);  // the hub writes buffered samples every second
     const json s = api.Get("/api/v1/streams/" + std::to_string(stream_id));
     EXPECT_EQ(s["source"], "modbus:cap-rig");
