@@ -52,14 +52,12 @@ JointLoads Loads(const SampleLoads& p, const LoadVector& theta) {
   return JointLoadsOf(StaticGravity(p, theta), theta[kT0], theta[kT1]);
 }
 
-// The rows of sample i of t with θ: `a` and the force less the known part `b`, the rows not
-// used zero. Returns how many rows are used.
-int SampleRows(const Track& t, std::size_t i, const LoadVector& theta, bool inertia, LoadRows& a,
+// The rows of sample i of t with the joints' loads `loads` (use.joints true): `a` and the force
+// less the known part `b`, the rows not used zero. Returns how many rows are used.
+int SampleRows(const Track& t, std::size_t i, const JointLoads& loads, bool inertia, LoadRows& a,
                hexapod::Vector6d& b, const JointStates* states) {
   const RowUse& use = t.moving[i];
-  if (!use.joints) return 0;
-  const SampleLoads& p = t.loads[i];
-  LoadRegressor(p, t.motion[i], Loads(p, theta), use, inertia, a, b, states);
+  LoadRegressor(t.loads[i], t.motion[i], loads, use, inertia, a, b, states);
   int used = 0;
   for (int j = 0; j < 6; ++j) {
     if (use.Row(j)) {
@@ -71,6 +69,23 @@ int SampleRows(const Track& t, std::size_t i, const LoadVector& theta, bool iner
     }
   }
   return used;
+}
+
+// The same with the loads at θ; none when the sample is not used.
+int SampleRows(const Track& t, std::size_t i, const LoadVector& theta, bool inertia, LoadRows& a,
+               hexapod::Vector6d& b, const JointStates* states) {
+  const RowUse& use = t.moving[i];
+  if (!use.joints) return 0;
+  return SampleRows(t, i, Loads(t.loads[i], theta), inertia, a, b, states);
+}
+
+// The t0 and t1 columns of SampleRows alone with other joint states (the rows not used zero).
+void JointRows(const Track& t, std::size_t i, const JointLoads& loads, LoadRows& a,
+               const JointStates* states) {
+  const RowUse& use = t.moving[i];
+  JointColumns(t.loads[i], t.motion[i], loads, use, a, states);
+  for (int j = 0; j < 6; ++j)
+    if (!use.Row(j)) a.row(j).rightCols<2>().setZero();
 }
 
 // Normal equations over every usable row with ĝ from θ. A strut's row is used when it moves.
@@ -197,17 +212,22 @@ std::vector<NormalEquations> AccumulateRamps(const std::vector<Track>& tracks,
       if (ramps[r] > 0.0) states[r] = JointFrictionStates(t.path, ramps[r]);
     }
     for (std::size_t i = 0; i < t.motion.size(); ++i) {
+      if (!t.moving[i].joints) continue;
+      // The ramp changes the joint columns only: the rest once.
+      const JointLoads loads = Loads(t.loads[i], theta);
       for (std::size_t r = 0; r < nr; ++r) {
         const JointStates* st = states[r].empty() ? nullptr : &states[r][i];
-        const int used = SampleRows(t, i, theta, inertia, a, b, st);
-        if (used == 0) break;
         const auto fixed = a.leftCols<kFixed>();
         const auto joint = a.rightCols<2>();
         if (r == 0) {
+          const int used = SampleRows(t, i, loads, inertia, a, b, st);
+          if (used == 0) break;
           ff.noalias() += fixed.transpose().lazyProduct(fixed);
           fb.noalias() += fixed.transpose().lazyProduct(b);
           sums.btb += b.squaredNorm();
           sums.rows += static_cast<std::size_t>(used);
+        } else {
+          JointRows(t, i, loads, a, st);
         }
         fj[r].noalias() += fixed.transpose().lazyProduct(joint);
         jj[r].noalias() += joint.transpose().lazyProduct(joint);

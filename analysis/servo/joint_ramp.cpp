@@ -65,47 +65,72 @@ hexapod::Vector6d JointForces(const Prepared& p, std::size_t i, const JointState
   return (*p.record.loads)[i].gamma_inv * w;
 }
 
-// Residual sum of squares with ramp λ (λ ≤ 0: the direction of the swing at once).
-double Rss(const std::vector<Prepared>& recs, double lambda, std::size_t* rows) {
-  double ss = 0.0;
+// The joint states before the first sample with each ramp of `lambdas` (InitialJointStates),
+// the ramps stepped together in one pass over the path.
+void InitialStates(const FrictionPath& path, const std::vector<double>& lambdas,
+                   std::vector<JointStates>& states) {
+  states.resize(lambdas.size());
+  if (!path.closed) {
+    for (std::size_t k = 0; k < lambdas.size(); ++k)
+      states[k] = InitialJointStates(path, lambdas[k]);
+    return;
+  }
+  for (auto& r : states) r.fill(Eigen::Vector3d::Zero());
+  for (std::size_t i = 0; i < path.swing_mm.size(); ++i)
+    for (std::size_t k = 0; k < lambdas.size(); ++k)
+      StepJointStates(path, i, lambdas[k], states[k]);
+}
+
+// Residual sum of squares with each ramp λ of `lambdas` (λ ≤ 0: the direction of the swing at
+// once), all in one pass over the samples: the search is bound by reading them.
+std::vector<double> Rss(const std::vector<Prepared>& recs, const std::vector<double>& lambdas,
+                        std::size_t* rows = nullptr) {
+  const std::size_t nl = lambdas.size();
+  std::vector<double> ss(nl, 0.0);
   std::size_t count = 0;
+  std::vector<JointStates> states;
   for (const auto& p : recs) {
     const FrictionPath& path = *p.record.path;
-    JointStates states = InitialJointStates(path, lambda);
+    InitialStates(path, lambdas, states);
     for (std::size_t i = 0; i < p.residual.size(); ++i) {
-      StepJointStates(path, i, lambda, states);
+      for (std::size_t k = 0; k < nl; ++k) StepJointStates(path, i, lambdas[k], states[k]);
       const auto& row = p.row[i];
       if (std::none_of(row.begin(), row.end(), [](bool b) { return b; })) continue;
-      const hexapod::Vector6d e = p.residual[i] - JointForces(p, i, states);
-      for (int j = 0; j < 6; ++j) {
-        if (!row[j]) continue;
-        ss += e[j] * e[j];
-        ++count;
+      for (std::size_t k = 0; k < nl; ++k) {
+        const hexapod::Vector6d e = p.residual[i] - JointForces(p, i, states[k]);
+        for (int j = 0; j < 6; ++j)
+          if (row[j]) ss[k] += e[j] * e[j];
       }
+      for (int j = 0; j < 6; ++j) count += row[j] ? 1 : 0;
     }
   }
   if (rows) *rows = count;
   return ss;
 }
 
+double Rss(const std::vector<Prepared>& recs, double lambda) {
+  return Rss(recs, std::vector<double>{lambda})[0];
+}
+
 // Golden-section search of the RSS over log λ in [a, b].
 double GoldenSection(const std::vector<Prepared>& recs, double a, double b) {
   const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
   double m1 = b - gr * (b - a), m2 = a + gr * (b - a);
-  double f1 = Rss(recs, std::exp(m1), nullptr), f2 = Rss(recs, std::exp(m2), nullptr);
+  const std::vector<double> f = Rss(recs, {std::exp(m1), std::exp(m2)});
+  double f1 = f[0], f2 = f[1];
   for (int it = 0; it < 30; ++it) {
     if (f1 < f2) {
       b = m2;
       m2 = m1;
       f2 = f1;
       m1 = b - gr * (b - a);
-      f1 = Rss(recs, std::exp(m1), nullptr);
+      f1 = Rss(recs, std::exp(m1));
     } else {
       a = m1;
       m1 = m2;
       f1 = f2;
       m2 = a + gr * (b - a);
-      f2 = Rss(recs, std::exp(m2), nullptr);
+      f2 = Rss(recs, std::exp(m2));
     }
   }
   return 0.5 * (a + b);
@@ -139,15 +164,18 @@ RampEstimate EstimateJointRamp(const LoadVector& theta, const std::vector<RampRe
   std::vector<Prepared> recs;
   for (const auto& r : records) recs.push_back(Prepare(theta, r));
   RampEstimate out;
-  const double step = Rss(recs, 0.0, &out.rows);
-  if (out.rows == 0) throw NotObservable("servo loads: no moving sample for the joint ramp");
-  // Grid over log λ, then golden-section search in the best bracket.
+  // Grid over log λ (and no ramp), then golden-section search in the best bracket.
   const double lo = std::log(0.01), hi = std::log(20.0);
   const int grid = 24;
+  std::vector<double> lambdas{0.0};
+  for (int k = 0; k <= grid; ++k) lambdas.push_back(std::exp(lo + (hi - lo) * k / grid));
+  const std::vector<double> grid_rss = Rss(recs, lambdas, &out.rows);
+  if (out.rows == 0) throw NotObservable("servo loads: no moving sample for the joint ramp");
+  const double step = grid_rss[0];
   int best = 0;
   double best_rss = INFINITY;
   for (int k = 0; k <= grid; ++k) {
-    const double rss = Rss(recs, std::exp(lo + (hi - lo) * k / grid), nullptr);
+    const double rss = grid_rss[static_cast<std::size_t>(k) + 1];
     if (rss < best_rss) {
       best_rss = rss;
       best = k;
@@ -156,15 +184,15 @@ RampEstimate EstimateJointRamp(const LoadVector& theta, const std::vector<RampRe
   const double x = GoldenSection(recs, lo + (hi - lo) * std::max(best - 1, 0) / grid,
                                  lo + (hi - lo) * std::min(best + 1, grid) / grid);
   out.ramp_mm = std::exp(x);
-  const double rss = Rss(recs, out.ramp_mm, nullptr);
+  // σ of λ from the curvature of the RSS in λ: var = 2 σ̂² / RSS''.
+  const double h = 0.05 * out.ramp_mm;
+  const std::vector<double> at =
+      Rss(recs, {out.ramp_mm, out.ramp_mm + h, std::max(out.ramp_mm - h, 1e-6)});
+  const double rss = at[0];
   const double rows = static_cast<double>(out.rows);
   out.residual_rms_N = std::sqrt(rss / rows);
   out.step_residual_rms_N = std::sqrt(step / rows);
-  // σ of λ from the curvature of the RSS in λ: var = 2 σ̂² / RSS''.
-  const double h = 0.05 * out.ramp_mm;
-  const double d2 = (Rss(recs, out.ramp_mm + h, nullptr) - 2.0 * rss +
-                     Rss(recs, std::max(out.ramp_mm - h, 1e-6), nullptr)) /
-                    (h * h);
+  const double d2 = (at[1] - 2.0 * rss + at[2]) / (h * h);
   const double s2 = rss / std::max(rows - 1.0, 1.0);
   out.sigma_mm = d2 > 0.0 ? std::sqrt(2.0 * s2 / d2) : NAN;
   return out;

@@ -196,12 +196,9 @@ hexapod::Vector6d StaticGravity(const SampleLoads& p, const LoadVector& theta) {
   return p.gravity * theta.head<5>() + p.known + theta[kStrutMass] * p.strut;
 }
 
-void LoadRegressor(const SampleLoads& p, const MotionSample& s, const JointLoads& loads,
-                   const RowUse& use, bool inertia, LoadRows& a, hexapod::Vector6d& c,
-                   const std::array<Eigen::Vector3d, 6>* joint_states) {
-  a.setZero();
-  a.leftCols<5>() = inertia ? p.effective : p.gravity;
-  a.col(kStrutMass) = p.strut;
+void JointColumns(const SampleLoads& p, const MotionSample& s, const JointLoads& loads,
+                  const RowUse& use, LoadRows& a,
+                  const std::array<Eigen::Vector3d, 6>* joint_states) {
   Wrench w0 = Wrench::Zero(), w1 = Wrench::Zero();
   for (int j = 0; use.joints && j < 6; ++j) {
     if (!loads.active[j]) continue;
@@ -212,6 +209,15 @@ void LoadRegressor(const SampleLoads& p, const MotionSample& s, const JointLoads
   }
   a.col(kT0) = p.gamma_inv * w0;
   a.col(kT1) = p.gamma_inv * w1;
+}
+
+void LoadRegressor(const SampleLoads& p, const MotionSample& s, const JointLoads& loads,
+                   const RowUse& use, bool inertia, LoadRows& a, hexapod::Vector6d& c,
+                   const std::array<Eigen::Vector3d, 6>* joint_states) {
+  a.setZero();
+  a.leftCols<5>() = inertia ? p.effective : p.gravity;
+  a.col(kStrutMass) = p.strut;
+  JointColumns(p, s, loads, use, a, joint_states);
   for (int j = 0; j < 6; ++j) {
     const double r = s.strut_rate_mm_s[j];
     if (use.screw[j]) a(j, kScrew1 + j) = r > 0.0 ? -1.0 : (r < 0.0 ? 1.0 : 0.0);  // eq. 3.10

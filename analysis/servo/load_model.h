@@ -103,6 +103,12 @@ SampleLoads PrepareSampleLoads(const hexapod::MachinePhysics& m, const MotionSam
 // StaticGravity from the prepared parts.
 hexapod::Vector6d StaticGravity(const SampleLoads& p, const LoadVector& theta);
 
+// The t0 and t1 columns of LoadRegressor alone (every row), written into `a`: for fits that
+// try several friction directions with the other columns unchanged.
+void JointColumns(const SampleLoads& p, const MotionSample& s, const JointLoads& loads,
+                  const RowUse& use, LoadRows& a,
+                  const std::array<Eigen::Vector3d, 6>* joint_states = nullptr);
+
 // LoadRegressor from the prepared parts; `inertia` false: the acceleration taken as zero.
 void LoadRegressor(const SampleLoads& p, const MotionSample& s, const JointLoads& loads,
                    const RowUse& use, bool inertia, LoadRows& a, hexapod::Vector6d& c,
