@@ -79,10 +79,30 @@ FrictionPath PathOf(const std::vector<MotionSample>& motion) {
 std::vector<JointStates> JointFrictionStates(const FrictionPath& path, double joint_ramp_mm) {
   const std::size_t n = path.swing_mm.size();
   std::vector<JointStates> r(n);
-  JointStates jr = InitialJointStates(path, joint_ramp_mm);
+  if (!path.closed) {
+    JointStates jr = InitialJointStates(path, joint_ramp_mm);
+    for (std::size_t i = 0; i < n; ++i) {
+      StepJointStates(path, i, joint_ramp_mm, jr);
+      r[i] = jr;
+    }
+    return r;
+  }
+  // A closed path: one pass from rest (InitialJointStates) kept, then the pass from its last
+  // states. A joint whose state meets the first pass's at a sample (to the last bit) follows it
+  // from there on — the same steps from the same state — and is not stepped again.
+  JointStates jr;
+  jr.fill(Eigen::Vector3d::Zero());
   for (std::size_t i = 0; i < n; ++i) {
     StepJointStates(path, i, joint_ramp_mm, jr);
     r[i] = jr;
+  }
+  for (int j = 0; j < 6; ++j) {
+    Eigen::Vector3d state = jr[j];
+    for (std::size_t i = 0; i < n; ++i) {
+      state = hexapod::StepSwingState(state, path.unit[i][j], path.swing_mm[i][j], joint_ramp_mm);
+      if (state == r[i][j]) break;
+      r[i][j] = state;
+    }
   }
   return r;
 }

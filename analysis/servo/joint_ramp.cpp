@@ -65,39 +65,83 @@ hexapod::Vector6d JointForces(const Prepared& p, std::size_t i, const JointState
   return (*p.record.loads)[i].gamma_inv * w;
 }
 
-// The joint states before the first sample with each ramp of `lambdas` (InitialJointStates),
-// the ramps stepped together in one pass over the path.
-void InitialStates(const FrictionPath& path, const std::vector<double>& lambdas,
-                   std::vector<JointStates>& states) {
-  states.resize(lambdas.size());
-  if (!path.closed) {
-    for (std::size_t k = 0; k < lambdas.size(); ++k)
-      states[k] = InitialJointStates(path, lambdas[k]);
-    return;
+// The joint states of one pass over a closed path from rest (InitialJointStates: its last
+// ones are the states before the first sample), with each ramp of `lambdas`, the ramps stepped
+// together; pass[i * lambdas.size() + k] after sample i with ramp k.
+void FirstPass(const FrictionPath& path, const std::vector<double>& lambdas,
+               std::vector<JointStates>& pass) {
+  const std::size_t nl = lambdas.size(), n = path.swing_mm.size();
+  pass.resize(n * nl);
+  std::vector<JointStates> r(nl);
+  for (auto& q : r) q.fill(Eigen::Vector3d::Zero());
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t k = 0; k < nl; ++k) {
+      StepJointStates(path, i, lambdas[k], r[k]);
+      pass[i * nl + k] = r[k];
+    }
   }
-  for (auto& r : states) r.fill(Eigen::Vector3d::Zero());
-  for (std::size_t i = 0; i < path.swing_mm.size(); ++i)
-    for (std::size_t k = 0; k < lambdas.size(); ++k)
-      StepJointStates(path, i, lambdas[k], states[k]);
 }
 
+// The joint states at each sample with each ramp, stepped from the states before the first
+// sample. On a closed path a joint whose state equals (to the last bit) the first pass's at the
+// same sample follows that pass from there on (the same steps from the same state): its states
+// are read from `pass` instead of stepped again.
+class RampStates {
+ public:
+  RampStates(const FrictionPath& path, const std::vector<double>& lambdas,
+             std::vector<JointStates>& pass)
+      : path_(path), lambdas_(lambdas), pass_(pass), states_(lambdas.size()) {
+    const std::size_t nl = lambdas.size();
+    followed_.assign(nl, {});
+    if (!path.closed) {
+      for (std::size_t k = 0; k < nl; ++k) states_[k] = InitialJointStates(path, lambdas[k]);
+      return;
+    }
+    FirstPass(path, lambdas, pass);
+    const std::size_t n = path.swing_mm.size();
+    for (std::size_t k = 0; k < nl && n > 0; ++k) states_[k] = pass[(n - 1) * nl + k];
+  }
+  // Steps every ramp's states over sample i.
+  void Step(std::size_t i) {
+    const std::size_t nl = lambdas_.size();
+    for (std::size_t k = 0; k < nl; ++k) {
+      for (int j = 0; j < 6; ++j) {
+        Eigen::Vector3d& r = states_[k][j];
+        if (followed_[k][j]) {
+          r = pass_[i * nl + k][j];
+          continue;
+        }
+        r = hexapod::StepSwingState(r, path_.unit[i][j], path_.swing_mm[i][j], lambdas_[k]);
+        followed_[k][j] = path_.closed && r == pass_[i * nl + k][j];
+      }
+    }
+  }
+  const JointStates& Of(std::size_t k) const { return states_[k]; }
+
+ private:
+  const FrictionPath& path_;
+  const std::vector<double>& lambdas_;
+  const std::vector<JointStates>& pass_;
+  std::vector<JointStates> states_;
+  std::vector<std::array<bool, 6>> followed_;
+};
+
 // Residual sum of squares with each ramp λ of `lambdas` (λ ≤ 0: the direction of the swing at
-// once), all in one pass over the samples: the search is bound by reading them.
+// once), all in one pass over the samples.
 std::vector<double> Rss(const std::vector<Prepared>& recs, const std::vector<double>& lambdas,
                         std::size_t* rows = nullptr) {
   const std::size_t nl = lambdas.size();
   std::vector<double> ss(nl, 0.0);
   std::size_t count = 0;
-  std::vector<JointStates> states;
+  std::vector<JointStates> pass;
   for (const auto& p : recs) {
-    const FrictionPath& path = *p.record.path;
-    InitialStates(path, lambdas, states);
+    RampStates states(*p.record.path, lambdas, pass);
     for (std::size_t i = 0; i < p.residual.size(); ++i) {
-      for (std::size_t k = 0; k < nl; ++k) StepJointStates(path, i, lambdas[k], states[k]);
+      states.Step(i);
       const auto& row = p.row[i];
       if (std::none_of(row.begin(), row.end(), [](bool b) { return b; })) continue;
       for (std::size_t k = 0; k < nl; ++k) {
-        const hexapod::Vector6d e = p.residual[i] - JointForces(p, i, states[k]);
+        const hexapod::Vector6d e = p.residual[i] - JointForces(p, i, states.Of(k));
         for (int j = 0; j < 6; ++j)
           if (row[j]) ss[k] += e[j] * e[j];
       }
