@@ -14,8 +14,8 @@
 //                   against them (server/tolerances/tolerance_service.h)
 //   instruments()   the instrument register, versioned; an uploaded file naming a registered
 //                   serial takes its uncertainties (server/instruments/instrument_service.h)
-// The audit scheduler sees only the narrow AuditSource it reads (records and the DBB pair
-// analysis), not this class.
+// The audit scheduler sees only the narrow AuditSource it reads (storage roles, the DBB pair
+// analysis and the jobs' verdicts), not this class.
 #pragma once
 
 #include <memory>
@@ -70,10 +70,17 @@ class Service : public AuditSource {
   ToleranceService& tolerances() { return tolerances_; }
   InstrumentService& instruments() { return instruments_; }
 
-  // AuditSource: the storage itself (also for tests and tools; the routes use the services),
-  // and the DBB pair analysis the audits read.
-  Storage& storage() override { return *storage_; }
+  // The storage itself, for tests and tools (the routes use the services).
+  Storage& storage() { return *storage_; }
+
+  // AuditSource: the storage roles the audits read, the DBB pair analysis, the jobs' verdicts.
+  MeasurementStore& measurement_store() override { return *storage_; }
+  JobStore& job_store() override { return *storage_; }
+  AuditStore& audit_store() override { return *storage_; }
+  ToleranceStore& tolerance_store() override { return *storage_; }
+  AccessStore& access_store() override { return *storage_; }
   nlohmann::json DbbPairJson(std::int64_t id) override { return measurements_.DbbPairJson(id); }
+  JobVerdict JobVerdictOf(const JobRecord& job) override { return studies_->Verdict(job); }
 
  private:
   std::unique_ptr<Storage> storage_;

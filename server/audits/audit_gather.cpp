@@ -57,7 +57,7 @@ std::vector<Stored> ListHistory(AuditSource& service, const std::string& machine
   f.kind = kind;
   f.order = MeasurementFilter::Order::kNewest;
   f.limit = kAuditHistory;
-  for (auto& rec : service.storage().ListMeasurements(f).items) {
+  for (auto& rec : service.measurement_store().ListMeasurements(f).items) {
     Stored s;
     s.time = rec.measured_at ? *rec.measured_at : rec.uploaded_at;
     s.at = UnixSecondsFromIso(s.time).value_or(0);
@@ -70,7 +70,7 @@ std::vector<Stored> ListHistory(AuditSource& service, const std::string& machine
 void LoadResults(AuditSource& service, Stored& s) {
   if (s.loaded) return;
   s.loaded = true;
-  for (const auto& r : service.storage().GetResults(s.record.id)) {
+  for (const auto& r : service.measurement_store().GetResults(s.record.id)) {
     json& slot = r.analysis == kJointsAnalysis ? s.joints : s.result;
     slot = ingest::ParseJsonTextOrDiscarded(r.result_json);
     if (slot.is_discarded()) slot = nullptr;
@@ -157,7 +157,7 @@ std::optional<AuditValue> AtPreviousAudit(AuditSource& service, const json& prev
       }
       continue;
     }
-    const auto rec = service.storage().GetMeasurement(seen.measurement_id);
+    const auto rec = service.measurement_store().GetMeasurement(seen.measurement_id);
     if (rec && SameSetUp(*rec, e)) return seen;
   }
   return std::nullopt;
@@ -310,7 +310,7 @@ std::vector<AuditEvidence> GatherAuditEvidence(AuditSource& service, const std::
   std::map<std::string, std::vector<Stored>> histories;
   std::vector<AuditEvidence> evidence;
   const ToleranceTable tolerances =
-      ReadToleranceTable(service.storage(), machine_id).value_or(ToleranceTable{});
+      ReadToleranceTable(service.tolerance_store(), machine_id).value_or(ToleranceTable{});
   for (const auto& rule : rules) {
     auto it = histories.find(rule.kind);
     if (it == histories.end()) {

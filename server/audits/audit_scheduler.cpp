@@ -35,7 +35,7 @@ AuditScheduler::AuditScheduler(AuditSource& service, AuditOptions options, Audit
     w.timeout = std::chrono::seconds(options_.webhook_timeout_s);
     w.secret = options_.webhook_secret;
     w.allow_private = options_.webhook_allow_private;
-    Storage* storage = &service_.storage();
+    AuditStore* storage = &service_.audit_store();
     webhook_ = std::make_unique<WebhookSender>(
         w, [storage](std::int64_t id, const std::string& status, std::int64_t attempts) {
           try {
@@ -65,7 +65,7 @@ void AuditScheduler::Start() {
 void AuditScheduler::ResendPending() {
   AuditVerdictFilter f;
   f.limit = kMaxResent;
-  const auto verdicts = service_.storage().ListAuditVerdicts(f);
+  const auto verdicts = service_.audit_store().ListAuditVerdicts(f);
   for (auto v = verdicts.rbegin(); v != verdicts.rend(); ++v) {  // oldest first
     if (v->webhook_status == "pending") webhook_->Enqueue(v->id, VerdictJson(*v).dump());
   }
@@ -96,13 +96,13 @@ nlohmann::json AuditScheduler::Run(const std::string& machine_id, const std::str
   const std::int64_t now = clock_();
   auto verdict = RunAccuracyAudit(service_, machine_id, trigger, now);
   if (trigger == "manual") {
-    const auto config = service_.storage().GetAuditConfig(machine_id);
-    service_.storage().SetAuditRun(machine_id, IsoFromUnixSeconds(now),
-                                   config ? config->next_run_at : std::nullopt);
+    const auto config = service_.audit_store().GetAuditConfig(machine_id);
+    service_.audit_store().SetAuditRun(machine_id, IsoFromUnixSeconds(now),
+                                       config ? config->next_run_at : std::nullopt);
   }
   if (webhook_ && verdict["level"].get<int>() >= 2) {
     const std::int64_t id = verdict["id"].get<std::int64_t>();
-    service_.storage().SetAuditWebhook(id, "pending", 0);
+    service_.audit_store().SetAuditWebhook(id, "pending", 0);
     verdict["webhook"] = {{"status", "pending"}, {"attempts", 0}};
     webhook_->Enqueue(id, verdict.dump());
   }
@@ -115,8 +115,9 @@ nlohmann::json AuditScheduler::Run(const std::string& machine_id, const std::str
 // false: not this instance's run, or the claim could not be stored.
 bool AuditScheduler::ClaimDue(const AuditConfigRecord& c, std::int64_t now) {
   try {
-    return service_.storage().ClaimAuditRun(c.machine_id, *c.next_run_at, IsoFromUnixSeconds(now),
-                                            IsoFromUnixSeconds(now + kAuditLeaseSeconds));
+    return service_.audit_store().ClaimAuditRun(c.machine_id, *c.next_run_at,
+                                                IsoFromUnixSeconds(now),
+                                                IsoFromUnixSeconds(now + kAuditLeaseSeconds));
   } catch (const std::exception& e) {
     std::cerr << "kinemetricd: accuracy audit of machine '" << c.machine_id
               << "': the due run could not be claimed: " << e.what() << std::endl;
@@ -132,8 +133,8 @@ void AuditScheduler::ReleaseClaim(const AuditConfigRecord& c, std::int64_t now) 
     if (const auto t = NextAuditRun(ParseAuditSchedule(*c.schedule), now)) {
       next = IsoFromUnixSeconds(*t);
     }
-    service_.storage().ClaimAuditRun(c.machine_id, IsoFromUnixSeconds(now + kAuditLeaseSeconds),
-                                     IsoFromUnixSeconds(now), next);
+    service_.audit_store().ClaimAuditRun(c.machine_id, IsoFromUnixSeconds(now + kAuditLeaseSeconds),
+                                         IsoFromUnixSeconds(now), next);
   } catch (const std::exception& e) {
     std::cerr << "kinemetricd: accuracy audit of machine '" << c.machine_id
               << "': the next due time could not be stored: " << e.what() << std::endl;
@@ -143,7 +144,7 @@ void AuditScheduler::ReleaseClaim(const AuditConfigRecord& c, std::int64_t now) 
 int AuditScheduler::RunDue() {
   const std::int64_t now = clock_();
   int ran = 0;
-  for (const auto& c : service_.storage().ListAuditConfigs()) {
+  for (const auto& c : service_.audit_store().ListAuditConfigs()) {
     if (!c.schedule || !c.next_run_at) continue;
     const auto due = UnixSecondsFromIso(*c.next_run_at);
     if (due && *due > now) continue;
@@ -164,7 +165,7 @@ bool AuditScheduler::RunScheduled(const std::string& machine_id) {
     e.path = "/api/v1/machines/" + machine_id + "/audit/run";
     e.status = 201;
     e.subject = "machine " + machine_id + ", audit " + verdict["id"].dump();
-    service_.storage().AppendAudit(e);
+    service_.access_store().AppendAudit(e);
     return true;
   } catch (const std::exception& e) {
     std::cerr << "kinemetricd: scheduled accuracy audit of machine '" << machine_id
@@ -175,7 +176,7 @@ bool AuditScheduler::RunScheduled(const std::string& machine_id) {
 
 std::optional<std::int64_t> AuditScheduler::NextDue() {
   std::optional<std::int64_t> best;
-  for (const auto& c : service_.storage().ListAuditConfigs()) {
+  for (const auto& c : service_.audit_store().ListAuditConfigs()) {
     if (!c.schedule || !c.next_run_at) continue;
     const auto t = UnixSecondsFromIso(*c.next_run_at);
     if (t && (!best || *t < *best)) best = t;

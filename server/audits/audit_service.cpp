@@ -90,7 +90,7 @@ json ConfigJson(const AuditConfigRecord& c) {
 }
 
 AuditConfigRecord StoredConfig(AuditSource& service, const std::string& machine_id) {
-  auto c = service.storage().GetAuditConfig(machine_id);
+  auto c = service.audit_store().GetAuditConfig(machine_id);
   if (!c) throw NotFound("machine '" + machine_id + "' has no accuracy audit");
   return *c;
 }
@@ -131,9 +131,9 @@ json PutAuditConfig(AuditSource& service, const std::string& machine_id, const j
                       {"decision_rule", DecisionRuleJson(policy.decision_rule)},
                       {"instrument_overdue", policy.instrument_overdue_warn ? "warn" : "ignore"}}
                      .dump();
-  if (const auto old = service.storage().GetAuditConfig(machine_id))
+  if (const auto old = service.audit_store().GetAuditConfig(machine_id))
     c.last_run_at = old->last_run_at;
-  service.storage().PutAuditConfig(c);
+  service.audit_store().PutAuditConfig(c);
   return ConfigJson(c);
 }
 
@@ -149,7 +149,7 @@ json RunAccuracyAudit(AuditSource& service, const std::string& machine_id,
   AuditVerdictFilter last;
   last.machine_id = machine_id;
   last.limit = 1;
-  const auto previous_records = service.storage().ListAuditVerdicts(last);
+  const auto previous_records = service.audit_store().ListAuditVerdicts(last);
   const json previous = previous_records.empty()
                             ? json(nullptr)
                             : ingest::ParseJsonTextOrDiscarded(previous_records[0].verdict_json);
@@ -163,7 +163,7 @@ json RunAccuracyAudit(AuditSource& service, const std::string& machine_id,
   v.level = outcome["level"].get<int>();
   outcome.erase("level");
   v.verdict_json = outcome.dump();
-  v.id = service.storage().AddAuditVerdict(v);
+  v.id = service.audit_store().AddAuditVerdict(v);
   return VerdictJson(v);
 }
 
@@ -205,7 +205,7 @@ bool VerdictAt(AuditSource& service, AuditVerdictFilter f, std::int64_t offset) 
   f.offset = offset;
   f.limit = 1;
   f.max_bytes = 0;
-  return !service.storage().ListAuditVerdicts(f).empty();
+  return !service.audit_store().ListAuditVerdicts(f).empty();
 }
 
 // Writes the records into `out` one by one while they fit in max_bytes (the first always) and
@@ -235,7 +235,7 @@ std::string BuildPage(AuditSource& service, const AuditVerdictFilter& filter,
   if (max_bytes < static_cast<std::size_t>(std::numeric_limits<std::int64_t>::max())) {
     f.max_bytes = static_cast<std::int64_t>(max_bytes);
   }
-  auto records = service.storage().ListAuditVerdicts(f);
+  auto records = service.audit_store().ListAuditVerdicts(f);
   std::size_t stored = 0;
   for (const auto& r : records) stored += r.verdict_json.size();
   std::string out = "{\"audits\":[";
@@ -272,7 +272,7 @@ json ListAccuracyAudits(AuditSource& service, const AuditVerdictFilter& filter) 
 }
 
 json AccuracyAuditJson(AuditSource& service, std::int64_t id) {
-  const auto v = service.storage().GetAuditVerdict(id);
+  const auto v = service.audit_store().GetAuditVerdict(id);
   if (!v) throw NotFound("accuracy audit " + std::to_string(id) + " does not exist");
   return VerdictJson(*v);
 }

@@ -1,12 +1,14 @@
-// What the accuracy audits and the fleet view read, and nothing more: the stored records and
-// the CW/CCW pair analysis of a stored DBB test. The service (server/service.h) is one; the
-// audits do not see the rest of it.
+// What the accuracy audits and the fleet view read, and nothing more: the storage roles they
+// read and write (measurements and results, jobs, audit configurations and verdicts, tolerance
+// tables, the audit log), the CW/CCW pair analysis of a stored DBB test, and the verdict on a
+// stored job. The service (server/service.h) is one; the audits do not see the rest of it.
 #pragma once
 
 #include <cstdint>
 
 #include <nlohmann/json.hpp>
 
+#include "server/jobs/job_kinds.h"
 #include "server/storage/storage.h"
 
 namespace km::server {
@@ -14,10 +16,16 @@ namespace km::server {
 class AuditSource {
  public:
   virtual ~AuditSource() = default;
-  virtual Storage& storage() = 0;
+  virtual MeasurementStore& measurement_store() = 0;
+  virtual JobStore& job_store() = 0;
+  virtual AuditStore& audit_store() = 0;
+  virtual ToleranceStore& tolerance_store() = 0;
+  virtual AccessStore& access_store() = 0;  // the audit log
   // The pair analysis of a stored DBB test, recomputed from its stored bytes; null when the
   // test has no partner (MeasurementService::DbbPairJson).
   virtual nlohmann::json DbbPairJson(std::int64_t id) = 0;
+  // The verdict on a stored job by its kind's judge (StudyService::Verdict).
+  virtual JobVerdict JobVerdictOf(const JobRecord& job) = 0;
 };
 
 }  // namespace km::server

@@ -4,7 +4,7 @@
 
 #include "ingest/json_text.h"
 #include "server/base/time_util.h"
-#include "server/jobs/jobs.h"
+#include "server/jobs/study_service.h"
 
 namespace km::server {
 
@@ -13,7 +13,7 @@ using nlohmann::json;
 std::vector<CalibrationRun> MachineCalibrations(AuditSource& service,
                                                 const std::string& machine_id) {
   std::vector<CalibrationRun> runs;
-  for (const auto& j : service.storage().ListJobs(kCalibrationJobScan)) {
+  for (const auto& j : service.job_store().ListJobs(kCalibrationJobScan)) {
     if (j.kind != kCalibrationJob || j.status != JobStatus::kDone) continue;
     const json request = ingest::ParseJsonTextOrDiscarded(j.request_json);
     if (!request.is_object() || !request.contains("machine_id") ||
@@ -21,7 +21,7 @@ std::vector<CalibrationRun> MachineCalibrations(AuditSource& service,
       continue;
     }
     json result = ingest::ParseJsonTextOrDiscarded(j.result_json);
-    if (!result.is_object() || JudgeJob(j.kind, j.status, result, j.error).verdict == "failed") {
+    if (!result.is_object() || service.JobVerdictOf(j).verdict == "failed") {
       continue;
     }
     CalibrationRun run;

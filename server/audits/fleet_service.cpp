@@ -51,7 +51,7 @@ std::optional<double> ValueAt(AuditSource& service, const AuditMetric& m, std::i
 }
 
 void RequireMachine(AuditSource& service, const std::string& machine_id) {
-  const auto machines = service.storage().ListMachines();
+  const auto machines = service.measurement_store().ListMachines();
   if (std::none_of(machines.begin(), machines.end(),
                    [&](const MachineSummary& m) { return m.machine_id == machine_id; })) {
     throw NotFound("machine " + machine_id + " has no measurements and no model");
@@ -62,7 +62,7 @@ void RequireMachine(AuditSource& service, const std::string& machine_id) {
 // first measurement), counted.
 std::map<std::string, std::int64_t> OpenJobs(AuditSource& service) {
   std::map<std::string, std::int64_t> open;
-  for (const auto& j : service.storage().ListJobs(kFleetJobScan)) {
+  for (const auto& j : service.job_store().ListJobs(kFleetJobScan)) {
     if (j.status != JobStatus::kQueued && j.status != JobStatus::kRunning) continue;
     const auto req = ingest::ParseJsonTextOrDiscarded(j.request_json);
     if (!req.is_object()) continue;
@@ -70,7 +70,7 @@ std::map<std::string, std::int64_t> OpenJobs(AuditSource& service) {
     if (machine.empty() && req.contains("measurement_ids") && req["measurement_ids"].is_array() &&
         !req["measurement_ids"].empty() && req["measurement_ids"][0].is_number_integer()) {
       const auto rec =
-          service.storage().GetMeasurement(req["measurement_ids"][0].get<std::int64_t>());
+          service.measurement_store().GetMeasurement(req["measurement_ids"][0].get<std::int64_t>());
       if (rec) machine = rec->machine_id;
     }
     if (!machine.empty()) ++open[machine];
@@ -87,7 +87,7 @@ nlohmann::json NewestAudit(AuditSource& service, const std::string& machine_id) 
   AuditVerdictFilter f;
   f.machine_id = machine_id;
   f.limit = 1;
-  const auto v = service.storage().ListAuditVerdicts(f);
+  const auto v = service.audit_store().ListAuditVerdicts(f);
   if (v.empty()) return nullptr;
   return {{"id", v.front().id}, {"level", v.front().level}, {"created_at", v.front().created_at}};
 }
@@ -110,7 +110,7 @@ nlohmann::json CalibrationPoints(AuditSource& service, const AuditMetric& m,
 
 std::map<std::string, std::size_t> AuditRuleCounts(AuditSource& service) {
   std::map<std::string, std::size_t> out;
-  for (const auto& c : service.storage().ListAuditConfigs()) {
+  for (const auto& c : service.audit_store().ListAuditConfigs()) {
     const auto doc = ingest::ParseJsonText(c.rules_json, "stored document");
     const auto& rules = doc.is_object() ? doc.value("rules", nlohmann::json::array()) : doc;
     out[c.machine_id] = rules.is_array() ? rules.size() : 0;
@@ -131,12 +131,12 @@ nlohmann::json TrendMetrics() {
 nlohmann::json Fleet(AuditSource& service) {
   const auto open = OpenJobs(service);
   nlohmann::json machines = nlohmann::json::array();
-  for (const auto& m : service.storage().ListMachines()) {
+  for (const auto& m : service.measurement_store().ListMachines()) {
     MeasurementFilter f;
     f.machine_id = m.machine_id;
     f.order = MeasurementFilter::Order::kNewest;
     f.limit = 1;
-    const auto page = service.storage().ListMeasurements(f);
+    const auto page = service.measurement_store().ListMeasurements(f);
     nlohmann::json last = nullptr;
     if (!page.items.empty()) {
       const auto& r = page.items.front();
@@ -179,10 +179,10 @@ nlohmann::json Trends(AuditSource& service, const std::string& machine_id,
   if (const auto axis = AuditMetricTestId(*m); !axis.empty()) f.test_id = axis;  // one axis
   f.order = MeasurementFilter::Order::kNewest;
   f.limit = m->analysis == "dbb-pair" ? static_cast<std::int64_t>(kMaxPairPoints) : kMaxTrendPoints;
-  const auto page = service.storage().ListMeasurements(f);
+  const auto page = service.measurement_store().ListMeasurements(f);
   nlohmann::json points = nlohmann::json::array();
   for (auto r = page.items.rbegin(); r != page.items.rend(); ++r) {
-    const auto v = ValueAt(service, *m, r->id, service.storage().GetResults(r->id));
+    const auto v = ValueAt(service, *m, r->id, service.measurement_store().GetResults(r->id));
     if (!v || !std::isfinite(*v)) continue;
     // The test and direction let a client draw one series a test (a circle of one plane,
     // radius and direction; one axis of a laser run) instead of joining them all.

@@ -4,6 +4,7 @@
 // a stored DBB test with a tool length. The queued job keeps the ids, not the tests: it reads
 // each test once, when it runs.
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -119,8 +120,8 @@ std::vector<std::int64_t> StudyService::CheckedDbbIds(const std::vector<std::int
   return ids;
 }
 
-std::shared_ptr<CalibrationPlan> StudyService::CheckCalibration(const CalibrationRequest& request,
-                                                                std::int64_t& stored_version) {
+std::shared_ptr<CalibrationPlan> StudyService::ResolveCalibration(const CalibrationRequest& request,
+                                                                  std::int64_t& stored_version) {
   auto plan = std::make_shared<CalibrationPlan>();
   stored_version = 0;
   if (request.machine) {
@@ -137,6 +138,13 @@ std::shared_ptr<CalibrationPlan> StudyService::CheckCalibration(const Calibratio
   plan->reduction_min_tests = request.reduction_study_min_tests.value_or(0);
   plan->effects = request.effects;
   plan->max_samples_per_test = request.max_samples_per_test.value_or(0);
+  plan->ids = request.measurement_ids;
+  return plan;
+}
+
+std::shared_ptr<CalibrationPlan> StudyService::CheckCalibration(const CalibrationRequest& request,
+                                                                std::int64_t& stored_version) {
+  auto plan = ResolveCalibration(request, stored_version);
   RequireReductionWithoutEffects(*plan);
   plan->ids = CheckedDbbIds(request.measurement_ids, "calibration study", true,
                             plan->method == hexapod::CalibrationMethod::kAbsolute);
@@ -157,11 +165,11 @@ std::int64_t StudyService::SubmitCalibration(const CalibrationRequest& request,
   return queue_.Submit(kCalibrationJob, shown, run, owner_token_id);
 }
 
-// The job reads the tests when it runs, checked again from the plan.
-nlohmann::json StudyService::RunCalibrationJob(const nlohmann::json& plan_json,
-                                               const ProgressFn& p) {
+// The job runs its stored plan as it was checked when queued (the stored model's version is
+// fixed; a test removed since then fails the job naming it) and reads each test once.
+JobOutput StudyService::RunCalibrationJob(const nlohmann::json& plan_json, const ProgressFn& p) {
   std::int64_t version = 0;
-  const auto plan = CheckCalibration(CalibrationRequest::Parse(plan_json), version);
+  const auto plan = ResolveCalibration(CalibrationRequest::Parse(plan_json), version);
   usecases::CalibrationStudy study;
   study.machine = plan->machine;
   study.method = plan->method;
@@ -176,10 +184,72 @@ nlohmann::json StudyService::RunCalibrationJob(const nlohmann::json& plan_json,
     study.names.push_back(TestName(id));
   }
   auto outcome = usecases::RunCalibrationStudy(study, p);
-  // The calibrated machine document, as `POST /api/v1/jobs/{id}/save-machine` stores it.
-  outcome.report["calibrated_machine"] =
-      nlohmann::json::parse(ingest::WriteMachineJson(outcome.calibrated));
-  return outcome.report;
+  // The calibrated machine document, kept as written (POST /api/v1/jobs/{id}/save-machine stores
+  // it unchanged) and shown in the result.
+  JobOutput out;
+  out.machine_document = ingest::WriteMachineJson(outcome.calibrated);
+  out.result = std::move(outcome.report);
+  out.result["calibrated_machine"] = nlohmann::json::parse(out.machine_document);
+  return out;
+}
+
+namespace {
+
+// The largest value of a nested array of numbers (parameter_uncertainty_um's groups); `bad`
+// when a value is missing or not finite (null in the JSON).
+void LargestOf(const nlohmann::json& j, double& largest, bool& bad) {
+  if (j.is_number()) {
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) bad = true;
+    if (v > largest) largest = v;
+  } else if (j.is_array() || j.is_object()) {
+    for (const auto& x : j) LargestOf(x, largest, bad);
+  } else if (j.is_null()) {
+    bad = true;
+  }
+}
+
+void JudgeParameterUncertainty(const nlohmann::json& r, JobFindings& out) {
+  if (!r.contains("parameter_uncertainty_um")) return;
+  double largest = 0.0;
+  bool bad = false;
+  LargestOf(r["parameter_uncertainty_um"], largest, bad);
+  if (bad) {
+    out.Fail("under-determined: a parameter uncertainty is not finite");
+  } else if (largest > kUndeterminedAboveUm) {
+    out.Warn("under-determined: parameter uncertainty up to ±" + VerdictNumber(largest) +
+             " µm (above ±" + VerdictNumber(kUndeterminedAboveUm) +
+             " µm): the tests do not determine the parameters; add tests in other poses");
+  }
+}
+
+// Parameters fixed beyond the method's gauge (none for absolute; the 6 rigid motions of the base
+// for centre-corrected, [PM-600 report] §2.3) are ones these tests cannot identify.
+void JudgeFixedParameters(const nlohmann::json& r, JobFindings& out) {
+  const auto fixed = r.value("fixed_parameters", nlohmann::json::array());
+  const std::size_t gauge = r.value("method", std::string()) == "centre_corrected" ? 6 : 0;
+  if (!fixed.is_array() || fixed.size() <= gauge) return;
+  out.Warn("under-determined: " + std::to_string(fixed.size()) +
+           " parameters cannot be identified from these tests and were fixed (" +
+           (gauge == 0 ? std::string("an absolute calibration fixes none")
+                       : "a centre-corrected one fixes the " + std::to_string(gauge) +
+                             " rigid motions of the base") +
+           ")");
+}
+
+}  // namespace
+
+void JudgeCalibrationResult(const nlohmann::json& r, JobFindings& out) {
+  if (r.contains("converged") && r["converged"].is_boolean() && !r["converged"].get<bool>()) {
+    const std::string it =
+        r.contains("iterations") && r["iterations"].is_number_integer()
+            ? " after " + std::to_string(r["iterations"].get<long long>()) + " iterations"
+            : "";
+    out.Warn("not converged: the solver stopped" + it + " before the parameters settled");
+  }
+  JudgeConditionNumber(r, kIllConditionedAbove, out);
+  JudgeParameterUncertainty(r, out);
+  JudgeFixedParameters(r, out);
 }
 
 nlohmann::json StudyService::Job(std::int64_t id) {

@@ -3,14 +3,12 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <optional>
 #include <random>
 
 #include "analysis/core/errors.h"
-#include "analysis/discovery/engine.h"
 #include "ingest/json_text.h"
 
 namespace km::server {
@@ -62,8 +60,8 @@ std::optional<std::string> Guarded(F&& call) {
 
 }  // namespace
 
-JobQueue::JobQueue(JobStore& storage, JobQueueOptions options)
-    : storage_(storage), options_(std::move(options)) {
+JobQueue::JobQueue(JobStore& storage, const JobKinds& kinds, JobQueueOptions options)
+    : storage_(storage), options_(std::move(options)), kinds_(kinds) {
   if (options_.instance.empty()) options_.instance = InstanceName();
   options_.workers = std::max(options_.workers, 0);
   options_.lease_ms = std::max<std::int64_t>(options_.lease_ms, 100);
@@ -73,10 +71,6 @@ JobQueue::JobQueue(JobStore& storage, JobQueueOptions options)
 
 JobQueue::~JobQueue() {
   Stop();
-}
-
-void JobQueue::Register(const std::string& kind, Runner runner) {
-  runners_[kind] = std::move(runner);
 }
 
 void JobQueue::Start() {
@@ -209,9 +203,9 @@ void JobQueue::Report(std::int64_t id, double progress, const std::string& stage
   }
 }
 
-nlohmann::json JobQueue::RunPlan(const JobRecord& job) {
-  const auto runner = runners_.find(job.kind);
-  if (runner == runners_.end()) {
+JobOutput JobQueue::RunPlan(const JobRecord& job) {
+  const JobKind* kind = kinds_.Find(job.kind);
+  if (!kind || !kind->run) {
     throw Error("this server does not run jobs of kind '" + job.kind + "'");
   }
   if (job.plan_json.empty()) {
@@ -220,8 +214,7 @@ nlohmann::json JobQueue::RunPlan(const JobRecord& job) {
         "submit it again");
   }
   const auto plan = ingest::ParseJsonText(job.plan_json, "stored document");
-  return runner->second(plan,
-                        [&](double f, const std::string& stage) { Report(job.id, f, stage); });
+  return kind->run(plan, [&](double f, const std::string& stage) { Report(job.id, f, stage); });
 }
 
 void JobQueue::RunJob(JobRecord job) {
@@ -231,7 +224,9 @@ void JobQueue::RunJob(JobRecord job) {
   }
   bool interrupted = false;
   try {
-    job.result_json = RunPlan(job).dump();
+    JobOutput out = RunPlan(job);
+    job.result_json = out.result.dump();
+    job.machine_document = std::move(out.machine_document);
     job.status = JobStatus::kDone;
     job.progress = 1.0;
     job.stage = "done";
@@ -268,6 +263,7 @@ void JobQueue::Finish(JobRecord job) {
     job.status = JobStatus::kFailed;
     job.stage = "storing the result";
     job.result_json.clear();
+    job.machine_document.clear();
     job.error = "the result could not be stored: " + *error;
     error = Guarded([&] { held = storage_.FinishJob(job, options_.instance); });
   }
@@ -277,158 +273,6 @@ void JobQueue::Finish(JobRecord job) {
            "its outcome is dropped: the job was cancelled, or its lease ran out and another "
            "instance runs it");
   }
-}
-
-nlohmann::json JobJson(const JobRecord& job) {
-  nlohmann::json j;
-  j["id"] = job.id;
-  j["kind"] = job.kind;
-  j["status"] = ToString(job.status);
-  j["progress"] = job.progress;
-  j["stage"] = job.stage;
-  j["created_at"] = job.created_at;
-  j["updated_at"] = job.updated_at;
-  j["request"] = job.request_json.empty()
-                     ? nlohmann::json(nullptr)
-                     : ingest::ParseJsonText(job.request_json, "stored document");
-  if (!job.result_json.empty())
-    j["result"] = ingest::ParseJsonText(job.result_json, "stored document");
-  if (!job.error.empty()) j["error"] = job.error;
-  // The instance running the job, or the one that finished it; how often it was started.
-  j["instance"] =
-      job.lease_owner.empty() ? nlohmann::json(nullptr) : nlohmann::json(job.lease_owner);
-  j["attempts"] = job.attempts;
-  j["owner_token_id"] =
-      job.owner_token_id > 0 ? nlohmann::json(job.owner_token_id) : nlohmann::json(nullptr);
-  const JobVerdict v =
-      JudgeJob(job.kind, job.status, j.value("result", nlohmann::json()), job.error);
-  j["verdict"] = v.verdict.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.verdict);
-  j["verdict_reasons"] = v.reasons;
-  return j;
-}
-
-namespace {
-
-// A figure in a sentence: whole numbers from 100 up, else three significant digits.
-std::string Num(double v) {
-  char buf[64];
-  if (std::fabs(v) >= 100.0) {
-    std::snprintf(buf, sizeof buf, "%.0f", v);
-  } else {
-    std::snprintf(buf, sizeof buf, "%.3g", v);
-  }
-  return buf;
-}
-
-// The largest value of a nested array of numbers (parameter_uncertainty_um's groups);
-// NaN when a value is missing or not finite (null in the JSON).
-void LargestOf(const nlohmann::json& j, double& largest, bool& bad) {
-  if (j.is_number()) {
-    const double v = j.get<double>();
-    if (!std::isfinite(v)) bad = true;
-    if (v > largest) largest = v;
-  } else if (j.is_array() || j.is_object()) {
-    for (const auto& x : j) LargestOf(x, largest, bad);
-  } else if (j.is_null()) {
-    bad = true;
-  }
-}
-
-struct Judgement {
-  bool failed = false;
-  std::vector<std::string> reasons;
-  void Warn(const std::string& why) { reasons.push_back(why); }
-  void Fail(const std::string& why) {
-    failed = true;
-    reasons.push_back(why);
-  }
-};
-
-// bound: the condition number above which the study is ill-conditioned (0: only a number that
-// is not finite counts).
-void JudgeConditioning(const nlohmann::json& r, double bound, Judgement& out) {
-  if (!r.contains("condition_number")) return;
-  const auto& c = r["condition_number"];
-  if (!c.is_number() || !std::isfinite(c.get<double>())) {
-    out.Fail(
-        "ill-conditioned: the condition number is not finite (the tests do not determine "
-        "every parameter)");
-    return;
-  }
-  const double cond = c.get<double>();
-  if (bound > 0 && cond > bound) {
-    out.Warn("ill-conditioned: condition number " + Num(cond) + " (above " + Num(bound) +
-             "): the tests do not tell the parameters apart");
-  }
-}
-
-void JudgeCalibration(const nlohmann::json& r, Judgement& out) {
-  if (r.contains("converged") && r["converged"].is_boolean() && !r["converged"].get<bool>()) {
-    const std::string it =
-        r.contains("iterations") && r["iterations"].is_number_integer()
-            ? " after " + std::to_string(r["iterations"].get<long long>()) + " iterations"
-            : "";
-    out.Warn("not converged: the solver stopped" + it + " before the parameters settled");
-  }
-  JudgeConditioning(r, kIllConditionedAbove, out);
-  if (r.contains("parameter_uncertainty_um")) {
-    double largest = 0.0;
-    bool bad = false;
-    LargestOf(r["parameter_uncertainty_um"], largest, bad);
-    if (bad) {
-      out.Fail("under-determined: a parameter uncertainty is not finite");
-    } else if (largest > kUndeterminedAboveUm) {
-      out.Warn("under-determined: parameter uncertainty up to ±" + Num(largest) + " µm (above ±" +
-               Num(kUndeterminedAboveUm) +
-               " µm): the tests do not determine the parameters; add tests in other poses");
-    }
-  }
-  // Parameters fixed beyond the method's gauge (none for absolute; the 6 rigid motions of the
-  // base for centre-corrected, [PM-600 report] §2.3) are ones these tests cannot identify.
-  const auto fixed = r.value("fixed_parameters", nlohmann::json::array());
-  const std::size_t gauge = r.value("method", std::string()) == "centre_corrected" ? 6 : 0;
-  if (fixed.is_array() && fixed.size() > gauge) {
-    out.Warn("under-determined: " + std::to_string(fixed.size()) +
-             " parameters cannot be identified from these tests and were fixed (" +
-             (gauge == 0 ? std::string("an absolute calibration fixes none")
-                         : "a centre-corrected one fixes the " + std::to_string(gauge) +
-                               " rigid motions of the base") +
-             ")");
-  }
-}
-
-void JudgeDiscovery(const nlohmann::json& r, Judgement& out) {
-  const std::string verdict = r.value("verdict", std::string());
-  const std::string stop = r.value("stop_reason", std::string());
-  const auto parsed = discovery::ParseVerdict(verdict);
-  if (parsed == discovery::Verdict::kModelMisfit) {
-    out.Warn("model misfit: the tests show an error no candidate effect describes" +
-             (stop.empty() ? std::string() : " (stopped because " + stop + ")"));
-  } else if (parsed != discovery::Verdict::kComplete) {
-    out.Warn("no clear verdict from the study" +
-             (verdict.empty() ? std::string() : " ('" + verdict + "')"));
-  }
-  // The final fit's condition number mixes parameters of different units (kinematic µm, effect
-  // coefficients): no bound applies to it, but it must be a number.
-  JudgeConditioning(r, 0.0, out);
-}
-
-}  // namespace
-
-JobVerdict JudgeJob(const std::string& kind, JobStatus status, const nlohmann::json& result,
-                    const std::string& error) {
-  if (status == JobStatus::kFailed) return {"failed", {error.empty() ? "the job failed" : error}};
-  if (status != JobStatus::kDone) return {};
-  Judgement j;
-  if (!result.is_object()) {
-    j.Fail("the job stored no result");
-  } else if (kind == kCalibrationJob) {
-    JudgeCalibration(result, j);
-  } else if (kind == kDiscoveryJob) {
-    JudgeDiscovery(result, j);
-  }
-  if (j.reasons.empty()) return {"ok", {}};
-  return {j.failed ? "failed" : "warning", j.reasons};
 }
 
 }  // namespace km::server

@@ -3,7 +3,8 @@
 // (its progress reports and a heartbeat), so adding an instance adds capacity, and a job whose
 // instance died is taken over by another when the lease runs out. A stopping instance gives its
 // running jobs back to the queue; queued jobs wait for the next instance. A job is stored with
-// its plan (the checked request, the machine resolved), from which any instance runs it.
+// its plan (the checked request, the machine resolved), from which any instance runs it with
+// the runner of its kind (server/jobs/job_kinds.h); the queue itself knows no kind.
 #pragma once
 
 #include <condition_variable>
@@ -18,14 +19,10 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/progress.h"
+#include "server/jobs/job_kinds.h"
 #include "server/storage/storage.h"
 
 namespace km::server {
-
-// The kinds of job the service registers (Service's constructor); a queue takes any registered
-// name.
-inline constexpr const char* kCalibrationJob = "hexapod_calibration";
-inline constexpr const char* kDiscoveryJob = "discovery";
 
 struct JobQueueOptions {
   std::size_t max_queued = 16;  // queued jobs (of every instance) beyond which Submit refuses
@@ -38,16 +35,13 @@ struct JobQueueOptions {
 
 class JobQueue {
  public:
-  // Runs a job of one kind from its plan; the answer is stored as the job's result.
-  using Runner = std::function<nlohmann::json(const nlohmann::json& plan, const ProgressFn&)>;
-
-  explicit JobQueue(JobStore& storage, JobQueueOptions options = {});
+  // kinds: the runner of every kind the queue takes (complete before Start, and outliving the
+  // queue); a job of another kind fails naming it.
+  JobQueue(JobStore& storage, const JobKinds& kinds, JobQueueOptions options = {});
   ~JobQueue();  // Stop()
   JobQueue(const JobQueue&) = delete;
   JobQueue& operator=(const JobQueue&) = delete;
 
-  // The runner of a kind (before Start).
-  void Register(const std::string& kind, Runner runner);
   void Start();
   // Stops taking jobs. A running job stops at its next progress report and goes back to the
   // queue, to be run again by this or another instance; the workers are joined.
@@ -73,14 +67,14 @@ class JobQueue {
   void Heartbeat();
   std::optional<JobRecord> TryClaim();
   void RunJob(JobRecord job);
-  nlohmann::json RunPlan(const JobRecord& job);
+  JobOutput RunPlan(const JobRecord& job);
   void Report(std::int64_t id, double progress, const std::string& stage);
   void Finish(JobRecord job);
   std::int64_t LeaseEnd() const;
 
   JobStore& storage_;
   JobQueueOptions options_;
-  std::map<std::string, Runner> runners_;
+  const JobKinds& kinds_;
   std::mutex mu_;
   std::condition_variable cv_;
   bool started_ = false, stop_ = false;
@@ -89,31 +83,5 @@ class JobQueue {
   std::vector<std::thread> workers_;
   std::thread heartbeat_;
 };
-
-// The job as the API serves it: id, kind, status, progress, stage, times, request, result,
-// error, owner_token_id (null when not known), and the verdict on its outcome (JudgeJob) as
-// "verdict" and "verdict_reasons".
-nlohmann::json JobJson(const JobRecord& job);
-
-// The verdict on a background job's outcome (docs/formats.md §5): can its figures be trusted?
-// A calibration or discovery that finished may still be ill-conditioned, not converged or
-// under-determined: its numbers are then not a result, and the verdict says why.
-// Above this condition number (of the Jacobian over the free parameters) the tests do not tell
-// the parameters apart: small changes of the readings move them a lot.
-inline constexpr double kIllConditionedAbove = 1e4;
-// Above this standard uncertainty of an identified parameter (µm) the tests do not determine it:
-// the errors a calibration corrects are tens of µm.
-inline constexpr double kUndeterminedAboveUm = 25.0;
-
-struct JobVerdict {
-  std::string verdict;  // "ok", "warning", "failed"; empty while the job is queued or running
-  std::vector<std::string> reasons;  // empty when "ok"
-};
-
-// kind: "hexapod_calibration" or "discovery" (other kinds: "ok" when done); status: queued,
-// running, done, failed, cancelled (no verdict: there are no figures to judge); result: the
-// stored result (null when none); error: when failed.
-JobVerdict JudgeJob(const std::string& kind, JobStatus status, const nlohmann::json& result,
-                    const std::string& error);
 
 }  // namespace km::server

@@ -18,13 +18,15 @@ StudyService::StudyService(MeasurementStore& measurement_store, JobStore& job_st
       measurements_(measurements),
       models_(models),
       options_(options),
-      queue_(job_store, options.jobs) {
-  queue_.Register(kCalibrationJob, [this](const nlohmann::json& plan, const ProgressFn& p) {
-    return RunCalibrationJob(plan, p);
-  });
-  queue_.Register(kDiscoveryJob, [this](const nlohmann::json& plan, const ProgressFn& p) {
-    return RunDiscoveryJob(plan, p);
-  });
+      queue_(job_store, kinds_, options.jobs) {
+  kinds_.Add(kCalibrationJob, {[this](const nlohmann::json& plan, const ProgressFn& p) {
+                                 return RunCalibrationJob(plan, p);
+                               },
+                               JudgeCalibrationResult});
+  kinds_.Add(kDiscoveryJob, {[this](const nlohmann::json& plan, const ProgressFn& p) {
+                               return RunDiscoveryJob(plan, p);
+                             },
+                             JudgeDiscoveryResult});
   queue_.Start();
 }
 
@@ -45,7 +47,7 @@ std::string StudyService::TestsMachine(const nlohmann::json& req,
 
 nlohmann::json StudyService::AnsweredJob(const JobRecord& job,
                                          std::map<std::int64_t, std::string>& machine_of) {
-  nlohmann::json j = JobJson(job);
+  nlohmann::json j = kinds_.Json(job);
   const nlohmann::json req = j.value("request", nlohmann::json());
   const std::string machine =
       req.is_object() && req.contains("machine_id") && req["machine_id"].is_string()
@@ -93,11 +95,16 @@ MachineModelStored StudyService::SaveJobMachine(std::int64_t job_id, const std::
                         ? "; it has no machine to save"
                         : "; its machine can be saved once it is done"));
   }
+  // The document exactly as the job's machine writer produced it.
+  if (!job->machine_document.empty()) {
+    return models_.StoreMachineModel(job->machine_document, source, note, name + " " + key);
+  }
+  // A job finished before its document was kept: the machine in its result, written as the
+  // machine writer writes (indent 2, closing newline).
   const auto result = ingest::ParseJsonTextOrDiscarded(job->result_json);
   if (!result.is_object() || !result.contains(key) || !result[key].is_object()) {
     throw Conflict(name + " produced no machine to save (its result has no " + key + ")");
   }
-  // The document as the job wrote it (ingest::WriteMachineJson: indent 2, closing newline).
   return models_.StoreMachineModel(result[key].dump(2) + "\n", source, note, name + " " + key);
 }
 

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/core/progress.h"
+#include "server/jobs/job_kinds.h"
 #include "server/jobs/jobs.h"
 #include "server/jobs/study_requests.h"
 #include "server/measurements/measurement_service.h"
@@ -41,6 +42,25 @@ struct JobCanceller {
 struct CalibrationPlan;
 struct DiscoveryPlan;
 
+// The kinds of job the studies register (StudyService's constructor), each with its runner and
+// its judge.
+inline constexpr const char* kCalibrationJob = "hexapod_calibration";
+inline constexpr const char* kDiscoveryJob = "discovery";
+
+// Above this condition number (of the Jacobian over the free parameters) the tests do not tell
+// the parameters apart: small changes of the readings move them a lot.
+inline constexpr double kIllConditionedAbove = 1e4;
+// Above this standard uncertainty of an identified parameter (µm) the tests do not determine it:
+// the errors a calibration corrects are tens of µm.
+inline constexpr double kUndeterminedAboveUm = 25.0;
+
+// The judges of the studies' results (docs/formats.md §5), registered beside their runners: a
+// calibration not converged, ill-conditioned (above kIllConditionedAbove), under-determined
+// (a parameter's σ above kUndeterminedAboveUm, or fixed beyond the method's gauge); a discovery
+// ending in model misfit or without a clear verdict, or whose condition number is not finite.
+void JudgeCalibrationResult(const nlohmann::json& result, JobFindings& out);
+void JudgeDiscoveryResult(const nlohmann::json& result, JobFindings& out);
+
 class StudyService {
  public:
   // Starts the job queue's workers; the destructor stops them.
@@ -66,6 +86,8 @@ class StudyService {
   std::int64_t SubmitDiscovery(const DiscoveryRequest& request, std::int64_t owner_token_id = 0);
 
   nlohmann::json Job(std::int64_t id);
+  // The verdict on a stored job by its kind's judge (the audits read calibrations with it).
+  JobVerdict Verdict(const JobRecord& job) const { return kinds_.Verdict(job); }
   // Cancels a queued or running job for its owner (the token that submitted it) or an admin;
   // answers the job, status "cancelled" (its error says by whom). A running job stops at its
   // next progress report. NotFound: no such job; Forbidden: `by` neither owns it nor is an
@@ -98,10 +120,16 @@ class StudyService {
                                                     std::int64_t& stored_version);
   std::shared_ptr<DiscoveryPlan> CheckDiscovery(const DiscoveryRequest& request,
                                                 std::int64_t& version);
-  nlohmann::json RunCalibrationJob(const nlohmann::json& plan, const ProgressFn& p);
-  nlohmann::json RunDiscoveryJob(const nlohmann::json& plan, const ProgressFn& p);
-  // The job as GET /api/v1/jobs/{id} answers it: JobJson with "machine_id", the machine the job
-  // is of — the one its request names, else that of its first DBB test (a serial discovery);
+  // The plan a worker runs from a stored plan (the checked request): the machine resolved, the
+  // request's fields taken; the checks of the stored records are not repeated.
+  std::shared_ptr<CalibrationPlan> ResolveCalibration(const CalibrationRequest& request,
+                                                      std::int64_t& stored_version);
+  std::shared_ptr<DiscoveryPlan> ResolveDiscovery(const DiscoveryRequest& request,
+                                                  std::int64_t& version);
+  JobOutput RunCalibrationJob(const nlohmann::json& plan, const ProgressFn& p);
+  JobOutput RunDiscoveryJob(const nlohmann::json& plan, const ProgressFn& p);
+  // The job as GET /api/v1/jobs/{id} answers it: JobKinds::Json with "machine_id", the machine the
+  // job is of — the one its request names, else that of its first DBB test (a serial discovery);
   // null when neither is known. `machine_of` keeps the tests' machines looked up (a list asks
   // for many jobs of the same tests).
   nlohmann::json AnsweredJob(const JobRecord& job, std::map<std::int64_t, std::string>& machine_of);
@@ -114,6 +142,7 @@ class StudyService {
   MeasurementService& measurements_;
   ModelService& models_;
   StudyOptions options_;
+  JobKinds kinds_;
   JobQueue queue_;  // last: its workers stop before the rest goes
 };
 

@@ -60,7 +60,8 @@ void NameInstrument(usecases::ReportSource& s, const nlohmann::json& result) {
 // The machine's audit rules (null: none) and its newest verdict (null: none).
 usecases::ReportAudit AuditOf(AuditSource& records, const std::string& machine_id) {
   usecases::ReportAudit a{nullptr, nullptr};
-  if (records.storage().GetAuditConfig(machine_id)) a.config = AuditConfigJson(records, machine_id);
+  if (records.audit_store().GetAuditConfig(machine_id))
+    a.config = AuditConfigJson(records, machine_id);
   AuditVerdictFilter f;
   f.machine_id = machine_id;
   f.limit = 1;
@@ -76,7 +77,7 @@ usecases::ReportLater ChosenLater(AuditSource& records, MeasurementService& ms,
   const auto refuse = [&](const std::string& why) {
     return InvalidInput("", 0, "as_left", "measurement " + std::to_string(as_left) + " " + why);
   };
-  const auto n = records.storage().GetMeasurement(as_left);
+  const auto n = records.measurement_store().GetMeasurement(as_left);
   if (!n) throw refuse("does not exist");
   if (n->id == r.id) throw refuse("is the as-found test itself; choose a later test");
   if (n->machine_id != r.machine_id || n->kind != r.kind || n->test_id != r.test_id ||
@@ -132,7 +133,7 @@ render::RenderOptions Options(const std::function<bool()>& cancelled) {
 
 ReportService::Prepared ReportService::PrepareMeasurement(std::int64_t id,
                                                           std::optional<std::int64_t> as_left) {
-  auto found = records_.storage().GetMeasurement(id);
+  auto found = records_.measurement_store().GetMeasurement(id);
   if (!found) throw NotFound("measurement " + std::to_string(id) + " does not exist");
   MeasurementRecord rec = std::move(*found);
   std::optional<usecases::ReportLater> later;

@@ -202,6 +202,10 @@ struct JobRecord {
   std::int64_t attempts = 0;
   // The access token that submitted the job (0: not known, e.g. queued before it was kept).
   std::int64_t owner_token_id = 0;
+  // The machine definition a finished job produced (a calibrated or updated machine), exactly as
+  // the machine writer wrote it and stored unchanged when it is saved as a model; empty when the
+  // job produced none or finished before it was kept (migration 14).
+  std::string machine_document;
 };
 
 // A job as queued: request_json is what the API shows, plan_json what a worker runs.

@@ -1,4 +1,5 @@
-// Background jobs in the PostgreSQL backend (migrations 2, 8 and 9): the job records, and the queue
+// Background jobs in the PostgreSQL backend (migrations 2, 8, 9 and
+// 14): the job records, and the queue
 // every worker of every instance takes jobs from under a lease (server/jobs/jobs.h). A claim locks
 // the row it takes and skips rows other claimers hold, so two never take the same job.
 #include "server/base/time_util.h"
@@ -13,7 +14,7 @@ using pg::Result;
 
 constexpr const char* kJobColumns =
     "id, kind, status, progress, stage, request_json, result_json, error, created_at, updated_at, "
-    "plan_json, lease_owner, lease_until_ms, attempts, owner_token_id";
+    "plan_json, lease_owner, lease_until_ms, attempts, owner_token_id, machine_document";
 
 JobRecord ReadJob(const Result& s, int row) {
   JobRecord j;
@@ -32,6 +33,7 @@ JobRecord ReadJob(const Result& s, int row) {
   j.lease_until_ms = s.Int(row, 12);
   j.attempts = s.Int(row, 13);
   j.owner_token_id = s.Int(row, 14);
+  j.machine_document = s.Text(row, 15);
   return j;
 }
 
@@ -179,10 +181,10 @@ bool PgStorage::FinishJob(const JobRecord& job, const std::string& owner) {
   Params p;
   p.Text(std::string(ToString(job.status)), "status").Real(job.progress).Text(job.stage, "stage");
   p.Text(job.result_json, "result").Text(job.error, "error").Text(NowUtcIso8601(), "updated_at");
-  p.Int(job.id).Text(owner, "owner");
+  p.Int(job.id).Text(owner, "owner").Text(job.machine_document, "machine_document");
   return c->Query(
               "UPDATE jobs SET status = $1, progress = $2, stage = $3, result_json = $4, "
-              "error = $5, lease_until_ms = 0, updated_at = $6 "
+              "error = $5, lease_until_ms = 0, updated_at = $6, machine_document = $9 "
               "WHERE id = $7 AND status = 'running' AND lease_owner = $8",
               p, "finish job")
              .Affected() == 1;

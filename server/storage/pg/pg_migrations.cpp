@@ -307,6 +307,11 @@ CREATE TRIGGER report_approvals_kept BEFORE DELETE ON report_approvals
 CREATE TRIGGER report_approvals_not_truncated BEFORE TRUNCATE ON report_approvals
   FOR EACH STATEMENT EXECUTE FUNCTION kinemetric_refuse('report approvals are never deleted');
 )sql",
+    // 14: the machine definition a finished job produced, exactly as it was written (saved as a
+    // model unchanged).
+    R"sql(
+ALTER TABLE jobs ADD COLUMN machine_document TEXT COLLATE "C" NOT NULL DEFAULT '';
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

@@ -1,4 +1,4 @@
-// Background jobs in the SQLite backend (migrations 2, 8 and 9): the job records, and the queue
+// Background jobs in the SQLite backend (migrations 2, 8, 9 and 14): the job records, and the queue
 // every worker takes jobs from under a lease (server/jobs/jobs.h). A claim is one write
 // transaction, so two connections never take the same job.
 #include <sqlite3.h>
@@ -14,7 +14,7 @@ using sqlite::Statement;
 
 constexpr const char* kJobColumns =
     "id, kind, status, progress, stage, request_json, result_json, error, created_at, updated_at, "
-    "plan_json, lease_owner, lease_until_ms, attempts, owner_token_id";
+    "plan_json, lease_owner, lease_until_ms, attempts, owner_token_id, machine_document";
 
 JobRecord ReadJob(const Statement& s) {
   JobRecord j;
@@ -33,6 +33,7 @@ JobRecord ReadJob(const Statement& s) {
   j.lease_until_ms = s.Int(12);
   j.attempts = s.Int(13);
   j.owner_token_id = s.Int(14);
+  j.machine_document = s.Text(15);
   return j;
 }
 
@@ -165,12 +166,14 @@ bool SqliteStorage::FinishJob(const JobRecord& job, const std::string& owner) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "UPDATE jobs SET status = ?, progress = ?, stage = ?, result_json = ?, error = ?, "
-      "lease_until_ms = 0, updated_at = ? WHERE id = ? AND status = 'running' AND lease_owner = ?");
+      "lease_until_ms = 0, updated_at = ?, machine_document = ? "
+      "WHERE id = ? AND status = 'running' AND lease_owner = ?");
   s->Bind(1, std::string(ToString(job.status)))
       .BindReal(2, job.progress)
       .Bind(3, job.stage)
       .Bind(4, job.result_json);
-  s->Bind(5, job.error).Bind(6, NowUtcIso8601()).Bind(7, job.id).Bind(8, owner);
+  s->Bind(5, job.error).Bind(6, NowUtcIso8601()).Bind(7, job.machine_document);
+  s->Bind(8, job.id).Bind(9, owner);
   s->Step();
   return sqlite3_changes(db_) == 1;
 }

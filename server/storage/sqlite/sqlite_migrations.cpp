@@ -269,6 +269,11 @@ CREATE TRIGGER report_approvals_immutable BEFORE UPDATE ON report_approvals
 CREATE TRIGGER report_approvals_kept BEFORE DELETE ON report_approvals
   BEGIN SELECT RAISE(ABORT, 'report approvals are never deleted'); END;
 )sql",
+    // 14: the machine definition a finished job produced, exactly as it was written (saved as a
+    // model unchanged).
+    R"sql(
+ALTER TABLE jobs ADD COLUMN machine_document TEXT NOT NULL DEFAULT '';
+)sql",
 };
 
 constexpr int kSchemaVersion = static_cast<int>(sizeof(kMigrations) / sizeof(kMigrations[0]));

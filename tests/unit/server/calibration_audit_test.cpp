@@ -74,7 +74,7 @@ TEST_F(CalibrationAudits, TheNewestCalibrationOfTheMachineGivesLevelValueLimitAn
   Calibration(kMachine, JobStatus::kRunning, {250, 0, 0, 0, 0, 0});
   Calibration(kMachine, JobStatus::kDone, {300, 0, 0, 0, 0, 0}, {{"condition_number", nullptr}});
   Calibration(kMachine, JobStatus::kDone, {400, 0, 0, 0, 0, 0}, json::object(), "discovery");
-  ASSERT_EQ(JobJson(*svc_->storage().GetJob(newest + 4))["verdict"], "failed");
+  ASSERT_EQ(svc_->studies().Job(newest + 4)["verdict"], "failed");
 
   const json v = Audit(
       kMachine,

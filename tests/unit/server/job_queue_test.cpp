@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -51,22 +52,26 @@ class JobQueueTest : public test::TempDirTest {
     o.lease_ms = lease_ms;
     o.poll_ms = 20;
     o.max_queued = 1000;
-    auto q = std::make_unique<JobQueue>(st, o);
-    q->Register("count", [this, name](const nlohmann::json& plan, const ProgressFn& p) {
-      if (plan.value("slow", false)) {
-        while (!release_) {
-          p(0.5, "waiting");
-          std::this_thread::sleep_for(1ms);
-        }
-      } else {
-        std::this_thread::sleep_for(std::chrono::milliseconds(plan.value("ms", 0)));
-      }
-      std::lock_guard lock(mu_);
-      runs_[plan.value("n", -1)].push_back(name);
-      return nlohmann::json{{"n", plan.value("n", -1)}, {"by", name}};
-    });
-    return q;
+    JobKinds& kinds = kinds_.emplace_back();
+    kinds.Add("count",
+              {[this, name](const nlohmann::json& plan, const ProgressFn& p) {
+                 if (plan.value("slow", false)) {
+                   while (!release_) {
+                     p(0.5, "waiting");
+                     std::this_thread::sleep_for(1ms);
+                   }
+                 } else {
+                   std::this_thread::sleep_for(std::chrono::milliseconds(plan.value("ms", 0)));
+                 }
+                 std::lock_guard lock(mu_);
+                 runs_[plan.value("n", -1)].push_back(name);
+                 return JobOutput{nlohmann::json{{"n", plan.value("n", -1)}, {"by", name}},
+                                  plan.value("document", std::string())};
+               },
+               nullptr});
+    return std::make_unique<JobQueue>(st, kinds, o);
   }
+  std::deque<JobKinds> kinds_;  // outlive the queues of a test
   std::atomic<bool> release_{false};
   std::mutex mu_;
   std::map<int, std::vector<std::string>> runs_;
@@ -183,7 +188,8 @@ TEST_F(JobQueueTest, TheQueueBoundCountsTheJobsOfEveryInstance) {
   SqliteStorage db_a(Path("jobs.db")), db_b(Path("jobs.db"));
   JobQueueOptions o;
   o.max_queued = 3;
-  JobQueue a(db_a, o), b(db_b, o);  // not started: jobs stay queued
+  const JobKinds kinds;
+  JobQueue a(db_a, kinds, o), b(db_b, kinds, o);  // not started: jobs stay queued
   a.Submit("count", {}, {{"n", 1}});
   b.Submit("count", {}, {{"n", 2}});
   a.Submit("count", {}, {{"n", 3}});
@@ -200,6 +206,43 @@ TEST_F(JobQueueTest, AJobOfAnUnknownKindOrWithoutPlanFailsWithTheReason) {
             std::string::npos);
   EXPECT_NE(WaitStatus(db, old, JobStatus::kFailed).error.find("submit it again"),
             std::string::npos);
+}
+
+// What a runner produced is stored as it is: the result, and the machine document byte for byte
+// (spacing, digits, key order and line ends as written, not as a JSON writer would redo them).
+TEST_F(JobQueueTest, TheRunnersMachineDocumentIsStoredAsWritten) {
+  SqliteStorage db(Path("jobs.db"));
+  auto a = Queue(db, "instance-a");
+  a->Start();
+  const std::string document = "{\"z\": 1.50,\r\n \"a\": [1e-3 ,2]}\n\n";
+  const auto id = a->Submit("count", {}, {{"n", 5}, {"document", document}});
+  const JobRecord done = WaitStatus(db, id, JobStatus::kDone);
+  EXPECT_EQ(done.machine_document, document);
+  EXPECT_EQ(nlohmann::json::parse(done.result_json)["n"], 5);
+  const auto plain = a->Submit("count", {}, {{"n", 6}});
+  EXPECT_EQ(WaitStatus(db, plain, JobStatus::kDone).machine_document, "");
+}
+
+// A kind's judge, registered beside its runner, gives the verdict in the job's answer; the queue
+// itself judges nothing.
+TEST(JobKindsTest, TheVerdictIsThatOfTheKindsJudge) {
+  JobKinds kinds;
+  kinds.Add("strict", {nullptr, [](const nlohmann::json& r, JobFindings& f) {
+                         if (r.value("rms_um", 0.0) > 1.0) f.Warn("rms " + VerdictNumber(1.25));
+                       }});
+  JobRecord job;
+  job.id = 9;
+  job.kind = "strict";
+  job.status = JobStatus::kDone;
+  job.result_json = R"({"rms_um":2})";
+  const auto j = kinds.Json(job);
+  EXPECT_EQ(j["verdict"], "warning");
+  EXPECT_EQ(j["verdict_reasons"], nlohmann::json::array({"rms 1.25"}));
+  EXPECT_EQ(kinds.Verdict(job).verdict, "warning");
+  job.kind = "lenient";  // not registered: done is ok
+  EXPECT_EQ(kinds.Json(job)["verdict"], "ok");
+  job.result_json.clear();  // done without a result fails whatever the kind
+  EXPECT_EQ(kinds.Verdict(job).verdict, "failed");
 }
 
 TEST_F(JobQueueTest, ACancelledRunningJobStopsAtItsNextReportAndFreesTheWorker) {

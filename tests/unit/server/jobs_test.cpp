@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "analysis/core/errors.h"
+#include "server/jobs/study_service.h"
 #include "tests/unit/server/flaky_storage.h"
 #include "tests/unit/server/temp_dir.h"
 
@@ -18,6 +19,13 @@ namespace km::server {
 namespace {
 
 using test::FlakyStorage;
+
+// The verdict of the studies' judges (registered beside their runners) on a job of `kind`.
+JobVerdict JudgeJob(const std::string& kind, JobStatus status, const nlohmann::json& result,
+                    const std::string& error) {
+  return JudgeJobOutcome(kind == kCalibrationJob ? JudgeCalibrationResult : JudgeDiscoveryResult,
+                         status, result, error);
+}
 
 class JobStorageErrors : public test::TempDirTest {
  protected:
@@ -35,20 +43,25 @@ class JobStorageErrors : public test::TempDirTest {
   // A queue whose "test" jobs answer their plan's value after a progress report; a plan with
   // "throw" fails, one with "wait" waits until release is set.
   std::unique_ptr<JobQueue> Queue(Storage& st) {
-    auto q = std::make_unique<JobQueue>(st);
-    q->Register("test", [this](const nlohmann::json& plan, const ProgressFn& progress) {
-      if (plan.contains("throw")) throw std::runtime_error("the solve diverged");
-      if (plan.contains("refuse")) throw InvalidInput("plan.json", 3, "tests", "no DBB test");
-      if (plan.contains("wait")) {
-        while (!release_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-      }
-      progress(0.5, "half way");
-      ran_.fetch_add(1);
-      return nlohmann::json{{"answer", plan.value("v", 0)}};
-    });
+    kinds_.Add("test", {[this](const nlohmann::json& plan, const ProgressFn& progress) {
+                          if (plan.contains("throw"))
+                            throw std::runtime_error("the solve diverged");
+                          if (plan.contains("refuse"))
+                            throw InvalidInput("plan.json", 3, "tests", "no DBB test");
+                          if (plan.contains("wait")) {
+                            while (!release_)
+                              std::this_thread::sleep_for(std::chrono::milliseconds(1));
+                          }
+                          progress(0.5, "half way");
+                          ran_.fetch_add(1);
+                          return JobOutput{nlohmann::json{{"answer", plan.value("v", 0)}}, ""};
+                        },
+                        nullptr});
+    auto q = std::make_unique<JobQueue>(st, kinds_);
     q->Start();
     return q;
   }
+  JobKinds kinds_;  // outlives the queues of a test
   static std::int64_t Submit(JobQueue& q, const nlohmann::json& plan) {
     return q.Submit("test", nlohmann::json::object(), plan);
   }
@@ -232,12 +245,14 @@ TEST(JobVerdict, DiscoveriesFailedAndRunningJobs) {
   job.status = JobStatus::kDone;
   job.request_json = "{}";
   job.result_json = GoodCalibration().dump();
-  const auto j = JobJson(job);
+  JobKinds kinds;
+  kinds.Add(kCalibrationJob, {nullptr, JudgeCalibrationResult});
+  const auto j = kinds.Json(job);
   EXPECT_EQ(j["verdict"], "ok");
   EXPECT_TRUE(j["verdict_reasons"].empty());
   job.status = JobStatus::kRunning;
   job.result_json.clear();
-  EXPECT_TRUE(JobJson(job)["verdict"].is_null());
+  EXPECT_TRUE(kinds.Json(job)["verdict"].is_null());
 }
 
 }  // namespace

@@ -276,6 +276,11 @@ TEST_F(MachineModels, ACalibrationFromAStoredModelIsSavedAsItsNextVersion) {
     EXPECT_EQ(stored.geometry.strut_offset_mm[s], calibrated.geometry.strut_offset_mm[s]) << s;
   }
   EXPECT_NE(stored.geometry.strut_offset_mm, nominal.geometry.strut_offset_mm);
+  // The stored version is the text the job's machine writer produced, byte for byte.
+  const std::string written = service_->storage().GetJob(job)->machine_document;
+  ASSERT_FALSE(written.empty());
+  EXPECT_EQ(service_->models().GetMachineModel("pm600-like", 2).document, written);
+  EXPECT_EQ(ingest::WriteMachineJson(stored), written);
   const auto versions = service_->models().ListMachineModels("pm600-like")["versions"];
   EXPECT_EQ(versions[1]["source"], "calibration job " + std::to_string(job));
   EXPECT_EQ(versions[1]["note"], "after the jig calibration");
@@ -347,6 +352,13 @@ TEST_F(MachineModels, SavingTheMachineOfAJobWithoutOneIsAConflict) {
   st.UpdateJob(Job(other, JobStatus::kDone, 1.0, "done", "{}", ""));
   EXPECT_THROW(service_->studies().SaveJobMachine(other, ""), Conflict);
   EXPECT_TRUE(st.ListMachines().empty());
+  // A job finished before its machine document was kept: the machine of its result is saved.
+  const auto older = st.CreateJob("hexapod_calibration", "{}");
+  st.UpdateJob(Job(older, JobStatus::kDone, 1.0, "done",
+                   json{{"calibrated_machine", json::parse(Pm600())}}.dump(), ""));
+  const auto saved = service_->studies().SaveJobMachine(older, "");
+  EXPECT_EQ(json::parse(service_->models().GetMachineModel(saved.machine_id).document),
+            json::parse(Pm600()));
 }
 
 TEST_F(MachineModels, DiscoveryJobsRunOnStoredModelsAndSaveTheUpdatedMachine) {
@@ -383,6 +395,8 @@ TEST_F(MachineModels, DiscoveryJobsRunOnStoredModelsAndSaveTheUpdatedMachine) {
             "discovery job " + std::to_string(hex));
   EXPECT_EQ(json::parse(service_->models().GetMachineModel("pm600-like").document),
             hj["result"]["updated_machine"]);
+  EXPECT_EQ(service_->models().GetMachineModel("pm600-like").document,
+            service_->storage().GetJob(hex)->machine_document);
 
   // Requests are checked like calibration requests, before any job exists.
   const std::size_t jobs = service_->storage().ListJobs(100).size();

@@ -116,7 +116,7 @@ TEST_F(PgStorageTest, InstancesStartingAtOnceMigrateOnce) {
   EXPECT_EQ(QueryValue(url_, "SELECT COUNT(*) FROM kinemetric_schema"), "1");
   EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"),
             std::to_string(PgStorage::SchemaVersion()));
-  EXPECT_EQ(PgStorage::SchemaVersion(), 13);
+  EXPECT_EQ(PgStorage::SchemaVersion(), 14);
   // The instrument register (migration 12).
   EXPECT_EQ(QueryValue(url_, "SELECT COUNT(*) FROM instruments"), "0");
   // When each token was last used (migration 10).

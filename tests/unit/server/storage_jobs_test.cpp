@@ -100,10 +100,15 @@ TEST_P(Backends, TheOwnerFinishesItsJobOnce) {
   j.progress = 1.0;
   j.stage = "done";
   j.result_json = R"({"r":1})";
+  // The machine document is kept byte for byte (spacing, digits and order as written).
+  const std::string document = "{\n  \"z\": 1.50,\n  \"a\": \"é\"\t}\r\n";
+  j.machine_document = document;
   EXPECT_TRUE(s->FinishJob(j, "a"));
   const auto stored = *s->GetJob(1);
   EXPECT_EQ(stored.status, JobStatus::kDone);
   EXPECT_EQ(stored.result_json, R"({"r":1})");
+  EXPECT_EQ(stored.machine_document, document);
+  EXPECT_EQ(s->ListJobs(5).at(0).machine_document, document);
   EXPECT_EQ(stored.progress, 1.0);
   EXPECT_EQ(stored.lease_owner, "a");  // the instance that ran it
   EXPECT_EQ(stored.lease_until_ms, 0);

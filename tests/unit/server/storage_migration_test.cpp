@@ -340,6 +340,20 @@ TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
         EXPECT_EQ(i->version, 1);
         EXPECT_EQ(i->created_at, "2025-11-01T08:00:00Z");
       }
+      // Report revisions and approvals (version 13) keep their rows, the approved PDF byte for
+      // byte.
+      if (v >= 13) {
+        const auto revs = s.ListReportRevisions("measurement 2");
+        ASSERT_EQ(revs.size(), 1u);
+        EXPECT_EQ(revs[0].created_at, "2025-12-01T08:00:00Z");
+        ASSERT_TRUE(revs[0].approval);
+        EXPECT_EQ(revs[0].approval->approved_by, "ann");
+        EXPECT_EQ(s.ReportApprovalPdf("measurement 2", 1), std::string("%PDF-1.4\n"));
+      }
+      // Jobs finished before version 14 have no machine document.
+      if (v >= 2) {
+        EXPECT_EQ(s.GetJob(1)->machine_document, "");
+      }
       // Report revisions (version 13) are usable at once.
       EXPECT_EQ(s.PutReportRevision({"measurement 1", std::string(64, 'f'), "{}"}).record.revision,
                 1);
