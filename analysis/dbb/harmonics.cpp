@@ -82,8 +82,9 @@ Eigen::MatrixXd NormalMatrix(const HarmonicSums& h, int max_order) {
 }
 
 // r − model over the samples, by the same recurrence.
-double ResidualRms(const Eigen::Ref<const ArrayXd>& c1, const Eigen::Ref<const ArrayXd>& s1,
-                   const Eigen::Ref<const ArrayXd>& r, const Eigen::VectorXd& coef, int max_order) {
+double SweptResidualRms(const Eigen::Ref<const ArrayXd>& c1, const Eigen::Ref<const ArrayXd>& s1,
+                        const Eigen::Ref<const ArrayXd>& r, const Eigen::VectorXd& coef,
+                        int max_order) {
   ArrayXd res = r - coef[0];
   ArrayXd ck = c1, sk = s1, next;
   for (int k = 1; k <= max_order; ++k) {
@@ -95,6 +96,18 @@ double ResidualRms(const Eigen::Ref<const ArrayXd>& c1, const Eigen::Ref<const A
     res -= coef[2 * k - 1] * ck + coef[2 * k] * sk;
   }
   return std::sqrt(res.square().sum() / static_cast<double>(r.size()));
+}
+
+// RMS of r − model from the sums already taken, RSS = rᵀr − 2 coefᵀAᵀr + coefᵀ(AᵀA)coef (the
+// fit's normal matrix and right-hand side), so the samples are not swept again. Its rounding is
+// ~1e-16 rᵀr: when the model explains all but 1e-6 of rᵀr the residual is swept instead.
+double ResidualRms(const Eigen::Ref<const ArrayXd>& c1, const Eigen::Ref<const ArrayXd>& s1,
+                   const Eigen::Ref<const ArrayXd>& r, const Eigen::MatrixXd& normal,
+                   const HarmonicSums& h, const Eigen::VectorXd& coef, int max_order) {
+  const double rr = r.matrix().squaredNorm();
+  const double rss = rr - 2.0 * coef.dot(h.atb) + coef.dot(normal * coef);
+  if (!(rss > 1e-6 * rr)) return SweptResidualRms(c1, s1, r, coef, max_order);
+  return std::sqrt(rss / static_cast<double>(r.size()));
 }
 
 }  // namespace
@@ -126,7 +139,8 @@ HarmonicsResult FitHarmonics(const std::vector<double>& cos_angle,
   const Eigen::Map<const ArrayXd> s1(sin_angle.data(), len);
   const Eigen::Map<const ArrayXd> r(r_um.data(), len);
   const HarmonicSums sums = SumHarmonics(c1, s1, r, max_order);
-  Eigen::LDLT<Eigen::MatrixXd> ldlt(NormalMatrix(sums, max_order));
+  const Eigen::MatrixXd normal = NormalMatrix(sums, max_order);
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
   if (ldlt.info() != Eigen::Success || ldlt.rcond() < 1e-12) {
     throw InvalidInput("", 0, "angle_deg", "angles do not resolve the requested harmonic orders");
   }
@@ -144,7 +158,7 @@ HarmonicsResult FitHarmonics(const std::vector<double>& cos_angle,
     h.phase_deg = ph;
     res.harmonics.push_back(h);
   }
-  res.residual_rms_um = ResidualRms(c1, s1, r, coef, max_order);
+  res.residual_rms_um = ResidualRms(c1, s1, r, normal, sums, coef, max_order);
   return res;
 }
 

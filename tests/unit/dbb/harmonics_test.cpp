@@ -100,5 +100,20 @@ TEST(Harmonics, RejectsTooFewSamples) {
   EXPECT_ANY_THROW(FitHarmonics(a, r, 3));
 }
 
+// A model that explains the radius to the last digits: the residual's RMS is swept, not taken
+// from the normal equations (whose rounding would leave ~1e-8 of a µm).
+TEST(Harmonics, ExactModelLeavesNoResidual) {
+  const int n = 720;
+  std::vector<double> a, r;
+  for (int i = 0; i < n; ++i) {
+    const double t = 2.0 * std::numbers::pi * i / n;
+    a.push_back(t);
+    r.push_back(40.0 + 3.0 * std::cos(2.0 * t - 0.4) + 0.5 * std::sin(9.0 * t));
+  }
+  const auto h = FitHarmonics(a, r, 10);
+  EXPECT_LT(h.residual_rms_um, 1e-12);
+  EXPECT_NEAR(h.harmonics[1].amplitude_um, 3.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace km::dbb
