@@ -277,59 +277,84 @@ double CyclicPeriodPeak(const StackedTraces& p, const VectorXd& r, int axis, dou
   return 1.0 / (kk * df);
 }
 
-// Energy of the residual's projection on a cyclic error of period `period` (axis `axis`),
-// using every `stride`-th sample.
-double CyclicEnergy(const StackedTraces& p, const VectorXd& r, int axis, double period,
-                    int stride) {
-  Eigen::Matrix2d g = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d b = Eigen::Vector2d::Zero();
-  // The arguments first, their sines and cosines at once (SinCosArray), then the sums in
-  // sample order.
+namespace {
+
+// What a cyclic energy reads of every `stride`-th sample, gathered once for all the periods a
+// search tries: 2π times the axis position (mm), the radial factor n_a and the residual.
+struct CyclicSamples {
+  std::vector<double> arg0, w, r;
+  mutable std::vector<double> work;  // arguments, sines, cosines of one period
+};
+
+CyclicSamples GatherCyclic(const StackedTraces& p, const VectorXd& r, int axis, int stride) {
   const std::size_t m = static_cast<std::size_t>((p.n + stride - 1) / stride);
-  VectorXd work(3 * static_cast<Eigen::Index>(m));  // work space, not initialised
-  double* arg = work.data();
-  double* sa = arg + m;
-  double* ca = sa + m;
-  for (std::size_t k = 0; k < m; ++k) {
-    const auto& s = p.samples[k * static_cast<std::size_t>(stride)];
-    const double rad = p.ctx[static_cast<std::size_t>(s.trace)].radius_mm;
-    const double pos = axis == 0 ? rad * s.a.c : rad * s.a.s;
-    arg[k] = 2.0 * std::numbers::pi * pos / period;
-  }
-  SinCosArray(arg, sa, ca, m);
+  CyclicSamples c;
+  c.arg0.resize(m);
+  c.w.resize(m);
+  c.r.resize(m);
+  c.work.resize(3 * m);
   for (std::size_t k = 0; k < m; ++k) {
     const std::size_t i = k * static_cast<std::size_t>(stride);
     const auto& s = p.samples[i];
-    const double w = axis == 0 ? s.a.c : s.a.s;
-    const Eigen::Vector2d v(w * ca[k], w * sa[k]);
+    const double rad = p.ctx[static_cast<std::size_t>(s.trace)].radius_mm;
+    c.arg0[k] = 2.0 * std::numbers::pi * (axis == 0 ? rad * s.a.c : rad * s.a.s);
+    c.w[k] = axis == 0 ? s.a.c : s.a.s;
+    c.r[k] = r[static_cast<Eigen::Index>(i)];
+  }
+  return c;
+}
+
+// The sines and cosines of the period at once (SinCosArray), then the sums in sample order.
+double CyclicEnergyOf(const CyclicSamples& c, double period) {
+  const std::size_t m = c.arg0.size();
+  double* arg = c.work.data();
+  double* sa = arg + m;
+  double* ca = sa + m;
+  for (std::size_t k = 0; k < m; ++k) arg[k] = c.arg0[k] / period;
+  SinCosArray(arg, sa, ca, m);
+  Eigen::Matrix2d g = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  for (std::size_t k = 0; k < m; ++k) {
+    const Eigen::Vector2d v(c.w[k] * ca[k], c.w[k] * sa[k]);
     g += v * v.transpose();
-    b += v * r[static_cast<Eigen::Index>(i)];
+    b += v * c.r[k];
   }
   if (!(std::abs(g.determinant()) > 0.0)) return 0.0;
   return b.dot(g.inverse() * b);
 }
 
-// Golden-section refinement of the periodogram peak within ±rel of `period`.
+}  // namespace
+
+// Energy of the residual's projection on a cyclic error of period `period` (axis `axis`),
+// using every `stride`-th sample.
+double CyclicEnergy(const StackedTraces& p, const VectorXd& r, int axis, double period,
+                    int stride) {
+  return CyclicEnergyOf(GatherCyclic(p, r, axis, stride), period);
+}
+
+// Golden-section refinement of the periodogram peak within ±rel of `period`; the samples'
+// positions and factors are gathered once for the twelve periods tried.
 double RefinePeriod(const StackedTraces& p, const VectorXd& r, int axis, double period, double rel,
                     double spacing_mm) {
   const int stride = std::max(1, static_cast<int>(period * (1.0 - rel) / (4.0 * spacing_mm)));
+  const CyclicSamples c = GatherCyclic(p, r, axis, stride);
   double lo = period * (1.0 - rel), hi = period * (1.0 + rel);
   const double gr = (std::sqrt(5.0) - 1.0) / 2.0;
   double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
-  double f1 = CyclicEnergy(p, r, axis, x1, stride), f2 = CyclicEnergy(p, r, axis, x2, stride);
+  double f1 = CyclicEnergyOf(c, x1), f2 = CyclicEnergyOf(c, x2);
   for (int it = 0; it < 10; ++it) {
     if (f1 > f2) {
       hi = x2;
       x2 = x1;
       f2 = f1;
       x1 = hi - gr * (hi - lo);
-      f1 = CyclicEnergy(p, r, axis, x1, stride);
+      f1 = CyclicEnergyOf(c, x1);
     } else {
       lo = x1;
       x1 = x2;
       f1 = f2;
       x2 = lo + gr * (hi - lo);
-      f2 = CyclicEnergy(p, r, axis, x2, stride);
+      f2 = CyclicEnergyOf(c, x2);
     }
   }
   return 0.5 * (lo + hi);
