@@ -88,13 +88,50 @@ void JointRows(const Track& t, std::size_t i, const JointLoads& loads, LoadRows&
     if (!use.Row(j)) a.row(j).rightCols<2>().setZero();
 }
 
+// Sums of the products of the rows of many samples by blocks: a row j has the dense columns
+// (masses, centre, strut mass, t0, t1) and one screw column, that of strut j.
+class RowSums {
+ public:
+  static constexpr int kDense = kScrew1 + 2;
+  void Add(const LoadRows& a, const hexapod::Vector6d& b) {
+    Eigen::Matrix<double, 6, kDense> d;
+    d << a.leftCols<kScrew1>(), a.rightCols<2>();
+    dd_.noalias() += d.transpose().lazyProduct(d);
+    db_.noalias() += d.transpose().lazyProduct(b);
+    for (int j = 0; j < 6; ++j) {
+      const double sj = a(j, kScrew1 + j);
+      if (sj == 0.0) continue;
+      ss_[j] += sj * sj;
+      sd_.row(j) += sj * d.row(j);
+      sb_[j] += sj * b[j];
+    }
+  }
+  void Into(NormalEquations& ne) const {
+    const auto col = [](int k) { return k < kScrew1 ? k : kT0 + (k - kScrew1); };
+    ne.ata.setZero();
+    for (int k = 0; k < kDense; ++k) {
+      ne.atb[col(k)] = db_[k];
+      for (int l = 0; l < kDense; ++l) ne.ata(col(k), col(l)) = dd_(k, l);
+    }
+    for (int j = 0; j < 6; ++j) {
+      ne.ata(kScrew1 + j, kScrew1 + j) = ss_[j];
+      ne.atb[kScrew1 + j] = sb_[j];
+      for (int k = 0; k < kDense; ++k)
+        ne.ata(kScrew1 + j, col(k)) = ne.ata(col(k), kScrew1 + j) = sd_(j, k);
+    }
+  }
+
+ private:
+  Eigen::Matrix<double, kDense, kDense> dd_ = Eigen::Matrix<double, kDense, kDense>::Zero();
+  Eigen::Matrix<double, kDense, 1> db_ = Eigen::Matrix<double, kDense, 1>::Zero();
+  Eigen::Matrix<double, 6, kDense> sd_ = Eigen::Matrix<double, 6, kDense>::Zero();
+  hexapod::Vector6d ss_ = hexapod::Vector6d::Zero(), sb_ = hexapod::Vector6d::Zero();
+};
+
 // Normal equations over every usable row with ĝ from θ. A strut's row is used when it moves.
 NormalEquations Accumulate(const std::vector<Track>& tracks, const LoadVector& theta,
                            bool inertia) {
-  // Fixed-size sums (the rows of a sample at once; unused rows are zero).
-  Eigen::Matrix<double, kNumLoadParams, kNumLoadParams> ata =
-      Eigen::Matrix<double, kNumLoadParams, kNumLoadParams>::Zero();
-  LoadVector atb = LoadVector::Zero();
+  RowSums sums;  // the rows of a sample at once; unused rows are zero
   NormalEquations ne(kNumLoadParams);
   LoadRows a;
   hexapod::Vector6d b;
@@ -102,14 +139,12 @@ NormalEquations Accumulate(const std::vector<Track>& tracks, const LoadVector& t
     for (std::size_t i = 0; i < t.motion.size(); ++i) {
       const int used = SampleRows(t, i, theta, inertia, a, b, t.StatesAt(i));
       if (used == 0) continue;
-      ata.noalias() += a.transpose().lazyProduct(a);
-      atb.noalias() += a.transpose().lazyProduct(b);
+      sums.Add(a, b);
       ne.btb += b.squaredNorm();
       ne.rows += static_cast<std::size_t>(used);
     }
   }
-  ne.ata = ata;
-  ne.atb = atb;
+  sums.Into(ne);
   return ne;
 }
 
