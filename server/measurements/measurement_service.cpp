@@ -133,18 +133,30 @@ std::vector<ResultRecord> ResultsOrRefuse(MeasurementStore& store, std::int64_t 
 
 nlohmann::json MeasurementService::Results(std::int64_t id) {
   const auto results = ResultsOrRefuse(store_, id);
-  return ingest::ParseJsonText(OwnResult(results)->result_json, "stored document");
+  return *parsed_.Parse(OwnResult(results)->result_json);
 }
 
 nlohmann::json MeasurementService::ResultsWithConformance(std::int64_t id) {
   const auto results = ResultsOrRefuse(store_, id);
-  nlohmann::json j = ingest::ParseJsonText(OwnResult(results)->result_json, "stored document");
+  nlohmann::json j = *parsed_.Parse(OwnResult(results)->result_json);
   if (!judges_) return j;
-  const auto rec = store_.GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
-  nlohmann::json conformance = judges_()(SubjectOf(*rec), j);
+  nlohmann::json conformance = judges_()(CachedSubject(id), j);
   if (j.is_object()) j["conformance"] = std::move(conformance);
   return j;
+}
+
+ConformanceSubject MeasurementService::CachedSubject(std::int64_t id) {
+  {
+    std::lock_guard lock(subjects_mu_);
+    if (const auto it = subjects_.find(id); it != subjects_.end()) return it->second;
+  }
+  const auto rec = store_.GetMeasurement(id);
+  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  ConformanceSubject s = SubjectOf(*rec);
+  std::lock_guard lock(subjects_mu_);
+  if (subjects_.size() >= 4096) subjects_.clear();
+  subjects_.emplace(id, s);
+  return s;
 }
 
 nlohmann::json MeasurementService::Conformance(std::int64_t id) {

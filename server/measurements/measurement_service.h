@@ -5,9 +5,11 @@
 
 #include <cstdint>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -18,6 +20,7 @@
 #include "server/measurements/conformance_hook.h"
 #include "server/measurements/ingested.h"
 #include "server/measurements/instrument_hook.h"
+#include "server/measurements/parsed_results.h"
 #include "server/storage/storage.h"
 
 namespace km::server {
@@ -127,6 +130,12 @@ class MeasurementService {
   std::map<std::string, KindHandler> kinds_;
   ConformanceJudges judges_;
   InstrumentHook instruments_;
+  mutable ParsedResults parsed_;  // the stored results' documents, parsed once
+  // What a measurement's conformance is judged as (machine, kind, set-up), by id: a stored
+  // measurement never changes, so an entry never goes stale; emptied when it holds 4096.
+  ConformanceSubject CachedSubject(std::int64_t id);
+  std::mutex subjects_mu_;
+  std::unordered_map<std::int64_t, ConformanceSubject> subjects_;
 };
 
 // The handlers of every measurement kind the product knows; call once at start-up.
