@@ -53,7 +53,7 @@ Endpoint RevokeToken(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Revoke an access token at once",
           [svc](const Request& req) {
-            return Response::Json(svc->access().RevokeToken(req.PathId("id")));
+            return Response::Json(svc->access().RevokeToken(req.PathInteger("id")));
           },
           {{"responses",
             {{"200", JsonResponse("{id, revoked_at}")},

@@ -62,7 +62,7 @@ std::string IdNoun(const std::string& pattern, const std::string& name) {
 }
 }  // namespace
 
-std::int64_t Request::PathId(const std::string& name) const {
+std::int64_t Request::PathInteger(const std::string& name) const {
   const auto it = path_params.find(name);
   const std::string v = it == path_params.end() ? "" : it->second;
   std::int64_t id = 0;

@@ -37,7 +37,13 @@ struct Request {
 
   std::optional<std::string> Query(const std::string& key) const;
   std::optional<std::string> Header(const std::string& lower_name) const;
-  std::int64_t PathId(const std::string& name) const;  // throws InvalidInput on a bad id
+  // The id in the path parameter `name`, as the id type of its table (server/base/ids.h);
+  // throws InvalidInput on a bad id.
+  template <class IdType>
+  IdType PathId(const std::string& name) const {
+    return IdType(PathInteger(name));
+  }
+  std::int64_t PathInteger(const std::string& name) const;  // a positive integer, else as above
 };
 
 struct Response {

@@ -41,9 +41,9 @@ double QueryMicrometres(const Request& req, const std::string& key, double most)
 // The name a browser saves a compensation table under: kinemetric-<id>-compensation with the
 // extension of its format (LinuxCNC's .comp file of COMP_FILE_TYPE, SINUMERIK's .spf
 // subprogram, .csv); letters, digits, '.', '-' and '_' only. Called after the format was accepted.
-std::string CompensationFileName(std::int64_t id, const std::string& format) {
+std::string CompensationFileName(server::MeasurementId id, const std::string& format) {
   const char* ext = format == "linuxcnc" ? ".comp" : format == "sinumerik" ? ".spf" : ".csv";
-  return "kinemetric-" + std::to_string(id) + "-compensation" + ext;
+  return "kinemetric-" + to_string(id) + "-compensation" + ext;
 }
 
 }  // namespace
@@ -118,7 +118,8 @@ Endpoint GetMeasurement(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"One measurement: metadata and samples",
           [svc](const Request& req) {
-            return Response::Json(svc->measurements().MeasurementWithSamples(req.PathId("id")));
+            return Response::Json(svc->measurements().MeasurementWithSamples(
+                req.PathId<server::MeasurementId>("id")));
           },
           {{"responses",
             {{"200", JsonResponse("metadata, samples (one array per column), conformance")}}}}};
@@ -128,7 +129,8 @@ Endpoint MeasurementResults(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Analysis results (the same object the CLI prints for the file)",
           [svc](const Request& req) {
-            return Response::Json(svc->measurements().ResultsWithConformance(req.PathId("id")));
+            return Response::Json(svc->measurements().ResultsWithConformance(
+                req.PathId<server::MeasurementId>("id")));
           },
           {{"responses",
             {{"200", JsonResponse("results of the newest analysis version, with conformance")}}}}};
@@ -138,7 +140,8 @@ Endpoint DbbTrace(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"DBB trace of the evaluated turn for plotting (deviation about the least-squares circle)",
           [svc](const Request& req) {
-            return Response::Json(svc->measurements().DbbTrace(req.PathId("id")));
+            return Response::Json(
+                svc->measurements().DbbTrace(req.PathId<server::MeasurementId>("id")));
           },
           {{"responses", {{"200", JsonResponse("{angle_deg[], radial_error_um[], ...}")}}}}};
 }
@@ -149,10 +152,10 @@ Endpoint DbbPair(const RouteContext& c) {
       "DBB: CW/CCW pair analysis with the opposite-direction test of the same machine and "
       "test_id (circular hysteresis, bidirectional deviation, joint diagnosis)",
       [svc](const Request& req) {
-        const auto id = req.PathId("id");
+        const auto id = req.PathId<server::MeasurementId>("id");
         auto j = svc->DbbPairJson(id);
         if (j.is_null()) {
-          throw NotFound("measurement " + std::to_string(id) +
+          throw NotFound("measurement " + to_string(id) +
                          " has no stored test of the opposite direction");
         }
         return Response::Json(j);
@@ -164,10 +167,10 @@ Endpoint StraightnessReversal(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Straightness: the reversal of this profile with the other set-up of its pair",
           [svc](const Request& req) {
-            const std::int64_t id = req.PathId("id");
+            const auto id = req.PathId<server::MeasurementId>("id");
             auto j = svc->measurements().StraightnessReversalJson(id);
             if (j.is_null()) {
-              throw NotFound("measurement " + std::to_string(id) +
+              throw NotFound("measurement " + to_string(id) +
                              " has no stored profile of the other set-up of its reversal pair");
             }
             return Response::Json(j);
@@ -182,7 +185,7 @@ Endpoint PositioningCompensation(const RouteContext& c) {
   return {"Laser positioning: the compensation table a controller loads (LinuxCNC, SINUMERIK, CSV)",
           [svc](const Request& req) {
             const std::string format = req.Query("format").value_or("csv");
-            const auto id = req.PathId("id");
+            const auto id = req.PathId<server::MeasurementId>("id");
             Response r;
             r.content_type = format == "csv" ? "text/csv" : "text/plain; charset=utf-8";
             r.body = svc->measurements().PositioningCompensation(id, format);
@@ -215,7 +218,7 @@ Endpoint DbbPlotPng(const RouteContext& c) {
             }
             Response r;
             r.content_type = "image/png";
-            r.body = svc->measurements().DbbPlotPng(req.PathId("id"), o);
+            r.body = svc->measurements().DbbPlotPng(req.PathId<server::MeasurementId>("id"), o);
             return r;
           },
           {{"parameters",

@@ -39,6 +39,11 @@ std::optional<std::int64_t> OptionalId(const Request& req, const std::string& ke
   return QueryInt(req, key, 0, 1, kMaxId);
 }
 
+std::optional<server::MeasurementId> AsLeft(const Request& req) {
+  if (const auto id = OptionalId(req, "as_left")) return server::MeasurementId(*id);
+  return std::nullopt;
+}
+
 // The revision an approval names: the body's {"revision": N} (optional; an empty body approves
 // the current revision), or ?revision=N.
 std::optional<std::int64_t> ApprovedRevision(const Request& req) {
@@ -90,10 +95,9 @@ Endpoint MeasurementReportPdf(const RouteContext& c) {
       "The report of a measurement as a PDF a lab signs: set-up, plot, figures, "
       "diagnosis, the machine's audit rules and verdict, as found / as left",
       [svc](const Request& req) {
-        const auto id = req.PathId("id");
-        const server::ReportRequest q{OptionalId(req, "as_left"), OptionalId(req, "revision")};
-        return Pdf(svc->reports().MeasurementPdf(id, q),
-                   "kinemetric-measurement-" + std::to_string(id));
+        const auto id = req.PathId<server::MeasurementId>("id");
+        const server::ReportRequest q{AsLeft(req), OptionalId(req, "revision")};
+        return Pdf(svc->reports().MeasurementPdf(id, q), "kinemetric-measurement-" + to_string(id));
       },
       {{"parameters", ReportParams(true)}, {"responses", PdfResponse()}}};
 }
@@ -104,7 +108,7 @@ Endpoint JobReportPdf(const RouteContext& c) {
       "The report of a calibration or discovery job as a PDF: the steps, the gap "
       "shrinking, the fitted values with their σ",
       [svc](const Request& req) {
-        const auto id = req.PathId("id");
+        const auto id = req.PathInteger("id");
         return Pdf(svc->reports().JobPdf(id, OptionalId(req, "revision")),
                    "kinemetric-job-" + std::to_string(id));
       },
@@ -128,8 +132,8 @@ Endpoint MeasurementReportRevisions(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"The revisions of a measurement's certificate, each with who approved it and when",
           [svc](const Request& req) {
-            return Response::Json(
-                svc->reports().MeasurementRevisions(req.PathId("id"), OptionalId(req, "as_left")));
+            return Response::Json(svc->reports().MeasurementRevisions(
+                req.PathId<server::MeasurementId>("id"), AsLeft(req)));
           },
           {{"parameters",
             json::array({Param("as_left", "integer", "the as-left test of the certificate")})}}};
@@ -139,7 +143,7 @@ Endpoint JobReportRevisions(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"The revisions of a job's certificate",
           [svc](const Request& req) {
-            return Response::Json(svc->reports().JobRevisions(req.PathId("id")));
+            return Response::Json(svc->reports().JobRevisions(req.PathInteger("id")));
           },
           {}};
 }
@@ -159,8 +163,9 @@ Endpoint ApproveMeasurementReport(const RouteContext& c) {
       "Approves the current revision of a measurement's certificate (engineer): who and when "
       "go into the audit log and onto the PDF, which is frozen",
       [svc](const Request& req) {
-        return Response::Json(svc->reports().ApproveMeasurement(
-            req.PathId("id"), OptionalId(req, "as_left"), ApprovedRevision(req), Approver(req)));
+        return Response::Json(
+            svc->reports().ApproveMeasurement(req.PathId<server::MeasurementId>("id"), AsLeft(req),
+                                              ApprovedRevision(req), Approver(req)));
       },
       ApproveDoc(), kSmallRequestBytes};
 }
@@ -169,8 +174,8 @@ Endpoint ApproveJobReport(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Approves the current revision of a finished job's certificate (engineer)",
           [svc](const Request& req) {
-            return Response::Json(
-                svc->reports().ApproveJob(req.PathId("id"), ApprovedRevision(req), Approver(req)));
+            return Response::Json(svc->reports().ApproveJob(req.PathInteger("id"),
+                                                            ApprovedRevision(req), Approver(req)));
           },
           ApproveDoc(), kSmallRequestBytes};
 }

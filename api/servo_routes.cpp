@@ -76,7 +76,7 @@ Endpoint StreamServo(const RouteContext& c) {
       "A stretch of a stream (feed-drive position and force channels) stored as a "
       "kinemetric-servo/1 measurement (docs/formats.md §5)",
       [svc](const Request& req) {
-        const auto out = svc->servo().FromStream(req.PathId("id"), JsonBody(req));
+        const auto out = svc->servo().FromStream(req.PathInteger("id"), JsonBody(req));
         return Response::Json({{"id", out.id}, {"kind", out.kind}, {"created", out.created}},
                               out.created ? 201 : 200);
       },
@@ -98,7 +98,7 @@ Endpoint ServoForce(const RouteContext& c) {
           version =
               QueryInt(req, "machine_version", 1, 1, std::numeric_limits<std::int64_t>::max());
         }
-        return Response::Json(svc->servo().Force(req.PathId("id"), version));
+        return Response::Json(svc->servo().Force(req.PathId<server::MeasurementId>("id"), version));
       },
       {{"parameters", json::array({Param("machine_version", "integer",
                                          "a stored version of the model (default: the newest)")})},

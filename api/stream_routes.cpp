@@ -65,7 +65,7 @@ Endpoint SendFrames(const RouteContext& c) {
       "arrive, the answer comes when the body ends",
       [svc](const Request& req) {
         // Callers that hold the whole body (tests, tools); the HTTP server uses open_body.
-        FrameIngestion ingestion(svc->streams(), req.PathId("id"),
+        FrameIngestion ingestion(svc->streams(), req.PathInteger("id"),
                                  req.Header("content-type").value_or(""));
         ingestion.Feed(req.body);
         return Response::Json(ingestion.Finish(true));
@@ -80,7 +80,7 @@ Endpoint SendFrames(const RouteContext& c) {
        {"responses", {{"200", JsonResponse("{frames, samples, stored, duplicates, gaps[]}")}}}},
       0,
       [svc](const Request& req) -> std::unique_ptr<BodySink> {
-        return std::make_unique<FrameSink>(*svc, req.PathId("id"),
+        return std::make_unique<FrameSink>(*svc, req.PathInteger("id"),
                                            req.Header("content-type").value_or(""));
       }};
 }
@@ -101,7 +101,7 @@ Endpoint GetStream(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"One stream: channels, samples, gaps, buffered samples",
           [svc](const Request& req) {
-            return Response::Json(svc->streams().StreamJson(req.PathId("id")));
+            return Response::Json(svc->streams().StreamJson(req.PathInteger("id")));
           },
           {{"parameters", json::array({PathParam("stream id")})},
            {"responses", {{"200", JsonResponse("the stream")}}}}};
@@ -117,7 +117,7 @@ Endpoint StreamSamples(const RouteContext& c) {
         if (req.Query("from_us")) from = QueryInt(req, "from_us", 0, kMinI64, kMaxI64);
         if (req.Query("to_us")) to = QueryInt(req, "to_us", 0, kMinI64, kMaxI64);
         return Response::Json(svc->streams().StreamSamples(
-            req.PathId("id"), QueryInt(req, "channel", 0, 0, 65535), from, to,
+            req.PathInteger("id"), QueryInt(req, "channel", 0, 0, 65535), from, to,
             static_cast<std::size_t>(QueryInt(req, "max_points", 2000, 2, 1000000))));
       },
       {{"parameters",
@@ -135,7 +135,7 @@ Endpoint StreamGaps(const RouteContext& c) {
   return {"Recorded gaps (counter jumps) of a stream",
           [svc](const Request& req) {
             return Response::Json(svc->streams().StreamGapsJson(
-                req.PathId("id"), QueryInt(req, "limit", 1000, 1, 100000)));
+                req.PathInteger("id"), QueryInt(req, "limit", 1000, 1, 100000)));
           },
           {{"parameters", json::array({PathParam("stream id")})},
            {"responses", {{"200", JsonResponse("{items[]}")}}}}};
@@ -147,7 +147,7 @@ Endpoint StreamProfile(const RouteContext& c) {
       "Turn a stretch of one channel into a straightness profile, stored and analysed as a "
       "measurement",
       [svc](const Request& req) {
-        const auto out = svc->streams().StreamProfile(req.PathId("id"), JsonBody(req));
+        const auto out = svc->streams().StreamProfile(req.PathInteger("id"), JsonBody(req));
         return Response::Json({{"id", out.id},
                                {"created", out.created},
                                {"kind", out.kind},

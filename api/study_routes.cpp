@@ -64,11 +64,12 @@ Endpoint SubmitCalibration(const RouteContext& c) {
 
 Endpoint GetJob(const RouteContext& c) {
   server::Service* svc = &c.service;
-  return {
-      "A background job: status, progress, result",
-      [svc](const Request& req) { return Response::Json(svc->studies().Job(req.PathId("id"))); },
-      {{"responses",
-        {{"200", JsonResponse("{id, kind, status, progress, stage, result?, error?}")}}}}};
+  return {"A background job: status, progress, result",
+          [svc](const Request& req) {
+            return Response::Json(svc->studies().Job(req.PathInteger("id")));
+          },
+          {{"responses",
+            {{"200", JsonResponse("{id, kind, status, progress, stage, result?, error?}")}}}}};
 }
 
 Endpoint CancelJob(const RouteContext& c) {
@@ -76,7 +77,7 @@ Endpoint CancelJob(const RouteContext& c) {
   return {"Cancel a queued or running job (its owner, the token that submitted it, or an admin)",
           [svc](const Request& req) {
             const server::JobCanceller by{req.token_id, req.token_name, req.token_role == "admin"};
-            return Response::Json(svc->studies().CancelJob(req.PathId("id"), by));
+            return Response::Json(svc->studies().CancelJob(req.PathInteger("id"), by));
           },
           {{"responses",
             {{"200", JsonResponse("the job, status cancelled; a running job stops at its next "
@@ -208,7 +209,7 @@ Endpoint SaveJobMachine(const RouteContext& c) {
           }
           note = server::request::OptionalString(body, "note", "");
         }
-        const auto out = svc->studies().SaveJobMachine(req.PathId("id"), note);
+        const auto out = svc->studies().SaveJobMachine(req.PathInteger("id"), note);
         return Response::Json(StoredJson(out), out.created ? 201 : 200);
       },
       {{"requestBody",

@@ -79,7 +79,7 @@ class Service : public AuditSource {
   AuditStore& audit_store() override { return *storage_; }
   ToleranceStore& tolerance_store() override { return *storage_; }
   AccessStore& access_store() override { return *storage_; }
-  nlohmann::json DbbPairJson(std::int64_t id) override { return measurements_.DbbPairJson(id); }
+  nlohmann::json DbbPairJson(MeasurementId id) override { return measurements_.DbbPairJson(id); }
   JobVerdict JobVerdictOf(const JobRecord& job) override { return studies_->Verdict(job); }
 
  private:

@@ -99,7 +99,7 @@ std::optional<double> ValueOf(AuditSource& service, const AuditMetric& m, Stored
 }
 
 AuditValue Found(double v, const Stored& s) {
-  if (s.calibration) return {v, 0, s.time, s.calibration->job_id, std::nullopt};
+  if (s.calibration) return {v, std::nullopt, s.time, s.calibration->job_id, std::nullopt};
   return {v, s.record.id, s.time, 0, std::nullopt};
 }
 
@@ -148,8 +148,12 @@ std::optional<AuditValue> AtPreviousAudit(AuditSource& service, const json& prev
     const char* id_key = c.contains("job_id") ? "job_id" : "measurement_id";
     if (!v.is_number() || !c.contains(id_key) || !c[id_key].is_number_integer()) continue;
     if (c.value("status", "") == "stale") continue;
-    AuditValue seen{v.get<double>(), 0, c.value("measured_at", ""), 0, std::nullopt};
-    (c.contains("job_id") ? seen.job_id : seen.measurement_id) = c[id_key].get<std::int64_t>();
+    AuditValue seen{v.get<double>(), std::nullopt, c.value("measured_at", ""), 0, std::nullopt};
+    if (c.contains("job_id")) {
+      seen.job_id = c[id_key].get<std::int64_t>();
+    } else {
+      seen.measurement_id = MeasurementId(c[id_key].get<std::int64_t>());
+    }
     if (MachineWideKind(rule.kind)) return seen;
     if (c.contains("test_id")) {  // verdicts that name their set-ups
       if (c.value("test_id", "") == e.test_id && c.value("direction", "") == e.direction) {
@@ -157,7 +161,7 @@ std::optional<AuditValue> AtPreviousAudit(AuditSource& service, const json& prev
       }
       continue;
     }
-    const auto rec = service.measurement_store().GetMeasurement(seen.measurement_id);
+    const auto rec = service.measurement_store().GetMeasurement(*seen.measurement_id);
     if (rec && SameSetUp(*rec, e)) return seen;
   }
   return std::nullopt;
@@ -268,7 +272,7 @@ SetUpEvidence JudgeSetUp(AuditSource& service, const AuditRule& rule, const Audi
     e.missing =
         "the newest test of this set-up (" +
         (newest.calibration ? "calibration job " + std::to_string(newest.calibration->job_id)
-                            : "measurement " + std::to_string(newest.record.id)) +
+                            : "measurement " + to_string(newest.record.id)) +
         ") holds no value of this metric";
     return e;
   }

@@ -23,7 +23,7 @@ class AuditSource {
   virtual AccessStore& access_store() = 0;  // the audit log
   // The pair analysis of a stored DBB test, recomputed from its stored bytes; null when the
   // test has no partner (MeasurementService::DbbPairJson).
-  virtual nlohmann::json DbbPairJson(std::int64_t id) = 0;
+  virtual nlohmann::json DbbPairJson(MeasurementId id) = 0;
   // The verdict on a stored job by its kind's judge (StudyService::Verdict).
   virtual JobVerdict JobVerdictOf(const JobRecord& job) = 0;
 };

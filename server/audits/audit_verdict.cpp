@@ -25,14 +25,14 @@ json Evidence(const AuditValue& v, const char* prefix) {
   if (v.job_id != 0) {
     j[p + "job_id"] = v.job_id;
   } else {
-    j[p + "measurement_id"] = v.measurement_id;
+    j[p + "measurement_id"] = ValueOrZero(v.measurement_id);
   }
   return j;
 }
 
 std::string EvidenceName(const AuditValue& v) {
   return v.job_id != 0 ? "calibration job " + std::to_string(v.job_id)
-                       : "measurement " + std::to_string(v.measurement_id);
+                       : "measurement " + std::to_string(ValueOrZero(v.measurement_id));
 }
 
 std::string SetUpOf(const AuditRule& rule, const SetUpEvidence& s) {

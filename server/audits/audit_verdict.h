@@ -12,15 +12,16 @@
 
 #include "server/audits/accuracy_audit.h"
 #include "server/audits/decision_rule.h"
+#include "server/base/ids.h"
 
 namespace km::server {
 
 // A value found for a rule, with its evidence: a measurement, or (kind "calibration") a job.
 struct AuditValue {
   double value = 0.0;
-  std::int64_t measurement_id = 0;  // 0 when the evidence is a job
-  std::string measured_at;          // measurement time, else upload time; a job's finish time
-  std::int64_t job_id = 0;          // the calibration job; 0 for a measurement
+  std::optional<MeasurementId> measurement_id;  // none when the evidence is a job
+  std::string measured_at;  // measurement time, else upload time; a job's finish time
+  std::int64_t job_id = 0;  // the calibration job; 0 for a measurement
   std::optional<double> U =
       std::nullopt;  // the value's expanded uncertainty, when its result has one
 };

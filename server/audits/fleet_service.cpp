@@ -30,7 +30,7 @@ std::optional<AuditMetric> MetricNamed(const std::string& name) {
 
 // The metric's value for one measurement: from its own newest result, the newest joints
 // estimate kept with it, or the analysis of its CW/CCW pair (none without a partner).
-std::optional<double> ValueAt(AuditSource& service, const AuditMetric& m, std::int64_t id,
+std::optional<double> ValueAt(AuditSource& service, const AuditMetric& m, MeasurementId id,
                               const std::vector<ResultRecord>& results) {
   if (m.analysis == "dbb-pair") {
     try {
@@ -69,8 +69,8 @@ std::map<std::string, std::int64_t> OpenJobs(AuditSource& service) {
     std::string machine = req.value("machine_id", std::string());
     if (machine.empty() && req.contains("measurement_ids") && req["measurement_ids"].is_array() &&
         !req["measurement_ids"].empty() && req["measurement_ids"][0].is_number_integer()) {
-      const auto rec =
-          service.measurement_store().GetMeasurement(req["measurement_ids"][0].get<std::int64_t>());
+      const auto rec = service.measurement_store().GetMeasurement(
+          req["measurement_ids"][0].get<MeasurementId>());
       if (rec) machine = rec->machine_id;
     }
     if (!machine.empty()) ++open[machine];

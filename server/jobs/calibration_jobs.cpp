@@ -91,7 +91,7 @@ std::vector<std::int64_t> StudyService::CheckedDbbIds(const std::vector<std::int
   std::size_t samples = 0;
   std::vector<std::string> machines;
   for (const std::int64_t id : ids) {
-    const auto rec = measurement_store_.GetMeasurement(id);
+    const auto rec = measurement_store_.GetMeasurement(MeasurementId(id));
     if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
     if (rec->kind != "dbb") {
       throw InvalidInput("request", 0, "measurement_ids",
@@ -180,7 +180,7 @@ JobOutput StudyService::RunCalibrationJob(const nlohmann::json& plan_json, const
   study.tests.reserve(plan->ids.size());
   study.names.reserve(plan->ids.size());
   for (const std::int64_t id : plan->ids) {
-    study.tests.push_back(measurements_.LoadDbb(id));
+    study.tests.push_back(measurements_.LoadDbb(MeasurementId(id)));
     study.names.push_back(TestName(id));
   }
   auto outcome = usecases::RunCalibrationStudy(study, p);

@@ -62,7 +62,7 @@ JobOutput StudyService::RunDiscoveryJob(const nlohmann::json& plan_json, const P
   study.tests.reserve(plan->ids.size());
   study.names.reserve(plan->ids.size());
   for (const std::int64_t id : plan->ids) {
-    study.tests.push_back(measurements_.LoadDbb(id));
+    study.tests.push_back(measurements_.LoadDbb(MeasurementId(id)));
     study.names.push_back("measurement " + std::to_string(id));
   }
   usecases::DiscoveryOutcome outcome = usecases::RunDiscoveryStudy(study, p);

@@ -39,7 +39,7 @@ std::string StudyService::TestsMachine(const nlohmann::json& req,
   const auto id = req["measurement_ids"][0].get<std::int64_t>();
   auto it = machine_of.find(id);
   if (it == machine_of.end()) {
-    const auto rec = measurement_store_.GetMeasurement(id);
+    const auto rec = measurement_store_.GetMeasurement(MeasurementId(id));
     it = machine_of.emplace(id, rec ? rec->machine_id : std::string()).first;
   }
   return it->second;

@@ -117,26 +117,26 @@ ConformanceSubject SubjectOf(const MeasurementRecord& r) {
   return {r.machine_id, r.kind, r.test_id, r.direction};
 }
 
-std::vector<ResultRecord> ResultsOrRefuse(MeasurementStore& store, std::int64_t id) {
+std::vector<ResultRecord> ResultsOrRefuse(MeasurementStore& store, MeasurementId id) {
   auto results = store.GetResults(id);
   if (results.empty()) {
     // One query in the common case; the second only tells the two refusals apart.
     if (!store.GetMeasurement(id)) {
-      throw NotFound("measurement " + std::to_string(id) + " does not exist");
+      throw NotFound("measurement " + to_string(id) + " does not exist");
     }
-    throw NotFound("measurement " + std::to_string(id) + " has no stored results");
+    throw NotFound("measurement " + to_string(id) + " has no stored results");
   }
   return results;
 }
 
 }  // namespace
 
-nlohmann::json MeasurementService::Results(std::int64_t id) {
+nlohmann::json MeasurementService::Results(MeasurementId id) {
   const auto results = ResultsOrRefuse(store_, id);
   return *parsed_.Parse(OwnResult(results)->result_json);
 }
 
-nlohmann::json MeasurementService::ResultsWithConformance(std::int64_t id) {
+nlohmann::json MeasurementService::ResultsWithConformance(MeasurementId id) {
   const auto results = ResultsOrRefuse(store_, id);
   nlohmann::json j = *parsed_.Parse(OwnResult(results)->result_json);
   if (!judges_) return j;
@@ -145,13 +145,13 @@ nlohmann::json MeasurementService::ResultsWithConformance(std::int64_t id) {
   return j;
 }
 
-ConformanceSubject MeasurementService::CachedSubject(std::int64_t id) {
+ConformanceSubject MeasurementService::CachedSubject(MeasurementId id) {
   {
     std::lock_guard lock(subjects_mu_);
     if (const auto it = subjects_.find(id); it != subjects_.end()) return it->second;
   }
   const auto rec = store_.GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!rec) throw NotFound("measurement " + to_string(id) + " does not exist");
   ConformanceSubject s = SubjectOf(*rec);
   std::lock_guard lock(subjects_mu_);
   if (subjects_.size() >= 4096) subjects_.clear();
@@ -159,9 +159,9 @@ ConformanceSubject MeasurementService::CachedSubject(std::int64_t id) {
   return s;
 }
 
-nlohmann::json MeasurementService::Conformance(std::int64_t id) {
+nlohmann::json MeasurementService::Conformance(MeasurementId id) {
   const auto rec = store_.GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!rec) throw NotFound("measurement " + to_string(id) + " does not exist");
   if (!judges_) return nullptr;
   return Judge(judges_(), *rec, store_.GetResults(id));
 }
@@ -242,9 +242,9 @@ nlohmann::json MeasurementService::ListMeasurements(const MeasurementFilter& fil
   return {{"items", items}, {"total", page.total}};
 }
 
-nlohmann::json MeasurementService::MeasurementWithSamples(std::int64_t id) {
+nlohmann::json MeasurementService::MeasurementWithSamples(MeasurementId id) {
   const auto rec = store_.GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!rec) throw NotFound("measurement " + to_string(id) + " does not exist");
   nlohmann::json j = MeasurementJson(*rec);
   j["metadata"] = ingest::ParseJsonText(rec->metadata_json, "stored document");
   const auto block = store_.GetSamples(id);
@@ -259,7 +259,7 @@ nlohmann::json MeasurementService::MeasurementWithSamples(std::int64_t id) {
   return j;
 }
 
-std::optional<std::int64_t> MeasurementService::PartnerOf(const MeasurementRecord& rec) {
+std::optional<MeasurementId> MeasurementService::PartnerOf(const MeasurementRecord& rec) {
   if (rec.kind == "dbb" && (rec.direction == "ccw" || rec.direction == "cw")) {
     return DbbPartner(rec);
   }
@@ -273,11 +273,11 @@ std::vector<MachineSummary> MeasurementService::Machines() {
   return store_.ListMachines();
 }
 
-dbb::DbbTest MeasurementService::LoadDbb(std::int64_t id, MeasurementRecord* record) {
+dbb::DbbTest MeasurementService::LoadDbb(MeasurementId id, MeasurementRecord* record) {
   const auto rec = store_.GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!rec) throw NotFound("measurement " + to_string(id) + " does not exist");
   if (rec->kind != "dbb") {
-    throw InvalidInput("", 0, "id", "measurement " + std::to_string(id) + " is not a DBB test");
+    throw InvalidInput("", 0, "id", "measurement " + to_string(id) + " is not a DBB test");
   }
   if (record) *record = *rec;
   dbb::DbbTest test = ingest::ReadDbb(store_.GetRaw(id), rec->filename);
@@ -287,12 +287,12 @@ dbb::DbbTest MeasurementService::LoadDbb(std::int64_t id, MeasurementRecord* rec
   return test;
 }
 
-std::optional<std::int64_t> MeasurementService::DbbPartner(const MeasurementRecord& rec) {
+std::optional<MeasurementId> MeasurementService::DbbPartner(const MeasurementRecord& rec) {
   return NearestPartner(rec, rec.direction == "ccw" ? "cw" : "ccw");
 }
 
-std::optional<std::int64_t> MeasurementService::NearestPartner(const MeasurementRecord& rec,
-                                                               const std::string& other_direction) {
+std::optional<MeasurementId> MeasurementService::NearestPartner(
+    const MeasurementRecord& rec, const std::string& other_direction) {
   // The other-direction measurement (the opposite DBB direction, the other set-up of a
   // reversal) of the same machine, kind and test_id measured nearest in time to this one
   // (measurement time, else upload time): a pair is run minutes apart, a repeat days or months
@@ -313,15 +313,15 @@ std::optional<std::int64_t> MeasurementService::NearestPartner(const Measurement
   f.to = when;  // the nearest before it
   f.order = MeasurementFilter::Order::kNewest;
   for (auto& m : store_.ListMeasurements(f).items) candidates.push_back(std::move(m));
-  std::optional<std::int64_t> best;
+  std::optional<MeasurementId> best;
   double best_dt = 0.0;
+  const auto apart = [&rec](MeasurementId id) { return std::abs(id.value() - rec.id.value()); };
   for (const auto& m : candidates) {
     const auto tm = ingest::Iso8601EpochSeconds(m.measured_at.value_or(m.uploaded_at));
     const double dt = t && tm ? std::fabs(*tm - *t) : 0.0;
-    const bool nearer =
-        !best || dt < best_dt ||
-        (dt == best_dt && (std::abs(m.id - rec.id) < std::abs(*best - rec.id) ||
-                           (std::abs(m.id - rec.id) == std::abs(*best - rec.id) && m.id > *best)));
+    const bool nearer = !best || dt < best_dt ||
+                        (dt == best_dt && (apart(m.id) < apart(*best) ||
+                                           (apart(m.id) == apart(*best) && m.id > *best)));
     if (nearer) {
       best = m.id;
       best_dt = dt;
@@ -330,13 +330,13 @@ std::optional<std::int64_t> MeasurementService::NearestPartner(const Measurement
   return best;
 }
 
-nlohmann::json MeasurementService::DbbTrace(std::int64_t id) {
+nlohmann::json MeasurementService::DbbTrace(MeasurementId id) {
   const dbb::DbbTest test = LoadDbb(id);
   return usecases::DbbTraceJson(test,
                                 dbb::AnalyzeCircularTest(test, dbb::DeviationUnits::kToolPath));
 }
 
-nlohmann::json MeasurementService::DbbPairJson(std::int64_t id) {
+nlohmann::json MeasurementService::DbbPairJson(MeasurementId id) {
   MeasurementRecord rec;
   const dbb::DbbTest test = LoadDbb(id, &rec);
   const auto partner = DbbPartner(rec);
@@ -356,7 +356,7 @@ nlohmann::json MeasurementService::DbbPairJson(std::int64_t id) {
   return out;
 }
 
-std::string MeasurementService::DbbPlotPng(std::int64_t id,
+std::string MeasurementService::DbbPlotPng(MeasurementId id,
                                            const render::PolarPlotOptions& options) {
   MeasurementRecord rec;
   std::vector<dbb::DbbTest> tests{LoadDbb(id, &rec)};
@@ -366,17 +366,17 @@ std::string MeasurementService::DbbPlotPng(std::int64_t id,
   return std::string(png.begin(), png.end());
 }
 
-nlohmann::json MeasurementService::StraightnessReversalJson(std::int64_t id) {
+nlohmann::json MeasurementService::StraightnessReversalJson(MeasurementId id) {
   const auto rec = store_.GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!rec) throw NotFound("measurement " + to_string(id) + " does not exist");
   if (rec->kind != "straightness") {
     throw InvalidInput("", 0, "id",
-                       "measurement " + std::to_string(id) + " is not a straightness profile");
+                       "measurement " + to_string(id) + " is not a straightness profile");
   }
   if (rec->direction != "a" && rec->direction != "b") {
     throw InvalidInput(
         "", 0, "reversal",
-        "measurement " + std::to_string(id) +
+        "measurement " + to_string(id) +
             " is not one set-up of a reversal pair (its file has no `reversal` key)");
   }
   const auto partner = NearestPartner(*rec, rec->direction == "a" ? "b" : "a");
@@ -395,13 +395,13 @@ nlohmann::json MeasurementService::StraightnessReversalJson(std::int64_t id) {
   return out;
 }
 
-std::string MeasurementService::PositioningCompensation(std::int64_t id,
+std::string MeasurementService::PositioningCompensation(MeasurementId id,
                                                         const std::string& format) {
   const auto rec = store_.GetMeasurement(id);
-  if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!rec) throw NotFound("measurement " + to_string(id) + " does not exist");
   if (rec->kind != "positioning") {
     throw InvalidInput("", 0, "id",
-                       "measurement " + std::to_string(id) + " is not a laser positioning test");
+                       "measurement " + to_string(id) + " is not a laser positioning test");
   }
   const auto report =
       usecases::AnalyzePositioning(ingest::ParsePositioningFile(store_.GetRaw(id), rec->filename));

@@ -46,7 +46,7 @@ struct UploadOptions {
 };
 
 struct UploadOutcome {
-  std::int64_t id = 0;
+  MeasurementId id;
   bool created = false;
   std::string sha256;
   std::string kind;
@@ -76,50 +76,50 @@ class MeasurementService {
   void SetInstrumentHook(InstrumentHook hook) { instruments_ = std::move(hook); }
 
   // Results as the CLI prints them (the newest analysis version of each analysis).
-  nlohmann::json Results(std::int64_t id);
+  nlohmann::json Results(MeasurementId id);
   // The same object with "conformance" added (GET /api/v1/measurements/{id}/results).
-  nlohmann::json ResultsWithConformance(std::int64_t id);
+  nlohmann::json ResultsWithConformance(MeasurementId id);
   // The conformance of a stored measurement (null without judges); NotFound.
-  nlohmann::json Conformance(std::int64_t id);
+  nlohmann::json Conformance(MeasurementId id);
   nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
   // Measurement metadata matching the filter: {"items": [MeasurementJson… + "key_result",
   // "conformance"], "total"}.
   nlohmann::json ListMeasurements(const MeasurementFilter& filter);
   // One measurement: MeasurementJson plus "metadata", "samples" (one array per column),
   // "partner_id" (PartnerOf, or null) and "conformance"; NotFound when there is none.
-  nlohmann::json MeasurementWithSamples(std::int64_t id);
+  nlohmann::json MeasurementWithSamples(MeasurementId id);
   // Machines with stored measurements or a stored model.
   std::vector<MachineSummary> Machines();
 
   // DBB queries, recomputed from the stored bytes: the plot data of the evaluated turn; the
   // CW/CCW pair analysis with the opposite-direction test of the same machine and test_id
   // (null when there is none); the polar plot PNG (both directions when the partner exists).
-  nlohmann::json DbbTrace(std::int64_t id);
-  nlohmann::json DbbPairJson(std::int64_t id);
-  std::string DbbPlotPng(std::int64_t id, const render::PolarPlotOptions& options = {});
+  nlohmann::json DbbTrace(MeasurementId id);
+  nlohmann::json DbbPairJson(MeasurementId id);
+  std::string DbbPlotPng(MeasurementId id, const render::PolarPlotOptions& options = {});
   // Straightness reversal of a stored profile with the other set-up of its pair (same machine
   // and pair_id, measured nearest in time): {partner_id, reversal{...}, profiles[]}; null when
   // the other set-up is not stored.
-  nlohmann::json StraightnessReversalJson(std::int64_t id);
+  nlohmann::json StraightnessReversalJson(MeasurementId id);
 
   // The compensation table a controller loads, from a stored laser positioning test
   // (usecases/positioning_export.h): format linuxcnc, sinumerik or csv (InvalidInput naming
   // `format` otherwise; NotFound; InvalidInput for a measurement of another kind).
-  std::string PositioningCompensation(std::int64_t id, const std::string& format);
+  std::string PositioningCompensation(MeasurementId id, const std::string& format);
 
   // A stored DBB test, parsed from its stored bytes (NotFound; InvalidInput when the
   // measurement is of another kind); `record` receives its record when given.
-  dbb::DbbTest LoadDbb(std::int64_t id, MeasurementRecord* record = nullptr);
+  dbb::DbbTest LoadDbb(MeasurementId id, MeasurementRecord* record = nullptr);
   // The stored opposite-direction test of a DBB test (same machine and test, nearest in time);
   // none when there is none.
-  std::optional<std::int64_t> DbbPartner(const MeasurementRecord& rec);
+  std::optional<MeasurementId> DbbPartner(const MeasurementRecord& rec);
   // The measurement GET …/pair (a DBB test) or GET …/reversal (a straightness set-up a or b)
   // pairs this one with; none for other kinds or when the partner is not stored.
-  std::optional<std::int64_t> PartnerOf(const MeasurementRecord& rec);
+  std::optional<MeasurementId> PartnerOf(const MeasurementRecord& rec);
 
  private:
-  std::optional<std::int64_t> NearestPartner(const MeasurementRecord& rec,
-                                             const std::string& other_direction);
+  std::optional<MeasurementId> NearestPartner(const MeasurementRecord& rec,
+                                              const std::string& other_direction);
 
   // The conformance of a measurement from its stored results, by a judge of judges_.
   nlohmann::json Judge(const ConformanceJudge& judge, const MeasurementRecord& r,
@@ -133,9 +133,9 @@ class MeasurementService {
   mutable ParsedResults parsed_;  // the stored results' documents, parsed once
   // What a measurement's conformance is judged as (machine, kind, set-up), by id: a stored
   // measurement never changes, so an entry never goes stale; emptied when it holds 4096.
-  ConformanceSubject CachedSubject(std::int64_t id);
+  ConformanceSubject CachedSubject(MeasurementId id);
   std::mutex subjects_mu_;
-  std::unordered_map<std::int64_t, ConformanceSubject> subjects_;
+  std::unordered_map<MeasurementId, ConformanceSubject> subjects_;
 };
 
 // The handlers of every measurement kind the product knows; call once at start-up.

@@ -34,11 +34,11 @@ std::string Name(const CertificateSubject& s, std::int64_t revision) {
 
 }  // namespace
 
-CertificateSubject MeasurementCertificate(std::int64_t id, std::optional<std::int64_t> as_left) {
-  CertificateSubject s{"measurement " + std::to_string(id), "KM-M" + Padded(id)};
+CertificateSubject MeasurementCertificate(MeasurementId id, std::optional<MeasurementId> as_left) {
+  CertificateSubject s{"measurement " + to_string(id), "KM-M" + Padded(id.value())};
   if (as_left) {
-    s.subject += " as-left " + std::to_string(*as_left);
-    s.number += "-L" + Padded(*as_left);
+    s.subject += " as-left " + to_string(*as_left);
+    s.number += "-L" + Padded(as_left->value());
   }
   return s;
 }

@@ -26,7 +26,7 @@ struct CertificateSubject {
   std::string number;   // "KM-M000042", "KM-M000042-L000057", "KM-J000007", "KM-A-vmc"
 };
 
-CertificateSubject MeasurementCertificate(std::int64_t id, std::optional<std::int64_t> as_left);
+CertificateSubject MeasurementCertificate(MeasurementId id, std::optional<MeasurementId> as_left);
 CertificateSubject JobCertificate(std::int64_t id);
 CertificateSubject AuditCertificate(const std::string& machine_id);
 

@@ -20,7 +20,7 @@ namespace {
 
 usecases::ReportSource SourceOf(const MeasurementRecord& r) {
   usecases::ReportSource s;
-  s.measurement_id = r.id;
+  s.measurement_id = r.id.value();
   s.kind = r.kind;
   s.machine_id = r.machine_id;
   s.test_id = r.test_id;
@@ -73,9 +73,9 @@ usecases::ReportAudit AuditOf(AuditSource& records, const std::string& machine_i
 // The test the user chose as the machine as left: another test of the same set-up (machine,
 // kind, test and direction) measured after `r`; InvalidInput naming `as_left` otherwise.
 usecases::ReportLater ChosenLater(AuditSource& records, MeasurementService& ms,
-                                  const MeasurementRecord& r, std::int64_t as_left) {
+                                  const MeasurementRecord& r, MeasurementId as_left) {
   const auto refuse = [&](const std::string& why) {
-    return InvalidInput("", 0, "as_left", "measurement " + std::to_string(as_left) + " " + why);
+    return InvalidInput("", 0, "as_left", "measurement " + to_string(as_left) + " " + why);
   };
   const auto n = records.measurement_store().GetMeasurement(as_left);
   if (!n) throw refuse("does not exist");
@@ -89,7 +89,7 @@ usecases::ReportLater ChosenLater(AuditSource& records, MeasurementService& ms,
   if (then <= r.measured_at.value_or(r.uploaded_at)) {
     throw refuse("was not measured after the as-found test (" + then + ")");
   }
-  return usecases::ReportLater{n->id, then, ms.Results(n->id)};
+  return usecases::ReportLater{n->id.value(), then, ms.Results(n->id)};
 }
 
 usecases::ReportContext ContextOf(AuditSource& records, MeasurementService& ms,
@@ -131,10 +131,10 @@ render::RenderOptions Options(const std::function<bool()>& cancelled) {
 
 }  // namespace
 
-ReportService::Prepared ReportService::PrepareMeasurement(std::int64_t id,
-                                                          std::optional<std::int64_t> as_left) {
+ReportService::Prepared ReportService::PrepareMeasurement(MeasurementId id,
+                                                          std::optional<MeasurementId> as_left) {
   auto found = records_.measurement_store().GetMeasurement(id);
-  if (!found) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!found) throw NotFound("measurement " + to_string(id) + " does not exist");
   MeasurementRecord rec = std::move(*found);
   std::optional<usecases::ReportLater> later;
   if (as_left) later = ChosenLater(records_, measurements_, rec, *as_left);
@@ -149,10 +149,9 @@ ReportService::Prepared ReportService::PrepareMeasurement(std::int64_t id,
     p.content["as_left"] = {{"id", ctx->later->measurement_id}, {"results", ctx->later->results}};
   }
   if (rec.kind == "dbb") {
-    ctx->partner_id = measurements_.DbbPartner(rec);
-    if (ctx->partner_id) {
-      p.content["partner"] = {{"id", *ctx->partner_id},
-                              {"results", measurements_.Results(*ctx->partner_id)}};
+    if (const auto partner = measurements_.DbbPartner(rec)) {
+      ctx->partner_id = partner->value();
+      p.content["partner"] = {{"id", *partner}, {"results", measurements_.Results(*partner)}};
     }
   }
   p.summary = SummaryOf(rec, *results, ctx->conformance, ctx->later);
@@ -161,7 +160,7 @@ ReportService::Prepared ReportService::PrepareMeasurement(std::int64_t id,
     NameInstrument(source, *results);
     if (rec.kind != "dbb") return usecases::ResultsPdfReport(*results, source, *ctx);
     std::vector<dbb::DbbTest> tests{measurements_.LoadDbb(rec.id)};
-    if (ctx->partner_id) tests.push_back(measurements_.LoadDbb(*ctx->partner_id));
+    if (ctx->partner_id) tests.push_back(measurements_.LoadDbb(MeasurementId(*ctx->partner_id)));
     const dbb::DbbReport report = dbb::AnalyzeDbbSet(tests);
     nlohmann::json j = usecases::DbbReportJson(tests, report);
     // Each test's uncertainty as its stored result gives it (the API, the page and the
@@ -173,7 +172,7 @@ ReportService::Prepared ReportService::PrepareMeasurement(std::int64_t id,
       }
     };
     stored_u(0, *results);
-    if (ctx->partner_id) stored_u(1, measurements_.Results(*ctx->partner_id));
+    if (ctx->partner_id) stored_u(1, measurements_.Results(MeasurementId(*ctx->partner_id)));
     return usecases::DbbPdfReport(report, j, 0, source, *ctx);
   };
   return p;
@@ -259,7 +258,7 @@ nlohmann::json ReportService::Revisions(const Prepared& p) {
   return certificates_.Revisions(p.subject, certificates_.Current(p.subject, p.content, p.summary));
 }
 
-std::string ReportService::MeasurementPdf(std::int64_t id, const ReportRequest& q) {
+std::string ReportService::MeasurementPdf(MeasurementId id, const ReportRequest& q) {
   return Pdf([this, id, as_left = q.as_left] { return PrepareMeasurement(id, as_left); },
              q.revision);
 }
@@ -273,8 +272,8 @@ std::string ReportService::AuditPdf(const std::string& machine_id,
   return Pdf([this, machine_id] { return PrepareAudit(machine_id); }, revision);
 }
 
-nlohmann::json ReportService::MeasurementRevisions(std::int64_t id,
-                                                   std::optional<std::int64_t> as_left) {
+nlohmann::json ReportService::MeasurementRevisions(MeasurementId id,
+                                                   std::optional<MeasurementId> as_left) {
   return Revisions(PrepareMeasurement(id, as_left));
 }
 
@@ -286,8 +285,8 @@ nlohmann::json ReportService::AuditRevisions(const std::string& machine_id) {
   return Revisions(PrepareAudit(machine_id));
 }
 
-nlohmann::json ReportService::ApproveMeasurement(std::int64_t id,
-                                                 std::optional<std::int64_t> as_left,
+nlohmann::json ReportService::ApproveMeasurement(MeasurementId id,
+                                                 std::optional<MeasurementId> as_left,
                                                  std::optional<std::int64_t> revision,
                                                  const ReportApprover& by) {
   return Approve(

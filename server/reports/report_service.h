@@ -24,7 +24,7 @@ namespace km::server {
 // Which report of a measurement: the as-left test the user chose (another test of the same
 // set-up measured later), and an earlier revision (only approved ones are kept as printed).
 struct ReportRequest {
-  std::optional<std::int64_t> as_left;
+  std::optional<MeasurementId> as_left;
   std::optional<std::int64_t> revision;
 };
 
@@ -40,7 +40,7 @@ class ReportService {
 
   // GET /api/v1/measurements/{id}/report.pdf; NotFound for an unknown measurement, InvalidInput
   // naming `as_left` for a test that is not a later test of the same set-up.
-  std::string MeasurementPdf(std::int64_t id, const ReportRequest& request = {});
+  std::string MeasurementPdf(MeasurementId id, const ReportRequest& request = {});
   // GET /api/v1/jobs/{id}/report.pdf; NotFound for an unknown job.
   std::string JobPdf(std::int64_t id, std::optional<std::int64_t> revision = std::nullopt);
   // GET /api/v1/machines/{machine_id}/audit/report.pdf; NotFound for a machine with neither
@@ -49,12 +49,12 @@ class ReportService {
                        std::optional<std::int64_t> revision = std::nullopt);
 
   // GET …/report/revisions: the certificate's revisions (Certificates::Revisions).
-  nlohmann::json MeasurementRevisions(std::int64_t id, std::optional<std::int64_t> as_left);
+  nlohmann::json MeasurementRevisions(MeasurementId id, std::optional<MeasurementId> as_left);
   nlohmann::json JobRevisions(std::int64_t id);
   nlohmann::json AuditRevisions(const std::string& machine_id);
   // POST …/report/approve: approves the current revision (`revision`, when given, must be it;
   // Conflict otherwise or when it is already approved) and freezes its PDF.
-  nlohmann::json ApproveMeasurement(std::int64_t id, std::optional<std::int64_t> as_left,
+  nlohmann::json ApproveMeasurement(MeasurementId id, std::optional<MeasurementId> as_left,
                                     std::optional<std::int64_t> revision, const ReportApprover& by);
   nlohmann::json ApproveJob(std::int64_t id, std::optional<std::int64_t> revision,
                             const ReportApprover& by);
@@ -73,7 +73,7 @@ class ReportService {
     nlohmann::json content, summary;
     std::function<render::Report(const Cancelled&)> build;
   };
-  Prepared PrepareMeasurement(std::int64_t id, std::optional<std::int64_t> as_left);
+  Prepared PrepareMeasurement(MeasurementId id, std::optional<MeasurementId> as_left);
   Prepared PrepareJob(std::int64_t id);
   Prepared PrepareAudit(const std::string& machine_id);
   std::string Pdf(const std::function<Prepared()>& prepare, std::optional<std::int64_t> revision);

@@ -29,8 +29,8 @@ struct Inputs {
   std::vector<servo::ServoFile> files;
 };
 
-std::string MeasurementName(std::int64_t id, const std::string& filename) {
-  return "measurement " + std::to_string(id) + " (" + filename + ")";
+std::string MeasurementName(MeasurementId id, const std::string& filename) {
+  return "measurement " + to_string(id) + " (" + filename + ")";
 }
 
 ingest::MachineDefinition Machine(ModelService& models, const std::string& machine_id,
@@ -63,13 +63,13 @@ std::vector<servo::ServoFile> Files(MeasurementStore& store, const nlohmann::jso
       throw InvalidInput(req::kFile, 0, "measurement_ids",
                          "ids are whole numbers from 1, each listed once");
     }
-    const std::int64_t id = v.get<std::int64_t>();
+    const MeasurementId id(v.get<std::int64_t>());
     const auto rec = store.GetMeasurement(id);
-    if (!rec) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+    if (!rec) throw NotFound("measurement " + to_string(id) + " does not exist");
     if (rec->kind != "servo" || rec->machine_id != machine_id) {
       throw InvalidInput(
           req::kFile, 0, "measurement_ids",
-          "measurement " + std::to_string(id) + " is not a servo record of " + machine_id);
+          "measurement " + to_string(id) + " is not a servo record of " + machine_id);
     }
     files.push_back(ingest::ParseServoFile(store.GetRaw(id), MeasurementName(id, rec->filename)));
     samples += files.back().t_s.size();
@@ -107,7 +107,7 @@ void StoreJoints(MeasurementStore& store, const nlohmann::json& j) {
   const NewResult result{
       kJointsAnalysis,
       std::string(usecases::kServoAnalysisVersion) + " #" + Sha256Hex(text).substr(0, 16), text};
-  for (const auto& id : j["measurement_ids"]) store.PutResult(id.get<std::int64_t>(), result);
+  for (const auto& id : j["measurement_ids"]) store.PutResult(id.get<MeasurementId>(), result);
 }
 
 // One stored estimate as an item of the history.
@@ -218,13 +218,13 @@ nlohmann::json ServoService::JointHealth(const std::string& machine_id) {
   return {{"machine_id", machine_id}, {"limits", limits}, {"estimates", estimates}};
 }
 
-nlohmann::json ServoService::Force(std::int64_t measurement_id,
+nlohmann::json ServoService::Force(MeasurementId measurement_id,
                                    std::optional<std::int64_t> machine_version) {
   const auto rec = store_.GetMeasurement(measurement_id);
-  if (!rec) throw NotFound("measurement " + std::to_string(measurement_id) + " does not exist");
+  if (!rec) throw NotFound("measurement " + to_string(measurement_id) + " does not exist");
   if (rec->kind != "servo") {
     throw InvalidInput("", 0, "id",
-                       "measurement " + std::to_string(measurement_id) + " is not a servo record");
+                       "measurement " + to_string(measurement_id) + " is not a servo record");
   }
   std::int64_t version = 0;
   const auto machine = Machine(models_, rec->machine_id, machine_version, version);

@@ -49,7 +49,7 @@ class ServoService {
   nlohmann::json JointHealth(const std::string& machine_id);
   // The force JSON of one stored servo measurement with its machine's model (newest version,
   // or the one given).
-  nlohmann::json Force(std::int64_t measurement_id, std::optional<std::int64_t> machine_version);
+  nlohmann::json Force(MeasurementId measurement_id, std::optional<std::int64_t> machine_version);
 
   // A stretch of a stream turned into a feed-drive servo record (docs/formats.md §1.7) and
   // uploaded like a file: {"axes": [{"axis", "position_channel", "force_channel"}, …],

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "analysis/core/errors.h"
+#include "server/base/ids.h"
 #include "server/storage/report_store.h"
 
 namespace km::server {
@@ -74,7 +75,7 @@ struct NewMeasurement {
 };
 
 struct MeasurementRecord {
-  std::int64_t id = 0;
+  MeasurementId id;
   std::string sha256, kind, format, machine_id, test_id, direction;
   std::optional<std::string> measured_at;
   std::string uploaded_at, filename, metadata_json;
@@ -82,7 +83,7 @@ struct MeasurementRecord {
 };
 
 struct ResultRecord {
-  std::int64_t measurement_id = 0;
+  MeasurementId measurement_id;
   std::string analysis, analysis_version, input_sha256, created_at, result_json;
 };
 
@@ -139,7 +140,7 @@ struct MachineModelPut {
 };
 
 struct PutOutcome {
-  std::int64_t id = 0;
+  MeasurementId id;
   bool created = false;
 };
 
@@ -378,14 +379,14 @@ class MeasurementStore {
   // Stores the measurement and its results atomically; the same bytes stored before give the
   // existing id and created = false (nothing is written then).
   virtual PutOutcome PutMeasurement(const NewMeasurement& m, const std::vector<NewResult>& r) = 0;
-  virtual std::optional<MeasurementRecord> GetMeasurement(std::int64_t id) = 0;
-  virtual std::optional<std::int64_t> FindBySha256(const std::string& sha256) = 0;
-  virtual std::string GetRaw(std::int64_t id) = 0;      // throws NotFound
-  virtual SampleBlock GetSamples(std::int64_t id) = 0;  // throws NotFound
+  virtual std::optional<MeasurementRecord> GetMeasurement(MeasurementId id) = 0;
+  virtual std::optional<MeasurementId> FindBySha256(const std::string& sha256) = 0;
+  virtual std::string GetRaw(MeasurementId id) = 0;      // throws NotFound
+  virtual SampleBlock GetSamples(MeasurementId id) = 0;  // throws NotFound
   virtual MeasurementPage ListMeasurements(const MeasurementFilter& f) = 0;
-  virtual std::vector<ResultRecord> GetResults(std::int64_t id) = 0;
+  virtual std::vector<ResultRecord> GetResults(MeasurementId id) = 0;
   // Adds a result computed later (e.g. by a newer analysis version); keeps older ones.
-  virtual void PutResult(std::int64_t id, const NewResult& r) = 0;
+  virtual void PutResult(MeasurementId id, const NewResult& r) = 0;
   // Machines with stored measurements or a stored model.
   virtual std::vector<MachineSummary> ListMachines() = 0;
 };

@@ -39,6 +39,10 @@ int SqlStateCode(const std::string& sqlstate);
 class Params {
  public:
   Params& Int(std::int64_t v);
+  template <class Tag>
+  Params& Int(Id<Tag> id) {  // a table's id, as its integer key
+    return Int(id.value());
+  }
   Params& Real(double v);
   // `field` names the value in the InvalidInput of a NUL byte.
   Params& Text(const std::string& v, const char* field);

@@ -16,7 +16,7 @@ using pg::Transaction;
 
 MeasurementRecord ReadRecord(const Result& s, int row) {
   MeasurementRecord r;
-  r.id = s.Int(row, 0);
+  r.id = MeasurementId(s.Int(row, 0));
   r.sha256 = s.Text(row, 1);
   r.kind = s.Text(row, 2);
   r.format = s.Text(row, 3);
@@ -110,7 +110,7 @@ PgStorage::~PgStorage() = default;
 
 namespace {
 
-void InsertResult(pg::Conn& c, std::int64_t id, const std::string& sha, const NewResult& r) {
+void InsertResult(pg::Conn& c, MeasurementId id, const std::string& sha, const NewResult& r) {
   Params p;
   p.Int(id).Text(r.analysis, "analysis").Text(r.analysis_version, "analysis_version");
   p.Text(sha, "sha256").Text(NowUtcIso8601(), "created_at").Text(r.result_json, "result_json");
@@ -121,12 +121,12 @@ void InsertResult(pg::Conn& c, std::int64_t id, const std::string& sha, const Ne
       p, "store result");
 }
 
-std::optional<std::int64_t> FindSha(pg::Conn& c, const std::string& sha256) {
+std::optional<MeasurementId> FindSha(pg::Conn& c, const std::string& sha256) {
   Params p;
   p.Text(sha256, "sha256");
   const Result r = c.Query("SELECT id FROM measurements WHERE sha256 = $1", p, "find measurement");
   if (r.Rows() == 0) return std::nullopt;
-  return r.Int(0, 0);
+  return MeasurementId(r.Int(0, 0));
 }
 
 }  // namespace
@@ -156,13 +156,13 @@ PutOutcome PgStorage::PutMeasurement(const NewMeasurement& m,
     throw StorageError("storage: store measurement: a conflicting row vanished",
                        pg::SqlStateCode("40001"), true);
   }
-  const std::int64_t id = r.Int(0, 0);
+  const MeasurementId id(r.Int(0, 0));
   for (const auto& res : results) InsertResult(*c, id, m.sha256, res);
   tx.Commit();
   return PutOutcome{id, true};
 }
 
-std::optional<MeasurementRecord> PgStorage::GetMeasurement(std::int64_t id) {
+std::optional<MeasurementRecord> PgStorage::GetMeasurement(MeasurementId id) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(id);
@@ -173,27 +173,27 @@ std::optional<MeasurementRecord> PgStorage::GetMeasurement(std::int64_t id) {
   return ReadRecord(r, 0);
 }
 
-std::optional<std::int64_t> PgStorage::FindBySha256(const std::string& sha256) {
+std::optional<MeasurementId> PgStorage::FindBySha256(const std::string& sha256) {
   auto c = pool_->Acquire();
   return FindSha(*c, sha256);
 }
 
-std::string PgStorage::GetRaw(std::int64_t id) {
+std::string PgStorage::GetRaw(MeasurementId id) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(id);
   const Result r = c->Query("SELECT raw FROM measurements WHERE id = $1", p, "read raw", true);
-  if (r.Rows() == 0) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (r.Rows() == 0) throw NotFound("measurement " + to_string(id) + " does not exist");
   return r.Bytes(0, 0);
 }
 
-SampleBlock PgStorage::GetSamples(std::int64_t id) {
+SampleBlock PgStorage::GetSamples(MeasurementId id) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(id);
   const Result r =
       c->Query("SELECT samples FROM measurements WHERE id = $1", p, "read samples", true);
-  if (r.Rows() == 0) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (r.Rows() == 0) throw NotFound("measurement " + to_string(id) + " does not exist");
   return DecodeSamples(r.Bytes(0, 0));
 }
 
@@ -233,7 +233,7 @@ MeasurementPage PgStorage::ListMeasurements(const MeasurementFilter& f) {
   return page;
 }
 
-std::vector<ResultRecord> PgStorage::GetResults(std::int64_t id) {
+std::vector<ResultRecord> PgStorage::GetResults(MeasurementId id) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(id);
@@ -243,18 +243,18 @@ std::vector<ResultRecord> PgStorage::GetResults(std::int64_t id) {
       p, "read results");
   std::vector<ResultRecord> out;
   for (int i = 0; i < r.Rows(); ++i) {
-    out.push_back(ResultRecord{r.Int(i, 0), r.Text(i, 1), r.Text(i, 2), r.Text(i, 3), r.Text(i, 4),
-                               r.Text(i, 5)});
+    out.push_back(ResultRecord{MeasurementId(r.Int(i, 0)), r.Text(i, 1), r.Text(i, 2), r.Text(i, 3),
+                               r.Text(i, 4), r.Text(i, 5)});
   }
   return out;
 }
 
-void PgStorage::PutResult(std::int64_t id, const NewResult& res) {
+void PgStorage::PutResult(MeasurementId id, const NewResult& res) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(id);
   const Result r = c->Query("SELECT sha256 FROM measurements WHERE id = $1", p, "read measurement");
-  if (r.Rows() == 0) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (r.Rows() == 0) throw NotFound("measurement " + to_string(id) + " does not exist");
   InsertResult(*c, id, r.Text(0, 0), res);  // measurements are never deleted: no transaction
 }
 

@@ -37,6 +37,10 @@ class Statement {
   Statement& operator=(const Statement&) = delete;
 
   Statement& Bind(int i, std::int64_t v);
+  template <class Tag>
+  Statement& Bind(int i, Id<Tag> id) {  // a table's id, as its integer key
+    return Bind(i, id.value());
+  }
   Statement& Bind(int i, const std::string& v);
   Statement& Bind(int i, const std::optional<std::string>& v);  // NULL when empty
   Statement& BindReal(int i, double v);

@@ -44,7 +44,7 @@ void MakeOwnerOnly(const std::string& path, bool create) {
 
 MeasurementRecord ReadRecord(const Statement& s) {
   MeasurementRecord r;
-  r.id = s.Int(0);
+  r.id = MeasurementId(s.Int(0));
   r.sha256 = s.Text(1);
   r.kind = s.Text(2);
   r.format = s.Text(3);
@@ -111,7 +111,7 @@ CachedStatement SqliteStorage::Prepared(const std::string& sql) {
   return CachedStatement(*statements_, sql);
 }
 
-void SqliteStorage::InsertResult(std::int64_t id, const std::string& sha, const NewResult& r) {
+void SqliteStorage::InsertResult(MeasurementId id, const std::string& sha, const NewResult& r) {
   auto s = Prepared(
       "INSERT INTO results (measurement_id, analysis, analysis_version, input_sha256, "
       "created_at, result_json) VALUES (?, ?, ?, ?, ?, ?) "
@@ -128,7 +128,7 @@ PutOutcome SqliteStorage::PutMeasurement(const NewMeasurement& m,
   {
     auto find = Prepared("SELECT id FROM measurements WHERE sha256 = ?");
     find->Bind(1, m.sha256);
-    if (find->Step()) return PutOutcome{find->Int(0), false};
+    if (find->Step()) return PutOutcome{MeasurementId(find->Int(0)), false};
   }
   auto s = Prepared(
       "INSERT INTO measurements (sha256, kind, format, machine_id, test_id, direction, "
@@ -139,13 +139,13 @@ PutOutcome SqliteStorage::PutMeasurement(const NewMeasurement& m,
   s->Bind(9, m.filename).Bind(10, static_cast<std::int64_t>(m.samples.rows()));
   s->Bind(11, m.metadata_json).BindBlob(12, m.raw).BindBlob(13, EncodeSamples(m.samples));
   s->Step();
-  const std::int64_t id = sqlite3_last_insert_rowid(db_);
+  const MeasurementId id(sqlite3_last_insert_rowid(db_));
   for (const auto& r : results) InsertResult(id, m.sha256, r);
   tx.Commit();
   return PutOutcome{id, true};
 }
 
-std::optional<MeasurementRecord> SqliteStorage::GetMeasurement(std::int64_t id) {
+std::optional<MeasurementRecord> SqliteStorage::GetMeasurement(MeasurementId id) {
   std::lock_guard lock(mu_);
   auto s = Prepared((std::string("SELECT ") + kRecordColumns + " FROM measurements WHERE id = ?"));
   s->Bind(1, id);
@@ -153,27 +153,27 @@ std::optional<MeasurementRecord> SqliteStorage::GetMeasurement(std::int64_t id) 
   return ReadRecord(*s);
 }
 
-std::optional<std::int64_t> SqliteStorage::FindBySha256(const std::string& sha256) {
+std::optional<MeasurementId> SqliteStorage::FindBySha256(const std::string& sha256) {
   std::lock_guard lock(mu_);
   auto s = Prepared("SELECT id FROM measurements WHERE sha256 = ?");
   s->Bind(1, sha256);
   if (!s->Step()) return std::nullopt;
-  return s->Int(0);
+  return MeasurementId(s->Int(0));
 }
 
-std::string SqliteStorage::GetRaw(std::int64_t id) {
+std::string SqliteStorage::GetRaw(MeasurementId id) {
   std::lock_guard lock(mu_);
   auto s = Prepared("SELECT raw FROM measurements WHERE id = ?");
   s->Bind(1, id);
-  if (!s->Step()) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!s->Step()) throw NotFound("measurement " + to_string(id) + " does not exist");
   return s->Blob(0);
 }
 
-SampleBlock SqliteStorage::GetSamples(std::int64_t id) {
+SampleBlock SqliteStorage::GetSamples(MeasurementId id) {
   std::lock_guard lock(mu_);
   auto s = Prepared("SELECT samples FROM measurements WHERE id = ?");
   s->Bind(1, id);
-  if (!s->Step()) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!s->Step()) throw NotFound("measurement " + to_string(id) + " does not exist");
   return DecodeSamples(s->Blob(0));
 }
 
@@ -255,7 +255,7 @@ MeasurementPage SqliteStorage::ListMeasurements(const MeasurementFilter& f) {
   return page;
 }
 
-std::vector<ResultRecord> SqliteStorage::GetResults(std::int64_t id) {
+std::vector<ResultRecord> SqliteStorage::GetResults(MeasurementId id) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "SELECT measurement_id, analysis, analysis_version, input_sha256, created_at, "
@@ -263,18 +263,18 @@ std::vector<ResultRecord> SqliteStorage::GetResults(std::int64_t id) {
   s->Bind(1, id);
   std::vector<ResultRecord> out;
   while (s->Step()) {
-    out.push_back(
-        ResultRecord{s->Int(0), s->Text(1), s->Text(2), s->Text(3), s->Text(4), s->Text(5)});
+    out.push_back(ResultRecord{MeasurementId(s->Int(0)), s->Text(1), s->Text(2), s->Text(3),
+                               s->Text(4), s->Text(5)});
   }
   return out;
 }
 
-void SqliteStorage::PutResult(std::int64_t id, const NewResult& r) {
+void SqliteStorage::PutResult(MeasurementId id, const NewResult& r) {
   std::lock_guard lock(mu_);
   Transaction tx(db_);
   auto s = Prepared("SELECT sha256 FROM measurements WHERE id = ?");
   s->Bind(1, id);
-  if (!s->Step()) throw NotFound("measurement " + std::to_string(id) + " does not exist");
+  if (!s->Step()) throw NotFound("measurement " + to_string(id) + " does not exist");
   InsertResult(id, s->Text(0), r);
   tx.Commit();
 }

@@ -42,13 +42,13 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   static int SchemaVersion();
 
   PutOutcome PutMeasurement(const NewMeasurement& m, const std::vector<NewResult>& r) override;
-  std::optional<MeasurementRecord> GetMeasurement(std::int64_t id) override;
-  std::optional<std::int64_t> FindBySha256(const std::string& sha256) override;
-  std::string GetRaw(std::int64_t id) override;
-  SampleBlock GetSamples(std::int64_t id) override;
+  std::optional<MeasurementRecord> GetMeasurement(MeasurementId id) override;
+  std::optional<MeasurementId> FindBySha256(const std::string& sha256) override;
+  std::string GetRaw(MeasurementId id) override;
+  SampleBlock GetSamples(MeasurementId id) override;
   MeasurementPage ListMeasurements(const MeasurementFilter& f) override;
-  std::vector<ResultRecord> GetResults(std::int64_t id) override;
-  void PutResult(std::int64_t id, const NewResult& r) override;
+  std::vector<ResultRecord> GetResults(MeasurementId id) override;
+  void PutResult(MeasurementId id, const NewResult& r) override;
   std::vector<MachineSummary> ListMachines() override;
   MachineModelPut PutMachineModel(const NewMachineModel& m) override;  // sqlite_machine_models.cpp
   std::optional<MachineModelRecord> GetMachineModel(const std::string& machine_id,
@@ -129,7 +129,7 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
  private:
   // The connection's prepared statement of this SQL, leased until the result goes out of scope.
   sqlite::CachedStatement Prepared(const std::string& sql);
-  void InsertResult(std::int64_t id, const std::string& sha, const NewResult& r);
+  void InsertResult(MeasurementId id, const std::string& sha, const NewResult& r);
   void Close();
   sqlite3* db_ = nullptr;
   std::unique_ptr<sqlite::StatementCache> statements_;  // prepared once, reused

@@ -99,7 +99,8 @@ void BM_GetMeasurement(benchmark::State& state, const std::string& backend) {
   auto s = Filled(backend);
   if (!*s) return state.SkipWithError("no PostgreSQL server");
   std::int64_t i = 0;
-  for (auto _ : state) benchmark::DoNotOptimize((*s)->GetMeasurement(1 + i++ % kFiles));
+  for (auto _ : state)
+    benchmark::DoNotOptimize((*s)->GetMeasurement(km::server::MeasurementId(1 + i++ % kFiles)));
   state.SetItemsProcessed(state.iterations());
 }
 
@@ -121,7 +122,8 @@ void BM_GetRaw(benchmark::State& state, const std::string& backend) {
   auto s = Filled(backend);
   if (!*s) return state.SkipWithError("no PostgreSQL server");
   std::int64_t i = 0;
-  for (auto _ : state) benchmark::DoNotOptimize((*s)->GetRaw(1 + i++ % kFiles));
+  for (auto _ : state)
+    benchmark::DoNotOptimize((*s)->GetRaw(km::server::MeasurementId(1 + i++ % kFiles)));
   state.SetItemsProcessed(state.iterations());
 }
 

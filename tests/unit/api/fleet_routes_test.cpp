@@ -71,7 +71,7 @@ TEST_F(FleetRoutes, NewestMeasurementOpenJobsAndTrends) {
   const auto& m = fleet["machines"][0];
   EXPECT_EQ(m["machine_id"], "vmc-3axis");
   EXPECT_EQ(m["measurements"], 3);
-  EXPECT_EQ(m["last_measurement"]["id"], flat);  // 2026-11-03, the newest measured
+  EXPECT_EQ(m["last_measurement"]["id"], json(flat));  // 2026-11-03, the newest measured
   EXPECT_EQ(m["last_measurement"]["kind"], "flatness");
   EXPECT_EQ(m["last_measurement"]["measured_at"], "2026-11-03T10:00:00Z");
   EXPECT_EQ(m["open_jobs"], 2);
@@ -92,10 +92,10 @@ TEST_F(FleetRoutes, NewestMeasurementOpenJobsAndTrends) {
 
   auto t = Get("/api/v1/machines/vmc-3axis/trends", "circularity_um");
   ASSERT_EQ(t["points"].size(), 2u);
-  EXPECT_EQ(t["points"][0]["measurement_id"], cw);
+  EXPECT_EQ(t["points"][0]["measurement_id"], nlohmann::json(cw));
   EXPECT_EQ(t["points"][0]["measured_at"], "2026-10-02T07:58:00Z");
   EXPECT_EQ(t["points"][0]["value"], svc_->measurements().Results(cw)["circularity_um"]);
-  EXPECT_EQ(t["points"][1]["measurement_id"], ccw);
+  EXPECT_EQ(t["points"][1]["measurement_id"], nlohmann::json(ccw));
   EXPECT_EQ(t["points"][1]["value"], svc_->measurements().Results(ccw)["circularity_um"]);
   t = Get("/api/v1/machines/vmc-3axis/trends", "centre_offset_um");
   const auto c = svc_->measurements().Results(ccw)["centre_offset_um"];

@@ -72,7 +72,7 @@ TEST_F(DbbCsvService, TheStoredCsvIsReadAgainForTheTraceAndThePair) {
   EXPECT_EQ(b.dr_um, a.dr_um);
   EXPECT_EQ(m().DbbTrace(csv.id).dump(), m().DbbTrace(txt.id).dump());
   const auto pair_csv = m().DbbPairJson(csv.id), pair_txt = m().DbbPairJson(txt.id);
-  EXPECT_EQ(pair_csv["partner_id"], cw.id);
+  EXPECT_EQ(pair_csv["partner_id"], nlohmann::json(cw.id));
   EXPECT_EQ(pair_csv["pair"].dump(), pair_txt["pair"].dump());
 }
 

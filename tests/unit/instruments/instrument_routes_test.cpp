@@ -32,13 +32,13 @@ class InstrumentRoutes : public test::TokenRoutesTest {
                 body.dump());
   }
   // Uploads a file as an operator; its own stored result.
-  json Upload(const std::string& bytes, std::int64_t* id = nullptr) {
+  json Upload(const std::string& bytes, server::MeasurementId* id = nullptr) {
     const auto r = Call("POST", "/api/v1/measurements", operator_, bytes);
     EXPECT_EQ(r.status, 201) << r.body;
-    const auto stored = json::parse(r.body)["id"].get<std::int64_t>();
+    const auto stored = json::parse(r.body)["id"].get<server::MeasurementId>();
     if (id) *id = stored;
     return json::parse(
-        Call("GET", "/api/v1/measurements/" + std::to_string(stored) + "/results", viewer_).body);
+        Call("GET", "/api/v1/measurements/" + to_string(stored) + "/results", viewer_).body);
   }
   std::string viewer_, operator_, engineer_;
 };
@@ -131,7 +131,7 @@ TEST_F(InstrumentRoutes, AnUploadNamingARegisteredSerialTakesItsValues) {
   // The file states its own u_reading_um; the bar's uncertainties come from the register.
   const std::string bytes = WithHeader(Example("dbb_xy-r150_cw.txt"),
                                        "# instrument_serial: QC20-7\n# u_reading_um: 0.3\n");
-  std::int64_t id = 0;
+  server::MeasurementId id;
   const json result = Upload(bytes, &id);
   const json& b = result["instrument"];
   ASSERT_TRUE(b.is_object()) << result.dump();
@@ -150,8 +150,7 @@ TEST_F(InstrumentRoutes, AnUploadNamingARegisteredSerialTakesItsValues) {
   }
   // The stored file and its metadata are the file's own.
   EXPECT_EQ(svc_->storage().GetRaw(id), bytes);
-  const auto one =
-      json::parse(Call("GET", "/api/v1/measurements/" + std::to_string(id), viewer_).body);
+  const auto one = json::parse(Call("GET", "/api/v1/measurements/" + to_string(id), viewer_).body);
   EXPECT_EQ(one["metadata"]["u_reading_um"], "0.3");
   EXPECT_FALSE(one["metadata"].contains("u_bar_length_um"));
   EXPECT_FALSE(one["metadata"].contains("instrument"));
@@ -159,13 +158,13 @@ TEST_F(InstrumentRoutes, AnUploadNamingARegisteredSerialTakesItsValues) {
 
 TEST_F(InstrumentRoutes, ThePairAndTheReportUseTheRegisterToo) {
   ASSERT_EQ(Put("QC20-7", Ballbar()).status, 200);
-  std::int64_t cw = 0, ccw = 0;
+  server::MeasurementId cw, ccw;
   Upload(WithHeader(Example("dbb_xy-r150_cw.txt"), "# instrument_serial: QC20-7\n"), &cw);
   const json own =
       Upload(WithHeader(Example("dbb_xy-r150_ccw.txt"), "# instrument_serial: QC20-7\n"), &ccw);
   EXPECT_GT(own["uncertainty"]["figures"]["average_radial_error_um"]["U_um"].get<double>(), 1.3);
   // The pair is analysed again from the stored bytes: with the register's u_bar_length_um.
-  const auto pair = Call("GET", "/api/v1/measurements/" + std::to_string(ccw) + "/pair", viewer_);
+  const auto pair = Call("GET", "/api/v1/measurements/" + to_string(ccw) + "/pair", viewer_);
   ASSERT_EQ(pair.status, 200) << pair.body;
   const json p = json::parse(pair.body)["pair"]["uncertainty"];
   bool bar = false;
@@ -175,8 +174,7 @@ TEST_F(InstrumentRoutes, ThePairAndTheReportUseTheRegisterToo) {
   EXPECT_TRUE(bar) << p.dump();
   EXPECT_GT(p["figures"]["circular_hysteresis_um"]["U_um"].get<double>(), 0.0);
   // The report names the instrument as the register completes it.
-  const auto pdf =
-      Call("GET", "/api/v1/measurements/" + std::to_string(ccw) + "/report.pdf", viewer_);
+  const auto pdf = Call("GET", "/api/v1/measurements/" + to_string(ccw) + "/report.pdf", viewer_);
   ASSERT_EQ(pdf.status, 200);
   const std::string text = ::km::test::PdfToText(pdf.body, Path("r.pdf"));
   EXPECT_NE(text.find("QC20-7"), std::string::npos) << text;

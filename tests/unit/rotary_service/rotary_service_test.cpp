@@ -101,7 +101,7 @@ TEST_F(RotaryService, AnUploadStoresTheResultTheCommandPrintsAndThePoses) {
   ASSERT_EQ(r.status, 201) << r.body;
   const json created = json::parse(r.body);
   EXPECT_EQ(created["kind"], "rotary");
-  const std::int64_t id = created["id"].get<std::int64_t>();
+  const auto id = created["id"].get<MeasurementId>();
   json stored = svc_->measurements().Results(id);
   const json cli = usecases::RotaryReportToJson(
       usecases::AnalyzeRotary(ingest::ParseRotaryFile(bytes, "rotary_ac-trunnion.txt")));
@@ -150,7 +150,8 @@ TEST_F(RotaryService, AnAuditOnYoaJudgesEachSetUpAndLeavesAnUndeterminedOneUnjud
   ASSERT_EQ(Post(Scaled(worse, "rtest-better", 0.4), "better.txt").status, 201);
   const auto t0 = Post(Read(tilt0.path), "tilt0.txt");
   ASSERT_EQ(t0.status, 201) << t0.body;
-  const auto t0_result = svc_->measurements().Results(json::parse(t0.body)["id"].get<int>());
+  const auto t0_result =
+      svc_->measurements().Results(json::parse(t0.body)["id"].get<MeasurementId>());
   ASSERT_TRUE(t0_result["location_errors"]["YOA_um"]["value"].is_null()) << t0_result.dump();
   const json rules = {
       {"rules", {{{"kind", "rotary"}, {"metric", "YOA_um"}, {"warn", 10.0}, {"stop", 100.0}}}}};
@@ -189,7 +190,7 @@ TEST_F(RotaryService, ThePdfReportShowsTheLocationErrorsInWords) {
   const auto tilt0 = rotary::test::Simulate("AC", "tilt0", 13);
   const auto r = Post(Example(), "rotary_ac-trunnion.txt");
   ASSERT_EQ(r.status, 201) << r.body;
-  const auto id = json::parse(r.body)["id"].get<std::int64_t>();
+  const auto id = json::parse(r.body)["id"].get<MeasurementId>();
   const std::string text =
       km::test::PdfToText(svc_->reports().MeasurementPdf(id), (dir_ / "r.pdf").string());
   EXPECT_NE(text.find("Rotary axes: location errors (R-test, ISO 10791-6)"), std::string::npos)
@@ -205,7 +206,7 @@ TEST_F(RotaryService, ThePdfReportShowsTheLocationErrorsInWords) {
   const auto r2 = Post(Read(tilt0.path), "tilt0.txt");
   ASSERT_EQ(r2.status, 201) << r2.body;
   const std::string t2 = km::test::PdfToText(
-      svc_->reports().MeasurementPdf(json::parse(r2.body)["id"].get<std::int64_t>()),
+      svc_->reports().MeasurementPdf(json::parse(r2.body)["id"].get<MeasurementId>()),
       (dir_ / "r2.pdf").string());
   EXPECT_NE(t2.find("not determined"), std::string::npos) << t2;
   EXPECT_NE(t2.find("What these poses do not determine"), std::string::npos) << t2;

@@ -128,7 +128,7 @@ AuditEvidence Newest(double v, std::int64_t id) {
   SetUpEvidence s;
   s.test_id = "xy-r150";
   s.direction = "ccw";
-  s.newest = AuditValue{v, id, "2026-11-20T08:00:00Z"};
+  s.newest = AuditValue{v, MeasurementId(id), "2026-11-20T08:00:00Z"};
   AuditEvidence e;
   e.set_ups.push_back(s);
   return e;
@@ -177,7 +177,7 @@ TEST(AccuracyAuditEvaluation, TrendRulesCompareTheIncreaseOverTheReference) {
                                             {"warn", 5},
                                             {"stop", 8}}}))[0];
   AuditEvidence rose = Newest(10, 9);
-  rose.set_ups[0].reference = AuditValue{3, 4, "2026-10-01T00:00:00Z"};
+  rose.set_ups[0].reference = AuditValue{3, MeasurementId(4), "2026-10-01T00:00:00Z"};
   const json v = EvaluateAudit({rule}, {rose});
   EXPECT_EQ(v["level"], 2);
   const json& f = v["findings"][0];
@@ -192,7 +192,7 @@ TEST(AccuracyAuditEvaluation, TrendRulesCompareTheIncreaseOverTheReference) {
             "(measurement 9)");
 
   AuditEvidence fell = Newest(3, 9);
-  fell.set_ups[0].reference = AuditValue{30, 4, "2026-10-01T00:00:00Z"};
+  fell.set_ups[0].reference = AuditValue{30, MeasurementId(4), "2026-10-01T00:00:00Z"};
   EXPECT_EQ(EvaluateAudit({rule}, {fell})["level"], 1);
   EXPECT_EQ(EvaluateAudit({rule}, {fell})["checked"][0]["value"], -27.0);
 

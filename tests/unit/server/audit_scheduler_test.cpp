@@ -47,7 +47,7 @@ class AccuracyAudits : public TempDirTest {
     return svc;
   }
   // Uploads the first demo DBB test; its id and circularity.
-  std::pair<std::int64_t, double> UploadDbb(Service& svc) {
+  std::pair<MeasurementId, double> UploadDbb(Service& svc) {
     const auto f = DemoDbbFiles().at(0);
     const auto out = svc.measurements().Upload(f.bytes, f.name);
     return {out.id, svc.measurements().Results(out.id)["circularity_um"].get<double>()};
@@ -75,7 +75,7 @@ TEST_F(AccuracyAudits, ARunFindsTheNewestResultAboveTheLimitsWithItsEvidence) {
   EXPECT_EQ(warn["trigger"], "manual");
   EXPECT_EQ(warn["created_at"], "2026-11-27T03:12:00Z");
   ASSERT_EQ(warn["findings"].size(), 1u);
-  EXPECT_EQ(warn["findings"][0]["measurement_id"], id);
+  EXPECT_EQ(warn["findings"][0]["measurement_id"], json(id));
   EXPECT_EQ(warn["findings"][0]["value"], circ);
   EXPECT_EQ(warn["findings"][0]["limit"], circ - 1.0);
   EXPECT_EQ(warn["checked"][1]["status"], "not evaluated");
@@ -121,7 +121,7 @@ TEST_F(AccuracyAudits, PreviousAuditTrendComparesWithTheValueThatAuditSaw) {
   EXPECT_EQ(second["level"], 1);
   EXPECT_EQ(second["checked"][0]["status"], "ok");
   EXPECT_EQ(second["checked"][0]["value"], 0.0);
-  EXPECT_EQ(second["checked"][0]["reference_measurement_id"], id);
+  EXPECT_EQ(second["checked"][0]["reference_measurement_id"], nlohmann::json(id));
   // A newer test of another plane is a set-up of its own: not compared with the one the
   // previous audit saw, which is still compared with itself.
   const auto yz = DemoDbbFiles().back();
@@ -129,13 +129,13 @@ TEST_F(AccuracyAudits, PreviousAuditTrendComparesWithTheValueThatAuditSaw) {
   const json third = audits.Run("demo-vmc", "manual");
   ASSERT_EQ(third["checked"].size(), 2u);
   EXPECT_EQ(third["checked"][0]["status"], "not evaluated");
-  EXPECT_EQ(third["checked"][0]["measurement_id"], yz_id);
+  EXPECT_EQ(third["checked"][0]["measurement_id"], nlohmann::json(yz_id));
   EXPECT_EQ(third["checked"][0]["set_up"], "yz-r150 CW");
   EXPECT_EQ(third["checked"][0]["reason"],
             "no previous audit with a value of this metric in this set-up");
   EXPECT_EQ(third["checked"][1]["status"], "ok");
-  EXPECT_EQ(third["checked"][1]["measurement_id"], id);
-  EXPECT_EQ(third["checked"][1]["reference_measurement_id"], id);
+  EXPECT_EQ(third["checked"][1]["measurement_id"], nlohmann::json(id));
+  EXPECT_EQ(third["checked"][1]["reference_measurement_id"], nlohmann::json(id));
 }
 
 // The demo machine's XY tests of 2 September, 1 October and 2 November 2026 (CCW and CW each),
@@ -162,10 +162,10 @@ TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTest
   // Every set-up: the CW and CCW circles of xy-r150 for each rule, their pair once for H.
   ASSERT_EQ(v["findings"].size(), 5u) << v.dump(1);
   const auto measured = [&](const json& id) {
-    return svc->storage().GetMeasurement(id.get<std::int64_t>())->measured_at.value_or("");
+    return svc->storage().GetMeasurement(id.get<MeasurementId>())->measured_at.value_or("");
   };
   const auto result = [&](const json& id) {
-    return svc->measurements().Results(id.get<std::int64_t>());
+    return svc->measurements().Results(id.get<MeasurementId>());
   };
 
   const json& trend = v["findings"][0];
@@ -184,7 +184,7 @@ TEST_F(AccuracyAudits, DaysTrendsPairHysteresisAndDiagnosedEffectsFromStoredTest
   EXPECT_EQ(measured(h["measurement_id"]), "2026-11-02T07:58:00Z");
   EXPECT_EQ(
       h["value"],
-      svc->DbbPairJson(h["measurement_id"].get<std::int64_t>())["pair"]["circular_hysteresis_um"]);
+      svc->DbbPairJson(h["measurement_id"].get<MeasurementId>())["pair"]["circular_hysteresis_um"]);
 
   const json& backlash = v["findings"][3];
   double expected = -1;
@@ -383,7 +383,7 @@ TEST_F(AccuracyAudits, TheWebhookIsRetriedAfterA500AndTheDeliveryRecorded) {
   const json sent = json::parse(bodies[1]);
   EXPECT_EQ(sent["id"], v["id"]);
   EXPECT_EQ(sent["level"], 2);
-  EXPECT_EQ(sent["findings"][0]["measurement_id"], id);
+  EXPECT_EQ(sent["findings"][0]["measurement_id"], nlohmann::json(id));
   // Level 1 sends nothing.
   audits.PutConfig("demo-vmc", Rules(1000, 2000));
   EXPECT_TRUE(audits.Run("demo-vmc", "manual")["webhook"].is_null());

@@ -54,7 +54,7 @@ class AuditSetUps : public TempDirTest {
         std::make_unique<Service>(std::make_unique<SqliteStorage>(Path("k.db")), ServiceOptions{});
     RegisterBuiltinKinds(svc_->measurements());
   }
-  std::int64_t Upload(const std::string& text, const std::string& name) {
+  MeasurementId Upload(const std::string& text, const std::string& name) {
     return svc_->measurements().Upload(text, name).id;
   }
   json Audit(const json& body, std::int64_t now = kAuditNow) {
@@ -87,20 +87,20 @@ TEST_F(AuditSetUps, EverySetUpOfASessionIsJudgedAndTheWorstDecides) {
   // Findings in the order of the set-ups, newest first.
   const json& stop = v["findings"][1];
   EXPECT_EQ(stop["level"], 3);
-  EXPECT_EQ(stop["measurement_id"], above);
+  EXPECT_EQ(stop["measurement_id"], nlohmann::json(above));
   EXPECT_EQ(stop["set_up"], "xy-r100 CW");
   EXPECT_EQ(stop["test_id"], "xy-r100");
   EXPECT_EQ(stop["direction"], "cw");
   EXPECT_NEAR(stop["value"].get<double>(), 40.7, 1e-6);
   EXPECT_EQ(stop["message"],
             "dbb circularity_um in xy-r100 CW 40.7, above the stop limit 30 (measurement " +
-                std::to_string(above) + ")");
+                to_string(above) + ")");
   EXPECT_EQ(v["findings"][0]["level"], 2);
-  EXPECT_EQ(v["findings"][0]["measurement_id"], between);
+  EXPECT_EQ(v["findings"][0]["measurement_id"], nlohmann::json(between));
   const auto checked = Checked(v, 0);
   ASSERT_EQ(checked.size(), 3u);
   EXPECT_EQ(checked.at("yz-r150 CCW")["status"], "ok");
-  EXPECT_EQ(checked.at("yz-r150 CCW")["measurement_id"], newest);
+  EXPECT_EQ(checked.at("yz-r150 CCW")["measurement_id"], nlohmann::json(newest));
   EXPECT_NEAR(checked.at("yz-r150 CCW")["value"].get<double>(), 7.6, 1e-6);
 }
 
@@ -112,19 +112,19 @@ TEST_F(AuditSetUps, ARepairedSetUpIsJudgedOnItsNewTestAndAStaleOneIsListed) {
   const json quiet = Audit(body);
   EXPECT_EQ(quiet["level"], 1) << quiet.dump(1);
   const auto checked = Checked(quiet, 0);
-  EXPECT_EQ(checked.at("xy-r150 CCW")["measurement_id"], repaired);
+  EXPECT_EQ(checked.at("xy-r150 CCW")["measurement_id"], nlohmann::json(repaired));
   EXPECT_EQ(checked.at("xy-r150 CCW")["status"], "ok");
   EXPECT_EQ(checked.at("zx-r150 CCW")["status"], "stale");
   EXPECT_EQ(checked.at("zx-r150 CCW")["measured_at"], "2025-06-01T08:00:00Z");
   ASSERT_EQ(quiet["stale"].size(), 1u);
-  EXPECT_EQ(quiet["stale"][0]["measurement_id"], old);
+  EXPECT_EQ(quiet["stale"][0]["measurement_id"], nlohmann::json(old));
   EXPECT_EQ(quiet["stale"][0]["set_up"], "zx-r150 CCW");
 
   body["stale"] = "warn";
   const json warned = Audit(body);
   EXPECT_EQ(warned["level"], 2);
   ASSERT_EQ(warned["findings"].size(), 1u);
-  EXPECT_EQ(warned["findings"][0]["measurement_id"], old);
+  EXPECT_EQ(warned["findings"][0]["measurement_id"], nlohmann::json(old));
   EXPECT_EQ(warned["findings"][0]["level"], 2);
   EXPECT_EQ(warned["findings"][0]["stale"], true);
   EXPECT_EQ(AuditConfigJson(*svc_, kSetUpMachine)["stale"], "warn");
@@ -147,14 +147,14 @@ TEST_F(AuditSetUps, ScopedRulesApplyOnlyWhereTheySay) {
   pattern["test_id"] = "xy-r1*0";
   const json v = Audit({{"rules", {only_r150, ccw, pattern}}});
   EXPECT_EQ(Checked(v, 0).size(), 1u);
-  EXPECT_EQ(Checked(v, 0).begin()->second["measurement_id"], r150);
+  EXPECT_EQ(Checked(v, 0).begin()->second["measurement_id"], nlohmann::json(r150));
   EXPECT_EQ(Checked(v, 0).begin()->second["level"], 2);
   const auto by_direction = Checked(v, 1);
   ASSERT_EQ(by_direction.size(), 2u);
   EXPECT_EQ(by_direction.count("xy-r100 CW"), 0u);
-  EXPECT_EQ(by_direction.at("xy-r100 CCW")["measurement_id"], r100ccw);
+  EXPECT_EQ(by_direction.at("xy-r100 CCW")["measurement_id"], nlohmann::json(r100ccw));
   EXPECT_EQ(Checked(v, 2).size(), 3u);
-  EXPECT_EQ(Checked(v, 2).at("xy-r100 CW")["measurement_id"], r100cw);
+  EXPECT_EQ(Checked(v, 2).at("xy-r100 CW")["measurement_id"], nlohmann::json(r100cw));
   EXPECT_EQ(Checked(v, 2).at("xy-r100 CW")["level"], 3);
   EXPECT_EQ(v["level"], 3);
   EXPECT_EQ(AuditConfigJson(*svc_, kSetUpMachine)["rules"][1]["direction"], "ccw");
@@ -211,7 +211,7 @@ TEST_F(AuditSetUps, TrendsCompareEachSetUpWithItsOwnHistory) {
   const json v = Audit({{"rules", {rule}}});
   EXPECT_EQ(v["level"], 2) << v.dump(1);
   const auto checked = Checked(v, 0);
-  EXPECT_EQ(checked.at("xy-r150 CCW")["measurement_id"], grown);
+  EXPECT_EQ(checked.at("xy-r150 CCW")["measurement_id"], nlohmann::json(grown));
   EXPECT_NEAR(checked.at("xy-r150 CCW")["value"].get<double>(), 10.0, 1e-6);
   EXPECT_EQ(checked.at("yz-r150 CCW")["status"], "not evaluated");
 
@@ -262,7 +262,7 @@ TEST_F(AuditSetUps, ASetUpFailingItsTolerancesIsAFindingOfTheRulesLevel) {
   const json v = Audit({{"rules", {rule}}});
   EXPECT_EQ(v["level"], 2) << v.dump(1);
   ASSERT_EQ(v["findings"].size(), 1u) << v.dump(1);
-  EXPECT_EQ(v["findings"][0]["measurement_id"], r100);
+  EXPECT_EQ(v["findings"][0]["measurement_id"], nlohmann::json(r100));
   EXPECT_EQ(v["findings"][0]["conformance"], "fail");
   EXPECT_EQ(v["findings"][0]["tolerance_version"], 1);
   const auto checked = Checked(v, 0);
@@ -305,7 +305,7 @@ TEST_F(AuditSetUps, TheDemoMachinesCircleAboveStopIsFoundThoughANewerTestIsGood)
   all.kind = "dbb";
   all.limit = 1000;
   double worst = 0.0;
-  std::int64_t worst_id = 0;
+  MeasurementId worst_id;
   for (const auto& r : svc_->storage().ListMeasurements(all).items) {
     // Only each set-up's newest test counts; the demo holds older tests of xy-r150 too.
     MeasurementFilter same = all;
@@ -333,7 +333,7 @@ TEST_F(AuditSetUps, TheDemoMachinesCircleAboveStopIsFoundThoughANewerTestIsGood)
   bool named = false;
   for (const auto& f : v["findings"]) {
     if (f["level"] == 3) {
-      EXPECT_EQ(f["measurement_id"], worst_id);
+      EXPECT_EQ(f["measurement_id"], nlohmann::json(worst_id));
       named = true;
     }
   }
@@ -357,8 +357,8 @@ TEST_F(AuditSetUps, PositioningIsJudgedPerAxis) {
   const json v = RunAccuracyAudit(*svc_, "demo-vmc", "manual", kAuditNow);
   const auto each = Checked(v, 0);
   ASSERT_EQ(each.size(), 2u) << v.dump(1);
-  EXPECT_EQ(each.at("axis X")["measurement_id"], x_id);
-  EXPECT_EQ(each.at("axis Z")["measurement_id"], z_id);
+  EXPECT_EQ(each.at("axis X")["measurement_id"], nlohmann::json(x_id));
+  EXPECT_EQ(each.at("axis Z")["measurement_id"], nlohmann::json(z_id));
   const auto one = Checked(v, 1);
   ASSERT_EQ(one.size(), 1u);
   EXPECT_EQ(one.begin()->first, "axis Z");

@@ -86,7 +86,7 @@ TEST_F(CalibrationAudits, TheNewestCalibrationOfTheMachineGivesLevelValueLimitAn
   EXPECT_EQ(ok["status"], "ok");
   EXPECT_EQ(ok["level"], 1);
   EXPECT_EQ(ok["value"], 7.5);
-  EXPECT_EQ(ok["job_id"], newest);
+  EXPECT_EQ(ok["job_id"], nlohmann::json(newest));
   EXPECT_FALSE(ok.contains("measurement_id"));
   EXPECT_EQ(ok["measured_at"], FinishedAt(newest));
 
@@ -97,7 +97,7 @@ TEST_F(CalibrationAudits, TheNewestCalibrationOfTheMachineGivesLevelValueLimitAn
   EXPECT_EQ(warn["level"], 2);
   EXPECT_EQ(warn["value"], 7.5);
   EXPECT_EQ(warn["limit"], 5.0);
-  EXPECT_EQ(warn["job_id"], newest);
+  EXPECT_EQ(warn["job_id"], nlohmann::json(newest));
   EXPECT_FALSE(warn.contains("measurement_id"));
   EXPECT_EQ(warn["measured_at"], FinishedAt(newest));
   EXPECT_EQ(warn["message"],
@@ -109,14 +109,14 @@ TEST_F(CalibrationAudits, TheNewestCalibrationOfTheMachineGivesLevelValueLimitAn
   EXPECT_EQ(stop["level"], 3);
   EXPECT_EQ(stop["value"], 7.5);
   EXPECT_EQ(stop["limit"], 7.0);
-  EXPECT_EQ(stop["job_id"], newest);
+  EXPECT_EQ(stop["job_id"], nlohmann::json(newest));
   // The largest |Δ| over the struts from the calibration before: |-7.5 − 5| = 12.5.
   const json& change = v["findings"][2];
   EXPECT_EQ(change["metric"], "strut_offset_change_max_um");
   EXPECT_EQ(change["level"], 3);
   EXPECT_EQ(change["value"], 12.5);
   EXPECT_EQ(change["limit"], 12.0);
-  EXPECT_EQ(change["job_id"], newest);
+  EXPECT_EQ(change["job_id"], nlohmann::json(newest));
   EXPECT_NE(older, newest);
 
   // The listed verdict (GET /api/v1/audits) carries the same evidence.
@@ -142,7 +142,7 @@ TEST_F(CalibrationAudits, WithoutCalibrationsTheRulesFindNoValue) {
                                                 Rule("strut_offset_change_max_um", 5, 10)}));
   EXPECT_EQ(one["level"], 3);
   EXPECT_EQ(one["findings"][0]["value"], 11.0);
-  EXPECT_EQ(one["findings"][0]["job_id"], only);
+  EXPECT_EQ(one["findings"][0]["job_id"], nlohmann::json(only));
   EXPECT_EQ(one["checked"][1]["status"], "not evaluated");
   EXPECT_EQ(one["checked"][1]["reason"], "no result of this metric yet");
 }
@@ -156,16 +156,16 @@ TEST_F(CalibrationAudits, TrendRulesCompareWithTheCalibrationThePreviousAuditSaw
   const json a = Audit(kMachine, rules);
   EXPECT_EQ(a["checked"][0]["status"], "not evaluated");
   EXPECT_EQ(a["checked"][0]["value"], 7.5);
-  EXPECT_EQ(a["checked"][0]["job_id"], first);
+  EXPECT_EQ(a["checked"][0]["job_id"], nlohmann::json(first));
   const auto second = Calibration(kMachine, JobStatus::kDone, {9, 2, 3, 4, 5, -7.5});
   const json b = RunAccuracyAudit(*svc_, kMachine, "manual", 1795749180);
   EXPECT_EQ(b["level"], 2);
   const json& f = b["findings"][0];
   EXPECT_EQ(f["value"], 1.5);
   EXPECT_EQ(f["newest_value"], 9.0);
-  EXPECT_EQ(f["job_id"], second);
+  EXPECT_EQ(f["job_id"], nlohmann::json(second));
   EXPECT_EQ(f["reference_value"], 7.5);
-  EXPECT_EQ(f["reference_job_id"], first);
+  EXPECT_EQ(f["reference_job_id"], nlohmann::json(first));
   EXPECT_FALSE(f.contains("reference_measurement_id"));
   EXPECT_EQ(f["reference_measured_at"], FinishedAt(first));
 
@@ -183,7 +183,7 @@ TEST_F(CalibrationAudits, TrendRulesCompareWithTheCalibrationThePreviousAuditSaw
   const json later = Audit(kMachine, days, finished + 86400);
   EXPECT_EQ(later["checked"][0]["status"], "ok");
   EXPECT_EQ(later["checked"][0]["value"], 0.0);
-  EXPECT_EQ(later["checked"][0]["reference_job_id"], second);
+  EXPECT_EQ(later["checked"][0]["reference_job_id"], nlohmann::json(second));
 }
 
 TEST_F(CalibrationAudits, TheTrendOfACalibrationMetricListsItsJobs) {
@@ -203,7 +203,7 @@ TEST_F(CalibrationAudits, TheTrendOfACalibrationMetricListsItsJobs) {
   const json change = Trends(*svc_, machine, "strut_offset_change_max_um");
   ASSERT_EQ(change["points"].size(), 1u);
   EXPECT_EQ(change["points"][0]["value"], 12.5);
-  EXPECT_EQ(change["points"][0]["job_id"], b);
+  EXPECT_EQ(change["points"][0]["job_id"], nlohmann::json(b));
 }
 
 }  // namespace

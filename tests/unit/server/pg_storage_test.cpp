@@ -445,7 +445,7 @@ TEST_F(PgStorageTest, TheFactoryOpensTheBackendOfTheConfiguration) {
   cfg.db_pool_size = 3;
   auto s = OpenStorage(cfg);
   ASSERT_NE(dynamic_cast<PgStorage*>(s.get()), nullptr);
-  EXPECT_EQ(s->PutMeasurement(Sample("f"), {}).id, 1);
+  EXPECT_EQ(s->PutMeasurement(Sample("f"), {}).id, MeasurementId(1));
   EXPECT_EQ(DescribeDatabase(cfg), "PostgreSQL " + url_);
   cfg.database = "mysql://x";
   EXPECT_THROW(OpenStorage(cfg), InvalidInput);

@@ -118,7 +118,7 @@ TEST_F(PositioningService, AnAuditJudgesEachAxisByItsOwnNewestTest) {
   EXPECT_EQ(verdict["level"], 2);
   ASSERT_EQ(verdict["findings"].size(), 1u) << verdict.dump();
   EXPECT_EQ(verdict["findings"][0]["metric"], "accuracy_um.Y");
-  EXPECT_EQ(verdict["findings"][0]["measurement_id"], iy.id);
+  EXPECT_EQ(verdict["findings"][0]["measurement_id"], nlohmann::json(iy.id));
   // A trend of one axis holds that axis's tests only.
   const auto trend = Trends(*svc_, "vmc-3axis", "accuracy_um.X");
   ASSERT_EQ(trend["points"].size(), 1u);
@@ -138,7 +138,7 @@ TEST_F(PositioningService, TheApiGivesTheCompensationTableOfTheCommand) {
   const auto get = [&](const std::string& query) {
     api::Request req;
     req.method = "GET";
-    req.path = "/api/v1/measurements/" + std::to_string(out.id) + "/compensation";
+    req.path = "/api/v1/measurements/" + to_string(out.id) + "/compensation";
     req.query.emplace("format", query);
     req.headers["authorization"] = "Bearer boot";
     return router.Dispatch(req);

@@ -101,7 +101,7 @@ TEST_F(ReportLimitsTest, TheReportOfAHundredThousandTargetsIsAFewPagesAndSaysSo)
   std::printf("100 000 targets: %d pages, %zu bytes, %.2f s\n", pages, pdf.size(), s);
   EXPECT_GE(pages, 2);
   EXPECT_LE(pages, render::kMaxReportPages);
-  const std::string id_s = std::to_string(id);
+  const std::string id_s = to_string(id);
   for (const std::string& want :
        {std::string("200 of 100000 targets shown"), std::string("evenly spaced"),
         "GET /api/v1/measurements/" + id_s + "/results",
@@ -229,7 +229,7 @@ TEST_F(ReportLimitsTest, AStoppedServiceRefusesReports) {
   ss << in.rdbuf();
   const auto id = svc->measurements().Upload(ss.str(), "positioning_x.txt").id;
   EXPECT_EQ(svc->reports().MeasurementPdf(id).rfind("%PDF-", 0), 0u);
-  EXPECT_THROW(svc->reports().MeasurementPdf(999), NotFound);
+  EXPECT_THROW(svc->reports().MeasurementPdf(MeasurementId(999)), NotFound);
   svc->reports().Stop(Clock::now());
   EXPECT_THROW(svc->reports().MeasurementPdf(id), Unavailable);
 }

@@ -82,8 +82,7 @@ TEST_F(ReportServiceTest, ADbbReportNamesMachineDateFiguresAuditAndAsLeft) {
   for (const std::string& s : std::vector<std::string>{
            "report-vmc", "xy-r150", "2026-04-01T08:00:00Z", "10.00", "A. Smith",
            "ballbar QC-7 serial 1234", "Circularity F (least squares)", "level 2 — warn",
-           "warn 7.5 µm, stop 20 µm", "measurement #" + std::to_string(cw), "Signature",
-           "Polar plot"}) {
+           "warn 7.5 µm, stop 20 µm", "measurement #" + to_string(cw), "Signature", "Polar plot"}) {
     EXPECT_NE(text.find(s), std::string::npos) << "missing '" << s << "' in:\n" << text;
   }
   EXPECT_EQ(text.find("As found"), std::string::npos) << "no later test yet";
@@ -93,7 +92,7 @@ TEST_F(ReportServiceTest, ADbbReportNamesMachineDateFiguresAuditAndAsLeft) {
   EXPECT_EQ(Text(svc_->reports().MeasurementPdf(ccw)).find("As found"), std::string::npos);
   const std::string again = Text(svc_->reports().MeasurementPdf(ccw, {after, std::nullopt}));
   EXPECT_NE(again.find("As found / as left"), std::string::npos) << again;
-  EXPECT_NE(again.find("#" + std::to_string(after)), std::string::npos) << again;
+  EXPECT_NE(again.find("#" + to_string(after)), std::string::npos) << again;
   EXPECT_NE(again.find("4.00"), std::string::npos) << again;
 }
 
@@ -114,7 +113,7 @@ TEST_F(ReportServiceTest, AMeasurementReportShowsTheJudgementOfItsOwnSetUp) {
   EXPECT_NE(text.find("level 3 — stop"), std::string::npos) << text;
   EXPECT_NE(text.find("xy-r100 CW"), std::string::npos) << text;
   EXPECT_EQ(text.find("within limits"), std::string::npos) << text;
-  EXPECT_EQ(text.find("measurement #" + std::to_string(good)), std::string::npos) << text;
+  EXPECT_EQ(text.find("measurement #" + to_string(good)), std::string::npos) << text;
   const std::string other = Text(svc_->reports().MeasurementPdf(good));
   EXPECT_NE(other.find("within limits"), std::string::npos) << other;
   const std::string audit = Text(svc_->reports().AuditPdf("report-vmc"));
@@ -136,11 +135,11 @@ TEST_F(ReportServiceTest, TheAuditReportListsRulesValuesFindingsAndHistory) {
   for (const std::string& s :
        std::vector<std::string>{"Accuracy audit — report-vmc", "level 2 — warn",
                                 "DBB circularity F", "DBB centre offset", "10.000", "within limits",
-                                "measurement #" + std::to_string(id), "every 24h", "History"}) {
+                                "measurement #" + to_string(id), "every 24h", "History"}) {
     EXPECT_NE(text.find(s), std::string::npos) << "missing '" << s << "' in:\n" << text;
   }
   EXPECT_THROW(svc_->reports().AuditPdf("no-such-machine"), NotFound);
-  EXPECT_THROW(svc_->reports().MeasurementPdf(999), NotFound);
+  EXPECT_THROW(svc_->reports().MeasurementPdf(MeasurementId(999)), NotFound);
   EXPECT_THROW(svc_->reports().JobPdf(999), NotFound);
 }
 

@@ -45,11 +45,11 @@ class CountingStorage final : public SqliteStorage {
     return ids_;
   }
 
-  std::string GetRaw(std::int64_t id) override {
+  std::string GetRaw(MeasurementId id) override {
     {
       std::lock_guard<std::mutex> lock(mu_);
       ++by_thread_[std::this_thread::get_id()];
-      ids_.insert(id);
+      ids_.insert(id.value());
     }
     ++raw_reads_;
     return SqliteStorage::GetRaw(id);
@@ -98,7 +98,7 @@ class ServiceLimits : public ::testing::Test {
       const std::string name = std::string("dbb_") + c + "_ccw.txt";
       const auto out = service_->measurements().Upload(
           ReadFile(fs::path("tests/fixtures/browser/hexapod") / name), name);
-      ids.push_back(out.id);
+      ids.push_back(out.id.value());
     }
     return ids;
   }

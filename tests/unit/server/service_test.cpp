@@ -33,7 +33,8 @@ TEST(Service, DemoDataGoesThroughTheNormalPathAndRoutesAnswer) {
     ASSERT_EQ(machines.size(), 1u);
     EXPECT_EQ(machines[0].measurement_count, static_cast<std::int64_t>(files.size()));
     // Demo traces carry a visible error: circularity of several µm, CW and CCW differ.
-    const auto r1 = svc.measurements().Results(1), r2 = svc.measurements().Results(2);
+    const auto r1 = svc.measurements().Results(MeasurementId(1)),
+               r2 = svc.measurements().Results(MeasurementId(2));
     EXPECT_GT(r1["circularity_um"].get<double>(), 2.0);
     EXPECT_NE(r1["circularity_um"], r2["circularity_um"]);
 
@@ -151,23 +152,23 @@ TEST(Service, APairIsTheOppositeDirectionMeasuredNearestInTime) {
         svc.measurements().Upload(DbbText("ccw", "2026-11-01T08:00:00Z", 2.2), "c").id;
     const auto nov_cw =
         svc.measurements().Upload(DbbText("cw", "2026-11-01T08:05:00Z", 2.3), "d").id;
-    EXPECT_EQ(svc.DbbPairJson(june_ccw)["partner_id"], june_cw);
+    EXPECT_EQ(svc.DbbPairJson(june_ccw)["partner_id"], nlohmann::json(june_cw));
     // Stored as near to the November CCW as the June CW is: the time decides, not the id.
-    EXPECT_EQ(svc.DbbPairJson(june_cw)["partner_id"], june_ccw);
-    EXPECT_EQ(svc.DbbPairJson(nov_ccw)["partner_id"], nov_cw);
-    EXPECT_EQ(svc.DbbPairJson(nov_cw)["partner_id"], nov_ccw);
+    EXPECT_EQ(svc.DbbPairJson(june_cw)["partner_id"], nlohmann::json(june_ccw));
+    EXPECT_EQ(svc.DbbPairJson(nov_ccw)["partner_id"], nlohmann::json(nov_cw));
+    EXPECT_EQ(svc.DbbPairJson(nov_cw)["partner_id"], nlohmann::json(nov_ccw));
     // A later upload of a June CW at 07:58: nearer in time to the June CCW than 08:05 is.
     const auto june_cw2 =
         svc.measurements().Upload(DbbText("cw", "2026-06-01T07:58:00Z", 2.4), "e").id;
-    EXPECT_EQ(svc.DbbPairJson(june_ccw)["partner_id"], june_cw2);
-    EXPECT_EQ(svc.DbbPairJson(nov_ccw)["partner_id"], nov_cw);
+    EXPECT_EQ(svc.DbbPairJson(june_ccw)["partner_id"], nlohmann::json(june_cw2));
+    EXPECT_EQ(svc.DbbPairJson(nov_ccw)["partner_id"], nlohmann::json(nov_cw));
     // Each list item carries the key result of its kind.
     MeasurementFilter f;
     f.machine_id = "pair-vmc";
     f.order = MeasurementFilter::Order::kNewest;
     const auto list = svc.measurements().ListMeasurements(f);
     ASSERT_EQ(list["items"].size(), 5u);
-    EXPECT_EQ(list["items"][0]["id"], nov_cw);
+    EXPECT_EQ(list["items"][0]["id"], nlohmann::json(nov_cw));
     EXPECT_EQ(list["items"][0]["key_result"]["name"], "circularity_um");
     EXPECT_EQ(list["items"][0]["key_result"]["value"],
               svc.measurements().Results(nov_cw)["circularity_um"]);
@@ -242,7 +243,7 @@ TEST(Service, StraightnessReversalPairsTheStoredSetUps) {
     for (auto [id, partner, scale] : {std::tuple{a_id, b_id, 3.0}, std::tuple{b_id, a_id, 3.0},
                                       std::tuple{later_a, later_b, 1.0}}) {
       const auto j = svc.measurements().StraightnessReversalJson(id);
-      EXPECT_EQ(j["partner_id"], partner);
+      EXPECT_EQ(j["partner_id"], nlohmann::json(partner));
       ASSERT_TRUE(j["reversal"].is_object()) << j.dump();
       EXPECT_NEAR(j["reversal"]["machine_straightness_lsq_um"].get<double>(),
                   LsqStraightness(scale), 2e-5);

@@ -21,17 +21,17 @@ namespace {
 using test::Backends;
 
 TEST_P(Backends, StoresOnceAndKeepsEverythingAcrossReopen) {
-  std::int64_t id = 0;
+  MeasurementId id;
   {
     auto s = Open();
     const auto a = s->PutMeasurement(Sample("a1", "m1"), {{"dbb", "dbb/1", R"({"x":1})"}});
     EXPECT_TRUE(a.created);
-    EXPECT_EQ(a.id, 1);
+    EXPECT_EQ(a.id, MeasurementId(1));
     id = a.id;
     const auto again = s->PutMeasurement(Sample("a1", "m1"), {{"dbb", "dbb/1", R"({"x":2})"}});
     EXPECT_FALSE(again.created);
     EXPECT_EQ(again.id, id);
-    EXPECT_EQ(s->PutMeasurement(Sample("b2", "m2"), {}).id, 2);
+    EXPECT_EQ(s->PutMeasurement(Sample("b2", "m2"), {}).id, MeasurementId(2));
   }
   auto s = Open();
   const auto rec = s->GetMeasurement(id);
@@ -46,8 +46,8 @@ TEST_P(Backends, StoresOnceAndKeepsEverythingAcrossReopen) {
   EXPECT_EQ(rec->uploaded_at.size(), 20u);
   EXPECT_EQ(rec->metadata_json, "{}");
   EXPECT_EQ(rec->sample_count, 3);
-  EXPECT_FALSE(s->GetMeasurement(3));
-  EXPECT_EQ(s->FindBySha256("b2"), 2);
+  EXPECT_FALSE(s->GetMeasurement(MeasurementId(3)));
+  EXPECT_EQ(s->FindBySha256("b2"), MeasurementId(2));
   EXPECT_FALSE(s->FindBySha256("zz"));
   EXPECT_EQ(s->GetRaw(id), "raw bytes a1");
   const auto block = s->GetSamples(id);
@@ -62,8 +62,8 @@ TEST_P(Backends, StoresOnceAndKeepsEverythingAcrossReopen) {
   MeasurementFilter f;
   f.machine_id = "m2";
   EXPECT_EQ(s->ListMeasurements(f).total, 1);
-  EXPECT_THROW(s->GetRaw(999), NotFound);
-  EXPECT_THROW(s->GetSamples(999), NotFound);
+  EXPECT_THROW(s->GetRaw(MeasurementId(999)), NotFound);
+  EXPECT_THROW(s->GetSamples(MeasurementId(999)), NotFound);
 }
 
 TEST_P(Backends, ResultsAddedLaterKeepTheOlderOnes) {
@@ -79,15 +79,15 @@ TEST_P(Backends, ResultsAddedLaterKeepTheOlderOnes) {
   EXPECT_EQ(r[1].result_json, R"({"v":2})");
   EXPECT_EQ(r[2].analysis, "form");
   for (const auto& x : r) EXPECT_EQ(x.measurement_id, id);
-  EXPECT_THROW(s->PutResult(id + 1, {"dbb", "dbb/1", "{}"}), NotFound);
-  EXPECT_TRUE(s->GetResults(id + 1).empty());
+  EXPECT_THROW(s->PutResult(MeasurementId(id.value() + 1), {"dbb", "dbb/1", "{}"}), NotFound);
+  EXPECT_TRUE(s->GetResults(MeasurementId(id.value() + 1)).empty());
 }
 
 TEST_P(Backends, ListsPageNewestFirstAndFindByFreeTextAndId) {
   auto s = Open();
   // 12 tests of one machine measured one per day, uploaded in a shuffled order; one of another.
   const int day_of[] = {7, 2, 11, 5, 1, 9, 3, 12, 8, 4, 10, 6};
-  std::map<int, std::int64_t> id_of_day;
+  std::map<int, MeasurementId> id_of_day;
   for (const int day : day_of) {
     NewMeasurement m = Sample("s" + std::to_string(day), "m1");
     m.measured_at =
@@ -126,12 +126,12 @@ TEST_P(Backends, ListsPageNewestFirstAndFindByFreeTextAndId) {
   page = s->ListMeasurements(f);
   ASSERT_EQ(page.total, 1);
   EXPECT_EQ(page.items[0].id, id_of_day[12]);
-  f.text = "#" + std::to_string(id_of_day[9]);
+  f.text = "#" + to_string(id_of_day[9]);
   page = s->ListMeasurements(f);
   ASSERT_EQ(page.total, 1);
   EXPECT_EQ(page.items[0].id, id_of_day[9]);
-  f.text = std::to_string(id_of_day[9]);  // without '#': id 6, and the name Run_6_ccw.txt
-  EXPECT_EQ(id_of_day[9], 6);
+  f.text = to_string(id_of_day[9]);  // without '#': id 6, and the name Run_6_ccw.txt
+  EXPECT_EQ(id_of_day[9], MeasurementId(6));
   EXPECT_EQ(s->ListMeasurements(f).total, 2);
   f.text = "no such thing";
   EXPECT_EQ(s->ListMeasurements(f).total, 0);

@@ -100,7 +100,7 @@ TEST_F(StorageMigration, MigratedSchemaIsTheSchemaOfANewDatabase) {
 
 // Version 1: measurements (raw bytes, samples, metadata), results, tokens.
 void ExpectVersion1Rows(SqliteStorage& s) {
-  const auto m1 = s.GetMeasurement(1);
+  const auto m1 = s.GetMeasurement(MeasurementId(1));
   ASSERT_TRUE(m1);
   EXPECT_EQ(m1->sha256, "a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1a1");
   EXPECT_EQ(m1->kind, "dbb");
@@ -113,26 +113,26 @@ void ExpectVersion1Rows(SqliteStorage& s) {
   EXPECT_EQ(m1->filename, "old.dbb");
   EXPECT_EQ(m1->sample_count, 3);
   EXPECT_EQ(m1->metadata_json, R"({"bar_length_mm":"150"})");
-  EXPECT_EQ(s.GetRaw(1),
+  EXPECT_EQ(s.GetRaw(MeasurementId(1)),
             "# format: kinemetric-dbb/1\n# machine_id: old-vmc\n# test_id: t1\n# direction: "
             "ccw\nangle_deg,dr_um\n0,1.5\n90,-0.25\n180,2\n");
-  const auto samples = s.GetSamples(1);
+  const auto samples = s.GetSamples(MeasurementId(1));
   EXPECT_EQ(samples.columns, (std::vector<std::string>{"angle_deg", "dr_um"}));
   EXPECT_EQ(samples.values, (std::vector<double>{0, 1.5, 90, -0.25, 180, 2}));
   EXPECT_EQ(s.FindBySha256("b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2b2"),
-            std::optional<std::int64_t>(2));
-  const auto m2 = s.GetMeasurement(2);
+            std::optional<MeasurementId>(2));
+  const auto m2 = s.GetMeasurement(MeasurementId(2));
   ASSERT_TRUE(m2);
   EXPECT_FALSE(m2->measured_at);
-  EXPECT_EQ(s.GetSamples(2).values, (std::vector<double>{0, 0, 10, 1.25}));
+  EXPECT_EQ(s.GetSamples(MeasurementId(2)).values, (std::vector<double>{0, 0, 10, 1.25}));
 
-  const auto r1 = s.GetResults(1);
+  const auto r1 = s.GetResults(MeasurementId(1));
   ASSERT_EQ(r1.size(), 1u);
   EXPECT_EQ(r1[0].analysis, "dbb");
   EXPECT_EQ(r1[0].analysis_version, "dbb/1.0");
   EXPECT_EQ(r1[0].created_at, "2025-03-02T09:30:00Z");
   EXPECT_EQ(r1[0].result_json, R"({"circularity_um":2.25})");
-  ASSERT_EQ(s.GetResults(2).size(), 1u);
+  ASSERT_EQ(s.GetResults(MeasurementId(2)).size(), 1u);
 
   const auto page = s.ListMeasurements({});
   EXPECT_EQ(page.total, 2);

@@ -44,7 +44,7 @@ class StorageTest : public ::testing::Test {
 };
 
 TEST_F(StorageTest, StoresOnceAndKeepsEverythingAcrossReopen) {
-  std::int64_t id = 0;
+  MeasurementId id;
   {
     SqliteStorage s(path_.string());
     const auto a = s.PutMeasurement(Sample("a1", "m1"), {{"dbb", "dbb/1", R"({"x":1})"}});
@@ -71,7 +71,7 @@ TEST_F(StorageTest, StoresOnceAndKeepsEverythingAcrossReopen) {
   MeasurementFilter f;
   f.machine_id = "m2";
   EXPECT_EQ(s.ListMeasurements(f).total, 1);
-  EXPECT_THROW(s.GetRaw(999), NotFound);
+  EXPECT_THROW(s.GetRaw(MeasurementId(999)), NotFound);
 }
 
 TEST_F(StorageTest, MeasurementsAreImmutableInTheDatabaseItself) {
@@ -122,7 +122,7 @@ TEST_F(StorageTest, ListsPageNewestFirstAndFindByFreeTextAndId) {
   SqliteStorage s(path_.string());
   // 12 tests of one machine measured one per day, uploaded in a shuffled order; one of another.
   const int day_of[] = {7, 2, 11, 5, 1, 9, 3, 12, 8, 4, 10, 6};
-  std::map<int, std::int64_t> id_of_day;
+  std::map<int, MeasurementId> id_of_day;
   for (const int day : day_of) {
     NewMeasurement m = Sample("s" + std::to_string(day), "m1");
     m.measured_at =
@@ -162,7 +162,7 @@ TEST_F(StorageTest, ListsPageNewestFirstAndFindByFreeTextAndId) {
   page = s.ListMeasurements(f);
   ASSERT_EQ(page.total, 1);
   EXPECT_EQ(page.items[0].id, id_of_day[12]);
-  f.text = "#" + std::to_string(id_of_day[9]);
+  f.text = "#" + to_string(id_of_day[9]);
   page = s.ListMeasurements(f);
   ASSERT_EQ(page.total, 1);
   EXPECT_EQ(page.items[0].id, id_of_day[9]);

@@ -38,7 +38,8 @@ class ServoRoutes : public test::RoutedServiceTest {
       for (bool ccw : {true, false}) {
         c.ccw = ccw;
         const auto text = servo::truth::ServoText(c, servo::truth::Simulate(m, c, 2.0, rng));
-        ids.push_back(svc_->measurements().Upload(text, c.test_id + (ccw ? "_ccw" : "_cw")).id);
+        ids.push_back(
+            svc_->measurements().Upload(text, c.test_id + (ccw ? "_ccw" : "_cw")).id.value());
       }
     }
     return ids;
@@ -92,7 +93,7 @@ TEST_F(ServoRoutes, IdentifySaveJointsAndForce) {
   EXPECT_EQ(history["limits"]["level2_ratio"], 1.5);
   EXPECT_EQ(history["limits"]["level3_ratio"], 2.5);
   // The records' own results are still what GET …/results answers.
-  EXPECT_EQ(svc_->measurements().Results(ids[0])["record"], "hexapod");
+  EXPECT_EQ(svc_->measurements().Results(server::MeasurementId(ids[0]))["record"], "hexapod");
   r = Call("GET", "/api/v1/machines/no-such-machine/joint-health", "");
   EXPECT_EQ(r.status, 404) << r.body;
 
@@ -142,7 +143,7 @@ TEST_F(ServoRoutes, AStreamBecomesAFeedDriveRecord) {
       {"test_id", "x-strokes"}};
   auto r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo", request.dump());
   ASSERT_EQ(r.status, 201) << r.body;
-  const auto id = json::parse(r.body)["id"].get<std::int64_t>();
+  const auto id = json::parse(r.body)["id"].get<server::MeasurementId>();
   const auto result = svc_->measurements().Results(id);
   EXPECT_EQ(result["record"], "feed_drive");
   EXPECT_NEAR(result["axes"][0]["stroke_mm"].get<double>(), 100.0, 0.5);
@@ -185,7 +186,7 @@ TEST_F(ServoRoutes, AStreamOfStrutLoadsBecomesAHexapodRecord) {
                         {"test_id", "g"}};
   auto r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo", request.dump());
   ASSERT_EQ(r.status, 201) << r.body;
-  const auto id = json::parse(r.body)["id"].get<std::int64_t>();
+  const auto id = json::parse(r.body)["id"].get<server::MeasurementId>();
   const auto result = svc_->measurements().Results(id);
   EXPECT_EQ(result["record"], "hexapod");
   EXPECT_EQ(result["samples"], 120);
@@ -194,7 +195,7 @@ TEST_F(ServoRoutes, AStreamOfStrutLoadsBecomesAHexapodRecord) {
   EXPECT_NEAR(result["force_max_N"][2].get<double>(), fmax, 1e-6);
   EXPECT_EQ(svc_->storage().GetMeasurement(id)->direction, "ccw");
   // The force of the stored record with the machine's model: no load, small forces.
-  r = Call("GET", "/api/v1/measurements/" + std::to_string(id) + "/servo/force", "");
+  r = Call("GET", "/api/v1/measurements/" + to_string(id) + "/servo/force", "");
   ASSERT_EQ(r.status, 200) << r.body;
   const json force = json::parse(r.body);  // kept alive over the loop
   for (const auto& v : force["mean_force_N"]) EXPECT_LT(std::abs(v.get<double>()), 20.0);
