@@ -8,7 +8,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   auto& svc = service.Get();
   km::fuzz::Guarded([&] {
     const auto out = svc.measurements().Upload(km::fuzz::AsText(data, size), "fuzz.txt");
-    km::fuzz::Check(out.id > 0 && !out.kind.empty() && out.sha256.size() == 64,
+    km::fuzz::Check(out.id.value() > 0 && !out.kind.empty() && out.sha256.size() == 64,
                     "an accepted upload has an id, a kind and a SHA-256");
     svc.measurements().Results(out.id);
   });
