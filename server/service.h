@@ -80,7 +80,9 @@ class Service : public AuditSource {
   ToleranceStore& tolerance_store() override { return *storage_; }
   AccessStore& access_store() override { return *storage_; }
   nlohmann::json DbbPairJson(MeasurementId id) override { return measurements_.DbbPairJson(id); }
-  JobVerdict JobVerdictOf(const JobRecord& job) override { return studies_->Verdict(job); }
+  JobVerdict JobVerdictOf(const JobRecord& job, const nlohmann::json& result) override {
+    return studies_->Verdict(job, result);
+  }
 
  private:
   std::unique_ptr<Storage> storage_;

@@ -24,8 +24,9 @@ class AuditSource {
   // The pair analysis of a stored DBB test, recomputed from its stored bytes; null when the
   // test has no partner (MeasurementService::DbbPairJson).
   virtual nlohmann::json DbbPairJson(MeasurementId id) = 0;
-  // The verdict on a stored job by its kind's judge (StudyService::Verdict).
-  virtual JobVerdict JobVerdictOf(const JobRecord& job) = 0;
+  // The verdict on a stored job by its kind's judge, from its result parsed already
+  // (StudyService::Verdict).
+  virtual JobVerdict JobVerdictOf(const JobRecord& job, const nlohmann::json& result) = 0;
 };
 
 }  // namespace km::server

@@ -21,7 +21,7 @@ std::vector<CalibrationRun> MachineCalibrations(AuditSource& service,
       continue;
     }
     json result = ingest::ParseJsonTextOrDiscarded(j.result_json);
-    if (!result.is_object() || service.JobVerdictOf(j).verdict == "failed") {
+    if (!result.is_object() || service.JobVerdictOf(j, result).verdict == "failed") {
       continue;
     }
     CalibrationRun run;

@@ -63,8 +63,12 @@ nlohmann::json StoredResult(const JobRecord& job) {
 }  // namespace
 
 JobVerdict JobKinds::Verdict(const JobRecord& job) const {
+  return Verdict(job, StoredResult(job));
+}
+
+JobVerdict JobKinds::Verdict(const JobRecord& job, const nlohmann::json& result) const {
   const JobKind* kind = Find(job.kind);
-  return JudgeJobOutcome(kind ? kind->judge : nullptr, job.status, StoredResult(job), job.error);
+  return JudgeJobOutcome(kind ? kind->judge : nullptr, job.status, result, job.error);
 }
 
 nlohmann::json JobKinds::Json(const JobRecord& job) const {
@@ -88,8 +92,7 @@ nlohmann::json JobKinds::Json(const JobRecord& job) const {
   j["attempts"] = job.attempts;
   j["owner_token_id"] =
       job.owner_token_id > 0 ? nlohmann::json(job.owner_token_id) : nlohmann::json(nullptr);
-  const JobKind* kind = Find(job.kind);
-  const JobVerdict v = JudgeJobOutcome(kind ? kind->judge : nullptr, job.status, result, job.error);
+  const JobVerdict v = Verdict(job, result);
   j["verdict"] = v.verdict.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.verdict);
   j["verdict_reasons"] = v.reasons;
   return j;

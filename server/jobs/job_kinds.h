@@ -66,8 +66,10 @@ class JobKinds {
  public:
   void Add(const std::string& name, JobKind kind) { kinds_[name] = std::move(kind); }
   const JobKind* Find(const std::string& name) const;
-  // The verdict on a stored job (a kind not registered here: "ok" when done).
+  // The verdict on a stored job (a kind not registered here: "ok" when done); `result`: its
+  // result_json parsed already (null when empty).
   JobVerdict Verdict(const JobRecord& job) const;
+  JobVerdict Verdict(const JobRecord& job, const nlohmann::json& result) const;
   // The job as the API serves it: id, kind, status, progress, stage, times, request, result,
   // error, instance, attempts, owner_token_id (null when not known), and the verdict of its
   // kind's judge as "verdict" and "verdict_reasons".

@@ -87,7 +87,9 @@ class StudyService {
 
   nlohmann::json Job(std::int64_t id);
   // The verdict on a stored job by its kind's judge (the audits read calibrations with it).
-  JobVerdict Verdict(const JobRecord& job) const { return kinds_.Verdict(job); }
+  JobVerdict Verdict(const JobRecord& job, const nlohmann::json& result) const {
+    return kinds_.Verdict(job, result);
+  }
   // Cancels a queued or running job for its owner (the token that submitted it) or an admin;
   // answers the job, status "cancelled" (its error says by whom). A running job stops at its
   // next progress report. NotFound: no such job; Forbidden: `by` neither owns it nor is an
