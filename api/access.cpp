@@ -63,7 +63,7 @@ class TokenCache {
 // The hook over an authentication of token hashes (throws Unauthorized); each authentication
 // (a token not in the cache) is noted as a use of the token (server::TokenUseRecorder).
 RequestHook TokenHookOver(std::function<server::Caller(const std::string&)> authenticate,
-                          std::function<void(std::int64_t)> note_use) {
+                          std::function<void(server::TokenId)> note_use) {
   auto cache = std::make_shared<TokenCache>();
   return [authenticate = std::move(authenticate), note_use = std::move(note_use), cache](
              Request& req, const Route& route) {
@@ -82,11 +82,11 @@ RequestHook TokenHookOver(std::function<server::Caller(const std::string&)> auth
     }
     req.token_id = caller->token_id;
     req.token_name = caller->name;
-    req.token_role = server::RoleName(caller->role);
+    req.token_role = caller->role;
     if (caller->role < need) {
       throw server::Forbidden(req.method + " " + route.pattern + " needs a token of role '" +
                               server::RoleName(need) + "' or above; this token's role is '" +
-                              req.token_role + "'");
+                              server::RoleName(caller->role) + "'");
     }
   };
 }
@@ -155,16 +155,17 @@ RequestHook TokenHook(server::Service& service) {
   server::Service* svc = &service;
   return TokenHookOver(
       [svc](const std::string& sha) { return server::Authenticate(svc->storage(), sha); },
-      [rec = std::make_shared<server::TokenUseRecorder>(svc->storage())](std::int64_t id) {
+      [rec = std::make_shared<server::TokenUseRecorder>(svc->storage())](server::TokenId id) {
         rec->Note(id);
       });
 }
 
 RequestHook TokenHook(server::AccessStore& storage) {
   server::AccessStore* st = &storage;
-  return TokenHookOver(
-      [st](const std::string& sha) { return server::Authenticate(*st, sha); },
-      [rec = std::make_shared<server::TokenUseRecorder>(*st)](std::int64_t id) { rec->Note(id); });
+  return TokenHookOver([st](const std::string& sha) { return server::Authenticate(*st, sha); },
+                       [rec = std::make_shared<server::TokenUseRecorder>(*st)](server::TokenId id) {
+                         rec->Note(id);
+                       });
 }
 
 ResponseHook AuditHook(server::Service& service) {
@@ -175,7 +176,7 @@ ResponseHook AuditHook(server::Service& service) {
     server::AuditEntry e;
     e.token_id = req.token_id;
     e.token_name = req.token_name;
-    e.role = req.token_role;
+    e.role = req.RoleName();
     e.method = req.method;
     e.path = req.path;
     e.status = res.status;

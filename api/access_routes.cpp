@@ -12,8 +12,9 @@ Endpoint WhoAmI(const RouteContext&) {
       "The caller: its token's id, name and role (e.g. for a dashboard to hide what the role "
       "may not do)",
       [](const Request& req) {
-        return Response::Json(
-            {{"token_id", req.token_id}, {"name", req.token_name}, {"role", req.token_role}});
+        return Response::Json({{"token_id", server::IdOrNull(req.token_id)},
+                               {"name", req.token_name},
+                               {"role", req.RoleName()}});
       },
       {{"responses", {{"200", JsonResponse("{token_id, name, role}")}}}}};
 }
@@ -53,7 +54,7 @@ Endpoint RevokeToken(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Revoke an access token at once",
           [svc](const Request& req) {
-            return Response::Json(svc->access().RevokeToken(req.PathInteger("id")));
+            return Response::Json(svc->access().RevokeToken(req.PathId<server::TokenId>("id")));
           },
           {{"responses",
             {{"200", JsonResponse("{id, revoked_at}")},

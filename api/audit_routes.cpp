@@ -105,7 +105,8 @@ Endpoint GetAudit(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"One accuracy-audit verdict with its findings and evidence",
           [svc](const Request& req) {
-            return Response::Json(server::AccuracyAuditJson(*svc, req.PathInteger("id")));
+            return Response::Json(
+                server::AccuracyAuditJson(*svc, req.PathId<server::AuditVerdictId>("id")));
           },
           {{"responses", {{"200", JsonResponse(kVerdictKeys)}}}}};
 }

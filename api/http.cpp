@@ -77,6 +77,15 @@ std::int64_t Request::PathInteger(const std::string& name) const {
   return id;
 }
 
+server::TokenId Request::CallerToken() const {
+  if (!token_id) throw server::Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
+  return *token_id;
+}
+
+std::string Request::RoleName() const {
+  return token_role ? server::RoleName(*token_role) : "";
+}
+
 namespace {
 // Text from clients or old rows may hold invalid UTF-8: it is replaced (U+FFFD), never thrown.
 std::string Dump(const nlohmann::json& j) {

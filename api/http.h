@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "server/access/roles.h"
+#include "server/base/ids.h"
 
 namespace km::api {
 
@@ -30,10 +31,11 @@ struct Request {
   std::string remote_addr;
   std::string id;     // request id: in the X-Request-Id header and in the log of server errors
   std::string route;  // the pattern of the route the path matched (also when access was refused)
-  // The caller, set by the access hook when a valid token was presented (0 / empty otherwise).
-  std::int64_t token_id = 0;
+  // The caller, set by the access hook when a valid token was presented (none / empty
+  // otherwise).
+  std::optional<server::TokenId> token_id;
   std::string token_name;
-  std::string token_role;
+  std::optional<server::Role> token_role;
 
   std::optional<std::string> Query(const std::string& key) const;
   std::optional<std::string> Header(const std::string& lower_name) const;
@@ -44,6 +46,10 @@ struct Request {
     return IdType(PathInteger(name));
   }
   std::int64_t PathInteger(const std::string& name) const;  // a positive integer, else as above
+  // The caller's token on a route that needs one; km::Unauthorized when none was presented.
+  server::TokenId CallerToken() const;
+  // The caller's role name ("viewer" … "admin"); "" when no token was presented.
+  std::string RoleName() const;
 };
 
 struct Response {

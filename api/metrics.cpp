@@ -255,7 +255,7 @@ std::string AccessLogLine(const RequestRecord& r) {
       {"latency_ms", static_cast<double>(static_cast<std::int64_t>(r.seconds * 1e6)) / 1e3},
       {"bytes", r.bytes},
       {"request_bytes", r.request_bytes},
-      {"token_id", r.token_id},
+      {"token_id", server::ValueOrZero(r.token_id)},
       {"remote", std::string(r.remote)},
       {"request_id", std::string(r.request_id)}};
   return j.dump(-1, ' ', true, nlohmann::ordered_json::error_handler_t::replace);

@@ -26,11 +26,11 @@ struct RequestRecord {
   std::string_view route;  // the route pattern ("/api/v1/measurements/{id}"); "" when none
   std::string_view path;   // the raw path (without the query)
   int status = 0;
-  double seconds = 0;               // from the end of the request headers to the answer
-  std::uint64_t bytes = 0;          // the answer's body
-  std::uint64_t request_bytes = 0;  // the request's body when read whole
-  std::string_view response_body;   // read for the counts of stream-frame answers
-  std::int64_t token_id = 0;
+  double seconds = 0;                       // from the end of the request headers to the answer
+  std::uint64_t bytes = 0;                  // the answer's body
+  std::uint64_t request_bytes = 0;          // the request's body when read whole
+  std::string_view response_body;           // read for the counts of stream-frame answers
+  std::optional<server::TokenId> token_id;  // none: no valid token
   std::string_view remote;
   std::string_view request_id;
 };

@@ -62,8 +62,8 @@ std::optional<std::int64_t> ApprovedRevision(const Request& req) {
 }
 
 server::ReportApprover Approver(const Request& req) {
-  return {req.token_id,
-          req.token_name.empty() ? "token " + std::to_string(req.token_id) : req.token_name};
+  const server::TokenId token = req.CallerToken();
+  return {token, req.token_name.empty() ? "token " + to_string(token) : req.token_name};
 }
 
 json ReportParams(bool as_left) {
@@ -108,9 +108,9 @@ Endpoint JobReportPdf(const RouteContext& c) {
       "The report of a calibration or discovery job as a PDF: the steps, the gap "
       "shrinking, the fitted values with their σ",
       [svc](const Request& req) {
-        const auto id = req.PathInteger("id");
+        const auto id = req.PathId<server::JobId>("id");
         return Pdf(svc->reports().JobPdf(id, OptionalId(req, "revision")),
-                   "kinemetric-job-" + std::to_string(id));
+                   "kinemetric-job-" + to_string(id));
       },
       {{"parameters", ReportParams(false)}, {"responses", PdfResponse()}}};
 }
@@ -143,7 +143,7 @@ Endpoint JobReportRevisions(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"The revisions of a job's certificate",
           [svc](const Request& req) {
-            return Response::Json(svc->reports().JobRevisions(req.PathInteger("id")));
+            return Response::Json(svc->reports().JobRevisions(req.PathId<server::JobId>("id")));
           },
           {}};
 }
@@ -174,7 +174,7 @@ Endpoint ApproveJobReport(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Approves the current revision of a finished job's certificate (engineer)",
           [svc](const Request& req) {
-            return Response::Json(svc->reports().ApproveJob(req.PathInteger("id"),
+            return Response::Json(svc->reports().ApproveJob(req.PathId<server::JobId>("id"),
                                                             ApprovedRevision(req), Approver(req)));
           },
           ApproveDoc(), kSmallRequestBytes};

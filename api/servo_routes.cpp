@@ -76,7 +76,7 @@ Endpoint StreamServo(const RouteContext& c) {
       "A stretch of a stream (feed-drive position and force channels) stored as a "
       "kinemetric-servo/1 measurement (docs/formats.md §5)",
       [svc](const Request& req) {
-        const auto out = svc->servo().FromStream(req.PathInteger("id"), JsonBody(req));
+        const auto out = svc->servo().FromStream(req.PathId<server::StreamId>("id"), JsonBody(req));
         return Response::Json({{"id", out.id}, {"kind", out.kind}, {"created", out.created}},
                               out.created ? 201 : 200);
       },

@@ -25,7 +25,7 @@ using server::FrameIngestion;
 // Frames stored as the body arrives.
 class FrameSink : public BodySink {
  public:
-  FrameSink(server::Service& svc, std::int64_t id, const std::string& content_type)
+  FrameSink(server::Service& svc, server::StreamId id, const std::string& content_type)
       : ingestion_(svc.streams(), id, content_type) {}
   void Feed(std::string_view piece) override { ingestion_.Feed(piece); }
   Response Finish(bool complete) override { return Response::Json(ingestion_.Finish(complete)); }
@@ -43,7 +43,7 @@ Endpoint CreateStream(const RouteContext& c) {
       [svc](const Request& req) {
         const auto id = svc->streams().CreateStream(JsonBody(req));
         Response r = Response::Json(svc->streams().StreamJson(id), 201);
-        r.headers["Location"] = "/api/v1/streams/" + std::to_string(id);
+        r.headers["Location"] = "/api/v1/streams/" + to_string(id);
         return r;
       },
       {{"requestBody",
@@ -65,7 +65,7 @@ Endpoint SendFrames(const RouteContext& c) {
       "arrive, the answer comes when the body ends",
       [svc](const Request& req) {
         // Callers that hold the whole body (tests, tools); the HTTP server uses open_body.
-        FrameIngestion ingestion(svc->streams(), req.PathInteger("id"),
+        FrameIngestion ingestion(svc->streams(), req.PathId<server::StreamId>("id"),
                                  req.Header("content-type").value_or(""));
         ingestion.Feed(req.body);
         return Response::Json(ingestion.Finish(true));
@@ -80,7 +80,7 @@ Endpoint SendFrames(const RouteContext& c) {
        {"responses", {{"200", JsonResponse("{frames, samples, stored, duplicates, gaps[]}")}}}},
       0,
       [svc](const Request& req) -> std::unique_ptr<BodySink> {
-        return std::make_unique<FrameSink>(*svc, req.PathInteger("id"),
+        return std::make_unique<FrameSink>(*svc, req.PathId<server::StreamId>("id"),
                                            req.Header("content-type").value_or(""));
       }};
 }
@@ -101,7 +101,7 @@ Endpoint GetStream(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"One stream: channels, samples, gaps, buffered samples",
           [svc](const Request& req) {
-            return Response::Json(svc->streams().StreamJson(req.PathInteger("id")));
+            return Response::Json(svc->streams().StreamJson(req.PathId<server::StreamId>("id")));
           },
           {{"parameters", json::array({PathParam("stream id")})},
            {"responses", {{"200", JsonResponse("the stream")}}}}};
@@ -117,7 +117,7 @@ Endpoint StreamSamples(const RouteContext& c) {
         if (req.Query("from_us")) from = QueryInt(req, "from_us", 0, kMinI64, kMaxI64);
         if (req.Query("to_us")) to = QueryInt(req, "to_us", 0, kMinI64, kMaxI64);
         return Response::Json(svc->streams().StreamSamples(
-            req.PathInteger("id"), QueryInt(req, "channel", 0, 0, 65535), from, to,
+            req.PathId<server::StreamId>("id"), QueryInt(req, "channel", 0, 0, 65535), from, to,
             static_cast<std::size_t>(QueryInt(req, "max_points", 2000, 2, 1000000))));
       },
       {{"parameters",
@@ -135,7 +135,7 @@ Endpoint StreamGaps(const RouteContext& c) {
   return {"Recorded gaps (counter jumps) of a stream",
           [svc](const Request& req) {
             return Response::Json(svc->streams().StreamGapsJson(
-                req.PathInteger("id"), QueryInt(req, "limit", 1000, 1, 100000)));
+                req.PathId<server::StreamId>("id"), QueryInt(req, "limit", 1000, 1, 100000)));
           },
           {{"parameters", json::array({PathParam("stream id")})},
            {"responses", {{"200", JsonResponse("{items[]}")}}}}};
@@ -147,7 +147,8 @@ Endpoint StreamProfile(const RouteContext& c) {
       "Turn a stretch of one channel into a straightness profile, stored and analysed as a "
       "measurement",
       [svc](const Request& req) {
-        const auto out = svc->streams().StreamProfile(req.PathInteger("id"), JsonBody(req));
+        const auto out =
+            svc->streams().StreamProfile(req.PathId<server::StreamId>("id"), JsonBody(req));
         return Response::Json({{"id", out.id},
                                {"created", out.created},
                                {"kind", out.kind},

@@ -22,8 +22,8 @@ json StoredJson(const server::MachineModelStored& m) {
 }
 
 // 202 for a study queued as a background job: its id and where to follow it (also Location).
-Response JobAccepted(std::int64_t id) {
-  const std::string url = "/api/v1/jobs/" + std::to_string(id);
+Response JobAccepted(server::JobId id) {
+  const std::string url = "/api/v1/jobs/" + to_string(id);
   Response r = Response::Json({{"job_id", id}, {"status_url", url}}, 202);
   r.headers["Location"] = url;
   return r;
@@ -66,7 +66,7 @@ Endpoint GetJob(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"A background job: status, progress, result",
           [svc](const Request& req) {
-            return Response::Json(svc->studies().Job(req.PathInteger("id")));
+            return Response::Json(svc->studies().Job(req.PathId<server::JobId>("id")));
           },
           {{"responses",
             {{"200", JsonResponse("{id, kind, status, progress, stage, result?, error?}")}}}}};
@@ -76,8 +76,9 @@ Endpoint CancelJob(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Cancel a queued or running job (its owner, the token that submitted it, or an admin)",
           [svc](const Request& req) {
-            const server::JobCanceller by{req.token_id, req.token_name, req.token_role == "admin"};
-            return Response::Json(svc->studies().CancelJob(req.PathInteger("id"), by));
+            const server::JobCanceller by{req.token_id, req.token_name,
+                                          req.token_role == server::Role::kAdmin};
+            return Response::Json(svc->studies().CancelJob(req.PathId<server::JobId>("id"), by));
           },
           {{"responses",
             {{"200", JsonResponse("the job, status cancelled; a running job stops at its next "
@@ -209,7 +210,7 @@ Endpoint SaveJobMachine(const RouteContext& c) {
           }
           note = server::request::OptionalString(body, "note", "");
         }
-        const auto out = svc->studies().SaveJobMachine(req.PathInteger("id"), note);
+        const auto out = svc->studies().SaveJobMachine(req.PathId<server::JobId>("id"), note);
         return Response::Json(StoredJson(out), out.created ? 201 : 200);
       },
       {{"requestBody",

@@ -87,7 +87,7 @@ std::uint64_t TokenRevocations() {
   return g_revocations.load();
 }
 
-void TokenUseRecorder::Note(std::int64_t token_id) {
+void TokenUseRecorder::Note(TokenId token_id) {
   const std::int64_t now = NowSeconds();
   {
     std::lock_guard lock(mu_);
@@ -170,7 +170,7 @@ namespace {
 
 // Refuses to revoke an active admin token unless another active admin token without an expiry
 // remains: an expiring one would leave the service without an admin when it expires.
-void CheckAnAdminRemains(const std::vector<TokenRecord>& tokens, std::int64_t id) {
+void CheckAnAdminRemains(const std::vector<TokenRecord>& tokens, TokenId id) {
   const auto now = NowSeconds();
   const TokenRecord* target = nullptr;
   int lasting_admins = 0;
@@ -181,9 +181,9 @@ void CheckAnAdminRemains(const std::vector<TokenRecord>& tokens, std::int64_t id
       ++lasting_admins;
     }
   }
-  if (!target) throw NotFound("there is no token " + std::to_string(id));
+  if (!target) throw NotFound("there is no token " + to_string(id));
   if (target->role == "admin" && TokenState(*target, now) == "active" && lasting_admins == 0) {
-    throw Conflict("token " + std::to_string(id) +
+    throw Conflict("token " + to_string(id) +
                    " is the last active admin token without an expiry (an expiring admin token "
                    "does not count): create another admin token without expires_in_s first, or "
                    "recover with kinemetricd --reset-admin (docs/operations.md)");
@@ -192,7 +192,7 @@ void CheckAnAdminRemains(const std::vector<TokenRecord>& tokens, std::int64_t id
 
 }  // namespace
 
-nlohmann::json AccessService::RevokeToken(std::int64_t id) {
+nlohmann::json AccessService::RevokeToken(TokenId id) {
   store_.RevokeToken(
       id, [id](const std::vector<TokenRecord>& tokens) { CheckAnAdminRemains(tokens, id); });
   ++g_revocations;
@@ -212,7 +212,7 @@ nlohmann::json AccessService::AuditLog(std::int64_t limit, std::int64_t offset) 
   for (const auto& e : page.items) {
     items.push_back({{"id", e.id},
                      {"at", e.at},
-                     {"token_id", e.token_id > 0 ? nlohmann::json(e.token_id) : nullptr},
+                     {"token_id", IdOrNull(e.token_id)},
                      {"token_name", e.token_name},
                      {"role", e.role},
                      {"method", e.method},

@@ -18,7 +18,7 @@ namespace km::server {
 
 // The holder of a valid token.
 struct Caller {
-  std::int64_t token_id = 0;
+  TokenId token_id;
   std::string name;
   Role role = Role::kViewer;
   std::optional<std::int64_t> expires_unix;  // seconds since the epoch; none: never
@@ -38,12 +38,12 @@ inline constexpr std::int64_t kTokenUseResolutionS = 60;
 class TokenUseRecorder {
  public:
   explicit TokenUseRecorder(AccessStore& store) : store_(store) {}
-  void Note(std::int64_t token_id);
+  void Note(TokenId token_id);
 
  private:
   AccessStore& store_;
   std::mutex mu_;
-  std::unordered_map<std::int64_t, std::int64_t> stored_;  // token id → unix seconds written
+  std::unordered_map<TokenId, std::int64_t> stored_;  // token id → unix seconds written
 };
 
 // Counts the revocations made in this process: a cache of accepted tokens forgets them all
@@ -64,7 +64,7 @@ class AccessService {
   nlohmann::json ListTokens();
   // Revokes a token at once (NotFound for an unknown id; Conflict for the last active admin
   // token, so that the service is never left without one): {"id", "revoked_at"}.
-  nlohmann::json RevokeToken(std::int64_t id);
+  nlohmann::json RevokeToken(TokenId id);
 
   // Appends one entry to the audit log (the storage's errors go to the caller).
   void RecordAudit(const AuditEntry& entry);

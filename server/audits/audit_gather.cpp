@@ -100,7 +100,7 @@ std::optional<double> ValueOf(AuditSource& service, const AuditMetric& m, Stored
 
 AuditValue Found(double v, const Stored& s) {
   if (s.calibration) return {v, std::nullopt, s.time, s.calibration->job_id, std::nullopt};
-  return {v, s.record.id, s.time, 0, std::nullopt};
+  return {v, s.record.id, s.time, std::nullopt, std::nullopt};
 }
 
 // How far down a set-up's tests a value is looked for: machine-wide kinds take the newest that
@@ -148,9 +148,10 @@ std::optional<AuditValue> AtPreviousAudit(AuditSource& service, const json& prev
     const char* id_key = c.contains("job_id") ? "job_id" : "measurement_id";
     if (!v.is_number() || !c.contains(id_key) || !c[id_key].is_number_integer()) continue;
     if (c.value("status", "") == "stale") continue;
-    AuditValue seen{v.get<double>(), std::nullopt, c.value("measured_at", ""), 0, std::nullopt};
+    AuditValue seen{v.get<double>(), std::nullopt, c.value("measured_at", ""), std::nullopt,
+                    std::nullopt};
     if (c.contains("job_id")) {
-      seen.job_id = c[id_key].get<std::int64_t>();
+      seen.job_id = c[id_key].get<JobId>();
     } else {
       seen.measurement_id = MeasurementId(c[id_key].get<std::int64_t>());
     }
@@ -269,11 +270,10 @@ SetUpEvidence JudgeSetUp(AuditSource& service, const AuditRule& rule, const Audi
     return e;
   }
   if (!e.newest) {
-    e.missing =
-        "the newest test of this set-up (" +
-        (newest.calibration ? "calibration job " + std::to_string(newest.calibration->job_id)
-                            : "measurement " + to_string(newest.record.id)) +
-        ") holds no value of this metric";
+    e.missing = "the newest test of this set-up (" +
+                (newest.calibration ? "calibration job " + to_string(newest.calibration->job_id)
+                                    : "measurement " + to_string(newest.record.id)) +
+                ") holds no value of this metric";
     return e;
   }
   if (rule.change != AuditRule::Change::kNone) {

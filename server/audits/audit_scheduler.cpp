@@ -37,7 +37,7 @@ AuditScheduler::AuditScheduler(AuditSource& service, AuditOptions options, Audit
     w.allow_private = options_.webhook_allow_private;
     AuditStore* storage = &service_.audit_store();
     webhook_ = std::make_unique<WebhookSender>(
-        w, [storage](std::int64_t id, const std::string& status, std::int64_t attempts) {
+        w, [storage](AuditVerdictId id, const std::string& status, std::int64_t attempts) {
           try {
             storage->SetAuditWebhook(id, status, attempts);
           } catch (const std::exception& e) {
@@ -101,7 +101,7 @@ nlohmann::json AuditScheduler::Run(const std::string& machine_id, const std::str
                                        config ? config->next_run_at : std::nullopt);
   }
   if (webhook_ && verdict["level"].get<int>() >= 2) {
-    const std::int64_t id = verdict["id"].get<std::int64_t>();
+    const auto id = verdict["id"].get<AuditVerdictId>();
     service_.audit_store().SetAuditWebhook(id, "pending", 0);
     verdict["webhook"] = {{"status", "pending"}, {"attempts", 0}};
     webhook_->Enqueue(id, verdict.dump());

@@ -271,9 +271,9 @@ json ListAccuracyAudits(AuditSource& service, const AuditVerdictFilter& filter) 
       ListAccuracyAuditsText(service, filter, std::numeric_limits<std::size_t>::max()));
 }
 
-json AccuracyAuditJson(AuditSource& service, std::int64_t id) {
+json AccuracyAuditJson(AuditSource& service, AuditVerdictId id) {
   const auto v = service.audit_store().GetAuditVerdict(id);
-  if (!v) throw NotFound("accuracy audit " + std::to_string(id) + " does not exist");
+  if (!v) throw NotFound("accuracy audit " + to_string(id) + " does not exist");
   return VerdictJson(*v);
 }
 

@@ -44,7 +44,7 @@ std::string ListAccuracyAuditsText(AuditSource& service, const AuditVerdictFilte
 // the audit report's history of verdicts).
 nlohmann::json ListAccuracyAudits(AuditSource& service, const AuditVerdictFilter& filter);
 // One verdict (NotFound when there is none).
-nlohmann::json AccuracyAuditJson(AuditSource& service, std::int64_t id);
+nlohmann::json AccuracyAuditJson(AuditSource& service, AuditVerdictId id);
 // {"id", "machine_id", "level", "created_at", "trigger", "findings", "checked", "webhook"}.
 nlohmann::json VerdictJson(const AuditVerdictRecord& record);
 // {"metrics": [{"kind", "metric", "analysis", "unit", "description", "source"}]}.

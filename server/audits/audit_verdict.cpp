@@ -22,8 +22,8 @@ std::string Format(double v) {
 json Evidence(const AuditValue& v, const char* prefix) {
   const std::string p(prefix);
   json j = {{p + "value", v.value}, {p + "measured_at", v.measured_at}};
-  if (v.job_id != 0) {
-    j[p + "job_id"] = v.job_id;
+  if (v.job_id) {
+    j[p + "job_id"] = *v.job_id;
   } else {
     j[p + "measurement_id"] = ValueOrZero(v.measurement_id);
   }
@@ -31,8 +31,8 @@ json Evidence(const AuditValue& v, const char* prefix) {
 }
 
 std::string EvidenceName(const AuditValue& v) {
-  return v.job_id != 0 ? "calibration job " + std::to_string(v.job_id)
-                       : "measurement " + std::to_string(ValueOrZero(v.measurement_id));
+  return v.job_id ? "calibration job " + to_string(*v.job_id)
+                  : "measurement " + std::to_string(ValueOrZero(v.measurement_id));
 }
 
 std::string SetUpOf(const AuditRule& rule, const SetUpEvidence& s) {

@@ -21,7 +21,7 @@ struct AuditValue {
   double value = 0.0;
   std::optional<MeasurementId> measurement_id;  // none when the evidence is a job
   std::string measured_at;  // measurement time, else upload time; a job's finish time
-  std::int64_t job_id = 0;  // the calibration job; 0 for a measurement
+  std::optional<JobId> job_id = std::nullopt;  // the calibration job; none for a measurement
   std::optional<double> U =
       std::nullopt;  // the value's expanded uncertainty, when its result has one
 };

@@ -19,7 +19,7 @@ inline constexpr std::int64_t kCalibrationJobScan = 500;
 
 // A hexapod calibration an audit (kind "calibration") and a trend take as evidence.
 struct CalibrationRun {
-  std::int64_t job_id = 0;
+  JobId job_id;
   std::string finished_at;  // the job's updated_at
   std::int64_t at = 0;      // the same, Unix seconds
   nlohmann::json result;    // the job's result (docs/formats.md §5)

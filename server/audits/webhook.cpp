@@ -9,12 +9,12 @@
 namespace km::server {
 
 std::vector<std::pair<std::string, std::string>> WebhookHeaders(const WebhookOptions& options,
-                                                                std::int64_t id, int attempt,
+                                                                AuditVerdictId id, int attempt,
                                                                 std::int64_t unix_s,
                                                                 const std::string& body) {
   const std::string ts = std::to_string(unix_s);
   std::vector<std::pair<std::string, std::string>> h{
-      {"X-Kinemetric-Delivery", "audit-" + std::to_string(id)},
+      {"X-Kinemetric-Delivery", "audit-" + to_string(id)},
       {"X-Kinemetric-Attempt", std::to_string(attempt)},
       {"X-Kinemetric-Timestamp", ts}};
   if (!options.secret.empty()) {
@@ -49,7 +49,7 @@ void WebhookSender::Stop() {
   if (thread_.joinable()) thread_.join();
 }
 
-void WebhookSender::Enqueue(std::int64_t id, std::string body) {
+void WebhookSender::Enqueue(AuditVerdictId id, std::string body) {
   {
     std::lock_guard lock(mu_);
     queue_.push_back({id, std::move(body)});

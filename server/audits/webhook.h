@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "server/audits/webhook_client.h"
+#include "server/base/ids.h"
 
 namespace km::server {
 
@@ -40,14 +41,14 @@ struct WebhookOptions {
 
 // The headers of one delivery attempt of verdict `id` sent at Unix time `unix_s`.
 std::vector<std::pair<std::string, std::string>> WebhookHeaders(const WebhookOptions& options,
-                                                                std::int64_t id, int attempt,
+                                                                AuditVerdictId id, int attempt,
                                                                 std::int64_t unix_s,
                                                                 const std::string& body);
 
 class WebhookSender {
  public:
   // status(id, "delivered" | "failed" | "pending", attempts so far) after every attempt.
-  using StatusFn = std::function<void(std::int64_t, const std::string&, std::int64_t)>;
+  using StatusFn = std::function<void(AuditVerdictId, const std::string&, std::int64_t)>;
   WebhookSender(WebhookOptions options, StatusFn status);
   ~WebhookSender();
   WebhookSender(const WebhookSender&) = delete;
@@ -56,11 +57,11 @@ class WebhookSender {
   void Start();
   // Ends the queue, aborting the attempt under way (prompt: no wait for the receiver).
   void Stop();
-  void Enqueue(std::int64_t id, std::string body);
+  void Enqueue(AuditVerdictId id, std::string body);
 
  private:
   struct Item {
-    std::int64_t id;
+    AuditVerdictId id;
     std::string body;
   };
   enum class Outcome { kDelivered, kFailed, kStopped };

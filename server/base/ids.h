@@ -54,6 +54,12 @@ constexpr std::int64_t ValueOrZero(const std::optional<Id<Tag>>& id) {
   return id ? id->value() : 0;
 }
 
+// An optional id in an answer: its integer, or null for none.
+template <class Tag>
+nlohmann::json IdOrNull(const std::optional<Id<Tag>>& id) {
+  return id ? nlohmann::json(id->value()) : nlohmann::json(nullptr);
+}
+
 // The optional id of such an integer: none for 0.
 template <class IdType>
 constexpr std::optional<IdType> IdOrNone(std::int64_t value) {

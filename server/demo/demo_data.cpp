@@ -96,14 +96,14 @@ DemoFile DemoPositioningFile() {
   return DemoFile{"demo-positioning-x-2026-11-02.txt", text};
 }
 
-std::int64_t LoadDemoStream(StreamService& streams) {
+StreamId LoadDemoStream(StreamService& streams) {
   const nlohmann::json request = {
       {"machine_id", "demo-vmc"},
       {"name", "optical flat, X travel 300 mm"},
       {"channels",
        {{{"channel", 1}, {"name", "capacitance Z"}, {"unit", "um"}, {"rate_hz", 2000}},
         {{"channel", 2}, {"name", "X encoder"}, {"unit", "um"}, {"rate_hz", 2000}}}}};
-  const std::int64_t id = streams.CreateStream(request);
+  const StreamId id = streams.CreateStream(request);
   constexpr double kRate = 2000.0, kFeed = 600.0, kTravel = 300.0, kStart = 50.0;
   const auto n = static_cast<std::size_t>(kTravel / (kFeed / 60.0) * kRate);  // 30 s
   const std::int64_t t0 = 1'793'600'000'000'000;  // 2026-11-02 08:53:20 UTC

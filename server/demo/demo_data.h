@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "server/base/ids.h"
+
 namespace km::server {
 
 struct DemoFile {
@@ -27,6 +29,6 @@ class StreamService;
 // travels 300 mm at 600 mm/min ([Fujita thesis] set-up: 55 mm guide waviness of 0.2 µm, 10 mm
 // ball-screw lead of 0.05 µm, a set-up slope, 0.02 µm noise), with the X encoder on channel 2
 // and one lost frame; then the straightness profile made from it. Returns the stream id.
-std::int64_t LoadDemoStream(StreamService& streams);
+StreamId LoadDemoStream(StreamService& streams);
 
 }  // namespace km::server

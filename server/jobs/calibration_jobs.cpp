@@ -151,8 +151,8 @@ std::shared_ptr<CalibrationPlan> StudyService::CheckCalibration(const Calibratio
   return plan;
 }
 
-std::int64_t StudyService::SubmitCalibration(const CalibrationRequest& request,
-                                             std::int64_t owner_token_id) {
+JobId StudyService::SubmitCalibration(const CalibrationRequest& request,
+                                      std::optional<TokenId> owner_token_id) {
   std::int64_t stored_version = 0;
   const auto plan = CheckCalibration(request, stored_version);
   // The plan any instance runs: the request, with the stored model's version it was checked
@@ -252,23 +252,23 @@ void JudgeCalibrationResult(const nlohmann::json& r, JobFindings& out) {
   JudgeFixedParameters(r, out);
 }
 
-nlohmann::json StudyService::Job(std::int64_t id) {
+nlohmann::json StudyService::Job(JobId id) {
   const auto job = job_store_.GetJob(id);
-  if (!job) throw NotFound("job " + std::to_string(id) + " does not exist");
+  if (!job) throw NotFound("job " + to_string(id) + " does not exist");
   std::map<std::int64_t, std::string> machine_of;
   return AnsweredJob(*job, machine_of);
 }
 
-nlohmann::json StudyService::CancelJob(std::int64_t id, const JobCanceller& by) {
+nlohmann::json StudyService::CancelJob(JobId id, const JobCanceller& by) {
   const auto job = job_store_.GetJob(id);
-  const std::string name = "job " + std::to_string(id);
+  const std::string name = "job " + to_string(id);
   if (!job) throw NotFound(name + " does not exist");
-  if (!by.admin && (job->owner_token_id == 0 || job->owner_token_id != by.token_id)) {
+  if (!by.admin && (!job->owner_token_id || job->owner_token_id != by.token_id)) {
     throw Forbidden(name + " was submitted by another token; only its owner or an admin may " +
                     "cancel it");
   }
-  const std::string reason =
-      "cancelled by token '" + by.token_name + "' (id " + std::to_string(by.token_id) + ")";
+  const std::string reason = "cancelled by token '" + by.token_name + "' (id " +
+                             std::to_string(ValueOrZero(by.token_id)) + ")";
   if (!queue_.Cancel(id, reason)) {
     const auto now = job_store_.GetJob(id);
     throw Conflict(name + " is " +

@@ -40,8 +40,8 @@ std::shared_ptr<DiscoveryPlan> StudyService::CheckDiscovery(const DiscoveryReque
   return plan;
 }
 
-std::int64_t StudyService::SubmitDiscovery(const DiscoveryRequest& request,
-                                           std::int64_t owner_token_id) {
+JobId StudyService::SubmitDiscovery(const DiscoveryRequest& request,
+                                    std::optional<TokenId> owner_token_id) {
   std::int64_t version = 0;
   const auto plan = CheckDiscovery(request, version);
   // Shown and run: the request with the stored model's version it was checked against.

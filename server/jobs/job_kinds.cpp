@@ -90,8 +90,7 @@ nlohmann::json JobKinds::Json(const JobRecord& job) const {
   j["instance"] =
       job.lease_owner.empty() ? nlohmann::json(nullptr) : nlohmann::json(job.lease_owner);
   j["attempts"] = job.attempts;
-  j["owner_token_id"] =
-      job.owner_token_id > 0 ? nlohmann::json(job.owner_token_id) : nlohmann::json(nullptr);
+  j["owner_token_id"] = IdOrNull(job.owner_token_id);
   const JobVerdict v = Verdict(job, result);
   j["verdict"] = v.verdict.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.verdict);
   j["verdict_reasons"] = v.reasons;

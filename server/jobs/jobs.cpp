@@ -35,14 +35,16 @@ std::string InstanceName() {
 
 // The worker's storage calls must not end the process (a full disk, a locked or unreachable
 // database): a failure is reported on stderr with the job id.
-void LogJob(std::int64_t id, const std::string& message) {
+// The job is none for the queue's own storage calls.
+void LogJob(std::optional<JobId> id, const std::string& message) {
   try {
-    std::cerr << "kinemetricd: job " << id << ": " << message << std::endl;
+    std::cerr << "kinemetricd: " << (id ? "job " + to_string(*id) : std::string("job queue"))
+              << ": " << message << std::endl;
   } catch (...) {  // NOLINT(bugprone-empty-catch): nothing is left to report to
   }
 }
 
-void LogStoreFailure(std::int64_t id, const char* what, const std::string& error) {
+void LogStoreFailure(std::optional<JobId> id, const char* what, const std::string& error) {
   LogJob(id, std::string("could not store ") + what + ": " + error);
 }
 
@@ -93,19 +95,18 @@ void JobQueue::Stop() {
   if (heartbeat_.joinable()) heartbeat_.join();
   // The jobs interrupted above wait in the queue for the next instance.
   if (const auto error = Guarded([&] { storage_.ReleaseJobs(options_.instance); })) {
-    LogStoreFailure(0, "that this instance's jobs are free to run again", *error);
+    LogStoreFailure(std::nullopt, "that this instance's jobs are free to run again", *error);
   }
 }
 
-std::int64_t JobQueue::Submit(const std::string& kind, const nlohmann::json& request,
-                              const nlohmann::json& plan, std::int64_t owner_token_id) {
+JobId JobQueue::Submit(const std::string& kind, const nlohmann::json& request,
+                       const nlohmann::json& plan, std::optional<TokenId> owner_token_id) {
   if (storage_.CountJobsWithStatus(JobStatus::kQueued) >=
       static_cast<std::int64_t>(options_.max_queued)) {
     throw Unavailable("the job queue is full (" + std::to_string(options_.max_queued) +
                       " jobs waiting); try again later");
   }
-  const std::int64_t id =
-      storage_.QueueJob(NewJob{kind, request.dump(), plan.dump(), owner_token_id});
+  const JobId id = storage_.QueueJob(NewJob{kind, request.dump(), plan.dump(), owner_token_id});
   {
     std::lock_guard lock(mu_);
     ++pending_;
@@ -114,7 +115,7 @@ std::int64_t JobQueue::Submit(const std::string& kind, const nlohmann::json& req
   return id;
 }
 
-bool JobQueue::Cancel(std::int64_t id, const std::string& reason) {
+bool JobQueue::Cancel(JobId id, const std::string& reason) {
   if (!storage_.CancelJob(id, reason)) return false;
   std::lock_guard lock(mu_);
   if (const auto it = running_.find(id); it != running_.end()) it->second.lost = true;
@@ -148,7 +149,7 @@ std::optional<JobRecord> JobQueue::TryClaim() {
         job = storage_.ClaimJob(options_.instance, NowMs(), options_.lease_ms,
                                 options_.max_attempts, abandoned);
       })) {
-    LogStoreFailure(0, "the claim of a queued job", *error);
+    LogStoreFailure(std::nullopt, "the claim of a queued job", *error);
     return std::nullopt;
   }
   return job;
@@ -165,7 +166,7 @@ void JobQueue::Heartbeat() {
     const auto running = running_;
     lock.unlock();
     for (const auto& entry : running) {
-      const std::int64_t id = entry.first;
+      const JobId id = entry.first;
       const Running& r = entry.second;
       if (r.lost) continue;
       bool held = true;
@@ -183,7 +184,7 @@ void JobQueue::Heartbeat() {
   }
 }
 
-void JobQueue::Report(std::int64_t id, double progress, const std::string& stage) {
+void JobQueue::Report(JobId id, double progress, const std::string& stage) {
   {
     std::lock_guard lock(mu_);
     auto& r = running_[id];
@@ -238,7 +239,7 @@ void JobQueue::RunJob(JobRecord job) {
   } catch (const std::exception& e) {  // anything else is ours to look at, not the user's
     job.status = JobStatus::kFailed;
     job.error = "the job failed with an internal error (logged by the server as job " +
-                std::to_string(job.id) + ")";
+                to_string(job.id) + ")";
     LogJob(job.id, std::string("failed: ") + e.what());
   } catch (...) {
     job.status = JobStatus::kFailed;

@@ -49,12 +49,12 @@ class JobQueue {
 
   // Stores the job as queued (request: what the API shows; plan: what a worker runs) and wakes
   // a worker. Throws Unavailable when max_queued jobs are waiting.
-  std::int64_t Submit(const std::string& kind, const nlohmann::json& request,
-                      const nlohmann::json& plan, std::int64_t owner_token_id = 0);
+  JobId Submit(const std::string& kind, const nlohmann::json& request, const nlohmann::json& plan,
+               std::optional<TokenId> owner_token_id = std::nullopt);
   // Cancels a queued or running job (reason: its error); false when it is neither. A job
   // running here stops at its next progress report, its worker free for the next job; one
   // running on another instance stops there when its next report is refused by the storage.
-  bool Cancel(std::int64_t id, const std::string& reason);
+  bool Cancel(JobId id, const std::string& reason);
   const std::string& instance() const { return options_.instance; }
 
  private:
@@ -68,7 +68,7 @@ class JobQueue {
   std::optional<JobRecord> TryClaim();
   void RunJob(JobRecord job);
   JobOutput RunPlan(const JobRecord& job);
-  void Report(std::int64_t id, double progress, const std::string& stage);
+  void Report(JobId id, double progress, const std::string& stage);
   void Finish(JobRecord job);
   std::int64_t LeaseEnd() const;
 
@@ -79,7 +79,7 @@ class JobQueue {
   std::condition_variable cv_;
   bool started_ = false, stop_ = false;
   std::size_t pending_ = 0;  // submissions not yet looked for by a worker
-  std::map<std::int64_t, Running> running_;
+  std::map<JobId, Running> running_;
   std::vector<std::thread> workers_;
   std::thread heartbeat_;
 };

@@ -75,10 +75,10 @@ nlohmann::json StudyService::JobsOfMachine(const std::string& machine_id, std::i
   return {{"items", items}};
 }
 
-MachineModelStored StudyService::SaveJobMachine(std::int64_t job_id, const std::string& note) {
+MachineModelStored StudyService::SaveJobMachine(JobId job_id, const std::string& note) {
   const auto job = job_store_.GetJob(job_id);
-  if (!job) throw NotFound("job " + std::to_string(job_id) + " does not exist");
-  const std::string name = "job " + std::to_string(job_id);
+  if (!job) throw NotFound("job " + to_string(job_id) + " does not exist");
+  const std::string name = "job " + to_string(job_id);
   std::string key, source;
   if (job->kind == kCalibrationJob) {
     key = "calibrated_machine";

@@ -34,7 +34,7 @@ struct StudyOptions {
 // Who asks to cancel a job (StudyService::CancelJob): the caller's token and whether it is an
 // admin.
 struct JobCanceller {
-  std::int64_t token_id = 0;
+  std::optional<TokenId> token_id;
   std::string token_name;
   bool admin = false;
 };
@@ -77,15 +77,16 @@ class StudyService {
   // Returns the job id. The job's result is the `hexapod calibrate` object plus the calibrated
   // machine; its request records the stored model's version used. owner_token_id: the token
   // submitting the job, who may cancel it (CancelJob).
-  std::int64_t SubmitCalibration(const CalibrationRequest& request,
-                                 std::int64_t owner_token_id = 0);
+  JobId SubmitCalibration(const CalibrationRequest& request,
+                          std::optional<TokenId> owner_token_id = std::nullopt);
   // Model-gap discovery study (usecases/discovery_report.h), checked like a calibration. Without
   // a model: the serial study of the DBB tests' machine; with one: the stored model (a
   // hexapod's tests need the tool length). The job's result is the `kinemetric discover`
   // object, plus "updated_machine" when the study produced one.
-  std::int64_t SubmitDiscovery(const DiscoveryRequest& request, std::int64_t owner_token_id = 0);
+  JobId SubmitDiscovery(const DiscoveryRequest& request,
+                        std::optional<TokenId> owner_token_id = std::nullopt);
 
-  nlohmann::json Job(std::int64_t id);
+  nlohmann::json Job(JobId id);
   // The verdict on a stored job by its kind's judge (the audits read calibrations with it).
   JobVerdict Verdict(const JobRecord& job, const nlohmann::json& result) const {
     return kinds_.Verdict(job, result);
@@ -94,7 +95,7 @@ class StudyService {
   // answers the job, status "cancelled" (its error says by whom). A running job stops at its
   // next progress report. NotFound: no such job; Forbidden: `by` neither owns it nor is an
   // admin; Conflict: the job is done, failed or cancelled already.
-  nlohmann::json CancelJob(std::int64_t id, const JobCanceller& by);
+  nlohmann::json CancelJob(JobId id, const JobCanceller& by);
   nlohmann::json Jobs(std::int64_t limit);
   // The jobs of one machine, newest first, as Jobs: those whose request names the machine
   // (machine_id) or whose DBB tests are of it; among the newest `scan` jobs.
@@ -104,7 +105,7 @@ class StudyService {
   // discovery's updated machine) as the next version of its model, source "calibration job N"
   // or "discovery job N". NotFound: no such job; Conflict: the job is not done, or produced no
   // machine.
-  MachineModelStored SaveJobMachine(std::int64_t job_id, const std::string& note);
+  MachineModelStored SaveJobMachine(JobId job_id, const std::string& note);
 
   // Stops the workers (a running job goes back to the queue).
   void Stop() { queue_.Stop(); }

@@ -43,8 +43,8 @@ CertificateSubject MeasurementCertificate(MeasurementId id, std::optional<Measur
   return s;
 }
 
-CertificateSubject JobCertificate(std::int64_t id) {
-  return {"job " + std::to_string(id), "KM-J" + Padded(id)};
+CertificateSubject JobCertificate(JobId id) {
+  return {"job " + to_string(id), "KM-J" + Padded(id.value())};
 }
 
 CertificateSubject AuditCertificate(const std::string& machine_id) {

@@ -27,12 +27,12 @@ struct CertificateSubject {
 };
 
 CertificateSubject MeasurementCertificate(MeasurementId id, std::optional<MeasurementId> as_left);
-CertificateSubject JobCertificate(std::int64_t id);
+CertificateSubject JobCertificate(JobId id);
 CertificateSubject AuditCertificate(const std::string& machine_id);
 
 // Who approves: the token presented (its id and name).
 struct ReportApprover {
-  std::int64_t token_id = 0;
+  TokenId token_id;
   std::string name;
 };
 

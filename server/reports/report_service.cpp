@@ -178,7 +178,7 @@ ReportService::Prepared ReportService::PrepareMeasurement(MeasurementId id,
   return p;
 }
 
-ReportService::Prepared ReportService::PrepareJob(std::int64_t id) {
+ReportService::Prepared ReportService::PrepareJob(JobId id) {
   nlohmann::json job = studies_.Job(id);
   Prepared p;
   p.subject = JobCertificate(id);
@@ -263,7 +263,7 @@ std::string ReportService::MeasurementPdf(MeasurementId id, const ReportRequest&
              q.revision);
 }
 
-std::string ReportService::JobPdf(std::int64_t id, std::optional<std::int64_t> revision) {
+std::string ReportService::JobPdf(JobId id, std::optional<std::int64_t> revision) {
   return Pdf([this, id] { return PrepareJob(id); }, revision);
 }
 
@@ -277,7 +277,7 @@ nlohmann::json ReportService::MeasurementRevisions(MeasurementId id,
   return Revisions(PrepareMeasurement(id, as_left));
 }
 
-nlohmann::json ReportService::JobRevisions(std::int64_t id) {
+nlohmann::json ReportService::JobRevisions(JobId id) {
   return Revisions(PrepareJob(id));
 }
 
@@ -294,14 +294,14 @@ nlohmann::json ReportService::ApproveMeasurement(MeasurementId id,
       [this, id, as_left] { return PrepareMeasurement(id, as_left); }, revision, by);
 }
 
-nlohmann::json ReportService::ApproveJob(std::int64_t id, std::optional<std::int64_t> revision,
+nlohmann::json ReportService::ApproveJob(JobId id, std::optional<std::int64_t> revision,
                                          const ReportApprover& by) {
   return Approve(
       JobCertificate(id),
       [this, id] {
         Prepared p = PrepareJob(id);
         if (p.content.value("status", "") != "done") {
-          throw Conflict("job " + std::to_string(id) + " is " + p.content.value("status", "") +
+          throw Conflict("job " + to_string(id) + " is " + p.content.value("status", "") +
                          ": a job's report is approved when the job is done");
         }
         return p;

@@ -42,7 +42,7 @@ class ReportService {
   // naming `as_left` for a test that is not a later test of the same set-up.
   std::string MeasurementPdf(MeasurementId id, const ReportRequest& request = {});
   // GET /api/v1/jobs/{id}/report.pdf; NotFound for an unknown job.
-  std::string JobPdf(std::int64_t id, std::optional<std::int64_t> revision = std::nullopt);
+  std::string JobPdf(JobId id, std::optional<std::int64_t> revision = std::nullopt);
   // GET /api/v1/machines/{machine_id}/audit/report.pdf; NotFound for a machine with neither
   // an audit nor a verdict.
   std::string AuditPdf(const std::string& machine_id,
@@ -50,13 +50,13 @@ class ReportService {
 
   // GET …/report/revisions: the certificate's revisions (Certificates::Revisions).
   nlohmann::json MeasurementRevisions(MeasurementId id, std::optional<MeasurementId> as_left);
-  nlohmann::json JobRevisions(std::int64_t id);
+  nlohmann::json JobRevisions(JobId id);
   nlohmann::json AuditRevisions(const std::string& machine_id);
   // POST …/report/approve: approves the current revision (`revision`, when given, must be it;
   // Conflict otherwise or when it is already approved) and freezes its PDF.
   nlohmann::json ApproveMeasurement(MeasurementId id, std::optional<MeasurementId> as_left,
                                     std::optional<std::int64_t> revision, const ReportApprover& by);
-  nlohmann::json ApproveJob(std::int64_t id, std::optional<std::int64_t> revision,
+  nlohmann::json ApproveJob(JobId id, std::optional<std::int64_t> revision,
                             const ReportApprover& by);
   nlohmann::json ApproveAudit(const std::string& machine_id, std::optional<std::int64_t> revision,
                               const ReportApprover& by);
@@ -74,7 +74,7 @@ class ReportService {
     std::function<render::Report(const Cancelled&)> build;
   };
   Prepared PrepareMeasurement(MeasurementId id, std::optional<MeasurementId> as_left);
-  Prepared PrepareJob(std::int64_t id);
+  Prepared PrepareJob(JobId id);
   Prepared PrepareAudit(const std::string& machine_id);
   std::string Pdf(const std::function<Prepared()>& prepare, std::optional<std::int64_t> revision);
   nlohmann::json Approve(const CertificateSubject& subject,

@@ -279,7 +279,8 @@ struct Column {
 
 struct StreamRange {
   StreamStore* store = nullptr;
-  std::int64_t stream = 0, from_us = 0, to_us = 0;
+  StreamId stream;
+  std::int64_t from_us = 0, to_us = 0;
   Column Read(const std::string& name, std::int64_t channel, double scale) const {
     return {name, ReadChannelSamples(*store, stream, channel, from_us, to_us), scale};
   }
@@ -388,9 +389,9 @@ std::string HexapodRecord(const StreamRange& range, const nlohmann::json& reques
 
 }  // namespace
 
-UploadOutcome ServoService::FromStream(std::int64_t stream_id, const nlohmann::json& request) {
+UploadOutcome ServoService::FromStream(StreamId stream_id, const nlohmann::json& request) {
   const auto rec = streams_.store().GetStream(stream_id);
-  if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+  if (!rec) throw NotFound("stream " + to_string(stream_id) + " does not exist");
   if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
   if (request.contains("axes") == request.contains("struts")) {
     throw InvalidInput(req::kFile, 0, "axes",
@@ -407,10 +408,10 @@ UploadOutcome ServoService::FromStream(std::int64_t stream_id, const nlohmann::j
   const std::string body =
       request.contains("axes") ? FeedDriveRecord(range, request) : HexapodRecord(range, request);
   const std::string text =
-      "# format: kinemetric-servo/1\n# machine_id: " + rec->machine_id + "\n# test_id: " +
-      req::OptionalString(request, "test_id", "stream-" + std::to_string(stream_id)) +
-      "\n# source_stream: " + std::to_string(stream_id) + "\n" + body;
-  return measurements_.Upload(text, "stream-" + std::to_string(stream_id) + "-servo.csv");
+      "# format: kinemetric-servo/1\n# machine_id: " + rec->machine_id +
+      "\n# test_id: " + req::OptionalString(request, "test_id", "stream-" + to_string(stream_id)) +
+      "\n# source_stream: " + to_string(stream_id) + "\n" + body;
+  return measurements_.Upload(text, "stream-" + to_string(stream_id) + "-servo.csv");
 }
 
 }  // namespace km::server

@@ -57,7 +57,7 @@ class ServoService {
   // "from_us"?, "to_us"?}. The rows are the samples of the first axis's position channel (µm,
   // written in mm); the other channels are interpolated linearly in time to them (rows outside
   // any channel's time span are left out). Force channels carry N (or A) in their value field.
-  UploadOutcome FromStream(std::int64_t stream_id, const nlohmann::json& request);
+  UploadOutcome FromStream(StreamId stream_id, const nlohmann::json& request);
 
  private:
   MeasurementStore& store_;

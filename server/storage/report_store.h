@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "server/base/ids.h"
+
 namespace km::server {
 
 struct NewReportRevision {
@@ -21,7 +23,7 @@ struct ReportApprovalRecord {
   std::string subject;
   std::int64_t revision = 0;
   std::string approved_by;  // the approving token's name
-  std::int64_t token_id = 0;
+  TokenId token_id;
   std::string approved_at;  // ISO 8601 UTC
   std::string pdf;          // the approved document; empty when listed
 };

@@ -185,7 +185,7 @@ inline JobStatus StoredJobStatus(std::string_view text) {
 
 // A background job (e.g. a hexapod calibration study) and its stored outcome.
 struct JobRecord {
-  std::int64_t id = 0;
+  JobId id;
   std::string kind;  // as registered with the job queue (server/jobs/jobs.h kCalibrationJob, …)
   JobStatus status = JobStatus::kQueued;
   double progress = 0.0;
@@ -201,8 +201,8 @@ struct JobRecord {
   std::string lease_owner;
   std::int64_t lease_until_ms = 0;
   std::int64_t attempts = 0;
-  // The access token that submitted the job (0: not known, e.g. queued before it was kept).
-  std::int64_t owner_token_id = 0;
+  // The access token that submitted the job (none: not known, e.g. queued before it was kept).
+  std::optional<TokenId> owner_token_id;
   // The machine definition a finished job produced (a calibrated or updated machine), exactly as
   // the machine writer wrote it and stored unchanged when it is saved as a model; empty when the
   // job produced none or finished before it was kept (migration 14).
@@ -214,7 +214,7 @@ struct NewJob {
   std::string kind;
   std::string request_json;
   std::string plan_json;
-  std::int64_t owner_token_id = 0;
+  std::optional<TokenId> owner_token_id = std::nullopt;
 };
 
 // Capacitance-sensor streams (docs/streams.md). A stream belongs to a machine and has a source
@@ -228,13 +228,13 @@ struct NewStream {
 };
 
 struct StreamRecord {
-  std::int64_t id = 0;
+  StreamId id;
   std::string machine_id, name, source, metadata_json, created_at;
 };
 
 // One stored chunk: counters first_counter … first_counter + n − 1 of one channel.
 struct StreamChunk {
-  std::int64_t stream_id = 0;
+  StreamId stream_id;
   std::int64_t channel = 0;
   std::int64_t first_counter = 0;
   std::int64_t n = 0;
@@ -245,7 +245,7 @@ struct StreamChunk {
 };
 
 struct StreamGap {
-  std::int64_t stream_id = 0;
+  StreamId stream_id;
   std::int64_t channel = 0;
   std::int64_t first_missing = 0;  // first counter that never arrived
   std::int64_t missing = 0;        // how many counters
@@ -265,7 +265,7 @@ struct StreamChannelSummary {
 
 // An access token as stored (never the secret, nor its hash once read back for a list).
 struct TokenRecord {
-  std::int64_t id = 0;
+  TokenId id;
   std::string role;
   std::string name;
   std::string created_at;
@@ -276,9 +276,9 @@ struct TokenRecord {
 
 // One state-changing request: who (token), what (method, path, status, subject), when.
 struct AuditEntry {
-  std::int64_t id = 0;        // set by the storage
-  std::string at;             // ISO 8601 UTC; the storage sets it when empty
-  std::int64_t token_id = 0;  // 0: no valid token was presented
+  AuditEntryId id;                  // set by the storage
+  std::string at;                   // ISO 8601 UTC; the storage sets it when empty
+  std::optional<TokenId> token_id;  // none: no valid token was presented
   std::string token_name;
   std::string role;
   std::string method;
@@ -304,7 +304,7 @@ struct AuditConfigRecord {
 
 // One run of an accuracy audit: the verdict (level 1 normal, 2 warn, 3 stop) and its findings.
 struct AuditVerdictRecord {
-  std::int64_t id = 0;
+  AuditVerdictId id;
   std::string machine_id;
   int level = 1;
   std::string trigger;     // "manual" or "schedule"
@@ -413,9 +413,9 @@ class JobStore {
   virtual ~JobStore() = default;
 
   // Background jobs.
-  virtual std::int64_t CreateJob(const std::string& kind, const std::string& request_json) = 0;
+  virtual JobId CreateJob(const std::string& kind, const std::string& request_json) = 0;
   virtual void UpdateJob(const JobRecord& job) = 0;  // status, progress, stage, result, error
-  virtual std::optional<JobRecord> GetJob(std::int64_t id) = 0;
+  virtual std::optional<JobRecord> GetJob(JobId id) = 0;
   virtual std::vector<JobRecord> ListJobs(std::int64_t limit) = 0;
   // Marks jobs left queued or running by a previous process as failed; returns how many.
   virtual int FailInterruptedJobs(const std::string& reason) = 0;
@@ -433,13 +433,13 @@ class JobStore {
   // when there is none. Concurrent callers (threads, instances) never take the same job. In the
   // same transaction, running jobs whose lease ended after max_attempts starts are failed with
   // abandoned_error.
-  virtual std::int64_t QueueJob(const NewJob& job) = 0;
+  virtual JobId QueueJob(const NewJob& job) = 0;
   virtual std::optional<JobRecord> ClaimJob(const std::string& owner, std::int64_t now_ms,
                                             std::int64_t lease_ms, int max_attempts,
                                             const std::string& abandoned_error) = 0;
   // Progress of owner's running job, its lease extended to lease_until_ms; false (nothing
   // written) when the job is no longer owner's or no longer running.
-  virtual bool RenewJob(std::int64_t id, const std::string& owner, double progress,
+  virtual bool RenewJob(JobId id, const std::string& owner, double progress,
                         const std::string& stage, std::int64_t lease_until_ms) = 0;
   // The outcome of owner's running job (status done or failed, progress, stage, result_json,
   // error); the lease ends (lease_owner stays: the instance that ran it). false when the job is
@@ -451,7 +451,7 @@ class JobStore {
   // A queued or running job becomes cancelled (stage "cancelled", error = reason, lease ended):
   // no instance claims it again, and the instance running it has its next RenewJob and
   // FinishJob refused. false (nothing written) when the job is not queued or running.
-  virtual bool CancelJob(std::int64_t id, const std::string& reason) = 0;
+  virtual bool CancelJob(JobId id, const std::string& reason) = 0;
 };
 
 // Capacitance-sensor streams: chunks of samples and gaps.
@@ -461,22 +461,22 @@ class StreamStore {
 
   // Streams. AppendStream writes chunks and gaps in one transaction; a chunk whose
   // (stream, channel, first_counter) is stored already is refused (InvalidInput).
-  virtual std::int64_t CreateStream(const NewStream& s) = 0;
-  virtual std::optional<StreamRecord> GetStream(std::int64_t id) = 0;
+  virtual StreamId CreateStream(const NewStream& s) = 0;
+  virtual std::optional<StreamRecord> GetStream(StreamId id) = 0;
   virtual std::vector<StreamRecord> ListStreams(const std::optional<std::string>& machine_id,
                                                 std::int64_t limit) = 0;
   virtual void AppendStream(const std::vector<StreamChunk>& chunks,
                             const std::vector<StreamGap>& gaps) = 0;
-  virtual std::vector<StreamChannelSummary> StreamChannels(std::int64_t stream_id) = 0;
+  virtual std::vector<StreamChannelSummary> StreamChannels(StreamId stream_id) = 0;
   // Chunks of one channel overlapping [from_us, to_us), in counter order; with_data = false
   // leaves StreamChunk::data empty (the per-chunk statistics suffice for coarse plots).
-  virtual std::vector<StreamChunk> ReadStreamChunks(std::int64_t stream_id, std::int64_t channel,
+  virtual std::vector<StreamChunk> ReadStreamChunks(StreamId stream_id, std::int64_t channel,
                                                     std::int64_t from_us, std::int64_t to_us,
                                                     bool with_data) = 0;
   // The encoded samples of one chunk (NotFound when there is none at that first counter).
-  virtual std::string ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
+  virtual std::string ReadStreamChunkData(StreamId stream_id, std::int64_t channel,
                                           std::int64_t first_counter) = 0;
-  virtual std::vector<StreamGap> StreamGaps(std::int64_t stream_id, std::int64_t limit) = 0;
+  virtual std::vector<StreamGap> StreamGaps(StreamId stream_id, std::int64_t limit) = 0;
 };
 
 // Access: tokens (as hashes) and the audit log of state-changing requests.
@@ -490,9 +490,9 @@ class AccessStore {
                         const std::string& label) = 0;
   virtual std::optional<std::string> FindTokenRole(const std::string& token_sha256) = 0;
   // Named tokens with a role and an optional expiry (server/access/access.h); the new token's id.
-  virtual std::int64_t AddToken(const std::string& token_sha256, const std::string& role,
-                                const std::string& name,
-                                const std::optional<std::string>& expires_at) = 0;
+  virtual TokenId AddToken(const std::string& token_sha256, const std::string& role,
+                           const std::string& name,
+                           const std::optional<std::string>& expires_at) = 0;
   // The token of a hash, also when it is expired or revoked (the caller decides).
   virtual std::optional<TokenRecord> FindToken(const std::string& token_sha256) = 0;
   virtual std::vector<TokenRecord> ListTokens() = 0;  // by id
@@ -500,9 +500,9 @@ class AccessStore {
   // the first time). `check` sees every token as stored at that moment and throws to refuse;
   // the check and the revocation are one transaction, also against other instances.
   using TokensCheck = std::function<void(const std::vector<TokenRecord>&)>;
-  virtual bool RevokeToken(std::int64_t id, const TokensCheck& check) = 0;
+  virtual bool RevokeToken(TokenId id, const TokensCheck& check) = 0;
   // Records that a token was used at `at` (ISO 8601 UTC); an earlier time never replaces a later.
-  virtual void TouchToken(std::int64_t id, const std::string& at) = 0;
+  virtual void TouchToken(TokenId id, const std::string& at) = 0;
   // The audit log of state-changing requests, appended only; listed newest first.
   virtual void AppendAudit(const AuditEntry& entry) = 0;
   virtual AuditPage ListAudit(std::int64_t limit, std::int64_t offset) = 0;
@@ -526,10 +526,10 @@ class AuditStore {
   virtual bool ClaimAuditRun(const std::string& machine_id, const std::string& due,
                              const std::string& last, const std::optional<std::string>& next) = 0;
   // Verdicts are appended (the new id) and never deleted; listed newest first.
-  virtual std::int64_t AddAuditVerdict(const AuditVerdictRecord& verdict) = 0;
-  virtual std::optional<AuditVerdictRecord> GetAuditVerdict(std::int64_t id) = 0;
+  virtual AuditVerdictId AddAuditVerdict(const AuditVerdictRecord& verdict) = 0;
+  virtual std::optional<AuditVerdictRecord> GetAuditVerdict(AuditVerdictId id) = 0;
   virtual std::vector<AuditVerdictRecord> ListAuditVerdicts(const AuditVerdictFilter& filter) = 0;
-  virtual void SetAuditWebhook(std::int64_t id, const std::string& status,
+  virtual void SetAuditWebhook(AuditVerdictId id, const std::string& status,
                                std::int64_t attempts) = 0;
 };
 

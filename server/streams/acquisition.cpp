@@ -16,7 +16,7 @@ namespace mb = ingest::modbus;
 struct Acquisition::Entry {
   std::string machine_id;
   mb::DeviceConfig config;
-  std::int64_t stream_id = 0;
+  StreamId stream_id;
   std::unique_ptr<ingest::SampleSink> sink;
   std::unique_ptr<mb::ModbusDevice> device;
 };

@@ -26,7 +26,7 @@ namespace km::server {
 // Opens a stream for a device: the stream request (docs/streams.md) and its source; returns
 // the stream id (StreamService::CreateStream).
 using OpenStream =
-    std::function<std::int64_t(const nlohmann::json& request, const std::string& source)>;
+    std::function<StreamId(const nlohmann::json& request, const std::string& source)>;
 
 // What devices added through the API may be: at most max_devices running at once (those of
 // the config file included), each polling a host (a numeric address) within one of the

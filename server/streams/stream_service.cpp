@@ -39,7 +39,7 @@ json GapJson(const StreamGap& g) {
 }
 
 // All samples of a channel in [from, to), in counter order, as one run.
-ingest::SampleRun ReadChannel(StreamStore& storage, std::int64_t stream, std::int64_t channel,
+ingest::SampleRun ReadChannel(StreamStore& storage, StreamId stream, std::int64_t channel,
                               std::int64_t from_us, std::int64_t to_us) {
   auto samples = ReadChannelSamples(storage, stream, channel, from_us, to_us);
   ingest::SampleRun out;
@@ -65,7 +65,7 @@ StreamService::~StreamService() {
   acquisition_.reset();  // the devices stop before the hub writes what it buffers
 }
 
-std::int64_t StreamService::CreateStream(const json& request, const std::string& source) {
+StreamId StreamService::CreateStream(const json& request, const std::string& source) {
   if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
   NewStream s;
   s.machine_id = RequiredString(request, "machine_id");
@@ -99,7 +99,7 @@ std::int64_t StreamService::CreateStream(const json& request, const std::string&
 
 struct FrameIngestion::State {
   StreamHub& hub;
-  std::int64_t stream_id;
+  StreamId stream_id;
   std::string source;
   ingest::StreamFrameDecoder decoder;
   IngestCounts counts;
@@ -107,12 +107,12 @@ struct FrameIngestion::State {
   void OnRun(ingest::SampleRun&& run) { hub.Accept(stream_id, std::move(run), counts); }
 };
 
-FrameIngestion::FrameIngestion(StreamService& streams, std::int64_t stream_id,
+FrameIngestion::FrameIngestion(StreamService& streams, StreamId stream_id,
                                const std::string& content_type) {
   if (!streams.store().GetStream(stream_id)) {
-    throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+    throw NotFound("stream " + to_string(stream_id) + " does not exist");
   }
-  const std::string source = "stream " + std::to_string(stream_id) + " frames";
+  const std::string source = "stream " + to_string(stream_id) + " frames";
   state_.reset(new State{
       streams.hub(),
       stream_id,
@@ -164,7 +164,7 @@ json FrameIngestion::Finish(bool complete) {
           {"duplicates", s.counts.duplicates}, {"gaps", gaps}};
 }
 
-json StreamService::IngestFrames(std::int64_t stream_id, const std::string& content_type,
+json StreamService::IngestFrames(StreamId stream_id, const std::string& content_type,
                                  const BodyReader& read_body) {
   FrameIngestion ingestion(*this, stream_id, content_type);
   const bool complete = read_body([&ingestion](std::string_view piece) {
@@ -174,9 +174,9 @@ json StreamService::IngestFrames(std::int64_t stream_id, const std::string& cont
   return ingestion.Finish(complete);
 }
 
-json StreamService::StreamJson(std::int64_t stream_id) {
+json StreamService::StreamJson(StreamId stream_id) {
   const auto rec = store_.GetStream(stream_id);
-  if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+  if (!rec) throw NotFound("stream " + to_string(stream_id) + " does not exist");
   json j;
   j["id"] = rec->id;
   j["machine_id"] = rec->machine_id;
@@ -223,16 +223,16 @@ json StreamService::ListStreams(const std::optional<std::string>& machine_id, st
   return {{"items", items}};
 }
 
-json StreamService::StreamGapsJson(std::int64_t stream_id, std::int64_t limit) {
+json StreamService::StreamGapsJson(StreamId stream_id, std::int64_t limit) {
   if (!store_.GetStream(stream_id)) {
-    throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+    throw NotFound("stream " + to_string(stream_id) + " does not exist");
   }
   json items = json::array();
   for (const auto& g : store_.StreamGaps(stream_id, limit)) items.push_back(GapJson(g));
   return {{"stream_id", stream_id}, {"items", items}};
 }
 
-json StreamService::StreamSamples(std::int64_t stream_id, std::int64_t channel,
+json StreamService::StreamSamples(StreamId stream_id, std::int64_t channel,
                                   std::optional<std::int64_t> from_us,
                                   std::optional<std::int64_t> to_us, std::size_t max_points) {
   std::int64_t lo = std::numeric_limits<std::int64_t>::min();
@@ -241,9 +241,9 @@ json StreamService::StreamSamples(std::int64_t stream_id, std::int64_t channel,
                            max_points);
 }
 
-UploadOutcome StreamService::StreamProfile(std::int64_t stream_id, const json& request) {
+UploadOutcome StreamService::StreamProfile(StreamId stream_id, const json& request) {
   const auto rec = store_.GetStream(stream_id);
-  if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+  if (!rec) throw NotFound("stream " + to_string(stream_id) + " does not exist");
   if (!request.is_object()) throw InvalidInput(req::kFile, 0, "", "a JSON object is required");
   const auto channel = req::WholeNumber(request, "channel", 0, 65535);
   const auto from_us = req::WholeNumber(
@@ -271,7 +271,7 @@ UploadOutcome StreamService::StreamProfile(std::int64_t stream_id, const json& r
   spec.reference = OptionalString(request, "reference", spec.reference);
   spec.test_id = OptionalString(request, "test_id", "");
   spec.points = bins;
-  spec.provenance = {{"source_stream", std::to_string(stream_id)}};
+  spec.provenance = {{"source_stream", to_string(stream_id)}};
   std::optional<ingest::SampleRun> encoder;
   if (pos.contains("encoder_channel")) {
     const auto enc = req::WholeNumber(pos, "encoder_channel", 0, 65535);
@@ -283,7 +283,7 @@ UploadOutcome StreamService::StreamProfile(std::int64_t stream_id, const json& r
   const std::string text =
       usecases::StraightnessFileFromStream(spec, sensor, encoder ? &*encoder : nullptr);
   return measurements_.Upload(
-      text, "stream-" + std::to_string(stream_id) + "-ch" + std::to_string(channel) + ".csv");
+      text, "stream-" + to_string(stream_id) + "-ch" + std::to_string(channel) + ".csv");
 }
 
 }  // namespace km::server

@@ -32,19 +32,19 @@ class StreamService {
   // duplicate, and the gaps found. Samples of frames before a bad frame are kept; the bad frame
   // is reported (InvalidInput).
   using BodyReader = std::function<bool(const std::function<bool(std::string_view)>&)>;
-  std::int64_t CreateStream(const nlohmann::json& request, const std::string& source = "http");
-  nlohmann::json IngestFrames(std::int64_t stream_id, const std::string& content_type,
+  StreamId CreateStream(const nlohmann::json& request, const std::string& source = "http");
+  nlohmann::json IngestFrames(StreamId stream_id, const std::string& content_type,
                               const BodyReader& read_body);
-  nlohmann::json StreamJson(std::int64_t stream_id);
+  nlohmann::json StreamJson(StreamId stream_id);
   nlohmann::json ListStreams(const std::optional<std::string>& machine_id, std::int64_t limit);
-  nlohmann::json StreamGapsJson(std::int64_t stream_id, std::int64_t limit);
-  nlohmann::json StreamSamples(std::int64_t stream_id, std::int64_t channel,
+  nlohmann::json StreamGapsJson(StreamId stream_id, std::int64_t limit);
+  nlohmann::json StreamSamples(StreamId stream_id, std::int64_t channel,
                                std::optional<std::int64_t> from_us,
                                std::optional<std::int64_t> to_us, std::size_t max_points);
   // Turns a stretch of one channel into a straightness profile (position from an encoder
   // channel or from feed × time), stores it as a kinemetric-straightness/1 measurement and
   // analyses it like an upload. Request: see docs/streams.md.
-  UploadOutcome StreamProfile(std::int64_t stream_id, const nlohmann::json& request);
+  UploadOutcome StreamProfile(StreamId stream_id, const nlohmann::json& request);
 
   StreamHub& hub() { return *hub_; }
   StreamStore& store() { return store_; }
@@ -65,7 +65,7 @@ class StreamService {
 class FrameIngestion {
  public:
   // Throws NotFound when the stream does not exist.
-  FrameIngestion(StreamService& streams, std::int64_t stream_id, const std::string& content_type);
+  FrameIngestion(StreamService& streams, StreamId stream_id, const std::string& content_type);
   ~FrameIngestion();
   void Feed(std::string_view piece);
   // complete = false: the body ended early; what was stored stays, InvalidInput says so.

@@ -48,20 +48,20 @@ void StreamHub::FlusherLoop() {
   }
 }
 
-std::int64_t StreamHub::Create(const NewStream& stream) {
-  const std::int64_t id = storage_.CreateStream(stream);
+StreamId StreamHub::Create(const NewStream& stream) {
+  const StreamId id = storage_.CreateStream(stream);
   Get(id);
   return id;
 }
 
-StreamHub::State& StreamHub::Get(std::int64_t stream_id) {
+StreamHub::State& StreamHub::Get(StreamId stream_id) {
   State* state = nullptr;
   {
     std::lock_guard lock(mu_);
     auto it = states_.find(stream_id);
     if (it == states_.end()) {
       const auto rec = storage_.GetStream(stream_id);
-      if (!rec) throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+      if (!rec) throw NotFound("stream " + to_string(stream_id) + " does not exist");
       it = states_.emplace(stream_id, std::make_unique<State>()).first;
       if (!rec->metadata_json.empty()) {
         const auto meta = ingest::ParseJsonTextOrDiscarded(rec->metadata_json);
@@ -82,7 +82,7 @@ StreamHub::State& StreamHub::Get(std::int64_t stream_id) {
   return *state;
 }
 
-void StreamHub::Load(std::int64_t stream_id, State& s) {
+void StreamHub::Load(StreamId stream_id, State& s) {
   for (const auto& c : storage_.StreamChannels(stream_id)) {
     Channel& ch = s.channels[static_cast<std::uint32_t>(c.channel)];
     ch.counters = ingest::ChannelCounters(c.next_counter, c.last_t_us);
@@ -90,7 +90,7 @@ void StreamHub::Load(std::int64_t stream_id, State& s) {
   s.loaded = true;
 }
 
-void StreamHub::Seal(std::int64_t stream_id, Channel& ch, State& s) {
+void StreamHub::Seal(StreamId stream_id, Channel& ch, State& s) {
   auto& p = ch.pending;
   std::size_t begin = 0;
   while (begin < p.size()) {
@@ -112,7 +112,7 @@ void StreamHub::Write(State& s) {
   s.gaps.clear();
 }
 
-void StreamHub::Accept(std::int64_t stream_id, ingest::SampleRun run, IngestCounts& counts) {
+void StreamHub::Accept(StreamId stream_id, ingest::SampleRun run, IngestCounts& counts) {
   const std::size_t n = run.value_um.size();
   if (run.t_us.size() != n || (!run.status.empty() && run.status.size() != n)) {
     throw InvalidInput("", 0, "samples", "a run's timestamps, values and status differ in length");
@@ -126,7 +126,7 @@ void StreamHub::Accept(std::int64_t stream_id, ingest::SampleRun run, IngestCoun
   if (!s.declared.empty() && !s.declared.count(run.channel)) {
     throw InvalidInput("", 0, "channel",
                        "channel " + std::to_string(run.channel) + " is not declared for stream " +
-                           std::to_string(stream_id));
+                           to_string(stream_id));
   }
   Channel& ch = s.channels[run.channel];
   ch.pending.channel = run.channel;
@@ -173,19 +173,19 @@ void StreamHub::Accept(std::int64_t stream_id, ingest::SampleRun run, IngestCoun
   if (s.ready.size() >= options_.ready_chunks) Write(s);
 }
 
-void StreamHub::FlushLocked(std::int64_t stream_id, State& s) {
+void StreamHub::FlushLocked(StreamId stream_id, State& s) {
   for (auto& [id, ch] : s.channels) Seal(stream_id, ch, s);
   Write(s);
 }
 
-void StreamHub::Flush(std::int64_t stream_id) {
+void StreamHub::Flush(StreamId stream_id) {
   State& s = Get(stream_id);
   std::lock_guard lock(s.mu);
   FlushLocked(stream_id, s);
 }
 
 void StreamHub::FlushAll() {
-  std::vector<std::pair<std::int64_t, State*>> all;
+  std::vector<std::pair<StreamId, State*>> all;
   {
     std::lock_guard lock(mu_);
     for (auto& [id, st] : states_) all.emplace_back(id, st.get());
@@ -202,7 +202,7 @@ void StreamHub::FlushAll() {
   if (first_error) std::rethrow_exception(first_error);
 }
 
-std::map<std::uint32_t, std::size_t> StreamHub::Pending(std::int64_t stream_id) {
+std::map<std::uint32_t, std::size_t> StreamHub::Pending(StreamId stream_id) {
   State& s = Get(stream_id);
   std::lock_guard lock(s.mu);
   std::map<std::uint32_t, std::size_t> out;
@@ -214,7 +214,7 @@ std::map<std::uint32_t, std::size_t> StreamHub::Pending(std::int64_t stream_id) 
 namespace {
 class HubSink final : public ingest::SampleSink {
  public:
-  HubSink(StreamHub& hub, std::int64_t id) : hub_(hub), id_(id) {}
+  HubSink(StreamHub& hub, StreamId id) : hub_(hub), id_(id) {}
   void Deliver(const std::vector<ingest::StreamSample>& samples) override {
     IngestCounts counts;
     for (const auto& smp : samples) {
@@ -230,11 +230,11 @@ class HubSink final : public ingest::SampleSink {
 
  private:
   StreamHub& hub_;
-  std::int64_t id_;
+  StreamId id_;
 };
 }  // namespace
 
-std::unique_ptr<ingest::SampleSink> StreamHub::SinkFor(std::int64_t stream_id) {
+std::unique_ptr<ingest::SampleSink> StreamHub::SinkFor(StreamId stream_id) {
   Get(stream_id);  // NotFound now rather than in the acquisition thread
   return std::make_unique<HubSink>(*this, stream_id);
 }
@@ -299,8 +299,8 @@ void ChannelSamples::AppendInRange(const ingest::SampleRun& run, std::int64_t fr
   }
 }
 
-ChannelSamples ReadChannelSamples(StreamStore& storage, std::int64_t stream_id,
-                                  std::int64_t channel, std::int64_t from_us, std::int64_t to_us) {
+ChannelSamples ReadChannelSamples(StreamStore& storage, StreamId stream_id, std::int64_t channel,
+                                  std::int64_t from_us, std::int64_t to_us) {
   ChannelSamples out;
   for (const auto& c : storage.ReadStreamChunks(stream_id, channel, from_us, to_us, true)) {
     out.AppendInRange(DecodeStreamChunk(c), from_us, to_us);
@@ -308,11 +308,11 @@ ChannelSamples ReadChannelSamples(StreamStore& storage, std::int64_t stream_id,
   return out;
 }
 
-nlohmann::json StreamSamplesJson(StreamStore& storage, std::int64_t stream_id, std::int64_t channel,
+nlohmann::json StreamSamplesJson(StreamStore& storage, StreamId stream_id, std::int64_t channel,
                                  std::int64_t from_us, std::int64_t to_us, std::size_t max_points) {
   using nlohmann::json;
   if (!storage.GetStream(stream_id)) {
-    throw NotFound("stream " + std::to_string(stream_id) + " does not exist");
+    throw NotFound("stream " + to_string(stream_id) + " does not exist");
   }
   if (to_us <= from_us) throw InvalidInput("", 0, "to_us", "must be later than from_us");
   if (max_points < 2) max_points = 2;

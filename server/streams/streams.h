@@ -57,20 +57,20 @@ class StreamHub {
 
   // Stores a new stream. Channels declared in its metadata ({"channels": [{"channel": N}, …]})
   // are the only ones accepted; without a declaration any channel is.
-  std::int64_t Create(const NewStream& stream);
+  StreamId Create(const NewStream& stream);
 
   // Thread-safe. Throws NotFound for an unknown stream, InvalidInput for an undeclared channel
   // or a malformed run.
-  void Accept(std::int64_t stream_id, ingest::SampleRun run, IngestCounts& counts);
-  void Flush(std::int64_t stream_id);
+  void Accept(StreamId stream_id, ingest::SampleRun run, IngestCounts& counts);
+  void Flush(StreamId stream_id);
   void FlushAll();
 
   // Buffered (not yet written) samples of a stream, per channel.
-  std::map<std::uint32_t, std::size_t> Pending(std::int64_t stream_id);
+  std::map<std::uint32_t, std::size_t> Pending(StreamId stream_id);
 
   // A sink for an acquisition thread (e.g. a Modbus device) that feeds one stream. The hub's
   // background flusher writes its samples at least every flush_interval_ms.
-  std::unique_ptr<ingest::SampleSink> SinkFor(std::int64_t stream_id);
+  std::unique_ptr<ingest::SampleSink> SinkFor(StreamId stream_id);
 
  private:
   struct Channel {
@@ -85,17 +85,17 @@ class StreamHub {
     std::vector<StreamChunk> ready;
     std::vector<StreamGap> gaps;
   };
-  State& Get(std::int64_t stream_id);
-  void Load(std::int64_t stream_id, State& s);
-  void Seal(std::int64_t stream_id, Channel& ch, State& s);  // pending → ready (partial chunk)
-  void Write(State& s);                                      // ready + gaps → storage
-  void FlushLocked(std::int64_t stream_id, State& s);
+  State& Get(StreamId stream_id);
+  void Load(StreamId stream_id, State& s);
+  void Seal(StreamId stream_id, Channel& ch, State& s);  // pending → ready (partial chunk)
+  void Write(State& s);                                  // ready + gaps → storage
+  void FlushLocked(StreamId stream_id, State& s);
   void FlusherLoop();
 
   StreamStore& storage_;
   StreamOptions options_;
   std::mutex mu_;
-  std::map<std::int64_t, std::unique_ptr<State>> states_;
+  std::map<StreamId, std::unique_ptr<State>> states_;
   std::mutex flusher_mu_;
   std::condition_variable flusher_cv_;
   bool stopping_ = false;
@@ -111,12 +111,12 @@ struct ChannelSamples {
   // Appends the samples of a decoded chunk that fall in [from_us, to_us).
   void AppendInRange(const ingest::SampleRun& run, std::int64_t from_us, std::int64_t to_us);
 };
-ChannelSamples ReadChannelSamples(StreamStore& storage, std::int64_t stream_id,
-                                  std::int64_t channel, std::int64_t from_us, std::int64_t to_us);
+ChannelSamples ReadChannelSamples(StreamStore& storage, StreamId stream_id, std::int64_t channel,
+                                  std::int64_t from_us, std::int64_t to_us);
 
 // Samples of one channel in [from_us, to_us) for plots: the samples themselves when there are
 // at most max_points, else max_points time buckets with min, max, mean and count.
-nlohmann::json StreamSamplesJson(StreamStore& storage, std::int64_t stream_id, std::int64_t channel,
+nlohmann::json StreamSamplesJson(StreamStore& storage, StreamId stream_id, std::int64_t channel,
                                  std::int64_t from_us, std::int64_t to_us, std::size_t max_points);
 
 }  // namespace km::server

@@ -18,7 +18,7 @@ namespace {
 using nlohmann::json;
 namespace req = km::server::request;
 
-constexpr std::int64_t kSeededStream = 1;
+constexpr km::server::StreamId kSeededStream(1);
 
 // Stream 1: channel 1 a sensor, channel 2 an encoder, 200 samples each at 1 kHz.
 void SeedStream(km::server::Service& svc) {

@@ -16,7 +16,7 @@ constexpr const char* kTokenColumns =
 
 TokenRecord ReadToken(const Result& s, int i) {
   TokenRecord t;
-  t.id = s.Int(i, 0);
+  t.id = TokenId(s.Int(i, 0));
   t.role = s.Text(i, 1);
   t.name = s.Text(i, 2);
   t.created_at = s.Text(i, 3);
@@ -28,19 +28,16 @@ TokenRecord ReadToken(const Result& s, int i) {
 
 }  // namespace
 
-std::int64_t PgStorage::AddToken(const std::string& token_sha256, const std::string& role,
-                                 const std::string& name,
-                                 const std::optional<std::string>& expires_at) {
+TokenId PgStorage::AddToken(const std::string& token_sha256, const std::string& role,
+                            const std::string& name, const std::optional<std::string>& expires_at) {
   auto c = pool_->Acquire();
   Params p;
   p.Text(token_sha256, "token").Text(role, "role").Text(name, "name");
   p.Text(NowUtcIso8601(), "created_at").Text(expires_at, "expires_at");
-  return c
-      ->Query(
-          "INSERT INTO tokens (token_sha256, role, label, created_at, expires_at) "
-          "VALUES ($1, $2, $3, $4, $5) RETURNING id",
-          p, "store token")
-      .Int(0, 0);
+  return TokenId(c->Query("INSERT INTO tokens (token_sha256, role, label, created_at, expires_at) "
+                          "VALUES ($1, $2, $3, $4, $5) RETURNING id",
+                          p, "store token")
+                     .Int(0, 0));
 }
 
 std::optional<TokenRecord> PgStorage::FindToken(const std::string& token_sha256) {
@@ -63,7 +60,7 @@ std::vector<TokenRecord> PgStorage::ListTokens() {
   return out;
 }
 
-bool PgStorage::RevokeToken(std::int64_t id, const TokensCheck& check) {
+bool PgStorage::RevokeToken(TokenId id, const TokensCheck& check) {
   auto c = pool_->Acquire();
   pg::Transaction tx(*c);
   // Revocations of every instance take turns (the lock conflicts with itself); reads go on.
@@ -83,7 +80,7 @@ bool PgStorage::RevokeToken(std::int64_t id, const TokensCheck& check) {
   return changed;
 }
 
-void PgStorage::TouchToken(std::int64_t id, const std::string& at) {
+void PgStorage::TouchToken(TokenId id, const std::string& at) {
   auto c = pool_->Acquire();
   Params p;
   p.Text(at, "last_used_at").Int(id);
@@ -97,8 +94,8 @@ void PgStorage::AppendAudit(const AuditEntry& e) {
   auto c = pool_->Acquire();
   Params p;
   p.Text(e.at.empty() ? NowUtcIso8601() : e.at, "at");
-  if (e.token_id > 0) {
-    p.Int(e.token_id);
+  if (e.token_id) {
+    p.Int(*e.token_id);
   } else {
     p.Null();
   }
@@ -127,9 +124,9 @@ AuditPage PgStorage::ListAudit(std::int64_t limit, std::int64_t offset) {
       p, "list audit entries");
   for (int i = 0; i < s.Rows(); ++i) {
     AuditEntry e;
-    e.id = s.Int(i, 0);
+    e.id = AuditEntryId(s.Int(i, 0));
     e.at = s.Text(i, 1);
-    e.token_id = s.IsNull(i, 2) ? 0 : s.Int(i, 2);
+    e.token_id = s.IsNull(i, 2) ? std::nullopt : IdOrNone<TokenId>(s.Int(i, 2));
     e.token_name = s.Text(i, 3);
     e.role = s.Text(i, 4);
     e.method = s.Text(i, 5);

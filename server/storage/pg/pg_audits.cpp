@@ -30,7 +30,7 @@ AuditConfigRecord ReadConfig(const Result& s, int i) {
 
 AuditVerdictRecord ReadVerdict(const Result& s, int i) {
   AuditVerdictRecord v;
-  v.id = s.Int(i, 0);
+  v.id = AuditVerdictId(s.Int(i, 0));
   v.machine_id = s.Text(i, 1);
   v.level = static_cast<int>(s.Int(i, 2));
   v.trigger = s.Text(i, 3);
@@ -105,23 +105,23 @@ bool PgStorage::ClaimAuditRun(const std::string& machine_id, const std::string& 
              .Affected() == 1;
 }
 
-std::int64_t PgStorage::AddAuditVerdict(const AuditVerdictRecord& v) {
+AuditVerdictId PgStorage::AddAuditVerdict(const AuditVerdictRecord& v) {
   auto c = pool_->Acquire();
   Params p;
   p.Key(v.machine_id, "machine_id").Int(v.level).Text(v.trigger, "trigger");
   p.Text(v.created_at.empty() ? NowUtcIso8601() : v.created_at, "created_at");
   p.Text(v.verdict_json, "verdict").Text(v.webhook_status, "webhook_status");
   p.Int(v.webhook_attempts);
-  return c
-      ->Query(
-          "INSERT INTO audit_verdicts (machine_id, level, run_trigger, created_at, "
-          "verdict_json, webhook_status, webhook_attempts) VALUES ($1, $2, $3, $4, $5, $6, $7) "
-          "RETURNING id",
-          p, "store audit verdict")
-      .Int(0, 0);
+  return AuditVerdictId(
+      c->Query(
+           "INSERT INTO audit_verdicts (machine_id, level, run_trigger, created_at, "
+           "verdict_json, webhook_status, webhook_attempts) VALUES ($1, $2, $3, $4, $5, $6, $7) "
+           "RETURNING id",
+           p, "store audit verdict")
+          .Int(0, 0));
 }
 
-std::optional<AuditVerdictRecord> PgStorage::GetAuditVerdict(std::int64_t id) {
+std::optional<AuditVerdictRecord> PgStorage::GetAuditVerdict(AuditVerdictId id) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(id);
@@ -165,7 +165,8 @@ std::vector<AuditVerdictRecord> PgStorage::ListAuditVerdicts(const AuditVerdictF
   return out;
 }
 
-void PgStorage::SetAuditWebhook(std::int64_t id, const std::string& status, std::int64_t attempts) {
+void PgStorage::SetAuditWebhook(AuditVerdictId id, const std::string& status,
+                                std::int64_t attempts) {
   auto c = pool_->Acquire();
   Params p;
   p.Text(status, "webhook_status").Int(attempts).Int(id);

@@ -18,7 +18,7 @@ constexpr const char* kJobColumns =
 
 JobRecord ReadJob(const Result& s, int row) {
   JobRecord j;
-  j.id = s.Int(row, 0);
+  j.id = JobId(s.Int(row, 0));
   j.kind = s.Text(row, 1);
   j.status = StoredJobStatus(s.Text(row, 2));
   j.progress = s.Real(row, 3);
@@ -32,15 +32,15 @@ JobRecord ReadJob(const Result& s, int row) {
   j.lease_owner = s.Text(row, 11);
   j.lease_until_ms = s.Int(row, 12);
   j.attempts = s.Int(row, 13);
-  j.owner_token_id = s.Int(row, 14);
+  j.owner_token_id = IdOrNone<TokenId>(s.Int(row, 14));
   j.machine_document = s.Text(row, 15);
   return j;
 }
 
 }  // namespace
 
-std::int64_t PgStorage::CreateJob(const std::string& kind, const std::string& request_json) {
-  return QueueJob(NewJob{kind, request_json, request_json});
+JobId PgStorage::CreateJob(const std::string& kind, const std::string& request_json) {
+  return QueueJob(NewJob{kind, request_json, request_json, std::nullopt});
 }
 
 void PgStorage::UpdateJob(const JobRecord& job) {
@@ -55,7 +55,7 @@ void PgStorage::UpdateJob(const JobRecord& job) {
       p, "update job");
 }
 
-std::optional<JobRecord> PgStorage::GetJob(std::int64_t id) {
+std::optional<JobRecord> PgStorage::GetJob(JobId id) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(id);
@@ -108,17 +108,16 @@ std::int64_t PgStorage::CountJobsWithStatus(JobStatus status) {
   return c->Query("SELECT COUNT(*) FROM jobs WHERE status = $1", p, "count jobs").Int(0, 0);
 }
 
-std::int64_t PgStorage::QueueJob(const NewJob& job) {
+JobId PgStorage::QueueJob(const NewJob& job) {
   auto c = pool_->Acquire();
   Params p;
   p.Text(job.kind, "kind").Text(job.request_json, "request").Text(job.plan_json, "plan");
-  p.Text(NowUtcIso8601(), "created_at").Int(job.owner_token_id);
-  return c
-      ->Query(
-          "INSERT INTO jobs (kind, status, request_json, plan_json, created_at, updated_at, "
-          "owner_token_id) VALUES ($1, 'queued', $2, $3, $4, $4, $5) RETURNING id",
-          p, "queue job")
-      .Int(0, 0);
+  p.Text(NowUtcIso8601(), "created_at").Int(ValueOrZero(job.owner_token_id));
+  return JobId(
+      c->Query("INSERT INTO jobs (kind, status, request_json, plan_json, created_at, updated_at, "
+               "owner_token_id) VALUES ($1, 'queued', $2, $3, $4, $4, $5) RETURNING id",
+               p, "queue job")
+          .Int(0, 0));
 }
 
 std::optional<JobRecord> PgStorage::ClaimJob(const std::string& owner, std::int64_t now_ms,
@@ -163,7 +162,7 @@ std::optional<JobRecord> PgStorage::ClaimJob(const std::string& owner, std::int6
   return job;
 }
 
-bool PgStorage::RenewJob(std::int64_t id, const std::string& owner, double progress,
+bool PgStorage::RenewJob(JobId id, const std::string& owner, double progress,
                          const std::string& stage, std::int64_t lease_until_ms) {
   auto c = pool_->Acquire();
   Params p;
@@ -202,7 +201,7 @@ int PgStorage::ReleaseJobs(const std::string& owner) {
           .Affected());
 }
 
-bool PgStorage::CancelJob(std::int64_t id, const std::string& reason) {
+bool PgStorage::CancelJob(JobId id, const std::string& reason) {
   auto c = pool_->Acquire();
   Params p;
   p.Text(reason, "reason").Text(NowUtcIso8601(), "updated_at").Int(id);

@@ -19,8 +19,8 @@ ReportRevisionRecord ReadRevisionRow(const pg::Result& s, int i) {
   r.content_sha256 = s.Text(i, 3);
   r.summary_json = s.Text(i, 4);
   if (!s.IsNull(i, 5)) {
-    r.approval = ReportApprovalRecord{r.subject,   r.revision,   s.Text(i, 5),
-                                      s.Int(i, 6), s.Text(i, 7), std::string()};
+    r.approval = ReportApprovalRecord{
+        r.subject, r.revision, s.Text(i, 5), TokenId(s.Int(i, 6)), s.Text(i, 7), std::string()};
   }
   return r;
 }

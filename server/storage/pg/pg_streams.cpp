@@ -13,8 +13,8 @@ using pg::Result;
 using pg::Transaction;
 
 StreamRecord ReadStream(const Result& s, int i) {
-  return StreamRecord{s.Int(i, 0),  s.Text(i, 1), s.Text(i, 2),
-                      s.Text(i, 3), s.Text(i, 4), s.Text(i, 5)};
+  return StreamRecord{StreamId(s.Int(i, 0)), s.Text(i, 1), s.Text(i, 2),
+                      s.Text(i, 3),          s.Text(i, 4), s.Text(i, 5)};
 }
 constexpr const char* kStreamColumns = "id, machine_id, name, source, metadata_json, created_at";
 
@@ -34,26 +34,25 @@ void InsertChunk(pg::Conn& c, const StreamChunk& ch) {
     throw InvalidInput("", 0, "counter",
                        "channel " + std::to_string(ch.channel) + " counter " +
                            std::to_string(ch.first_counter) + " of stream " +
-                           std::to_string(ch.stream_id) + " is stored already");
+                           to_string(ch.stream_id) + " is stored already");
   }
 }
 
 }  // namespace
 
-std::int64_t PgStorage::CreateStream(const NewStream& st) {
+StreamId PgStorage::CreateStream(const NewStream& st) {
   auto c = pool_->Acquire();
   Params p;
   p.Key(st.machine_id, "machine_id").Text(st.name, "name").Text(st.source, "source");
   p.Text(st.metadata_json, "metadata").Text(NowUtcIso8601(), "created_at");
-  return c
-      ->Query(
-          "INSERT INTO streams (machine_id, name, source, metadata_json, created_at) "
-          "VALUES ($1, $2, $3, $4, $5) RETURNING id",
-          p, "store stream")
-      .Int(0, 0);
+  return StreamId(
+      c->Query("INSERT INTO streams (machine_id, name, source, metadata_json, created_at) "
+               "VALUES ($1, $2, $3, $4, $5) RETURNING id",
+               p, "store stream")
+          .Int(0, 0));
 }
 
-std::optional<StreamRecord> PgStorage::GetStream(std::int64_t id) {
+std::optional<StreamRecord> PgStorage::GetStream(StreamId id) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(id);
@@ -98,7 +97,7 @@ void PgStorage::AppendStream(const std::vector<StreamChunk>& chunks,
   tx.Commit();
 }
 
-std::vector<StreamChannelSummary> PgStorage::StreamChannels(std::int64_t stream_id) {
+std::vector<StreamChannelSummary> PgStorage::StreamChannels(StreamId stream_id) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(stream_id);
@@ -134,7 +133,7 @@ std::vector<StreamChannelSummary> PgStorage::StreamChannels(std::int64_t stream_
   return out;
 }
 
-std::vector<StreamChunk> PgStorage::ReadStreamChunks(std::int64_t stream_id, std::int64_t channel,
+std::vector<StreamChunk> PgStorage::ReadStreamChunks(StreamId stream_id, std::int64_t channel,
                                                      std::int64_t from_us, std::int64_t to_us,
                                                      bool with_data) {
   auto c = pool_->Acquire();
@@ -167,7 +166,7 @@ std::vector<StreamChunk> PgStorage::ReadStreamChunks(std::int64_t stream_id, std
   return out;
 }
 
-std::string PgStorage::ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
+std::string PgStorage::ReadStreamChunkData(StreamId stream_id, std::int64_t channel,
                                            std::int64_t first_counter) {
   auto c = pool_->Acquire();
   Params p;
@@ -180,7 +179,7 @@ std::string PgStorage::ReadStreamChunkData(std::int64_t stream_id, std::int64_t 
   return r.Bytes(0, 0);
 }
 
-std::vector<StreamGap> PgStorage::StreamGaps(std::int64_t stream_id, std::int64_t limit) {
+std::vector<StreamGap> PgStorage::StreamGaps(StreamId stream_id, std::int64_t limit) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(stream_id);

@@ -17,7 +17,7 @@ constexpr const char* kTokenColumns =
 
 TokenRecord ReadToken(const Statement& s) {
   TokenRecord t;
-  t.id = s.Int(0);
+  t.id = TokenId(s.Int(0));
   t.role = s.Text(1);
   t.name = s.Text(2);
   t.created_at = s.Text(3);
@@ -29,9 +29,9 @@ TokenRecord ReadToken(const Statement& s) {
 
 }  // namespace
 
-std::int64_t SqliteStorage::AddToken(const std::string& token_sha256, const std::string& role,
-                                     const std::string& name,
-                                     const std::optional<std::string>& expires_at) {
+TokenId SqliteStorage::AddToken(const std::string& token_sha256, const std::string& role,
+                                const std::string& name,
+                                const std::optional<std::string>& expires_at) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "INSERT INTO tokens (token_sha256, role, label, created_at, expires_at) "
@@ -39,7 +39,7 @@ std::int64_t SqliteStorage::AddToken(const std::string& token_sha256, const std:
   s->Bind(1, token_sha256).Bind(2, role).Bind(3, name).Bind(4, NowUtcIso8601());
   s->Bind(5, expires_at);
   s->Step();
-  return sqlite3_last_insert_rowid(db_);
+  return TokenId(sqlite3_last_insert_rowid(db_));
 }
 
 std::optional<TokenRecord> SqliteStorage::FindToken(const std::string& token_sha256) {
@@ -58,7 +58,7 @@ std::vector<TokenRecord> SqliteStorage::ListTokens() {
   return out;
 }
 
-bool SqliteStorage::RevokeToken(std::int64_t id, const TokensCheck& check) {
+bool SqliteStorage::RevokeToken(TokenId id, const TokensCheck& check) {
   std::lock_guard lock(mu_);
   sqlite::Transaction tx(db_);  // BEGIN IMMEDIATE: also other processes on the file wait
   std::vector<TokenRecord> tokens;
@@ -75,7 +75,7 @@ bool SqliteStorage::RevokeToken(std::int64_t id, const TokensCheck& check) {
   return changed;
 }
 
-void SqliteStorage::TouchToken(std::int64_t id, const std::string& at) {
+void SqliteStorage::TouchToken(TokenId id, const std::string& at) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "UPDATE tokens SET last_used_at = ? WHERE id = ? AND (last_used_at IS NULL OR "
@@ -90,7 +90,7 @@ void SqliteStorage::AppendAudit(const AuditEntry& e) {
       "INSERT INTO audit_log (at, token_id, token_name, role, method, path, status, subject) "
       "VALUES (?, ?, ?, ?, ?, ?, ?, ?)");
   s->Bind(1, e.at.empty() ? NowUtcIso8601() : e.at);
-  if (e.token_id > 0) s->Bind(2, e.token_id);
+  if (e.token_id) s->Bind(2, *e.token_id);
   s->Bind(3, e.token_name).Bind(4, e.role).Bind(5, e.method).Bind(6, e.path);
   s->Bind(7, static_cast<std::int64_t>(e.status)).Bind(8, e.subject);
   s->Step();
@@ -109,9 +109,9 @@ AuditPage SqliteStorage::ListAudit(std::int64_t limit, std::int64_t offset) {
   s->Bind(1, limit).Bind(2, offset);
   while (s->Step()) {
     AuditEntry e;
-    e.id = s->Int(0);
+    e.id = AuditEntryId(s->Int(0));
     e.at = s->Text(1);
-    e.token_id = s->IsNull(2) ? 0 : s->Int(2);
+    e.token_id = s->IsNull(2) ? std::nullopt : IdOrNone<TokenId>(s->Int(2));
     e.token_name = s->Text(3);
     e.role = s->Text(4);
     e.method = s->Text(5);

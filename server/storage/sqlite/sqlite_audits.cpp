@@ -31,7 +31,7 @@ AuditConfigRecord ReadConfig(const Statement& s) {
 
 AuditVerdictRecord ReadVerdict(const Statement& s) {
   AuditVerdictRecord v;
-  v.id = s.Int(0);
+  v.id = AuditVerdictId(s.Int(0));
   v.machine_id = s.Text(1);
   v.level = static_cast<int>(s.Int(2));
   v.trigger = s.Text(3);
@@ -98,7 +98,7 @@ bool SqliteStorage::ClaimAuditRun(const std::string& machine_id, const std::stri
   return sqlite3_changes(db_) == 1;
 }
 
-std::int64_t SqliteStorage::AddAuditVerdict(const AuditVerdictRecord& v) {
+AuditVerdictId SqliteStorage::AddAuditVerdict(const AuditVerdictRecord& v) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "INSERT INTO audit_verdicts (machine_id, level, run_trigger, created_at, verdict_json, "
@@ -107,10 +107,10 @@ std::int64_t SqliteStorage::AddAuditVerdict(const AuditVerdictRecord& v) {
   s->Bind(4, v.created_at.empty() ? NowUtcIso8601() : v.created_at).Bind(5, v.verdict_json);
   s->Bind(6, v.webhook_status).Bind(7, v.webhook_attempts);
   s->Step();
-  return sqlite3_last_insert_rowid(db_);
+  return AuditVerdictId(sqlite3_last_insert_rowid(db_));
 }
 
-std::optional<AuditVerdictRecord> SqliteStorage::GetAuditVerdict(std::int64_t id) {
+std::optional<AuditVerdictRecord> SqliteStorage::GetAuditVerdict(AuditVerdictId id) {
   std::lock_guard lock(mu_);
   auto s = Prepared(std::string("SELECT ") + kVerdictColumns + " FROM audit_verdicts WHERE id = ?");
   s->Bind(1, id);
@@ -134,7 +134,7 @@ std::vector<AuditVerdictRecord> SqliteStorage::ListAuditVerdicts(const AuditVerd
   return out;
 }
 
-void SqliteStorage::SetAuditWebhook(std::int64_t id, const std::string& status,
+void SqliteStorage::SetAuditWebhook(AuditVerdictId id, const std::string& status,
                                     std::int64_t attempts) {
   std::lock_guard lock(mu_);
   auto s =

@@ -18,7 +18,7 @@ constexpr const char* kJobColumns =
 
 JobRecord ReadJob(const Statement& s) {
   JobRecord j;
-  j.id = s.Int(0);
+  j.id = JobId(s.Int(0));
   j.kind = s.Text(1);
   j.status = StoredJobStatus(s.Text(2));
   j.progress = s.Real(3);
@@ -32,27 +32,27 @@ JobRecord ReadJob(const Statement& s) {
   j.lease_owner = s.Text(11);
   j.lease_until_ms = s.Int(12);
   j.attempts = s.Int(13);
-  j.owner_token_id = s.Int(14);
+  j.owner_token_id = IdOrNone<TokenId>(s.Int(14));
   j.machine_document = s.Text(15);
   return j;
 }
 
 }  // namespace
 
-std::int64_t SqliteStorage::CreateJob(const std::string& kind, const std::string& request_json) {
-  return QueueJob(NewJob{kind, request_json, request_json});
+JobId SqliteStorage::CreateJob(const std::string& kind, const std::string& request_json) {
+  return QueueJob(NewJob{kind, request_json, request_json, std::nullopt});
 }
 
-std::int64_t SqliteStorage::QueueJob(const NewJob& job) {
+JobId SqliteStorage::QueueJob(const NewJob& job) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "INSERT INTO jobs (kind, status, request_json, plan_json, created_at, updated_at, "
       "owner_token_id) VALUES (?, 'queued', ?, ?, ?, ?, ?)");
   const std::string now = NowUtcIso8601();
   s->Bind(1, job.kind).Bind(2, job.request_json).Bind(3, job.plan_json).Bind(4, now).Bind(5, now);
-  s->Bind(6, job.owner_token_id);
+  s->Bind(6, ValueOrZero(job.owner_token_id));
   s->Step();
-  return sqlite3_last_insert_rowid(db_);
+  return JobId(sqlite3_last_insert_rowid(db_));
 }
 
 void SqliteStorage::UpdateJob(const JobRecord& job) {
@@ -68,7 +68,7 @@ void SqliteStorage::UpdateJob(const JobRecord& job) {
   s->Step();
 }
 
-std::optional<JobRecord> SqliteStorage::GetJob(std::int64_t id) {
+std::optional<JobRecord> SqliteStorage::GetJob(JobId id) {
   std::lock_guard lock(mu_);
   auto s = Prepared((std::string("SELECT ") + kJobColumns + " FROM jobs WHERE id = ?"));
   s->Bind(1, id);
@@ -150,7 +150,7 @@ std::optional<JobRecord> SqliteStorage::ClaimJob(const std::string& owner, std::
   return job;
 }
 
-bool SqliteStorage::RenewJob(std::int64_t id, const std::string& owner, double progress,
+bool SqliteStorage::RenewJob(JobId id, const std::string& owner, double progress,
                              const std::string& stage, std::int64_t lease_until_ms) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
@@ -188,7 +188,7 @@ int SqliteStorage::ReleaseJobs(const std::string& owner) {
   return sqlite3_changes(db_);
 }
 
-bool SqliteStorage::CancelJob(std::int64_t id, const std::string& reason) {
+bool SqliteStorage::CancelJob(JobId id, const std::string& reason) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "UPDATE jobs SET status = 'cancelled', stage = 'cancelled', error = ?, lease_until_ms = 0, "

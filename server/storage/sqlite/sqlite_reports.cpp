@@ -21,8 +21,8 @@ ReportRevisionRecord ReadRevisionRow(const sqlite::Statement& s) {
   r.content_sha256 = s.Text(3);
   r.summary_json = s.Text(4);
   if (!s.IsNull(5))
-    r.approval =
-        ReportApprovalRecord{r.subject, r.revision, s.Text(5), s.Int(6), s.Text(7), std::string()};
+    r.approval = ReportApprovalRecord{r.subject,         r.revision, s.Text(5),
+                                      TokenId(s.Int(6)), s.Text(7),  std::string()};
   return r;
 }
 

@@ -54,48 +54,47 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   std::optional<MachineModelRecord> GetMachineModel(const std::string& machine_id,
                                                     std::optional<std::int64_t> version) override;
   std::vector<MachineModelRecord> ListMachineModels(const std::string& machine_id) override;
-  std::int64_t CreateJob(const std::string& kind, const std::string& request_json) override;
+  JobId CreateJob(const std::string& kind, const std::string& request_json) override;
   void UpdateJob(const JobRecord& job) override;
-  std::optional<JobRecord> GetJob(std::int64_t id) override;
+  std::optional<JobRecord> GetJob(JobId id) override;
   std::vector<JobRecord> ListJobs(std::int64_t limit) override;
   int FailInterruptedJobs(const std::string& reason) override;
   std::map<std::string, std::int64_t> CountJobsByStatus() override;
   std::int64_t CountJobsWithStatus(JobStatus status) override;
   // The shared job queue: sqlite_jobs.cpp (with the job calls above).
-  std::int64_t QueueJob(const NewJob& job) override;
+  JobId QueueJob(const NewJob& job) override;
   std::optional<JobRecord> ClaimJob(const std::string& owner, std::int64_t now_ms,
                                     std::int64_t lease_ms, int max_attempts,
                                     const std::string& abandoned_error) override;
-  bool RenewJob(std::int64_t id, const std::string& owner, double progress,
-                const std::string& stage, std::int64_t lease_until_ms) override;
+  bool RenewJob(JobId id, const std::string& owner, double progress, const std::string& stage,
+                std::int64_t lease_until_ms) override;
   bool FinishJob(const JobRecord& job, const std::string& owner) override;
   int ReleaseJobs(const std::string& owner) override;
-  bool CancelJob(std::int64_t id, const std::string& reason) override;
-  std::int64_t CreateStream(const NewStream& s) override;
-  std::optional<StreamRecord> GetStream(std::int64_t id) override;
+  bool CancelJob(JobId id, const std::string& reason) override;
+  StreamId CreateStream(const NewStream& s) override;
+  std::optional<StreamRecord> GetStream(StreamId id) override;
   std::vector<StreamRecord> ListStreams(const std::optional<std::string>& machine_id,
                                         std::int64_t limit) override;
   void AppendStream(const std::vector<StreamChunk>& chunks,
                     const std::vector<StreamGap>& gaps) override;
-  std::vector<StreamChannelSummary> StreamChannels(std::int64_t stream_id) override;
-  std::vector<StreamChunk> ReadStreamChunks(std::int64_t stream_id, std::int64_t channel,
+  std::vector<StreamChannelSummary> StreamChannels(StreamId stream_id) override;
+  std::vector<StreamChunk> ReadStreamChunks(StreamId stream_id, std::int64_t channel,
                                             std::int64_t from_us, std::int64_t to_us,
                                             bool with_data) override;
-  std::string ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
+  std::string ReadStreamChunkData(StreamId stream_id, std::int64_t channel,
                                   std::int64_t first_counter) override;
-  std::vector<StreamGap> StreamGaps(std::int64_t stream_id, std::int64_t limit) override;
+  std::vector<StreamGap> StreamGaps(StreamId stream_id, std::int64_t limit) override;
   std::int64_t CountTokens() override;
   void PutToken(const std::string& token_sha256, const std::string& role,
                 const std::string& label) override;
   std::optional<std::string> FindTokenRole(const std::string& token_sha256) override;
   // Tokens and the audit log: sqlite_access.cpp.
-  std::int64_t AddToken(const std::string& token_sha256, const std::string& role,
-                        const std::string& name,
-                        const std::optional<std::string>& expires_at) override;
+  TokenId AddToken(const std::string& token_sha256, const std::string& role,
+                   const std::string& name, const std::optional<std::string>& expires_at) override;
   std::optional<TokenRecord> FindToken(const std::string& token_sha256) override;
   std::vector<TokenRecord> ListTokens() override;
-  bool RevokeToken(std::int64_t id, const TokensCheck& check) override;
-  void TouchToken(std::int64_t id, const std::string& at) override;
+  bool RevokeToken(TokenId id, const TokensCheck& check) override;
+  void TouchToken(TokenId id, const std::string& at) override;
   void AppendAudit(const AuditEntry& entry) override;
   AuditPage ListAudit(std::int64_t limit, std::int64_t offset) override;
   // Accuracy audits: sqlite_audits.cpp.
@@ -106,10 +105,11 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
                    const std::optional<std::string>& next) override;
   bool ClaimAuditRun(const std::string& machine_id, const std::string& due, const std::string& last,
                      const std::optional<std::string>& next) override;
-  std::int64_t AddAuditVerdict(const AuditVerdictRecord& verdict) override;
-  std::optional<AuditVerdictRecord> GetAuditVerdict(std::int64_t id) override;
+  AuditVerdictId AddAuditVerdict(const AuditVerdictRecord& verdict) override;
+  std::optional<AuditVerdictRecord> GetAuditVerdict(AuditVerdictId id) override;
   std::vector<AuditVerdictRecord> ListAuditVerdicts(const AuditVerdictFilter& filter) override;
-  void SetAuditWebhook(std::int64_t id, const std::string& status, std::int64_t attempts) override;
+  void SetAuditWebhook(AuditVerdictId id, const std::string& status,
+                       std::int64_t attempts) override;
   // Tolerance tables: sqlite_tolerances.cpp.
   ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) override;
   std::optional<ToleranceTableRecord> GetToleranceTable(

@@ -14,12 +14,12 @@ using sqlite::Statement;
 using sqlite::Transaction;
 
 StreamRecord ReadStream(const Statement& s) {
-  return StreamRecord{s.Int(0), s.Text(1), s.Text(2), s.Text(3), s.Text(4), s.Text(5)};
+  return StreamRecord{StreamId(s.Int(0)), s.Text(1), s.Text(2), s.Text(3), s.Text(4), s.Text(5)};
 }
 constexpr const char* kStreamColumns = "id, machine_id, name, source, metadata_json, created_at";
 }  // namespace
 
-std::int64_t SqliteStorage::CreateStream(const NewStream& st) {
+StreamId SqliteStorage::CreateStream(const NewStream& st) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "INSERT INTO streams (machine_id, name, source, metadata_json, created_at) "
@@ -27,10 +27,10 @@ std::int64_t SqliteStorage::CreateStream(const NewStream& st) {
   s->Bind(1, st.machine_id).Bind(2, st.name).Bind(3, st.source).Bind(4, st.metadata_json);
   s->Bind(5, NowUtcIso8601());
   s->Step();
-  return sqlite3_last_insert_rowid(db_);
+  return StreamId(sqlite3_last_insert_rowid(db_));
 }
 
-std::optional<StreamRecord> SqliteStorage::GetStream(std::int64_t id) {
+std::optional<StreamRecord> SqliteStorage::GetStream(StreamId id) {
   std::lock_guard lock(mu_);
   auto s = Prepared((std::string("SELECT ") + kStreamColumns + " FROM streams WHERE id = ?"));
   s->Bind(1, id);
@@ -70,7 +70,7 @@ void SqliteStorage::AppendStream(const std::vector<StreamChunk>& chunks,
         throw InvalidInput("", 0, "counter",
                            "channel " + std::to_string(c.channel) + " counter " +
                                std::to_string(c.first_counter) + " of stream " +
-                               std::to_string(c.stream_id) + " is stored already");
+                               to_string(c.stream_id) + " is stored already");
       }
     }
   }
@@ -91,7 +91,7 @@ void SqliteStorage::AppendStream(const std::vector<StreamChunk>& chunks,
   tx.Commit();
 }
 
-std::vector<StreamChannelSummary> SqliteStorage::StreamChannels(std::int64_t stream_id) {
+std::vector<StreamChannelSummary> SqliteStorage::StreamChannels(StreamId stream_id) {
   std::lock_guard lock(mu_);
   std::vector<StreamChannelSummary> out;
   {
@@ -127,9 +127,9 @@ std::vector<StreamChannelSummary> SqliteStorage::StreamChannels(std::int64_t str
   return out;
 }
 
-std::vector<StreamChunk> SqliteStorage::ReadStreamChunks(std::int64_t stream_id,
-                                                         std::int64_t channel, std::int64_t from_us,
-                                                         std::int64_t to_us, bool with_data) {
+std::vector<StreamChunk> SqliteStorage::ReadStreamChunks(StreamId stream_id, std::int64_t channel,
+                                                         std::int64_t from_us, std::int64_t to_us,
+                                                         bool with_data) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       with_data ? "SELECT channel, first_counter, n, t_first_us, t_last_us, value_min, "
@@ -158,7 +158,7 @@ std::vector<StreamChunk> SqliteStorage::ReadStreamChunks(std::int64_t stream_id,
   return out;
 }
 
-std::string SqliteStorage::ReadStreamChunkData(std::int64_t stream_id, std::int64_t channel,
+std::string SqliteStorage::ReadStreamChunkData(StreamId stream_id, std::int64_t channel,
                                                std::int64_t first_counter) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
@@ -169,7 +169,7 @@ std::string SqliteStorage::ReadStreamChunkData(std::int64_t stream_id, std::int6
   return s->Blob(0);
 }
 
-std::vector<StreamGap> SqliteStorage::StreamGaps(std::int64_t stream_id, std::int64_t limit) {
+std::vector<StreamGap> SqliteStorage::StreamGaps(StreamId stream_id, std::int64_t limit) {
   std::lock_guard lock(mu_);
   auto s = Prepared(
       "SELECT channel, first_missing, missing, t_before_us, t_after_us, detected_at "

@@ -88,7 +88,7 @@ void BM_HttpStreamIngest(benchmark::State& state) {
     c.set_read_timeout(60, 0);
     c.set_default_headers({{"Authorization", "Bearer bench"}});
     const auto id = server.service().streams().CreateStream({{"machine_id", "bench"}});
-    const std::string path = "/api/v1/streams/" + std::to_string(id) + "/frames";
+    const std::string path = "/api/v1/streams/" + to_string(id) + "/frames";
     constexpr std::size_t kPerFrame = 1000, kFrames = 100;  // 4 × 100 000 samples a request
     std::uint64_t next = 0;
     std::int64_t samples = 0;

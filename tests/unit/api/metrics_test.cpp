@@ -86,7 +86,7 @@ TEST(AccessLog, OneJsonObjectWithTheTokenIdOnly) {
   path += std::string(300, 'a');
   RequestRecord r = Record("GET", "/api/v1/measurements/{id}", 404, 0.0012345);
   r.path = path;
-  r.token_id = 7;
+  r.token_id = server::TokenId(7);
   r.bytes = 99;
   r.remote = "127.0.0.1";
   r.request_id = "abc-000001";

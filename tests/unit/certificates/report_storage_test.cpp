@@ -47,8 +47,10 @@ TEST_P(Backends, AnApprovalIsStoredOnceWithItsPdfByteForByte) {
   s->PutReportRevision(Rev("audit vmc", "a"));
   const char raw[] = "%PDF-1.5\n\0\xff\xfe binary %%EOF";
   const std::string pdf(raw, sizeof(raw) - 1);
-  ASSERT_TRUE(s->AddReportApproval({"audit vmc", 1, "ann", 7, "2026-12-01T10:00:00Z", pdf}));
-  EXPECT_FALSE(s->AddReportApproval({"audit vmc", 1, "bob", 8, "2026-12-01T11:00:00Z", "x"}));
+  ASSERT_TRUE(
+      s->AddReportApproval({"audit vmc", 1, "ann", TokenId(7), "2026-12-01T10:00:00Z", pdf}));
+  EXPECT_FALSE(
+      s->AddReportApproval({"audit vmc", 1, "bob", TokenId(8), "2026-12-01T11:00:00Z", "x"}));
   EXPECT_EQ(s->ReportApprovalPdf("audit vmc", 1), pdf);
   EXPECT_FALSE(s->ReportApprovalPdf("audit vmc", 2));
   EXPECT_FALSE(s->ReportApprovalPdf("audit other", 1));

@@ -45,7 +45,7 @@ class AuditListing : public TempDirTest {
     for (int i = 0; i < runs; ++i) RunAccuracyAudit(*svc_, "demo-vmc", "manual", kNow + 60 * i);
   }
   // A verdict stored as it is, with `bytes` of padding in its findings; its id.
-  std::int64_t AddVerdict(std::size_t bytes, int minute) {
+  AuditVerdictId AddVerdict(std::size_t bytes, int minute) {
     AuditVerdictRecord v;
     v.machine_id = "vmc";
     v.trigger = "manual";
@@ -71,7 +71,7 @@ class AuditListing : public TempDirTest {
 TEST_F(AuditListing, ManyLargeVerdictsArePagedByBytesAndEachListedOnce) {
   constexpr int kRuns = 120;
   RunLargeAudits(kRuns);
-  const std::string one = AccuracyAuditJson(*svc_, 1).dump();
+  const std::string one = AccuracyAuditJson(*svc_, AuditVerdictId(1)).dump();
   ASSERT_GT(one.size(), 60000u) << "200 findings and 200 checked rules";
   ASSERT_GT(one.size() * kRuns, 2 * kAuditPageBytes);
 
@@ -82,7 +82,8 @@ TEST_F(AuditListing, ManyLargeVerdictsArePagedByBytesAndEachListedOnce) {
   EXPECT_EQ(first.at("limit"), 1000);
   EXPECT_EQ(first.at("offset"), 0);
   EXPECT_EQ(first.at("next_offset"), first.at("audits").size());
-  EXPECT_EQ(first.at("audits")[0], AccuracyAuditJson(*svc_, kRuns)) << "newest first, whole";
+  EXPECT_EQ(first.at("audits")[0], AccuracyAuditJson(*svc_, AuditVerdictId(kRuns)))
+      << "newest first, whole";
 
   std::set<std::int64_t> seen;
   std::int64_t offset = 0, previous = kRuns + 1;

@@ -85,7 +85,7 @@ TEST_F(AccuracyAudits, ARunFindsTheNewestResultAboveTheLimitsWithItsEvidence) {
   const json stop = audits.Run("demo-vmc", "manual");
   EXPECT_EQ(stop["level"], 3);
   EXPECT_EQ(stop["findings"][0]["limit"], circ / 2);
-  EXPECT_EQ(AccuracyAuditJson(*svc, stop["id"].get<std::int64_t>()), stop);
+  EXPECT_EQ(AccuracyAuditJson(*svc, stop["id"].get<AuditVerdictId>()), stop);
   AuditVerdictFilter f;
   f.machine_id = "demo-vmc";
   const json list = ListAccuracyAudits(*svc, f);
@@ -372,7 +372,7 @@ TEST_F(AccuracyAudits, TheWebhookIsRetriedAfterA500AndTheDeliveryRecorded) {
   const auto t0 = std::chrono::steady_clock::now();
   json stored;
   while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10)) {
-    stored = AccuracyAuditJson(*svc, v["id"].get<std::int64_t>());
+    stored = AccuracyAuditJson(*svc, v["id"].get<AuditVerdictId>());
     if (stored["webhook"]["status"] != "pending") break;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
@@ -420,7 +420,7 @@ TEST_F(AccuracyAudits, WebhookDeliveriesAreSignedAndNamedForTheReceiverToDropRep
                        .count();
   for (std::size_t k = 0; k < 2; ++k) {
     auto h = heads[k];
-    EXPECT_EQ(h["X-Kinemetric-Delivery"], "audit-" + std::to_string(v["id"].get<std::int64_t>()));
+    EXPECT_EQ(h["X-Kinemetric-Delivery"], "audit-" + to_string(v["id"].get<AuditVerdictId>()));
     EXPECT_EQ(h["X-Kinemetric-Attempt"], std::to_string(k + 1));
     const std::int64_t ts = std::stoll(h["X-Kinemetric-Timestamp"]);
     EXPECT_LE(std::abs(now - ts), 30);
@@ -437,7 +437,7 @@ TEST_F(AccuracyAudits, WebhookDeliveriesAreSignedAndNamedForTheReceiverToDropRep
 // Without a secret the deliveries carry no signature (and still their delivery id).
 TEST(WebhookHeaders, UnsignedWithoutASecret) {
   WebhookOptions o;
-  const auto h = WebhookHeaders(o, 7, 3, 1795749120, "{}");
+  const auto h = WebhookHeaders(o, AuditVerdictId(7), 3, 1795749120, "{}");
   EXPECT_EQ(h, (std::vector<std::pair<std::string, std::string>>{
                    {"X-Kinemetric-Delivery", "audit-7"},
                    {"X-Kinemetric-Attempt", "3"},
@@ -469,14 +469,14 @@ TEST_F(AccuracyAudits, AWebhookLeftPendingByAStopIsSentAtTheNextStart) {
     stopped.PutConfig("demo-vmc", Rules(circ / 2, circ * 2));
     v = stopped.Run("demo-vmc", "manual");
   }
-  EXPECT_EQ(AccuracyAuditJson(*svc, v["id"].get<std::int64_t>())["webhook"]["status"], "pending");
+  EXPECT_EQ(AccuracyAuditJson(*svc, v["id"].get<AuditVerdictId>())["webhook"]["status"], "pending");
   EXPECT_TRUE(receiver.bodies().empty());
   AuditScheduler audits(*svc, o, clock_);
   audits.Start();
   const auto t0 = std::chrono::steady_clock::now();
   json stored;
   while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10)) {
-    stored = AccuracyAuditJson(*svc, v["id"].get<std::int64_t>());
+    stored = AccuracyAuditJson(*svc, v["id"].get<AuditVerdictId>());
     if (stored["webhook"]["status"] != "pending") break;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }

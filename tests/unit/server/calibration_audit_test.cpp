@@ -34,9 +34,9 @@ class CalibrationAudits : public TempDirTest {
   }
   // A hexapod calibration job of the machine, stored with that status and strut offsets (µm);
   // `extra` is merged into the result. Its id.
-  std::int64_t Calibration(const std::string& machine, JobStatus status, const json& offsets,
-                           const json& extra = json::object(),
-                           const std::string& kind = "hexapod_calibration") {
+  JobId Calibration(const std::string& machine, JobStatus status, const json& offsets,
+                    const json& extra = json::object(),
+                    const std::string& kind = "hexapod_calibration") {
     const json request = {{"machine_id", machine}, {"measurement_ids", {1, 2, 3}}};
     JobRecord job;
     job.id = svc_->storage().CreateJob(kind, request.dump());
@@ -59,7 +59,7 @@ class CalibrationAudits : public TempDirTest {
   static json Rule(const std::string& metric, double warn, double stop) {
     return {{"kind", "calibration"}, {"metric", metric}, {"warn", warn}, {"stop", stop}};
   }
-  std::string FinishedAt(std::int64_t id) { return svc_->storage().GetJob(id)->updated_at; }
+  std::string FinishedAt(JobId id) { return svc_->storage().GetJob(id)->updated_at; }
 
   std::unique_ptr<Service> svc_;
 };
@@ -74,7 +74,7 @@ TEST_F(CalibrationAudits, TheNewestCalibrationOfTheMachineGivesLevelValueLimitAn
   Calibration(kMachine, JobStatus::kRunning, {250, 0, 0, 0, 0, 0});
   Calibration(kMachine, JobStatus::kDone, {300, 0, 0, 0, 0, 0}, {{"condition_number", nullptr}});
   Calibration(kMachine, JobStatus::kDone, {400, 0, 0, 0, 0, 0}, json::object(), "discovery");
-  ASSERT_EQ(svc_->studies().Job(newest + 4)["verdict"], "failed");
+  ASSERT_EQ(svc_->studies().Job(JobId(newest.value() + 4))["verdict"], "failed");
 
   const json v = Audit(
       kMachine,
@@ -103,7 +103,7 @@ TEST_F(CalibrationAudits, TheNewestCalibrationOfTheMachineGivesLevelValueLimitAn
   EXPECT_EQ(warn["message"],
             "calibration strut_offset_max_um 7.5, above the warn limit 5 "
             "(calibration job " +
-                std::to_string(newest) + ")");
+                to_string(newest) + ")");
   const json& stop = v["findings"][1];
   EXPECT_EQ(stop["rule"], 2);
   EXPECT_EQ(stop["level"], 3);

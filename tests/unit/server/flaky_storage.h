@@ -29,8 +29,8 @@ class FlakyStorage final : public SqliteStorage {
     MaybeFail(job);
     SqliteStorage::UpdateJob(job);
   }
-  bool RenewJob(std::int64_t id, const std::string& owner, double progress,
-                const std::string& stage, std::int64_t lease_until_ms) override {
+  bool RenewJob(JobId id, const std::string& owner, double progress, const std::string& stage,
+                std::int64_t lease_until_ms) override {
     JobRecord j;
     j.id = id;
     j.status = JobStatus::kRunning;
@@ -49,7 +49,7 @@ class FlakyStorage final : public SqliteStorage {
     std::lock_guard lock(mu_);
     if (rule_ && rule_(job)) {
       ++failed_;
-      throw Error("storage: disk I/O error (simulated) updating job " + std::to_string(job.id));
+      throw Error("storage: disk I/O error (simulated) updating job " + to_string(job.id));
     }
   }
   std::mutex mu_;

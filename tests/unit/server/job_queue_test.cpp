@@ -32,7 +32,7 @@ std::int64_t NowMs() {
 class JobQueueTest : public test::TempDirTest {
  protected:
   // Waits (up to 20 s) until the job's status is `status`.
-  static JobRecord WaitStatus(Storage& st, std::int64_t id, JobStatus status) {
+  static JobRecord WaitStatus(Storage& st, JobId id, JobStatus status) {
     const auto until = std::chrono::steady_clock::now() + 20s;
     while (std::chrono::steady_clock::now() < until) {
       const auto j = st.GetJob(id);
@@ -81,7 +81,7 @@ TEST_F(JobQueueTest, TwoInstancesOnOneDatabaseRunEveryJobOnceAndShareTheWork) {
   SqliteStorage db_a(Path("jobs.db")), db_b(Path("jobs.db"));
   auto a = Queue(db_a, "instance-a", 2);
   auto b = Queue(db_b, "instance-b", 2);
-  std::vector<std::int64_t> ids;
+  std::vector<JobId> ids;
   for (int n = 0; n < 40; ++n) ids.push_back(a->Submit("count", {}, {{"n", n}, {"ms", 10}}));
   a->Start();
   b->Start();
@@ -231,7 +231,7 @@ TEST(JobKindsTest, TheVerdictIsThatOfTheKindsJudge) {
                          if (r.value("rms_um", 0.0) > 1.0) f.Warn("rms " + VerdictNumber(1.25));
                        }});
   JobRecord job;
-  job.id = 9;
+  job.id = JobId(9);
   job.kind = "strict";
   job.status = JobStatus::kDone;
   job.result_json = R"({"rms_um":2})";
@@ -249,7 +249,7 @@ TEST_F(JobQueueTest, ACancelledRunningJobStopsAtItsNextReportAndFreesTheWorker) 
   SqliteStorage db(Path("jobs.db"));
   auto a = Queue(db, "instance-a");  // one worker
   a->Start();
-  const auto slow = a->Submit("count", {}, {{"n", 1}, {"slow", true}}, 7);
+  const auto slow = a->Submit("count", {}, {{"n", 1}, {"slow", true}}, TokenId(7));
   EXPECT_EQ(WaitStatus(db, slow, JobStatus::kRunning).owner_token_id, 7);
   const auto next = a->Submit("count", {}, {{"n", 2}});
   const auto t0 = std::chrono::steady_clock::now();

@@ -30,7 +30,7 @@ JobVerdict JudgeJob(const std::string& kind, JobStatus status, const nlohmann::j
 class JobStorageErrors : public test::TempDirTest {
  protected:
   // Waits until the job is done or failed (or 20 s have passed).
-  static JobRecord WaitFinished(Storage& st, std::int64_t id) {
+  static JobRecord WaitFinished(Storage& st, JobId id) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
     while (std::chrono::steady_clock::now() < until) {
       const auto j = st.GetJob(id);
@@ -62,7 +62,7 @@ class JobStorageErrors : public test::TempDirTest {
     return q;
   }
   JobKinds kinds_;  // outlives the queues of a test
-  static std::int64_t Submit(JobQueue& q, const nlohmann::json& plan) {
+  static JobId Submit(JobQueue& q, const nlohmann::json& plan) {
     return q.Submit("test", nlohmann::json::object(), plan);
   }
   std::atomic<bool> release_{false};
@@ -71,7 +71,7 @@ class JobStorageErrors : public test::TempDirTest {
 
 TEST_F(JobStorageErrors, EveryUpdateOfAJobFailingLeavesTheWorkerAlive) {
   FlakyStorage st(Path("jobs.db"));
-  st.FailUpdatesWhen([](const JobRecord& j) { return j.id == 1; });
+  st.FailUpdatesWhen([](const JobRecord& j) { return j.id == JobId(1); });
   auto q = Queue(st);
   const auto first = Submit(*q, {{"v", 1}});
   ASSERT_EQ(first, 1);
@@ -112,7 +112,7 @@ TEST_F(JobStorageErrors, StatusAndProgressUpdatesFailingDoNotStopTheWork) {
 TEST_F(JobStorageErrors, AJobThatThrowsWhileItsFailureCannotBeStoredLeavesTheWorkerAlive) {
   FlakyStorage st(Path("jobs.db"));
   st.FailUpdatesWhen(
-      [](const JobRecord& j) { return j.id == 1 && j.status == JobStatus::kFailed; });
+      [](const JobRecord& j) { return j.id == JobId(1) && j.status == JobStatus::kFailed; });
   auto q = Queue(st);
   const auto bad = Submit(*q, {{"throw", true}});
   const auto good = Submit(*q, {{"v", 4}});
@@ -132,7 +132,7 @@ TEST_F(JobStorageErrors, AJobFailsWithTheUsersMessageOrAsAnInternalError) {
   const auto internal = WaitFinished(st, id);
   EXPECT_EQ(internal.status, JobStatus::kFailed);
   EXPECT_EQ(internal.error, "the job failed with an internal error (logged by the server as job " +
-                                std::to_string(id) + ")");
+                                to_string(id) + ")");
 }
 
 TEST_F(JobStorageErrors, StoppingWithQueuedJobsAndAFailingStorageDoesNotTerminate) {
@@ -152,7 +152,7 @@ TEST_F(JobStorageErrors, StoppingWithQueuedJobsAndAFailingStorageDoesNotTerminat
   EXPECT_GE(st.failed_updates(), 0);
   // Nothing is lost: the interrupted job and the queued ones wait for the next start.
   for (std::int64_t id = 1; id <= 4; ++id)
-    EXPECT_EQ(st.GetJob(id)->status, JobStatus::kQueued) << id;
+    EXPECT_EQ(st.GetJob(JobId(id))->status, JobStatus::kQueued) << id;
 }
 
 // The verdict on a finished job: a calibration that is ill-conditioned, not converged or
@@ -240,7 +240,7 @@ TEST(JobVerdict, DiscoveriesFailedAndRunningJobs) {
   EXPECT_EQ(JudgeJob("hexapod_calibration", JobStatus::kDone, nullptr, "").verdict, "failed");
   // The job JSON carries the verdict and its reasons.
   JobRecord job;
-  job.id = 3;
+  job.id = JobId(3);
   job.kind = "hexapod_calibration";
   job.status = JobStatus::kDone;
   job.request_json = "{}";

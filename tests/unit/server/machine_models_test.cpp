@@ -55,7 +55,7 @@ NewMachineModel Model(const std::string& machine, const std::string& document) {
   return m;
 }
 
-JobRecord Job(std::int64_t id, JobStatus status, double progress, const std::string& stage,
+JobRecord Job(JobId id, JobStatus status, double progress, const std::string& stage,
               const std::string& result, const std::string& error) {
   JobRecord j;
   j.id = id;
@@ -91,7 +91,7 @@ class MachineModels : public test::TempDirTest {
     }
     return ids;
   }
-  json WaitForJob(std::int64_t id) {
+  json WaitForJob(JobId id) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::minutes(5);
     while (std::chrono::steady_clock::now() < until) {
       const auto j = service_->studies().Job(id);
@@ -282,7 +282,7 @@ TEST_F(MachineModels, ACalibrationFromAStoredModelIsSavedAsItsNextVersion) {
   EXPECT_EQ(service_->models().GetMachineModel("pm600-like", 2).document, written);
   EXPECT_EQ(ingest::WriteMachineJson(stored), written);
   const auto versions = service_->models().ListMachineModels("pm600-like")["versions"];
-  EXPECT_EQ(versions[1]["source"], "calibration job " + std::to_string(job));
+  EXPECT_EQ(versions[1]["source"], "calibration job " + to_string(job));
   EXPECT_EQ(versions[1]["note"], "after the jig calibration");
   // Saving it again: the same bytes as the newest version, nothing new.
   const auto again = service_->studies().SaveJobMachine(job, "");
@@ -334,7 +334,7 @@ TEST_F(MachineModels, CalibrationRequestsNamingAStoredModelAreChecked) {
 
 TEST_F(MachineModels, SavingTheMachineOfAJobWithoutOneIsAConflict) {
   Start(0);
-  EXPECT_THROW(service_->studies().SaveJobMachine(42, ""), NotFound);
+  EXPECT_THROW(service_->studies().SaveJobMachine(JobId(42), ""), NotFound);
   auto& st = service_->storage();
   // Job records in each state (not run: the records alone decide).
   const auto queued = st.CreateJob("hexapod_calibration", "{}");
@@ -392,7 +392,7 @@ TEST_F(MachineModels, DiscoveryJobsRunOnStoredModelsAndSaveTheUpdatedMachine) {
   EXPECT_TRUE(saved.created);
   EXPECT_EQ(saved.version, 2);
   EXPECT_EQ(service_->models().ListMachineModels("pm600-like")["versions"][1]["source"],
-            "discovery job " + std::to_string(hex));
+            "discovery job " + to_string(hex));
   EXPECT_EQ(json::parse(service_->models().GetMachineModel("pm600-like").document),
             hj["result"]["updated_machine"]);
   EXPECT_EQ(service_->models().GetMachineModel("pm600-like").document,

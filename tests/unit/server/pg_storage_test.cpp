@@ -163,7 +163,7 @@ TEST_F(PgStorageTest, ADatabaseOfVersion7GainsTheJobQueueWithNothingLost) {
   PgStorage s(url_);
   EXPECT_EQ(QueryValue(url_, "SELECT version FROM kinemetric_schema"),
             std::to_string(pg::SchemaVersion()));
-  const auto j = *s.GetJob(1);
+  const auto j = *s.GetJob(JobId(1));
   EXPECT_EQ(j.status, JobStatus::kDone);
   EXPECT_EQ(j.request_json, R"({"a":1})");
   EXPECT_EQ(j.result_json, R"({"r":2})");
@@ -173,7 +173,7 @@ TEST_F(PgStorageTest, ADatabaseOfVersion7GainsTheJobQueueWithNothingLost) {
   EXPECT_EQ(j.lease_until_ms, 0);
   EXPECT_EQ(j.attempts, 0);
   EXPECT_EQ(s.FindTokenRole("h"), "admin");
-  EXPECT_EQ(s.QueueJob({"discovery", "{}", "{}"}), 2);
+  EXPECT_EQ(s.QueueJob({"discovery", "{}", "{}"}), JobId(2));
 }
 
 TEST_F(PgStorageTest, KeptRowsAreImmutableInTheDatabaseItself) {
@@ -187,8 +187,8 @@ TEST_F(PgStorageTest, KeptRowsAreImmutableInTheDatabaseItself) {
     c.n = 1;
     c.data = "x";
     s.AppendStream({c}, {});
-    s.AppendAudit({0, "", 0, "", "admin", "POST", "/x", 200, ""});
-    s.AddAuditVerdict({0, "m", 2, "manual", "", "{}", "pending", 0});
+    s.AppendAudit({AuditEntryId(), "", std::nullopt, "", "admin", "POST", "/x", 200, ""});
+    s.AddAuditVerdict({AuditVerdictId(), "m", 2, "manual", "", "{}", "pending", 0});
   }
   for (const char* table :
        {"measurements", "stream_chunks", "machine_models", "audit_log", "audit_verdicts"}) {

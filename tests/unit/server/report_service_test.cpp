@@ -140,7 +140,7 @@ TEST_F(ReportServiceTest, TheAuditReportListsRulesValuesFindingsAndHistory) {
   }
   EXPECT_THROW(svc_->reports().AuditPdf("no-such-machine"), NotFound);
   EXPECT_THROW(svc_->reports().MeasurementPdf(MeasurementId(999)), NotFound);
-  EXPECT_THROW(svc_->reports().JobPdf(999), NotFound);
+  EXPECT_THROW(svc_->reports().JobPdf(JobId(999)), NotFound);
 }
 
 TEST_F(ReportServiceTest, APositioningReportHoldsItsFiguresAndTargets) {

@@ -106,7 +106,7 @@ class ServiceLimits : public ::testing::Test {
     return {{"machine", nlohmann::json::parse(ReadFile("tests/fixtures/pm600-like.json"))},
             {"measurement_ids", ids}};
   }
-  nlohmann::json WaitForJob(std::int64_t id) {
+  nlohmann::json WaitForJob(JobId id) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::minutes(5);
     while (std::chrono::steady_clock::now() < until) {
       const auto j = service_->studies().Job(id);
@@ -269,28 +269,30 @@ TEST_F(ServiceLimits, AJobIsCancelledByItsOwnerOrAnAdminOnly) {
   o.jobs.workers = 0;  // the jobs stay queued
   Start(o);
   const auto ids = UploadHexapodTests();
-  const auto job = km::test::SubmitCalibrationJson(*service_, Request({ids[0], ids[1]}), 5);
+  const auto job =
+      km::test::SubmitCalibrationJson(*service_, Request({ids[0], ids[1]}), TokenId(5));
   EXPECT_EQ(service_->studies().Job(job)["owner_token_id"], 5);
   const auto e = Expect<Forbidden>([&] {
-    service_->studies().CancelJob(job, {6, "other", false});
+    service_->studies().CancelJob(job, {TokenId(6), "other", false});
   });
   EXPECT_TRUE(Contains(e.what(), "only its owner or an admin")) << e.what();
   EXPECT_EQ(service_->studies().Job(job)["status"], "queued");
-  const auto j = service_->studies().CancelJob(job, {5, "alice", false});
+  const auto j = service_->studies().CancelJob(job, {TokenId(5), "alice", false});
   EXPECT_EQ(j["status"], "cancelled");
   EXPECT_EQ(j["stage"], "cancelled");
   EXPECT_EQ(j["error"], "cancelled by token 'alice' (id 5)");
   EXPECT_TRUE(j["verdict"].is_null());
   const auto again = Expect<Conflict>([&] {
-    service_->studies().CancelJob(job, {5, "alice", false});
+    service_->studies().CancelJob(job, {TokenId(5), "alice", false});
   });
   EXPECT_TRUE(Contains(again.what(), "is cancelled already")) << again.what();
-  EXPECT_THROW(service_->studies().CancelJob(job + 100, {1, "admin", true}), NotFound);
+  EXPECT_THROW(service_->studies().CancelJob(JobId(job.value() + 100), {TokenId(1), "admin", true}),
+               NotFound);
   // An admin cancels any job, also one whose owner is not known (queued by an older version).
   const auto other = km::test::SubmitDiscoveryJson(*service_, {{"measurement_ids", {ids[0]}}});
   EXPECT_TRUE(service_->studies().Job(other)["owner_token_id"].is_null());
-  EXPECT_THROW(service_->studies().CancelJob(other, {5, "alice", false}), Forbidden);
-  EXPECT_EQ(service_->studies().CancelJob(other, {1, "root", true})["error"],
+  EXPECT_THROW(service_->studies().CancelJob(other, {TokenId(5), "alice", false}), Forbidden);
+  EXPECT_EQ(service_->studies().CancelJob(other, {TokenId(1), "root", true})["error"],
             "cancelled by token 'root' (id 1)");
 }
 

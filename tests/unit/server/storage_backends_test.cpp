@@ -295,7 +295,7 @@ TEST_P(Backends, JobsAreStoredUpdatedListedAndCounted) {
   EXPECT_EQ(s->CreateJob("calibration", R"({"a":1})"), 1);
   EXPECT_EQ(s->CreateJob("discovery", "{}"), 2);
   EXPECT_EQ(s->CreateJob("calibration", "{}"), 3);
-  auto j = *s->GetJob(1);
+  auto j = *s->GetJob(JobId(1));
   EXPECT_EQ(j.kind, "calibration");
   EXPECT_EQ(j.status, JobStatus::kQueued);
   EXPECT_EQ(j.progress, 0.0);
@@ -306,12 +306,12 @@ TEST_P(Backends, JobsAreStoredUpdatedListedAndCounted) {
   j.stage = "fit";
   j.result_json = R"({"r":2})";
   s->UpdateJob(j);
-  const auto back = *s->GetJob(1);
+  const auto back = *s->GetJob(JobId(1));
   EXPECT_EQ(back.status, JobStatus::kDone);
   EXPECT_EQ(back.progress, 0.1 + 0.2);
   EXPECT_EQ(back.stage, "fit");
   EXPECT_EQ(back.result_json, R"({"r":2})");
-  EXPECT_FALSE(s->GetJob(4));
+  EXPECT_FALSE(s->GetJob(JobId(4)));
   const auto list = s->ListJobs(2);
   ASSERT_EQ(list.size(), 2u);
   EXPECT_EQ(list[0].id, 3);
@@ -322,8 +322,8 @@ TEST_P(Backends, JobsAreStoredUpdatedListedAndCounted) {
   EXPECT_EQ(s->CountJobsWithStatus(JobStatus::kDone), 1);
   EXPECT_EQ(s->CountJobsWithStatus(JobStatus::kRunning), 0);
   EXPECT_EQ(s->FailInterruptedJobs("stopped"), 2);
-  EXPECT_EQ(s->GetJob(2)->error, "stopped");
-  EXPECT_EQ(s->GetJob(1)->error, "");
+  EXPECT_EQ(s->GetJob(JobId(2))->error, "stopped");
+  EXPECT_EQ(s->GetJob(JobId(1))->error, "");
   EXPECT_EQ(s->CountJobsByStatus(),
             (std::map<std::string, std::int64_t>{{"done", 1}, {"failed", 2}}));
   EXPECT_EQ(s->FailInterruptedJobs("again"), 0);
@@ -347,15 +347,15 @@ TEST_P(Backends, TokensAndTheAuditLog) {
   EXPECT_FALSE(t.revoked_at);
   EXPECT_FALSE(s->FindToken("nope"));
   const auto allow = [](const std::vector<TokenRecord>&) {};
-  EXPECT_TRUE(s->RevokeToken(2, allow));
+  EXPECT_TRUE(s->RevokeToken(TokenId(2), allow));
   const auto first = s->FindToken("h2")->revoked_at;
   ASSERT_TRUE(first);
-  EXPECT_TRUE(s->RevokeToken(2, allow));
+  EXPECT_TRUE(s->RevokeToken(TokenId(2), allow));
   EXPECT_EQ(s->FindToken("h2")->revoked_at, first);  // a second revocation keeps the first time
-  EXPECT_FALSE(s->RevokeToken(99, allow));
+  EXPECT_FALSE(s->RevokeToken(TokenId(99), allow));
   // A check that refuses leaves the token as it was (the check sees every token).
   std::size_t seen = 0;
-  EXPECT_THROW(s->RevokeToken(3,
+  EXPECT_THROW(s->RevokeToken(TokenId(3),
                               [&](const std::vector<TokenRecord>& all) {
                                 seen = all.size();
                                 throw std::runtime_error("refused");
@@ -370,16 +370,16 @@ TEST_P(Backends, TokensAndTheAuditLog) {
   EXPECT_FALSE(list[2].expires_at);
   // The last use: none until recorded; a later time replaces an earlier one, never the reverse.
   EXPECT_FALSE(list[2].last_used_at);
-  s->TouchToken(3, "2026-05-02T10:00:00Z");
-  s->TouchToken(3, "2026-05-01T10:00:00Z");
+  s->TouchToken(TokenId(3), "2026-05-02T10:00:00Z");
+  s->TouchToken(TokenId(3), "2026-05-01T10:00:00Z");
   EXPECT_EQ(s->FindToken("h3")->last_used_at, std::optional<std::string>("2026-05-02T10:00:00Z"));
-  s->TouchToken(3, "2026-05-03T10:00:00Z");
+  s->TouchToken(TokenId(3), "2026-05-03T10:00:00Z");
   EXPECT_EQ(s->ListTokens()[2].last_used_at, std::optional<std::string>("2026-05-03T10:00:00Z"));
   EXPECT_FALSE(s->ListTokens()[1].last_used_at);
   for (int i = 1; i <= 5; ++i) {
     AuditEntry e;
     e.at = i == 5 ? "" : "2026-05-0" + std::to_string(i) + "T00:00:00Z";
-    e.token_id = i % 2 ? 2 : 0;
+    e.token_id = i % 2 ? std::optional(TokenId(2)) : std::nullopt;
     e.token_name = i % 2 ? "line 2" : "";
     e.role = "operator";
     e.method = "POST";
@@ -435,13 +435,13 @@ TEST_P(Backends, AccuracyAuditConfigsAndVerdicts) {
     v.verdict_json = "{\"n\":" + std::to_string(i) + "}";
     EXPECT_EQ(s->AddAuditVerdict(v), i);
   }
-  s->SetAuditWebhook(2, "delivered", 3);
-  const auto v2 = *s->GetAuditVerdict(2);
+  s->SetAuditWebhook(AuditVerdictId(2), "delivered", 3);
+  const auto v2 = *s->GetAuditVerdict(AuditVerdictId(2));
   EXPECT_EQ(v2.level, 3);
   EXPECT_EQ(v2.webhook_status, "delivered");
   EXPECT_EQ(v2.webhook_attempts, 3);
   EXPECT_EQ(v2.verdict_json, R"({"n":2})");
-  EXPECT_FALSE(s->GetAuditVerdict(5));
+  EXPECT_FALSE(s->GetAuditVerdict(AuditVerdictId(5)));
   AuditVerdictFilter f;
   f.machine_id = "vmc";
   auto list = s->ListAuditVerdicts(f);
@@ -465,7 +465,7 @@ TEST_P(Backends, AccuracyAuditConfigsAndVerdicts) {
     p.offset = offset;
     p.max_bytes = max_bytes;
     std::vector<std::int64_t> out;
-    for (const auto& v : s->ListAuditVerdicts(p)) out.push_back(v.id);
+    for (const auto& v : s->ListAuditVerdicts(p)) out.push_back(v.id.value());
     return out;
   };
   using Ids = std::vector<std::int64_t>;
@@ -485,7 +485,7 @@ TEST_P(Backends, AccuracyAuditConfigsAndVerdicts) {
 
 StreamChunk Chunk(std::int64_t stream, std::int64_t channel, std::int64_t first, std::int64_t n) {
   StreamChunk c;
-  c.stream_id = stream;
+  c.stream_id = StreamId(stream);
   c.channel = channel;
   c.first_counter = first;
   c.n = n;
@@ -504,25 +504,25 @@ TEST_P(Backends, StreamsChunksAndGaps) {
   EXPECT_EQ(s->CreateStream({"m1", "run", "http", R"({"channels":[]})"}), 1);
   EXPECT_EQ(s->CreateStream({"m2", "", "modbus:dev", "{}"}), 2);
   EXPECT_EQ(s->CreateStream({"m1", "second", "http", "{}"}), 3);
-  const auto st = *s->GetStream(1);
+  const auto st = *s->GetStream(StreamId(1));
   EXPECT_EQ(st.machine_id, "m1");
   EXPECT_EQ(st.name, "run");
   EXPECT_EQ(st.source, "http");
   EXPECT_EQ(st.metadata_json, R"({"channels":[]})");
   EXPECT_EQ(st.created_at.size(), 20u);
-  EXPECT_FALSE(s->GetStream(4));
+  EXPECT_FALSE(s->GetStream(StreamId(4)));
   auto list = s->ListStreams("m1", 10);
   ASSERT_EQ(list.size(), 2u);
   EXPECT_EQ(list[0].id, 3);
   EXPECT_EQ(s->ListStreams(std::nullopt, 2).size(), 2u);
   EXPECT_EQ(s->ListStreams(std::nullopt, 10).size(), 3u);
   s->AppendStream({Chunk(1, 0, 0, 10), Chunk(1, 0, 10, 10), Chunk(1, 1, 0, 5)},
-                  {{1, 0, 20, 5, 19000, 25000, "2026-07-01T00:00:00Z"}});
-  s->AppendStream({Chunk(1, 0, 25, 10)}, {{1, 1, 5, 2, 4000, 7000, ""}});
+                  {{StreamId(1), 0, 20, 5, 19000, 25000, "2026-07-01T00:00:00Z"}});
+  s->AppendStream({Chunk(1, 0, 25, 10)}, {{StreamId(1), 1, 5, 2, 4000, 7000, ""}});
   // A chunk stored already: refused, and nothing of that call is written.
   EXPECT_THROW(s->AppendStream({Chunk(1, 0, 40, 10), Chunk(1, 0, 10, 10)}, {}), InvalidInput);
   s->AppendStream({}, {});
-  const auto chans = s->StreamChannels(1);
+  const auto chans = s->StreamChannels(StreamId(1));
   ASSERT_EQ(chans.size(), 2u);
   EXPECT_EQ(chans[0].channel, 0);
   EXPECT_EQ(chans[0].samples, 30);
@@ -535,8 +535,8 @@ TEST_P(Backends, StreamsChunksAndGaps) {
   EXPECT_EQ(chans[0].missing, 5);
   EXPECT_EQ(chans[1].samples, 5);
   EXPECT_EQ(chans[1].missing, 2);
-  EXPECT_TRUE(s->StreamChannels(2).empty());
-  auto chunks = s->ReadStreamChunks(1, 0, 9000, 25000, true);
+  EXPECT_TRUE(s->StreamChannels(StreamId(2)).empty());
+  auto chunks = s->ReadStreamChunks(StreamId(1), 0, 9000, 25000, true);
   ASSERT_EQ(chunks.size(), 2u);  // [0, 9000] touches 9000; [25000, …] starts at the end
   EXPECT_EQ(chunks[0].first_counter, 0);
   EXPECT_EQ(chunks[1].first_counter, 10);
@@ -546,21 +546,21 @@ TEST_P(Backends, StreamsChunksAndGaps) {
   EXPECT_EQ(chunks[1].value_sum, std::numeric_limits<double>::infinity());
   EXPECT_EQ(chunks[1].flagged, 1);
   EXPECT_EQ(chunks[1].t_last_us, 19000);
-  chunks = s->ReadStreamChunks(1, 0, std::numeric_limits<std::int64_t>::min(),
+  chunks = s->ReadStreamChunks(StreamId(1), 0, std::numeric_limits<std::int64_t>::min(),
                                std::numeric_limits<std::int64_t>::max(), false);
   ASSERT_EQ(chunks.size(), 3u);
   EXPECT_TRUE(chunks[2].data.empty());
   EXPECT_EQ(chunks[2].first_counter, 25);
-  EXPECT_EQ(s->ReadStreamChunkData(1, 1, 0), Chunk(1, 1, 0, 5).data);
-  EXPECT_THROW(s->ReadStreamChunkData(1, 1, 1), NotFound);
-  const auto gaps = s->StreamGaps(1, 10);
+  EXPECT_EQ(s->ReadStreamChunkData(StreamId(1), 1, 0), Chunk(1, 1, 0, 5).data);
+  EXPECT_THROW(s->ReadStreamChunkData(StreamId(1), 1, 1), NotFound);
+  const auto gaps = s->StreamGaps(StreamId(1), 10);
   ASSERT_EQ(gaps.size(), 2u);
   EXPECT_EQ(gaps[0].channel, 1);  // by t_before_us
   EXPECT_EQ(gaps[0].first_missing, 5);
   EXPECT_EQ(gaps[0].detected_at.size(), 20u);
   EXPECT_EQ(gaps[1].detected_at, "2026-07-01T00:00:00Z");
   EXPECT_EQ(gaps[1].t_after_us, 25000);
-  EXPECT_EQ(s->StreamGaps(1, 1).size(), 1u);
+  EXPECT_EQ(s->StreamGaps(StreamId(1), 1).size(), 1u);
 }
 
 }  // namespace

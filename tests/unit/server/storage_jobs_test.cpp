@@ -22,7 +22,7 @@ const std::string kAbandoned = "the instance running it stopped";
 
 NewJob Job(int n) {
   return NewJob{"calibration", "{\"n\":" + std::to_string(n) + "}",
-                "{\"plan\":" + std::to_string(n) + "}"};
+                "{\"plan\":" + std::to_string(n) + "}", std::nullopt};
 }
 
 TEST_P(Backends, JobsAreClaimedOldestFirstWithTheirPlan) {
@@ -39,7 +39,7 @@ TEST_P(Backends, JobsAreClaimedOldestFirstWithTheirPlan) {
   EXPECT_EQ(j->lease_owner, "a");
   EXPECT_EQ(j->lease_until_ms, 1500);
   EXPECT_EQ(j->attempts, 1);
-  const auto stored = *s->GetJob(1);
+  const auto stored = *s->GetJob(JobId(1));
   EXPECT_EQ(stored.status, JobStatus::kRunning);
   EXPECT_EQ(stored.lease_owner, "a");
   EXPECT_EQ(stored.lease_until_ms, 1500);
@@ -66,16 +66,16 @@ TEST_P(Backends, ALapsedLeaseIsTakenOverAndTheLastAttemptFails) {
   EXPECT_EQ(b->lease_owner, "b");
   EXPECT_EQ(b->lease_until_ms, 2501);
   // a lost it: its progress and its outcome are refused, nothing written.
-  EXPECT_FALSE(s->RenewJob(1, "a", 0.9, "late", 9000));
+  EXPECT_FALSE(s->RenewJob(JobId(1), "a", 0.9, "late", 9000));
   JobRecord done = *b;
   done.status = JobStatus::kDone;
   done.progress = 1.0;
   done.result_json = R"({"from":"a"})";
   EXPECT_FALSE(s->FinishJob(done, "a"));
-  EXPECT_EQ(s->GetJob(1)->stage, "started");
-  EXPECT_EQ(s->GetJob(1)->lease_until_ms, 2501);
-  EXPECT_TRUE(s->RenewJob(1, "b", 0.5, "fit", 4000));
-  auto now = *s->GetJob(1);
+  EXPECT_EQ(s->GetJob(JobId(1))->stage, "started");
+  EXPECT_EQ(s->GetJob(JobId(1))->lease_until_ms, 2501);
+  EXPECT_TRUE(s->RenewJob(JobId(1), "b", 0.5, "fit", 4000));
+  auto now = *s->GetJob(JobId(1));
   EXPECT_EQ(now.progress, 0.5);
   EXPECT_EQ(now.stage, "fit");
   EXPECT_EQ(now.lease_until_ms, 4000);
@@ -83,13 +83,13 @@ TEST_P(Backends, ALapsedLeaseIsTakenOverAndTheLastAttemptFails) {
   EXPECT_EQ(s->ClaimJob("c", 4001, 1000, 3, kAbandoned)->attempts, 3);
   // The third start lapsed too: failed, not started a fourth time.
   EXPECT_FALSE(s->ClaimJob("d", 9000, 1000, 3, kAbandoned));
-  now = *s->GetJob(1);
+  now = *s->GetJob(JobId(1));
   EXPECT_EQ(now.status, JobStatus::kFailed);
   EXPECT_EQ(now.error, kAbandoned);
   EXPECT_EQ(now.lease_owner, "");
   EXPECT_EQ(now.lease_until_ms, 0);
   EXPECT_EQ(now.attempts, 3);
-  EXPECT_FALSE(s->RenewJob(1, "c", 0.1, "x", 99999));
+  EXPECT_FALSE(s->RenewJob(JobId(1), "c", 0.1, "x", 99999));
 }
 
 TEST_P(Backends, TheOwnerFinishesItsJobOnce) {
@@ -104,7 +104,7 @@ TEST_P(Backends, TheOwnerFinishesItsJobOnce) {
   const std::string document = "{\n  \"z\": 1.50,\n  \"a\": \"é\"\t}\r\n";
   j.machine_document = document;
   EXPECT_TRUE(s->FinishJob(j, "a"));
-  const auto stored = *s->GetJob(1);
+  const auto stored = *s->GetJob(JobId(1));
   EXPECT_EQ(stored.status, JobStatus::kDone);
   EXPECT_EQ(stored.result_json, R"({"r":1})");
   EXPECT_EQ(stored.machine_document, document);
@@ -124,13 +124,13 @@ TEST_P(Backends, AStoppingInstanceGivesItsJobsBack) {
   s->ClaimJob("a", 0, 100, 3, kAbandoned);
   EXPECT_EQ(s->ReleaseJobs("a"), 2);
   EXPECT_EQ(s->ReleaseJobs("a"), 0);
-  const auto one = *s->GetJob(1);
+  const auto one = *s->GetJob(JobId(1));
   EXPECT_EQ(one.status, JobStatus::kQueued);
   EXPECT_EQ(one.stage, "waiting for an instance");
   EXPECT_EQ(one.lease_owner, "");
   EXPECT_EQ(one.lease_until_ms, 0);
   EXPECT_EQ(one.attempts, 1);  // kept
-  EXPECT_EQ(s->GetJob(2)->lease_owner, "b");
+  EXPECT_EQ(s->GetJob(JobId(2))->lease_owner, "b");
   const auto again = s->ClaimJob("c", 10, 100, 3, kAbandoned);
   EXPECT_EQ(again->id, 1);
   EXPECT_EQ(again->attempts, 2);
@@ -141,28 +141,28 @@ TEST_P(Backends, AStoppingInstanceGivesItsJobsBack) {
 TEST_P(Backends, QueuedAndRunningJobsAreCancelledAndNeverTakenAgain) {
   auto s = Open();
   NewJob owned = Job(1);
-  owned.owner_token_id = 42;
+  owned.owner_token_id = TokenId(42);
   s->QueueJob(owned);
   s->QueueJob(Job(2));
   s->QueueJob(Job(3));
-  EXPECT_EQ(s->GetJob(1)->owner_token_id, 42);
-  EXPECT_EQ(s->GetJob(2)->owner_token_id, 0);
+  EXPECT_EQ(s->GetJob(JobId(1))->owner_token_id, TokenId(42));
+  EXPECT_FALSE(s->GetJob(JobId(2))->owner_token_id);
   JobRecord running = *s->ClaimJob("a", 0, 100, 3, kAbandoned);
   ASSERT_EQ(running.id, 1);
   EXPECT_EQ(running.owner_token_id, 42);
-  EXPECT_TRUE(s->CancelJob(1, "cancelled by token 'x' (id 42)"));
-  EXPECT_TRUE(s->CancelJob(2, "not wanted"));
-  const auto one = *s->GetJob(1);
+  EXPECT_TRUE(s->CancelJob(JobId(1), "cancelled by token 'x' (id 42)"));
+  EXPECT_TRUE(s->CancelJob(JobId(2), "not wanted"));
+  const auto one = *s->GetJob(JobId(1));
   EXPECT_EQ(one.status, JobStatus::kCancelled);
   EXPECT_EQ(one.stage, "cancelled");
   EXPECT_EQ(one.error, "cancelled by token 'x' (id 42)");
   EXPECT_EQ(one.lease_until_ms, 0);
   EXPECT_EQ(one.owner_token_id, 42);
   // The instance running it learns at its next report; its outcome is refused.
-  EXPECT_FALSE(s->RenewJob(1, "a", 0.5, "x", 1000));
+  EXPECT_FALSE(s->RenewJob(JobId(1), "a", 0.5, "x", 1000));
   running.status = JobStatus::kDone;
   EXPECT_FALSE(s->FinishJob(running, "a"));
-  EXPECT_EQ(s->GetJob(1)->status, JobStatus::kCancelled);
+  EXPECT_EQ(s->GetJob(JobId(1))->status, JobStatus::kCancelled);
   EXPECT_EQ(s->ReleaseJobs("a"), 0);
   // Never claimed again, also long after any lease; a second cancel changes nothing.
   JobRecord three = *s->ClaimJob("b", 1'000'000, 100, 3, kAbandoned);
@@ -170,10 +170,10 @@ TEST_P(Backends, QueuedAndRunningJobsAreCancelledAndNeverTakenAgain) {
   three.status = JobStatus::kDone;
   EXPECT_TRUE(s->FinishJob(three, "b"));
   EXPECT_FALSE(s->ClaimJob("b", 2'000'000, 100, 3, kAbandoned));
-  EXPECT_FALSE(s->CancelJob(1, "again"));
-  EXPECT_EQ(s->GetJob(1)->error, "cancelled by token 'x' (id 42)");
-  EXPECT_FALSE(s->CancelJob(99, "no such job"));
-  EXPECT_FALSE(s->CancelJob(3, "finished"));  // done jobs stay done
+  EXPECT_FALSE(s->CancelJob(JobId(1), "again"));
+  EXPECT_EQ(s->GetJob(JobId(1))->error, "cancelled by token 'x' (id 42)");
+  EXPECT_FALSE(s->CancelJob(JobId(99), "no such job"));
+  EXPECT_FALSE(s->CancelJob(JobId(3), "finished"));  // done jobs stay done
   EXPECT_EQ(s->CountJobsByStatus(),
             (std::map<std::string, std::int64_t>{{"cancelled", 2}, {"done", 1}}));
   EXPECT_EQ(s->FailInterruptedJobs("restart"), 0);
@@ -194,7 +194,7 @@ TEST_P(Backends, TwoInstancesClaimingFromManyThreadsTakeEveryJobOnce) {
       while (auto j = s.ClaimJob(owner, 1000, 60'000, 3, kAbandoned)) {
         {
           std::lock_guard lock(mu);
-          taken.push_back(j->id);
+          taken.push_back(j->id.value());
         }
         j->status = JobStatus::kDone;
         j->result_json = "{}";

@@ -149,7 +149,7 @@ void ExpectVersion2Rows(SqliteStorage& s) {
   const auto jobs = s.ListJobs(10);
   ASSERT_GE(jobs.size(), 2u);  // the fixture of version 8 adds a third
   EXPECT_EQ(jobs.back().id, 1);
-  const auto done = s.GetJob(1);
+  const auto done = s.GetJob(JobId(1));
   ASSERT_TRUE(done);
   EXPECT_EQ(done->status, JobStatus::kDone);
   EXPECT_EQ(done->progress, 1.0);
@@ -157,7 +157,7 @@ void ExpectVersion2Rows(SqliteStorage& s) {
   EXPECT_EQ(done->request_json, R"({"measurement_ids":[1]})");
   EXPECT_EQ(done->result_json, R"({"rms_um":0.5})");
   EXPECT_EQ(done->created_at, "2025-04-01T10:00:00Z");
-  const auto failed = s.GetJob(2);
+  const auto failed = s.GetJob(JobId(2));
   ASSERT_TRUE(failed);
   EXPECT_EQ(failed->status, JobStatus::kFailed);
   EXPECT_EQ(failed->progress, 0.25);
@@ -166,13 +166,13 @@ void ExpectVersion2Rows(SqliteStorage& s) {
 
 // Version 3: streams, chunks, gaps.
 void ExpectVersion3Rows(SqliteStorage& s) {
-  const auto st = s.GetStream(1);
+  const auto st = s.GetStream(StreamId(1));
   ASSERT_TRUE(st);
   EXPECT_EQ(st->machine_id, "old-vmc");
   EXPECT_EQ(st->name, "spindle");
   EXPECT_EQ(st->source, "http");
   EXPECT_EQ(st->created_at, "2025-05-01T12:00:00Z");
-  const auto channels = s.StreamChannels(1);
+  const auto channels = s.StreamChannels(StreamId(1));
   ASSERT_EQ(channels.size(), 1u);
   EXPECT_EQ(channels[0].samples, 6);
   EXPECT_EQ(channels[0].chunks, 2);
@@ -182,14 +182,14 @@ void ExpectVersion3Rows(SqliteStorage& s) {
   EXPECT_EQ(channels[0].next_counter, 12u);
   EXPECT_EQ(channels[0].gaps, 1);
   EXPECT_EQ(channels[0].missing, 6);
-  const auto chunks = s.ReadStreamChunks(1, 0, 0, 1'000'000, true);
+  const auto chunks = s.ReadStreamChunks(StreamId(1), 0, 0, 1'000'000, true);
   ASSERT_EQ(chunks.size(), 2u);
   EXPECT_EQ(chunks[0].value_min, -1.5);
   EXPECT_EQ(chunks[0].value_max, 2.5);
   EXPECT_EQ(chunks[0].value_sum, 3.0);
   EXPECT_EQ(chunks[0].data, std::string("\x00\x01\x02\x03", 4));
-  EXPECT_EQ(s.ReadStreamChunkData(1, 0, 10), "\x04\x05");
-  const auto gaps = s.StreamGaps(1, 10);
+  EXPECT_EQ(s.ReadStreamChunkData(StreamId(1), 0, 10), "\x04\x05");
+  const auto gaps = s.StreamGaps(StreamId(1), 10);
   ASSERT_EQ(gaps.size(), 1u);
   EXPECT_EQ(gaps[0].first_missing, 4);
   EXPECT_EQ(gaps[0].missing, 6);
@@ -234,7 +234,7 @@ void ExpectVersion7Rows(SqliteStorage& s) {
   EXPECT_EQ(c->schedule, "every 24h");
   EXPECT_EQ(c->last_run_at, "2025-09-01T06:00:00Z");
   EXPECT_EQ(c->next_run_at, "2025-09-02T06:00:00Z");
-  const auto v = s.GetAuditVerdict(1);
+  const auto v = s.GetAuditVerdict(AuditVerdictId(1));
   ASSERT_TRUE(v);
   EXPECT_EQ(v->machine_id, "old-lathe");
   EXPECT_EQ(v->level, 2);
@@ -246,18 +246,18 @@ void ExpectVersion7Rows(SqliteStorage& s) {
 // Version 8: a finished job with its plan, the instance that ran it and its attempts; jobs of
 // earlier versions have no owner (version 9), and a job queued now keeps its owner.
 void ExpectVersion8Rows(SqliteStorage& s) {
-  const auto j = s.GetJob(3);
+  const auto j = s.GetJob(JobId(3));
   ASSERT_TRUE(j);
   EXPECT_EQ(j->status, JobStatus::kDone);
   EXPECT_EQ(j->plan_json, R"({"measurement_ids":[1]})");
   EXPECT_EQ(j->lease_owner, "old-host:41:0badcafe");
   EXPECT_EQ(j->attempts, 2);
   EXPECT_EQ(j->owner_token_id, 0);
-  EXPECT_FALSE(s.CancelJob(3, "too late"));
+  EXPECT_FALSE(s.CancelJob(JobId(3), "too late"));
 }
 
 void ExpectJobOwnersKept(SqliteStorage& s) {
-  const auto id = s.QueueJob(NewJob{"discovery", "{}", "{}", 1});
+  const auto id = s.QueueJob(NewJob{"discovery", "{}", "{}", TokenId(1)});
   EXPECT_EQ(s.GetJob(id)->owner_token_id, 1);
   EXPECT_TRUE(s.CancelJob(id, "not wanted"));
   EXPECT_EQ(s.GetJob(id)->status, JobStatus::kCancelled);
@@ -266,7 +266,7 @@ void ExpectJobOwnersKept(SqliteStorage& s) {
 // Jobs of earlier versions carry no plan and no lease (version 8): finished ones keep their
 // outcome, and the queue offers none of them.
 void ExpectJobsWithoutPlan(SqliteStorage& s) {
-  const auto j = s.GetJob(1);
+  const auto j = s.GetJob(JobId(1));
   ASSERT_TRUE(j);
   EXPECT_EQ(j->status, JobStatus::kDone);
   EXPECT_EQ(j->result_json, R"({"rms_um":0.5})");
@@ -281,8 +281,8 @@ void ExpectJobsWithoutPlan(SqliteStorage& s) {
 void ExpectTokenUseRecorded(SqliteStorage& s) {
   ASSERT_FALSE(s.ListTokens().empty());
   EXPECT_FALSE(s.ListTokens()[0].last_used_at);
-  s.TouchToken(1, "2026-01-02T03:04:05Z");
-  s.TouchToken(1, "2026-01-01T00:00:00Z");
+  s.TouchToken(TokenId(1), "2026-01-02T03:04:05Z");
+  s.TouchToken(TokenId(1), "2026-01-01T00:00:00Z");
   EXPECT_EQ(s.ListTokens()[0].last_used_at, std::optional<std::string>("2026-01-02T03:04:05Z"));
   const auto t = s.FindToken("c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3c3");
   ASSERT_TRUE(t);
@@ -352,19 +352,19 @@ TEST_F(StorageMigration, EveryRowOfEveryEarlierVersionReadsBackAfterMigration) {
       }
       // Jobs finished before version 14 have no machine document.
       if (v >= 2) {
-        EXPECT_EQ(s.GetJob(1)->machine_document, "");
+        EXPECT_EQ(s.GetJob(JobId(1))->machine_document, "");
       }
       // Report revisions (version 13) are usable at once.
       EXPECT_EQ(s.PutReportRevision({"measurement 1", std::string(64, 'f'), "{}"}).record.revision,
                 1);
-      EXPECT_TRUE(
-          s.AddReportApproval({"measurement 1", 1, "ann", 1, "", std::string("%PDF\0x", 6)}));
+      EXPECT_TRUE(s.AddReportApproval(
+          {"measurement 1", 1, "ann", TokenId(1), "", std::string("%PDF\0x", 6)}));
       EXPECT_EQ(s.ReportApprovalPdf("measurement 1", 1), std::string("%PDF\0x", 6));
       if (v < 2) {
         EXPECT_TRUE(s.ListJobs(10).empty());
       }
       if (v < 3) {
-        EXPECT_FALSE(s.GetStream(1));
+        EXPECT_FALSE(s.GetStream(StreamId(1)));
       }
       ExpectJobOwnersKept(s);  // after the checks of an empty queue
     }

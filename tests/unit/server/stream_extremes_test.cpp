@@ -20,7 +20,7 @@ constexpr std::int64_t kMax = std::numeric_limits<std::int64_t>::max();
 class StreamExtremes : public test::TempDirTest {
  protected:
   // One channel whose samples are spread over (nearly) the whole int64 range.
-  std::int64_t Store(SqliteStorage& st, const std::vector<std::int64_t>& t_us) {
+  StreamId Store(SqliteStorage& st, const std::vector<std::int64_t>& t_us) {
     const auto id = st.CreateStream({"m1", "", "http", "{}"});
     ingest::SampleRun run;
     run.channel = 1;

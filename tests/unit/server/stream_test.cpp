@@ -112,7 +112,7 @@ class StreamHubTest : public ::testing::Test {
     for (const char* ext : {"", "-wal", "-shm"}) fs::remove(path_.string() + ext);
   }
   // All stored samples of a channel, in counter order, with their counters.
-  static std::vector<std::pair<std::int64_t, double>> Stored(Storage& st, std::int64_t id,
+  static std::vector<std::pair<std::int64_t, double>> Stored(Storage& st, StreamId id,
                                                              std::int64_t ch) {
     std::vector<std::pair<std::int64_t, double>> out;
     for (const auto& c : st.ReadStreamChunks(id, ch, std::numeric_limits<std::int64_t>::min(),
@@ -187,7 +187,7 @@ TEST_F(StreamHubTest, GapsDuplicatesAndChunksOfConsecutiveCounters) {
 }
 
 TEST_F(StreamHubTest, NextCounterSurvivesARestartAndSamplesAreImmutable) {
-  std::int64_t id = 0;
+  StreamId id;
   {
     SqliteStorage st(path_.string());
     StreamHub hub(st, StreamOptions{});
@@ -207,7 +207,7 @@ TEST_F(StreamHubTest, NextCounterSurvivesARestartAndSamplesAreImmutable) {
     EXPECT_THROW(hub.Accept(id, MakeRun(9, 0, 5, 0, 50), counts), InvalidInput);  // still declared
     hub.Flush(id);
     EXPECT_EQ(Stored(st, id, 1).size(), 600u);
-    EXPECT_THROW(hub.Accept(id + 100, MakeRun(1, 0, 5, 0, 50), counts), NotFound);
+    EXPECT_THROW(hub.Accept(StreamId(id.value() + 100), MakeRun(1, 0, 5, 0, 50), counts), NotFound);
   }
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
@@ -290,7 +290,7 @@ TEST_F(StreamHubTest, DownsampledBucketsMatchABruteForceOverTheSamples) {
     total += n;
   }
   EXPECT_EQ(total, 17000 - 1234);
-  EXPECT_THROW(StreamSamplesJson(st, id + 1, 1, from, to, 10), NotFound);
+  EXPECT_THROW(StreamSamplesJson(st, StreamId(id.value() + 1), 1, from, to, 10), NotFound);
   EXPECT_THROW(StreamSamplesJson(st, id, 1, to, from, 10), InvalidInput);
 }
 

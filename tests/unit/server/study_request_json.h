@@ -11,14 +11,16 @@
 
 namespace km::test {
 
-inline std::int64_t SubmitCalibrationJson(server::Service& service, const nlohmann::json& body,
-                                          std::int64_t owner_token_id = 0) {
+inline server::JobId SubmitCalibrationJson(
+    server::Service& service, const nlohmann::json& body,
+    std::optional<server::TokenId> owner_token_id = std::nullopt) {
   return service.studies().SubmitCalibration(server::CalibrationRequest::Parse(body),
                                              owner_token_id);
 }
 
-inline std::int64_t SubmitDiscoveryJson(server::Service& service, const nlohmann::json& body,
-                                        std::int64_t owner_token_id = 0) {
+inline server::JobId SubmitDiscoveryJson(
+    server::Service& service, const nlohmann::json& body,
+    std::optional<server::TokenId> owner_token_id = std::nullopt) {
   return service.studies().SubmitDiscovery(server::DiscoveryRequest::Parse(body), owner_token_id);
 }
 

@@ -110,9 +110,9 @@ struct Statuses {
   std::vector<std::pair<std::int64_t, std::string>> got;
   std::vector<Clock::time_point> at;
   WebhookSender::StatusFn Fn() {
-    return [this](std::int64_t id, const std::string& status, std::int64_t) {
+    return [this](AuditVerdictId id, const std::string& status, std::int64_t) {
       std::lock_guard lock(mu);
-      got.emplace_back(id, status);
+      got.emplace_back(id.value(), status);
       at.push_back(Clock::now());
     };
   }
@@ -142,8 +142,8 @@ TEST(WebhookDeadline, ADrippingReceiverEndsTheAttemptAtItsDeadlineAndTheNextVerd
   WebhookSender sender(Options(receiver.url(), milliseconds(1000)), statuses.Fn());
   const auto t0 = Clock::now();
   sender.Start();
-  sender.Enqueue(1, "{}");
-  sender.Enqueue(2, "{}");
+  sender.Enqueue(AuditVerdictId(1), "{}");
+  sender.Enqueue(AuditVerdictId(2), "{}");
   ASSERT_TRUE(statuses.WaitFor(2, milliseconds(5000)));
   EXPECT_EQ(statuses.got[0], (std::pair<std::int64_t, std::string>{1, "failed"}));
   EXPECT_EQ(statuses.got[1], (std::pair<std::int64_t, std::string>{2, "delivered"}));
@@ -158,7 +158,7 @@ TEST(WebhookDeadline, AStopDuringADrippingAttemptIsPromptAndLeavesTheVerdictPend
   Statuses statuses;
   WebhookSender sender(Options(receiver.url(), milliseconds(60'000)), statuses.Fn());
   sender.Start();
-  sender.Enqueue(1, "{}");
+  sender.Enqueue(AuditVerdictId(1), "{}");
   for (auto t = Clock::now(); receiver.connections() == 0 && Clock::now() - t < milliseconds(5000);)
     std::this_thread::sleep_for(milliseconds(5));
   std::this_thread::sleep_for(milliseconds(300));  // the answer has begun to drip
@@ -177,7 +177,7 @@ TEST(WebhookTargets, NamesResolvedToLoopbackAreRefusedAtDeliveryUnlessAllowed) {
     o.allow_private = false;
     WebhookSender sender(o, statuses.Fn());
     sender.Start();
-    sender.Enqueue(1, "{}");
+    sender.Enqueue(AuditVerdictId(1), "{}");
     ASSERT_TRUE(statuses.WaitFor(1, milliseconds(3000))) << host;
     EXPECT_EQ(statuses.got[0].second, "failed") << host;
     EXPECT_EQ(receiver.connections(), 0) << host;
@@ -187,7 +187,7 @@ TEST(WebhookTargets, NamesResolvedToLoopbackAreRefusedAtDeliveryUnlessAllowed) {
       Options("http://127.1:" + std::to_string(receiver.port()) + "/hook", milliseconds(2000)),
       statuses.Fn());
   allowed.Start();
-  allowed.Enqueue(1, "{}");
+  allowed.Enqueue(AuditVerdictId(1), "{}");
   ASSERT_TRUE(statuses.WaitFor(1, milliseconds(3000)));
   EXPECT_EQ(statuses.got[0].second, "delivered");
 }

@@ -141,7 +141,7 @@ TEST_F(ServoRoutes, AStreamBecomesAFeedDriveRecord) {
   const json request = {
       {"axes", json::array({{{"axis", "X"}, {"position_channel", 1}, {"force_channel", 2}}})},
       {"test_id", "x-strokes"}};
-  auto r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo", request.dump());
+  auto r = Call("POST", "/api/v1/streams/" + to_string(stream) + "/servo", request.dump());
   ASSERT_EQ(r.status, 201) << r.body;
   const auto id = json::parse(r.body)["id"].get<server::MeasurementId>();
   const auto result = svc_->measurements().Results(id);
@@ -149,7 +149,7 @@ TEST_F(ServoRoutes, AStreamBecomesAFeedDriveRecord) {
   EXPECT_NEAR(result["axes"][0]["stroke_mm"].get<double>(), 100.0, 0.5);
   EXPECT_NEAR(result["axes"][0]["force_max_N"].get<double>(), 42.0, 1e-6);
   EXPECT_EQ(svc_->storage().GetMeasurement(id)->machine_id, "vmc-3axis");
-  r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo",
+  r = Call("POST", "/api/v1/streams/" + to_string(stream) + "/servo",
            json{{"axes", json::array({{{"axis", "X"}, {"position_channel", 1}}})}}.dump());
   EXPECT_EQ(r.status, 400);
   EXPECT_NE(r.body.find("force_channel"), std::string::npos) << r.body;
@@ -184,7 +184,7 @@ TEST_F(ServoRoutes, AStreamOfStrutLoadsBecomesAHexapodRecord) {
                           {"motion", "circle"},
                           {"direction", "ccw"}}},
                         {"test_id", "g"}};
-  auto r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo", request.dump());
+  auto r = Call("POST", "/api/v1/streams/" + to_string(stream) + "/servo", request.dump());
   ASSERT_EQ(r.status, 201) << r.body;
   const auto id = json::parse(r.body)["id"].get<server::MeasurementId>();
   const auto result = svc_->measurements().Results(id);
@@ -199,7 +199,7 @@ TEST_F(ServoRoutes, AStreamOfStrutLoadsBecomesAHexapodRecord) {
   ASSERT_EQ(r.status, 200) << r.body;
   const json force = json::parse(r.body);  // kept alive over the loop
   for (const auto& v : force["mean_force_N"]) EXPECT_LT(std::abs(v.get<double>()), 20.0);
-  r = Call("POST", "/api/v1/streams/" + std::to_string(stream) + "/servo",
+  r = Call("POST", "/api/v1/streams/" + to_string(stream) + "/servo",
            json{{"struts", {{"pose_channels", {1, 2, 3}}}}}.dump());
   EXPECT_EQ(r.status, 400);
   EXPECT_NE(r.body.find("struts.pose_channels"), std::string::npos) << r.body;

@@ -122,7 +122,7 @@ AuditEvidence NewestWithU(double v, std::optional<double> U) {
   SetUpEvidence s;
   s.test_id = "xy-r150";
   s.direction = "ccw";
-  s.newest = AuditValue{v, MeasurementId(7), "2026-11-20T08:00:00Z", 0, U};
+  s.newest = AuditValue{v, MeasurementId(7), "2026-11-20T08:00:00Z", std::nullopt, U};
   AuditEvidence e;
   e.set_ups.push_back(s);
   return e;
