@@ -211,7 +211,7 @@ std::vector<render::ReportBlock> AsFoundAsLeft(const json& found, const ReportLa
   t.header = {"Figure", "As found", "As left", "Unit"};
   t.numeric = {false, true, true, false};
   const json& after = later.results;
-  t.rows.push_back({"Measurement", "#" + std::to_string(source.measurement_id),
+  t.rows.push_back({"Measurement", "#" + std::to_string(source.measurement_id.value_or(0)),
                     "#" + std::to_string(later.measurement_id), ""});
   t.rows.push_back({"Measured", report_text::When(source.measured_at),
                     report_text::When(later.measured_at), ""});
@@ -358,9 +358,9 @@ void AddClosing(render::Report& r, const ReportSource& source, const ReportConte
 std::string CompleteAt(const ReportSource& source) {
   std::string at = report_text::ResultAt(source);
   if (source.kind != "positioning") return at;
-  if (source.measurement_id > 0) {
+  if (source.measurement_id) {
     return at + ", the compensation table also as CSV (GET /api/v1/measurements/" +
-           std::to_string(source.measurement_id) + "/compensation?format=csv)";
+           std::to_string(*source.measurement_id) + "/compensation?format=csv)";
   }
   return at + ", the compensation table also as CSV (kinemetric positioning export " +
          source.filename + " --format csv)";

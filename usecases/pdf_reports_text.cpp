@@ -187,9 +187,9 @@ std::vector<render::ReportBlock> BoundedTable(render::ReportTable t, const Summa
 }
 
 std::string ResultAt(const ReportSource& s) {
-  if (s.measurement_id > 0) {
+  if (s.measurement_id) {
     return "the JSON result of the measurement (GET /api/v1/measurements/" +
-           std::to_string(s.measurement_id) + "/results)";
+           std::to_string(*s.measurement_id) + "/results)";
   }
   return "the JSON result of the file " + s.filename + " (docs/formats.md §3)";
 }
@@ -309,8 +309,8 @@ std::vector<std::pair<std::string, std::string>> Identification(const ReportSour
   id.push_back({"Test", test});
   id.push_back({"Measured", When(s.measured_at)});
   std::string stored = s.filename;
-  if (s.measurement_id > 0) {
-    stored = "measurement #" + std::to_string(s.measurement_id) + ", file " + s.filename +
+  if (s.measurement_id) {
+    stored = "measurement #" + std::to_string(*s.measurement_id) + ", file " + s.filename +
              ", uploaded " + When(s.uploaded_at);
   }
   id.push_back({"Source", stored});

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -12,7 +13,7 @@ namespace km::usecases {
 
 // Where a measurement came from.
 struct ReportSource {
-  std::int64_t measurement_id = 0;  // 0: a file given to the command line
+  std::optional<std::int64_t> measurement_id;  // none: a file given to the command line
   std::string kind, machine_id, test_id, direction, filename, measured_at, uploaded_at;
   nlohmann::json metadata = nlohmann::json::object();  // the file's header keys
 };

@@ -59,7 +59,7 @@ TEST_P(Backends, AnApprovalIsStoredOnceWithItsPdfByteForByte) {
   ASSERT_EQ(list.size(), 1u);
   ASSERT_TRUE(list[0].approval);
   EXPECT_EQ(list[0].approval->approved_by, "ann");
-  EXPECT_EQ(list[0].approval->token_id, 7);
+  EXPECT_EQ(list[0].approval->token_id, TokenId(7));
   EXPECT_EQ(list[0].approval->approved_at, "2026-12-01T10:00:00Z");
   EXPECT_TRUE(list[0].approval->pdf.empty());  // listed without its document
   // The newest revision comes back with its approval.

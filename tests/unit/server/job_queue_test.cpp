@@ -250,7 +250,7 @@ TEST_F(JobQueueTest, ACancelledRunningJobStopsAtItsNextReportAndFreesTheWorker) 
   auto a = Queue(db, "instance-a");  // one worker
   a->Start();
   const auto slow = a->Submit("count", {}, {{"n", 1}, {"slow", true}}, TokenId(7));
-  EXPECT_EQ(WaitStatus(db, slow, JobStatus::kRunning).owner_token_id, 7);
+  EXPECT_EQ(WaitStatus(db, slow, JobStatus::kRunning).owner_token_id, TokenId(7));
   const auto next = a->Submit("count", {}, {{"n", 2}});
   const auto t0 = std::chrono::steady_clock::now();
   ASSERT_TRUE(a->Cancel(slow, "cancelled by the test"));

@@ -74,7 +74,7 @@ TEST_F(JobStorageErrors, EveryUpdateOfAJobFailingLeavesTheWorkerAlive) {
   st.FailUpdatesWhen([](const JobRecord& j) { return j.id == JobId(1); });
   auto q = Queue(st);
   const auto first = Submit(*q, {{"v", 1}});
-  ASSERT_EQ(first, 1);
+  ASSERT_EQ(first, JobId(1));
   const auto second = Submit(*q, {{"v", 2}});
   const auto j2 = WaitFinished(st, second);
   EXPECT_EQ(j2.status, JobStatus::kDone);

@@ -415,7 +415,7 @@ TEST_F(PgStorageTest, TextPostgreSqlCannotHoldIsRefusedNamingTheField) {
   MeasurementFilter f;
   f.machine_id = m.machine_id;
   EXPECT_EQ(s.ListMeasurements(f).total, 1);
-  EXPECT_EQ(s.CreateStream({m.machine_id, "", "http", "{}"}), 1);
+  EXPECT_EQ(s.CreateStream({m.machine_id, "", "http", "{}"}).value(), 1);
   EXPECT_TRUE(s.PutMachineModel({m.machine_id, "upload", "", "d", "s"}).created);
 }
 

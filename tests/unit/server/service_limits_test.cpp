@@ -256,12 +256,12 @@ TEST_F(ServiceLimits, AReductionStudyWithEffectsIsRefusedBeforeItIsQueued) {
   EXPECT_TRUE(service_->studies().Jobs(10)["items"].empty());
   // Each alone is accepted.
   named.erase("reduction_study_min_tests");
-  EXPECT_GT(km::test::SubmitCalibrationJson(*service_, named), 0);
+  EXPECT_GT(km::test::SubmitCalibrationJson(*service_, named).value(), 0);
   own.erase("reduction_study_min_tests");
-  EXPECT_GT(km::test::SubmitCalibrationJson(*service_, own), 0);
+  EXPECT_GT(km::test::SubmitCalibrationJson(*service_, own).value(), 0);
   nlohmann::json plain = Request(ids);
   plain["reduction_study_min_tests"] = 4;
-  EXPECT_GT(km::test::SubmitCalibrationJson(*service_, plain), 0);
+  EXPECT_GT(km::test::SubmitCalibrationJson(*service_, plain).value(), 0);
 }
 
 TEST_F(ServiceLimits, AJobIsCancelledByItsOwnerOrAnAdminOnly) {

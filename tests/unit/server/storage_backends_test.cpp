@@ -292,9 +292,9 @@ TEST_P(Backends, MachinesWithMeasurementsOrAModelAreListed) {
 
 TEST_P(Backends, JobsAreStoredUpdatedListedAndCounted) {
   auto s = Open();
-  EXPECT_EQ(s->CreateJob("calibration", R"({"a":1})"), 1);
-  EXPECT_EQ(s->CreateJob("discovery", "{}"), 2);
-  EXPECT_EQ(s->CreateJob("calibration", "{}"), 3);
+  EXPECT_EQ(s->CreateJob("calibration", R"({"a":1})"), JobId(1));
+  EXPECT_EQ(s->CreateJob("discovery", "{}").value(), 2);
+  EXPECT_EQ(s->CreateJob("calibration", "{}").value(), 3);
   auto j = *s->GetJob(JobId(1));
   EXPECT_EQ(j.kind, "calibration");
   EXPECT_EQ(j.status, JobStatus::kQueued);
@@ -314,8 +314,8 @@ TEST_P(Backends, JobsAreStoredUpdatedListedAndCounted) {
   EXPECT_FALSE(s->GetJob(JobId(4)));
   const auto list = s->ListJobs(2);
   ASSERT_EQ(list.size(), 2u);
-  EXPECT_EQ(list[0].id, 3);
-  EXPECT_EQ(list[1].id, 2);
+  EXPECT_EQ(list[0].id.value(), 3);
+  EXPECT_EQ(list[1].id.value(), 2);
   EXPECT_EQ(s->CountJobsByStatus(),
             (std::map<std::string, std::int64_t>{{"done", 1}, {"queued", 2}}));
   EXPECT_EQ(s->CountJobsWithStatus(JobStatus::kQueued), 2);
@@ -337,10 +337,10 @@ TEST_P(Backends, TokensAndTheAuditLog) {
   EXPECT_EQ(s->CountTokens(), 1);
   EXPECT_EQ(s->FindTokenRole("h1"), "admin");
   EXPECT_FALSE(s->FindTokenRole("h2"));
-  EXPECT_EQ(s->AddToken("h2", "operator", "line 2", "2027-01-01T00:00:00Z"), 2);
-  EXPECT_EQ(s->AddToken("h3", "viewer", "wall", std::nullopt), 3);
+  EXPECT_EQ(s->AddToken("h2", "operator", "line 2", "2027-01-01T00:00:00Z"), TokenId(2));
+  EXPECT_EQ(s->AddToken("h3", "viewer", "wall", std::nullopt).value(), 3);
   const auto t = *s->FindToken("h2");
-  EXPECT_EQ(t.id, 2);
+  EXPECT_EQ(t.id.value(), 2);
   EXPECT_EQ(t.role, "operator");
   EXPECT_EQ(t.name, "line 2");
   EXPECT_EQ(t.expires_at, "2027-01-01T00:00:00Z");
@@ -391,12 +391,12 @@ TEST_P(Backends, TokensAndTheAuditLog) {
   const auto page = s->ListAudit(2, 1);
   EXPECT_EQ(page.total, 5);
   ASSERT_EQ(page.items.size(), 2u);
-  EXPECT_EQ(page.items[0].id, 4);
+  EXPECT_EQ(page.items[0].id, AuditEntryId(4));
   EXPECT_EQ(page.items[0].at, "2026-05-04T00:00:00Z");
-  EXPECT_EQ(page.items[0].token_id, 0);
+  EXPECT_FALSE(page.items[0].token_id);
   EXPECT_EQ(page.items[0].status, 204);
-  EXPECT_EQ(page.items[1].id, 3);
-  EXPECT_EQ(page.items[1].token_id, 2);
+  EXPECT_EQ(page.items[1].id.value(), 3);
+  EXPECT_EQ(page.items[1].token_id, TokenId(2));
   EXPECT_EQ(page.items[1].path, "/api/v1/x/3");
   EXPECT_EQ(page.items[1].subject, "job 3");
   EXPECT_EQ(s->ListAudit(10, 0).items[0].at.size(), 20u);  // set by the storage
@@ -433,7 +433,7 @@ TEST_P(Backends, AccuracyAuditConfigsAndVerdicts) {
     v.trigger = "manual";
     v.created_at = "2026-06-0" + std::to_string(i) + "T00:00:00Z";
     v.verdict_json = "{\"n\":" + std::to_string(i) + "}";
-    EXPECT_EQ(s->AddAuditVerdict(v), i);
+    EXPECT_EQ(s->AddAuditVerdict(v), AuditVerdictId(i));
   }
   s->SetAuditWebhook(AuditVerdictId(2), "delivered", 3);
   const auto v2 = *s->GetAuditVerdict(AuditVerdictId(2));
@@ -446,15 +446,15 @@ TEST_P(Backends, AccuracyAuditConfigsAndVerdicts) {
   f.machine_id = "vmc";
   auto list = s->ListAuditVerdicts(f);
   ASSERT_EQ(list.size(), 3u);
-  EXPECT_EQ(list[0].id, 3);
-  EXPECT_EQ(list[2].id, 1);
+  EXPECT_EQ(list[0].id.value(), 3);
+  EXPECT_EQ(list[2].id.value(), 1);
   f.machine_id.reset();
   f.from = "2026-06-02T00:00:00Z";
   f.to = "2026-06-04T00:00:00Z";
   list = s->ListAuditVerdicts(f);
   ASSERT_EQ(list.size(), 2u);
-  EXPECT_EQ(list[0].id, 3);
-  EXPECT_EQ(list[1].id, 2);
+  EXPECT_EQ(list[0].id.value(), 3);
+  EXPECT_EQ(list[1].id.value(), 2);
   f = AuditVerdictFilter{};
   f.limit = 1;
   EXPECT_EQ(s->ListAuditVerdicts(f).at(0).machine_id, "other");
@@ -501,9 +501,9 @@ StreamChunk Chunk(std::int64_t stream, std::int64_t channel, std::int64_t first,
 
 TEST_P(Backends, StreamsChunksAndGaps) {
   auto s = Open();
-  EXPECT_EQ(s->CreateStream({"m1", "run", "http", R"({"channels":[]})"}), 1);
-  EXPECT_EQ(s->CreateStream({"m2", "", "modbus:dev", "{}"}), 2);
-  EXPECT_EQ(s->CreateStream({"m1", "second", "http", "{}"}), 3);
+  EXPECT_EQ(s->CreateStream({"m1", "run", "http", R"({"channels":[]})"}), StreamId(1));
+  EXPECT_EQ(s->CreateStream({"m2", "", "modbus:dev", "{}"}).value(), 2);
+  EXPECT_EQ(s->CreateStream({"m1", "second", "http", "{}"}).value(), 3);
   const auto st = *s->GetStream(StreamId(1));
   EXPECT_EQ(st.machine_id, "m1");
   EXPECT_EQ(st.name, "run");
@@ -513,7 +513,7 @@ TEST_P(Backends, StreamsChunksAndGaps) {
   EXPECT_FALSE(s->GetStream(StreamId(4)));
   auto list = s->ListStreams("m1", 10);
   ASSERT_EQ(list.size(), 2u);
-  EXPECT_EQ(list[0].id, 3);
+  EXPECT_EQ(list[0].id.value(), 3);
   EXPECT_EQ(s->ListStreams(std::nullopt, 2).size(), 2u);
   EXPECT_EQ(s->ListStreams(std::nullopt, 10).size(), 3u);
   s->AppendStream({Chunk(1, 0, 0, 10), Chunk(1, 0, 10, 10), Chunk(1, 1, 0, 5)},

@@ -27,10 +27,10 @@ NewJob Job(int n) {
 
 TEST_P(Backends, JobsAreClaimedOldestFirstWithTheirPlan) {
   auto s = Open();
-  for (int n = 1; n <= 3; ++n) EXPECT_EQ(s->QueueJob(Job(n)), n);
+  for (int n = 1; n <= 3; ++n) EXPECT_EQ(s->QueueJob(Job(n)).value(), n);
   const auto j = s->ClaimJob("a", 1000, 500, 3, kAbandoned);
   ASSERT_TRUE(j);
-  EXPECT_EQ(j->id, 1);
+  EXPECT_EQ(j->id.value(), 1);
   EXPECT_EQ(j->status, JobStatus::kRunning);
   EXPECT_EQ(j->stage, "started");
   EXPECT_EQ(j->progress, 0.0);
@@ -45,8 +45,8 @@ TEST_P(Backends, JobsAreClaimedOldestFirstWithTheirPlan) {
   EXPECT_EQ(stored.lease_until_ms, 1500);
   EXPECT_EQ(stored.attempts, 1);
   EXPECT_EQ(stored.plan_json, R"({"plan":1})");
-  EXPECT_EQ(s->ClaimJob("a", 1000, 500, 3, kAbandoned)->id, 2);
-  EXPECT_EQ(s->ClaimJob("b", 1000, 500, 3, kAbandoned)->id, 3);
+  EXPECT_EQ(s->ClaimJob("a", 1000, 500, 3, kAbandoned)->id.value(), 2);
+  EXPECT_EQ(s->ClaimJob("b", 1000, 500, 3, kAbandoned)->id.value(), 3);
   EXPECT_FALSE(s->ClaimJob("b", 1000, 500, 3, kAbandoned));
   // CreateJob queues a job whose plan is its request.
   const auto id = s->CreateJob("discovery", R"({"x":1})");
@@ -61,7 +61,7 @@ TEST_P(Backends, ALapsedLeaseIsTakenOverAndTheLastAttemptFails) {
   EXPECT_FALSE(s->ClaimJob("b", 1500, 500, 3, kAbandoned));  // until 1500 inclusive: a's
   const auto b = s->ClaimJob("b", 1501, 1000, 3, kAbandoned);
   ASSERT_TRUE(b);
-  EXPECT_EQ(b->id, 1);
+  EXPECT_EQ(b->id.value(), 1);
   EXPECT_EQ(b->attempts, 2);
   EXPECT_EQ(b->lease_owner, "b");
   EXPECT_EQ(b->lease_until_ms, 2501);
@@ -132,9 +132,9 @@ TEST_P(Backends, AStoppingInstanceGivesItsJobsBack) {
   EXPECT_EQ(one.attempts, 1);  // kept
   EXPECT_EQ(s->GetJob(JobId(2))->lease_owner, "b");
   const auto again = s->ClaimJob("c", 10, 100, 3, kAbandoned);
-  EXPECT_EQ(again->id, 1);
+  EXPECT_EQ(again->id.value(), 1);
   EXPECT_EQ(again->attempts, 2);
-  EXPECT_EQ(s->ClaimJob("c", 10, 100, 3, kAbandoned)->id, 3);
+  EXPECT_EQ(s->ClaimJob("c", 10, 100, 3, kAbandoned)->id.value(), 3);
   EXPECT_EQ(s->CountJobsByStatus(), (std::map<std::string, std::int64_t>{{"running", 3}}));
 }
 
@@ -148,8 +148,8 @@ TEST_P(Backends, QueuedAndRunningJobsAreCancelledAndNeverTakenAgain) {
   EXPECT_EQ(s->GetJob(JobId(1))->owner_token_id, TokenId(42));
   EXPECT_FALSE(s->GetJob(JobId(2))->owner_token_id);
   JobRecord running = *s->ClaimJob("a", 0, 100, 3, kAbandoned);
-  ASSERT_EQ(running.id, 1);
-  EXPECT_EQ(running.owner_token_id, 42);
+  ASSERT_EQ(running.id.value(), 1);
+  EXPECT_EQ(running.owner_token_id, TokenId(42));
   EXPECT_TRUE(s->CancelJob(JobId(1), "cancelled by token 'x' (id 42)"));
   EXPECT_TRUE(s->CancelJob(JobId(2), "not wanted"));
   const auto one = *s->GetJob(JobId(1));
@@ -157,7 +157,7 @@ TEST_P(Backends, QueuedAndRunningJobsAreCancelledAndNeverTakenAgain) {
   EXPECT_EQ(one.stage, "cancelled");
   EXPECT_EQ(one.error, "cancelled by token 'x' (id 42)");
   EXPECT_EQ(one.lease_until_ms, 0);
-  EXPECT_EQ(one.owner_token_id, 42);
+  EXPECT_EQ(one.owner_token_id, TokenId(42));
   // The instance running it learns at its next report; its outcome is refused.
   EXPECT_FALSE(s->RenewJob(JobId(1), "a", 0.5, "x", 1000));
   running.status = JobStatus::kDone;
@@ -166,7 +166,7 @@ TEST_P(Backends, QueuedAndRunningJobsAreCancelledAndNeverTakenAgain) {
   EXPECT_EQ(s->ReleaseJobs("a"), 0);
   // Never claimed again, also long after any lease; a second cancel changes nothing.
   JobRecord three = *s->ClaimJob("b", 1'000'000, 100, 3, kAbandoned);
-  EXPECT_EQ(three.id, 3);
+  EXPECT_EQ(three.id.value(), 3);
   three.status = JobStatus::kDone;
   EXPECT_TRUE(s->FinishJob(three, "b"));
   EXPECT_FALSE(s->ClaimJob("b", 2'000'000, 100, 3, kAbandoned));

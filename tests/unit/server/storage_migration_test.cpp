@@ -148,7 +148,7 @@ void ExpectVersion1Rows(SqliteStorage& s) {
 void ExpectVersion2Rows(SqliteStorage& s) {
   const auto jobs = s.ListJobs(10);
   ASSERT_GE(jobs.size(), 2u);  // the fixture of version 8 adds a third
-  EXPECT_EQ(jobs.back().id, 1);
+  EXPECT_EQ(jobs.back().id, JobId(1));
   const auto done = s.GetJob(JobId(1));
   ASSERT_TRUE(done);
   EXPECT_EQ(done->status, JobStatus::kDone);
@@ -220,7 +220,7 @@ void ExpectVersion6Rows(SqliteStorage& s) {
   const auto log = s.ListAudit(10, 0);
   ASSERT_EQ(log.total, 1);
   EXPECT_EQ(log.items[0].at, "2025-08-01T07:00:00Z");
-  EXPECT_EQ(log.items[0].token_id, 1);
+  EXPECT_EQ(log.items[0].token_id, TokenId(1));
   EXPECT_EQ(log.items[0].method, "DELETE");
   EXPECT_EQ(log.items[0].path, "/api/v1/tokens/2");
   EXPECT_EQ(log.items[0].status, 200);
@@ -252,13 +252,13 @@ void ExpectVersion8Rows(SqliteStorage& s) {
   EXPECT_EQ(j->plan_json, R"({"measurement_ids":[1]})");
   EXPECT_EQ(j->lease_owner, "old-host:41:0badcafe");
   EXPECT_EQ(j->attempts, 2);
-  EXPECT_EQ(j->owner_token_id, 0);
+  EXPECT_FALSE(j->owner_token_id);
   EXPECT_FALSE(s.CancelJob(JobId(3), "too late"));
 }
 
 void ExpectJobOwnersKept(SqliteStorage& s) {
   const auto id = s.QueueJob(NewJob{"discovery", "{}", "{}", TokenId(1)});
-  EXPECT_EQ(s.GetJob(id)->owner_token_id, 1);
+  EXPECT_EQ(s.GetJob(id)->owner_token_id, TokenId(1));
   EXPECT_TRUE(s.CancelJob(id, "not wanted"));
   EXPECT_EQ(s.GetJob(id)->status, JobStatus::kCancelled);
 }
