@@ -177,12 +177,14 @@ void CheckAnAdminRemains(const std::vector<TokenRecord>& tokens, TokenId id) {
   for (const auto& t : tokens) {
     if (t.id == id) {
       target = &t;
-    } else if (t.role == "admin" && !t.expires_at && TokenState(t, now) == "active") {
+    } else if (ParseRole(t.role) == Role::kAdmin && !t.expires_at &&
+               TokenState(t, now) == "active") {
       ++lasting_admins;
     }
   }
   if (!target) throw NotFound("there is no token " + to_string(id));
-  if (target->role == "admin" && TokenState(*target, now) == "active" && lasting_admins == 0) {
+  if (ParseRole(target->role) == Role::kAdmin && TokenState(*target, now) == "active" &&
+      lasting_admins == 0) {
     throw Conflict("token " + to_string(id) +
                    " is the last active admin token without an expiry (an expiring admin token "
                    "does not count): create another admin token without expires_in_s first, or "
