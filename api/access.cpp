@@ -71,7 +71,7 @@ RequestHook TokenHookOver(std::function<server::Caller(const std::string&)> auth
     if (need == Role::kPublic) return;
     const auto auth = req.Header("authorization");
     const auto token = auth ? BearerToken(*auth) : std::nullopt;
-    if (!token) throw server::Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
+    if (!token) throw server::Unauthorized(kBearerTokenNeeded);
     // Looked up by the SHA-256 of the secret: no byte of a stored secret is ever compared.
     const std::string sha = server::Sha256Hex(*token);
     auto caller = cache->Find(sha);

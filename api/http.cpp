@@ -78,7 +78,7 @@ std::int64_t Request::PathInteger(const std::string& name) const {
 }
 
 server::TokenId Request::CallerToken() const {
-  if (!token_id) throw server::Unauthorized("this resource needs 'Authorization: Bearer TOKEN'");
+  if (!token_id) throw server::Unauthorized(kBearerTokenNeeded);
   return *token_id;
 }
 

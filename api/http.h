@@ -21,6 +21,10 @@
 
 namespace km::api {
 
+// The refusal of a route that needs a token when the request presented none.
+inline constexpr const char* kBearerTokenNeeded =
+    "this resource needs 'Authorization: Bearer TOKEN'";
+
 struct Request {
   std::string method;
   std::string path;

@@ -100,10 +100,12 @@ if [ "${KINEMETRIC_SKIP_SANITIZERS:-0}" != 1 ]; then
   cmake --build build-asan -j"$jobs"
   stage "tests (ASan + UBSan)"
   # The slowest numerical studies run here only with KINEMETRIC_LONG=1 (tests/sanitizer_long.txt
-  # names them and what covers their code in every run).
+  # names them and what covers their code in every run), and so do the browser tests: the page's
+  # requests reach routes the integration tests drive under the sanitizers in every run, and the
+  # page itself runs in Chromium, not in the instrumented product.
   san_args=("${label_args[@]}")
   if [ "${KINEMETRIC_LONG:-0}" != 1 ]; then
-    san_args+=(-E "^($(grep -v '^#' tests/sanitizer_long.txt | awk 'NF {print $1}' | paste -sd'|'))\$")
+    san_args=(-LE 'long|browser' -E "^($(grep -v '^#' tests/sanitizer_long.txt | awk 'NF {print $1}' | paste -sd'|'))\$")
   fi
   # LeakSanitizer passes over what third-party libraries keep until exit (deploy/lsan.supp).
   lsan_supp="$PWD/deploy/lsan.supp"

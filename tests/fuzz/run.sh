@@ -10,6 +10,8 @@
 #   KINEMETRIC_FUZZ_BUILD=DIR            build directory (default build-fuzz), already built
 #   KINEMETRIC_FUZZ_SECONDS=N            fuzzing time per target (default 10)
 #   KINEMETRIC_FUZZ_FLAGS="..."          extra libFuzzer flags (e.g. -jobs=2, -seed=1)
+#   KINEMETRIC_FUZZ_PARALLEL=N           targets run at the same time (default: the cores, nproc);
+#                                        each target is one process, so each still gets its time
 set -uo pipefail
 cd "$(dirname "$0")/../.." || exit 1
 
@@ -36,15 +38,17 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 # renders) is not a leak of the product: deploy/lsan.supp.
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/deploy/lsan.supp:print_suppressions=0}
 
-rows=()
-failed=()
-for t in "${targets[@]}"; do
+# Fuzzes one target and writes its summary row (target|reproducers|runs|secs|exec/s|result) to
+# <build>/fuzz-logs/<target>.row; messages about failures go to stderr.
+fuzz_target() {
+  local t=$1 exe logs work artifacts status replay bad c rc runs secs rate
+  local -a crashes dict_args
   exe="$build/fuzz/fuzz_$t"
   if [ ! -x "$exe" ]; then
     echo "fuzz: $exe is missing (build with -DKINEMETRIC_FUZZ=ON, target fuzz_targets)" >&2
-    failed+=("$t")
-    rows+=("$t|missing|-|-|-|FAIL")
-    continue
+    mkdir -p "$build/fuzz-logs"
+    echo "$t|missing|-|-|-|FAIL" >"$build/fuzz-logs/$t.row"
+    return
   fi
   logs="$build/fuzz-logs"
   work="$build/fuzz-corpus/$t"
@@ -94,8 +98,28 @@ for t in "${targets[@]}"; do
   if [ -n "${runs:-}" ] && [ -n "${secs:-}" ] && [ "${secs:-0}" -gt 0 ]; then
     rate=$((runs / secs))
   fi
-  rows+=("$t|$replay|${runs:--}|${secs:--}|$rate|$status")
-  if [ "$status" != ok ]; then failed+=("$t"); fi
+  echo "$t|$replay|${runs:--}|${secs:--}|$rate|$status" >"$logs/$t.row"
+}
+
+# The targets run side by side, at most `parallel` at a time; the table keeps their order.
+parallel=${KINEMETRIC_FUZZ_PARALLEL:-$(nproc)}
+running=0
+for t in "${targets[@]}"; do
+  rm -f "$build/fuzz-logs/$t.row"
+  fuzz_target "$t" &
+  running=$((running + 1))
+  if [ "$running" -ge "$parallel" ]; then
+    wait -n
+    running=$((running - 1))
+  fi
+done
+wait
+rows=()
+failed=()
+for t in "${targets[@]}"; do
+  row=$(cat "$build/fuzz-logs/$t.row" 2>/dev/null || echo "$t|no result|-|-|-|FAIL")
+  rows+=("$row")
+  if [ "${row##*|}" != ok ]; then failed+=("$t"); fi
 done
 
 echo
