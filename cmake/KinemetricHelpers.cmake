@@ -3,7 +3,7 @@
 # users; PRIVATE_DEPS only what its .cpp files use (Ceres, OpenCV, SQLite, libmodbus, …).
 #   km_add_library(NAME km_geometry SRCS a.cpp b.cpp DEPS km_core Eigen3::Eigen
 #                  [PRIVATE_DEPS Ceres::ceres])
-#   km_add_test(NAME geometry_test SRCS x_test.cpp DEPS km_geometry [LABELS unit])
+#   km_add_test(NAME geometry_test SRCS x_test.cpp DEPS km_geometry [LABELS unit] [COST seconds])
 #   km_add_benchmark(NAME dbb_bench SRCS dbb_bench.cpp DEPS km_dbb)
 
 # Unity batches (KINEMETRIC_UNITY, on by default): the .cpp files of a target are compiled
@@ -86,16 +86,27 @@ function(km_add_library)
 endfunction()
 
 function(km_add_test)
-  cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "NAME;COST" "SRCS;DEPS;LABELS" ${ARGN})
   km_unity_sources(${ARG_NAME} "${ARG_SRCS}" srcs)
   add_executable(${ARG_NAME} ${srcs})
+  # KM_TEST_OPTIMISE OFF (set by tests/CMakeLists.txt for the folders whose tests drive the
+  # product and compute little themselves): the test's own files are compiled at -O0.
+  if(DEFINED KM_TEST_OPTIMISE AND NOT KM_TEST_OPTIMISE)
+    target_compile_options(${ARG_NAME} PRIVATE -O0)
+  endif()
   target_include_directories(${ARG_NAME} PRIVATE ${PROJECT_SOURCE_DIR})
   target_link_libraries(${ARG_NAME} PRIVATE ${ARG_DEPS} GTest::gtest_main)
   set_target_properties(${ARG_NAME} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
-  gtest_discover_tests(${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}"
+  # COST: the seconds a test of the program takes, for CTest to start the long ones first in a
+  # run with no cost data of its own (a fresh build directory); tests/CMakeLists.txt.
+  set(cost_property "")
+  if(ARG_COST)
+    set(cost_property COST ${ARG_COST})
+  endif()
+  gtest_discover_tests(${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}" ${cost_property}
                        WORKING_DIRECTORY ${PROJECT_SOURCE_DIR} DISCOVERY_TIMEOUT 60)
 endfunction()
 
