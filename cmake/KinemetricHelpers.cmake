@@ -89,9 +89,9 @@ function(km_add_test)
   cmake_parse_arguments(ARG "" "NAME;COST" "SRCS;DEPS;LABELS" ${ARGN})
   km_unity_sources(${ARG_NAME} "${ARG_SRCS}" srcs)
   add_executable(${ARG_NAME} ${srcs})
-  # KM_TEST_OPTIMISE OFF (set by tests/CMakeLists.txt for the folders whose tests drive the
+  # KM_TEST_UNOPTIMISED (set by tests/CMakeLists.txt for the folders whose tests drive the
   # product and compute little themselves): the test's own files are compiled at -O0.
-  if(DEFINED KM_TEST_OPTIMISE AND NOT KM_TEST_OPTIMISE)
+  if(KM_TEST_UNOPTIMISED)
     target_compile_options(${ARG_NAME} PRIVATE -O0)
   endif()
   target_include_directories(${ARG_NAME} PRIVATE ${PROJECT_SOURCE_DIR})
