@@ -100,6 +100,13 @@ Response Response::Json(const nlohmann::json& j, int status) {
   return r;
 }
 
+Response Response::JsonText(std::string body, int status) {
+  Response r;
+  r.status = status;
+  r.body = std::move(body);
+  return r;
+}
+
 Response Problem(int status, const std::string& title, const std::string& detail,
                  const nlohmann::json& extra) {
   nlohmann::json j = extra;

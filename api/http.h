@@ -63,6 +63,8 @@ struct Response {
   std::map<std::string, std::string> headers;
 
   static Response Json(const nlohmann::json& j, int status = 200);
+  // A JSON text serialised before (valid UTF-8).
+  static Response JsonText(std::string body, int status = 200);
 };
 
 // A body consumed piece by piece as it arrives (routes with open_body, e.g. sensor frames of

@@ -129,8 +129,8 @@ Endpoint MeasurementResults(const RouteContext& c) {
   server::Service* svc = &c.service;
   return {"Analysis results (the same object the CLI prints for the file)",
           [svc](const Request& req) {
-            return Response::Json(svc->measurements().ResultsWithConformance(
-                req.PathId<server::MeasurementId>("id")));
+            return Response::JsonText(
+                *svc->measurements().ResultsAnswer(req.PathId<server::MeasurementId>("id")));
           },
           {{"responses",
             {{"200", JsonResponse("results of the newest analysis version, with conformance")}}}}};

@@ -145,6 +145,21 @@ nlohmann::json MeasurementService::ResultsWithConformance(MeasurementId id) {
   return j;
 }
 
+std::shared_ptr<const std::string> MeasurementService::ResultsAnswer(MeasurementId id) {
+  AnswerBasis basis{store_.GetResultsStamp(id), 0};
+  const bool keepable = basis.results.count > 0 && (!judges_ || table_version_);
+  if (keepable && judges_) basis.table_version = table_version_(CachedSubject(id).machine_id);
+  if (keepable) {
+    if (auto kept = answers_.Find(id, basis)) return kept;
+  }
+  // Made from what storage holds now, which is the basis read above or newer: kept under the
+  // older basis, it is made again at the next request, never served stale.
+  auto answer = std::make_shared<const std::string>(
+      ResultsWithConformance(id).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  if (keepable) answers_.Keep(id, basis, answer);
+  return answer;
+}
+
 ConformanceSubject MeasurementService::CachedSubject(MeasurementId id) {
   {
     std::lock_guard lock(subjects_mu_);

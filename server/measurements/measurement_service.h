@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -21,6 +22,7 @@
 #include "server/measurements/ingested.h"
 #include "server/measurements/instrument_hook.h"
 #include "server/measurements/parsed_results.h"
+#include "server/measurements/results_answers.h"
 #include "server/storage/storage.h"
 
 namespace km::server {
@@ -69,7 +71,12 @@ class MeasurementService {
   // Judges measurements against their machine's newest tolerances from now on: the upload
   // answer, MeasurementWithSamples, ResultsWithConformance and every item of ListMeasurements
   // carry "conformance" (server/measurements/conformance_hook.h). Set once, before serving.
-  void SetConformanceJudges(ConformanceJudges judges) { judges_ = std::move(judges); }
+  // `version` tells when a judged answer kept from before is current (server/measurements/
+  // results_answers.h); without it ResultsAnswer makes every answer anew.
+  void SetConformanceJudges(ConformanceJudges judges, ConformanceVersion version = {}) {
+    judges_ = std::move(judges);
+    table_version_ = std::move(version);
+  }
   // Completes each uploaded file naming an instrument from the instrument register before its
   // analysis; its result then carries "instrument" (server/measurements/instrument_hook.h). Set
   // once, before serving.
@@ -79,6 +86,9 @@ class MeasurementService {
   nlohmann::json Results(MeasurementId id);
   // The same object with "conformance" added (GET /api/v1/measurements/{id}/results).
   nlohmann::json ResultsWithConformance(MeasurementId id);
+  // The same, serialised as the HTTP answer (invalid UTF-8 replaced): kept and served again
+  // while the measurement's results and its machine's tolerance table are unchanged in storage.
+  std::shared_ptr<const std::string> ResultsAnswer(MeasurementId id);
   // The conformance of a stored measurement (null without judges); NotFound.
   nlohmann::json Conformance(MeasurementId id);
   nlohmann::json MeasurementJson(const MeasurementRecord& r) const;
@@ -129,6 +139,8 @@ class MeasurementService {
   UploadOptions options_;
   std::map<std::string, KindHandler> kinds_;
   ConformanceJudges judges_;
+  ConformanceVersion table_version_;
+  ResultsAnswers answers_;  // GET …/results answers, each with what it was made from
   InstrumentHook instruments_;
   mutable ParsedResults parsed_;  // the stored results' documents, parsed once
   // What a measurement's conformance is judged as (machine, kind, set-up), by id: a stored

@@ -87,6 +87,15 @@ struct ResultRecord {
   std::string analysis, analysis_version, input_sha256, created_at, result_json;
 };
 
+// What a measurement's stored results are at one moment: their number and the largest result
+// id (both 0 when it has none). Results are only ever appended, so a different stamp means a
+// different set; the count also changes when another instance commits a smaller id late.
+struct ResultsStamp {
+  std::int64_t count = 0;
+  std::int64_t newest_id = 0;
+  bool operator==(const ResultsStamp&) const = default;
+};
+
 struct MeasurementFilter {
   std::optional<std::string> machine_id;
   std::optional<std::string> kind;
@@ -385,6 +394,8 @@ class MeasurementStore {
   virtual SampleBlock GetSamples(MeasurementId id) = 0;  // throws NotFound
   virtual MeasurementPage ListMeasurements(const MeasurementFilter& f) = 0;
   virtual std::vector<ResultRecord> GetResults(MeasurementId id) = 0;
+  // The stamp of the measurement's results: one indexed query, no result text read.
+  virtual ResultsStamp GetResultsStamp(MeasurementId id) = 0;
   // Adds a result computed later (e.g. by a newer analysis version); keeps older ones.
   virtual void PutResult(MeasurementId id, const NewResult& r) = 0;
   // Machines with stored measurements or a stored model.
@@ -545,6 +556,8 @@ class ToleranceStore {
   virtual ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) = 0;
   virtual std::optional<ToleranceTableRecord> GetToleranceTable(
       const std::string& machine_id, std::optional<std::int64_t> version) = 0;
+  // The newest version of the machine's table, 0 when it has none (no table text read).
+  virtual std::int64_t NewestToleranceVersion(const std::string& machine_id) = 0;
 };
 
 // The instrument register: each instrument's uncertainties and calibration, versioned.

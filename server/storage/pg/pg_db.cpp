@@ -278,6 +278,25 @@ Lease Pool::Acquire() {
   }
 }
 
+void Pool::Fill() {
+  for (;;) {
+    {
+      std::lock_guard lock(mu_);
+      if (open_ >= size_) return;
+      ++open_;
+    }
+    std::unique_ptr<Conn> conn;
+    try {
+      conn = std::make_unique<Conn>(options_);
+    } catch (const std::exception&) {
+      std::lock_guard lock(mu_);
+      --open_;
+      return;
+    }
+    Return(std::move(conn));
+  }
+}
+
 void Pool::Return(std::unique_ptr<Conn> conn) {
   const bool keep =
       PQstatus(conn->raw()) == CONNECTION_OK && PQtransactionStatus(conn->raw()) == PQTRANS_IDLE;

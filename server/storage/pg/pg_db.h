@@ -146,6 +146,10 @@ class Pool {
   // A connection: an idle healthy one, else a new one while fewer than size are open; waits
   // up to the busy timeout otherwise (then a busy StorageError).
   Lease Acquire();
+  // Opens connections until `size` are open, so that the first requests of a busy start do not
+  // each wait for a connection to be made. Best effort: stops at the first that fails (an
+  // Acquire then tries again).
+  void Fill();
 
  private:
   friend class Lease;

@@ -102,8 +102,11 @@ PgStorage::PgStorage(const std::string& url, PgOptions options) {
   c.busy_timeout_ms = options.busy_timeout_ms;
   c.statement_timeout_ms = options.statement_timeout_ms;
   pool_ = std::make_unique<pg::Pool>(c, std::max(1, options.pool_size));
-  auto conn = pool_->Acquire();
-  pg::Migrate(*conn);
+  {
+    auto conn = pool_->Acquire();
+    pg::Migrate(*conn);
+  }
+  pool_->Fill();
 }
 
 PgStorage::~PgStorage() = default;
@@ -247,6 +250,16 @@ std::vector<ResultRecord> PgStorage::GetResults(MeasurementId id) {
                                r.Text(i, 4), r.Text(i, 5)});
   }
   return out;
+}
+
+ResultsStamp PgStorage::GetResultsStamp(MeasurementId id) {
+  auto c = pool_->Acquire();
+  Params p;
+  p.Int(id);
+  const Result r =
+      c->Query("SELECT count(*), COALESCE(max(id), 0) FROM results WHERE measurement_id = $1", p,
+               "read the results' stamp");
+  return ResultsStamp{r.Int(0, 0), r.Int(0, 1)};
 }
 
 void PgStorage::PutResult(MeasurementId id, const NewResult& res) {

@@ -269,6 +269,14 @@ std::vector<ResultRecord> SqliteStorage::GetResults(MeasurementId id) {
   return out;
 }
 
+ResultsStamp SqliteStorage::GetResultsStamp(MeasurementId id) {
+  std::lock_guard lock(mu_);
+  auto s = Prepared("SELECT count(*), COALESCE(max(id), 0) FROM results WHERE measurement_id = ?");
+  s->Bind(1, id);
+  s->Step();
+  return ResultsStamp{s->Int(0), s->Int(1)};
+}
+
 void SqliteStorage::PutResult(MeasurementId id, const NewResult& r) {
   std::lock_guard lock(mu_);
   Transaction tx(db_);

@@ -364,6 +364,10 @@ TEST_F(PgStorageTest, ThePoolBoundsTheConnectionsAndServesManyThreads) {
   PgOptions o;
   o.pool_size = 2;
   PgStorage s(url_, o);
+  const std::string db = url_.substr(url_.rfind('/') + 1);
+  const std::string open_connections = "SELECT COUNT(*) FROM pg_stat_activity WHERE datname = '" +
+                                       db + "' AND application_name = 'kinemetricd'";
+  EXPECT_EQ(QueryValue(url_, open_connections), "2");  // all opened at start
   const auto id = s.PutMeasurement(Sample("p"), {}).id;
   std::atomic<int> ok{0};
   std::vector<std::thread> threads;
@@ -374,10 +378,7 @@ TEST_F(PgStorageTest, ThePoolBoundsTheConnectionsAndServesManyThreads) {
   }
   for (auto& th : threads) th.join();
   EXPECT_EQ(ok.load(), 200);
-  const std::string db = url_.substr(url_.rfind('/') + 1);
-  EXPECT_EQ(QueryValue(url_, "SELECT COUNT(*) FROM pg_stat_activity WHERE datname = '" + db +
-                                 "' AND application_name = 'kinemetricd'"),
-            "2");
+  EXPECT_EQ(QueryValue(url_, open_connections), "2");
 }
 
 TEST_F(PgStorageTest, TextPostgreSqlCannotHoldIsRefusedNamingTheField) {

@@ -69,9 +69,19 @@ TEST_P(Backends, StoresOnceAndKeepsEverythingAcrossReopen) {
 TEST_P(Backends, ResultsAddedLaterKeepTheOlderOnes) {
   auto s = Open();
   const auto id = s->PutMeasurement(Sample("r1", "m"), {{"dbb", "dbb/1", "{}"}}).id;
+  const ResultsStamp first = s->GetResultsStamp(id);
+  EXPECT_EQ(first.count, 1);
+  EXPECT_GT(first.newest_id, 0);
   s->PutResult(id, {"dbb", "dbb/2", R"({"v":2})"});
+  // Every append changes the stamp, as another instance on the same database reads it.
+  const ResultsStamp second = Open()->GetResultsStamp(id);
+  EXPECT_EQ(second.count, 2);
+  EXPECT_GT(second.newest_id, first.newest_id);
   s->PutResult(id, {"dbb", "dbb/2", R"({"v":3})"});  // the same version again: kept as it was
+  EXPECT_EQ(s->GetResultsStamp(id), second);
   s->PutResult(id, {"form", "form/1", "[]"});
+  EXPECT_EQ(s->GetResultsStamp(id).count, 3);
+  EXPECT_EQ(s->GetResultsStamp(MeasurementId(id.value() + 1)), ResultsStamp{});
   const auto r = s->GetResults(id);
   ASSERT_EQ(r.size(), 3u);
   EXPECT_EQ(r[0].analysis_version, "dbb/1");
