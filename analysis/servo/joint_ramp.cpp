@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/minimize_1d.h"
 #include "analysis/hexapod/joint_swing.h"
 
 namespace km::servo {
@@ -156,30 +157,6 @@ double Rss(const std::vector<Prepared>& recs, double lambda) {
   return Rss(recs, std::vector<double>{lambda})[0];
 }
 
-// Golden-section search of the RSS over log λ in [a, b].
-double GoldenSection(const std::vector<Prepared>& recs, double a, double b) {
-  const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
-  double m1 = b - gr * (b - a), m2 = a + gr * (b - a);
-  const std::vector<double> f = Rss(recs, {std::exp(m1), std::exp(m2)});
-  double f1 = f[0], f2 = f[1];
-  for (int it = 0; it < 30; ++it) {
-    if (f1 < f2) {
-      b = m2;
-      m2 = m1;
-      f2 = f1;
-      m1 = b - gr * (b - a);
-      f1 = Rss(recs, std::exp(m1));
-    } else {
-      a = m1;
-      m1 = m2;
-      f1 = f2;
-      m2 = a + gr * (b - a);
-      f2 = Rss(recs, std::exp(m2));
-    }
-  }
-  return 0.5 * (a + b);
-}
-
 }  // namespace
 
 RampEstimate EstimateJointRamp(const hexapod::HexapodGeometry& geometry,
@@ -208,7 +185,7 @@ RampEstimate EstimateJointRamp(const LoadVector& theta, const std::vector<RampRe
   std::vector<Prepared> recs;
   for (const auto& r : records) recs.push_back(Prepare(theta, r));
   RampEstimate out;
-  // Grid over log λ (and no ramp), then golden-section search in the best bracket.
+  // Grid over log λ (and no ramp), then Brent's search in the best bracket.
   const double lo = std::log(0.01), hi = std::log(20.0);
   const int grid = 24;
   std::vector<double> lambdas{0.0};
@@ -225,8 +202,11 @@ RampEstimate EstimateJointRamp(const LoadVector& theta, const std::vector<RampRe
       best = k;
     }
   }
-  const double x = GoldenSection(recs, lo + (hi - lo) * std::max(best - 1, 0) / grid,
-                                 lo + (hi - lo) * std::min(best + 1, grid) / grid);
+  // The minimum in the best bracket to 10⁻⁷ in log λ (Brent: a pass over every sample each).
+  const double x = BrentMinimize([&](double log_lambda) { return Rss(recs, std::exp(log_lambda)); },
+                                 lo + (hi - lo) * std::max(best - 1, 0) / grid,
+                                 lo + (hi - lo) * std::min(best + 1, grid) / grid, 1e-7)
+                       .x;
   out.ramp_mm = std::exp(x);
   // σ of λ from the curvature of the RSS in λ: var = 2 σ̂² / RSS''.
   const double h = 0.05 * out.ramp_mm;
