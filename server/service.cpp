@@ -18,7 +18,7 @@ Service::Service(std::unique_ptr<Storage> storage, ServiceOptions options)
       reports_(*this, measurements_, *studies_, *storage_),
       audits_(std::make_unique<AuditScheduler>(*this, options.audits)) {
   // Every answer about a measurement carries its conformance with the newest tolerances.
-  measurements_.SetConformanceJudges(tolerances_.Judges(), tolerances_.NewestVersions());
+  measurements_.SetConformanceJudges(tolerances_.Judges());
   // Every upload naming a registered instrument takes the register's uncertainties.
   measurements_.SetInstrumentHook(instruments_.Hook());
 }

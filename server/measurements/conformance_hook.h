@@ -5,7 +5,6 @@
 // it lives, so a page of one machine reads its table once.
 #pragma once
 
-#include <cstdint>
 #include <functional>
 #include <string>
 
@@ -23,8 +22,5 @@ struct ConformanceSubject {
 using ConformanceJudge =
     std::function<nlohmann::json(const ConformanceSubject& subject, const nlohmann::json& result)>;
 using ConformanceJudges = std::function<ConformanceJudge()>;
-// The newest version of the machine's tolerance table (0 when it has none), read from storage
-// on every call: a judged answer kept from before is current only while this has not changed.
-using ConformanceVersion = std::function<std::int64_t(const std::string& machine_id)>;
 
 }  // namespace km::server

@@ -146,9 +146,8 @@ nlohmann::json MeasurementService::ResultsWithConformance(MeasurementId id) {
 }
 
 std::shared_ptr<const std::string> MeasurementService::ResultsAnswer(MeasurementId id) {
-  AnswerBasis basis{store_.GetResultsStamp(id), 0};
-  const bool keepable = basis.results.count > 0 && (!judges_ || table_version_);
-  if (keepable && judges_) basis.table_version = table_version_(CachedSubject(id).machine_id);
+  const AnswerBasis basis = store_.GetAnswerBasis(id);
+  const bool keepable = basis.results.count > 0;  // otherwise refused below
   if (keepable) {
     if (auto kept = answers_.Find(id, basis)) return kept;
   }

@@ -71,12 +71,9 @@ class MeasurementService {
   // Judges measurements against their machine's newest tolerances from now on: the upload
   // answer, MeasurementWithSamples, ResultsWithConformance and every item of ListMeasurements
   // carry "conformance" (server/measurements/conformance_hook.h). Set once, before serving.
-  // `version` tells when a judged answer kept from before is current (server/measurements/
-  // results_answers.h); without it ResultsAnswer makes every answer anew.
-  void SetConformanceJudges(ConformanceJudges judges, ConformanceVersion version = {}) {
-    judges_ = std::move(judges);
-    table_version_ = std::move(version);
-  }
+  // A judge's verdict may depend on the measurement's result and its machine's newest
+  // tolerance table only: ResultsAnswer keeps answers made with them (results_answers.h).
+  void SetConformanceJudges(ConformanceJudges judges) { judges_ = std::move(judges); }
   // Completes each uploaded file naming an instrument from the instrument register before its
   // analysis; its result then carries "instrument" (server/measurements/instrument_hook.h). Set
   // once, before serving.
@@ -139,7 +136,6 @@ class MeasurementService {
   UploadOptions options_;
   std::map<std::string, KindHandler> kinds_;
   ConformanceJudges judges_;
-  ConformanceVersion table_version_;
   ResultsAnswers answers_;  // GET …/results answers, each with what it was made from
   InstrumentHook instruments_;
   mutable ParsedResults parsed_;  // the stored results' documents, parsed once

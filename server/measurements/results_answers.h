@@ -1,7 +1,7 @@
 // The serialised answers of GET /api/v1/measurements/{id}/results, the query the dashboards
 // repeat most. An answer is kept with what it was made from: the stamp of the measurement's
 // stored results and the version of its machine's tolerance table. Both are read from storage
-// on every request (two indexed queries, no document text), so a kept answer is served only
+// on every request (one query of indexes, no document text), so a kept answer is served only
 // while it is still the answer, whichever instance on the same database added a result or a
 // table. Bounded by the bytes it holds (emptied when full); an answer larger than a sixteenth of
 // the bound is made and not kept.
@@ -17,12 +17,6 @@
 #include "server/storage/storage.h"
 
 namespace km::server {
-
-struct AnswerBasis {
-  ResultsStamp results;
-  std::int64_t table_version = 0;
-  bool operator==(const AnswerBasis&) const = default;
-};
 
 class ResultsAnswers {
  public:

@@ -96,6 +96,14 @@ struct ResultsStamp {
   bool operator==(const ResultsStamp&) const = default;
 };
 
+// What the answers about a measurement are made from: the stamp of its results and the newest
+// version of its machine's tolerance table (0 when it has none).
+struct AnswerBasis {
+  ResultsStamp results;
+  std::int64_t table_version = 0;
+  bool operator==(const AnswerBasis&) const = default;
+};
+
 struct MeasurementFilter {
   std::optional<std::string> machine_id;
   std::optional<std::string> kind;
@@ -394,8 +402,9 @@ class MeasurementStore {
   virtual SampleBlock GetSamples(MeasurementId id) = 0;  // throws NotFound
   virtual MeasurementPage ListMeasurements(const MeasurementFilter& f) = 0;
   virtual std::vector<ResultRecord> GetResults(MeasurementId id) = 0;
-  // The stamp of the measurement's results: one indexed query, no result text read.
-  virtual ResultsStamp GetResultsStamp(MeasurementId id) = 0;
+  // The basis of the answers about the measurement: one query of indexes, no document read
+  // ({} for a measurement that does not exist).
+  virtual AnswerBasis GetAnswerBasis(MeasurementId id) = 0;
   // Adds a result computed later (e.g. by a newer analysis version); keeps older ones.
   virtual void PutResult(MeasurementId id, const NewResult& r) = 0;
   // Machines with stored measurements or a stored model.
@@ -556,8 +565,6 @@ class ToleranceStore {
   virtual ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) = 0;
   virtual std::optional<ToleranceTableRecord> GetToleranceTable(
       const std::string& machine_id, std::optional<std::int64_t> version) = 0;
-  // The newest version of the machine's table, 0 when it has none (no table text read).
-  virtual std::int64_t NewestToleranceVersion(const std::string& machine_id) = 0;
 };
 
 // The instrument register: each instrument's uncertainties and calibration, versioned.

@@ -74,10 +74,4 @@ ConformanceJudges ToleranceService::Judges() {
   };
 }
 
-ConformanceVersion ToleranceService::NewestVersions() {
-  ToleranceStore* store = &store_;
-  return
-      [store](const std::string& machine_id) { return store->NewestToleranceVersion(machine_id); };
-}
-
 }  // namespace km::server

@@ -38,8 +38,6 @@ class ToleranceService {
   // Judges over the newest tables, for the measurement service: each judge reads a machine's
   // newest table at its first measurement of that machine and keeps it.
   ConformanceJudges Judges();
-  // The version the judges of Judges() would judge a machine's measurements by.
-  ConformanceVersion NewestVersions();
 
  private:
   ToleranceStore& store_;

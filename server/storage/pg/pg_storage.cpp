@@ -252,14 +252,16 @@ std::vector<ResultRecord> PgStorage::GetResults(MeasurementId id) {
   return out;
 }
 
-ResultsStamp PgStorage::GetResultsStamp(MeasurementId id) {
+AnswerBasis PgStorage::GetAnswerBasis(MeasurementId id) {
   auto c = pool_->Acquire();
   Params p;
   p.Int(id);
-  const Result r =
-      c->Query("SELECT count(*), COALESCE(max(id), 0) FROM results WHERE measurement_id = $1", p,
-               "read the results' stamp");
-  return ResultsStamp{r.Int(0, 0), r.Int(0, 1)};
+  const Result r = c->Query(
+      "SELECT count(*), COALESCE(max(id), 0), COALESCE((SELECT max(version) FROM "
+      "tolerance_tables WHERE machine_id = (SELECT machine_id FROM measurements WHERE id = $1)), "
+      "0) FROM results WHERE measurement_id = $1",
+      p, "read the answers' basis");
+  return AnswerBasis{{r.Int(0, 0), r.Int(0, 1)}, r.Int(0, 2)};
 }
 
 void PgStorage::PutResult(MeasurementId id, const NewResult& res) {

@@ -51,7 +51,7 @@ class PgStorage : public Storage {
   SampleBlock GetSamples(MeasurementId id) override;
   MeasurementPage ListMeasurements(const MeasurementFilter& f) override;
   std::vector<ResultRecord> GetResults(MeasurementId id) override;
-  ResultsStamp GetResultsStamp(MeasurementId id) override;
+  AnswerBasis GetAnswerBasis(MeasurementId id) override;
   void PutResult(MeasurementId id, const NewResult& r) override;
   std::vector<MachineSummary> ListMachines() override;
   MachineModelPut PutMachineModel(const NewMachineModel& m) override;  // pg_machine_models.cpp
@@ -118,7 +118,6 @@ class PgStorage : public Storage {
   ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) override;
   std::optional<ToleranceTableRecord> GetToleranceTable(
       const std::string& machine_id, std::optional<std::int64_t> version) override;
-  std::int64_t NewestToleranceVersion(const std::string& machine_id) override;
   // The instrument register: pg_instruments.cpp.
   InstrumentVersionPut PutInstrument(const NewInstrumentVersion& instrument) override;
   std::optional<InstrumentVersionRecord> GetInstrument(

@@ -73,14 +73,4 @@ std::optional<ToleranceTableRecord> PgStorage::GetToleranceTable(
   return ReadToleranceRow(s, 0);
 }
 
-std::int64_t PgStorage::NewestToleranceVersion(const std::string& machine_id) {
-  auto c = pool_->Acquire();
-  pg::Params p;
-  p.Text(machine_id, "machine_id");
-  const pg::Result s =
-      c->Query("SELECT COALESCE(max(version), 0) FROM tolerance_tables WHERE machine_id = $1", p,
-               "read the tolerance table's version");
-  return s.Int(0, 0);
-}
-
 }  // namespace km::server

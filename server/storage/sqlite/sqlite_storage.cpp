@@ -269,12 +269,15 @@ std::vector<ResultRecord> SqliteStorage::GetResults(MeasurementId id) {
   return out;
 }
 
-ResultsStamp SqliteStorage::GetResultsStamp(MeasurementId id) {
+AnswerBasis SqliteStorage::GetAnswerBasis(MeasurementId id) {
   std::lock_guard lock(mu_);
-  auto s = Prepared("SELECT count(*), COALESCE(max(id), 0) FROM results WHERE measurement_id = ?");
+  auto s = Prepared(
+      "SELECT count(*), COALESCE(max(id), 0), COALESCE((SELECT max(version) FROM "
+      "tolerance_tables WHERE machine_id = (SELECT machine_id FROM measurements WHERE id = ?1)), "
+      "0) FROM results WHERE measurement_id = ?1");
   s->Bind(1, id);
   s->Step();
-  return ResultsStamp{s->Int(0), s->Int(1)};
+  return AnswerBasis{{s->Int(0), s->Int(1)}, s->Int(2)};
 }
 
 void SqliteStorage::PutResult(MeasurementId id, const NewResult& r) {

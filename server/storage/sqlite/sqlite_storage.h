@@ -48,7 +48,7 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   SampleBlock GetSamples(MeasurementId id) override;
   MeasurementPage ListMeasurements(const MeasurementFilter& f) override;
   std::vector<ResultRecord> GetResults(MeasurementId id) override;
-  ResultsStamp GetResultsStamp(MeasurementId id) override;
+  AnswerBasis GetAnswerBasis(MeasurementId id) override;
   void PutResult(MeasurementId id, const NewResult& r) override;
   std::vector<MachineSummary> ListMachines() override;
   MachineModelPut PutMachineModel(const NewMachineModel& m) override;  // sqlite_machine_models.cpp
@@ -115,7 +115,6 @@ class SqliteStorage : public Storage {  // tests wrap single calls of it
   ToleranceTablePut PutToleranceTable(const NewToleranceTable& table) override;
   std::optional<ToleranceTableRecord> GetToleranceTable(
       const std::string& machine_id, std::optional<std::int64_t> version) override;
-  std::int64_t NewestToleranceVersion(const std::string& machine_id) override;
   // The instrument register: sqlite_instruments.cpp.
   InstrumentVersionPut PutInstrument(const NewInstrumentVersion& instrument) override;
   std::optional<InstrumentVersionRecord> GetInstrument(

@@ -61,12 +61,4 @@ std::optional<ToleranceTableRecord> SqliteStorage::GetToleranceTable(
   return ReadToleranceTable(*s);
 }
 
-std::int64_t SqliteStorage::NewestToleranceVersion(const std::string& machine_id) {
-  std::lock_guard lock(mu_);
-  auto s = Prepared("SELECT COALESCE(max(version), 0) FROM tolerance_tables WHERE machine_id = ?");
-  s->Bind(1, machine_id);
-  s->Step();
-  return s->Int(0);
-}
-
 }  // namespace km::server

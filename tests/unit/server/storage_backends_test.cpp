@@ -69,19 +69,26 @@ TEST_P(Backends, StoresOnceAndKeepsEverythingAcrossReopen) {
 TEST_P(Backends, ResultsAddedLaterKeepTheOlderOnes) {
   auto s = Open();
   const auto id = s->PutMeasurement(Sample("r1", "m"), {{"dbb", "dbb/1", "{}"}}).id;
-  const ResultsStamp first = s->GetResultsStamp(id);
-  EXPECT_EQ(first.count, 1);
-  EXPECT_GT(first.newest_id, 0);
+  const AnswerBasis first = s->GetAnswerBasis(id);
+  EXPECT_EQ(first.results.count, 1);
+  EXPECT_GT(first.results.newest_id, 0);
+  EXPECT_EQ(first.table_version, 0);  // machine "m" has no tolerance table
   s->PutResult(id, {"dbb", "dbb/2", R"({"v":2})"});
-  // Every append changes the stamp, as another instance on the same database reads it.
-  const ResultsStamp second = Open()->GetResultsStamp(id);
-  EXPECT_EQ(second.count, 2);
-  EXPECT_GT(second.newest_id, first.newest_id);
+  // Every append changes the basis, as another instance on the same database reads it.
+  const AnswerBasis second = Open()->GetAnswerBasis(id);
+  EXPECT_EQ(second.results.count, 2);
+  EXPECT_GT(second.results.newest_id, first.results.newest_id);
   s->PutResult(id, {"dbb", "dbb/2", R"({"v":3})"});  // the same version again: kept as it was
-  EXPECT_EQ(s->GetResultsStamp(id), second);
+  EXPECT_EQ(s->GetAnswerBasis(id), second);
   s->PutResult(id, {"form", "form/1", "[]"});
-  EXPECT_EQ(s->GetResultsStamp(id).count, 3);
-  EXPECT_EQ(s->GetResultsStamp(MeasurementId(id.value() + 1)), ResultsStamp{});
+  EXPECT_EQ(s->GetAnswerBasis(id).results.count, 3);
+  // A table of the measurement's machine (not of another) is in the basis.
+  s->PutToleranceTable({"other", "[]", "sha-a"});
+  EXPECT_EQ(s->GetAnswerBasis(id).table_version, 0);
+  s->PutToleranceTable({"m", "[]", "sha-a"});
+  s->PutToleranceTable({"m", "[1]", "sha-b"});
+  EXPECT_EQ(Open()->GetAnswerBasis(id).table_version, 2);
+  EXPECT_EQ(s->GetAnswerBasis(MeasurementId(id.value() + 1)), AnswerBasis{});
   const auto r = s->GetResults(id);
   ASSERT_EQ(r.size(), 3u);
   EXPECT_EQ(r[0].analysis_version, "dbb/1");
