@@ -12,7 +12,8 @@ namespace km {
 namespace {
 
 int GoldenSectionEvaluations(double width, double tol) {
-  return 2 + static_cast<int>(std::ceil(std::log(tol / width) / std::log(0.5 * (std::sqrt(5.0) - 1.0))));
+  return 2 + static_cast<int>(
+                 std::ceil(std::log(tol / width) / std::log(0.5 * (std::sqrt(5.0) - 1.0))));
 }
 
 TEST(BrentMinimize, SmoothMinimaToTheToleranceInFewEvaluations) {
@@ -44,8 +45,8 @@ TEST(BrentMinimize, AKinkAndAnEdgeAreFoundByGoldenSteps) {
   EXPECT_LT(edge.x, 3.0 * tol);
   EXPECT_GT(edge.x, 0.0);  // never evaluated at the bracket's ends
   // A flat quartic minimum: parabolas converge slowly there, the bound holds.
-  const Minimum1d flat = BrentMinimize([](double x) { return std::pow(x - 1.0, 4); }, 0.0, 3.0,
-                                       1e-9, 40);
+  const Minimum1d flat =
+      BrentMinimize([](double x) { return std::pow(x - 1.0, 4); }, 0.0, 3.0, 1e-9, 40);
   EXPECT_LE(flat.evaluations, 40);
   EXPECT_NEAR(flat.x, 1.0, 1e-2);
 }
