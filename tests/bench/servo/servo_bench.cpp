@@ -13,6 +13,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "analysis/core/allocator.h"
 #include "analysis/servo/external_force.h"
 #include "analysis/servo/feed_drive.h"
 #include "analysis/servo/identify.h"
@@ -139,4 +140,13 @@ BENCHMARK(BM_ParseFeedDrive40k)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// The executables' allocator setting (analysis/core/allocator.h), as the command and the server
+// run it.
+int main(int argc, char** argv) {
+  km::RetainFreedMemory();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
