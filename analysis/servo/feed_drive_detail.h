@@ -2,6 +2,7 @@
 // steady-motion fit with the position-dependent ripple, the LuGre fit at reversals.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <string>
@@ -44,6 +45,25 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r);
 struct Window {
   std::size_t first = 0, last = 0;
 };
+// How the speed runs between two samples, of which the data give the positions and (by central
+// differences) the speeds: linear, parallel to the line through both speeds and with the
+// measured travel, the sample's speed its central difference; or constant at the interval's
+// mean, also at the sample that ends it. The model is fitted with the first; the change under
+// the second is part of the uncertainty (they differ where the reversal passes between few
+// samples, or a speed ramp starts or ends between them).
+enum class Reading { kLinear, kConstant };
+constexpr int kSubsteps = 8;  // of one sample interval, for linear speed
+// The derivatives of the bristle force in ln F_s, ln v_s, ln σ0 and ln δ.
+constexpr int kBristleParams = 4;
+using BristleDerivatives = std::array<double, kBristleParams>;
+// σ0 z + σ1 dz/dt at every sample of the windows (one after the other), each window starting in
+// steady sliding; z integrated in exact steps of eq. 4.1 over sub-intervals of constant speed
+// (feed_drive_bristles.cpp). `damping` (when given) gets the force per unit σ1, 10⁻³ dz/dt (z
+// does not depend on σ1); `derivatives` (when given) the force's derivatives, that in ln δ only
+// when `exponent` (0 otherwise).
+void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
+                  Reading reading, std::vector<double>& out, std::vector<double>* damping = nullptr,
+                  std::vector<BristleDerivatives>* derivatives = nullptr, bool exponent = false);
 // What a LuGre fit leaves for comparing the forms of the Stribeck rise and for judging which
 // parameters the reversals determine.
 struct LugreFit {

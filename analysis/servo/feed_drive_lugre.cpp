@@ -8,7 +8,8 @@
 // travel, exact exponential steps of eq. 4.1 on sub-intervals of constant speed. Samples where
 // the acceleration changes weigh less (their inertia is uncertain) and a standstill counts as
 // one sample. Levenberg–Marquardt on ln F_s, ln v_s, ln σ0 and σ1 itself (the force is linear in
-// σ1, which may be zero), from six starts, with the Gaussian rise (δ = 2); then once more with
+// σ1, which may be zero; the other derivatives carried through the steps, feed_drive_bristles.cpp),
+// from six starts, with the Gaussian rise (δ = 2); then once more with
 // the rise's exponent δ free (ln δ in [ln 0.5, ln 6]), from δ = 2 and δ = 1. The thesis leaves
 // g(v) open, and a rise of another shape fitted as a Gaussian gives a v_s tens of σ off with a
 // tiny σ. The fitted δ is kept where the records reject δ = 2 by more than 3 σ; otherwise δ = 2,
@@ -37,7 +38,6 @@ constexpr int kParams = 5;  // ln F_s, ln v_s, ln σ0, σ1, ln δ
 constexpr int kExponent = 4;
 using Vec = Eigen::Matrix<double, kParams, 1>;
 using Mat = Eigen::Matrix<double, kParams, kParams>;
-constexpr int kSubsteps = 8;  // of one sample interval, for linear speed
 
 std::vector<Window> Windows(const Strokes& s, double window_mm) {
   std::vector<Window> out;
@@ -71,66 +71,6 @@ LugreParameters FromVec(const Vec& q, const Sliding& sliding) {
   p.stribeck_exponent = std::exp(q[kExponent]);
   p.stribeck_form = sliding.form;
   return p;
-}
-
-double Stribeck(const LugreParameters& p, double v) {
-  return StribeckG(p, v);
-}
-
-// One exact step of eq. 4.1 at constant speed v (mm/s) over h seconds; z in µm.
-double Step(const LugreParameters& p, double z, double v, double h) {
-  if (v == 0.0) return z;  // standing: the bristles hold
-  const double vu = 1e3 * v;
-  const double rate = p.sigma0_N_per_um * std::abs(vu) / Stribeck(p, v);  // 1/s
-  if (!(rate > 0.0)) return z;
-  const double z_ss = vu / rate;
-  return z_ss + (z - z_ss) * std::exp(-rate * h);
-}
-
-// How the speed runs between two samples, of which the data give the positions and (by central
-// differences) the speeds: linear, parallel to the line through both speeds and with the
-// measured travel, the sample's speed its central difference; or constant at the interval's
-// mean, also at the sample that ends it. The model is fitted with the first; the change under
-// the second is part of the uncertainty (they differ where the reversal passes between few
-// samples, or a speed ramp starts or ends between them).
-enum class Reading { kLinear, kConstant };
-
-// σ0 z + σ1 dz/dt at every sample of the windows (one after the other), each window starting in
-// steady sliding; z integrated in exact steps over sub-intervals of constant speed. `damping`
-// (when given) gets the force per unit σ1, 10⁻³ dz/dt (z does not depend on σ1).
-void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
-                  Reading reading, std::vector<double>& out,
-                  std::vector<double>* damping = nullptr) {
-  out.clear();
-  if (damping) damping->clear();
-  for (const auto& w : ws) {
-    const double v0 = s.v[w.first];
-    double z = (v0 > 0.0 ? 1.0 : -1.0) * Stribeck(p, v0) / p.sigma0_N_per_um;
-    for (std::size_t i = w.first; i <= w.last; ++i) {
-      double v = s.v[i];
-      if (i > w.first) {
-        const double dt = s.t[i] - s.t[i - 1], mean = (s.x[i] - s.x[i - 1]) / dt;
-        const bool standing = s.v[i - 1] == 0.0 && s.v[i] == 0.0 && mean == 0.0;
-        if (standing) {
-          v = 0.0;  // every sub-interval stands: z holds
-        } else if (reading == Reading::kLinear) {
-          const double shift = mean - 0.5 * (s.v[i - 1] + s.v[i]);
-          for (int k = 0; k < kSubsteps; ++k) {
-            const double u = (k + 0.5) / kSubsteps;
-            z = Step(p, z, (1.0 - u) * s.v[i - 1] + u * s.v[i] + shift, dt / kSubsteps);
-          }
-        } else {
-          v = mean;
-          z = Step(p, z, v, dt);
-        }
-      }
-      const double vu = 1e3 * v;
-      const double zdot =
-          v == 0.0 ? 0.0 : vu - p.sigma0_N_per_um * std::abs(vu) * z / Stribeck(p, v);  // µm/s
-      out.push_back(p.sigma0_N_per_um * z + p.sigma1_N_s_per_mm * 1e-3 * zdot);
-      if (damping) damping->push_back(1e-3 * zdot);
-    }
-  }
 }
 
 // Travel (µm) from each reversal until the friction crosses zero: σ0 ≈ F_c ln 2 / travel.
@@ -176,11 +116,12 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
           bool free_exponent, int iterations = 60) {
   const int free = free_exponent ? kParams : kExponent;
   const std::size_t n = y.size();
-  // model and damping: at fit.q throughout (a trial's kept when it is accepted).
+  // model, damping and derivatives: at fit.q throughout (a trial's kept when it is accepted).
   std::vector<double> model, shifted, damping, trial_damping;
-  const auto residual = [&](const Vec& q, std::vector<double>& m,
-                            std::vector<double>* d = nullptr) {
-    BristleForce(s, ws, FromVec(q, sliding), reading, m, d);
+  std::vector<BristleDerivatives> derivatives;
+  const auto residual = [&](const Vec& q, std::vector<double>& m, std::vector<double>& d,
+                            std::vector<BristleDerivatives>* dq) {
+    BristleForce(s, ws, FromVec(q, sliding), reading, m, &d, dq, free_exponent);
     double ss = 0.0;
     for (std::size_t i = 0; i < n; ++i) ss += w[i] * (y[i] - m[i]) * (y[i] - m[i]);
     return ss;
@@ -188,23 +129,22 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   Fit fit;
   fit.q = q0;
   fit.free_exponent = free_exponent;
-  fit.rss = residual(fit.q, model, &damping);
+  fit.rss = residual(fit.q, model, damping, nullptr);
   double lambda = 1e-2;
   Eigen::MatrixXd jac(static_cast<Eigen::Index>(n), kParams);
   for (int it = 0; it < iterations; ++it) {
+    // The force's derivatives in ln F_s, ln v_s, ln σ0 (and ln δ) at fit.q, from one pass (the
+    // trials below need the force only); it is linear in σ1.
+    residual(fit.q, model, damping, &derivatives);
     jac.setZero();
-    for (int k = 0; k < free; ++k) {
-      if (k == 3) {  // the force is linear in σ1
-        for (std::size_t i = 0; i < n; ++i)
-          jac(static_cast<Eigen::Index>(i), k) = std::sqrt(w[i]) * damping[i];
-        continue;
-      }
-      const double h = 1e-5;
-      Vec qk = fit.q;
-      qk[k] += h;
-      residual(qk, shifted);
-      for (std::size_t i = 0; i < n; ++i)
-        jac(static_cast<Eigen::Index>(i), k) = std::sqrt(w[i]) * (shifted[i] - model[i]) / h;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double root = std::sqrt(w[i]);
+      const auto row = static_cast<Eigen::Index>(i);
+      jac(row, 0) = root * derivatives[i][0];
+      jac(row, 1) = root * derivatives[i][1];
+      jac(row, 2) = root * derivatives[i][2];
+      jac(row, 3) = root * damping[i];
+      if (free == kParams) jac(row, kExponent) = root * derivatives[i][3];
     }
     Eigen::VectorXd e(static_cast<Eigen::Index>(n));
     for (std::size_t i = 0; i < n; ++i)
@@ -221,7 +161,7 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
       step[kExponent] = free_exponent ? std::clamp(step[kExponent], -0.5, 0.5) : 0.0;
       Vec qn = fit.q + step;
       qn[kExponent] = std::clamp(qn[kExponent], std::log(kMinExponent), std::log(kMaxExponent));
-      const double rn = residual(qn, shifted, &trial_damping);
+      const double rn = residual(qn, shifted, trial_damping, nullptr);
       if (std::isfinite(rn) && rn < fit.rss) {
         improved = true;
         std::swap(model, shifted);

@@ -1,0 +1,131 @@
+// The bristle force's derivatives (analysis/servo/feed_drive_bristles.cpp), carried through the
+// exact steps of eq. 4.1, against central differences of the force itself in each parameter:
+// for the Gaussian rise, a fitted exponent δ and the Lorentzian rise, with the speed read
+// linear between samples and constant, over a reversal with a standstill in it. A first-principle
+// check that needs no simulator: stiffer bristles (a larger σ0) carry the friction over to the
+// new direction of motion in a shorter travel.
+#include <array>
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "analysis/servo/feed_drive_detail.h"
+
+namespace km::servo::detail {
+namespace {
+
+// A reversal at 2 ms sampling: x = −A cos(ω τ), moving in −x at 2.4 mm/s and slowing to the
+// turning point (sample 200), 10 samples at rest there, then moving back in +x; the speeds by
+// the exact derivative.
+Strokes Reversal() {
+  Strokes s;
+  const double a = 0.8, w = M_PI, dt = 2e-3;
+  for (int i = 0; i < 400; ++i) {
+    const double tau = (i < 200 ? i - 200 : (i < 210 ? 0 : i - 210)) * dt;
+    s.t.push_back(i * dt);
+    s.x.push_back(-a * std::cos(w * tau));
+    s.v.push_back(a * w * std::sin(w * tau));
+  }
+  s.segment_end = {s.x.size()};
+  return s;
+}
+
+LugreParameters Params(LugreParameters::Form form, double delta) {
+  LugreParameters p;
+  p.Fc_N = 30.0;
+  p.Fs_N = 37.3;
+  p.vs_mm_s = 1.9;
+  p.sigma0_N_per_um = 4.4;
+  p.sigma1_N_s_per_mm = 7.7;
+  p.sigma2_N_s_per_mm = 0.05;
+  p.stribeck_exponent = delta;
+  p.stribeck_form = form;
+  return p;
+}
+
+// p with parameter k (ln F_s, ln v_s, ln σ0, ln δ) moved by h.
+LugreParameters Moved(LugreParameters p, int k, double h) {
+  double* value[] = {&p.Fs_N, &p.vs_mm_s, &p.sigma0_N_per_um, &p.stribeck_exponent};
+  *value[k] *= std::exp(h);
+  return p;
+}
+
+void ExpectDerivativesMatchDifferences(const LugreParameters& p, Reading reading, int params) {
+  const Strokes s = Reversal();
+  const std::vector<Window> ws{{0, 399}};
+  std::vector<double> force, damping;
+  std::vector<BristleDerivatives> d;
+  BristleForce(s, ws, p, reading, force, &damping, &d, params == 4);
+  std::vector<double> plain;
+  BristleForce(s, ws, p, reading, plain);
+  ASSERT_EQ(plain, force);  // the same arithmetic with and without the derivatives
+  ASSERT_EQ(d.size(), force.size());
+  const double h = 1e-5;
+  for (int k = 0; k < params; ++k) {
+    std::vector<double> up, down;
+    BristleForce(s, ws, Moved(p, k, h), reading, up);
+    BristleForce(s, ws, Moved(p, k, -h), reading, down);
+    double worst = 0.0, scale = 0.0;
+    for (std::size_t i = 0; i < force.size(); ++i) {
+      const double fd = (up[i] - down[i]) / (2.0 * h);
+      worst = std::max(worst, std::abs(d[i][k] - fd));
+      scale = std::max(scale, std::abs(fd));
+    }
+    EXPECT_GT(scale, 1e-3) << "parameter " << k << " moves the force";
+    EXPECT_LT(worst, 1e-6 * scale + 1e-9) << "parameter " << k;
+  }
+  // σ1 enters linearly through 10⁻³ dz/dt.
+  LugreParameters q = p;
+  q.sigma1_N_s_per_mm += 1.0;
+  std::vector<double> more;
+  BristleForce(s, ws, q, reading, more);
+  for (std::size_t i = 0; i < force.size(); ++i)
+    EXPECT_NEAR(more[i] - force[i], damping[i], 1e-9 * (1.0 + std::abs(force[i])));
+}
+
+TEST(ServoBristles, DerivativesOfTheGaussianRise) {
+  ExpectDerivativesMatchDifferences(Params(LugreParameters::Form::kExponential, 2.0),
+                                    Reading::kLinear, 3);
+  ExpectDerivativesMatchDifferences(Params(LugreParameters::Form::kExponential, 2.0),
+                                    Reading::kConstant, 3);
+}
+
+TEST(ServoBristles, DerivativesWithTheExponentFitted) {
+  ExpectDerivativesMatchDifferences(Params(LugreParameters::Form::kExponential, 1.37),
+                                    Reading::kLinear, 4);
+  ExpectDerivativesMatchDifferences(Params(LugreParameters::Form::kExponential, 3.1),
+                                    Reading::kConstant, 4);
+}
+
+TEST(ServoBristles, DerivativesOfTheLorentzianRise) {
+  ExpectDerivativesMatchDifferences(Params(LugreParameters::Form::kLorentzian, 2.0),
+                                    Reading::kLinear, 2);  // δ unused; σ0 below
+  const Strokes s = Reversal();
+  std::vector<double> force;
+  std::vector<BristleDerivatives> d;
+  BristleForce(s, {{0, 399}}, Params(LugreParameters::Form::kLorentzian, 2.0), Reading::kLinear,
+               force, nullptr, &d, false);
+  for (const auto& x : d) EXPECT_EQ(x[3], 0.0);  // no exponent: no derivative in it
+}
+
+TEST(ServoBristles, StifferBristlesTurnTheForceInAShorterTravel) {
+  const Strokes s = Reversal();
+  const std::vector<Window> ws{{0, 399}};
+  std::vector<double> soft, stiff;
+  LugreParameters p = Params(LugreParameters::Form::kExponential, 2.0);
+  BristleForce(s, ws, p, Reading::kLinear, soft);
+  p.sigma0_N_per_um *= 2.0;
+  BristleForce(s, ws, p, Reading::kLinear, stiff);
+  // At rest the bristles hold the force of the old direction (−x): about −F_s either way.
+  EXPECT_NEAR(soft[205], -p.Fs_N, 1.0);
+  EXPECT_NEAR(stiff[205], -p.Fs_N, 1.0);
+  // 20 samples (6 µm) into the new direction the stiffer bristles push harder in +x.
+  EXPECT_GT(stiff[230], soft[230] + 5.0);
+  // Sliding again, both carry the friction of the new direction.
+  EXPECT_GT(soft[399], 0.9 * p.Fc_N);
+  EXPECT_GT(stiff[399], 0.9 * p.Fc_N);
+}
+
+}  // namespace
+}  // namespace km::servo::detail
