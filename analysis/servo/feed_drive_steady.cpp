@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/minimize_1d.h"
 #include "analysis/servo/feed_drive_detail.h"
 
 namespace km::servo::detail {
@@ -133,16 +134,30 @@ double Sign(double v) {
   return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0);
 }
 
-// RSS of the best sinusoid of period p (with a constant) through the bins.
+// RSS of the best sinusoid of period p (with a constant) through the bins. The bins lie on a
+// grid (consecutive ones mostly one bin apart): the phase is rotated from bin to bin by the
+// angle of that step, and taken afresh from sin and cos after any other gap and every 64 bins.
 double SinusoidRss(const std::vector<double>& xc, const std::vector<double>& y, double p,
                    Component* out) {
   Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
   Eigen::Vector3d atb = Eigen::Vector3d::Zero();
   double yy = 0.0;
+  const double step = xc.size() > 1 ? xc[1] - xc[0] : 0.0;
+  const double turn_c = std::cos(kTwoPi * step / p), turn_s = std::sin(kTwoPi * step / p);
+  double c = 0.0, sn = 0.0;
   for (std::size_t i = 0; i < y.size(); ++i) {
-    const Eigen::Vector3d c(1.0, std::cos(kTwoPi * xc[i] / p), std::sin(kTwoPi * xc[i] / p));
-    ata += c * c.transpose();
-    atb += c * y[i];
+    const bool rotate = i > 0 && i % 64 != 0 && std::abs(xc[i] - xc[i - 1] - step) <= 1e-9 * step;
+    if (rotate) {
+      const double c_next = c * turn_c - sn * turn_s;
+      sn = sn * turn_c + c * turn_s;
+      c = c_next;
+    } else {
+      c = std::cos(kTwoPi * xc[i] / p);
+      sn = std::sin(kTwoPi * xc[i] / p);
+    }
+    const Eigen::Vector3d col(1.0, c, sn);
+    ata += col * col.transpose();
+    atb += col * y[i];
     yy += y[i] * y[i];
   }
   const Eigen::Vector3d x = ata.ldlt().solve(atb);
@@ -151,7 +166,7 @@ double SinusoidRss(const std::vector<double>& xc, const std::vector<double>& y, 
 }
 
 // Dominant periods of the binned position-dependent part: periodogram over a geometric grid,
-// refined by golden-section search, subtracted, repeated while significant.
+// refined by Brent's method, subtracted, repeated while significant.
 std::vector<Component> FindPeriods(const std::vector<double>& xc, std::vector<double> y,
                                    double pmin, double pmax, int max_components) {
   std::vector<Component> found;
@@ -168,19 +183,14 @@ std::vector<Component> FindPeriods(const std::vector<double>& xc, std::vector<do
         best_p = p;
       }
     }
+    // Refined between the grid's neighbours to 10⁻¹⁰ of the period (the joint fit refines it
+    // further).
     const double step = std::pow(pmax / pmin, 1.0 / grid);
-    double lo = best_p / step, hi = best_p * step;
-    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-    for (int it = 0; it < 60; ++it) {
-      const double m1 = hi - g * (hi - lo), m2 = lo + g * (hi - lo);
-      if (SinusoidRss(xc, y, m1, nullptr) < SinusoidRss(xc, y, m2, nullptr)) {
-        hi = m2;
-      } else {
-        lo = m1;
-      }
-    }
+    const double period = BrentMinimize([&](double q) { return SinusoidRss(xc, y, q, nullptr); },
+                                        best_p / step, best_p * step, 1e-10 * best_p)
+                              .x;
     Component comp;
-    const double rss = SinusoidRss(xc, y, 0.5 * (lo + hi), &comp);
+    const double rss = SinusoidRss(xc, y, period, &comp);
     const double sigma = std::sqrt(rss / static_cast<double>(nb - 3));
     const double amp = std::hypot(comp.a, comp.b);
     // Significant: the amplitude well above what noise of the bins' spread leaves.
