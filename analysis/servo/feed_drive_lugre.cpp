@@ -131,26 +131,22 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   fit.free_exponent = free_exponent;
   fit.rss = residual(fit.q, model, damping, nullptr);
   double lambda = 1e-2;
-  Eigen::MatrixXd jac(static_cast<Eigen::Index>(n), kParams);
   for (int it = 0; it < iterations; ++it) {
     // The force's derivatives in ln F_s, ln v_s, ln σ0 (and ln δ) at fit.q, from one pass (the
-    // trials below need the force only); it is linear in σ1.
+    // trials below need the force only); it is linear in σ1. The normal equations are summed
+    // row by row.
     residual(fit.q, model, damping, &derivatives);
-    jac.setZero();
+    fit.jtj.setZero();
+    Vec g = Vec::Zero();
     for (std::size_t i = 0; i < n; ++i) {
       const double root = std::sqrt(w[i]);
-      const auto row = static_cast<Eigen::Index>(i);
-      jac(row, 0) = root * derivatives[i][0];
-      jac(row, 1) = root * derivatives[i][1];
-      jac(row, 2) = root * derivatives[i][2];
-      jac(row, 3) = root * damping[i];
-      if (free == kParams) jac(row, kExponent) = root * derivatives[i][3];
+      Vec row;
+      row << derivatives[i][0], derivatives[i][1], derivatives[i][2], damping[i],
+          free == kParams ? derivatives[i][3] : 0.0;
+      row *= root;
+      fit.jtj.noalias() += row * row.transpose();
+      g += row * (root * (y[i] - model[i]));
     }
-    Eigen::VectorXd e(static_cast<Eigen::Index>(n));
-    for (std::size_t i = 0; i < n; ++i)
-      e[static_cast<Eigen::Index>(i)] = std::sqrt(w[i]) * (y[i] - model[i]);
-    fit.jtj = jac.transpose() * jac;
-    const Vec g = jac.transpose() * e;
     bool improved = false, small = false;
     for (int tries = 0; tries < 12 && !improved; ++tries) {
       Mat a = fit.jtj;
