@@ -4,10 +4,10 @@
 // reached: docs/dbb-arcs-spikes.md "Cost").
 #include <benchmark/benchmark.h>
 
-#include "analysis/core/allocator.h"
 #include "analysis/dbb/full_analysis.h"
 #include "analysis/dbb/serial_sim.h"
 #include "render/dbb_plot.h"
+#include "tests/bench/bench_main.h"
 
 namespace km::dbb {
 namespace {
@@ -83,12 +83,4 @@ BENCHMARK(BM_PolarPlotPng)->Unit(benchmark::kMillisecond);
 }  // namespace
 }  // namespace km::dbb
 
-// The executables' allocator setting (analysis/core/allocator.h), as the server runs it.
-int main(int argc, char** argv) {
-  km::RetainFreedMemory();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+KM_BENCHMARK_MAIN();

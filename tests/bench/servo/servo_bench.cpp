@@ -13,12 +13,12 @@
 
 #include <benchmark/benchmark.h>
 
-#include "analysis/core/allocator.h"
 #include "analysis/servo/external_force.h"
 #include "analysis/servo/feed_drive.h"
 #include "analysis/servo/identify.h"
 #include "analysis/servo/joint_resistance.h"
 #include "ingest/servo_parser.h"
+#include "tests/bench/bench_main.h"
 #include "tests/unit/servo/feed_truth.h"
 #include "tests/unit/servo/servo_fixture.h"
 #include "tests/unit/servo/servo_truth.h"
@@ -140,13 +140,4 @@ BENCHMARK(BM_ParseFeedDrive40k)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-// The executables' allocator setting (analysis/core/allocator.h), as the command and the server
-// run it.
-int main(int argc, char** argv) {
-  km::RetainFreedMemory();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+KM_BENCHMARK_MAIN();

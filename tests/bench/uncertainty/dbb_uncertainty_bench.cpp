@@ -11,9 +11,9 @@
 #include <numbers>
 #include <random>
 
-#include "analysis/core/allocator.h"
 #include "analysis/dbb/dbb_uncertainty.h"
 #include "analysis/dbb/full_analysis.h"
+#include "tests/bench/bench_main.h"
 
 namespace km::dbb {
 namespace {
@@ -71,12 +71,4 @@ BENCHMARK(BM_DbbPairUncertainty)
 }  // namespace
 }  // namespace km::dbb
 
-// The executables' allocator setting (analysis/core/allocator.h), as the server runs it.
-int main(int argc, char** argv) {
-  km::RetainFreedMemory();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+KM_BENCHMARK_MAIN();
