@@ -6,6 +6,7 @@
 
 #include "analysis/core/errors.h"
 #include "server/base/errors.h"
+#include "server/base/json_answer.h"
 #include "server/storage/storage.h"
 
 namespace km::api {
@@ -86,17 +87,10 @@ std::string Request::RoleName() const {
   return token_role ? server::RoleName(*token_role) : "";
 }
 
-namespace {
-// Text from clients or old rows may hold invalid UTF-8: it is replaced (U+FFFD), never thrown.
-std::string Dump(const nlohmann::json& j) {
-  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-}
-}  // namespace
-
 Response Response::Json(const nlohmann::json& j, int status) {
   Response r;
   r.status = status;
-  r.body = Dump(j);
+  r.body = server::AnswerText(j);
   return r;
 }
 
@@ -117,7 +111,7 @@ Response Problem(int status, const std::string& title, const std::string& detail
   Response r;
   r.status = status;
   r.content_type = "application/problem+json";
-  r.body = Dump(j);
+  r.body = server::AnswerText(j);
   return r;
 }
 

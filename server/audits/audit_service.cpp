@@ -15,6 +15,7 @@
 #include "server/audits/accuracy_audit.h"
 #include "server/audits/audit_gather.h"
 #include "server/audits/audit_schedule.h"
+#include "server/base/json_answer.h"
 #include "server/jobs/jobs.h"
 #include "server/measurements/analyses.h"
 
@@ -191,12 +192,6 @@ json VerdictJson(const AuditVerdictRecord& v) {
 
 namespace {
 
-// Answers hold text from clients and old rows: invalid UTF-8 is replaced (U+FFFD), as in every
-// JSON answer of the API.
-std::string DumpText(const json& j) {
-  return j.dump(-1, ' ', false, json::error_handler_t::replace);
-}
-
 // Room kept in a page for its end: "],", the page's figures and "}".
 constexpr std::size_t kPageTailBytes = 256;
 
@@ -215,7 +210,7 @@ std::int64_t WriteVerdicts(std::vector<AuditVerdictRecord>& records, std::int64_
   std::int64_t listed = 0;
   for (auto& r : records) {
     if (listed == limit) break;
-    const std::string piece = DumpText(VerdictJson(r));
+    const std::string piece = AnswerText(VerdictJson(r));
     if (listed > 0 && out.size() + 1 + piece.size() + kPageTailBytes > max_bytes) break;
     if (listed > 0) out += ',';
     out += piece;
@@ -250,7 +245,7 @@ std::string BuildPage(AuditSource& service, const AuditVerdictFilter& filter,
                      {"truncated", more && listed < limit},
                      {"next_offset", more ? json(filter.offset + listed) : json(nullptr)}};
   out += "],";
-  out += DumpText(tail).substr(1);  // {"limit":…} without its "{"
+  out += AnswerText(tail).substr(1);  // {"limit":…} without its "{"
   return out;
 }
 

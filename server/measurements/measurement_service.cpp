@@ -14,6 +14,7 @@
 #include "ingest/positioning_parser.h"
 #include "ingest/text_format.h"
 #include "render/dbb_plot.h"
+#include "server/base/json_answer.h"
 #include "server/base/sha256.h"
 #include "server/base/time_util.h"
 #include "server/measurements/analyses.h"
@@ -153,8 +154,7 @@ std::shared_ptr<const std::string> MeasurementService::ResultsAnswer(Measurement
   }
   // Made from what storage holds now, which is the basis read above or newer: kept under the
   // older basis, it is made again at the next request, never served stale.
-  auto answer = std::make_shared<const std::string>(
-      ResultsWithConformance(id).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  auto answer = std::make_shared<const std::string>(AnswerText(ResultsWithConformance(id)));
   if (keepable) answers_.Keep(id, basis, answer);
   return answer;
 }
