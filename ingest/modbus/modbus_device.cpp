@@ -1,10 +1,13 @@
 #include "ingest/modbus/modbus_device.h"
 
 #include <modbus/modbus.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <exception>
 #include <memory>
 #include <utility>
@@ -12,6 +15,20 @@
 namespace km::ingest::modbus {
 
 namespace {
+
+// A connection to a port on this host where nothing listens can be made to itself: the kernel
+// may pick that very port as the connection's own (a TCP simultaneous open). Such a "device"
+// answers every request with the request itself; it is treated as a refused connection.
+bool ConnectedToItself(modbus_t* ctx) {
+  const int fd = modbus_get_socket(ctx);
+  sockaddr_storage own{}, peer{};
+  socklen_t own_len = sizeof own, peer_len = sizeof peer;
+  if (fd < 0 || getsockname(fd, reinterpret_cast<sockaddr*>(&own), &own_len) != 0 ||
+      getpeername(fd, reinterpret_cast<sockaddr*>(&peer), &peer_len) != 0) {
+    return false;
+  }
+  return own_len == peer_len && std::memcmp(&own, &peer, own_len) == 0;
+}
 
 using Clock = std::chrono::steady_clock;
 
@@ -206,9 +223,12 @@ ModbusDevice::ConnectOutcome ModbusDevice::Connect(PollState& s) {
     s.backoff_ms = std::min(s.backoff_ms * 2, config_.reconnect.max_ms);
   }
   SetState("connecting", false);
-  if (modbus_connect(s.ctx) == -1) {
-    const int err = errno;
-    SetError(&DeviceStatus::connection_errors, std::string("connect: ") + modbus_strerror(err));
+  const bool refused = modbus_connect(s.ctx) == -1;
+  const int err = errno;
+  if (refused || ConnectedToItself(s.ctx)) {
+    SetError(&DeviceStatus::connection_errors,
+             refused ? std::string("connect: ") + modbus_strerror(err)
+                     : std::string("connect: nothing listens (the connection met itself)"));
     modbus_close(s.ctx);
     SetState("backoff", false);
     if (!WaitUntil(Clock::now() + std::chrono::milliseconds(s.backoff_ms))) {

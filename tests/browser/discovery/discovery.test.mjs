@@ -86,7 +86,8 @@ test('discovery page: hexapod gravity + friction found step by step, saved as ve
       await page.click(`#machines button[data-machine-id="${MACHINE}"]`);
       await page.waitForSelector(`#machines button[data-machine-id="${MACHINE}"][aria-current="true"]`);
       await page.waitForSelector('[data-testid="discoveries-panel"]:not([hidden])');
-      assert.match(await page.textContent('#discoveries'), /No discovery of this machine yet/);
+      // The panel shows before its list is filled: wait for the list's own answer.
+      await page.waitForFunction(() => /No discovery of this machine yet/.test(document.querySelector('#discoveries').textContent));
       await page.click('[data-testid="discovery-new-link"]');
       await page.waitForFunction(() => window.location.hash === '#/discoveries?machine=pm600-like');
       await page.waitForSelector('#discovery:not([hidden]) [data-testid="disc-form"]');

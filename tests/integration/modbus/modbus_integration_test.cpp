@@ -170,7 +170,7 @@ TEST(ModbusAcquisition, LibmodbusServerEveryTypeAndOrderHoldingAndInput) {
 
 TEST(ModbusAcquisition, ServerKilledAndRestartedResumesWithOneRecordedGap) {
   constexpr int kPollMs = 25;
-  auto server = std::make_unique<km::test::TestServer>(KM_MODBUS_TEST_SERVER, 0);
+  auto server = km::test::TestServer::BelowEphemeralRange(KM_MODBUS_TEST_SERVER);
   const int port = server->port();
   CollectingSink sink;
   ModbusDevice dev(Parse(PatternDeviceJson("restart", port, kPollMs, true)), sink);

@@ -12,9 +12,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <fstream>
+#include <memory>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -116,6 +120,23 @@ class TestServer {
   }
   int port() const { return port_; }
   void Kill() { child_.Kill(SIGKILL); }
+
+  // A server on a free port below the kernel's ephemeral range, for a test that kills it and
+  // starts it again on the same port: a port the kernel hands out (to another test's listener,
+  // or as the source port of a connection) could be taken while the server is down.
+  static std::unique_ptr<TestServer> BelowEphemeralRange(const std::string& binary) {
+    int low = 32768;
+    std::ifstream("/proc/sys/net/ipv4/ip_local_port_range") >> low;
+    std::mt19937 pick(std::random_device{}());
+    std::uniform_int_distribution<int> ports(std::min(10000, low - 1), low - 1);
+    for (int attempt = 0; attempt < 50; ++attempt) {
+      try {
+        return std::make_unique<TestServer>(binary, ports(pick));
+      } catch (const std::runtime_error&) {  // taken: another port
+      }
+    }
+    throw std::runtime_error("no free port below the ephemeral range");
+  }
 
  private:
   ChildProcess child_;
