@@ -116,12 +116,14 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
           bool free_exponent, int iterations = 60) {
   const int free = free_exponent ? kParams : kExponent;
   const std::size_t n = y.size();
-  // model, damping and derivatives: at fit.q throughout (a trial's kept when it is accepted).
+  // The force, damping and derivatives at fit.q throughout. Every trial computes its
+  // derivatives too (the force is the same bit for bit with and without them), so an accepted
+  // trial brings the next iteration's Jacobian along instead of a pass of its own.
   std::vector<double> model, shifted, damping, trial_damping;
-  std::vector<BristleDerivatives> derivatives;
+  std::vector<BristleDerivatives> derivatives, trial_derivatives;
   const auto residual = [&](const Vec& q, std::vector<double>& m, std::vector<double>& d,
-                            std::vector<BristleDerivatives>* dq) {
-    BristleForce(s, ws, FromVec(q, sliding), reading, m, &d, dq, free_exponent);
+                            std::vector<BristleDerivatives>& dq) {
+    BristleForce(s, ws, FromVec(q, sliding), reading, m, &d, &dq, free_exponent);
     double ss = 0.0;
     for (std::size_t i = 0; i < n; ++i) ss += w[i] * (y[i] - m[i]) * (y[i] - m[i]);
     return ss;
@@ -129,13 +131,10 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   Fit fit;
   fit.q = q0;
   fit.free_exponent = free_exponent;
-  fit.rss = residual(fit.q, model, damping, nullptr);
+  fit.rss = residual(fit.q, model, damping, derivatives);
   double lambda = 1e-2;
   for (int it = 0; it < iterations; ++it) {
-    // The force's derivatives in ln F_s, ln v_s, ln σ0 (and ln δ) at fit.q, from one pass (the
-    // trials below need the force only); it is linear in σ1. The normal equations are summed
-    // row by row.
-    residual(fit.q, model, damping, &derivatives);
+    // The normal equations at fit.q, summed row by row; the force is linear in σ1.
     fit.jtj.setZero();
     Vec g = Vec::Zero();
     for (std::size_t i = 0; i < n; ++i) {
@@ -157,11 +156,12 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
       step[kExponent] = free_exponent ? std::clamp(step[kExponent], -0.5, 0.5) : 0.0;
       Vec qn = fit.q + step;
       qn[kExponent] = std::clamp(qn[kExponent], std::log(kMinExponent), std::log(kMaxExponent));
-      const double rn = residual(qn, shifted, trial_damping, nullptr);
+      const double rn = residual(qn, shifted, trial_damping, trial_derivatives);
       if (std::isfinite(rn) && rn < fit.rss) {
         improved = true;
         std::swap(model, shifted);
         std::swap(damping, trial_damping);
+        std::swap(derivatives, trial_derivatives);
         small = fit.rss - rn < 1e-10 * fit.rss;
         fit.q = qn;
         fit.rss = rn;
