@@ -47,7 +47,10 @@ bool IsStaticPath(const std::string& path) {
 class Session : public std::enable_shared_from_this<Session> {
  public:
   Session(tcp::socket&& socket, const std::string& address, ServerContext& ctx)
-      : stream_(std::move(socket)), ctx_(ctx), registry_id_(ctx.registry.Open(address)) {
+      : stream_(std::move(socket)),
+        ctx_(ctx),
+        remote_addr_(address),
+        registry_id_(ctx.registry.Open(address)) {
     ++ctx_.connections;
   }
   ~Session() {
@@ -111,9 +114,7 @@ class Session : public std::enable_shared_from_this<Session> {
     req_.method = std::string(msg.method_string());
     head_ = msg.method() == http::verb::head;
     if (head_) req_.method = "GET";
-    beast::error_code ep_ec;
-    const auto ep = stream_.socket().remote_endpoint(ep_ec);
-    if (!ep_ec) req_.remote_addr = ep.address().to_string();
+    req_.remote_addr = remote_addr_;  // known since the connection was accepted
     std::vector<std::pair<std::string, std::string>> fields;
     for (const auto& field : msg) {
       std::string name(field.name_string());
@@ -456,6 +457,7 @@ class Session : public std::enable_shared_from_this<Session> {
 
   beast::tcp_stream stream_;
   ServerContext& ctx_;
+  const std::string remote_addr_;  // the client's address ("" when it could not be read)
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::empty_body>> header_;
   std::optional<http::request_parser<http::string_body>> body_;
