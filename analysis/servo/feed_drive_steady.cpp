@@ -137,11 +137,24 @@ double Sign(double v) {
 // RSS of the best sinusoid of period p (with a constant) through the bins. The bins lie on a
 // grid (consecutive ones mostly one bin apart): the phase is rotated from bin to bin by the
 // angle of that step, and taken afresh from sin and cos after any other gap and every 64 bins.
-double SinusoidRss(const std::vector<double>& xc, const std::vector<double>& y, double p,
-                   Component* out) {
-  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d atb = Eigen::Vector3d::Zero();
-  double yy = 0.0;
+// The normal equations' sums of 1 and y do not depend on p: `fixed` holds them (Σ1, Σy, Σy²).
+struct BinSums {
+  double n = 0.0, y = 0.0, yy = 0.0;
+};
+
+BinSums FixedSums(const std::vector<double>& y) {
+  BinSums f;
+  for (double v : y) {
+    f.n += 1.0;
+    f.y += v;
+    f.yy += v * v;
+  }
+  return f;
+}
+
+double SinusoidRss(const std::vector<double>& xc, const std::vector<double>& y,
+                   const BinSums& fixed, double p, Component* out) {
+  double sc = 0.0, ss = 0.0, scc = 0.0, scs = 0.0, sss = 0.0, syc = 0.0, sys = 0.0;
   const double step = xc.size() > 1 ? xc[1] - xc[0] : 0.0;
   const double turn_c = std::cos(kTwoPi * step / p), turn_s = std::sin(kTwoPi * step / p);
   double c = 0.0, sn = 0.0;
@@ -155,14 +168,20 @@ double SinusoidRss(const std::vector<double>& xc, const std::vector<double>& y, 
       c = std::cos(kTwoPi * xc[i] / p);
       sn = std::sin(kTwoPi * xc[i] / p);
     }
-    const Eigen::Vector3d col(1.0, c, sn);
-    ata += col * col.transpose();
-    atb += col * y[i];
-    yy += y[i] * y[i];
+    sc += c;
+    ss += sn;
+    scc += c * c;
+    scs += c * sn;
+    sss += sn * sn;
+    syc += c * y[i];
+    sys += sn * y[i];
   }
+  Eigen::Matrix3d ata;
+  ata << fixed.n, sc, ss, sc, scc, scs, ss, scs, sss;
+  const Eigen::Vector3d atb(fixed.y, syc, sys);
   const Eigen::Vector3d x = ata.ldlt().solve(atb);
   if (out) *out = {p, x[1], x[2]};
-  return yy - x.dot(atb);
+  return fixed.yy - x.dot(atb);
 }
 
 // Dominant periods of the binned position-dependent part: periodogram over a geometric grid,
@@ -173,11 +192,12 @@ std::vector<Component> FindPeriods(const std::vector<double>& xc, std::vector<do
   const std::size_t nb = y.size();
   if (nb < 8 || !(pmax > pmin)) return found;
   for (int c = 0; c < max_components; ++c) {
+    const BinSums fixed = FixedSums(y);
     const int grid = 400;
     double best_p = pmin, best_rss = INFINITY;
     for (int k = 0; k <= grid; ++k) {
       const double p = pmin * std::pow(pmax / pmin, static_cast<double>(k) / grid);
-      const double rss = SinusoidRss(xc, y, p, nullptr);
+      const double rss = SinusoidRss(xc, y, fixed, p, nullptr);
       if (rss < best_rss) {
         best_rss = rss;
         best_p = p;
@@ -186,11 +206,12 @@ std::vector<Component> FindPeriods(const std::vector<double>& xc, std::vector<do
     // Refined between the grid's neighbours to 10⁻¹⁰ of the period (the joint fit refines it
     // further).
     const double step = std::pow(pmax / pmin, 1.0 / grid);
-    const double period = BrentMinimize([&](double q) { return SinusoidRss(xc, y, q, nullptr); },
-                                        best_p / step, best_p * step, 1e-10 * best_p)
-                              .x;
+    const double period =
+        BrentMinimize([&](double q) { return SinusoidRss(xc, y, fixed, q, nullptr); },
+                      best_p / step, best_p * step, 1e-10 * best_p)
+            .x;
     Component comp;
-    const double rss = SinusoidRss(xc, y, period, &comp);
+    const double rss = SinusoidRss(xc, y, fixed, period, &comp);
     const double sigma = std::sqrt(rss / static_cast<double>(nb - 3));
     const double amp = std::hypot(comp.a, comp.b);
     // Significant: the amplitude well above what noise of the bins' spread leaves.
