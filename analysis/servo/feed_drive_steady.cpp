@@ -9,6 +9,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/core/minimize_1d.h"
+#include "analysis/core/sincos.h"
 #include "analysis/servo/feed_drive_detail.h"
 
 namespace km::servo::detail {
@@ -277,11 +278,12 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
     c.head<kBase>() = base(i);
     for (int k = 0; k < nc; ++k) {
       const double w = kTwoPi * s.x[i] / comps[k].period;
-      c[kBase + 3 * k] = std::cos(w);
-      c[kBase + 1 + 3 * k] = std::sin(w);
+      double sn = 0.0, cs = 0.0;
+      SinCos(w, &sn, &cs);
+      c[kBase + 3 * k] = cs;
+      c[kBase + 1 + 3 * k] = sn;
       // ∂/∂P of a cos w + b sin w, w = 2πx/P.
-      c[kBase + 2 + 3 * k] =
-          (w / comps[k].period) * (comps[k].a * std::sin(w) - comps[k].b * std::cos(w));
+      c[kBase + 2 + 3 * k] = (w / comps[k].period) * (comps[k].a * sn - comps[k].b * cs);
     }
     return c;
   };
@@ -298,8 +300,9 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   const double birge = StrokeBirgeRatio(s, mass, [&](std::size_t i) {
     double v = base(i).dot(x.head<kBase>());
     for (int k = 0; k < nc; ++k) {
-      const double w = kTwoPi * s.x[i] / comps[k].period;
-      v += comps[k].a * std::cos(w) + comps[k].b * std::sin(w);
+      double sn = 0.0, cs = 0.0;
+      SinCos(kTwoPi * s.x[i] / comps[k].period, &sn, &cs);
+      v += comps[k].a * cs + comps[k].b * sn;
     }
     return s.f[i] - s.Known(i) - v;
   });
@@ -341,8 +344,9 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     double v = x[0] + x[1] * s.x[i];
     for (int k = 0; k < nc; ++k) {
-      const double w = kTwoPi * s.x[i] / comps[k].period;
-      v += comps[k].a * std::cos(w) + comps[k].b * std::sin(w);
+      double sn = 0.0, cs = 0.0;
+      SinCos(kTwoPi * s.x[i] / comps[k].period, &sn, &cs);
+      v += comps[k].a * cs + comps[k].b * sn;
     }
     s.position_part[i] = v;
   }
@@ -358,8 +362,7 @@ Eigen::Vector2d SteadyShift(const Strokes& s, const std::vector<double>& delta) 
     c.head<kBase>() << 1.0, s.x[i], Sign(s.v[i]), s.v[i], 1e-3 * s.a[i];
     for (int k = 0; k < nc; ++k) {
       const double w = kTwoPi * s.x[i] / s.ripple_periods[static_cast<std::size_t>(k)];
-      c[kBase + 2 * k] = std::cos(w);
-      c[kBase + 2 * k + 1] = std::sin(w);
+      SinCos(w, &c[kBase + 2 * k + 1], &c[kBase + 2 * k]);
     }
     const double w = s.Weight(i, s.steady_mass_kg);
     ata.noalias() += w * c * c.transpose();
