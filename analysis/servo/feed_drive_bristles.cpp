@@ -62,12 +62,14 @@ void Step(const LugreParameters& p, State& st, double v, double h, bool derivati
   const double e = std::exp(-rate * h);
   if (derivatives) {
     const auto dg = RiseDerivatives(rise);
-    const double side = v > 0.0 ? 1.0 : -1.0;
+    // d rate/dθ = rate (own − dg/g), d z_ss/dθ = sign(v) dg/σ0 − own z_ss: the divisions once.
+    const double by_g = rate / rise.g, by_s0 = (v > 0.0 ? 1.0 : -1.0) / p.sigma0_N_per_um;
+    const double lag = (st.z - z_ss) * h * e;
     for (int k = 0; k < kBristleParams; ++k) {
-      const double own = k == kSigma0 ? 1.0 : 0.0;
-      const double d_rate = rate * (own - dg[k] / rise.g);
-      const double d_zss = side * dg[k] / p.sigma0_N_per_um - own * z_ss;
-      st.dz[k] = d_zss * (1.0 - e) + e * st.dz[k] - (st.z - z_ss) * h * e * d_rate;
+      const bool own = k == kSigma0;
+      const double d_rate = (own ? rate : 0.0) - by_g * dg[k];
+      const double d_zss = by_s0 * dg[k] - (own ? z_ss : 0.0);
+      st.dz[k] = d_zss * (1.0 - e) + e * st.dz[k] - lag * d_rate;
     }
   }
   st.z = z_ss + (st.z - z_ss) * e;
