@@ -97,6 +97,7 @@ void WorkerPool::Work() {
       task = TakeLocked();
     }
     task();
+    task = nullptr;  // its captures (a session) released before the watch, as before
     task = Watch();
   }
 }
