@@ -89,7 +89,7 @@ namespace {
 // by how they move when F_s or v_s moves by its σ.
 void WidenForStribeck(const detail::Strokes& s, const LugreParameters& p,
                       const LugreParameters& sigma, FeedDriveResult& r) {
-  Eigen::Vector2d spread = Eigen::Vector2d::Zero();
+  std::vector<std::vector<double>> deltas(2, std::vector<double>(s.x.size()));
   for (int k = 0; k < 2; ++k) {
     LugreParameters q = p;
     if (k == 0) {
@@ -97,11 +97,12 @@ void WidenForStribeck(const detail::Strokes& s, const LugreParameters& p,
     } else {
       q.vs_mm_s += sigma.vs_mm_s;
     }
-    std::vector<double> delta(s.x.size());
+    auto& delta = deltas[static_cast<std::size_t>(k)];
     for (std::size_t i = 0; i < s.x.size(); ++i)
       delta[i] = detail::StribeckRise(q, s.v[i]) - s.Known(i);
-    spread += detail::SteadyShift(s, delta).cwiseAbs2();
   }
+  Eigen::Vector2d spread = Eigen::Vector2d::Zero();
+  for (const auto& shift : detail::SteadyShifts(s, deltas)) spread += shift.cwiseAbs2();
   r.coulomb_sigma_N = std::hypot(r.coulomb_sigma_N, std::sqrt(spread[0]));
   r.viscous_sigma_N_s_per_mm = std::hypot(r.viscous_sigma_N_s_per_mm, std::sqrt(spread[1]));
 }

@@ -90,8 +90,10 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
               LugreParameters::Form form = LugreParameters::Form::kExponential,
               LugreFit* info = nullptr);
 // How Coulomb and viscous friction of FitSteady change when the known part of every sample
-// grows by `delta` (the fit's columns held, its ripple periods fixed).
-Eigen::Vector2d SteadyShift(const Strokes& s, const std::vector<double>& delta);
+// grows by each of `deltas` (the fit's columns held, its ripple periods fixed): one normal
+// matrix for all of them.
+std::vector<Eigen::Vector2d> SteadyShifts(const Strokes& s,
+                                          const std::vector<std::vector<double>>& deltas);
 // g(v) = F_c + (F_s − F_c) exp(−|v/v_s|^δ), the steady sliding friction at speed v.
 double StribeckG(const LugreParameters& p, double v);
 // The Stribeck rise sign(v) (F_s − F_c) exp(−|v/v_s|^δ) at speed v.

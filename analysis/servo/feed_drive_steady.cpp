@@ -226,6 +226,43 @@ std::vector<Component> FindPeriods(const std::vector<double>& xc, std::vector<do
   return found;
 }
 
+// The ripple at position x: Σ a cos(2πx/P) + b sin(2πx/P) over the components.
+double RippleAt(const std::vector<Component>& comps, double x) {
+  double v = 0.0;
+  for (const auto& c : comps) {
+    double sn = 0.0, cs = 0.0;
+    SinCos(kTwoPi * x / c.period, &sn, &cs);
+    v += c.a * cs + c.b * sn;
+  }
+  return v;
+}
+
+// r.ripple: the components with their σ (from the joint fit's covariance `cov`), largest first;
+// reported are those above 4 σ of their amplitude and 5 % of the largest (the others stay in
+// the fit, where they cost nothing).
+void ReportRipples(const std::vector<Component>& comps, const Eigen::MatrixXd& cov,
+                   FeedDriveResult& r) {
+  for (std::size_t k = 0; k < comps.size(); ++k) {
+    const int ia = kBase + 3 * static_cast<int>(k), ib = ia + 1;
+    Ripple rp;
+    rp.period_mm = comps[k].period;
+    rp.period_sigma_mm = std::sqrt(std::max(0.0, cov(ib + 1, ib + 1)));
+    rp.amplitude_N = std::hypot(comps[k].a, comps[k].b);
+    const double a = comps[k].a, b = comps[k].b, amp2 = rp.amplitude_N * rp.amplitude_N;
+    rp.amplitude_sigma_N = std::sqrt(
+        std::max(0.0, (a * a * cov(ia, ia) + b * b * cov(ib, ib) + 2 * a * b * cov(ia, ib)) /
+                          std::max(amp2, 1e-300)));
+    rp.phase_deg = std::atan2(b, a) * 180.0 / std::numbers::pi;
+    r.ripple.push_back(rp);
+  }
+  std::sort(r.ripple.begin(), r.ripple.end(),
+            [](const Ripple& l, const Ripple& q) { return l.amplitude_N > q.amplitude_N; });
+  const double largest = r.ripple.empty() ? 0.0 : r.ripple.front().amplitude_N;
+  std::erase_if(r.ripple, [&](const Ripple& q) {
+    return !(q.amplitude_N > 4.0 * q.amplitude_sigma_N && q.amplitude_N >= 0.05 * largest);
+  });
+}
+
 }  // namespace
 
 void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
@@ -298,13 +335,7 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
     }
   }
   const double birge = StrokeBirgeRatio(s, mass, [&](std::size_t i) {
-    double v = base(i).dot(x.head<kBase>());
-    for (int k = 0; k < nc; ++k) {
-      double sn = 0.0, cs = 0.0;
-      SinCos(kTwoPi * s.x[i] / comps[k].period, &sn, &cs);
-      v += comps[k].a * cs + comps[k].b * sn;
-    }
-    return s.f[i] - s.Known(i) - v;
+    return s.f[i] - s.Known(i) - base(i).dot(x.head<kBase>()) - RippleAt(comps, s.x[i]);
   });
   const Eigen::Vector2d shift = SlowestFeedShift(s, p, mass, cols, x, cov);
   r.offset_N = x[0];
@@ -316,46 +347,21 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   r.moving_mass_kg = x[4];
   r.residual_rms_N = rms;
   for (std::size_t i = 0; i < s.x.size(); ++i) r.steady_samples += s.steady[i];
-  for (int k = 0; k < nc; ++k) {
-    const int ia = kBase + 3 * k, ib = ia + 1;
-    Ripple rp;
-    rp.period_mm = comps[k].period;
-    rp.period_sigma_mm = std::sqrt(std::max(0.0, cov(ib + 1, ib + 1)));
-    rp.amplitude_N = std::hypot(comps[k].a, comps[k].b);
-    const double a = comps[k].a, b = comps[k].b, amp2 = rp.amplitude_N * rp.amplitude_N;
-    rp.amplitude_sigma_N = std::sqrt(
-        std::max(0.0, (a * a * cov(ia, ia) + b * b * cov(ib, ib) + 2 * a * b * cov(ia, ib)) /
-                          std::max(amp2, 1e-300)));
-    rp.phase_deg = std::atan2(b, a) * 180.0 / std::numbers::pi;
-    r.ripple.push_back(rp);
-  }
-  std::sort(r.ripple.begin(), r.ripple.end(),
-            [](const Ripple& l, const Ripple& q) { return l.amplitude_N > q.amplitude_N; });
-  // Reported: components above 4 σ of their amplitude and 5 % of the largest (the others stay
-  // in the fit, where they cost nothing).
-  const double largest = r.ripple.empty() ? 0.0 : r.ripple.front().amplitude_N;
-  std::erase_if(r.ripple, [&](const Ripple& q) {
-    return !(q.amplitude_N > 4.0 * q.amplitude_sigma_N && q.amplitude_N >= 0.05 * largest);
-  });
+  ReportRipples(comps, cov, r);
   s.steady_mass_kg = mass;
   s.ripple_periods.clear();
   for (const auto& c : comps) s.ripple_periods.push_back(c.period);
   s.position_part.resize(s.x.size());
   for (std::size_t i = 0; i < s.x.size(); ++i) {
-    double v = x[0] + x[1] * s.x[i];
-    for (int k = 0; k < nc; ++k) {
-      double sn = 0.0, cs = 0.0;
-      SinCos(kTwoPi * s.x[i] / comps[k].period, &sn, &cs);
-      v += comps[k].a * cs + comps[k].b * sn;
-    }
-    s.position_part[i] = v;
+    s.position_part[i] = x[0] + x[1] * s.x[i] + RippleAt(comps, s.x[i]);
   }
 }
 
-Eigen::Vector2d SteadyShift(const Strokes& s, const std::vector<double>& delta) {
+std::vector<Eigen::Vector2d> SteadyShifts(const Strokes& s,
+                                          const std::vector<std::vector<double>>& deltas) {
   const int nc = static_cast<int>(s.ripple_periods.size()), p = kBase + 2 * nc;
   Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
-  Eigen::VectorXd atd = Eigen::VectorXd::Zero(p);
+  std::vector<Eigen::VectorXd> atd(deltas.size(), Eigen::VectorXd::Zero(p));
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     if (!s.steady[i]) continue;
     Column c(p);
@@ -366,10 +372,15 @@ Eigen::Vector2d SteadyShift(const Strokes& s, const std::vector<double>& delta) 
     }
     const double w = s.Weight(i, s.steady_mass_kg);
     ata.noalias() += w * c * c.transpose();
-    atd.noalias() += (w * delta[i]) * c;
+    for (std::size_t d = 0; d < deltas.size(); ++d) atd[d].noalias() += (w * deltas[d][i]) * c;
   }
-  const Eigen::VectorXd d = ata.ldlt().solve(atd);
-  return Eigen::Vector2d(-d[2], -d[3]);  // the known part grew: the fit's part shrinks
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(ata);
+  std::vector<Eigen::Vector2d> out;
+  for (const auto& rhs : atd) {
+    const Eigen::VectorXd d = ldlt.solve(rhs);
+    out.emplace_back(-d[2], -d[3]);  // the known part grew: the fit's part shrinks
+  }
+  return out;
 }
 
 }  // namespace km::servo::detail
