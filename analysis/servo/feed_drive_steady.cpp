@@ -226,6 +226,13 @@ std::vector<Component> FindPeriods(const std::vector<double>& xc, std::vector<do
   return found;
 }
 
+// The steady fit's columns before the ripple at sample i: offset, slope, Coulomb, viscous, mass.
+Column BaseColumn(const Strokes& s, std::size_t i) {
+  Column c(kBase);
+  c << 1.0, s.x[i], Sign(s.v[i]), s.v[i], 1e-3 * s.a[i];
+  return c;
+}
+
 // The ripple at position x: Σ a cos(2πx/P) + b sin(2πx/P) over the components.
 double RippleAt(const std::vector<Component>& comps, double x) {
   double v = 0.0;
@@ -267,11 +274,7 @@ void ReportRipples(const std::vector<Component>& comps, const Eigen::MatrixXd& c
 
 void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   // 1. Without the ripple: offset, slope, Coulomb, viscous.
-  const auto base = [&](std::size_t i) {
-    Column c(kBase);
-    c << 1.0, s.x[i], Sign(s.v[i]), s.v[i], 1e-3 * s.a[i];
-    return c;
-  };
+  const auto base = [&](std::size_t i) { return BaseColumn(s, i); };
   s.noise_N = 0.0;  // unweighted first
   const Eigen::VectorXd b0 = Solve(s, kBase, 0.0, base, nullptr, nullptr);
   const double mass = b0[4];
@@ -365,7 +368,7 @@ std::vector<Eigen::Vector2d> SteadyShifts(const Strokes& s,
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     if (!s.steady[i]) continue;
     Column c(p);
-    c.head<kBase>() << 1.0, s.x[i], Sign(s.v[i]), s.v[i], 1e-3 * s.a[i];
+    c.head<kBase>() = BaseColumn(s, i);
     for (int k = 0; k < nc; ++k) {
       const double w = kTwoPi * s.x[i] / s.ripple_periods[static_cast<std::size_t>(k)];
       SinCos(w, &c[kBase + 2 * k + 1], &c[kBase + 2 * k]);
