@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/parallel.h"
 #include "analysis/servo/feed_drive_detail.h"
 
 namespace km::servo {
@@ -187,10 +188,18 @@ FeedDriveResult AnalyzeFeedDrive(const std::vector<const ServoFile*>& files,
     }
     return r;
   };
+  // The two forms are independent: analysed side by side (the Lorentzian's is used only when
+  // the exponential form gives a LuGre fit).
   detail::LugreFit info, lorentz_info;
-  FeedDriveResult r = run(Form::kExponential, info);
+  FeedDriveResult r, lorentz;
+  ParallelFor(2, [&](std::size_t k) {
+    if (k == 0) {
+      r = run(Form::kExponential, info);
+    } else {
+      lorentz = run(Form::kLorentzian, lorentz_info);
+    }
+  });
   if (r.lugre) {
-    const FeedDriveResult lorentz = run(Form::kLorentzian, lorentz_info);
     if (lorentz.lugre) ChooseForm(lorentz, lorentz_info, r, info);
     detail::DecideLugre(info, r);
   }

@@ -3,76 +3,187 @@
 // the Jacobian of the LuGre fit (feed_drive_lugre.cpp): one pass gives the force and all its
 // derivatives, where differences would need a pass a parameter. The force is computed with the
 // same arithmetic with and without the derivatives.
+//
+// Everything of a step of constant speed that does not depend on the bristle state z — the rise
+// g(v), the decay rate, the steady deflection, the decay over the step and the coefficients of
+// the derivatives — is computed for a block of steps at once, as array operations on fixed-size
+// arrays that stay in the first-level cache (exponentials and divisions a SIMD packet at a
+// time); the recursion in z and its derivatives is then a few multiply-adds a step.
+#include <algorithm>
 #include <cmath>
+
+#include <Eigen/Core>
 
 #include "analysis/servo/feed_drive_detail.h"
 
 namespace km::servo::detail {
 namespace {
 
-// g(v) of the Stribeck curve and, when asked, its derivatives in ln F_s, ln v_s and ln δ.
+constexpr int kBlock = 256;  // steps a block
+using Block = Eigen::Array<double, kBlock, 1>;
+using Array = Eigen::ArrayXd;
+constexpr int kSigma0 = 2;  // ln σ0 among the bristle parameters
+
+// g(v) of the Stribeck curve at the speeds |v| = `speed` (mm/s) and, when asked, its
+// derivatives in ln F_s, ln v_s and ln δ (σ0 does not enter g).
+template <typename A>
 struct Rise {
-  double g = 0.0;
-  double d_fs = 0.0, d_vs = 0.0, d_delta = 0.0;
+  A g, d[kBristleParams];
 };
 
-Rise RiseAt(const LugreParameters& p, double v, bool derivatives, bool exponent) {
-  const double u = std::abs(v / p.vs_mm_s);
-  double shape = 0.0, by_vs = 0.0, by_delta = 0.0;  // S and its derivatives in ln v_s, ln δ
+template <typename A>
+void RiseOf(const LugreParameters& p, const A& speed, bool derivatives, bool exponent, Rise<A>& r) {
+  // u at least 10⁻³⁰⁰: at rest u^δ ≈ 0 and its derivative in ln δ vanishes, without a branch.
+  const A u = (speed / p.vs_mm_s).max(1e-300);
+  A shape, by_vs;  // S and its derivative in ln v_s
   if (p.stribeck_form == LugreParameters::Form::kLorentzian) {
-    shape = 1.0 / (1.0 + u * u);
-    by_vs = 2.0 * u * u * shape * shape;
+    shape = 1.0 / (1.0 + u.square());
+    by_vs = 2.0 * u.square() * shape.square();
   } else {
     const double delta = p.stribeck_exponent;
-    const double power = delta == 2.0 ? u * u : std::pow(u, delta);
-    shape = std::exp(-power);
+    const bool by_exponent = derivatives && exponent;
+    A log_u;
+    if (delta != 2.0 || by_exponent) log_u = u.log();
+    const A power = delta == 2.0 ? u.square().eval() : (delta * log_u).exp().eval();
+    shape = (-power).exp();
     by_vs = delta * power * shape;
-    if (derivatives && exponent && u > 0.0) by_delta = -delta * power * std::log(u) * shape;
+    if (derivatives)
+      r.d[3] = by_exponent ? ((p.Fs_N - p.Fc_N) * -delta * power * log_u * shape).eval()
+                           : A::Zero(u.size()).eval();
   }
-  Rise r;
-  r.g = p.Fc_N + (p.Fs_N - p.Fc_N) * shape;
-  if (derivatives) {
-    r.d_fs = p.Fs_N * shape;
-    r.d_vs = (p.Fs_N - p.Fc_N) * by_vs;
-    r.d_delta = (p.Fs_N - p.Fc_N) * by_delta;
-  }
-  return r;
+  const double rise = p.Fs_N - p.Fc_N;
+  r.g = p.Fc_N + rise * shape;
+  if (!derivatives) return;
+  r.d[0] = p.Fs_N * shape;
+  r.d[1] = rise * by_vs;
+  r.d[kSigma0] = A::Zero(u.size());
+  if (p.stribeck_form == LugreParameters::Form::kLorentzian) r.d[3] = A::Zero(u.size());
 }
 
-// dg/dθ for θ = ln F_s, ln v_s, ln σ0, ln δ (σ0 does not enter g).
-std::array<double, kBristleParams> RiseDerivatives(const Rise& r) {
-  return {r.d_fs, r.d_vs, 0.0, r.d_delta};
+// The steps of constant speed of one window: speed |v| (mm/s), its sign and length (s) of each
+// (a step standing is left out: z holds), and for each sample the speed at which its force is
+// read and the number of steps before it.
+struct Motion {
+  std::vector<double> speed, sign, h, read;
+  std::vector<std::size_t> before;
+  void Add(double v, double dt) {
+    if (v == 0.0) return;
+    speed.push_back(std::abs(v));
+    sign.push_back(v > 0.0 ? 1.0 : -1.0);
+    h.push_back(dt);
+  }
+};
+
+void MotionOf(const Strokes& s, const Window& w, Reading reading, Motion& m) {
+  m.speed.clear();
+  m.sign.clear();
+  m.h.clear();
+  m.read.assign(1, s.v[w.first]);
+  m.before.assign(1, 0);
+  for (std::size_t i = w.first + 1; i <= w.last; ++i) {
+    const double dt = s.t[i] - s.t[i - 1], mean = (s.x[i] - s.x[i - 1]) / dt;
+    const bool standing = s.v[i - 1] == 0.0 && s.v[i] == 0.0 && mean == 0.0;
+    if (standing) {
+      m.read.push_back(0.0);  // every sub-interval stands: z holds
+    } else if (reading == Reading::kLinear) {
+      const double shift = mean - 0.5 * (s.v[i - 1] + s.v[i]);
+      for (int k = 0; k < kSubsteps; ++k) {
+        const double u = (k + 0.5) / kSubsteps;
+        m.Add((1.0 - u) * s.v[i - 1] + u * s.v[i] + shift, dt / kSubsteps);
+      }
+      m.read.push_back(s.v[i]);
+    } else {
+      m.Add(mean, dt);
+      m.read.push_back(mean);
+    }
+    m.before.push_back(m.speed.size());
+  }
 }
-constexpr int kSigma0 = 2;  // ln σ0 among the bristle parameters
+
+// The z-independent part of the exact solution of eq. 4.1 at constant speed v over h seconds
+// for a block of steps: z → z_ss + (z − z_ss) e and dz/dθ → a_θ + e dz/dθ − (z − z_ss) b_θ.
+struct StepTerms {
+  Block z_ss, e, a[kBristleParams], b[kBristleParams];
+};
+
+// Steps first … first + len − 1 of `m` (the rest of the block repeats the last step, unused).
+void StepTermsOf(const LugreParameters& p, const Motion& m, std::size_t first, int len,
+                 bool derivatives, bool exponent, StepTerms& t) {
+  Block speed, sign, h;
+  for (int j = 0; j < kBlock; ++j) {
+    const std::size_t i = first + static_cast<std::size_t>(std::min(j, len - 1));
+    speed[j] = m.speed[i];
+    sign[j] = m.sign[i];
+    h[j] = m.h[i];
+  }
+  Rise<Block> rise;
+  RiseOf(p, speed, derivatives, exponent, rise);
+  const Block inv_g = 1.0 / rise.g;
+  const Block rate = (p.sigma0_N_per_um * 1e3) * speed * inv_g;  // 1/s
+  const double side = 1.0 / p.sigma0_N_per_um;
+  t.z_ss = (side * sign) * rise.g;
+  t.e = (-rate * h).exp();
+  if (!derivatives) return;
+  // d rate/dθ = rate (own − dg/g), d z_ss/dθ = sign(v) dg/σ0 − own z_ss.
+  const Block by_g = rate * inv_g, by_s0 = side * sign, he = h * t.e, decay = 1.0 - t.e;
+  for (int k = 0; k < kBristleParams; ++k) {
+    if (k == kSigma0) {
+      t.a[k] = (by_s0 * rise.d[k] - t.z_ss) * decay;
+      t.b[k] = he * (rate - by_g * rise.d[k]);
+    } else {
+      t.a[k] = (by_s0 * rise.d[k]) * decay;
+      t.b[k] = -he * (by_g * rise.d[k]);
+    }
+  }
+}
 
 struct State {
   double z = 0.0;                           // µm
   std::array<double, kBristleParams> dz{};  // dz/dθ
 };
 
-// One exact step of eq. 4.1 at constant speed v (mm/s) over h seconds, with the derivatives.
-void Step(const LugreParameters& p, State& st, double v, double h, bool derivatives,
-          bool exponent) {
-  if (v == 0.0) return;  // standing: the bristles hold
-  const double vu = 1e3 * v;
-  const Rise rise = RiseAt(p, v, derivatives, exponent);
-  const double rate = p.sigma0_N_per_um * std::abs(vu) / rise.g;  // 1/s
-  if (!(rate > 0.0)) return;
-  const double z_ss = vu / rate;  // sign(v) g / σ0
-  const double e = std::exp(-rate * h);
+// The state in steady sliding at the window's first speed v0.
+State SlidingState(const LugreParameters& p, double v0, bool derivatives, bool exponent) {
+  Rise<Array> rise;
+  const Array speed = Array::Constant(1, std::abs(v0));
+  RiseOf(p, speed, derivatives, exponent, rise);
+  const double side = v0 > 0.0 ? 1.0 : -1.0;
+  State st;
+  st.z = side * rise.g[0] / p.sigma0_N_per_um;
+  if (!derivatives) return st;
+  for (int k = 0; k < kBristleParams; ++k)
+    st.dz[k] = side * rise.d[k][0] / p.sigma0_N_per_um - (k == kSigma0 ? st.z : 0.0);
+  return st;
+}
+
+// Step j of the block applied to `st`.
+inline void Advance(const StepTerms& t, int j, bool derivatives, State& st) {
+  const double lag = st.z - t.z_ss[j], e = t.e[j];
   if (derivatives) {
-    const auto dg = RiseDerivatives(rise);
-    // d rate/dθ = rate (own − dg/g), d z_ss/dθ = sign(v) dg/σ0 − own z_ss: the divisions once.
-    const double by_g = rate / rise.g, by_s0 = (v > 0.0 ? 1.0 : -1.0) / p.sigma0_N_per_um;
-    const double lag = (st.z - z_ss) * h * e;
-    for (int k = 0; k < kBristleParams; ++k) {
-      const bool own = k == kSigma0;
-      const double d_rate = (own ? rate : 0.0) - by_g * dg[k];
-      const double d_zss = by_s0 * dg[k] - (own ? z_ss : 0.0);
-      st.dz[k] = d_zss * (1.0 - e) + e * st.dz[k] - lag * d_rate;
-    }
+    for (int k = 0; k < kBristleParams; ++k) st.dz[k] = t.a[k][j] + e * st.dz[k] - lag * t.b[k][j];
   }
-  st.z = z_ss + (st.z - z_ss) * e;
+  st.z = t.z_ss[j] + lag * e;
+}
+
+// The force σ0 z + σ1 dz/dt at a sample read at speed v, with the rise `rise` at index i.
+void Emit(const LugreParameters& p, const State& st, double v, const Rise<Array>& rise,
+          Eigen::Index i, std::vector<double>& out, std::vector<double>* damping,
+          std::vector<BristleDerivatives>* derivatives) {
+  const double vu = 1e3 * v, g = rise.g[i];
+  const double zdot = v == 0.0 ? 0.0 : vu - p.sigma0_N_per_um * std::abs(vu) * st.z / g;  // µm/s
+  out.push_back(p.sigma0_N_per_um * st.z + p.sigma1_N_s_per_mm * 1e-3 * zdot);
+  if (damping) damping->push_back(1e-3 * zdot);
+  if (!derivatives) return;
+  const double rate = v == 0.0 ? 0.0 : p.sigma0_N_per_um * std::abs(vu) / g;
+  BristleDerivatives d{};
+  for (int k = 0; k < kBristleParams; ++k) {
+    const double own = k == kSigma0 ? 1.0 : 0.0;
+    const double d_rate = rate * (own - rise.d[k][i] / g);
+    const double d_zdot = v == 0.0 ? 0.0 : -(d_rate * st.z + rate * st.dz[k]);
+    d[k] = own * p.sigma0_N_per_um * st.z + p.sigma0_N_per_um * st.dz[k] +
+           p.sigma1_N_s_per_mm * 1e-3 * d_zdot;
+  }
+  derivatives->push_back(d);
 }
 
 }  // namespace
@@ -84,54 +195,29 @@ void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugrePa
   if (damping) damping->clear();
   if (derivatives) derivatives->clear();
   const bool with = derivatives != nullptr;
+  Motion m;
+  StepTerms terms;
+  Rise<Array> read_rise;
   for (const auto& w : ws) {
-    const double v0 = s.v[w.first];
-    State st;
-    {
-      const Rise rise = RiseAt(p, v0, with, exponent);
-      const double side = v0 > 0.0 ? 1.0 : -1.0;
-      st.z = side * rise.g / p.sigma0_N_per_um;
-      const auto dg = RiseDerivatives(rise);
-      for (int k = 0; k < kBristleParams; ++k)
-        st.dz[k] = side * dg[k] / p.sigma0_N_per_um - (k == kSigma0 ? st.z : 0.0);
-    }
-    for (std::size_t i = w.first; i <= w.last; ++i) {
-      double v = s.v[i];
-      if (i > w.first) {
-        const double dt = s.t[i] - s.t[i - 1], mean = (s.x[i] - s.x[i - 1]) / dt;
-        const bool standing = s.v[i - 1] == 0.0 && s.v[i] == 0.0 && mean == 0.0;
-        if (standing) {
-          v = 0.0;  // every sub-interval stands: z holds
-        } else if (reading == Reading::kLinear) {
-          const double shift = mean - 0.5 * (s.v[i - 1] + s.v[i]);
-          for (int k = 0; k < kSubsteps; ++k) {
-            const double u = (k + 0.5) / kSubsteps;
-            Step(p, st, (1.0 - u) * s.v[i - 1] + u * s.v[i] + shift, dt / kSubsteps, with,
-                 exponent);
-          }
-        } else {
-          v = mean;
-          Step(p, st, v, dt, with, exponent);
-        }
+    MotionOf(s, w, reading, m);
+    const auto samples = static_cast<Eigen::Index>(m.read.size());
+    RiseOf(p, Eigen::Map<const Array>(m.read.data(), samples).abs().eval(), with, exponent,
+           read_rise);
+    State st = SlidingState(p, s.v[w.first], with, exponent);
+    // Sample k is read once the steps before it (m.before[k]) have been taken.
+    std::size_t k = 0;
+    const auto emit_through = [&](std::size_t steps) {
+      for (; k < m.read.size() && m.before[k] <= steps; ++k)
+        Emit(p, st, m.read[k], read_rise, static_cast<Eigen::Index>(k), out, damping, derivatives);
+    };
+    emit_through(0);
+    for (std::size_t first = 0; first < m.speed.size(); first += kBlock) {
+      const int len = static_cast<int>(std::min<std::size_t>(kBlock, m.speed.size() - first));
+      StepTermsOf(p, m, first, len, with, exponent, terms);
+      for (int j = 0; j < len; ++j) {
+        Advance(terms, j, with, st);
+        emit_through(first + static_cast<std::size_t>(j) + 1);
       }
-      const double vu = 1e3 * v;
-      const Rise rise = RiseAt(p, v, with, exponent);
-      const double zdot =
-          v == 0.0 ? 0.0 : vu - p.sigma0_N_per_um * std::abs(vu) * st.z / rise.g;  // µm/s
-      out.push_back(p.sigma0_N_per_um * st.z + p.sigma1_N_s_per_mm * 1e-3 * zdot);
-      if (damping) damping->push_back(1e-3 * zdot);
-      if (!with) continue;
-      const double rate = v == 0.0 ? 0.0 : p.sigma0_N_per_um * std::abs(vu) / rise.g;
-      const auto dg = RiseDerivatives(rise);
-      BristleDerivatives d{};
-      for (int k = 0; k < kBristleParams; ++k) {
-        const double own = k == kSigma0 ? 1.0 : 0.0;
-        const double d_rate = rate * (own - dg[k] / rise.g);
-        const double d_zdot = v == 0.0 ? 0.0 : -(d_rate * st.z + rate * st.dz[k]);
-        d[k] = own * p.sigma0_N_per_um * st.z + p.sigma0_N_per_um * st.dz[k] +
-               p.sigma1_N_s_per_mm * 1e-3 * d_zdot;
-      }
-      derivatives->push_back(d);
     }
   }
 }

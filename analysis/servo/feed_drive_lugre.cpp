@@ -29,6 +29,7 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 
+#include "analysis/core/parallel.h"
 #include "analysis/servo/feed_drive_detail.h"
 
 namespace km::servo::detail {
@@ -109,6 +110,24 @@ struct Fit {
 // The range of the Stribeck exponent δ fitted (ln δ clamped to it).
 constexpr double kMinExponent = 0.5, kMaxExponent = 6.0;
 
+// Whether the fit at fit.q (its normal matrix fit.jtj, gradient g = Jᵀ √w e) is within 10⁻⁴ of
+// every parameter's σ of the optimum of its Gauss–Newton model: the step left, measured in the
+// parameters' covariance s² (JᵀJ)⁻¹, is √(gᵀ (JᵀJ)⁻¹ g / s²) and bounds each parameter's step
+// over its σ. s² is the residual over all the n samples: smaller than the noise the reported σ
+// are computed with (fewer independent samples, their correlation), so those σ are wider still.
+// Where the data leave a direction flat (a parameter of infinite σ, as δ often is) the fit
+// would otherwise crawl along it with rss falling by a few 10⁻¹⁰ an iteration.
+bool Converged(const Fit& fit, const Vec& g, bool free_exponent, std::size_t n) {
+  constexpr double kTolerance = 1e-4;
+  const int m = free_exponent ? kParams : kExponent;
+  const double s2 = fit.rss / std::max(static_cast<double>(n) - m, 1.0);
+  Mat a = fit.jtj;
+  a.diagonal() += 1e-12 * fit.jtj.diagonal().cwiseMax(1e-300);
+  if (!free_exponent) a(kExponent, kExponent) = 1.0;
+  const double left = g.dot(a.ldlt().solve(g));
+  return std::isfinite(left) && left < kTolerance * kTolerance * s2;
+}
+
 // Levenberg–Marquardt from q0 on the windows' target force y; δ held at q0's unless
 // `free_exponent`.
 Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
@@ -146,6 +165,7 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
       fit.jtj.noalias() += row * row.transpose();
       g += row * (root * (y[i] - model[i]));
     }
+    if (Converged(fit, g, free_exponent, n)) break;
     bool improved = false, small = false;
     for (int tries = 0; tries < 12 && !improved; ++tries) {
       Mat a = fit.jtj;
@@ -293,13 +313,17 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
         guess(start->Fs_N, start->vs_mm_s, start->sigma0_N_per_um, start->sigma1_N_s_per_mm, 2.0),
         false);
   } else {
-    for (double vs : {0.3, 1.0, 3.0}) {
-      for (double damping : {0.0, 0.5 * critical}) {
-        Fit f = Solve(s, ws, y, wt, sliding, Reading::kLinear,
-                      guess(1.2 * r.coulomb_N, vs, sigma0, damping, 2.0), false, 12);
-        if (f.rss < gauss.rss) gauss = f;
-      }
-    }
+    // The starts are independent: solved side by side, the best taken in their order.
+    constexpr double kSpeeds[] = {0.3, 1.0, 3.0};
+    std::vector<Fit> starts(6);
+    ParallelFor(starts.size(), [&](std::size_t k) {
+      starts[k] = Solve(
+          s, ws, y, wt, sliding, Reading::kLinear,
+          guess(1.2 * r.coulomb_N, kSpeeds[k / 2], sigma0, k % 2 == 0 ? 0.0 : 0.5 * critical, 2.0),
+          false, 12);
+    });
+    for (const Fit& f : starts)
+      if (f.rss < gauss.rss) gauss = f;
     gauss = Solve(s, ws, y, wt, sliding, Reading::kLinear, gauss.q, false);
   }
   // Then the shape of the rise itself, from the Gaussian fit with δ = 2 and δ = 1 (and the
@@ -308,14 +332,21 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
   std::vector<double> deltas{2.0, 1.0};
   if (lorentzian) deltas.clear();
   if (start && start->stribeck_exponent != 2.0) deltas.push_back(start->stribeck_exponent);
-  for (double delta : deltas) {
+  // These fits and the Gaussian one under the other reading of the motion are independent:
+  // solved side by side (the last index the other reading).
+  std::vector<Fit> fits(deltas.size() + 1);
+  ParallelFor(fits.size(), [&](std::size_t k) {
     Vec q0 = gauss.q;
-    q0[kExponent] = std::log(delta);
-    Fit f = Solve(s, ws, y, wt, sliding, Reading::kLinear, q0, true);
-    if (f.rss < shaped.rss) shaped = f;
-  }
-  const Vec sd_gauss = Uncertainty(
-      gauss, Solve(s, ws, y, wt, sliding, Reading::kConstant, gauss.q, false), ws, independent);
+    if (k == deltas.size()) {
+      fits[k] = Solve(s, ws, y, wt, sliding, Reading::kConstant, q0, false);
+      return;
+    }
+    q0[kExponent] = std::log(deltas[k]);
+    fits[k] = Solve(s, ws, y, wt, sliding, Reading::kLinear, q0, true);
+  });
+  for (std::size_t k = 0; k < deltas.size(); ++k)
+    if (fits[k].rss < shaped.rss) shaped = fits[k];
+  const Vec sd_gauss = Uncertainty(gauss, fits.back(), ws, independent);
   const Vec sd_shaped =
       lorentzian
           ? Vec::Zero().eval()
