@@ -24,6 +24,11 @@ using Block = Eigen::Array<double, kBlock, 1>;
 using Array = Eigen::ArrayXd;
 constexpr int kSigma0 = 2;  // ln σ0 among the bristle parameters
 
+// The derivatives carried: ln δ (the last) only when fitted; it is zero otherwise.
+constexpr int Params(bool exponent) {
+  return exponent ? kBristleParams : kBristleParams - 1;
+}
+
 // g(v) of the Stribeck curve at the speeds |v| = `speed` (mm/s) and, when asked, its
 // derivatives in ln F_s, ln v_s and ln δ (σ0 does not enter g).
 template <typename A>
@@ -100,6 +105,17 @@ void MotionOf(const Strokes& s, const Window& w, Reading reading, Motion& m) {
   }
 }
 
+// The rise at the speeds of samples first … first + kBlock − 1 of `m` (those past the last
+// sample at rest).
+void ReadRiseOf(const LugreParameters& p, const Motion& m, std::size_t first, bool derivatives,
+                bool exponent, Rise<Block>& r) {
+  Block speed = Block::Zero();
+  const std::size_t n = std::min<std::size_t>(kBlock, m.read.size() - first);
+  for (std::size_t j = 0; j < n; ++j)
+    speed[static_cast<Eigen::Index>(j)] = std::abs(m.read[first + j]);
+  RiseOf(p, speed, derivatives, exponent, r);
+}
+
 // The z-independent part of the exact solution of eq. 4.1 at constant speed v over h seconds
 // for a block of steps: z → z_ss + (z − z_ss) e and dz/dθ → a_θ + e dz/dθ − (z − z_ss) b_θ.
 struct StepTerms {
@@ -126,7 +142,7 @@ void StepTermsOf(const LugreParameters& p, const Motion& m, std::size_t first, i
   if (!derivatives) return;
   // d rate/dθ = rate (own − dg/g), d z_ss/dθ = sign(v) dg/σ0 − own z_ss.
   const Block by_g = rate * inv_g, by_s0 = side * sign, he = h * t.e, decay = 1.0 - t.e;
-  for (int k = 0; k < kBristleParams; ++k) {
+  for (int k = 0; k < Params(exponent); ++k) {
     if (k == kSigma0) {
       t.a[k] = (by_s0 * rise.d[k] - t.z_ss) * decay;
       t.b[k] = he * (rate - by_g * rise.d[k]);
@@ -156,17 +172,15 @@ State SlidingState(const LugreParameters& p, double v0, bool derivatives, bool e
   return st;
 }
 
-// Step j of the block applied to `st`.
-inline void Advance(const StepTerms& t, int j, bool derivatives, State& st) {
+// Step j of the block applied to `st` (and to the first `params` derivatives).
+inline void Advance(const StepTerms& t, int j, int params, State& st) {
   const double lag = st.z - t.z_ss[j], e = t.e[j];
-  if (derivatives) {
-    for (int k = 0; k < kBristleParams; ++k) st.dz[k] = t.a[k][j] + e * st.dz[k] - lag * t.b[k][j];
-  }
+  for (int k = 0; k < params; ++k) st.dz[k] = t.a[k][j] + e * st.dz[k] - lag * t.b[k][j];
   st.z = t.z_ss[j] + lag * e;
 }
 
 // The force σ0 z + σ1 dz/dt at a sample read at speed v, with the rise `rise` at index i.
-void Emit(const LugreParameters& p, const State& st, double v, const Rise<Array>& rise,
+void Emit(const LugreParameters& p, const State& st, double v, const Rise<Block>& rise,
           Eigen::Index i, std::vector<double>& out, std::vector<double>* damping,
           std::vector<BristleDerivatives>* derivatives) {
   const double vu = 1e3 * v, g = rise.g[i];
@@ -186,6 +200,14 @@ void Emit(const LugreParameters& p, const State& st, double v, const Rise<Array>
   derivatives->push_back(d);
 }
 
+// The last sample's force (and damping and derivatives) once more.
+void Repeat(std::vector<double>& out, std::vector<double>* damping,
+            std::vector<BristleDerivatives>* derivatives) {
+  out.push_back(out.back());
+  if (damping) damping->push_back(damping->back());
+  if (derivatives) derivatives->push_back(derivatives->back());
+}
+
 }  // namespace
 
 void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
@@ -195,27 +217,38 @@ void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugrePa
   if (damping) damping->clear();
   if (derivatives) derivatives->clear();
   const bool with = derivatives != nullptr;
+  const int params = with ? Params(exponent) : 0;
   Motion m;
   StepTerms terms;
-  Rise<Array> read_rise;
+  Rise<Block> read_rise;
   for (const auto& w : ws) {
     MotionOf(s, w, reading, m);
-    const auto samples = static_cast<Eigen::Index>(m.read.size());
-    RiseOf(p, Eigen::Map<const Array>(m.read.data(), samples).abs().eval(), with, exponent,
-           read_rise);
+    std::size_t read_first = 0;
+    ReadRiseOf(p, m, read_first, with, exponent, read_rise);
     State st = SlidingState(p, s.v[w.first], with, exponent);
     // Sample k is read once the steps before it (m.before[k]) have been taken.
     std::size_t k = 0;
     const auto emit_through = [&](std::size_t steps) {
-      for (; k < m.read.size() && m.before[k] <= steps; ++k)
-        Emit(p, st, m.read[k], read_rise, static_cast<Eigen::Index>(k), out, damping, derivatives);
+      for (; k < m.read.size() && m.before[k] <= steps; ++k) {
+        // A sample of a standstill after one: the same state read at rest, the same force.
+        if (k > 0 && m.read[k] == 0.0 && m.read[k - 1] == 0.0 && m.before[k] == m.before[k - 1]) {
+          Repeat(out, damping, derivatives);
+          continue;
+        }
+        if (k >= read_first + kBlock) {  // the rise at the next block of samples' speeds
+          read_first = k;
+          ReadRiseOf(p, m, read_first, with, exponent, read_rise);
+        }
+        Emit(p, st, m.read[k], read_rise, static_cast<Eigen::Index>(k - read_first), out, damping,
+             derivatives);
+      }
     };
     emit_through(0);
     for (std::size_t first = 0; first < m.speed.size(); first += kBlock) {
       const int len = static_cast<int>(std::min<std::size_t>(kBlock, m.speed.size() - first));
       StepTermsOf(p, m, first, len, with, exponent, terms);
       for (int j = 0; j < len; ++j) {
-        Advance(terms, j, with, st);
+        Advance(terms, j, params, st);
         emit_through(first + static_cast<std::size_t>(j) + 1);
       }
     }
