@@ -31,23 +31,26 @@ struct Component {
 template <typename Cols>
 Eigen::VectorXd Solve(const Strokes& s, int p, double mass, Cols cols, Eigen::MatrixXd* cov,
                       double* rms) {
-  // The rows scaled by √w, their products formed at once.
+  // The rows scaled by √w, each stored contiguously (a column of aᵀ), their products formed at
+  // once (the lower half of the symmetric aᵀa).
   const auto rows = static_cast<Eigen::Index>(std::count(s.steady.begin(), s.steady.end(), true));
-  Eigen::MatrixXd a(rows, p);
+  Eigen::MatrixXd at(p, rows);
   Eigen::VectorXd y(rows);
   double n = 0.0, weights = 0.0, btb = 0.0;
   Eigen::Index r = 0;
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     if (!s.steady[i]) continue;
     const double w = s.Weight(i, mass), b = s.f[i] - s.Known(i), sw = std::sqrt(w);
-    a.row(r) = sw * cols(i).transpose();
+    at.col(r) = sw * cols(i);
     y[r++] = sw * b;
     btb += w * b * b;
     weights += w;
     n += 1.0;
   }
-  const Eigen::MatrixXd ata = a.transpose() * a;
-  const Eigen::VectorXd atb = a.transpose() * y;
+  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
+  ata.selfadjointView<Eigen::Lower>().rankUpdate(at);
+  ata.triangularView<Eigen::StrictlyUpper>() = ata.transpose();
+  const Eigen::VectorXd atb = at * y;
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(ata);
   const Eigen::VectorXd x = ldlt.solve(atb);
   const double wss = std::max(0.0, btb - x.dot(atb));  // Σ w e², as A x = b in the mean
@@ -363,8 +366,11 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
 std::vector<Eigen::Vector2d> SteadyShifts(const Strokes& s,
                                           const std::vector<std::vector<double>>& deltas) {
   const int nc = static_cast<int>(s.ripple_periods.size()), p = kBase + 2 * nc;
-  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
-  std::vector<Eigen::VectorXd> atd(deltas.size(), Eigen::VectorXd::Zero(p));
+  // The rows scaled by √w, each stored contiguously (a column of aᵀ), and the shifts so scaled.
+  const auto rows = static_cast<Eigen::Index>(std::count(s.steady.begin(), s.steady.end(), true));
+  const auto nd = static_cast<Eigen::Index>(deltas.size());
+  Eigen::MatrixXd at(p, rows), d(rows, nd);
+  Eigen::Index r = 0;
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     if (!s.steady[i]) continue;
     Column c(p);
@@ -373,15 +379,17 @@ std::vector<Eigen::Vector2d> SteadyShifts(const Strokes& s,
       const double w = kTwoPi * s.x[i] / s.ripple_periods[static_cast<std::size_t>(k)];
       SinCos(w, &c[kBase + 2 * k + 1], &c[kBase + 2 * k]);
     }
-    const double w = s.Weight(i, s.steady_mass_kg);
-    ata.noalias() += w * c * c.transpose();
-    for (std::size_t d = 0; d < deltas.size(); ++d) atd[d].noalias() += (w * deltas[d][i]) * c;
+    const double sw = std::sqrt(s.Weight(i, s.steady_mass_kg));
+    at.col(r) = sw * c;
+    for (Eigen::Index k = 0; k < nd; ++k) d(r, k) = sw * deltas[static_cast<std::size_t>(k)][i];
+    ++r;
   }
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(ata);
+  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
+  ata.selfadjointView<Eigen::Lower>().rankUpdate(at);
+  const Eigen::MatrixXd shifts = ata.selfadjointView<Eigen::Lower>().ldlt().solve(at * d);
   std::vector<Eigen::Vector2d> out;
-  for (const auto& rhs : atd) {
-    const Eigen::VectorXd d = ldlt.solve(rhs);
-    out.emplace_back(-d[2], -d[3]);  // the known part grew: the fit's part shrinks
+  for (Eigen::Index k = 0; k < nd; ++k) {
+    out.emplace_back(-shifts(2, k), -shifts(3, k));  // the known part grew: the fit's part shrinks
   }
   return out;
 }
