@@ -128,6 +128,36 @@ bool Converged(const Fit& fit, const Vec& g, bool free_exponent, std::size_t n) 
   return std::isfinite(left) && left < kTolerance * kTolerance * s2;
 }
 
+// The normal equations JᵀW J and Jᵀ W (y − model) of the fit, summed row by row (the force is
+// linear in σ1: its column is the damping). The samples of a standstill share one row (the
+// bristle force holds): a run of equal rows is summed once with the run's weights.
+void NormalEquations(const std::vector<BristleDerivatives>& derivatives,
+                     const std::vector<double>& damping, const std::vector<double>& y,
+                     const std::vector<double>& model, const std::vector<double>& w, bool exponent,
+                     Mat& jtj, Vec& g) {
+  jtj.setZero();
+  g.setZero();
+  Vec run = Vec::Zero();
+  double run_w = 0.0, run_wr = 0.0;  // Σ w and Σ w (y − model) over the run of `run`
+  const auto flush = [&] {
+    jtj.noalias() += run_w * run * run.transpose();
+    g += run_wr * run;
+  };
+  for (std::size_t i = 0; i < y.size(); ++i) {
+    Vec row;
+    row << derivatives[i][0], derivatives[i][1], derivatives[i][2], damping[i],
+        exponent ? derivatives[i][3] : 0.0;
+    if (i == 0 || row != run) {
+      if (i > 0) flush();
+      run = row;
+      run_w = run_wr = 0.0;
+    }
+    run_w += w[i];
+    run_wr += w[i] * (y[i] - model[i]);
+  }
+  if (!y.empty()) flush();
+}
+
 // Levenberg–Marquardt from q0 on the windows' target force y; δ held at q0's unless
 // `free_exponent`.
 Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
@@ -153,18 +183,8 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   fit.rss = residual(fit.q, model, damping, derivatives);
   double lambda = 1e-2;
   for (int it = 0; it < iterations; ++it) {
-    // The normal equations at fit.q, summed row by row; the force is linear in σ1.
-    fit.jtj.setZero();
-    Vec g = Vec::Zero();
-    for (std::size_t i = 0; i < n; ++i) {
-      const double root = std::sqrt(w[i]);
-      Vec row;
-      row << derivatives[i][0], derivatives[i][1], derivatives[i][2], damping[i],
-          free == kParams ? derivatives[i][3] : 0.0;
-      row *= root;
-      fit.jtj.noalias() += row * row.transpose();
-      g += row * (root * (y[i] - model[i]));
-    }
+    Vec g;
+    NormalEquations(derivatives, damping, y, model, w, free == kParams, fit.jtj, g);
     if (Converged(fit, g, free_exponent, n)) break;
     bool improved = false, small = false;
     for (int tries = 0; tries < 12 && !improved; ++tries) {

@@ -7,6 +7,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/core/minimize_1d.h"
+#include "analysis/core/parallel.h"
 #include "analysis/hexapod/joint_swing.h"
 
 namespace km::servo {
@@ -127,27 +128,40 @@ class RampStates {
   std::vector<std::array<bool, 6>> followed_;
 };
 
+// The residual sum of squares of one record with each ramp of `lambdas` (added to `ss`) and its
+// rows (added to `count`).
+void RecordRss(const Prepared& p, const std::vector<double>& lambdas, std::vector<double>& ss,
+               std::size_t& count) {
+  const std::size_t nl = lambdas.size();
+  std::vector<JointStates> pass;
+  RampStates states(*p.record.path, lambdas, pass);
+  for (std::size_t i = 0; i < p.residual.size(); ++i) {
+    states.Step(i);
+    const auto& row = p.row[i];
+    if (std::none_of(row.begin(), row.end(), [](bool b) { return b; })) continue;
+    for (std::size_t k = 0; k < nl; ++k) {
+      const hexapod::Vector6d e = p.residual[i] - JointForces(p, i, states.Of(k));
+      for (int j = 0; j < 6; ++j)
+        if (row[j]) ss[k] += e[j] * e[j];
+    }
+    for (int j = 0; j < 6; ++j) count += row[j] ? 1 : 0;
+  }
+}
+
 // Residual sum of squares with each ramp λ of `lambdas` (λ ≤ 0: the direction of the swing at
-// once), all in one pass over the samples.
+// once), all in one pass over the samples: the records side by side, their sums added in order.
 std::vector<double> Rss(const std::vector<Prepared>& recs, const std::vector<double>& lambdas,
                         std::size_t* rows = nullptr) {
   const std::size_t nl = lambdas.size();
+  std::vector<std::vector<double>> parts(recs.size(), std::vector<double>(nl, 0.0));
+  std::vector<std::size_t> counts(recs.size(), 0);
+  ParallelFor(recs.size(),
+              [&](std::size_t r) { RecordRss(recs[r], lambdas, parts[r], counts[r]); });
   std::vector<double> ss(nl, 0.0);
   std::size_t count = 0;
-  std::vector<JointStates> pass;
-  for (const auto& p : recs) {
-    RampStates states(*p.record.path, lambdas, pass);
-    for (std::size_t i = 0; i < p.residual.size(); ++i) {
-      states.Step(i);
-      const auto& row = p.row[i];
-      if (std::none_of(row.begin(), row.end(), [](bool b) { return b; })) continue;
-      for (std::size_t k = 0; k < nl; ++k) {
-        const hexapod::Vector6d e = p.residual[i] - JointForces(p, i, states.Of(k));
-        for (int j = 0; j < 6; ++j)
-          if (row[j]) ss[k] += e[j] * e[j];
-      }
-      for (int j = 0; j < 6; ++j) count += row[j] ? 1 : 0;
-    }
+  for (std::size_t r = 0; r < recs.size(); ++r) {
+    for (std::size_t k = 0; k < nl; ++k) ss[k] += parts[r][k];
+    count += counts[r];
   }
   if (rows) *rows = count;
   return ss;
