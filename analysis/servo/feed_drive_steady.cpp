@@ -1,6 +1,7 @@
 // The steady-motion fit of the feed-drive analysis (feed_drive.h, step 1): Coulomb, viscous,
 // moving mass and the position-dependent ripple.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -9,6 +10,7 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/core/minimize_1d.h"
+#include "analysis/core/parallel.h"
 #include "analysis/core/sincos.h"
 #include "analysis/servo/feed_drive_detail.h"
 
@@ -31,30 +33,34 @@ struct Component {
 template <typename Cols>
 Eigen::VectorXd Solve(const Strokes& s, int p, double mass, Cols cols, Eigen::MatrixXd* cov,
                       double* rms) {
-  // The rows scaled by √w, each stored contiguously (a column of aᵀ), their products formed at
-  // once (the lower half of the symmetric aᵀa).
-  const auto rows = static_cast<Eigen::Index>(std::count(s.steady.begin(), s.steady.end(), true));
+  // The rows scaled by √w, each stored contiguously (a column of aᵀ; the two halves of the
+  // record side by side), their products formed at once (the lower half of the symmetric aᵀa).
+  const std::size_t mid = s.x.size() / 2;
+  const auto first_half = std::count(s.steady.begin(), s.steady.begin() + mid, true);
+  const auto rows = first_half + std::count(s.steady.begin() + mid, s.steady.end(), true);
   Eigen::MatrixXd at(p, rows);
   Eigen::VectorXd y(rows);
-  double n = 0.0, weights = 0.0, btb = 0.0;
-  Eigen::Index r = 0;
-  for (std::size_t i = 0; i < s.x.size(); ++i) {
-    if (!s.steady[i]) continue;
-    const double w = s.Weight(i, mass), b = s.f[i] - s.Known(i), sw = std::sqrt(w);
-    at.col(r) = sw * cols(i);
-    y[r++] = sw * b;
-    btb += w * b * b;
-    weights += w;
-    n += 1.0;
-  }
+  std::array<double, 2> weights{}, btb{};
+  ParallelFor(2, [&](std::size_t half) {
+    Eigen::Index r = half == 0 ? 0 : first_half;
+    for (std::size_t i = half == 0 ? 0 : mid; i < (half == 0 ? mid : s.x.size()); ++i) {
+      if (!s.steady[i]) continue;
+      const double w = s.Weight(i, mass), b = s.f[i] - s.Known(i), sw = std::sqrt(w);
+      at.col(r) = sw * cols(i);
+      y[r++] = sw * b;
+      btb[half] += w * b * b;
+      weights[half] += w;
+    }
+  });
+  const double n = static_cast<double>(rows);
   Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
   ata.selfadjointView<Eigen::Lower>().rankUpdate(at);
   ata.triangularView<Eigen::StrictlyUpper>() = ata.transpose();
   const Eigen::VectorXd atb = at * y;
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(ata);
   const Eigen::VectorXd x = ldlt.solve(atb);
-  const double wss = std::max(0.0, btb - x.dot(atb));  // Σ w e², as A x = b in the mean
-  if (rms) *rms = std::sqrt(wss / std::max(weights, 1e-300));
+  const double wss = std::max(0.0, btb[0] + btb[1] - x.dot(atb));  // Σ w e², A x = b in the mean
+  if (rms) *rms = std::sqrt(wss / std::max(weights[0] + weights[1], 1e-300));
   if (cov) *cov = (wss / std::max(n - p, 1.0)) * ldlt.solve(Eigen::MatrixXd::Identity(p, p));
   return x;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/parallel.h"
 #include "analysis/servo/friction_states.h"
 #include "analysis/servo/linear_lsq.h"
 
@@ -106,6 +107,14 @@ class RowSums {
       sb_[j] += sj * b[j];
     }
   }
+  RowSums& operator+=(const RowSums& o) {
+    dd_ += o.dd_;
+    db_ += o.db_;
+    sd_ += o.sd_;
+    ss_ += o.ss_;
+    sb_ += o.sb_;
+    return *this;
+  }
   void Into(NormalEquations& ne) const {
     const auto col = [](int k) { return k < kScrew1 ? k : kT0 + (k - kScrew1); };
     ne.ata.setZero();
@@ -129,20 +138,33 @@ class RowSums {
 };
 
 // Normal equations over every usable row with ĝ from θ. A strut's row is used when it moves.
+// The tracks side by side, their sums added in order.
 NormalEquations Accumulate(const std::vector<Track>& tracks, const LoadVector& theta,
                            bool inertia) {
-  RowSums sums;  // the rows of a sample at once; unused rows are zero
-  NormalEquations ne(kNumLoadParams);
-  LoadRows a;
-  hexapod::Vector6d b;
-  for (const auto& t : tracks) {
+  struct Part {
+    RowSums sums;  // the rows of a sample at once; unused rows are zero
+    double btb = 0.0;
+    std::size_t rows = 0;
+  };
+  std::vector<Part> parts(tracks.size());
+  ParallelFor(tracks.size(), [&](std::size_t k) {
+    const Track& t = tracks[k];
+    LoadRows a;
+    hexapod::Vector6d b;
     for (std::size_t i = 0; i < t.motion.size(); ++i) {
       const int used = SampleRows(t, i, theta, inertia, a, b, t.StatesAt(i));
       if (used == 0) continue;
-      sums.Add(a, b);
-      ne.btb += b.squaredNorm();
-      ne.rows += static_cast<std::size_t>(used);
+      parts[k].sums.Add(a, b);
+      parts[k].btb += b.squaredNorm();
+      parts[k].rows += static_cast<std::size_t>(used);
     }
+  });
+  RowSums sums;
+  NormalEquations ne(kNumLoadParams);
+  for (const Part& part : parts) {
+    sums += part.sums;
+    ne.btb += part.btb;
+    ne.rows += part.rows;
   }
   sums.Into(ne);
   return ne;

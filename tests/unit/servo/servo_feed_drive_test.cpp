@@ -10,6 +10,8 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -233,6 +235,48 @@ TEST(ServoFeedDrive, EveryLugreValueIsRightWithinThreeSigmaOrDeclared) {
     EXPECT_NEAR(r.coulomb_N, d.fc_N, 3.0 * r.coulomb_sigma_N) << tag;
     EXPECT_NEAR(r.viscous_N_s_per_mm, d.sigma2_N_s_per_mm, 3.0 * r.viscous_sigma_N_s_per_mm) << tag;
     ExpectRightOrDeclared(r, d, tag);
+  }
+}
+
+// Every figure of one record, as a list to compare exactly.
+std::vector<double> Figures(const FeedDriveResult& r) {
+  std::vector<double> v{r.coulomb_N,
+                        r.coulomb_sigma_N,
+                        r.viscous_N_s_per_mm,
+                        r.viscous_sigma_N_s_per_mm,
+                        r.moving_mass_kg,
+                        r.offset_N,
+                        r.slope_N_per_mm,
+                        r.residual_rms_N,
+                        r.lugre_residual_rms_N,
+                        r.lugre_form_delta_chi2};
+  for (const auto& q : r.ripple)
+    v.insert(v.end(), {q.period_mm, q.period_sigma_mm, q.amplitude_N, q.amplitude_sigma_N});
+  for (const auto& p : {r.lugre, r.lugre_sigma}) {
+    if (!p) continue;
+    v.insert(v.end(),
+             {p->Fs_N, p->vs_mm_s, p->sigma0_N_per_um, p->sigma1_N_s_per_mm, p->stribeck_exponent});
+  }
+  return v;
+}
+
+// The analysis runs its independent fits side by side: several analyses at once (as a server
+// runs them) give each the figures of one alone, to the last bit.
+TEST(ServoFeedDrive, TheSameFiguresWhateverRunsBeside) {
+  ft::Motion m = ft::BackAndForth(60.0, {4.0, 9.0, 21.0});
+  m.accel_mm_s2 = 150.0;
+  m.dwell_s = 0.4;
+  const ServoFile f =
+      ingest::ParseServoFile(ft::ServoText(ft::Simulate(OffGridDrive(), m, 23)), "x.txt");
+  const FeedDriveResult alone = AnalyzeFeedDrive({&f}, "X");
+  ASSERT_TRUE(alone.lugre.has_value()) << alone.lugre_note;
+  std::vector<FeedDriveResult> together(3);
+  std::vector<std::thread> threads;
+  for (auto& r : together) threads.emplace_back([&] { r = AnalyzeFeedDrive({&f}, "X"); });
+  for (auto& t : threads) t.join();
+  for (const auto& r : together) {
+    EXPECT_EQ(Figures(r), Figures(alone));
+    EXPECT_EQ(r.lugre_note, alone.lugre_note);
   }
 }
 
