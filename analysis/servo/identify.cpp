@@ -23,28 +23,31 @@ struct Track {
 
 // The joints' friction direction with the ramp λ (0: the swing's direction at once).
 void SetRamp(std::vector<Track>& tracks, double ramp_mm) {
-  for (auto& t : tracks) {
+  ParallelFor(tracks.size(), [&](std::size_t k) {
+    Track& t = tracks[k];
     t.states.clear();
     if (ramp_mm > 0.0) t.states = JointFrictionStates(t.path, ramp_mm);
-  }
+  });
 }
 
 std::vector<Track> Tracks(const hexapod::HexapodGeometry& g, const hexapod::MachinePhysics& m,
                           const std::vector<ServoFile>& files, const IdentifyOptions& o) {
-  std::vector<Track> tracks;
   for (const auto& f : files) {
     if (!f.hexapod) {
       throw InvalidInput(f.file, 0, "axis", "a feed-drive file is not a hexapod servo record");
     }
-    Track t;
+  }
+  std::vector<Track> tracks(files.size());  // the files side by side
+  ParallelFor(files.size(), [&](std::size_t k) {
+    const ServoFile& f = files[k];
+    Track& t = tracks[k];
     t.file = &f;
     t.motion = TrackMotion(g, f.samples, f.tool_length_mm);
     t.moving = UsableRows(t.motion, o.min_rate_fraction, o.reversal_skip_mm);
     t.path = PathOf(t.motion);
     t.loads.reserve(t.motion.size());
     for (const auto& s : t.motion) t.loads.push_back(PrepareSampleLoads(m, s, f.tool_length_mm));
-    tracks.push_back(std::move(t));
-  }
+  });
   return tracks;
 }
 
