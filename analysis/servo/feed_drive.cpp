@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <numbers>
 
 #include <Eigen/Cholesky>
@@ -188,18 +189,24 @@ FeedDriveResult AnalyzeFeedDrive(const std::vector<const ServoFile*>& files,
     }
     return r;
   };
-  // The two forms are independent: analysed side by side (the Lorentzian's is used only when
-  // the exponential form gives a LuGre fit).
+  // The two forms are independent: analysed side by side. The Lorentzian's (and an error of
+  // it) counts only when the exponential form gives a LuGre fit.
   detail::LugreFit info, lorentz_info;
   FeedDriveResult r, lorentz;
+  std::exception_ptr lorentz_error;
   ParallelFor(2, [&](std::size_t k) {
     if (k == 0) {
       r = run(Form::kExponential, info);
-    } else {
+      return;
+    }
+    try {
       lorentz = run(Form::kLorentzian, lorentz_info);
+    } catch (...) {
+      lorentz_error = std::current_exception();
     }
   });
   if (r.lugre) {
+    if (lorentz_error) std::rethrow_exception(lorentz_error);
     if (lorentz.lugre) ChooseForm(lorentz, lorentz_info, r, info);
     detail::DecideLugre(info, r);
   }
