@@ -105,8 +105,8 @@ void MotionOf(const Strokes& s, const Window& w, Reading reading, Motion& m) {
   }
 }
 
-// The rise at the speeds of samples first … first + kBlock − 1 of `m` (those past the last
-// sample at rest).
+// The rise at the speeds of samples first … first + kBlock − 1 of `m` (the block padded with
+// zero speeds past the window's last sample).
 void ReadRiseOf(const LugreParameters& p, const Motion& m, std::size_t first, bool derivatives,
                 bool exponent, Rise<Block>& r) {
   Block speed = Block::Zero();

@@ -163,7 +163,6 @@ void NormalEquations(const std::vector<BristleDerivatives>& derivatives,
 Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
           const std::vector<double>& w, const Sliding& sliding, Reading reading, const Vec& q0,
           bool free_exponent, int iterations = 60) {
-  const int free = free_exponent ? kParams : kExponent;
   const std::size_t n = y.size();
   // The force, damping and derivatives at fit.q throughout. Every trial computes its
   // derivatives too (the force is the same bit for bit with and without them), so an accepted
@@ -184,7 +183,7 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   double lambda = 1e-2;
   for (int it = 0; it < iterations; ++it) {
     Vec g;
-    NormalEquations(derivatives, damping, y, model, w, free == kParams, fit.jtj, g);
+    NormalEquations(derivatives, damping, y, model, w, free_exponent, fit.jtj, g);
     if (Converged(fit, g, free_exponent, n)) break;
     bool improved = false, small = false;
     for (int tries = 0; tries < 12 && !improved; ++tries) {

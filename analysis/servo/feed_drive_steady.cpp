@@ -27,6 +27,15 @@ struct Component {
   double period = 0.0, a = 0.0, b = 0.0;
 };
 
+// aᵀa of the weighted rows stored as the columns of `at` (a symmetric rank update: the lower
+// half formed, the upper copied from it).
+Eigen::MatrixXd NormalMatrix(const Eigen::MatrixXd& at) {
+  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(at.rows(), at.rows());
+  ata.selfadjointView<Eigen::Lower>().rankUpdate(at);
+  ata.triangularView<Eigen::StrictlyUpper>() = ata.transpose();
+  return ata;
+}
+
 // Weighted least squares (Strokes::Weight with the moving mass `mass`) of the columns
 // `cols(i)` (a vector) over the steady samples; returns the coefficients, their covariance and
 // the residual's (weighted) RMS.
@@ -40,10 +49,11 @@ Eigen::VectorXd Solve(const Strokes& s, int p, double mass, Cols cols, Eigen::Ma
   const auto rows = first_half + std::count(s.steady.begin() + mid, s.steady.end(), true);
   Eigen::MatrixXd at(p, rows);
   Eigen::VectorXd y(rows);
+  const std::array<std::size_t, 3> bounds{0, mid, s.x.size()};
   std::array<double, 2> weights{}, btb{};
   ParallelFor(2, [&](std::size_t half) {
     Eigen::Index r = half == 0 ? 0 : first_half;
-    for (std::size_t i = half == 0 ? 0 : mid; i < (half == 0 ? mid : s.x.size()); ++i) {
+    for (std::size_t i = bounds[half]; i < bounds[half + 1]; ++i) {
       if (!s.steady[i]) continue;
       const double w = s.Weight(i, mass), b = s.f[i] - s.Known(i), sw = std::sqrt(w);
       at.col(r) = sw * cols(i);
@@ -53,11 +63,8 @@ Eigen::VectorXd Solve(const Strokes& s, int p, double mass, Cols cols, Eigen::Ma
     }
   });
   const double n = static_cast<double>(rows);
-  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
-  ata.selfadjointView<Eigen::Lower>().rankUpdate(at);
-  ata.triangularView<Eigen::StrictlyUpper>() = ata.transpose();
   const Eigen::VectorXd atb = at * y;
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(ata);
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(NormalMatrix(at));
   const Eigen::VectorXd x = ldlt.solve(atb);
   const double wss = std::max(0.0, btb[0] + btb[1] - x.dot(atb));  // Σ w e², A x = b in the mean
   if (rms) *rms = std::sqrt(wss / std::max(weights[0] + weights[1], 1e-300));
@@ -390,9 +397,7 @@ std::vector<Eigen::Vector2d> SteadyShifts(const Strokes& s,
     for (Eigen::Index k = 0; k < nd; ++k) d(r, k) = sw * deltas[static_cast<std::size_t>(k)][i];
     ++r;
   }
-  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(p, p);
-  ata.selfadjointView<Eigen::Lower>().rankUpdate(at);
-  const Eigen::MatrixXd shifts = ata.selfadjointView<Eigen::Lower>().ldlt().solve(at * d);
+  const Eigen::MatrixXd shifts = NormalMatrix(at).ldlt().solve(at * d);
   std::vector<Eigen::Vector2d> out;
   for (Eigen::Index k = 0; k < nd; ++k) {
     out.emplace_back(-shifts(2, k), -shifts(3, k));  // the known part grew: the fit's part shrinks
