@@ -117,9 +117,20 @@ inline void SinCos2(__m128d x, __m128d* s, __m128d* c) {
 }  // namespace internal
 #endif
 
-// SinCos of n arguments: s[i], c[i] bit for bit SinCos(x[i]), two at a time where SSE2 is
-// available.
-inline void SinCosArray(const double* x, double* s, double* c, std::size_t n) {
+#if defined(__x86_64__) && defined(__GNUC__)
+#define KM_SINCOS_AVX2 1
+namespace internal {
+// Whether the processor runs AVX2 (asked once).
+bool SinCosHasAvx2();
+// SinCosArray four lanes at a time with AVX2 (sincos.cpp): the same operations in the same
+// order, so bit for bit SinCos.
+void SinCosArrayAvx2(const double* x, double* s, double* c, std::size_t n);
+}  // namespace internal
+#endif
+
+namespace internal {
+// SinCosArray two lanes at a time with SSE2 (where available), bit for bit SinCos.
+inline void SinCosArraySse2(const double* x, double* s, double* c, std::size_t n) {
   std::size_t i = 0;
 #if defined(__SSE2__)
   // Four at a time: two independent chains of polynomial steps keep the pipeline busy.
@@ -150,6 +161,19 @@ inline void SinCosArray(const double* x, double* s, double* c, std::size_t n) {
   }
 #endif
   for (; i < n; ++i) SinCos(x[i], s + i, c + i);
+}
+}  // namespace internal
+
+// SinCos of n arguments: s[i], c[i] bit for bit SinCos(x[i]), four at a time where the
+// processor has AVX2, two at a time with SSE2.
+inline void SinCosArray(const double* x, double* s, double* c, std::size_t n) {
+#if KM_SINCOS_AVX2
+  if (n >= 8 && internal::SinCosHasAvx2()) {
+    internal::SinCosArrayAvx2(x, s, c, n);
+    return;
+  }
+#endif
+  internal::SinCosArraySse2(x, s, c, n);
 }
 
 }  // namespace km

@@ -95,6 +95,30 @@ TEST(MinZoneCircle, ExactForAnIdealZone) {
   EXPECT_NEAR(mz.centre.y(), c.y(), 1e-4);
 }
 
+// A dense trace whose zone is set by a few isolated points (a short bump out and a dip in,
+// between the points the search starts from): the zone found must hold every point and match
+// the brute force.
+TEST(MinZoneCircle, IsolatedExtremesAmongManyPointsSetTheZone) {
+  for (unsigned seed : {21u, 22u}) {
+    auto pts = Trace(seed, 7200, Eigen::Vector2d(-5.0, 9.0));
+    for (std::size_t i : {std::size_t{1237}, std::size_t{1238}, std::size_t{5001}}) {
+      const Eigen::Vector2d v = pts[i] - Eigen::Vector2d(-5.0, 9.0);
+      pts[i] += (i == 5001 ? -9.0 : 7.5) * v.normalized();
+    }
+    const auto ls = FitCircleLeastSquares(pts);
+    const auto mz = FitMinZoneCircle(pts, ls.circle.centre);
+    for (const auto& p : pts) {
+      const double r = (p - mz.centre).norm();
+      EXPECT_GE(r, mz.inner_radius - 1e-9);
+      EXPECT_LE(r, mz.outer_radius + 1e-9);
+    }
+    double res = 0.0;
+    const double bf = BruteForce(pts, ls.circle.centre, 6.0, &res);
+    EXPECT_LE(mz.width, bf + 1e-9) << "seed " << seed;
+    EXPECT_GE(mz.width, bf - std::sqrt(2.0) * res - 1e-9) << "seed " << seed;
+  }
+}
+
 TEST(MinZoneCircle, RejectsTooFewPoints) {
   std::vector<Eigen::Vector2d> pts = {{1, 0}, {0, 1}, {-1, 0}};
   EXPECT_THROW(FitMinZoneCircle(pts, Eigen::Vector2d::Zero()), km::InvalidInput);

@@ -64,9 +64,9 @@ TEST(SinCos, LargeAndNonFiniteArgumentsGoToTheLibrary) {
   EXPECT_TRUE(std::isnan(s) && std::isnan(c));
 }
 
-// SinCosArray (two lanes at a time) is bit for bit SinCos, odd lengths, large and non-finite
-// arguments included.
-TEST(SinCos, ArrayIsBitForBitTheScalarOne) {
+// The arguments of the array checks: a sweep, multiples of π/2, random ones up to 1e5 rad, and
+// large and non-finite ones at odd places (an odd length, so every tail is taken).
+std::vector<double> ArrayArguments() {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1e5, 1e5);
   std::vector<double> x;
@@ -76,8 +76,15 @@ TEST(SinCos, ArrayIsBitForBitTheScalarOne) {
   for (double v : {1e6, -2e5, std::numeric_limits<double>::infinity(),
                    std::numeric_limits<double>::quiet_NaN(), 0.0, -0.0, 1e-300})
     x.push_back(v);
+  return x;
+}
+
+using ArrayFunction = void (*)(const double*, double*, double*, std::size_t);
+
+void ExpectBitForBitScalar(ArrayFunction f) {
+  const std::vector<double> x = ArrayArguments();
   std::vector<double> s(x.size()), c(x.size());
-  SinCosArray(x.data(), s.data(), c.data(), x.size());
+  f(x.data(), s.data(), c.data(), x.size());
   for (std::size_t i = 0; i < x.size(); ++i) {
     double es = 0.0, ec = 0.0;
     SinCos(x[i], &es, &ec);
@@ -90,6 +97,23 @@ TEST(SinCos, ArrayIsBitForBitTheScalarOne) {
     EXPECT_EQ(c[i], ec) << x[i];
   }
 }
+
+// SinCosArray, whichever path the processor takes, is bit for bit SinCos; so are its two-lane
+// (SSE2) and four-lane (AVX2, where the processor has it) paths each.
+TEST(SinCos, ArrayIsBitForBitTheScalarOne) {
+  ExpectBitForBitScalar(&SinCosArray);
+}
+
+TEST(SinCos, TwoLanePathIsBitForBitTheScalarOne) {
+  ExpectBitForBitScalar(&internal::SinCosArraySse2);
+}
+
+#if KM_SINCOS_AVX2
+TEST(SinCos, FourLanePathIsBitForBitTheScalarOne) {
+  if (!internal::SinCosHasAvx2()) GTEST_SKIP() << "the processor has no AVX2";
+  ExpectBitForBitScalar(&internal::SinCosArrayAvx2);
+}
+#endif
 
 }  // namespace
 }  // namespace km::core::test
