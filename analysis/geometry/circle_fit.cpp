@@ -32,31 +32,50 @@ Coordinates Split(const std::vector<Eigen::Vector2d>& p, const Eigen::Vector2d& 
   return xy;
 }
 
-// |p_i − c| (as (p_i − c).norm(): the square root of x² + y²).
-Eigen::ArrayXd Distances(const Coordinates& xy, const Eigen::Vector2d& c) {
-  return ((xy.x - c.x()).square() + (xy.y - c.y()).square()).sqrt();
-}
-
-// Σ (|p_i − c| − r)².
+// Σ (|p_i − c| − r)², as CircleGaussNewton sums it.
 double SumSquares(const Coordinates& xy, const Eigen::Vector2d& c, double r) {
-  return (Distances(xy, c) - r).square().sum();
+  constexpr Eigen::Index kBlock = 256;
+  using Block = Eigen::Array<double, Eigen::Dynamic, 1, 0, kBlock, 1>;
+  double ss = 0.0;
+  for (Eigen::Index i0 = 0; i0 < xy.x.size(); i0 += kBlock) {
+    const Eigen::Index len = std::min(kBlock, xy.x.size() - i0);
+    const Block vx = xy.x.segment(i0, len) - c.x(), vy = xy.y.segment(i0, len) - c.y();
+    ss += ((vx.square() + vy.square()).sqrt() - r).square().sum();
+  }
+  return ss;
 }
 
 }  // namespace
 
 CircleNormalEquations CircleGaussNewton(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y,
                                         const Eigen::Vector2d& c, double r) {
-  const Eigen::ArrayXd vx = x - c.x(), vy = y - c.y();
-  const Eigen::ArrayXd dist = (vx.square() + vy.square()).sqrt();
-  const Eigen::ArrayXd inv = (dist > 0.0).select(dist.inverse(), 0.0);
-  const Eigen::ArrayXd ux = vx * inv, uy = vy * inv;
-  const Eigen::ArrayXd d = (dist > 0.0).select(dist - r, 0.0);
-  const double n = (dist > 0.0).count();
+  // Blocks of points held in arrays on the stack: one pass over the points, a packet at a time.
+  constexpr Eigen::Index kBlock = 256;
+  using Block = Eigen::Array<double, Eigen::Dynamic, 1, 0, kBlock, 1>;
+  double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, n = 0, bx = 0, by = 0, b = 0, ss = 0;
+  for (Eigen::Index i0 = 0; i0 < x.size(); i0 += kBlock) {
+    const Eigen::Index len = std::min(kBlock, x.size() - i0);
+    const Block vx = x.segment(i0, len) - c.x(), vy = y.segment(i0, len) - c.y();
+    const Block dist = (vx.square() + vy.square()).sqrt();
+    const Block inv = (dist > 0.0).select(dist.inverse(), 0.0);
+    const Block ux = vx * inv, uy = vy * inv;
+    const Block all = dist - r;
+    const Block d = (dist > 0.0).select(all, 0.0);
+    sxx += ux.square().sum();
+    sxy += (ux * uy).sum();
+    syy += uy.square().sum();
+    sx += ux.sum();
+    sy += uy.sum();
+    n += static_cast<double>((dist > 0.0).count());
+    bx -= (ux * d).sum();
+    by -= (uy * d).sum();
+    b -= d.sum();
+    ss += all.square().sum();
+  }
   CircleNormalEquations ne;
-  const double sxx = ux.square().sum(), sxy = (ux * uy).sum(), syy = uy.square().sum();
-  const double sx = ux.sum(), sy = uy.sum();
   ne.jtj << sxx, sxy, sx, sxy, syy, sy, sx, sy, n;
-  ne.jtd << -(ux * d).sum(), -(uy * d).sum(), -d.sum();
+  ne.jtd << bx, by, b;
+  ne.sum_squares = ss;
   return ne;
 }
 
@@ -124,15 +143,17 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
   }
   Eigen::Vector2d c = start->centre;
   double r = start->radius;
-  double cost = SumSquares(xy, c, r);
+  // The normal equations come with the cost at their point (one pass for both); a point tried
+  // costs a pass for its cost only (tries that fail are common near the minimum).
+  CircleNormalEquations ne = CircleGaussNewton(xy.x, xy.y, c, r);
+  double cost = ne.sum_squares;
   double lambda = 1e-6;
   CircleFitResult out;
   const double tol = 1e-15 * std::max(1.0, r);
   for (int it = 1; it <= 200; ++it) {
     out.iterations = it;
-    const CircleNormalEquations ne = CircleGaussNewton(xy.x, xy.y, c, r);
-    const Eigen::Matrix3d& jtj = ne.jtj;
-    const Eigen::Vector3d& jtd = ne.jtd;
+    const Eigen::Matrix3d jtj = ne.jtj;
+    const Eigen::Vector3d jtd = ne.jtd;
     bool accepted = false;
     Eigen::Vector3d step = Eigen::Vector3d::Zero();
     for (int k = 0; k < 30 && !accepted; ++k) {
@@ -145,6 +166,7 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
       const double r_new = r + step(2);
       const double cost_new = SumSquares(xy, c_new, r_new);
       if (std::isfinite(cost_new) && cost_new <= cost) {
+        ne = CircleGaussNewton(xy.x, xy.y, c_new, r_new);
         c = c_new;
         r = r_new;
         cost = cost_new;

@@ -35,11 +35,13 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
 
 // Normal equations of one Gauss–Newton step of the orthogonal-distance fit, for points given
 // by coordinates x, y: residual d_i = |p_i − c| − r, jacobian row [−u_x, −u_y, −1] (u the unit
-// vector from c to p_i; points at c left out). Computed a packet at a time (the sums in any
-// order: they agree with point-order sums to rounding).
+// vector from c to p_i; points at c left out), and the cost Σ d_i² over all points. Computed in
+// one pass, a packet at a time (the sums in any order: they agree with point-order sums to
+// rounding).
 struct CircleNormalEquations {
   Eigen::Matrix3d jtj;
   Eigen::Vector3d jtd;
+  double sum_squares = 0.0;
 };
 CircleNormalEquations CircleGaussNewton(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y,
                                         const Eigen::Vector2d& c, double r);
