@@ -1,6 +1,8 @@
 #include "analysis/dbb/column_dots.h"
 
+#include <algorithm>
 #include <cstdint>
+#include <vector>
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
@@ -91,6 +93,100 @@ bool Aligned16(const double* p) {
   return (reinterpret_cast<std::uintptr_t>(p) & 15u) == 0;
 }
 
+// Lanes of the four sums of each order: 16 doubles per order, Σ cos, Σ sin, Σ r cos, Σ r sin.
+constexpr int kOrderLanes = 16;
+
+// acc ← v at the first group, acc + v after.
+__attribute__((target("avx2"))) inline void Accumulate(double* acc, __m256d v, bool first) {
+  _mm256_storeu_pd(acc, first ? v : _mm256_add_pd(_mm256_loadu_pd(acc), v));
+}
+
+// The sums' lanes over the full groups of four samples, order by order.
+__attribute__((target("avx2"))) void HarmonicQuads(const double* c1, const double* s1,
+                                                   const double* r, Eigen::Index end4, int top,
+                                                   int rtop, double* acc) {
+  for (Eigen::Index i = 0; i < end4; i += 4) {
+    const __m256d cv = _mm256_loadu_pd(c1 + i), sv = _mm256_loadu_pd(s1 + i);
+    const __m256d rv = _mm256_loadu_pd(r + i);
+    __m256d ck = cv, sk = sv;
+    for (int q = 0; q < top; ++q) {
+      if (q > 0) {
+        const __m256d next = _mm256_sub_pd(_mm256_mul_pd(ck, cv), _mm256_mul_pd(sk, sv));
+        sk = _mm256_add_pd(_mm256_mul_pd(sk, cv), _mm256_mul_pd(ck, sv));
+        ck = next;
+      }
+      double* a = acc + static_cast<std::ptrdiff_t>(kOrderLanes) * q;
+      // 1·cos qθ is cos qθ exactly: the plain sums add the values themselves.
+      Accumulate(a, ck, i == 0);
+      Accumulate(a + 4, sk, i == 0);
+      if (q < rtop) {
+        Accumulate(a + 8, _mm256_mul_pd(rv, ck), i == 0);
+        Accumulate(a + 12, _mm256_mul_pd(rv, sk), i == 0);
+      }
+    }
+  }
+}
+
+// The samples after the last group of four (n & 3 of them), their cos qθ and sin qθ advanced
+// one order at a time by the same recurrence.
+struct HarmonicTail {
+  const double *c1, *s1, *r;
+  Eigen::Index n;
+  int size;
+  double ct[3] = {0, 0, 0}, st[3] = {0, 0, 0};
+
+  HarmonicTail(const double* c, const double* s, const double* rr, Eigen::Index count)
+      : c1(c + (count & ~Eigen::Index{3})),
+        s1(s + (count & ~Eigen::Index{3})),
+        r(rr + (count & ~Eigen::Index{3})),
+        n(count),
+        size(static_cast<int>(count & 3)) {
+    for (int k = 0; k < size; ++k) {
+      ct[k] = c1[k];
+      st[k] = s1[k];
+    }
+  }
+  void Advance() {
+    for (int k = 0; k < size; ++k) {
+      const double next = ct[k] * c1[k] - st[k] * s1[k];
+      st[k] = st[k] * c1[k] + ct[k] * s1[k];
+      ct[k] = next;
+    }
+  }
+  // Finish of the lanes with the tail's products w·v (w = 1 for the plain sums, where the
+  // product is v itself): the pair after the groups when two or more samples are left, then
+  // the odd last sample when n is odd.
+  __attribute__((target("avx2"))) double Sum(const double* lanes, const double* v,
+                                             bool weighted) const {
+    const __m256d acc = _mm256_loadu_pd(lanes);
+    __m128d p = _mm_add_pd(_mm256_castpd256_pd128(acc), _mm256_extractf128_pd(acc, 1));
+    auto prod = [&](int k) { return weighted ? r[k] * v[k] : v[k]; };
+    if (size >= 2) p = _mm_add_pd(p, _mm_setr_pd(prod(0), prod(1)));
+    double out = _mm_cvtsd_f64(_mm_add_sd(p, _mm_unpackhi_pd(p, p)));
+    if (n & 1) out = out + prod(size - 1);
+    return out;
+  }
+};
+
+__attribute__((target("avx2"))) void HarmonicSumsAvx2(const double* c1, const double* s1,
+                                                      const double* r, Eigen::Index n, int top,
+                                                      int rtop, double* sc, double* ss, double* rc,
+                                                      double* rs) {
+  std::vector<double> acc(static_cast<std::size_t>(kOrderLanes) * static_cast<std::size_t>(top));
+  HarmonicQuads(c1, s1, r, n & ~Eigen::Index{3}, top, rtop, acc.data());
+  HarmonicTail tail(c1, s1, r, n);
+  for (int q = 0; q < top; ++q) {
+    if (q > 0) tail.Advance();
+    const double* a = acc.data() + static_cast<std::ptrdiff_t>(kOrderLanes) * q;
+    sc[q] = tail.Sum(a, tail.ct, false);
+    ss[q] = tail.Sum(a + 4, tail.st, false);
+    if (q < rtop) {
+      rc[q] = tail.Sum(a + 8, tail.ct, true);
+      rs[q] = tail.Sum(a + 12, tail.st, true);
+    }
+  }
+}
+
 #endif
 
 }  // namespace
@@ -113,6 +209,18 @@ void ColumnDots(const double* x, const double* const* ys, int count, Eigen::Inde
   }
 #endif
   DotsEigen(x, ys, count, n, out);
+}
+
+bool HarmonicSums(const double* c1, const double* s1, const double* r, Eigen::Index n, int top,
+                  int rtop, double* sc, double* ss, double* rc, double* rs) {
+#if KM_COLUMN_DOTS_AVX2
+  if (!HasAvx2() || n < 8 || top < 1 || !Aligned16(c1) || !Aligned16(s1) || !Aligned16(r))
+    return false;
+  HarmonicSumsAvx2(c1, s1, r, n, top, std::min(rtop, top), sc, ss, rc, rs);
+  return true;
+#else
+  return false;
+#endif
 }
 
 void CombineColumns(const double* const* cols, const double* coef, int count, Eigen::Index n,

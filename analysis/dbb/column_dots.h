@@ -22,4 +22,16 @@ void ColumnDots(const double* x, const double* const* ys, int count, Eigen::Inde
 void CombineColumns(const double* const* cols, const double* coef, int count, Eigen::Index n,
                     double* out);
 
+// The sums of the harmonic fit (harmonics.cpp) in one sweep over the samples: with cos qθ and
+// sin qθ from the angle-addition recurrence on c1 = cos θ, s1 = sin θ (cos (q+1)θ = cos qθ·c1 −
+// sin qθ·s1, sin (q+1)θ = sin qθ·c1 + cos qθ·s1, element by element), for q = 1 … top
+//   sc[q−1] = Σ cos qθ,  ss[q−1] = Σ sin qθ,  and for q ≤ rtop  rc[q−1] = Σ r cos qθ,
+//   rs[q−1] = Σ r sin qθ,
+// each bit for bit ColumnDots' of the recurrence's arrays (with a column of ones for the plain
+// sums). The recurrence of four samples stays in registers across the orders, so no array of
+// the samples' length is written. Returns false, having computed nothing, where the processor
+// has no AVX2 or for n < 8 or arrays not 16-byte aligned (ColumnDots would then use Eigen).
+bool HarmonicSums(const double* c1, const double* s1, const double* r, Eigen::Index n, int top,
+                  int rtop, double* sc, double* ss, double* rc, double* rs);
+
 }  // namespace km::dbb::diag

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -32,6 +33,16 @@ HarmonicSums SumHarmonics(const Eigen::Ref<const ArrayXd>& c1, const Eigen::Ref<
   h.atb.resize(2 * max_order + 1);
   h.c[0] = static_cast<double>(c1.size());
   h.atb[0] = r.sum();
+  // One sweep with the recurrence in registers where the processor allows (the same sums).
+  std::vector<double> rc(static_cast<std::size_t>(max_order)), rs(rc.size());
+  if (diag::HarmonicSums(c1.data(), s1.data(), r.data(), c1.size(), static_cast<int>(top),
+                         max_order, h.c.data() + 1, h.s.data() + 1, rc.data(), rs.data())) {
+    for (int k = 1; k <= max_order; ++k) {
+      h.atb[2 * k - 1] = rc[static_cast<std::size_t>(k - 1)];
+      h.atb[2 * k] = rs[static_cast<std::size_t>(k - 1)];
+    }
+    return h;
+  }
   ArrayXd ck = c1, sk = s1, next;
   // Σ cos qθ and Σ sin qθ at once, Σ r cos kθ and Σ r sin kθ at once (column_dots.h: each sum
   // as Eigen's; a sum is the inner product with ones, the products by 1 exact).

@@ -1,6 +1,7 @@
 // Several dot products at once (analysis/dbb/column_dots.h) are bit for bit Eigen's x.dot(y),
 // for every length (the four-lane sums, a pair left over, an odd last element) and every count;
 // the combinations of columns are bit for bit the Eigen expressions they replace.
+#include <cmath>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -84,6 +85,47 @@ TEST(ColumnDots, AreTheInnerProducts) {
   ColumnDots(x.data(), ys, 2, x.size(), out);
   EXPECT_NEAR(out[0], 500.5, 1e-9);
   EXPECT_NEAR(out[1], 1001.0 * (1.0 / 3.0 + 1.0 / 6000.0), 1e-9);
+}
+
+// The harmonic sums in one sweep are bit for bit the sums of the arrays the recurrence gives
+// (Eigen's array expressions, then Eigen's dot with a column of ones or with r), for every
+// length of tail; where the processor has no AVX2 the sweep declines.
+TEST(ColumnDots, HarmonicSumsEqualTheArraySumsBitForBit) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 6.283185307179586);
+  std::normal_distribution<double> g(0.0, 3.0);
+  const int top = 20, rtop = 10;
+  for (Eigen::Index n : {8, 9, 10, 11, 12, 13, 14, 15, 37, 3601}) {
+    Eigen::ArrayXd c1(n), s1(n), r(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double t = u(rng);
+      c1[i] = std::cos(t);
+      s1[i] = std::sin(t);
+      r[i] = g(rng);
+    }
+    std::vector<double> sc(top), ss(top), rc(rtop), rs(rtop);
+    if (!HarmonicSums(c1.data(), s1.data(), r.data(), n, top, rtop, sc.data(), ss.data(), rc.data(),
+                      rs.data())) {
+      GTEST_SKIP() << "no AVX2: the sums are taken array by array";
+    }
+    const Eigen::VectorXd ones = Eigen::VectorXd::Ones(n);
+    Eigen::ArrayXd ck = c1, sk = s1, next;
+    auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; };
+    for (int q = 1; q <= top; ++q) {
+      if (q > 1) {
+        next = ck * c1 - sk * s1;
+        sk = sk * c1 + ck * s1;
+        ck.swap(next);
+      }
+      const auto k = static_cast<std::size_t>(q - 1);
+      EXPECT_TRUE(same(ones.dot(ck.matrix()), sc[k])) << "n " << n << " q " << q;
+      EXPECT_TRUE(same(ones.dot(sk.matrix()), ss[k])) << "n " << n << " q " << q;
+      if (q <= rtop) {
+        EXPECT_TRUE(same(r.matrix().dot(ck.matrix()), rc[k])) << "n " << n << " q " << q;
+        EXPECT_TRUE(same(r.matrix().dot(sk.matrix()), rs[k])) << "n " << n << " q " << q;
+      }
+    }
+  }
 }
 
 }  // namespace
