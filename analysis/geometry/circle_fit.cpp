@@ -1,6 +1,7 @@
 #include "analysis/geometry/circle_fit.h"
 
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include <Eigen/Dense>
@@ -150,10 +151,23 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
   double lambda = 1e-6;
   CircleFitResult out;
   const double tol = 1e-15 * std::max(1.0, r);
+  // Rounding of the cost: a decrease below it cannot be told from the cost's own rounding.
+  const double noise = static_cast<double>(points.size()) * std::numeric_limits<double>::epsilon();
   for (int it = 1; it <= 200; ++it) {
     out.iterations = it;
     const Eigen::Matrix3d jtj = ne.jtj;
     const Eigen::Vector3d jtd = ne.jtd;
+    // Near the minimum the Gauss–Newton step predicts a decrease below the cost's rounding: the
+    // quadratic model is then exact to rounding, and trying the step on the cost would only
+    // compare rounding errors. The step is taken, and the minimum is reached.
+    const Eigen::Vector3d gn = -jtj.ldlt().solve(jtd);
+    if (gn.allFinite() && -0.5 * gn.dot(jtd) <= noise * cost) {
+      c += gn.head<2>();
+      r += gn(2);
+      cost = SumSquares(xy, c, r);
+      out.converged = true;
+      break;
+    }
     bool accepted = false;
     Eigen::Vector3d step = Eigen::Vector3d::Zero();
     for (int k = 0; k < 30 && !accepted; ++k) {
