@@ -171,6 +171,20 @@ double Rss(const std::vector<Prepared>& recs, double lambda) {
   return Rss(recs, std::vector<double>{lambda})[0];
 }
 
+// The minimum of the RSS over log λ in the grid's best bracket, to `tol`. When the grid's best is
+// an end of the range and the RSS rises from it over `tol`, the minimum (unimodal in the bracket,
+// as Brent's search takes it) is at that end to within `tol`: the end is returned after one pass,
+// where Brent's search would creep to the end by golden-section steps (about 30 passes).
+double RampMinimum(const std::vector<Prepared>& recs, const std::vector<double>& grid_rss, int best,
+                   int grid, double lo, double hi, double tol) {
+  auto rss = [&](double log_lambda) { return Rss(recs, std::exp(log_lambda)); };
+  if (best == 0 && rss(lo + tol) >= grid_rss[1]) return lo;
+  if (best == grid && rss(hi - tol) >= grid_rss[static_cast<std::size_t>(grid) + 1]) return hi;
+  return BrentMinimize(rss, lo + (hi - lo) * std::max(best - 1, 0) / grid,
+                       lo + (hi - lo) * std::min(best + 1, grid) / grid, tol)
+      .x;
+}
+
 }  // namespace
 
 RampEstimate EstimateJointRamp(const hexapod::HexapodGeometry& geometry,
@@ -217,10 +231,7 @@ RampEstimate EstimateJointRamp(const LoadVector& theta, const std::vector<RampRe
     }
   }
   // The minimum in the best bracket to 10⁻⁷ in log λ (Brent: a pass over every sample each).
-  const double x = BrentMinimize([&](double log_lambda) { return Rss(recs, std::exp(log_lambda)); },
-                                 lo + (hi - lo) * std::max(best - 1, 0) / grid,
-                                 lo + (hi - lo) * std::min(best + 1, grid) / grid, 1e-7)
-                       .x;
+  const double x = RampMinimum(recs, grid_rss, best, grid, lo, hi, 1e-7);
   out.ramp_mm = std::exp(x);
   // σ of λ from the curvature of the RSS in λ: var = 2 σ̂² / RSS''.
   const double h = 0.05 * out.ramp_mm;

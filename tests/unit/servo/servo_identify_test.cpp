@@ -69,6 +69,20 @@ TEST(ServoIdentify, RecoversMassesAndFrictionOfTheJigPlan) {
   EXPECT_LT(r.joint_ramp->residual_rms_N, r.joint_ramp->step_residual_rms_N);
 }
 
+// Joint friction that turns with the swing at once (the report's eq. 3.11, no ramp): no ramp of
+// the searched range (0.01 … 20 mm) fits better than the shortest, so the search ends at its
+// lower end, found from the rise of the residual there (a ramp shorter than that is not
+// resolved); the turn at once fits at least as well.
+TEST(ServoIdentify, FrictionTurningAtOnceGivesTheShortestRampSearched) {
+  const truth::Machine m = truth::Pm600Truth();
+  ASSERT_EQ(m.joint_ramp_mm, 0.0);
+  const auto files = test::SimulatePlan(m, 2.0, 360, 3);
+  const IdentifyResult r = IdentifyLoads(test::Pm600Geometry(), test::Pm600Physics(), files);
+  ASSERT_TRUE(r.joint_ramp.has_value());
+  EXPECT_NEAR(r.joint_ramp->ramp_mm, 0.01, 1e-9);
+  EXPECT_LE(r.joint_ramp->step_residual_rms_N, r.joint_ramp->residual_rms_N);
+}
+
 // Eq. 3.11 as the report prints it (the friction turns with the swing at once) at two pairs
 // (t0, t1) away from the machine file's: both within 10 %, from the machine file's values.
 TEST(ServoIdentify, RecoversTheJointFrictionOfEq311AwayFromTheMachineFile) {
