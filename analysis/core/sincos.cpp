@@ -7,34 +7,24 @@ namespace km::internal {
 
 namespace {
 
-// k + a·b, a product then a sum.
-__attribute__((target("avx2"))) inline __m256d Madd(__m256d a, __m256d b, double k) {
-  return _mm256_add_pd(_mm256_set1_pd(k), _mm256_mul_pd(a, b));
+// Horner from the last coefficient of `coef` (sincos.h): k + z·p at each step, a product then a
+// sum.
+__attribute__((target("avx2"))) inline __m256d Horner(__m256d z, const double* coef) {
+  __m256d p = _mm256_set1_pd(coef[5]);
+  for (int k = 4; k >= 0; --k) p = _mm256_add_pd(_mm256_set1_pd(coef[k]), _mm256_mul_pd(z, p));
+  return p;
 }
 
 // SinCos2 (sincos.h) on four lanes, operation for operation (no fused multiply-add).
 __attribute__((target("avx2"))) void SinCos4(__m256d x, __m256d* s, __m256d* c) {
-  const __m256d qd = _mm256_mul_pd(x, _mm256_set1_pd(0.63661977236758134308));
+  const __m256d qd = _mm256_mul_pd(x, _mm256_set1_pd(kTwoOverPi));
   const __m128i qi = _mm256_cvtpd_epi32(qd);  // round to nearest, ties to even: std::rint
   const __m256d q = _mm256_cvtepi32_pd(qi);
-  __m256d r = _mm256_sub_pd(x, _mm256_mul_pd(q, _mm256_set1_pd(1.57079632673412561417e+00)));
-  r = _mm256_sub_pd(r, _mm256_mul_pd(q, _mm256_set1_pd(6.07710050630396597660e-11)));
-  r = _mm256_sub_pd(r, _mm256_mul_pd(q, _mm256_set1_pd(2.02226624871116645580e-21)));
+  __m256d r = x;
+  for (const double part : kPio2Parts) r = _mm256_sub_pd(r, _mm256_mul_pd(q, _mm256_set1_pd(part)));
   const __m256d z = _mm256_mul_pd(r, r);
-  // KernelSin
-  __m256d ps = Madd(z, _mm256_set1_pd(1.58969099521155010221e-10), -2.50507602534068634195e-08);
-  ps = Madd(z, ps, 2.75573137070700676789e-06);
-  ps = Madd(z, ps, -1.98412698298579493134e-04);
-  ps = Madd(z, ps, 8.33333333332248946124e-03);
-  const __m256d sr = _mm256_add_pd(
-      r, _mm256_mul_pd(_mm256_mul_pd(z, r), Madd(z, ps, -1.66666666666666324348e-01)));
-  // KernelCos
-  __m256d pc = Madd(z, _mm256_set1_pd(-1.13596475577881948265e-11), 2.08757232129817482790e-09);
-  pc = Madd(z, pc, -2.75573143513906633035e-07);
-  pc = Madd(z, pc, 2.48015872894767294178e-05);
-  pc = Madd(z, pc, -1.38888888888741095749e-03);
-  pc = Madd(z, pc, 4.16666666666666019037e-02);
-  pc = _mm256_mul_pd(z, pc);
+  const __m256d sr = _mm256_add_pd(r, _mm256_mul_pd(_mm256_mul_pd(z, r), Horner(z, kSinCoef)));
+  const __m256d pc = _mm256_mul_pd(z, Horner(z, kCosCoef));
   const __m256d hz = _mm256_mul_pd(_mm256_set1_pd(0.5), z);
   const __m256d w = _mm256_sub_pd(_mm256_set1_pd(1.0), hz);
   const __m256d cr =

@@ -16,24 +16,33 @@ namespace km {
 
 namespace internal {
 
-// sin(r) and cos(r) for |r| ≤ π/4 (fdlibm __kernel_sin / __kernel_cos coefficients).
+// Coefficients of fdlibm's __kernel_sin (r + r³·(S1 + r²·(S2 + …))) and __kernel_cos
+// (1 − r²/2 + r⁴·(C1 + r²·(C2 + …))), and π/2 in three parts of 33 bits (q · part is exact for
+// |q| < 2²⁰): shared by the scalar, two-lane and four-lane kernels.
+inline constexpr double kSinCoef[6] = {-1.66666666666666324348e-01, 8.33333333332248946124e-03,
+                                       -1.98412698298579493134e-04, 2.75573137070700676789e-06,
+                                       -2.50507602534068634195e-08, 1.58969099521155010221e-10};
+inline constexpr double kCosCoef[6] = {4.16666666666666019037e-02, -1.38888888888741095749e-03,
+                                       2.48015872894767294178e-05, -2.75573143513906633035e-07,
+                                       2.08757232129817482790e-09, -1.13596475577881948265e-11};
+inline constexpr double kPio2Parts[3] = {1.57079632673412561417e+00, 6.07710050630396597660e-11,
+                                         2.02226624871116645580e-21};
+inline constexpr double kTwoOverPi = 0.63661977236758134308;
+
+// sin(r) and cos(r) for |r| ≤ π/4.
 inline double KernelSin(double r) {
   const double z = r * r;
-  const double p = 8.33333333332248946124e-03 +
-                   z * (-1.98412698298579493134e-04 +
-                        z * (2.75573137070700676789e-06 +
-                             z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)));
-  return r + z * r * (-1.66666666666666324348e-01 + z * p);
+  const double p =
+      kSinCoef[1] + z * (kSinCoef[2] + z * (kSinCoef[3] + z * (kSinCoef[4] + z * kSinCoef[5])));
+  return r + z * r * (kSinCoef[0] + z * p);
 }
 
 inline double KernelCos(double r) {
   const double z = r * r;
   const double p =
-      z * (4.16666666666666019037e-02 +
-           z * (-1.38888888888741095749e-03 +
-                z * (2.48015872894767294178e-05 +
-                     z * (-2.75573143513906633035e-07 +
-                          z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
+      z * (kCosCoef[0] +
+           z * (kCosCoef[1] +
+                z * (kCosCoef[2] + z * (kCosCoef[3] + z * (kCosCoef[4] + z * kCosCoef[5])))));
   const double hz = 0.5 * z;
   const double w = 1.0 - hz;
   return w + (((1.0 - w) - hz) + z * p);
@@ -47,12 +56,9 @@ inline void SinCos(double x, double* s, double* c) {
     *c = std::cos(x);
     return;
   }
-  // π/2 in three parts of 33 bits: q · part is exact for |q| < 2²⁰.
-  constexpr double kPio2_1 = 1.57079632673412561417e+00;
-  constexpr double kPio2_2 = 6.07710050630396597660e-11;
-  constexpr double kPio2_3 = 2.02226624871116645580e-21;
-  const double q = std::rint(x * 0.63661977236758134308);  // 2/π
-  const double r = ((x - q * kPio2_1) - q * kPio2_2) - q * kPio2_3;
+  using internal::kPio2Parts;
+  const double q = std::rint(x * internal::kTwoOverPi);
+  const double r = ((x - q * kPio2Parts[0]) - q * kPio2Parts[1]) - q * kPio2Parts[2];
   const double sr = internal::KernelSin(r);
   const double cr = internal::KernelCos(r);
   // Quadrant k: (sin, cos) = (sr, cr), (cr, −sr), (−sr, −cr), (−cr, sr) for k = 0 … 3, chosen
@@ -71,30 +77,20 @@ namespace internal {
 // scalar arithmetic, lane by lane): the results are bit for bit those of SinCos. Both lanes
 // within |x| ≤ 1e5.
 inline void SinCos2(__m128d x, __m128d* s, __m128d* c) {
-  const __m128d qd = _mm_mul_pd(x, _mm_set1_pd(0.63661977236758134308));
+  const __m128d qd = _mm_mul_pd(x, _mm_set1_pd(kTwoOverPi));
   const __m128i qi = _mm_cvtpd_epi32(qd);  // round to nearest, ties to even: std::rint
   const __m128d q = _mm_cvtepi32_pd(qi);
-  __m128d r = _mm_sub_pd(x, _mm_mul_pd(q, _mm_set1_pd(1.57079632673412561417e+00)));
-  r = _mm_sub_pd(r, _mm_mul_pd(q, _mm_set1_pd(6.07710050630396597660e-11)));
-  r = _mm_sub_pd(r, _mm_mul_pd(q, _mm_set1_pd(2.02226624871116645580e-21)));
+  __m128d r = x;
+  for (const double part : kPio2Parts) r = _mm_sub_pd(r, _mm_mul_pd(q, _mm_set1_pd(part)));
   const __m128d z = _mm_mul_pd(r, r);
-  auto madd = [](__m128d a, __m128d b, double k) {  // k + a·b
-    return _mm_add_pd(_mm_set1_pd(k), _mm_mul_pd(a, b));
+  // Horner from the last coefficient: k + z·p at each step, a product then a sum.
+  auto horner = [&z](const double* coef) {
+    __m128d p = _mm_set1_pd(coef[5]);
+    for (int k = 4; k >= 0; --k) p = _mm_add_pd(_mm_set1_pd(coef[k]), _mm_mul_pd(z, p));
+    return p;
   };
-  // KernelSin
-  __m128d ps = madd(z, _mm_set1_pd(1.58969099521155010221e-10), -2.50507602534068634195e-08);
-  ps = madd(z, ps, 2.75573137070700676789e-06);
-  ps = madd(z, ps, -1.98412698298579493134e-04);
-  ps = madd(z, ps, 8.33333333332248946124e-03);
-  const __m128d sr =
-      _mm_add_pd(r, _mm_mul_pd(_mm_mul_pd(z, r), madd(z, ps, -1.66666666666666324348e-01)));
-  // KernelCos
-  __m128d pc = madd(z, _mm_set1_pd(-1.13596475577881948265e-11), 2.08757232129817482790e-09);
-  pc = madd(z, pc, -2.75573143513906633035e-07);
-  pc = madd(z, pc, 2.48015872894767294178e-05);
-  pc = madd(z, pc, -1.38888888888741095749e-03);
-  pc = madd(z, pc, 4.16666666666666019037e-02);
-  pc = _mm_mul_pd(z, pc);
+  const __m128d sr = _mm_add_pd(r, _mm_mul_pd(_mm_mul_pd(z, r), horner(kSinCoef)));
+  const __m128d pc = _mm_mul_pd(z, horner(kCosCoef));
   const __m128d hz = _mm_mul_pd(_mm_set1_pd(0.5), z);
   const __m128d w = _mm_sub_pd(_mm_set1_pd(1.0), hz);
   const __m128d cr =
