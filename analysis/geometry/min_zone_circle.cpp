@@ -25,8 +25,8 @@ struct LinearisedZone {
   std::array<int, 4> basis{};  // the optimal basis (a warm start for the next linearisation)
 };
 
-// One linearisation about a centre c0: offsets d_i = |p_i − c0| − mean and unit vectors u_i, by
-// coordinate so that they are computed a packet at a time.
+// One linearisation about a centre c0: offsets d_i = |p_i − c0| − a common offset and unit vectors
+// u_i, by coordinate so that they are computed a packet at a time.
 struct Linearisation {
   Eigen::ArrayXd d, ux, uy;
   int Size() const { return static_cast<int>(d.size()); }
