@@ -46,6 +46,14 @@ double SumSquares(const Coordinates& xy, const Eigen::Vector2d& c, double r) {
   return ss;
 }
 
+// Rounding of the cost Σ d_i² (d_i = |p_i − c| − r): each distance is rounded to about ε·r,
+// which moves the cost by up to 2ε·r·Σ|d_i| ≤ 2ε·r·√(N·cost), and the sum of N terms adds up to
+// N·ε·cost. A change of the cost below this cannot be told from its rounding.
+double CostRounding(double cost, double r, std::size_t n) {
+  const double eps = std::numeric_limits<double>::epsilon(), nn = static_cast<double>(n);
+  return eps * (nn * cost + 2.0 * std::abs(r) * std::sqrt(nn * cost));
+}
+
 }  // namespace
 
 CircleNormalEquations CircleGaussNewton(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y,
@@ -151,8 +159,6 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
   double lambda = 1e-6;
   CircleFitResult out;
   const double tol = 1e-15 * std::max(1.0, r);
-  // Rounding of the cost: a decrease below it cannot be told from the cost's own rounding.
-  const double noise = static_cast<double>(points.size()) * std::numeric_limits<double>::epsilon();
   for (int it = 1; it <= 200; ++it) {
     out.iterations = it;
     const Eigen::Matrix3d jtj = ne.jtj;
@@ -160,13 +166,21 @@ CircleFitResult FitCircleLeastSquares(const std::vector<Eigen::Vector2d>& points
     // Near the minimum the Gauss–Newton step predicts a decrease below the cost's rounding: the
     // quadratic model is then exact to rounding, and trying the step on the cost would only
     // compare rounding errors. The step is taken, and the minimum is reached.
+    // The cost there must not exceed the present one beyond its rounding (else the model does
+    // not hold so far out, e.g. along the flat valley of a short arc: the trials below decide).
+    const double noise = CostRounding(cost, r, points.size());
     const Eigen::Vector3d gn = -jtj.ldlt().solve(jtd);
-    if (gn.allFinite() && -0.5 * gn.dot(jtd) <= noise * cost) {
-      c += gn.head<2>();
-      r += gn(2);
-      cost = SumSquares(xy, c, r);
-      out.converged = true;
-      break;
+    if (gn.allFinite() && -0.5 * gn.dot(jtd) <= noise) {
+      const Eigen::Vector2d c_gn = c + gn.head<2>();
+      const double r_gn = r + gn(2);
+      const double cost_gn = SumSquares(xy, c_gn, r_gn);
+      if (cost_gn <= cost + noise) {
+        c = c_gn;
+        r = r_gn;
+        cost = cost_gn;
+        out.converged = true;
+        break;
+      }
     }
     bool accepted = false;
     Eigen::Vector3d step = Eigen::Vector3d::Zero();

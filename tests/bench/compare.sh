@@ -6,22 +6,27 @@
 # rounds' ratios (tests/bench/compare.py).
 #
 #   tests/bench/compare.sh REF [--rounds N] [--filter REGEX] [--bench NAME]... [--min-time S]
+#                              [--cpus LIST]
+#
+# --cpus runs every benchmark under `taskset -c LIST` (e.g. --cpus 1: one core's figures, as the
+# *OneThread targets are stated).
 #
 # Example: tests/bench/compare.sh main --bench dbb_analysis_bench --filter Pair --rounds 7
 # The reference build lives in build-compare/<sha> (kept, so a second comparison with the same
 # REF builds nothing); ccache serves both builds. Results: build-compare/results-<time>/.
 set -eu
 cd "$(dirname "$0")/../.."
-[ $# -ge 1 ] || { sed -n '2,13p' "$0"; exit 2; }
+[ $# -ge 1 ] || { sed -n '2,16p' "$0"; exit 2; }
 ref=$1
 shift
-rounds=5 filter=. min_time=0.2 benches=""
+rounds=5 filter=. min_time=0.2 benches="" cpus=""
 while [ $# -gt 0 ]; do
   case $1 in
     --rounds) rounds=$2; shift 2 ;;
     --filter) filter=$2; shift 2 ;;
     --bench) benches="$benches $2"; shift 2 ;;
     --min-time) min_time=$2; shift 2 ;;
+    --cpus) cpus=$2; shift 2 ;;
     *) echo "compare.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -54,9 +59,12 @@ mkdir -p "$out"
 if [ -z "$benches" ]; then
   benches=$(cd build-compare/build-new/bench && ls)
 fi
+pin=""
+if [ -n "$cpus" ]; then pin="taskset -c $cpus"; fi
 run() {  # SIDE DIR BENCH ROUND
   if [ -x "$2/bench/$3" ]; then
-    "$2/bench/$3" --benchmark_filter="$filter" --benchmark_min_time="$min_time" \
+    # shellcheck disable=SC2086
+    $pin "$2/bench/$3" --benchmark_filter="$filter" --benchmark_min_time="$min_time" \
       --benchmark_format=json >"$out/$3.$1.$4.json" 2>/dev/null || rm -f "$out/$3.$1.$4.json"
   fi
 }

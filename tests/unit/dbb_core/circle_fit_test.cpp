@@ -129,6 +129,41 @@ TEST(CircleFit, TheMinimumIsReachedToRounding) {
   }
 }
 
+// Short noisy arcs (a flat valley of centre against radius): the fit still ends at the minimum,
+// where the decrease a Gauss–Newton step computed in extended precision predicts is below 10⁻⁹
+// of the cost (a cost ~10 orders of magnitude above its rounding), and near the truth.
+TEST(CircleFit, ShortNoisyArcsEndAtTheMinimum) {
+  for (const double arc_deg : {40.0, 90.0, 200.0}) {
+    for (unsigned seed = 50; seed < 53; ++seed) {
+      std::mt19937 rng(seed);
+      std::normal_distribution<double> nd(0.0, 0.1);
+      std::vector<Eigen::Vector2d> p;
+      for (int i = 0; i < 900; ++i) {
+        const double th = 0.3 + arc_deg * std::numbers::pi / 180.0 * i / 899.0;
+        p.emplace_back(-4.0 + (100000.0 + nd(rng)) * std::cos(th),
+                       2.5 + (100000.0 + nd(rng)) * std::sin(th));
+      }
+      const auto fit = FitCircleLeastSquares(p);
+      Eigen::Matrix<long double, 3, 3> jtj = Eigen::Matrix<long double, 3, 3>::Zero();
+      Eigen::Matrix<long double, 3, 1> jtd = Eigen::Matrix<long double, 3, 1>::Zero();
+      long double cost = 0.0L;
+      for (const auto& q : p) {
+        const long double vx = static_cast<long double>(q.x()) - fit.circle.centre.x();
+        const long double vy = static_cast<long double>(q.y()) - fit.circle.centre.y();
+        const long double dist = std::sqrt(vx * vx + vy * vy);
+        const long double d = dist - fit.circle.radius;
+        const Eigen::Matrix<long double, 3, 1> j(-vx / dist, -vy / dist, -1.0L);
+        jtj += j * j.transpose();
+        jtd += j * d;
+        cost += d * d;
+      }
+      const long double decrease = 0.5L * jtd.dot(jtj.ldlt().solve(jtd));
+      EXPECT_LT(static_cast<double>(decrease / cost), 1e-9) << arc_deg << "° seed " << seed;
+      EXPECT_NEAR(fit.circle.radius, 100000.0, 2.0) << arc_deg << "° seed " << seed;
+    }
+  }
+}
+
 TEST(CircleFit, PartialArcFarFromOrigin) {
   std::vector<Eigen::Vector2d> p;
   for (int i = 0; i < 100; ++i) {
