@@ -10,7 +10,6 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/core/minimize_1d.h"
-#include "analysis/core/parallel.h"
 #include "analysis/core/sincos.h"
 #include "analysis/servo/feed_drive_detail.h"
 
@@ -20,7 +19,7 @@ namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // Columns of the steady fit before the ripple: offset, slope, Coulomb, viscous, moving mass.
 constexpr int kBase = 5;
-// A column of the fit: at most the base and three per ripple component (no heap per sample).
+// The base columns of one sample (no heap per sample).
 using Column = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kBase + 3 * 20, 1>;
 
 struct Component {
@@ -36,39 +35,90 @@ Eigen::MatrixXd NormalMatrix(const Eigen::MatrixXd& at) {
   return ata;
 }
 
-// Weighted least squares (Strokes::Weight with the moving mass `mass`) of the columns
-// `cols(i)` (a vector) over the steady samples; returns the coefficients, their covariance and
-// the residual's (weighted) RMS.
-template <typename Cols>
-Eigen::VectorXd Solve(const Strokes& s, int p, double mass, Cols cols, Eigen::MatrixXd* cov,
-                      double* rms) {
-  // The rows scaled by √w, each stored contiguously (a column of aᵀ; the two halves of the
-  // record side by side), their products formed at once (the lower half of the symmetric aᵀa).
+double Sign(double v) {
+  return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0);
+}
+
+// The steady samples of a fit in the records' order, with √w (Strokes::Weight with the moving
+// mass given), the weighted target √w (f − known), and Σ w (f − known)² and Σ w, each summed
+// over the two halves of the record and then added.
+struct Rows {
+  std::vector<std::size_t> index;
+  Eigen::ArrayXd sw;
+  Eigen::VectorXd y;
+  double btb = 0.0, weights = 0.0;
+};
+
+Rows RowsOf(const Strokes& s, double mass) {
+  Rows r;
+  for (std::size_t i = 0; i < s.x.size(); ++i)
+    if (s.steady[i]) r.index.push_back(i);
+  const auto n = static_cast<Eigen::Index>(r.index.size());
+  r.sw.resize(n);
+  r.y.resize(n);
   const std::size_t mid = s.x.size() / 2;
-  const auto first_half = std::count(s.steady.begin(), s.steady.begin() + mid, true);
-  const auto rows = first_half + std::count(s.steady.begin() + mid, s.steady.end(), true);
-  Eigen::MatrixXd at(p, rows);
-  Eigen::VectorXd y(rows);
-  const std::array<std::size_t, 3> bounds{0, mid, s.x.size()};
-  std::array<double, 2> weights{}, btb{};
-  ParallelFor(2, [&](std::size_t half) {
-    Eigen::Index r = half == 0 ? 0 : first_half;
-    for (std::size_t i = bounds[half]; i < bounds[half + 1]; ++i) {
-      if (!s.steady[i]) continue;
-      const double w = s.Weight(i, mass), b = s.f[i] - s.Known(i), sw = std::sqrt(w);
-      at.col(r) = sw * cols(i);
-      y[r++] = sw * b;
-      btb[half] += w * b * b;
-      weights[half] += w;
+  std::array<double, 2> btb{}, weights{};
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const std::size_t i = r.index[static_cast<std::size_t>(k)], half = i < mid ? 0 : 1;
+    const double w = s.Weight(i, mass), b = s.f[i] - s.Known(i), sw = std::sqrt(w);
+    r.sw[k] = sw;
+    r.y[k] = sw * b;
+    btb[half] += w * b * b;
+    weights[half] += w;
+  }
+  r.btb = btb[0] + btb[1];
+  r.weights = weights[0] + weights[1];
+  return r;
+}
+
+// The fit's rows scaled by √w, each stored contiguously (a column of aᵀ): offset, slope,
+// Coulomb, viscous, moving mass, then for each ripple component cos w and sin w (w = 2πx/P)
+// and, `by_period`, the derivative of a cos w + b sin w in P. Each component's sines and
+// cosines are taken for all rows at once.
+Eigen::MatrixXd Design(const Strokes& s, const Rows& r, const std::vector<Component>& comps,
+                       bool by_period) {
+  const auto n = static_cast<Eigen::Index>(r.index.size());
+  const int per = by_period ? 3 : 2;
+  Eigen::MatrixXd at(kBase + per * static_cast<int>(comps.size()), n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const std::size_t i = r.index[static_cast<std::size_t>(k)];
+    const double sw = r.sw[k];
+    at(0, k) = sw;
+    at(1, k) = sw * s.x[i];
+    at(2, k) = sw * Sign(s.v[i]);
+    at(3, k) = sw * s.v[i];
+    at(4, k) = sw * (1e-3 * s.a[i]);
+  }
+  std::vector<double> w(static_cast<std::size_t>(n)), sn(w.size()), cs(w.size());
+  for (std::size_t c = 0; c < comps.size(); ++c) {
+    const Component& q = comps[c];
+    for (std::size_t k = 0; k < w.size(); ++k) w[k] = kTwoPi * s.x[r.index[k]] / q.period;
+    SinCosArray(w.data(), sn.data(), cs.data(), w.size());
+    const auto row = static_cast<Eigen::Index>(kBase + per * static_cast<int>(c));
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const auto j = static_cast<std::size_t>(k);
+      at(row, k) = r.sw[k] * cs[j];
+      at(row + 1, k) = r.sw[k] * sn[j];
+      if (by_period) at(row + 2, k) = r.sw[k] * ((w[j] / q.period) * (q.a * sn[j] - q.b * cs[j]));
     }
-  });
-  const double n = static_cast<double>(rows);
-  const Eigen::VectorXd atb = at * y;
+  }
+  return at;
+}
+
+// Weighted least squares of the rows `r` with the design `at` (Design); returns the
+// coefficients, their covariance and the residual's (weighted) RMS.
+Eigen::VectorXd Solve(const Rows& r, const Eigen::MatrixXd& at, Eigen::MatrixXd* cov, double* rms) {
+  const auto p = at.rows();
+  const double n = static_cast<double>(r.index.size());
+  const Eigen::VectorXd atb = at * r.y;
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(NormalMatrix(at));
   const Eigen::VectorXd x = ldlt.solve(atb);
-  const double wss = std::max(0.0, btb[0] + btb[1] - x.dot(atb));  // Σ w e², A x = b in the mean
-  if (rms) *rms = std::sqrt(wss / std::max(weights[0] + weights[1], 1e-300));
-  if (cov) *cov = (wss / std::max(n - p, 1.0)) * ldlt.solve(Eigen::MatrixXd::Identity(p, p));
+  const double wss = std::max(0.0, r.btb - x.dot(atb));  // Σ w e², A x = b in the mean
+  if (rms) *rms = std::sqrt(wss / std::max(r.weights, 1e-300));
+  if (cov) {
+    *cov = (wss / std::max(n - static_cast<double>(p), 1.0)) *
+           ldlt.solve(Eigen::MatrixXd::Identity(p, p));
+  }
   return x;
 }
 
@@ -117,8 +167,7 @@ double StrokeBirgeRatio(const Strokes& s, double mass, Residual residual) {
 // How Coulomb and viscous friction move when the strokes at the slowest feed are left out
 // (the Stribeck rise reaches the slowest feed first): the shifts larger than twice their own
 // σ, else zero. Needs two feeds at least 1.5 × apart besides the slowest.
-template <typename Cols>
-Eigen::Vector2d SlowestFeedShift(Strokes& s, int p, double mass, Cols cols,
+Eigen::Vector2d SlowestFeedShift(Strokes& s, double mass, const std::vector<Component>& comps,
                                  const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
   double slowest = INFINITY;
   for (std::size_t i = 0; i < s.x.size(); ++i)
@@ -136,7 +185,8 @@ Eigen::Vector2d SlowestFeedShift(Strokes& s, int p, double mass, Cols cols,
   for (std::size_t i = 0; i < s.x.size(); ++i)
     if (s.steady[i] && s.stroke_top[s.stroke[i]] < 1.5 * slowest) s.steady[i] = false;
   Eigen::MatrixXd cov2;
-  const Eigen::VectorXd x2 = Solve(s, p, mass, cols, &cov2, nullptr);
+  const Rows rows = RowsOf(s, mass);
+  const Eigen::VectorXd x2 = Solve(rows, Design(s, rows, comps, true), &cov2, nullptr);
   s.steady = all;
   Eigen::Vector2d out;
   for (int k = 0; k < 2; ++k) {
@@ -145,10 +195,6 @@ Eigen::Vector2d SlowestFeedShift(Strokes& s, int p, double mass, Cols cols,
     out[k] = std::abs(d) > 2.0 * sd ? d : 0.0;
   }
   return out;
-}
-
-double Sign(double v) {
-  return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0);
 }
 
 // RSS of the best sinusoid of period p (with a constant) through the bins. The bins lie on a
@@ -249,13 +295,14 @@ Column BaseColumn(const Strokes& s, std::size_t i) {
   return c;
 }
 
-// The ripple at position x: Σ a cos(2πx/P) + b sin(2πx/P) over the components.
-double RippleAt(const std::vector<Component>& comps, double x) {
-  double v = 0.0;
+// The ripple Σ a cos(2πx/P) + b sin(2πx/P) over the components at every position of `x`, the
+// components added in their order; each component's sines and cosines taken at once.
+std::vector<double> RippleOf(const std::vector<Component>& comps, const std::vector<double>& x) {
+  std::vector<double> v(x.size(), 0.0), w(x.size()), sn(x.size()), cs(x.size());
   for (const auto& c : comps) {
-    double sn = 0.0, cs = 0.0;
-    SinCos(kTwoPi * x / c.period, &sn, &cs);
-    v += c.a * cs + c.b * sn;
+    for (std::size_t i = 0; i < x.size(); ++i) w[i] = kTwoPi * x[i] / c.period;
+    SinCosArray(w.data(), sn.data(), cs.data(), x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) v[i] += c.a * cs[i] + c.b * sn[i];
   }
   return v;
 }
@@ -292,7 +339,8 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   // 1. Without the ripple: offset, slope, Coulomb, viscous.
   const auto base = [&](std::size_t i) { return BaseColumn(s, i); };
   s.noise_N = 0.0;  // unweighted first
-  const Eigen::VectorXd b0 = Solve(s, kBase, 0.0, base, nullptr, nullptr);
+  const Rows unweighted = RowsOf(s, 0.0);
+  const Eigen::VectorXd b0 = Solve(unweighted, Design(s, unweighted, {}, false), nullptr, nullptr);
   const double mass = b0[4];
   std::vector<double> e0(s.x.size(), 0.0);
   for (std::size_t i = 0; i < s.x.size(); ++i)
@@ -325,26 +373,12 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   std::vector<Component> comps = FindPeriods(xc, y, pmin, pmax, o.max_ripple_components);
   // 3. Everything together; Gauss–Newton on the periods (columns ∂/∂P).
   const int nc = static_cast<int>(comps.size());
-  const int p = kBase + 3 * nc;
   Eigen::VectorXd x;
   Eigen::MatrixXd cov;
   double rms = 0.0;
-  const auto cols = [&](std::size_t i) {
-    Column c(p);
-    c.head<kBase>() = base(i);
-    for (int k = 0; k < nc; ++k) {
-      const double w = kTwoPi * s.x[i] / comps[k].period;
-      double sn = 0.0, cs = 0.0;
-      SinCos(w, &sn, &cs);
-      c[kBase + 3 * k] = cs;
-      c[kBase + 1 + 3 * k] = sn;
-      // ∂/∂P of a cos w + b sin w, w = 2πx/P.
-      c[kBase + 2 + 3 * k] = (w / comps[k].period) * (comps[k].a * sn - comps[k].b * cs);
-    }
-    return c;
-  };
+  const Rows rows = RowsOf(s, mass);
   for (int it = 0; it < 4; ++it) {
-    x = Solve(s, p, mass, cols, &cov, &rms);
+    x = Solve(rows, Design(s, rows, comps, true), &cov, &rms);
     for (int k = 0; k < nc; ++k) {
       comps[k].a = x[kBase + 3 * k];
       comps[k].b = x[kBase + 1 + 3 * k];
@@ -353,10 +387,11 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
       comps[k].period += std::clamp(step, -limit, limit);
     }
   }
+  const std::vector<double> ripple = RippleOf(comps, s.x);
   const double birge = StrokeBirgeRatio(s, mass, [&](std::size_t i) {
-    return s.f[i] - s.Known(i) - base(i).dot(x.head<kBase>()) - RippleAt(comps, s.x[i]);
+    return s.f[i] - s.Known(i) - base(i).dot(x.head<kBase>()) - ripple[i];
   });
-  const Eigen::Vector2d shift = SlowestFeedShift(s, p, mass, cols, x, cov);
+  const Eigen::Vector2d shift = SlowestFeedShift(s, mass, comps, x, cov);
   r.offset_N = x[0];
   r.slope_N_per_mm = x[1];
   r.coulomb_N = x[2];
@@ -372,30 +407,23 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   for (const auto& c : comps) s.ripple_periods.push_back(c.period);
   s.position_part.resize(s.x.size());
   for (std::size_t i = 0; i < s.x.size(); ++i) {
-    s.position_part[i] = x[0] + x[1] * s.x[i] + RippleAt(comps, s.x[i]);
+    s.position_part[i] = x[0] + x[1] * s.x[i] + ripple[i];
   }
 }
 
 std::vector<Eigen::Vector2d> SteadyShifts(const Strokes& s,
                                           const std::vector<std::vector<double>>& deltas) {
-  const int nc = static_cast<int>(s.ripple_periods.size()), p = kBase + 2 * nc;
   // The rows scaled by √w, each stored contiguously (a column of aᵀ), and the shifts so scaled.
-  const auto rows = static_cast<Eigen::Index>(std::count(s.steady.begin(), s.steady.end(), true));
+  std::vector<Component> comps;
+  for (double period : s.ripple_periods) comps.push_back({period, 0.0, 0.0});
+  const Rows rows = RowsOf(s, s.steady_mass_kg);
+  const Eigen::MatrixXd at = Design(s, rows, comps, false);
   const auto nd = static_cast<Eigen::Index>(deltas.size());
-  Eigen::MatrixXd at(p, rows), d(rows, nd);
-  Eigen::Index r = 0;
-  for (std::size_t i = 0; i < s.x.size(); ++i) {
-    if (!s.steady[i]) continue;
-    Column c(p);
-    c.head<kBase>() = BaseColumn(s, i);
-    for (int k = 0; k < nc; ++k) {
-      const double w = kTwoPi * s.x[i] / s.ripple_periods[static_cast<std::size_t>(k)];
-      SinCos(w, &c[kBase + 2 * k + 1], &c[kBase + 2 * k]);
-    }
-    const double sw = std::sqrt(s.Weight(i, s.steady_mass_kg));
-    at.col(r) = sw * c;
-    for (Eigen::Index k = 0; k < nd; ++k) d(r, k) = sw * deltas[static_cast<std::size_t>(k)][i];
-    ++r;
+  Eigen::MatrixXd d(at.cols(), nd);
+  for (Eigen::Index r = 0; r < at.cols(); ++r) {
+    const std::size_t i = rows.index[static_cast<std::size_t>(r)];
+    for (Eigen::Index k = 0; k < nd; ++k)
+      d(r, k) = rows.sw[r] * deltas[static_cast<std::size_t>(k)][i];
   }
   const Eigen::MatrixXd shifts = NormalMatrix(at).ldlt().solve(at * d);
   std::vector<Eigen::Vector2d> out;
