@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/gram.h"
 #include "analysis/core/minimize_1d.h"
 #include "analysis/core/sincos.h"
 #include "analysis/servo/feed_drive_detail.h"
@@ -25,15 +26,6 @@ using Column = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kBase + 3 * 20, 1>;
 struct Component {
   double period = 0.0, a = 0.0, b = 0.0;
 };
-
-// aᵀa of the weighted rows stored as the columns of `at` (a symmetric rank update: the lower
-// half formed, the upper copied from it).
-Eigen::MatrixXd NormalMatrix(const Eigen::MatrixXd& at) {
-  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(at.rows(), at.rows());
-  ata.selfadjointView<Eigen::Lower>().rankUpdate(at);
-  ata.triangularView<Eigen::StrictlyUpper>() = ata.transpose();
-  return ata;
-}
 
 double Sign(double v) {
   return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0);
@@ -71,47 +63,62 @@ Rows RowsOf(const Strokes& s, double mass) {
   return r;
 }
 
-// The fit's rows scaled by √w, each stored contiguously (a column of aᵀ): offset, slope,
-// Coulomb, viscous, moving mass, then for each ripple component cos w and sin w (w = 2πx/P)
-// and, `by_period`, the derivative of a cos w + b sin w in P. Each component's sines and
-// cosines are taken for all rows at once.
-Eigen::MatrixXd Design(const Strokes& s, const Rows& r, const std::vector<Component>& comps,
-                       bool by_period) {
-  const auto n = static_cast<Eigen::Index>(r.index.size());
-  const int per = by_period ? 3 : 2;
-  Eigen::MatrixXd at(kBase + per * static_cast<int>(comps.size()), n);
-  for (Eigen::Index k = 0; k < n; ++k) {
-    const std::size_t i = r.index[static_cast<std::size_t>(k)];
-    const double sw = r.sw[k];
-    at(0, k) = sw;
-    at(1, k) = sw * s.x[i];
-    at(2, k) = sw * Sign(s.v[i]);
-    at(3, k) = sw * s.v[i];
-    at(4, k) = sw * (1e-3 * s.a[i]);
-  }
-  std::vector<double> w(static_cast<std::size_t>(n)), sn(w.size()), cs(w.size());
-  for (std::size_t c = 0; c < comps.size(); ++c) {
-    const Component& q = comps[c];
-    for (std::size_t k = 0; k < w.size(); ++k) w[k] = kTwoPi * s.x[r.index[k]] / q.period;
-    SinCosArray(w.data(), sn.data(), cs.data(), w.size());
-    const auto row = static_cast<Eigen::Index>(kBase + per * static_cast<int>(c));
-    for (Eigen::Index k = 0; k < n; ++k) {
-      const auto j = static_cast<std::size_t>(k);
-      at(row, k) = r.sw[k] * cs[j];
-      at(row + 1, k) = r.sw[k] * sn[j];
-      if (by_period) at(row + 2, k) = r.sw[k] * ((w[j] / q.period) * (q.a * sn[j] - q.b * cs[j]));
+// The rows of the fit a block at a time (so that a block's columns stay in the first-level
+// cache while their products are summed).
+constexpr std::size_t kRowBlock = 256;
+
+// The Gram matrix (all products, summed over the rows) of the fit's columns scaled by √w —
+// offset, slope, Coulomb, viscous, moving mass, then for each ripple component cos w and sin w
+// (w = 2πx/P) and, `by_period`, the derivative of a cos w + b sin w in P — followed by the
+// weighted target √w (f − known) and √w times each of `extra` (given for every sample).
+Eigen::MatrixXd Gram(const Strokes& s, const Rows& r, const std::vector<Component>& comps,
+                     bool by_period, const std::vector<const std::vector<double>*>& extra = {}) {
+  const int per = by_period ? 3 : 2, p = kBase + per * static_cast<int>(comps.size());
+  const int m = p + 1 + static_cast<int>(extra.size());
+  std::vector<double> buffer(static_cast<std::size_t>(m) * kRowBlock), w(kRowBlock), sn(kRowBlock),
+      cs(kRowBlock);
+  std::vector<double*> col(static_cast<std::size_t>(m));
+  for (std::size_t j = 0; j < col.size(); ++j) col[j] = buffer.data() + j * kRowBlock;
+  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(m, m);
+  for (std::size_t first = 0; first < r.index.size(); first += kRowBlock) {
+    const std::size_t len = std::min(kRowBlock, r.index.size() - first);
+    for (std::size_t t = 0; t < len; ++t) {
+      const std::size_t i = r.index[first + t];
+      const double sw = r.sw[static_cast<Eigen::Index>(first + t)];
+      col[0][t] = sw;
+      col[1][t] = sw * s.x[i];
+      col[2][t] = sw * Sign(s.v[i]);
+      col[3][t] = sw * s.v[i];
+      col[4][t] = sw * (1e-3 * s.a[i]);
+      col[static_cast<std::size_t>(p)][t] = r.y[static_cast<Eigen::Index>(first + t)];
+      for (std::size_t e = 0; e < extra.size(); ++e)
+        col[static_cast<std::size_t>(p) + 1 + e][t] = sw * (*extra[e])[i];
     }
+    for (std::size_t c = 0; c < comps.size(); ++c) {
+      const Component& q = comps[c];
+      for (std::size_t t = 0; t < len; ++t) w[t] = kTwoPi * s.x[r.index[first + t]] / q.period;
+      SinCosArray(w.data(), sn.data(), cs.data(), len);
+      double* const* out = col.data() + kBase + static_cast<std::size_t>(per) * c;
+      for (std::size_t t = 0; t < len; ++t) {
+        const double sw = r.sw[static_cast<Eigen::Index>(first + t)];
+        out[0][t] = sw * cs[t];
+        out[1][t] = sw * sn[t];
+        if (by_period) out[2][t] = sw * ((w[t] / q.period) * (q.a * sn[t] - q.b * cs[t]));
+      }
+    }
+    AddGram(col.data(), m, len, g.data());
   }
-  return at;
+  g.triangularView<Eigen::StrictlyUpper>() = g.transpose();
+  return g;
 }
 
-// Weighted least squares of the rows `r` with the design `at` (Design); returns the
-// coefficients, their covariance and the residual's (weighted) RMS.
-Eigen::VectorXd Solve(const Rows& r, const Eigen::MatrixXd& at, Eigen::MatrixXd* cov, double* rms) {
-  const auto p = at.rows();
+// Weighted least squares of the rows `r` from the Gram matrix `g` of their p columns and the
+// target (Gram); returns the coefficients, their covariance and the residual's (weighted) RMS.
+Eigen::VectorXd Solve(const Rows& r, const Eigen::MatrixXd& g, Eigen::Index p, Eigen::MatrixXd* cov,
+                      double* rms) {
   const double n = static_cast<double>(r.index.size());
-  const Eigen::VectorXd atb = at * r.y;
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(NormalMatrix(at));
+  const Eigen::VectorXd atb = g.col(p).head(p);
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(g.topLeftCorner(p, p));
   const Eigen::VectorXd x = ldlt.solve(atb);
   const double wss = std::max(0.0, r.btb - x.dot(atb));  // Σ w e², A x = b in the mean
   if (rms) *rms = std::sqrt(wss / std::max(r.weights, 1e-300));
@@ -120,6 +127,13 @@ Eigen::VectorXd Solve(const Rows& r, const Eigen::MatrixXd& at, Eigen::MatrixXd*
            ldlt.solve(Eigen::MatrixXd::Identity(p, p));
   }
   return x;
+}
+
+// The fit of the base columns and (with ∂/∂P) the components `comps`.
+Eigen::VectorXd SolveFit(const Strokes& s, const Rows& r, const std::vector<Component>& comps,
+                         Eigen::MatrixXd* cov, double* rms) {
+  const auto p = static_cast<Eigen::Index>(kBase + 3 * comps.size());
+  return Solve(r, Gram(s, r, comps, !comps.empty()), p, cov, rms);
 }
 
 // Noise of one sample: the spread of the differences of consecutive residuals (robust: the
@@ -186,7 +200,7 @@ Eigen::Vector2d SlowestFeedShift(Strokes& s, double mass, const std::vector<Comp
     if (s.steady[i] && s.stroke_top[s.stroke[i]] < 1.5 * slowest) s.steady[i] = false;
   Eigen::MatrixXd cov2;
   const Rows rows = RowsOf(s, mass);
-  const Eigen::VectorXd x2 = Solve(rows, Design(s, rows, comps, true), &cov2, nullptr);
+  const Eigen::VectorXd x2 = SolveFit(s, rows, comps, &cov2, nullptr);
   s.steady = all;
   Eigen::Vector2d out;
   for (int k = 0; k < 2; ++k) {
@@ -340,7 +354,7 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   const auto base = [&](std::size_t i) { return BaseColumn(s, i); };
   s.noise_N = 0.0;  // unweighted first
   const Rows unweighted = RowsOf(s, 0.0);
-  const Eigen::VectorXd b0 = Solve(unweighted, Design(s, unweighted, {}, false), nullptr, nullptr);
+  const Eigen::VectorXd b0 = SolveFit(s, unweighted, {}, nullptr, nullptr);
   const double mass = b0[4];
   std::vector<double> e0(s.x.size(), 0.0);
   for (std::size_t i = 0; i < s.x.size(); ++i)
@@ -378,7 +392,7 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
   double rms = 0.0;
   const Rows rows = RowsOf(s, mass);
   for (int it = 0; it < 4; ++it) {
-    x = Solve(rows, Design(s, rows, comps, true), &cov, &rms);
+    x = SolveFit(s, rows, comps, &cov, &rms);
     for (int k = 0; k < nc; ++k) {
       comps[k].a = x[kBase + 3 * k];
       comps[k].b = x[kBase + 1 + 3 * k];
@@ -413,19 +427,16 @@ void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r) {
 
 std::vector<Eigen::Vector2d> SteadyShifts(const Strokes& s,
                                           const std::vector<std::vector<double>>& deltas) {
-  // The rows scaled by √w, each stored contiguously (a column of aᵀ), and the shifts so scaled.
+  // The fit's columns (the periods held) and the shifts, weighted as in the fit.
   std::vector<Component> comps;
   for (double period : s.ripple_periods) comps.push_back({period, 0.0, 0.0});
+  std::vector<const std::vector<double>*> extra;
+  for (const auto& d : deltas) extra.push_back(&d);
   const Rows rows = RowsOf(s, s.steady_mass_kg);
-  const Eigen::MatrixXd at = Design(s, rows, comps, false);
+  const Eigen::MatrixXd g = Gram(s, rows, comps, false, extra);
+  const auto p = static_cast<Eigen::Index>(kBase + 2 * comps.size());
   const auto nd = static_cast<Eigen::Index>(deltas.size());
-  Eigen::MatrixXd d(at.cols(), nd);
-  for (Eigen::Index r = 0; r < at.cols(); ++r) {
-    const std::size_t i = rows.index[static_cast<std::size_t>(r)];
-    for (Eigen::Index k = 0; k < nd; ++k)
-      d(r, k) = rows.sw[r] * deltas[static_cast<std::size_t>(k)][i];
-  }
-  const Eigen::MatrixXd shifts = NormalMatrix(at).ldlt().solve(at * d);
+  const Eigen::MatrixXd shifts = g.topLeftCorner(p, p).ldlt().solve(g.block(0, p + 1, p, nd));
   std::vector<Eigen::Vector2d> out;
   for (Eigen::Index k = 0; k < nd; ++k) {
     out.emplace_back(-shifts(2, k), -shifts(3, k));  // the known part grew: the fit's part shrinks
