@@ -104,8 +104,20 @@ struct Fit {
   Mat jtj = Mat::Zero();
   double rss = INFINITY;
   bool free_exponent = false;
-  std::vector<double> e;  // weighted residual √w (y − model) at q
+  bool converged = false;  // ended at a minimum (not at its iteration limit)
+  bool joined = false;     // stopped in the valley of an earlier fit (Solve's `valleys`)
+  std::vector<double> e;   // weighted residual √w (y − model) at q
 };
+
+// Whether q lies in the valley of the converged fit a: within one σ of it in its covariance,
+// (q − q_a)ᵀ JᵀJ (q − q_a) ≤ s², s² a's residual over its n samples. From there the fit ends
+// at a's minimum (its quadratic model holds far beyond one σ).
+bool InValley(const Fit& a, const Vec& q, std::size_t n) {
+  const int m = a.free_exponent ? kParams : kExponent;
+  const double s2 = a.rss / std::max(static_cast<double>(n) - m, 1.0);
+  const Eigen::VectorXd d = (q - a.q).head(m);
+  return a.converged && d.dot(a.jtj.topLeftCorner(m, m) * d) <= s2;
+}
 
 // The range of the Stribeck exponent δ fitted (ln δ clamped to it).
 constexpr double kMinExponent = 0.5, kMaxExponent = 6.0;
@@ -159,10 +171,11 @@ void NormalEquations(const std::vector<BristleDerivatives>& derivatives,
 }
 
 // Levenberg–Marquardt from q0 on the windows' target force y; δ held at q0's unless
-// `free_exponent`.
+// `free_exponent`. With `valleys` (fits of the same problem), the fit stops as `joined` once
+// it enters the valley of one of them.
 Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<double>& y,
           const std::vector<double>& w, const Sliding& sliding, Reading reading, const Vec& q0,
-          bool free_exponent, int iterations = 60) {
+          bool free_exponent, int iterations = 60, const std::vector<Fit>* valleys = nullptr) {
   const std::size_t n = y.size();
   // The force, damping and derivatives at fit.q throughout. Every trial computes its
   // derivatives too (the force is the same bit for bit with and without them), so an accepted
@@ -184,7 +197,15 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   for (int it = 0; it < iterations; ++it) {
     Vec g;
     NormalEquations(derivatives, damping, y, model, w, free_exponent, fit.jtj, g);
-    if (Converged(fit, g, free_exponent, n)) break;
+    if (Converged(fit, g, free_exponent, n)) {
+      fit.converged = true;
+      break;
+    }
+    if (valleys && std::any_of(valleys->begin(), valleys->end(),
+                               [&](const Fit& v) { return InValley(v, fit.q, n); })) {
+      fit.joined = true;
+      break;
+    }
     bool improved = false, small = false;
     for (int tries = 0; tries < 12 && !improved; ++tries) {
       Mat a = fit.jtj;
@@ -209,7 +230,10 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
         lambda *= 10.0;
       }
     }
-    if (!improved || small) break;
+    if (!improved || small) {
+      fit.converged = true;
+      break;
+    }
   }
   fit.e.resize(n);
   for (std::size_t i = 0; i < n; ++i) fit.e[i] = std::sqrt(w[i]) * (y[i] - model[i]);
@@ -332,16 +356,18 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
         guess(start->Fs_N, start->vs_mm_s, start->sigma0_N_per_um, start->sigma1_N_s_per_mm, 2.0),
         false);
   } else {
-    // The starts are independent: solved side by side, the best taken in their order.
+    // Six starts, one after the other: a start that enters the valley of an earlier one's
+    // minimum stops there (it would end at that minimum). The best end is carried on.
     constexpr double kSpeeds[] = {0.3, 1.0, 3.0};
-    std::vector<Fit> starts(6);
-    ParallelFor(starts.size(), [&](std::size_t k) {
-      starts[k] = Solve(
+    std::vector<Fit> ends;
+    for (std::size_t k = 0; k < 6; ++k) {
+      const Fit f = Solve(
           s, ws, y, wt, sliding, Reading::kLinear,
           guess(1.2 * r.coulomb_N, kSpeeds[k / 2], sigma0, k % 2 == 0 ? 0.0 : 0.5 * critical, 2.0),
-          false, 12);
-    });
-    for (const Fit& f : starts)
+          false, 12, &ends);
+      if (!f.joined) ends.push_back(f);
+    }
+    for (const Fit& f : ends)
       if (f.rss < gauss.rss) gauss = f;
     gauss = Solve(s, ws, y, wt, sliding, Reading::kLinear, gauss.q, false);
   }
