@@ -66,10 +66,11 @@ void RiseOf(const LugreParameters& p, const A& speed, bool derivatives, bool exp
 }
 
 // The steps of constant speed of one window: speed |v| (mm/s), its sign and length (s) of each
-// (a step standing is left out: z holds), and for each sample the speed at which its force is
-// read and the number of steps before it.
+// (a step standing is left out: z holds), for each sample the speed at which its force is
+// read and the number of steps before it, and the speeds |v| of the samples read moving (the
+// force of a sample read at rest does not depend on the rise).
 struct Motion {
-  std::vector<double> speed, sign, h, read;
+  std::vector<double> speed, sign, h, read, moving;
   std::vector<std::size_t> before;
   void Add(double v, double dt) {
     if (v == 0.0) return;
@@ -85,6 +86,7 @@ void MotionOf(const Strokes& s, const Window& w, Reading reading, Motion& m) {
   m.h.clear();
   m.read.assign(1, s.v[w.first]);
   m.before.assign(1, 0);
+  m.moving.clear();
   for (std::size_t i = w.first + 1; i <= w.last; ++i) {
     const double dt = s.t[i] - s.t[i - 1], mean = (s.x[i] - s.x[i - 1]) / dt;
     const bool standing = s.v[i - 1] == 0.0 && s.v[i] == 0.0 && mean == 0.0;
@@ -103,16 +105,17 @@ void MotionOf(const Strokes& s, const Window& w, Reading reading, Motion& m) {
     }
     m.before.push_back(m.speed.size());
   }
+  for (double v : m.read)
+    if (v != 0.0) m.moving.push_back(std::abs(v));
 }
 
-// The rise at the speeds of samples first … first + kBlock − 1 of `m` (the block padded with
-// zero speeds past the window's last sample).
+// The rise at the speeds m.moving[first … first + kBlock − 1] (the block padded with zero
+// speeds past the window's last).
 void ReadRiseOf(const LugreParameters& p, const Motion& m, std::size_t first, bool derivatives,
                 bool exponent, Rise<Block>& r) {
   Block speed = Block::Zero();
-  const std::size_t n = std::min<std::size_t>(kBlock, m.read.size() - first);
-  for (std::size_t j = 0; j < n; ++j)
-    speed[static_cast<Eigen::Index>(j)] = std::abs(m.read[first + j]);
+  const std::size_t n = std::min<std::size_t>(kBlock, m.moving.size() - first);
+  for (std::size_t j = 0; j < n; ++j) speed[static_cast<Eigen::Index>(j)] = m.moving[first + j];
   RiseOf(p, speed, derivatives, exponent, r);
 }
 
@@ -179,11 +182,12 @@ inline void Advance(const StepTerms& t, int j, int params, State& st) {
   st.z = t.z_ss[j] + lag * e;
 }
 
-// The force σ0 z + σ1 dz/dt at a sample read at speed v, with the rise `rise` at index i.
+// The force σ0 z + σ1 dz/dt at a sample read at speed v, with the rise `rise` at index i when
+// moving (at rest dz/dt = 0 and the rise is not read).
 void Emit(const LugreParameters& p, const State& st, double v, const Rise<Block>& rise,
           Eigen::Index i, std::vector<double>& out, std::vector<double>* damping,
           std::vector<BristleDerivatives>* derivatives) {
-  const double vu = 1e3 * v, g = rise.g[i];
+  const double vu = 1e3 * v, g = v == 0.0 ? 1.0 : rise.g[i];
   const double zdot = v == 0.0 ? 0.0 : vu - p.sigma0_N_per_um * std::abs(vu) * st.z / g;  // µm/s
   out.push_back(p.sigma0_N_per_um * st.z + p.sigma1_N_s_per_mm * 1e-3 * zdot);
   if (damping) damping->push_back(1e-3 * zdot);
@@ -192,7 +196,7 @@ void Emit(const LugreParameters& p, const State& st, double v, const Rise<Block>
   BristleDerivatives d{};
   for (int k = 0; k < kBristleParams; ++k) {
     const double own = k == kSigma0 ? 1.0 : 0.0;
-    const double d_rate = rate * (own - rise.d[k][i] / g);
+    const double d_rate = v == 0.0 ? 0.0 : rate * (own - rise.d[k][i] / g);
     const double d_zdot = v == 0.0 ? 0.0 : -(d_rate * st.z + rate * st.dz[k]);
     d[k] = own * p.sigma0_N_per_um * st.z + p.sigma0_N_per_um * st.dz[k] +
            p.sigma1_N_s_per_mm * 1e-3 * d_zdot;
@@ -223,8 +227,10 @@ void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugrePa
   Rise<Block> read_rise;
   for (const auto& w : ws) {
     MotionOf(s, w, reading, m);
-    std::size_t read_first = 0;
-    ReadRiseOf(p, m, read_first, with, exponent, read_rise);
+    // The rise at the speeds of the samples read moving, a block at a time: `slot` counts
+    // them, the block holds those from `read_first` on.
+    std::size_t read_first = 0, slot = 0;
+    if (!m.moving.empty()) ReadRiseOf(p, m, read_first, with, exponent, read_rise);
     State st = SlidingState(p, s.v[w.first], with, exponent);
     // Sample k is read once the steps before it (m.before[k]) have been taken.
     std::size_t k = 0;
@@ -235,12 +241,17 @@ void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugrePa
           Repeat(out, damping, derivatives);
           continue;
         }
-        if (k >= read_first + kBlock) {  // the rise at the next block of samples' speeds
-          read_first = k;
+        if (m.read[k] == 0.0) {
+          Emit(p, st, 0.0, read_rise, 0, out, damping, derivatives);
+          continue;
+        }
+        if (slot >= read_first + kBlock) {  // the rise at the next block of speeds
+          read_first = slot;
           ReadRiseOf(p, m, read_first, with, exponent, read_rise);
         }
-        Emit(p, st, m.read[k], read_rise, static_cast<Eigen::Index>(k - read_first), out, damping,
-             derivatives);
+        Emit(p, st, m.read[k], read_rise, static_cast<Eigen::Index>(slot - read_first), out,
+             damping, derivatives);
+        ++slot;
       }
     };
     emit_through(0);
