@@ -10,7 +10,13 @@
 // arrays that stay in the first-level cache (exponentials and divisions a SIMD packet at a
 // time); the recursion in z and its derivatives is then a few multiply-adds a step.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define KM_BRISTLES_AVX2 1
+#endif
 
 #include <Eigen/Core>
 
@@ -65,6 +71,99 @@ void RiseOf(const LugreParameters& p, const A& speed, bool derivatives, bool exp
   if (p.stribeck_form == LugreParameters::Form::kLorentzian) r.d[3] = A::Zero(u.size());
 }
 
+#if KM_BRISTLES_AVX2
+
+// Four lanes of what the Eigen expressions of RiseOf and StepTermsOf compute on SSE2 packets of
+// two, operation for operation (no fused multiply-add: Eigen's SSE2 pmadd is a product then a
+// sum; min and max with Eigen's order of arguments, which decides what a NaN gives), so bit for
+// bit the same. For the rises without a logarithm: the Lorentzian, and exp(−(v/v_s)²) unless
+// its derivative in ln δ is asked.
+
+std::atomic<bool> avx2_allowed{true};
+
+bool HasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has && avx2_allowed.load(std::memory_order_relaxed);
+}
+
+__attribute__((target("avx2"))) inline __m256d Set(double v) {
+  return _mm256_set1_pd(v);
+}
+
+__attribute__((target("avx2"))) inline __m256d Negate(__m256d a) {
+  return _mm256_xor_pd(a, Set(-0.0));
+}
+
+// a · 2^e for integral e, as Eigen's SSE2 pldexp: e clamped to ±2099 and 2^e applied in four
+// factors, so that subnormal and vanishing results round as there.
+__attribute__((target("avx2"))) __m256d Ldexp4(__m256d a, __m256d exponent) {
+  const __m256d e = _mm256_min_pd(Set(2099.0), _mm256_max_pd(Set(-2099.0), exponent));
+  const __m128i ei = _mm256_cvtpd_epi32(e);
+  const __m128i b = _mm_srai_epi32(ei, 2);  // floor(e/4)
+  const __m256i bias = _mm256_set1_epi64x(1023);
+  const __m256d c =
+      _mm256_castsi256_pd(_mm256_slli_epi64(_mm256_add_epi64(_mm256_cvtepi32_epi64(b), bias), 52));
+  __m256d out = _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(a, c), c), c);
+  const __m128i rest = _mm_sub_epi32(_mm_sub_epi32(_mm_sub_epi32(ei, b), b), b);
+  const __m256d c2 = _mm256_castsi256_pd(
+      _mm256_slli_epi64(_mm256_add_epi64(_mm256_cvtepi32_epi64(rest), bias), 52));
+  return _mm256_mul_pd(out, c2);
+}
+
+// Eigen 3.4's pexp_double (Cephes' rational approximation).
+__attribute__((target("avx2"))) __m256d Exp4(__m256d x0) {
+  __m256d x = _mm256_max_pd(Set(-709.784), _mm256_min_pd(Set(709.784), x0));
+  __m256d fx =
+      _mm256_floor_pd(_mm256_add_pd(_mm256_mul_pd(Set(1.4426950408889634073599), x), Set(0.5)));
+  x = _mm256_sub_pd(x, _mm256_mul_pd(fx, Set(0.693145751953125)));
+  x = _mm256_sub_pd(x, _mm256_mul_pd(fx, Set(1.42860682030941723212e-6)));
+  const __m256d x2 = _mm256_mul_pd(x, x);
+  __m256d px = _mm256_add_pd(_mm256_mul_pd(Set(1.26177193074810590878e-4), x2),
+                             Set(3.02994407707441961300e-2));
+  px = _mm256_add_pd(_mm256_mul_pd(px, x2), Set(9.99999999999999999910e-1));
+  px = _mm256_mul_pd(px, x);
+  __m256d qx = _mm256_add_pd(_mm256_mul_pd(Set(3.00198505138664455042e-6), x2),
+                             Set(2.52448340349684104192e-3));
+  qx = _mm256_add_pd(_mm256_mul_pd(qx, x2), Set(2.27265548208155028766e-1));
+  qx = _mm256_add_pd(_mm256_mul_pd(qx, x2), Set(2.00000000000000000009e0));
+  x = _mm256_div_pd(px, _mm256_sub_pd(qx, px));
+  x = _mm256_add_pd(_mm256_mul_pd(Set(2.0), x), Set(1.0));
+  return _mm256_max_pd(x0, Ldexp4(x, fx));
+}
+
+// Whether RiseOf4 computes the rise of `p` (no logarithm needed).
+bool RiseOf4Covers(const LugreParameters& p, bool derivatives, bool exponent) {
+  return p.stribeck_form == LugreParameters::Form::kLorentzian ||
+         (p.stribeck_exponent == 2.0 && !(derivatives && exponent));
+}
+
+// RiseOf at the four speeds from `speed` + j into lane j of `r`.
+template <typename A>
+__attribute__((target("avx2"))) void RiseOf4(const LugreParameters& p, const double* speed,
+                                             Eigen::Index j, bool derivatives, Rise<A>& r) {
+  const __m256d u =
+      _mm256_max_pd(Set(1e-300), _mm256_div_pd(_mm256_loadu_pd(speed + j), Set(p.vs_mm_s)));
+  __m256d shape, by_vs;
+  if (p.stribeck_form == LugreParameters::Form::kLorentzian) {
+    const __m256d u2 = _mm256_mul_pd(u, u);
+    shape = _mm256_div_pd(Set(1.0), _mm256_add_pd(Set(1.0), u2));
+    by_vs = _mm256_mul_pd(_mm256_mul_pd(Set(2.0), u2), _mm256_mul_pd(shape, shape));
+  } else {
+    const __m256d power = _mm256_mul_pd(u, u);
+    shape = Exp4(Negate(power));
+    by_vs = _mm256_mul_pd(_mm256_mul_pd(Set(p.stribeck_exponent), power), shape);
+  }
+  const double rise = p.Fs_N - p.Fc_N;
+  _mm256_storeu_pd(r.g.data() + j, _mm256_add_pd(Set(p.Fc_N), _mm256_mul_pd(Set(rise), shape)));
+  if (!derivatives) return;
+  _mm256_storeu_pd(r.d[0].data() + j, _mm256_mul_pd(Set(p.Fs_N), shape));
+  _mm256_storeu_pd(r.d[1].data() + j, _mm256_mul_pd(Set(rise), by_vs));
+  _mm256_storeu_pd(r.d[kSigma0].data() + j, _mm256_setzero_pd());
+  _mm256_storeu_pd(r.d[3].data() + j, _mm256_setzero_pd());
+}
+
+#endif
+
 // The steps of constant speed of one window: speed |v| (mm/s), its sign and length (s) of each
 // (a step standing is left out: z holds), for each sample the speed at which its force is
 // read and the number of steps before it, and the speeds |v| of the samples read moving (the
@@ -116,6 +215,13 @@ void ReadRiseOf(const LugreParameters& p, const Motion& m, std::size_t first, bo
   Block speed = Block::Zero();
   const std::size_t n = std::min<std::size_t>(kBlock, m.moving.size() - first);
   for (std::size_t j = 0; j < n; ++j) speed[static_cast<Eigen::Index>(j)] = m.moving[first + j];
+#if KM_BRISTLES_AVX2
+  if (HasAvx2() && RiseOf4Covers(p, derivatives, exponent)) {
+    for (Eigen::Index j = 0; j < static_cast<Eigen::Index>(n); j += 4)
+      RiseOf4(p, speed.data(), j, derivatives, r);
+    return;
+  }
+#endif
   RiseOf(p, speed, derivatives, exponent, r);
 }
 
@@ -124,6 +230,47 @@ void ReadRiseOf(const LugreParameters& p, const Motion& m, std::size_t first, bo
 struct StepTerms {
   Block z_ss, e, a[kBristleParams], b[kBristleParams];
 };
+
+#if KM_BRISTLES_AVX2
+
+// StepTermsOf's Eigen expressions on four lanes, bit for bit (see RiseOf4), for the `len`
+// steps of the block from `speed`, `sign` and `h` (rounded up to whole lanes).
+__attribute__((target("avx2"))) void StepTermsOf4(const LugreParameters& p, const Block& speed,
+                                                  const Block& sign, const Block& h, int len,
+                                                  bool derivatives, StepTerms& t) {
+  Rise<Block> rise;
+  const double side = 1.0 / p.sigma0_N_per_um, stiff = p.sigma0_N_per_um * 1e3;
+  for (Eigen::Index j = 0; j < len; j += 4) {
+    RiseOf4(p, speed.data(), j, derivatives, rise);
+    const __m256d g = _mm256_loadu_pd(rise.g.data() + j), hj = _mm256_loadu_pd(h.data() + j);
+    const __m256d inv_g = _mm256_div_pd(Set(1.0), g);
+    const __m256d rate =
+        _mm256_mul_pd(_mm256_mul_pd(Set(stiff), _mm256_loadu_pd(speed.data() + j)), inv_g);
+    const __m256d by_s0 = _mm256_mul_pd(Set(side), _mm256_loadu_pd(sign.data() + j));
+    const __m256d z_ss = _mm256_mul_pd(by_s0, g);
+    const __m256d e = Exp4(_mm256_mul_pd(Negate(rate), hj));
+    _mm256_storeu_pd(t.z_ss.data() + j, z_ss);
+    _mm256_storeu_pd(t.e.data() + j, e);
+    if (!derivatives) continue;
+    const __m256d by_g = _mm256_mul_pd(rate, inv_g), he = _mm256_mul_pd(hj, e);
+    const __m256d decay = _mm256_sub_pd(Set(1.0), e);
+    for (int k = 0; k < kBristleParams - 1; ++k) {
+      const __m256d d = _mm256_loadu_pd(rise.d[k].data() + j);
+      __m256d a, b;
+      if (k == kSigma0) {
+        a = _mm256_mul_pd(_mm256_sub_pd(_mm256_mul_pd(by_s0, d), z_ss), decay);
+        b = _mm256_mul_pd(he, _mm256_sub_pd(rate, _mm256_mul_pd(by_g, d)));
+      } else {
+        a = _mm256_mul_pd(_mm256_mul_pd(by_s0, d), decay);
+        b = _mm256_mul_pd(Negate(he), _mm256_mul_pd(by_g, d));
+      }
+      _mm256_storeu_pd(t.a[k].data() + j, a);
+      _mm256_storeu_pd(t.b[k].data() + j, b);
+    }
+  }
+}
+
+#endif
 
 // Steps first … first + len − 1 of `m` (the rest of the block repeats the last step, unused).
 void StepTermsOf(const LugreParameters& p, const Motion& m, std::size_t first, int len,
@@ -135,6 +282,12 @@ void StepTermsOf(const LugreParameters& p, const Motion& m, std::size_t first, i
     sign[j] = m.sign[i];
     h[j] = m.h[i];
   }
+#if KM_BRISTLES_AVX2
+  if (HasAvx2() && RiseOf4Covers(p, derivatives, exponent)) {
+    StepTermsOf4(p, speed, sign, h, len, derivatives, t);
+    return;
+  }
+#endif
   Rise<Block> rise;
   RiseOf(p, speed, derivatives, exponent, rise);
   const Block inv_g = 1.0 / rise.g;
@@ -213,6 +366,12 @@ void Repeat(std::vector<double>& out, std::vector<double>* damping,
 }
 
 }  // namespace
+
+void UseBristleAvx2([[maybe_unused]] bool on) {
+#if KM_BRISTLES_AVX2
+  avx2_allowed.store(on, std::memory_order_relaxed);
+#endif
+}
 
 void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
                   Reading reading, std::vector<double>& out, std::vector<double>* damping,

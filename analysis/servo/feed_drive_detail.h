@@ -64,6 +64,9 @@ using BristleDerivatives = std::array<double, kBristleParams>;
 void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
                   Reading reading, std::vector<double>& out, std::vector<double>* damping = nullptr,
                   std::vector<BristleDerivatives>* derivatives = nullptr, bool exponent = false);
+// Whether BristleForce may take its four-lane path where the processor has AVX2 (the default;
+// bit for bit the two-lane one, which the tests compare it with).
+void UseBristleAvx2(bool on);
 // What a LuGre fit leaves for comparing the forms of the Stribeck rise and for judging which
 // parameters the reversals determine.
 struct LugreFit {

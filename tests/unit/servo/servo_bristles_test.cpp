@@ -6,6 +6,8 @@
 // new direction of motion in a shorter travel.
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -82,6 +84,56 @@ void ExpectDerivativesMatchDifferences(const LugreParameters& p, Reading reading
   BristleForce(s, ws, q, reading, more);
   for (std::size_t i = 0; i < force.size(); ++i)
     EXPECT_NEAR(more[i] - force[i], damping[i], 1e-9 * (1.0 + std::abs(force[i])));
+}
+
+// The four-lane path (where the processor has AVX2) gives the force, the damping and the
+// derivatives bit for bit as the two-lane one: for the rises it covers (Gaussian, Lorentzian)
+// and those it leaves to the other (a fitted exponent), both readings, and bristles so stiff
+// that the decay over a step underflows (exp of −709 and beyond, subnormal and zero results).
+TEST(ServoBristles, FourLanePathIsBitForBitTheTwoLaneOne) {
+  const Strokes s = Reversal();
+  const std::vector<Window> ws{{0, 399}};
+  struct Case {
+    LugreParameters p;
+    bool exponent;
+  };
+  std::vector<Case> cases;
+  for (auto form : {LugreParameters::Form::kExponential, LugreParameters::Form::kLorentzian}) {
+    for (double sigma0 : {4.4, 3e4, 9e6}) {
+      LugreParameters p = Params(form, 2.0);
+      p.sigma0_N_per_um = sigma0;
+      cases.push_back({p, false});
+      cases.push_back({p, true});
+    }
+  }
+  cases.push_back({Params(LugreParameters::Form::kExponential, 1.37), true});
+  for (const auto& c : cases) {
+    for (Reading reading : {Reading::kLinear, Reading::kConstant}) {
+      std::array<std::vector<double>, 2> force, damping;
+      std::array<std::vector<BristleDerivatives>, 2> d;
+      for (int lanes = 0; lanes < 2; ++lanes) {
+        UseBristleAvx2(lanes == 1);
+        BristleForce(s, ws, c.p, reading, force[lanes], &damping[lanes], &d[lanes], c.exponent);
+      }
+      UseBristleAvx2(true);
+      const auto bits = [](const std::vector<double>& v) {
+        std::vector<std::uint64_t> out(v.size());
+        std::memcpy(out.data(), v.data(), v.size() * sizeof(double));
+        return out;
+      };
+      EXPECT_EQ(bits(force[0]), bits(force[1])) << c.p.sigma0_N_per_um;
+      EXPECT_EQ(bits(damping[0]), bits(damping[1])) << c.p.sigma0_N_per_um;
+      ASSERT_EQ(d[0].size(), d[1].size());
+      for (std::size_t i = 0; i < d[0].size(); ++i) {
+        for (int k = 0; k < kBristleParams; ++k) {
+          std::uint64_t a = 0, b = 0;
+          std::memcpy(&a, &d[0][i][k], sizeof a);
+          std::memcpy(&b, &d[1][i][k], sizeof b);
+          ASSERT_EQ(a, b) << "sample " << i << " parameter " << k << " σ0 " << c.p.sigma0_N_per_um;
+        }
+      }
+    }
+  }
 }
 
 TEST(ServoBristles, DerivativesOfTheGaussianRise) {
