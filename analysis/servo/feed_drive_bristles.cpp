@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <memory>
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
@@ -168,7 +169,9 @@ __attribute__((target("avx2"))) void RiseOf4(const LugreParameters& p, const dou
 // (a step standing is left out: z holds), for each sample the speed at which its force is
 // read and the number of steps before it, and the speeds |v| of the samples read moving (the
 // force of a sample read at rest does not depend on the rise).
-struct Motion {
+}  // namespace
+
+struct BristleMotion {
   std::vector<double> speed, sign, h, read, moving;
   std::vector<std::size_t> before;
   void Add(double v, double dt) {
@@ -179,7 +182,9 @@ struct Motion {
   }
 };
 
-void MotionOf(const Strokes& s, const Window& w, Reading reading, Motion& m) {
+namespace {
+
+void MotionOf(const Strokes& s, const Window& w, Reading reading, BristleMotion& m) {
   m.speed.clear();
   m.sign.clear();
   m.h.clear();
@@ -210,8 +215,8 @@ void MotionOf(const Strokes& s, const Window& w, Reading reading, Motion& m) {
 
 // The rise at the speeds m.moving[first … first + kBlock − 1] (the block padded with zero
 // speeds past the window's last).
-void ReadRiseOf(const LugreParameters& p, const Motion& m, std::size_t first, bool derivatives,
-                bool exponent, Rise<Block>& r) {
+void ReadRiseOf(const LugreParameters& p, const BristleMotion& m, std::size_t first,
+                bool derivatives, bool exponent, Rise<Block>& r) {
   Block speed = Block::Zero();
   const std::size_t n = std::min<std::size_t>(kBlock, m.moving.size() - first);
   for (std::size_t j = 0; j < n; ++j) speed[static_cast<Eigen::Index>(j)] = m.moving[first + j];
@@ -273,7 +278,7 @@ __attribute__((target("avx2"))) void StepTermsOf4(const LugreParameters& p, cons
 #endif
 
 // Steps first … first + len − 1 of `m` (the rest of the block repeats the last step, unused).
-void StepTermsOf(const LugreParameters& p, const Motion& m, std::size_t first, int len,
+void StepTermsOf(const LugreParameters& p, const BristleMotion& m, std::size_t first, int len,
                  bool derivatives, bool exponent, StepTerms& t) {
   Block speed, sign, h;
   for (int j = 0; j < kBlock; ++j) {
@@ -373,56 +378,90 @@ void UseBristleAvx2([[maybe_unused]] bool on) {
 #endif
 }
 
-void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
-                  Reading reading, std::vector<double>& out, std::vector<double>* damping,
+struct BristlePath::Motions {
+  std::vector<BristleMotion> windows;
+};
+
+BristlePath::BristlePath(const Strokes& s, const std::vector<Window>& ws, Reading reading)
+    : motions_(std::make_unique<Motions>()) {
+  motions_->windows.resize(ws.size());
+  for (std::size_t k = 0; k < ws.size(); ++k) MotionOf(s, ws[k], reading, motions_->windows[k]);
+}
+
+BristlePath::~BristlePath() = default;
+
+namespace {
+
+// Scratch of one evaluation: a block of step terms and of rises at the samples' speeds.
+struct Scratch {
+  StepTerms terms;
+  Rise<Block> read_rise;
+};
+
+// The force of window w along its motion m, appended to the outputs: sample k is read once the
+// steps before it (m.before[k]) have been taken, the step terms formed a block at a time.
+void WindowForce(const Strokes& s, const Window& w, const BristleMotion& m,
+                 const LugreParameters& p, bool exponent, Scratch& scratch,
+                 std::vector<double>& out, std::vector<double>* damping,
+                 std::vector<BristleDerivatives>* derivatives) {
+  const bool with = derivatives != nullptr;
+  const int params = with ? Params(exponent) : 0;
+  StepTerms& terms = scratch.terms;
+  Rise<Block>& read_rise = scratch.read_rise;
+  // The rise at the speeds of the samples read moving, a block at a time: `slot` counts them,
+  // the block holds those from `read_first` on.
+  std::size_t read_first = 0, slot = 0;
+  if (!m.moving.empty()) ReadRiseOf(p, m, read_first, with, exponent, read_rise);
+  State st = SlidingState(p, s.v[w.first], with, exponent);
+  std::size_t step = 0, block_first = 0, block_end = 0;
+  for (std::size_t k = 0; k < m.read.size(); ++k) {
+    for (; step < m.before[k]; ++step) {
+      if (step == block_end) {
+        const int len = static_cast<int>(std::min<std::size_t>(kBlock, m.speed.size() - step));
+        StepTermsOf(p, m, step, len, with, exponent, terms);
+        block_first = step;
+        block_end = step + static_cast<std::size_t>(len);
+      }
+      Advance(terms, static_cast<int>(step - block_first), params, st);
+    }
+    // A sample of a standstill after one: the same state read at rest, the same force.
+    if (k > 0 && m.read[k] == 0.0 && m.read[k - 1] == 0.0 && m.before[k] == m.before[k - 1]) {
+      Repeat(out, damping, derivatives);
+      continue;
+    }
+    if (m.read[k] == 0.0) {
+      Emit(p, st, 0.0, read_rise, 0, out, damping, derivatives);
+      continue;
+    }
+    if (slot >= read_first + kBlock) {  // the rise at the next block of speeds
+      read_first = slot;
+      ReadRiseOf(p, m, read_first, with, exponent, read_rise);
+    }
+    Emit(p, st, m.read[k], read_rise, static_cast<Eigen::Index>(slot - read_first), out, damping,
+         derivatives);
+    ++slot;
+  }
+}
+
+}  // namespace
+
+void BristleForce(const Strokes& s, const std::vector<Window>& ws, const BristlePath& path,
+                  const LugreParameters& p, std::vector<double>& out, std::vector<double>* damping,
                   std::vector<BristleDerivatives>* derivatives, bool exponent) {
   out.clear();
   if (damping) damping->clear();
   if (derivatives) derivatives->clear();
-  const bool with = derivatives != nullptr;
-  const int params = with ? Params(exponent) : 0;
-  Motion m;
-  StepTerms terms;
-  Rise<Block> read_rise;
-  for (const auto& w : ws) {
-    MotionOf(s, w, reading, m);
-    // The rise at the speeds of the samples read moving, a block at a time: `slot` counts
-    // them, the block holds those from `read_first` on.
-    std::size_t read_first = 0, slot = 0;
-    if (!m.moving.empty()) ReadRiseOf(p, m, read_first, with, exponent, read_rise);
-    State st = SlidingState(p, s.v[w.first], with, exponent);
-    // Sample k is read once the steps before it (m.before[k]) have been taken.
-    std::size_t k = 0;
-    const auto emit_through = [&](std::size_t steps) {
-      for (; k < m.read.size() && m.before[k] <= steps; ++k) {
-        // A sample of a standstill after one: the same state read at rest, the same force.
-        if (k > 0 && m.read[k] == 0.0 && m.read[k - 1] == 0.0 && m.before[k] == m.before[k - 1]) {
-          Repeat(out, damping, derivatives);
-          continue;
-        }
-        if (m.read[k] == 0.0) {
-          Emit(p, st, 0.0, read_rise, 0, out, damping, derivatives);
-          continue;
-        }
-        if (slot >= read_first + kBlock) {  // the rise at the next block of speeds
-          read_first = slot;
-          ReadRiseOf(p, m, read_first, with, exponent, read_rise);
-        }
-        Emit(p, st, m.read[k], read_rise, static_cast<Eigen::Index>(slot - read_first), out,
-             damping, derivatives);
-        ++slot;
-      }
-    };
-    emit_through(0);
-    for (std::size_t first = 0; first < m.speed.size(); first += kBlock) {
-      const int len = static_cast<int>(std::min<std::size_t>(kBlock, m.speed.size() - first));
-      StepTermsOf(p, m, first, len, with, exponent, terms);
-      for (int j = 0; j < len; ++j) {
-        Advance(terms, j, params, st);
-        emit_through(first + static_cast<std::size_t>(j) + 1);
-      }
-    }
+  Scratch scratch;
+  for (std::size_t k = 0; k < ws.size(); ++k) {
+    WindowForce(s, ws[k], path.motions().windows[k], p, exponent, scratch, out, damping,
+                derivatives);
   }
+}
+
+void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
+                  Reading reading, std::vector<double>& out, std::vector<double>* damping,
+                  std::vector<BristleDerivatives>* derivatives, bool exponent) {
+  BristleForce(s, ws, BristlePath(s, ws, reading), p, out, damping, derivatives, exponent);
 }
 
 }  // namespace km::servo::detail

@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,25 @@ using BristleDerivatives = std::array<double, kBristleParams>;
 void BristleForce(const Strokes& s, const std::vector<Window>& ws, const LugreParameters& p,
                   Reading reading, std::vector<double>& out, std::vector<double>* damping = nullptr,
                   std::vector<BristleDerivatives>* derivatives = nullptr, bool exponent = false);
+// The motion of the windows as BristleForce integrates it (its steps of constant speed, the
+// speeds the samples are read at), which depends on the records and the reading only: formed
+// once for the many evaluations of a fit.
+class BristlePath {
+ public:
+  BristlePath(const Strokes& s, const std::vector<Window>& ws, Reading reading);
+  ~BristlePath();
+  BristlePath(const BristlePath&) = delete;
+  BristlePath& operator=(const BristlePath&) = delete;
+  struct Motions;
+  const Motions& motions() const { return *motions_; }
+
+ private:
+  std::unique_ptr<Motions> motions_;
+};
+// BristleForce along a path formed beforehand (of the same records, windows and reading).
+void BristleForce(const Strokes& s, const std::vector<Window>& ws, const BristlePath& path,
+                  const LugreParameters& p, std::vector<double>& out, std::vector<double>* damping,
+                  std::vector<BristleDerivatives>* derivatives, bool exponent);
 // Whether BristleForce may take its four-lane path where the processor has AVX2 (the default;
 // bit for bit the two-lane one, which the tests compare it with).
 void UseBristleAvx2(bool on);

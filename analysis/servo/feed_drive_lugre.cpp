@@ -182,9 +182,10 @@ Fit Solve(const Strokes& s, const std::vector<Window>& ws, const std::vector<dou
   // trial brings the next iteration's Jacobian along instead of a pass of its own.
   std::vector<double> model, shifted, damping, trial_damping;
   std::vector<BristleDerivatives> derivatives, trial_derivatives;
+  const BristlePath path(s, ws, reading);
   const auto residual = [&](const Vec& q, std::vector<double>& m, std::vector<double>& d,
                             std::vector<BristleDerivatives>& dq) {
-    BristleForce(s, ws, FromVec(q, sliding), reading, m, &d, &dq, free_exponent);
+    BristleForce(s, ws, path, FromVec(q, sliding), m, &d, &dq, free_exponent);
     double ss = 0.0;
     for (std::size_t i = 0; i < n; ++i) ss += w[i] * (y[i] - m[i]) * (y[i] - m[i]);
     return ss;
