@@ -11,6 +11,7 @@
 #include "analysis/core/errors.h"
 #include "analysis/core/gram.h"
 #include "analysis/core/minimize_1d.h"
+#include "analysis/core/parallel.h"
 #include "analysis/core/sincos.h"
 #include "analysis/servo/feed_drive_detail.h"
 
@@ -71,17 +72,21 @@ constexpr std::size_t kRowBlock = 256;
 // offset, slope, Coulomb, viscous, moving mass, then for each ripple component cos w and sin w
 // (w = 2πx/P) and, `by_period`, the derivative of a cos w + b sin w in P — followed by the
 // weighted target √w (f − known) and √w times each of `extra` (given for every sample).
-Eigen::MatrixXd Gram(const Strokes& s, const Rows& r, const std::vector<Component>& comps,
-                     bool by_period, const std::vector<const std::vector<double>*>& extra = {}) {
-  const int per = by_period ? 3 : 2, p = kBase + per * static_cast<int>(comps.size());
-  const int m = p + 1 + static_cast<int>(extra.size());
-  std::vector<double> buffer(static_cast<std::size_t>(m) * kRowBlock), w(kRowBlock), sn(kRowBlock),
-      cs(kRowBlock);
-  std::vector<double*> col(static_cast<std::size_t>(m));
+struct GramLayout {
+  int per = 2, p = kBase, m = kBase + 1;  // columns a component, fit's columns, all columns
+};
+
+// Gram's products over the rows first … last − 1, added to g (its lower half).
+void AddRowsToGram(const Strokes& s, const Rows& r, const std::vector<Component>& comps,
+                   const std::vector<const std::vector<double>*>& extra, const GramLayout& l,
+                   std::size_t first_row, std::size_t last_row, double* g) {
+  std::vector<double> buffer(static_cast<std::size_t>(l.m) * kRowBlock), w(kRowBlock),
+      sn(kRowBlock), cs(kRowBlock);
+  std::vector<double*> col(static_cast<std::size_t>(l.m));
   for (std::size_t j = 0; j < col.size(); ++j) col[j] = buffer.data() + j * kRowBlock;
-  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(m, m);
-  for (std::size_t first = 0; first < r.index.size(); first += kRowBlock) {
-    const std::size_t len = std::min(kRowBlock, r.index.size() - first);
+  const auto p = static_cast<std::size_t>(l.p);
+  for (std::size_t first = first_row; first < last_row; first += kRowBlock) {
+    const std::size_t len = std::min(kRowBlock, last_row - first);
     for (std::size_t t = 0; t < len; ++t) {
       const std::size_t i = r.index[first + t];
       const double sw = r.sw[static_cast<Eigen::Index>(first + t)];
@@ -90,24 +95,44 @@ Eigen::MatrixXd Gram(const Strokes& s, const Rows& r, const std::vector<Componen
       col[2][t] = sw * Sign(s.v[i]);
       col[3][t] = sw * s.v[i];
       col[4][t] = sw * (1e-3 * s.a[i]);
-      col[static_cast<std::size_t>(p)][t] = r.y[static_cast<Eigen::Index>(first + t)];
-      for (std::size_t e = 0; e < extra.size(); ++e)
-        col[static_cast<std::size_t>(p) + 1 + e][t] = sw * (*extra[e])[i];
+      col[p][t] = r.y[static_cast<Eigen::Index>(first + t)];
+      for (std::size_t e = 0; e < extra.size(); ++e) col[p + 1 + e][t] = sw * (*extra[e])[i];
     }
     for (std::size_t c = 0; c < comps.size(); ++c) {
       const Component& q = comps[c];
       for (std::size_t t = 0; t < len; ++t) w[t] = kTwoPi * s.x[r.index[first + t]] / q.period;
       SinCosArray(w.data(), sn.data(), cs.data(), len);
-      double* const* out = col.data() + kBase + static_cast<std::size_t>(per) * c;
+      double* const* out = col.data() + kBase + static_cast<std::size_t>(l.per) * c;
       for (std::size_t t = 0; t < len; ++t) {
         const double sw = r.sw[static_cast<Eigen::Index>(first + t)];
         out[0][t] = sw * cs[t];
         out[1][t] = sw * sn[t];
-        if (by_period) out[2][t] = sw * ((w[t] / q.period) * (q.a * sn[t] - q.b * cs[t]));
+        if (l.per == 3) out[2][t] = sw * ((w[t] / q.period) * (q.a * sn[t] - q.b * cs[t]));
       }
     }
-    AddGram(col.data(), m, len, g.data());
+    AddGram(col.data(), l.m, len, g);
   }
+}
+
+// The Gram matrix (all products, summed over the rows) of the fit's columns scaled by √w —
+// offset, slope, Coulomb, viscous, moving mass, then for each ripple component cos w and sin w
+// (w = 2πx/P) and, `by_period`, the derivative of a cos w + b sin w in P — followed by the
+// weighted target √w (f − known) and √w times each of `extra` (given for every sample). The
+// two halves of the rows are summed side by side and then added.
+Eigen::MatrixXd Gram(const Strokes& s, const Rows& r, const std::vector<Component>& comps,
+                     bool by_period, const std::vector<const std::vector<double>*>& extra = {}) {
+  GramLayout l;
+  l.per = by_period ? 3 : 2;
+  l.p = kBase + l.per * static_cast<int>(comps.size());
+  l.m = l.p + 1 + static_cast<int>(extra.size());
+  std::array<Eigen::MatrixXd, 2> half;
+  const std::size_t mid = r.index.size() / 2;
+  ParallelFor(2, [&](std::size_t k) {
+    half[k] = Eigen::MatrixXd::Zero(l.m, l.m);
+    AddRowsToGram(s, r, comps, extra, l, k == 0 ? 0 : mid, k == 0 ? mid : r.index.size(),
+                  half[k].data());
+  });
+  Eigen::MatrixXd g = half[0] + half[1];
   g.triangularView<Eigen::StrictlyUpper>() = g.transpose();
   return g;
 }
