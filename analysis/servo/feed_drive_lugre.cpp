@@ -378,21 +378,25 @@ void FitLugre(const Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r,
   std::vector<double> deltas{2.0, 1.0};
   if (lorentzian) deltas.clear();
   if (start && start->stribeck_exponent != 2.0) deltas.push_back(start->stribeck_exponent);
-  // These fits and the Gaussian one under the other reading of the motion are independent:
-  // solved side by side (the last index the other reading).
-  std::vector<Fit> fits(deltas.size() + 1);
-  ParallelFor(fits.size(), [&](std::size_t k) {
-    Vec q0 = gauss.q;
-    if (k == deltas.size()) {
-      fits[k] = Solve(s, ws, y, wt, sliding, Reading::kConstant, q0, false);
+  // The fits of the shape one after the other (one that enters the valley of an earlier one's
+  // minimum stops there), beside the Gaussian one under the other reading of the motion.
+  std::vector<Fit> shapes;
+  Fit other;
+  ParallelFor(2, [&](std::size_t k) {
+    if (k == 1) {
+      other = Solve(s, ws, y, wt, sliding, Reading::kConstant, gauss.q, false);
       return;
     }
-    q0[kExponent] = std::log(deltas[k]);
-    fits[k] = Solve(s, ws, y, wt, sliding, Reading::kLinear, q0, true);
+    for (double delta : deltas) {
+      Vec q0 = gauss.q;
+      q0[kExponent] = std::log(delta);
+      const Fit f = Solve(s, ws, y, wt, sliding, Reading::kLinear, q0, true, 60, &shapes);
+      if (!f.joined) shapes.push_back(f);
+    }
   });
-  for (std::size_t k = 0; k < deltas.size(); ++k)
-    if (fits[k].rss < shaped.rss) shaped = fits[k];
-  const Vec sd_gauss = Uncertainty(gauss, fits.back(), ws, independent);
+  for (const Fit& f : shapes)
+    if (f.rss < shaped.rss) shaped = f;
+  const Vec sd_gauss = Uncertainty(gauss, other, ws, independent);
   const Vec sd_shaped =
       lorentzian
           ? Vec::Zero().eval()
