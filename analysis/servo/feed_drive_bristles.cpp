@@ -80,11 +80,9 @@ void RiseOf(const LugreParameters& p, const A& speed, bool derivatives, bool exp
 // bit the same. For the rises without a logarithm: the Lorentzian, and exp(−(v/v_s)²) unless
 // its derivative in ln δ is asked.
 
-std::atomic<bool> avx2_allowed{true};
-
 bool HasAvx2() {
   static const bool has = __builtin_cpu_supports("avx2");
-  return has && avx2_allowed.load(std::memory_order_relaxed);
+  return has && FeedDriveAvx2Allowed();
 }
 
 __attribute__((target("avx2"))) inline __m256d Set(double v) {
@@ -372,10 +370,16 @@ void Repeat(std::vector<double>& out, std::vector<double>* damping,
 
 }  // namespace
 
-void UseBristleAvx2([[maybe_unused]] bool on) {
-#if KM_BRISTLES_AVX2
+namespace {
+std::atomic<bool> avx2_allowed{true};
+}  // namespace
+
+void UseFeedDriveAvx2(bool on) {
   avx2_allowed.store(on, std::memory_order_relaxed);
-#endif
+}
+
+bool FeedDriveAvx2Allowed() {
+  return avx2_allowed.load(std::memory_order_relaxed);
 }
 
 struct BristlePath::Motions {

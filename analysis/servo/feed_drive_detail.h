@@ -39,6 +39,19 @@ struct Strokes {
 
 Strokes CollectStrokes(const std::vector<const ServoFile*>& files, const std::string& axis,
                        const FeedDriveOptions& o);
+// A sinusoid a cos(2πx/P) + b sin(2πx/P) of the position-dependent part.
+struct RippleComponent {
+  double period = 0.0, a = 0.0, b = 0.0;
+};
+// Dominant periods of the position-dependent part binned at the bin centres `xc` (values `y`):
+// periodogram over a geometric grid of periods in [pmin, pmax], refined by Brent's method,
+// subtracted, repeated while significant (feed_drive_periods.cpp).
+std::vector<RippleComponent> FindPeriods(const std::vector<double>& xc, std::vector<double> y,
+                                         double pmin, double pmax, int max_components);
+// FindPeriods' periodogram: at each of `periods`, the residual sum of squares of the best
+// sinusoid of that period with a constant through the bins.
+std::vector<double> PeriodogramOf(const std::vector<double>& xc, const std::vector<double>& y,
+                                  const std::vector<double>& periods);
 // Steady fit; `r` gets Coulomb, viscous, mass, offset, slope, ripple; `s` the position part,
 // the noise and (through the mass) the weights.
 void FitSteady(Strokes& s, const FeedDriveOptions& o, FeedDriveResult& r);
@@ -84,9 +97,10 @@ class BristlePath {
 void BristleForce(const Strokes& s, const std::vector<Window>& ws, const BristlePath& path,
                   const LugreParameters& p, std::vector<double>& out, std::vector<double>* damping,
                   std::vector<BristleDerivatives>* derivatives, bool exponent);
-// Whether BristleForce may take its four-lane path where the processor has AVX2 (the default;
-// bit for bit the two-lane one, which the tests compare it with).
-void UseBristleAvx2(bool on);
+// Whether BristleForce and FindPeriods may take their four-lane paths where the processor has
+// AVX2 (the default; bit for bit the other paths, which the tests compare them with).
+void UseFeedDriveAvx2(bool on);
+bool FeedDriveAvx2Allowed();
 // What a LuGre fit leaves for comparing the forms of the Stribeck rise and for judging which
 // parameters the reversals determine.
 struct LugreFit {

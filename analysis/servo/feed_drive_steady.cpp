@@ -10,7 +10,6 @@
 
 #include "analysis/core/errors.h"
 #include "analysis/core/gram.h"
-#include "analysis/core/minimize_1d.h"
 #include "analysis/core/parallel.h"
 #include "analysis/core/sincos.h"
 #include "analysis/servo/feed_drive_detail.h"
@@ -24,9 +23,7 @@ constexpr int kBase = 5;
 // The base columns of one sample (no heap per sample).
 using Column = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kBase + 3 * 20, 1>;
 
-struct Component {
-  double period = 0.0, a = 0.0, b = 0.0;
-};
+using Component = RippleComponent;
 
 double Sign(double v) {
   return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0);
@@ -234,97 +231,6 @@ Eigen::Vector2d SlowestFeedShift(Strokes& s, double mass, const std::vector<Comp
     out[k] = std::abs(d) > 2.0 * sd ? d : 0.0;
   }
   return out;
-}
-
-// RSS of the best sinusoid of period p (with a constant) through the bins. The bins lie on a
-// grid (consecutive ones mostly one bin apart): the phase is rotated from bin to bin by the
-// angle of that step, and taken afresh from sin and cos after any other gap and every 64 bins.
-// The normal equations' sums of 1 and y do not depend on p: `fixed` holds them (Σ1, Σy, Σy²).
-struct BinSums {
-  double n = 0.0, y = 0.0, yy = 0.0;
-};
-
-BinSums FixedSums(const std::vector<double>& y) {
-  BinSums f;
-  for (double v : y) {
-    f.n += 1.0;
-    f.y += v;
-    f.yy += v * v;
-  }
-  return f;
-}
-
-double SinusoidRss(const std::vector<double>& xc, const std::vector<double>& y,
-                   const BinSums& fixed, double p, Component* out) {
-  double sc = 0.0, ss = 0.0, scc = 0.0, scs = 0.0, sss = 0.0, syc = 0.0, sys = 0.0;
-  const double step = xc.size() > 1 ? xc[1] - xc[0] : 0.0;
-  const double turn_c = std::cos(kTwoPi * step / p), turn_s = std::sin(kTwoPi * step / p);
-  double c = 0.0, sn = 0.0;
-  for (std::size_t i = 0; i < y.size(); ++i) {
-    const bool rotate = i > 0 && i % 64 != 0 && std::abs(xc[i] - xc[i - 1] - step) <= 1e-9 * step;
-    if (rotate) {
-      const double c_next = c * turn_c - sn * turn_s;
-      sn = sn * turn_c + c * turn_s;
-      c = c_next;
-    } else {
-      c = std::cos(kTwoPi * xc[i] / p);
-      sn = std::sin(kTwoPi * xc[i] / p);
-    }
-    sc += c;
-    ss += sn;
-    scc += c * c;
-    scs += c * sn;
-    sss += sn * sn;
-    syc += c * y[i];
-    sys += sn * y[i];
-  }
-  Eigen::Matrix3d ata;
-  ata << fixed.n, sc, ss, sc, scc, scs, ss, scs, sss;
-  const Eigen::Vector3d atb(fixed.y, syc, sys);
-  const Eigen::Vector3d x = ata.ldlt().solve(atb);
-  if (out) *out = {p, x[1], x[2]};
-  return fixed.yy - x.dot(atb);
-}
-
-// Dominant periods of the binned position-dependent part: periodogram over a geometric grid,
-// refined by Brent's method, subtracted, repeated while significant.
-std::vector<Component> FindPeriods(const std::vector<double>& xc, std::vector<double> y,
-                                   double pmin, double pmax, int max_components) {
-  std::vector<Component> found;
-  const std::size_t nb = y.size();
-  if (nb < 8 || !(pmax > pmin)) return found;
-  for (int c = 0; c < max_components; ++c) {
-    const BinSums fixed = FixedSums(y);
-    const int grid = 400;
-    double best_p = pmin, best_rss = INFINITY;
-    for (int k = 0; k <= grid; ++k) {
-      const double p = pmin * std::pow(pmax / pmin, static_cast<double>(k) / grid);
-      const double rss = SinusoidRss(xc, y, fixed, p, nullptr);
-      if (rss < best_rss) {
-        best_rss = rss;
-        best_p = p;
-      }
-    }
-    // Refined between the grid's neighbours to 10⁻¹⁰ of the period (the joint fit refines it
-    // further).
-    const double step = std::pow(pmax / pmin, 1.0 / grid);
-    const double period =
-        BrentMinimize([&](double q) { return SinusoidRss(xc, y, fixed, q, nullptr); },
-                      best_p / step, best_p * step, 1e-10 * best_p)
-            .x;
-    Component comp;
-    const double rss = SinusoidRss(xc, y, fixed, period, &comp);
-    const double sigma = std::sqrt(rss / static_cast<double>(nb - 3));
-    const double amp = std::hypot(comp.a, comp.b);
-    // Significant: the amplitude well above what noise of the bins' spread leaves.
-    if (!(amp > 5.0 * sigma * std::sqrt(2.0 / static_cast<double>(nb)))) break;
-    for (std::size_t i = 0; i < nb; ++i) {
-      y[i] -= comp.a * std::cos(kTwoPi * xc[i] / comp.period) +
-              comp.b * std::sin(kTwoPi * xc[i] / comp.period);
-    }
-    found.push_back(comp);
-  }
-  return found;
 }
 
 // The steady fit's columns before the ripple at sample i: offset, slope, Coulomb, viscous, mass.
