@@ -86,17 +86,20 @@ void CheckNoJump(const TextTable& t, std::size_t column, const std::vector<doubl
   for (std::size_t i = 1; i < n; ++i) {
     const double d = step(i), dt = ts[i] - ts[i - 1];
     if (!(d >= kJumpMinMm)) continue;
+    // Steps around a tenth of this one or less: half of them for a jump (counted first; the
+    // medians only where it may be one).
+    const std::size_t lo = i > kJumpAround ? i - kJumpAround : 1;
+    const std::size_t hi = std::min(n, i + kJumpAround + 1);
+    std::size_t small = 0;
+    for (std::size_t k = lo; k < hi; ++k) small += k != i && kJumpRatio * step(k) < d;
+    if (2 * small < hi - lo - 1) continue;
     steps.clear();
     speeds.clear();
-    std::size_t small = 0;  // steps around a tenth of this one or less: half of them for a jump
-    for (std::size_t k = i > kJumpAround ? i - kJumpAround : 1;
-         k < std::min(n, i + kJumpAround + 1); ++k) {
+    for (std::size_t k = lo; k < hi; ++k) {
       if (k == i) continue;
       steps.push_back(step(k));
       speeds.push_back(step(k) / (ts[k] - ts[k - 1]));
-      small += kJumpRatio * steps.back() < d;
     }
-    if (2 * small < steps.size()) continue;
     const double d_ref = MedianOf(steps), v_ref = MedianOf(speeds);
     const double v = d / dt, accel = 4.0 * (d - v_ref * dt) / (dt * dt);
     if (d > kJumpRatio * d_ref && v > kJumpRatio * v_ref && accel > kJumpAccelMmS2) {
