@@ -76,9 +76,8 @@ void RiseOf(const LugreParameters& p, const A& speed, bool derivatives, bool exp
 
 // Four lanes of what the Eigen expressions of RiseOf and StepTermsOf compute on SSE2 packets of
 // two, operation for operation (no fused multiply-add: Eigen's SSE2 pmadd is a product then a
-// sum; min and max with Eigen's order of arguments, which decides what a NaN gives), so bit for
-// bit the same. For the rises without a logarithm: the Lorentzian, and exp(−(v/v_s)²) unless
-// its derivative in ln δ is asked.
+// sum; min and max with Eigen's order of arguments, which decides what a NaN gives; Eigen's
+// exponential and logarithm as analysis/core/exp4.h reproduces them), so bit for bit the same.
 
 bool HasAvx2() {
   static const bool has = __builtin_cpu_supports("avx2");
@@ -93,27 +92,31 @@ __attribute__((target("avx2"))) inline __m256d Negate(__m256d a) {
   return _mm256_xor_pd(a, Set(-0.0));
 }
 
-// Whether RiseOf4 computes the rise of `p` (no logarithm needed).
-bool RiseOf4Covers(const LugreParameters& p, bool derivatives, bool exponent) {
-  return p.stribeck_form == LugreParameters::Form::kLorentzian ||
-         (p.stribeck_exponent == 2.0 && !(derivatives && exponent));
-}
-
-// RiseOf at the four speeds from `speed` + j into lane j of `r`.
+// RiseOf at the four speeds from `speed` + j into lane j of `r` (`exponent`: the derivative
+// in ln δ too).
 template <typename A>
 __attribute__((target("avx2"))) void RiseOf4(const LugreParameters& p, const double* speed,
-                                             Eigen::Index j, bool derivatives, Rise<A>& r) {
+                                             Eigen::Index j, bool derivatives, bool exponent,
+                                             Rise<A>& r) {
   const __m256d u =
       _mm256_max_pd(Set(1e-300), _mm256_div_pd(_mm256_loadu_pd(speed + j), Set(p.vs_mm_s)));
-  __m256d shape, by_vs;
+  __m256d shape, by_vs, by_exponent = _mm256_setzero_pd();
   if (p.stribeck_form == LugreParameters::Form::kLorentzian) {
     const __m256d u2 = _mm256_mul_pd(u, u);
     shape = _mm256_div_pd(Set(1.0), _mm256_add_pd(Set(1.0), u2));
     by_vs = _mm256_mul_pd(_mm256_mul_pd(Set(2.0), u2), _mm256_mul_pd(shape, shape));
   } else {
-    const __m256d power = _mm256_mul_pd(u, u);
+    const double delta = p.stribeck_exponent;
+    const bool with_exponent = derivatives && exponent;
+    const __m256d log_u = delta != 2.0 || with_exponent ? Log4(u) : _mm256_setzero_pd();
+    const __m256d power =
+        delta == 2.0 ? _mm256_mul_pd(u, u) : Exp4(_mm256_mul_pd(Set(delta), log_u));
     shape = Exp4(Negate(power));
-    by_vs = _mm256_mul_pd(_mm256_mul_pd(Set(p.stribeck_exponent), power), shape);
+    by_vs = _mm256_mul_pd(_mm256_mul_pd(Set(delta), power), shape);
+    if (with_exponent) {
+      const double c = (p.Fs_N - p.Fc_N) * -delta;
+      by_exponent = _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(Set(c), power), log_u), shape);
+    }
   }
   const double rise = p.Fs_N - p.Fc_N;
   _mm256_storeu_pd(r.g.data() + j, _mm256_add_pd(Set(p.Fc_N), _mm256_mul_pd(Set(rise), shape)));
@@ -121,7 +124,7 @@ __attribute__((target("avx2"))) void RiseOf4(const LugreParameters& p, const dou
   _mm256_storeu_pd(r.d[0].data() + j, _mm256_mul_pd(Set(p.Fs_N), shape));
   _mm256_storeu_pd(r.d[1].data() + j, _mm256_mul_pd(Set(rise), by_vs));
   _mm256_storeu_pd(r.d[kSigma0].data() + j, _mm256_setzero_pd());
-  _mm256_storeu_pd(r.d[3].data() + j, _mm256_setzero_pd());
+  _mm256_storeu_pd(r.d[3].data() + j, by_exponent);
 }
 
 #endif
@@ -182,9 +185,9 @@ void ReadRiseOf(const LugreParameters& p, const BristleMotion& m, std::size_t fi
   const std::size_t n = std::min<std::size_t>(kBlock, m.moving.size() - first);
   for (std::size_t j = 0; j < n; ++j) speed[static_cast<Eigen::Index>(j)] = m.moving[first + j];
 #if KM_BRISTLES_AVX2
-  if (HasAvx2() && RiseOf4Covers(p, derivatives, exponent)) {
+  if (HasAvx2()) {
     for (Eigen::Index j = 0; j < static_cast<Eigen::Index>(n); j += 4)
-      RiseOf4(p, speed.data(), j, derivatives, r);
+      RiseOf4(p, speed.data(), j, derivatives, exponent, r);
     return;
   }
 #endif
@@ -203,11 +206,11 @@ struct StepTerms {
 // steps of the block from `speed`, `sign` and `h` (rounded up to whole lanes).
 __attribute__((target("avx2"))) void StepTermsOf4(const LugreParameters& p, const Block& speed,
                                                   const Block& sign, const Block& h, int len,
-                                                  bool derivatives, StepTerms& t) {
+                                                  bool derivatives, bool exponent, StepTerms& t) {
   Rise<Block> rise;
   const double side = 1.0 / p.sigma0_N_per_um, stiff = p.sigma0_N_per_um * 1e3;
   for (Eigen::Index j = 0; j < len; j += 4) {
-    RiseOf4(p, speed.data(), j, derivatives, rise);
+    RiseOf4(p, speed.data(), j, derivatives, exponent, rise);
     const __m256d g = _mm256_loadu_pd(rise.g.data() + j), hj = _mm256_loadu_pd(h.data() + j);
     const __m256d inv_g = _mm256_div_pd(Set(1.0), g);
     const __m256d rate =
@@ -220,7 +223,7 @@ __attribute__((target("avx2"))) void StepTermsOf4(const LugreParameters& p, cons
     if (!derivatives) continue;
     const __m256d by_g = _mm256_mul_pd(rate, inv_g), he = _mm256_mul_pd(hj, e);
     const __m256d decay = _mm256_sub_pd(Set(1.0), e);
-    for (int k = 0; k < kBristleParams - 1; ++k) {
+    for (int k = 0; k < Params(exponent); ++k) {
       const __m256d d = _mm256_loadu_pd(rise.d[k].data() + j);
       __m256d a, b;
       if (k == kSigma0) {
@@ -249,8 +252,8 @@ void StepTermsOf(const LugreParameters& p, const BristleMotion& m, std::size_t f
     h[j] = m.h[i];
   }
 #if KM_BRISTLES_AVX2
-  if (HasAvx2() && RiseOf4Covers(p, derivatives, exponent)) {
-    StepTermsOf4(p, speed, sign, h, len, derivatives, t);
+  if (HasAvx2()) {
+    StepTermsOf4(p, speed, sign, h, len, derivatives, exponent, t);
     return;
   }
 #endif

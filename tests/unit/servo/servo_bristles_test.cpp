@@ -107,7 +107,16 @@ TEST(ServoBristles, FourLanePathIsBitForBitTheTwoLaneOne) {
       cases.push_back({p, true});
     }
   }
-  cases.push_back({Params(LugreParameters::Form::kExponential, 1.37), true});
+  // A fitted exponent (the logarithm of the speed ratio), also at the ends of its range and
+  // with Stribeck speeds that send the ratio to the clamp of 10⁻³⁰⁰ or the power to infinity.
+  for (double delta : {1.37, 0.5, 6.0}) {
+    for (double vs : {1.9, 1e-200, 1e250}) {
+      LugreParameters p = Params(LugreParameters::Form::kExponential, delta);
+      p.vs_mm_s = vs;
+      cases.push_back({p, true});
+      cases.push_back({p, false});
+    }
+  }
   for (const auto& c : cases) {
     for (Reading reading : {Reading::kLinear, Reading::kConstant}) {
       std::array<std::vector<double>, 2> force, damping;
