@@ -4,7 +4,7 @@
 // approximation (no fused multiply-add: Eigen's SSE2 pmadd is a product then a sum), the scaling by
 // 2^n in four factors as its SSE2 pldexp does (subnormal and vanishing results round as there), and
 // min and max with Eigen's order of arguments (which decides what a NaN gives). Callers check
-// __builtin_cpu_supports("avx2") before calling.
+// CpuHasAvx2() (analysis/core/cpu.h) before calling.
 #pragma once
 
 #if defined(__x86_64__) && defined(__GNUC__)

@@ -1,5 +1,7 @@
 #include "analysis/core/gram.h"
 
+#include "analysis/core/cpu.h"
+
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
 #define KM_GRAM_AVX2 1
@@ -61,18 +63,13 @@ __attribute__((target("avx2,fma"))) void AddGramAvx2(const double* const* cols, 
   AddGramScalar(tail, m, n - n4, g);
 }
 
-bool HasAvx2Fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
-
 #endif
 
 }  // namespace
 
 void AddGram(const double* const* cols, int m, std::size_t n, double* g) {
 #if KM_GRAM_AVX2
-  if (m <= 64 && HasAvx2Fma()) {
+  if (m <= 64 && CpuHasAvx2Fma()) {
     AddGramAvx2(cols, m, n, g);
     return;
   }

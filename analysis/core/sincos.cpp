@@ -1,5 +1,7 @@
 #include "analysis/core/sincos.h"
 
+#include "analysis/core/cpu.h"
+
 #if KM_SINCOS_AVX2
 #include <immintrin.h>
 
@@ -53,8 +55,7 @@ __attribute__((target("avx2"))) bool InRange4(const double* x) {
 }  // namespace
 
 bool SinCosHasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
+  return CpuHasAvx2();
 }
 
 __attribute__((target("avx2"))) void SinCosArrayAvx2(const double* x, double* s, double* c,

@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "analysis/core/cpu.h"
+
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
 #define KM_COLUMN_DOTS_AVX2 1
@@ -82,11 +84,6 @@ __attribute__((target("avx2"))) void CombineAvx2(const double* const* cols, cons
     for (; m < count; ++m) v = v + coef[m] * cols[m][i];
     out[i] = v;
   }
-}
-
-bool HasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
 }
 
 bool Aligned16(const double* p) {
@@ -193,7 +190,7 @@ __attribute__((target("avx2"))) void HarmonicSumsAvx2(const double* c1, const do
 
 void ColumnDots(const double* x, const double* const* ys, int count, Eigen::Index n, double* out) {
 #if KM_COLUMN_DOTS_AVX2
-  bool fast = HasAvx2() && n >= 8 && count >= 1 && count <= kMaxColumnDots && Aligned16(x);
+  bool fast = CpuHasAvx2() && n >= 8 && count >= 1 && count <= kMaxColumnDots && Aligned16(x);
   for (int j = 0; fast && j < count; ++j) fast = Aligned16(ys[j]);
   if (fast) {
     switch (count) {
@@ -214,7 +211,7 @@ void ColumnDots(const double* x, const double* const* ys, int count, Eigen::Inde
 bool HarmonicSums(const double* c1, const double* s1, const double* r, Eigen::Index n, int top,
                   int rtop, double* sc, double* ss, double* rc, double* rs) {
 #if KM_COLUMN_DOTS_AVX2
-  if (!HasAvx2() || n < 8 || top < 1 || !Aligned16(c1) || !Aligned16(s1) || !Aligned16(r))
+  if (!CpuHasAvx2() || n < 8 || top < 1 || !Aligned16(c1) || !Aligned16(s1) || !Aligned16(r))
     return false;
   HarmonicSumsAvx2(c1, s1, r, n, top, std::min(rtop, top), sc, ss, rc, rs);
   return true;
@@ -226,7 +223,7 @@ bool HarmonicSums(const double* c1, const double* s1, const double* r, Eigen::In
 void CombineColumns(const double* const* cols, const double* coef, int count, Eigen::Index n,
                     double* out) {
 #if KM_COLUMN_DOTS_AVX2
-  if (HasAvx2()) return CombineAvx2(cols, coef, count, n, out);
+  if (CpuHasAvx2()) return CombineAvx2(cols, coef, count, n, out);
 #endif
   using Map = Eigen::Map<const Eigen::VectorXd>;
   Eigen::Map<Eigen::VectorXd> v(out, n);

@@ -2,7 +2,9 @@
 
 #include <cmath>
 
+#include "analysis/core/cpu.h"
 #include "analysis/core/exp4.h"
+
 #if KM_EXP4_AVX2
 #define KM_SPIKE_DECAY_AVX2 1
 #endif
@@ -42,11 +44,6 @@ __attribute__((target("avx2"))) void DecaysAvx2(const double* phi, const double*
   DecaysEigen(phi + k, factor + k, n - k, w, gaussian, out + k);
 }
 
-bool HasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
-
 #endif
 
 }  // namespace
@@ -54,7 +51,7 @@ bool HasAvx2() {
 void SpikeDecays(const double* phi, const double* factor, Eigen::Index n, double w, bool gaussian,
                  double* out) {
 #if KM_SPIKE_DECAY_AVX2
-  if (HasAvx2()) {
+  if (CpuHasAvx2()) {
     DecaysAvx2(phi, factor, n, w, gaussian, out);
     return;
   }

@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 
+#include "analysis/core/cpu.h"
 #include "analysis/core/exp4.h"
 #include "analysis/servo/feed_drive_detail.h"
 
@@ -80,13 +81,10 @@ void RiseOf(const LugreParameters& p, const A& speed, bool derivatives, bool exp
 // exponential and logarithm as analysis/core/exp4.h reproduces them), so bit for bit the same.
 
 bool HasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has && FeedDriveAvx2Allowed();
+  return CpuHasAvx2() && FeedDriveAvx2Allowed();
 }
 
-__attribute__((target("avx2"))) inline __m256d Set(double v) {
-  return _mm256_set1_pd(v);
-}
+using exp4::Set;
 
 __attribute__((target("avx2"))) inline __m256d Negate(__m256d a) {
   return _mm256_xor_pd(a, Set(-0.0));

@@ -10,6 +10,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
+#include "analysis/core/cpu.h"
 #include "analysis/core/minimize_1d.h"
 #include "analysis/servo/feed_drive_detail.h"
 
@@ -97,8 +98,7 @@ double SinusoidRss(const std::vector<double>& xc, const std::vector<double>& y,
 #if KM_PERIODS_AVX2
 
 bool PeriodsAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has && FeedDriveAvx2Allowed();
+  return CpuHasAvx2() && FeedDriveAvx2Allowed();
 }
 
 // SumsOf for the four periods p[0 … 3], one a lane: the same operations in the same order (no
