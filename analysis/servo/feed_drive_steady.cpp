@@ -65,12 +65,10 @@ Rows RowsOf(const Strokes& s, double mass) {
 // cache while their products are summed).
 constexpr std::size_t kRowBlock = 256;
 
-// The Gram matrix (all products, summed over the rows) of the fit's columns scaled by √w —
-// offset, slope, Coulomb, viscous, moving mass, then for each ripple component cos w and sin w
-// (w = 2πx/P) and, `by_period`, the derivative of a cos w + b sin w in P — followed by the
-// weighted target √w (f − known) and √w times each of `extra` (given for every sample).
+// The columns of a Gram matrix: a ripple component's (2, or 3 with ∂/∂P), the fit's, and all
+// (the fit's, the target, the extra ones).
 struct GramLayout {
-  int per = 2, p = kBase, m = kBase + 1;  // columns a component, fit's columns, all columns
+  int per = 2, p = kBase, m = kBase + 1;
 };
 
 // Gram's products over the rows first … last − 1, added to g (its lower half).
