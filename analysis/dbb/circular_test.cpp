@@ -109,6 +109,8 @@ Turn SelectOneTurn(const DbbTest& test) {
   t.full_turn = cov.full_turn;
   t.arc_deg = cov.arc_deg;
   bool first = true;
+  t.angle_rad.reserve(n);
+  t.dr_um.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     if (prog[i] < w0 - eps) continue;
     if (closed_end ? prog[i] > w1 + eps : prog[i] >= w1 - eps) continue;
@@ -145,18 +147,6 @@ std::vector<double> MachineDeviation(const DbbTest& test, const Turn& turn, doub
 }
 
 }  // namespace
-
-double CosAngle(const CircularTestResult& r, std::size_t i) {
-  return r.cos_angle.size() == r.angle_deg.size()
-             ? r.cos_angle[i]
-             : std::cos(r.angle_deg[i] * std::numbers::pi / 180.0);
-}
-
-double SinAngle(const CircularTestResult& r, std::size_t i) {
-  return r.sin_angle.size() == r.angle_deg.size()
-             ? r.sin_angle[i]
-             : std::sin(r.angle_deg[i] * std::numbers::pi / 180.0);
-}
 
 CircularTestResult AnalyzeCircularTest(const DbbTest& test, DeviationUnits units) {
   if (!(test.bar_length_mm > 0.0)) {

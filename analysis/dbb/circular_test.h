@@ -47,6 +47,8 @@
 #pragma once
 
 #include <array>
+#include <cmath>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
@@ -109,9 +111,18 @@ struct CircularTestResult {
   std::vector<double> sin_angle;
 };
 
-// cos θ_i, sin θ_i of sample i of a result: the cached values when present, computed otherwise.
-double CosAngle(const CircularTestResult& r, std::size_t i);
-double SinAngle(const CircularTestResult& r, std::size_t i);
+// cos θ_i, sin θ_i of sample i of a result: the cached values when present, computed otherwise
+// (inline: the later stages read them sample by sample).
+inline double CosAngle(const CircularTestResult& r, std::size_t i) {
+  return r.cos_angle.size() == r.angle_deg.size()
+             ? r.cos_angle[i]
+             : std::cos(r.angle_deg[i] * std::numbers::pi / 180.0);
+}
+inline double SinAngle(const CircularTestResult& r, std::size_t i) {
+  return r.sin_angle.size() == r.angle_deg.size()
+             ? r.sin_angle[i]
+             : std::sin(r.angle_deg[i] * std::numbers::pi / 180.0);
+}
 
 // Full figures of one test, in bar units (the default) or tool-path units. Throws
 // km::InvalidInput on unusable data.

@@ -42,6 +42,9 @@ std::array<double, 2> SpikeWidths(const SpikeFit& s) {
 
 double MedianStepDeg(const std::vector<DiagnosisTrace>& traces) {
   std::vector<double> steps;
+  std::size_t total = 0;
+  for (const auto& t : traces) total += t.angle_rad.size();
+  steps.reserve(total);
   for (const auto& t : traces)
     for (std::size_t i = 1; i < t.angle_rad.size(); ++i)
       steps.push_back(std::abs(t.angle_rad[i] - t.angle_rad[i - 1]));

@@ -31,6 +31,21 @@ double Range(const VectorXd& v, std::size_t b, std::size_t e) {
   return mx - mn;
 }
 
+// Range of x·a over [b, e) without forming x·a: a product rounds monotonically in a, so its
+// largest and smallest values are those of a's extremes (swapped for x < 0) — the same value.
+double ScaledRange(const VectorXd& a, double x, std::size_t b, std::size_t e) {
+  double mn = a[static_cast<Eigen::Index>(b)], mx = mn;
+  for (std::size_t i = b; i < e; ++i) {
+    mn = std::min(mn, a[static_cast<Eigen::Index>(i)]);
+    mx = std::max(mx, a[static_cast<Eigen::Index>(i)]);
+  }
+  if (!std::isfinite(mx - mn) || !std::isfinite(x)) {
+    const VectorXd xa = x * a;
+    return Range(xa, b, e);
+  }
+  return x >= 0.0 ? x * mx - x * mn : x * mn - x * mx;
+}
+
 }  // namespace
 
 // A reversal spike's decay shape, its width in time (the decay constant τ of an exponential
@@ -73,6 +88,12 @@ DiagnosisEntry MakeEntry(const Problem& p, const Candidate& c, const FitResult& 
     en.shape_uncertainty[info.param_names[static_cast<std::size_t>(nl)]] = sh->second;
   }
   if (IsSpike(c.id)) AddSpikeFigures(p, c, en);
+  if (nl == 1) {
+    const VectorXd& a = *f.a[static_cast<std::size_t>(off)];
+    for (int t = 0; t < p.traces; ++t)
+      en.peak_to_valley_um.push_back(ScaledRange(a, f.x[off], p.begin[t], p.begin[t + 1]));
+    return en;
+  }
   const VectorXd sig = f.Combine(off, nl, p.n);
   for (int t = 0; t < p.traces; ++t)
     en.peak_to_valley_um.push_back(Range(sig, p.begin[t], p.begin[t + 1]));

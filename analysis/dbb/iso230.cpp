@@ -25,10 +25,14 @@ struct PeriodicTrace {
 };
 
 double WrapTurn(double angle_rad) {
-  // fmod leaves an angle already within [0, 2π) unchanged (it is exact).
-  if (angle_rad >= 0.0 && angle_rad < 2.0 * std::numbers::pi) return angle_rad;
-  double t = std::fmod(angle_rad, 2.0 * std::numbers::pi);
-  if (t < 0.0) t += 2.0 * std::numbers::pi;
+  constexpr double kTurn = 2.0 * std::numbers::pi;
+  // fmod leaves an angle already within [0, 2π) unchanged (it is exact); within one turn of that
+  // range it subtracts or keeps exactly what the two shortcuts below give, without its loop.
+  if (angle_rad >= 0.0 && angle_rad < kTurn) return angle_rad;
+  if (angle_rad < 0.0 && angle_rad > -kTurn) return angle_rad + kTurn;
+  if (angle_rad >= kTurn && angle_rad < 2.0 * kTurn) return angle_rad - kTurn;
+  double t = std::fmod(angle_rad, kTurn);
+  if (t < 0.0) t += kTurn;
   return t;
 }
 
@@ -42,21 +46,34 @@ struct TurnOrder {
 // One turn in time order is a rotation of the sorted order (reversed for cw, where most steps
 // go down): rotated when that gives strictly increasing angles (then it is what sorting gives).
 TurnOrder RotationOrder(const std::vector<double>& angle_rad) {
-  std::vector<std::pair<double, std::size_t>> s(angle_rad.size());
-  for (std::size_t i = 0; i < s.size(); ++i) s[i] = {WrapTurn(angle_rad[i]), i};
-  std::size_t down = 0;
-  for (std::size_t i = 1; i < s.size(); ++i) down += s[i].first < s[i - 1].first ? 1 : 0;
-  if (2 * down > s.size()) std::reverse(s.begin(), s.end());
-  const auto first = std::min_element(s.begin(), s.end());
-  std::rotate(s.begin(), first, s.end());
-  const auto not_increasing = [](const auto& x, const auto& y) { return y.first <= x.first; };
+  const std::size_t n = angle_rad.size();
   TurnOrder o;
-  if (std::adjacent_find(s.begin(), s.end(), not_increasing) != s.end()) return o;
-  o.index.reserve(s.size());
-  o.a.reserve(s.size());
-  for (const auto& [t, i] : s) {
-    o.index.push_back(i);
-    o.a.push_back(t);
+  if (n == 0) return o;
+  std::vector<double> w(n);
+  for (std::size_t i = 0; i < n; ++i) w[i] = WrapTurn(angle_rad[i]);
+  std::size_t down = 0;
+  for (std::size_t i = 1; i < n; ++i) down += w[i] < w[i - 1] ? 1 : 0;
+  // Read in time order, or reversed for cw. The angles are a rotation of a strictly increasing
+  // sequence exactly when one step (the closing one included) does not go up; the order then
+  // starts after it, at the smallest angle (what rotating the sorted samples gives).
+  const bool reversed = 2 * down > n;
+  std::size_t flat = 0, start = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t next = i + 1 == n ? 0 : i + 1;
+    // Step from sample i to the next one along the order (reversed: from next to i).
+    const bool up = reversed ? w[i] > w[next] : w[next] > w[i];
+    if (!up) {
+      ++flat;
+      start = reversed ? i : next;
+    }
+  }
+  if (flat != 1) return o;
+  o.index.resize(n);
+  o.a.resize(n);
+  for (std::size_t j = 0, i = start; j < n; ++j) {
+    o.index[j] = i;
+    o.a[j] = w[i];
+    i = reversed ? (i == 0 ? n - 1 : i - 1) : (i + 1 == n ? 0 : i + 1);
   }
   return o;
 }
@@ -87,8 +104,8 @@ struct Bracket {
 
 Bracket PeriodicBracket(const std::vector<double>& a, std::size_t hi, double t) {
   const std::size_t n = a.size();
-  const std::size_t i1 = hi % n;
-  const std::size_t i0 = (hi + n - 1) % n;
+  const std::size_t i1 = hi == n ? 0 : hi;  // hi % n for hi in [0, n]
+  const std::size_t i0 = hi == 0 ? n - 1 : hi - 1;
   double a0 = a[i0], a1 = a[i1];
   if (hi == 0) a0 -= 2.0 * std::numbers::pi;
   if (hi == n) a1 += 2.0 * std::numbers::pi;

@@ -113,8 +113,12 @@ inline ReversalPhase<T> PhaseSinceReversal(const T& theta, double theta0, int s)
 // kAtReversalRad).
 inline bool AtAxisReversal(double theta) {
   constexpr double kQuarter = std::numbers::pi / 2.0;
-  const double q = theta / kQuarter;
-  return std::abs(q - std::round(q)) * kQuarter < kAtReversalRad;
+  const double q = std::abs(theta / kQuarter);
+  // |q − round(q)|, the distance to the nearest integer: below 2⁵² adding and taking away 2⁵²
+  // rounds to an integer (a tie to the even one, at the same distance 0.5), without a call.
+  constexpr double kShift = 4503599627370496.0;  // 2⁵²
+  const double nearest = q < kShift ? (q + kShift) - kShift : q;
+  return std::abs(q - nearest) * kQuarter < kAtReversalRad;
 }
 
 // Unit velocity component of axis `axis` (0 = u, 1 = v) along the circle for direction s:

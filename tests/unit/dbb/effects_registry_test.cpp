@@ -3,8 +3,10 @@
 #include "analysis/serial_effects/registry.h"
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
+#include <vector>
 
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
@@ -206,6 +208,45 @@ TEST(EffectRegistry, SquarenessSignMeansObtuseAngle) {
   const double angle = std::acos((ux * vx + uy * vy) / (std::hypot(ux, uy) * std::hypot(vx, vy)));
   EXPECT_GT(angle, std::numbers::pi / 2.0);
   EXPECT_NEAR(angle - std::numbers::pi / 2.0, 100e-6, 1e-9);
+}
+
+// The distance to the nearest quarter turn without a call to round: the same decision as
+// |q − round(q)| on samples at, near and between the reversals, on ties (q + ½), beyond 2⁵²
+// quarter turns and on values that are not numbers.
+TEST(EffectRegistry, AtAxisReversalIsTheRoundedDistance) {
+  constexpr double kQuarter = std::numbers::pi / 2.0;
+  const auto by_round = [&](double theta) {
+    const double q = theta / kQuarter;
+    return std::abs(q - std::round(q)) * kQuarter < internal::kAtReversalRad;
+  };
+  std::vector<double> thetas = {0.0,
+                                -0.0,
+                                1e-300,
+                                5e-7,
+                                7e-7,
+                                -7e-7,
+                                0.5 * kQuarter,
+                                1.5 * kQuarter,
+                                -2.5 * kQuarter,
+                                1e20,
+                                -1e20,
+                                std::numeric_limits<double>::infinity(),
+                                std::numeric_limits<double>::quiet_NaN()};
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> turn(-20.0, 20.0), off(-2e-6, 2e-6);
+  for (int i = 0; i < 20000; ++i) {
+    const double k = std::round(turn(rng));
+    thetas.push_back(k * kQuarter + off(rng));  // near a reversal
+    thetas.push_back(turn(rng));                // anywhere
+    thetas.push_back((k + 0.5) * kQuarter);     // half-way between two
+  }
+  int near = 0;
+  for (double th : thetas) {
+    ASSERT_EQ(internal::AtAxisReversal(th), by_round(th)) << th;
+    near += by_round(th) ? 1 : 0;
+  }
+  EXPECT_GT(near, 5000);  // both answers were exercised
+  EXPECT_LT(near, 20000);
 }
 
 }  // namespace
