@@ -22,23 +22,25 @@ double ZScore(double value, double sigma) {
 
 namespace {
 
-double Range(const VectorXd& v, std::size_t b, std::size_t e) {
+// Smallest and largest of v over [b, e).
+std::pair<double, double> Extremes(const VectorXd& v, std::size_t b, std::size_t e) {
   double mn = v[static_cast<Eigen::Index>(b)], mx = mn;
   for (std::size_t i = b; i < e; ++i) {
     mn = std::min(mn, v[static_cast<Eigen::Index>(i)]);
     mx = std::max(mx, v[static_cast<Eigen::Index>(i)]);
   }
+  return {mn, mx};
+}
+
+double Range(const VectorXd& v, std::size_t b, std::size_t e) {
+  const auto [mn, mx] = Extremes(v, b, e);
   return mx - mn;
 }
 
 // Range of x·a over [b, e) without forming x·a: a product rounds monotonically in a, so its
 // largest and smallest values are those of a's extremes (swapped for x < 0) — the same value.
 double ScaledRange(const VectorXd& a, double x, std::size_t b, std::size_t e) {
-  double mn = a[static_cast<Eigen::Index>(b)], mx = mn;
-  for (std::size_t i = b; i < e; ++i) {
-    mn = std::min(mn, a[static_cast<Eigen::Index>(i)]);
-    mx = std::max(mx, a[static_cast<Eigen::Index>(i)]);
-  }
+  const auto [mn, mx] = Extremes(a, b, e);
   if (!std::isfinite(mx - mn) || !std::isfinite(x)) {
     const VectorXd xa = x * a;
     return Range(xa, b, e);
