@@ -312,6 +312,17 @@ void StickColumn(const Problem& p, const StickZones& z, double period_deg, Spars
 
 }  // namespace
 
+namespace {
+
+// std::round of x without the call for 0 ≤ x < 2⁵² (x − ⌊x⌋ is exact there): ties away from 0.
+double RoundHalfUp(double x) {
+  if (!(x >= 0.0 && x < 0x1p52)) return std::round(x);
+  const double t = std::floor(x);
+  return x - t >= 0.5 ? t + 1.0 : t;
+}
+
+}  // namespace
+
 // Period (degrees) of the strongest sawtooth fundamental in the residual over the angle since
 // the reversal: binned (δ = pmin/4), zero-padded DFT, parabolic peak interpolation; 0 if none.
 // `chi2` receives the peak's projection energy over s2 Σ w² (≈ χ² with 2 degrees of freedom
@@ -324,7 +335,9 @@ double StickPeriodPeak(const StickZones& z, const VectorXd& r, double pmin, doub
   std::vector<double> b(static_cast<std::size_t>(len), 0.0);
   double ww = 0.0;
   for (std::size_t k = 0; k < z.idx.size(); ++k) {
-    const int bin = std::clamp(static_cast<int>(std::lround(z.phi_deg[k] / delta)), 0, nb - 1);
+    // The nearest bin (std::lround's), within [0, nb).
+    const double q = RoundHalfUp(z.phi_deg[k] / delta);
+    const int bin = q >= 0.0 ? static_cast<int>(std::min(q, nb - 1.0)) : 0;
     b[static_cast<std::size_t>(bin)] += z.weight[k] * r[z.idx[k]];
     ww += z.weight[k] * z.weight[k];
   }

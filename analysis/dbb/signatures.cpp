@@ -12,6 +12,7 @@
 #include "analysis/core/errors.h"
 #include "analysis/core/sincos.h"
 #include "analysis/dbb/column_dots.h"
+#include "analysis/dbb/spike_decay.h"
 
 namespace km::dbb {
 
@@ -135,10 +136,47 @@ EffectColumns SignatureShell(const StackedTraces& p, serial_effects::EffectId id
 
 namespace {
 
+template <typename M>
+constexpr bool kIsSpike = false;
+template <int Axis>
+constexpr bool kIsSpike<serial_effects::ReversalSpike<Axis>> = true;
+
+// Rows [from, to) of a reversal spike's column for the exponents 1 and 2 (false otherwise): the
+// phase of each sample as the model gives it, then the decays of the lot at once (spike_decay.h,
+// the exponential of the width search: within an ulp of std::exp), zero beyond the model's
+// cut-off. Side·n_a·decay rounds as the model's side·decay·n_a: the side is ±1.
+template <int Axis>
+bool SpikeRows(const StackedTraces& p, int from, int to, const std::vector<double>& shape,
+               double* col) {
+  using Spike = serial_effects::ReversalSpike<Axis>;
+  const double k = Spike::Exponent(shape.size() > 1 ? shape[1] : 1.0);
+  if (k != 1.0 && k != 2.0) return false;
+  const double w = shape[0] * (std::numbers::pi / 180.0);
+  const double cutoff = Spike::CutOff(k) * w;
+  const auto& ctx =
+      p.ctx[static_cast<std::size_t>(p.samples[static_cast<std::size_t>(from)].trace)];
+  const auto len = static_cast<std::size_t>(to - from);
+  std::vector<double> phi(len), factor(len);
+  for (std::size_t i = 0; i < len; ++i) {
+    const auto& a = p.samples[static_cast<std::size_t>(from) + i].a;
+    const auto ph = Spike::Phase(ctx, a);
+    phi[i] = ph.phi;
+    factor[i] = ph.side * (Axis == 0 ? a.c : a.s);
+  }
+  diag::SpikeDecays(phi.data(), factor.data(), static_cast<Eigen::Index>(len), w, k == 2.0,
+                    col + from);
+  for (std::size_t i = 0; i < len; ++i)
+    if (phi[i] > cutoff) col[static_cast<std::size_t>(from) + i] = 0.0;
+  return true;
+}
+
 // Rows [from, to) of the signature columns of model M at the shape `shape`.
 template <typename M>
 void SignatureRows(const StackedTraces& p, serial_effects::EffectId id, int from, int to,
                    const std::vector<double>& shape, std::vector<VectorXd>& cols) {
+  if constexpr (kIsSpike<M>) {
+    if (SpikeRows<M::kAxis>(p, from, to, shape, cols[0].data())) return;
+  }
   if constexpr (M::kNumLinear == 1) {
     // One linear parameter: the signature at p_0 = 1 is the column (plain doubles).
     double params[M::kNumParams];
