@@ -82,6 +82,7 @@ DiagnosisRun::DiagnosisRun(const std::vector<DiagnosisTrace>& traces, Plane plan
   first_ = axes.first;
   second_ = axes.second;
   static_cast<StackedTraces&>(p_) = StackTraces(traces, /*leave_out_reversals=*/true);
+  p_.ComputeReversalPhases();  // read by every spike signature and the reversal orders
   // Set-up fit (centre, radius per trace) and the residual about it.
   e0_ = p_.y;
   p_.RemoveSetup(e0_, &setup_);

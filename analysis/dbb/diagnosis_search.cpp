@@ -32,9 +32,14 @@ std::vector<ReversalOrder::Entry> SpikeFactors(const Problem& p, double max_phi)
   using Spike = serial_effects::ReversalSpike<Axis>;
   std::vector<ReversalOrder::Entry> e;
   e.reserve(static_cast<std::size_t>(p.n));
+  const auto& cached = p.reversal_phase[Axis];
+  const bool have = cached.phi.size() == static_cast<std::size_t>(p.n);
   for (int i = 0; i < p.n; ++i) {
-    const auto& s = p.samples[static_cast<std::size_t>(i)];
-    const auto ph = Spike::Phase(p.ctx[static_cast<std::size_t>(s.trace)], s.a);
+    const auto u = static_cast<std::size_t>(i);
+    const auto& s = p.samples[u];
+    const auto ph =
+        have ? serial_effects::internal::ReversalPhase<double>{cached.phi[u], cached.side[u]}
+             : Spike::Phase(p.ctx[static_cast<std::size_t>(s.trace)], s.a);
     if (ph.phi <= max_phi) e.push_back({ph.phi, i, ph.side * (Axis == 0 ? s.a.c : s.a.s)});
   }
   return e;

@@ -46,6 +46,22 @@ Eigen::Vector3d StackedTraces::RemoveSetupOfTrace(VectorXd& col, int t) const {
   return c;
 }
 
+void StackedTraces::ComputeReversalPhases() {
+  for (int axis = 0; axis < 2; ++axis) {
+    ReversalPhases& r = reversal_phase[static_cast<std::size_t>(axis)];
+    r.phi.resize(static_cast<std::size_t>(n));
+    r.side.resize(static_cast<std::size_t>(n));
+    for (std::size_t i = 0; i < r.phi.size(); ++i) {
+      const auto& s = samples[i];
+      const auto& c = ctx[static_cast<std::size_t>(s.trace)];
+      const auto ph = axis == 0 ? serial_effects::ReversalSpike<0>::Phase(c, s.a)
+                                : serial_effects::ReversalSpike<1>::Phase(c, s.a);
+      r.phi[i] = ph.phi;
+      r.side[i] = ph.side;
+    }
+  }
+}
+
 void StackedTraces::RemoveSetup(VectorXd& col, std::vector<Eigen::Vector3d>* coef) const {
   if (coef) coef->assign(static_cast<std::size_t>(traces), Eigen::Vector3d::Zero());
   for (int t = 0; t < traces; ++t) {
@@ -142,9 +158,9 @@ template <int Axis>
 constexpr bool kIsSpike<serial_effects::ReversalSpike<Axis>> = true;
 
 // Rows [from, to) of a reversal spike's column for the exponents 1 and 2 (false otherwise): the
-// phase of each sample as the model gives it, then the decays of the lot at once (spike_decay.h,
-// the exponential of the width search: within an ulp of std::exp), zero beyond the model's
-// cut-off. Side·n_a·decay rounds as the model's side·decay·n_a: the side is ±1.
+// phase of each sample as the model gives it, then the decays of the samples within the model's
+// cut-off at once (spike_decay.h, the exponential of the width search: within an ulp of
+// std::exp), zero beyond it. Side·n_a·decay rounds as the model's side·decay·n_a: the side is ±1.
 template <int Axis>
 bool SpikeRows(const StackedTraces& p, int from, int to, const std::vector<double>& shape,
                double* col) {
@@ -155,18 +171,26 @@ bool SpikeRows(const StackedTraces& p, int from, int to, const std::vector<doubl
   const double cutoff = Spike::CutOff(k) * w;
   const auto& ctx =
       p.ctx[static_cast<std::size_t>(p.samples[static_cast<std::size_t>(from)].trace)];
-  const auto len = static_cast<std::size_t>(to - from);
-  std::vector<double> phi(len), factor(len);
-  for (std::size_t i = 0; i < len; ++i) {
-    const auto& a = p.samples[static_cast<std::size_t>(from) + i].a;
-    const auto ph = Spike::Phase(ctx, a);
-    phi[i] = ph.phi;
-    factor[i] = ph.side * (Axis == 0 ? a.c : a.s);
+  std::vector<int> at;
+  std::vector<double> phi, factor;
+  const auto& cached = p.reversal_phase[Axis];
+  const bool have = cached.phi.size() == static_cast<std::size_t>(p.n);
+  for (int i = from; i < to; ++i) {
+    const auto u = static_cast<std::size_t>(i);
+    const auto& a = p.samples[u].a;
+    const auto ph =
+        have ? serial_effects::internal::ReversalPhase<double>{cached.phi[u], cached.side[u]}
+             : Spike::Phase(ctx, a);
+    col[i] = 0.0;
+    if (ph.phi > cutoff) continue;
+    at.push_back(i);
+    phi.push_back(ph.phi);
+    factor.push_back(ph.side * (Axis == 0 ? a.c : a.s));
   }
-  diag::SpikeDecays(phi.data(), factor.data(), static_cast<Eigen::Index>(len), w, k == 2.0,
-                    col + from);
-  for (std::size_t i = 0; i < len; ++i)
-    if (phi[i] > cutoff) col[static_cast<std::size_t>(from) + i] = 0.0;
+  std::vector<double> decay(at.size());
+  diag::SpikeDecays(phi.data(), factor.data(), static_cast<Eigen::Index>(at.size()), w, k == 2.0,
+                    decay.data());
+  for (std::size_t j = 0; j < at.size(); ++j) col[at[j]] = decay[j];
   return true;
 }
 

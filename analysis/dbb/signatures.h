@@ -20,6 +20,7 @@
 // energy, golden-section refinement) used to choose the period shape parameter.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -49,6 +50,15 @@ struct StackedTraces {
   Eigen::VectorXd y;
   int n = 0;
   int traces = 0;
+  // Optional (ComputeReversalPhases): for each axis, every sample's angle since that axis
+  // reversed and the side after it (serial_effects::ReversalSpike::Phase), read by the spike
+  // signatures and the diagnosis' reversal orders instead of evaluating the phase again.
+  struct ReversalPhases {
+    std::vector<double> phi;
+    std::vector<double> side;
+  };
+  std::array<ReversalPhases, 2> reversal_phase;
+  void ComputeReversalPhases();
 
   // Removes from `col` its least-squares projection on each trace's set-up columns; returns
   // the set-up coefficients of trace t in coef (3 per trace) when wanted.
