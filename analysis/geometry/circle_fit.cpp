@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include "analysis/core/errors.h"
+#include "analysis/geometry/circle_sums.h"
 
 namespace km::geometry {
 namespace {
@@ -35,6 +36,9 @@ Coordinates Split(const std::vector<Eigen::Vector2d>& p, const Eigen::Vector2d& 
 
 // Σ (|p_i − c| − r)², as CircleGaussNewton sums it.
 double SumSquares(const Coordinates& xy, const Eigen::Vector2d& c, double r) {
+  double fused = 0.0;
+  if (internal::CircleCostFused(xy.x.data(), xy.y.data(), xy.x.size(), c.x(), c.y(), r, fused))
+    return fused;
   constexpr Eigen::Index kBlock = 256;
   using Block = Eigen::Array<double, Eigen::Dynamic, 1, 0, kBlock, 1>;
   double ss = 0.0;
@@ -58,6 +62,14 @@ double CostRounding(double cost, double r, std::size_t n) {
 
 CircleNormalEquations CircleGaussNewton(const Eigen::ArrayXd& x, const Eigen::ArrayXd& y,
                                         const Eigen::Vector2d& c, double r) {
+  CircleNormalEquations ne;
+  internal::CircleSums f;
+  if (internal::CircleSumsFused(x.data(), y.data(), x.size(), c.x(), c.y(), r, f)) {
+    ne.jtj << f.sxx, f.sxy, f.sx, f.sxy, f.syy, f.sy, f.sx, f.sy, f.n;
+    ne.jtd << f.bx, f.by, f.b;
+    ne.sum_squares = f.ss;
+    return ne;
+  }
   // Blocks of points held in arrays on the stack: one pass over the points, a packet at a time.
   constexpr Eigen::Index kBlock = 256;
   using Block = Eigen::Array<double, Eigen::Dynamic, 1, 0, kBlock, 1>;
@@ -81,7 +93,6 @@ CircleNormalEquations CircleGaussNewton(const Eigen::ArrayXd& x, const Eigen::Ar
     b -= d.sum();
     ss += all.square().sum();
   }
-  CircleNormalEquations ne;
   ne.jtj << sxx, sxy, sx, sxy, syy, sy, sx, sy, n;
   ne.jtd << bx, by, b;
   ne.sum_squares = ss;

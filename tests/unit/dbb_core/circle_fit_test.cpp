@@ -4,12 +4,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <numbers>
 #include <random>
 
+#include "analysis/core/cpu.h"
 #include "analysis/core/errors.h"
+#include "analysis/geometry/circle_sums.h"
 
 namespace km::geometry {
 namespace {
@@ -179,6 +182,49 @@ TEST(CircleFit, RejectsDegenerateInput) {
   EXPECT_THROW(FitCircleLeastSquares({{0, 0}, {1, 1}}), InvalidInput);
   EXPECT_THROW(FitCircleLeastSquares({{0, 0}, {1, 1}, {2, 2}, {3, 3}}), InvalidInput);
   EXPECT_THROW(FitCircleLeastSquares({{1, 1}, {1, 1}, {1, 1}}), InvalidInput);
+}
+
+// The four-lane sums of a Gauss–Newton step against the same sums in long double, for lengths
+// that leave every tail (0–3 points) and a point at the centre (no direction: left out of all but
+// the cost); the cost alone equals the step's cost bit for bit.
+TEST(CircleFit, FusedSumsAreTheStepsSums) {
+  if (!CpuHasAvx2Fma()) GTEST_SKIP() << "no AVX2 and FMA: the fit sums with Eigen";
+  std::mt19937 rng(5);
+  std::normal_distribution<double> nd(0.0, 3.0);
+  for (const int n : {0, 1, 3, 4, 7, 1001, 3602}) {
+    std::vector<double> x, y;
+    for (int i = 0; i < n; ++i) {
+      const double th = 0.37 * i;
+      x.push_back(150e3 * std::cos(th) + nd(rng) + 12.0);
+      y.push_back(150e3 * std::sin(th) + nd(rng) - 7.0);
+    }
+    if (n > 2) x[2] = 12.5, y[2] = -6.25;  // exactly at the centre below
+    const double cx = 12.5, cy = -6.25, r = 150e3 + 1.5;
+    long double e[10] = {};
+    double dmax = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const long double vx = x[i] - cx, vy = y[i] - cy, dist = std::sqrt(vx * vx + vy * vy);
+      e[9] += (dist - r) * (dist - r);
+      dmax = std::max(dmax, static_cast<double>(std::abs(dist - r)));
+      if (!(dist > 0)) continue;
+      const long double ux = vx / dist, uy = vy / dist, d = dist - r;
+      const long double add[9] = {ux * ux, ux * uy, uy * uy, ux, uy, 1, -ux * d, -uy * d, -d};
+      for (int k = 0; k < 9; ++k) e[k] += add[k];
+    }
+    internal::CircleSums f;
+    ASSERT_TRUE(internal::CircleSumsFused(x.data(), y.data(), n, cx, cy, r, f));
+    const double got[10] = {f.sxx, f.sxy, f.syy, f.sx, f.sy, f.n, f.bx, f.by, f.b, f.ss};
+    for (int k = 0; k < 10; ++k) {
+      // A distance in double is rounded to about ε·R (3·10⁻¹¹ µm here), which the sums weighted
+      // by the residual d carry; the directions are rounded to ε.
+      const double er = 1e-10 * (n + 1);
+      const double scale = k < 6 ? 1e-12 * (n + 1) : (k < 9 ? er : 2.0 * er * (1.0 + dmax));
+      EXPECT_NEAR(got[k], static_cast<double>(e[k]), scale) << "n " << n << " sum " << k;
+    }
+    double cost = -1.0;
+    ASSERT_TRUE(internal::CircleCostFused(x.data(), y.data(), n, cx, cy, r, cost));
+    EXPECT_EQ(cost, f.ss) << n;
+  }
 }
 
 }  // namespace
