@@ -134,21 +134,29 @@ namespace {
 
 // Gain (diagnosis_fit.h Gain) of the unit-height spike of width w (rad) and exponent k, and
 // the spike's height in the fit of base + spike (when wanted).
+// Work space of the gains of one search, sized once for its frame: the decays, Aᵀs and
+// (AᵀA)⁻¹g (no allocation per width tried).
+struct GainWork {
+  VectorXd v, h, ng;
+  explicit GainWork(const SpikeFrame& f, int m)
+      : v(f.a.rows()), h(f.a.cols()), ng(std::max(m, 1)) {}
+};
+
 double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w, double exponent,
-                 VectorXd& v, double* height = nullptr) {
+                 GainWork& work, double* height = nullptr) {
   const double phimax = SpikeReach(w, exponent);
   const Eigen::Index len =
       std::upper_bound(f.phi.data(), f.phi.data() + f.phi.size(), phimax) - f.phi.data();
   // The decay of reversal_spike.h, vectorised for its two shapes (spike_decay.h).
+  auto v = work.v.head(len);
   if (exponent == 1.0 || exponent == 2.0) {
-    v.resize(len);
     SpikeDecays(f.phi.data(), f.factor.data(), len, w, exponent == 2.0, v.data());
   } else {
-    v.resize(len);
     for (Eigen::Index k = 0; k < len; ++k)
       v[k] = f.factor[k] * serial_effects::ReversalSpike<0>::Decay(f.phi[k], w, exponent);
   }
-  const VectorXd h = f.a.topRows(len).transpose() * v;  // Aᵀs, S_tᵀs, rᵀs
+  VectorXd& h = work.h;  // Aᵀs, S_tᵀs, rᵀs
+  h.noalias() = f.a.topRows(len).transpose() * v;
   const double raw = v.squaredNorm();
   const double rs = h[b.m + 3 * p.traces];
   double den = raw;
@@ -156,7 +164,11 @@ double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w,
     const Eigen::Vector3d sts = h.segment<3>(b.m + 3 * t);
     den -= sts.dot(p.setup_inv[static_cast<std::size_t>(t)] * sts);
   }
-  if (b.m > 0) den -= h.head(b.m).dot(b.ninv * h.head(b.m));
+  if (b.m > 0) {
+    auto ng = work.ng.head(b.m);
+    ng.noalias() = b.ninv * h.head(b.m);
+    den -= h.head(b.m).dot(ng);
+  }
   if (!(den > 1e-9 * raw)) return 0.0;
   // The residual is orthogonal to the base and the set-up: rs is the projection on the part of
   // the spike they leave, whose squared norm is den.
@@ -199,14 +211,14 @@ SpikeFit SearchSpike(const Problem& p, const ReversalOrder& o, const Base& b, do
   const int kGrid = std::max(grid, 3);
   const double llo = std::log(lo), lhi = std::log(hi);
   const SpikeFrame frame = MakeSpikeFrame(p, o, b, SpikeMaxReach(hi));
-  VectorXd v;
+  GainWork work(frame, b.m);
   for (std::size_t shape = 0; shape < 2; ++shape) {
     const double k = shape == 0 ? 1.0 : 2.0;
     // Every evaluation keeps its height; the best one's is reported.
     std::vector<std::pair<double, double>> height;  // (log width, height)
     auto gain = [&](double lw) {
       double h = 0.0;
-      const double g = SpikeGain(p, b, frame, std::exp(lw) * kDeg, k, v, &h);
+      const double g = SpikeGain(p, b, frame, std::exp(lw) * kDeg, k, work, &h);
       height.emplace_back(lw, h);
       return g;
     };
@@ -245,13 +257,13 @@ SpikeFit RefineSpike(const Problem& p, const ReversalOrder& o, const Base& b,
     reach = std::max(reach, SpikeReach(std::exp(range[shape].second) * kDeg, shape + 1.0));
   }
   const SpikeFrame frame = MakeSpikeFrame(p, o, b, reach);
-  VectorXd v;
+  GainWork work(frame, b.m);
   for (std::size_t shape = 0; shape < 2; ++shape) {
     const double k = shape == 0 ? 1.0 : 2.0;
     std::vector<std::pair<double, double>> height;  // (log width, height)
     auto gain = [&](double lw) {
       double h = 0.0;
-      const double g = SpikeGain(p, b, frame, std::exp(lw) * kDeg, k, v, &h);
+      const double g = SpikeGain(p, b, frame, std::exp(lw) * kDeg, k, work, &h);
       height.emplace_back(lw, h);
       return g;
     };

@@ -46,22 +46,6 @@ Eigen::Vector3d StackedTraces::RemoveSetupOfTrace(VectorXd& col, int t) const {
   return c;
 }
 
-void StackedTraces::ComputeReversalPhases() {
-  for (int axis = 0; axis < 2; ++axis) {
-    ReversalPhases& r = reversal_phase[static_cast<std::size_t>(axis)];
-    r.phi.resize(static_cast<std::size_t>(n));
-    r.side.resize(static_cast<std::size_t>(n));
-    for (std::size_t i = 0; i < r.phi.size(); ++i) {
-      const auto& s = samples[i];
-      const auto& c = ctx[static_cast<std::size_t>(s.trace)];
-      const auto ph = axis == 0 ? serial_effects::ReversalSpike<0>::Phase(c, s.a)
-                                : serial_effects::ReversalSpike<1>::Phase(c, s.a);
-      r.phi[i] = ph.phi;
-      r.side[i] = ph.side;
-    }
-  }
-}
-
 void StackedTraces::RemoveSetup(VectorXd& col, std::vector<Eigen::Vector3d>* coef) const {
   if (coef) coef->assign(static_cast<std::size_t>(traces), Eigen::Vector3d::Zero());
   for (int t = 0; t < traces; ++t) {

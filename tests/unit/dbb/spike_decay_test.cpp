@@ -105,5 +105,38 @@ TEST(SpikeDecay, SpikeSignatureIsTheModelsSampleBySample) {
   }
 }
 
+// Each axis' reversal phase of every sample, computed four at a time (reversal_phases.cpp), is
+// bit for bit the model's: both directions, angles beyond a turn, samples at, just before and
+// just after the reversals (within and beyond kAtReversalRad) and exactly on multiples of π/2.
+TEST(SpikeDecay, ReversalPhasesAreTheModelsBitForBit) {
+  std::vector<DiagnosisTrace> traces(2);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> near(-3e-6, 3e-6);
+  for (std::size_t t = 0; t < 2; ++t) {
+    traces[t].direction = t == 0 ? Direction::kCcw : Direction::kCw;
+    traces[t].radius_mm = 100.0;
+    for (int i = 0; i < 2003; ++i) {
+      double th = (t == 0 ? 1.0 : -1.0) * (0.0031 * i - 0.5);
+      if (i % 7 == 0) th = std::round(th / (std::numbers::pi / 2)) * (std::numbers::pi / 2);
+      if (i % 11 == 0) th += near(rng);
+      traces[t].angle_rad.push_back(th);
+      traces[t].dev_um.push_back(0.0);
+    }
+  }
+  StackedTraces p = StackTraces(traces);
+  p.ComputeReversalPhases();
+  for (int i = 0; i < p.n; ++i) {
+    const auto& s = p.samples[static_cast<std::size_t>(i)];
+    const auto& c = p.ctx[static_cast<std::size_t>(s.trace)];
+    const auto u = serial_effects::ReversalSpike<0>::Phase(c, s.a);
+    const auto v = serial_effects::ReversalSpike<1>::Phase(c, s.a);
+    const auto k = static_cast<std::size_t>(i);
+    ASSERT_EQ(std::memcmp(&p.reversal_phase[0].phi[k], &u.phi, sizeof(double)), 0) << i;
+    ASSERT_EQ(p.reversal_phase[0].side[k], u.side) << i;
+    ASSERT_EQ(std::memcmp(&p.reversal_phase[1].phi[k], &v.phi, sizeof(double)), 0) << i;
+    ASSERT_EQ(p.reversal_phase[1].side[k], v.side) << i;
+  }
+}
+
 }  // namespace
 }  // namespace km::dbb::diag
