@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "analysis/core/angles.h"
+#include "analysis/dbb/column_dots.h"
 #include "analysis/dbb/spike_decay.h"
 
 namespace km::dbb::diag {
@@ -156,7 +157,7 @@ double SpikeGain(const Problem& p, const Base& b, const SpikeFrame& f, double w,
       v[k] = f.factor[k] * serial_effects::ReversalSpike<0>::Decay(f.phi[k], w, exponent);
   }
   VectorXd& h = work.h;  // Aᵀs, S_tᵀs, rᵀs
-  h.noalias() = f.a.topRows(len).transpose() * v;
+  FrameDots(f.a.data(), f.a.rows(), static_cast<int>(f.a.cols()), v.data(), len, h.data());
   const double raw = v.squaredNorm();
   const double rs = h[b.m + 3 * p.traces];
   double den = raw;

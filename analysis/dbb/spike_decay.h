@@ -1,10 +1,10 @@
-// The unit reversal-spike decays of the width search (reversal_spike.h, exponents 1 and 2),
-// vectorised:
-//   out[k] = factor[k]·exp(−φ[k]/w)          (exponent 1)
-//   out[k] = factor[k]·exp(−(φ[k]/w)²/2)     (exponent 2)
-// Bit for bit what Eigen's array expression gives (its Cephes rational exp on pairs, std::exp on
-// an odd last element), four at a time with AVX2 where the processor has it. Arguments must lie
-// in the exp's normal range (the search evaluates decays down to e^−7 only).
+// The unit reversal-spike decays of the width search and the spike signatures
+// (reversal_spike.h, exponents 1 and 2), vectorised:
+//   out[k] = factor[k]·exp(−φ[k]·(1/w))          (exponent 1)
+//   out[k] = factor[k]·exp(−(φ[k]·(1/w))²/2)     (exponent 2)
+// A product with the reciprocal width, not a quotient (the same argument to within an ulp), and
+// with AVX2 and FMA a polynomial exponential four samples at a time (within two ulps of
+// std::exp); otherwise Eigen's array expression. φ ≥ 0: the decays lie in (0, 1].
 #pragma once
 
 #include <Eigen/Core>
