@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include "analysis/core/errors.h"
+#include "analysis/core/extremes.h"
 #include "analysis/core/sincos.h"
 #include "analysis/dbb/coverage.h"
 #include "analysis/geometry/circle_fit.h"
@@ -193,9 +194,9 @@ CircularTestResult AnalyzeCircularTest(const DbbTest& test, DeviationUnits units
   r.fitted_radius_mm = fit.circle.radius / 1000.0;
   r.fit_rms_um = fit.rms_residual;
   r.radial_error_um = geometry::CircleResiduals(pts, fit.circle);
-  const auto [mn, mx] = std::minmax_element(r.radial_error_um.begin(), r.radial_error_um.end());
+  const auto [mn, mx] = Extremes(r.radial_error_um.data(), r.radial_error_um.size());
   // eq. 4.7–4.8: the factors R/R_DBB and R_DBB/R cancel; Δ is the range about the fit.
-  r.circularity_um = *mx - *mn;
+  r.circularity_um = mx - mn;
   r.angle_deg.resize(n);
   for (std::size_t i = 0; i < n; ++i) r.angle_deg[i] = turn.angle_rad[i] * 180.0 / std::numbers::pi;
   if (r.mode == Mode::kAbsolute) {

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "analysis/core/angles.h"
+#include "analysis/core/extremes.h"
 
 namespace km::dbb::diag {
 
@@ -22,14 +23,9 @@ double ZScore(double value, double sigma) {
 
 namespace {
 
-// Smallest and largest of v over [b, e).
+// Smallest and largest of v over [b, e) (b < e).
 std::pair<double, double> Extremes(const VectorXd& v, std::size_t b, std::size_t e) {
-  double mn = v[static_cast<Eigen::Index>(b)], mx = mn;
-  for (std::size_t i = b; i < e; ++i) {
-    mn = std::min(mn, v[static_cast<Eigen::Index>(i)]);
-    mx = std::max(mx, v[static_cast<Eigen::Index>(i)]);
-  }
-  return {mn, mx};
+  return km::Extremes(v.data() + b, e - b);
 }
 
 double Range(const VectorXd& v, std::size_t b, std::size_t e) {

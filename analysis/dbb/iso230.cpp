@@ -11,6 +11,7 @@
 
 #include "analysis/core/angles.h"
 #include "analysis/core/errors.h"
+#include "analysis/core/extremes.h"
 #include "analysis/core/parallel.h"
 #include "analysis/geometry/circle_fit.h"
 
@@ -302,17 +303,17 @@ Iso230Figures ComputeIso230(const CircularTestResult& r) {
   f.units = r.units;
   f.full_turn = r.full_turn;
   f.evaluated_arc_deg = r.arc_deg;
-  const auto [mn, mx] = std::minmax_element(r.radial_error_um.begin(), r.radial_error_um.end());
-  f.circular_deviation_um = *mx - *mn;
+  const auto [mn, mx] = Extremes(r.radial_error_um.data(), r.radial_error_um.size());
+  f.circular_deviation_um = mx - mn;
   if (r.mode == Mode::kAbsolute) {
     const auto dev = DeviationAboutNominalCentre(r);
-    const auto [dmn, dmx] = std::minmax_element(dev.begin(), dev.end());
-    f.radial_deviation_max_um = *dmx;
-    f.radial_deviation_min_um = *dmn;
+    const auto [dmn, dmx] = Extremes(dev.data(), dev.size());
+    f.radial_deviation_max_um = dmx;
+    f.radial_deviation_min_um = dmn;
     f.radial_reference = "nominal_centre";
   } else {
-    f.radial_deviation_max_um = *mx + r.average_radial_error_um;
-    f.radial_deviation_min_um = *mn + r.average_radial_error_um;
+    f.radial_deviation_max_um = mx + r.average_radial_error_um;
+    f.radial_deviation_min_um = mn + r.average_radial_error_um;
     f.radial_reference = "least_squares_centre";
   }
   return f;
