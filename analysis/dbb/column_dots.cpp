@@ -1,6 +1,7 @@
 #include "analysis/dbb/column_dots.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -54,27 +55,49 @@ __attribute__((target("avx2"))) void DotsAvx2(const double* x, const double* con
   for (int j = 0; j < K; ++j) out[j] = Finish(acc[j], x, ys[j], n);
 }
 
-// Up to eight columns j0 … j0 + K − 1 of the frame against v: K sums four rows wide, then the
-// rows left one by one.
+// x against K ≤ 8 columns ys: K sums four rows wide with fused multiply-adds, joined as
+// (l0 + l1) + (l2 + l3), then the rows left one by one.
 template <int K>
-__attribute__((target("avx2,fma"))) void FrameDotsAvx2(const double* a, Eigen::Index ld, int j0,
-                                                       const double* v, Eigen::Index n,
-                                                       double* out) {
+__attribute__((target("avx2,fma"))) void FusedAvx2(const double* x, const double* const* ys,
+                                                   Eigen::Index n, double* out) {
   __m256d acc[K];
   for (int k = 0; k < K; ++k) acc[k] = _mm256_setzero_pd();
   const Eigen::Index end4 = n & ~Eigen::Index{3};
   for (Eigen::Index i = 0; i < end4; i += 4) {
-    const __m256d vi = _mm256_loadu_pd(v + i);
-    for (int k = 0; k < K; ++k)
-      acc[k] = _mm256_fmadd_pd(_mm256_loadu_pd(a + (j0 + k) * ld + i), vi, acc[k]);
+    const __m256d xi = _mm256_loadu_pd(x + i);
+    for (int k = 0; k < K; ++k) acc[k] = _mm256_fmadd_pd(_mm256_loadu_pd(ys[k] + i), xi, acc[k]);
   }
   for (int k = 0; k < K; ++k) {
     alignas(32) double l[4];
     _mm256_store_pd(l, acc[k]);
     double s = (l[0] + l[1]) + (l[2] + l[3]);
-    const double* col = a + (j0 + k) * ld;
-    for (Eigen::Index i = end4; i < n; ++i) s = std::fma(col[i], v[i], s);
-    out[j0 + k] = s;
+    for (Eigen::Index i = end4; i < n; ++i) s = std::fma(ys[k][i], x[i], s);
+    out[k] = s;
+  }
+}
+
+// FusedAvx2 for any count ≤ kMaxFusedDots.
+void FusedAvx2Any(const double* x, const double* const* ys, int count, Eigen::Index n,
+                  double* out) {
+  switch (count) {
+    case 8:
+      return FusedAvx2<8>(x, ys, n, out);
+    case 7:
+      return FusedAvx2<7>(x, ys, n, out);
+    case 6:
+      return FusedAvx2<6>(x, ys, n, out);
+    case 5:
+      return FusedAvx2<5>(x, ys, n, out);
+    case 4:
+      return FusedAvx2<4>(x, ys, n, out);
+    case 3:
+      return FusedAvx2<3>(x, ys, n, out);
+    case 2:
+      return FusedAvx2<2>(x, ys, n, out);
+    case 1:
+      return FusedAvx2<1>(x, ys, n, out);
+    default:
+      return;
   }
 }
 
@@ -261,36 +284,21 @@ void CombineColumns(const double* const* cols, const double* coef, int count, Ei
   for (; m < count; ++m) v += coef[m] * Map(cols[m], n);
 }
 
+void FusedDots(const double* x, const double* const* ys, int count, Eigen::Index n, double* out) {
+#if KM_COLUMN_DOTS_AVX2
+  if (CpuHasAvx2Fma()) return FusedAvx2Any(x, ys, count, n, out);
+#endif
+  DotsEigen(x, ys, count, n, out);
+}
+
 void FrameDots(const double* a, Eigen::Index ld, int cols, const double* v, Eigen::Index n,
                double* out) {
-#if KM_COLUMN_DOTS_AVX2
-  if (CpuHasAvx2Fma()) {
-    int j = 0;
-    for (; j + 8 <= cols; j += 8) FrameDotsAvx2<8>(a, ld, j, v, n, out);
-    switch (cols - j) {
-      case 7:
-        return FrameDotsAvx2<7>(a, ld, j, v, n, out);
-      case 6:
-        return FrameDotsAvx2<6>(a, ld, j, v, n, out);
-      case 5:
-        return FrameDotsAvx2<5>(a, ld, j, v, n, out);
-      case 4:
-        return FrameDotsAvx2<4>(a, ld, j, v, n, out);
-      case 3:
-        return FrameDotsAvx2<3>(a, ld, j, v, n, out);
-      case 2:
-        return FrameDotsAvx2<2>(a, ld, j, v, n, out);
-      case 1:
-        return FrameDotsAvx2<1>(a, ld, j, v, n, out);
-      default:
-        return;
-    }
+  std::array<const double*, kMaxFusedDots> ys{};
+  for (int j = 0; j < cols; j += kMaxFusedDots) {
+    const int count = std::min(kMaxFusedDots, cols - j);
+    for (int k = 0; k < count; ++k) ys[static_cast<std::size_t>(k)] = a + (j + k) * ld;
+    FusedDots(v, ys.data(), count, n, out + j);
   }
-#endif
-  const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> m(a, n, cols,
-                                                                     Eigen::OuterStride<>(ld));
-  Eigen::Map<Eigen::VectorXd>(out, cols).noalias() =
-      m.transpose() * Eigen::Map<const Eigen::VectorXd>(v, n);
 }
 
 }  // namespace km::dbb::diag

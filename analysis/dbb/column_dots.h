@@ -34,10 +34,15 @@ void CombineColumns(const double* const* cols, const double* coef, int count, Ei
 bool HarmonicSums(const double* c1, const double* s1, const double* r, Eigen::Index n, int top,
                   int rtop, double* sc, double* ss, double* rc, double* rs);
 
+// out[j] = x·ys[j], j < count ≤ kMaxFusedDots, summed four rows wide with fused multiply-adds
+// where the processor has AVX2 and FMA (one pass over x for all of them); otherwise Eigen's dot.
+// The sums round otherwise than Eigen's (an ulp or so of a product): for the inner products of
+// the diagnosis' fits and set-up removal, whose figures may move by rounding.
+inline constexpr int kMaxFusedDots = 8;
+void FusedDots(const double* x, const double* const* ys, int count, Eigen::Index n, double* out);
+
 // The products of v with every column of a column-major matrix over its first n rows:
-// out[j] = Σ_{i<n} a[j·ld + i]·v[i], j < cols (the spike search's Aᵀs). Eight columns a pass,
-// four rows wide with fused multiply-adds where the processor has AVX2 and FMA: the sums round
-// otherwise than Eigen's matrix–vector product (the fallback), by an ulp or so of a product.
+// out[j] = Σ_{i<n} a[j·ld + i]·v[i], j < cols (the spike search's Aᵀs), by FusedDots.
 void FrameDots(const double* a, Eigen::Index ld, int cols, const double* v, Eigen::Index n,
                double* out);
 

@@ -91,26 +91,61 @@ struct Gram {
   VectorXd rhs;
 };
 
-// The missing inner products from k on (before end) that share k's first column, up to
-// kMaxColumnDots of them at once (column_dots.h: each as Eigen's dot); returns how many.
-std::size_t DotsOfOneColumn(const FitContext& ctx, const Gram& gr,
-                            const std::vector<std::pair<int, int>>& missing, std::size_t k,
-                            std::size_t end, std::vector<double>& val) {
-  const int a = missing[k].first;
-  const VectorXd& x = *gr.all[static_cast<std::size_t>(a)];
-  std::array<const double*, kMaxColumnDots> ys{};
-  std::size_t count = 0;
-  for (; count < ys.size() && k + count < end && missing[k + count].first == a; ++count) {
-    const int b = missing[k + count].second;
-    const VectorXd& y = b < 0 ? *ctx.e0 : *gr.all[static_cast<std::size_t>(b)];
-    ys[count] = y.data();
+// The missing inner products in groups sharing their first column (up to kMaxFusedDots each,
+// one pass of FusedDots), summed over fixed chunks of rows: a chunk of every column involved
+// stays in the second-level cache while its groups read it (the columns of a fit do not fit there
+// whole), and the chunks are independent of the threads that sum them.
+struct DotGroup {
+  std::size_t first = 0;  // index into the missing products
+  int count = 0;
+  const double* x = nullptr;
+  std::array<const double*, kMaxFusedDots> ys{};
+};
+
+std::vector<DotGroup> GroupsOf(const FitContext& ctx, const Gram& gr,
+                               const std::vector<std::pair<int, int>>& missing) {
+  std::vector<DotGroup> groups;
+  for (std::size_t k = 0; k < missing.size(); ++k) {
+    const auto [a, b] = missing[k];
+    if (groups.empty() || groups.back().count == kMaxFusedDots ||
+        missing[groups.back().first].first != a) {
+      groups.push_back({k, 0, gr.all[static_cast<std::size_t>(a)]->data(), {}});
+    }
+    DotGroup& g = groups.back();
+    g.ys[static_cast<std::size_t>(g.count++)] =
+        b < 0 ? ctx.e0->data() : gr.all[static_cast<std::size_t>(b)]->data();
   }
-  ColumnDots(x.data(), ys.data(), static_cast<int>(count), x.size(), &val[k]);
-  return count;
+  return groups;
+}
+
+std::vector<double> MissingProducts(const FitContext& ctx, const Gram& gr,
+                                    const std::vector<std::pair<int, int>>& missing) {
+  constexpr Eigen::Index kChunk = 1024;
+  const Eigen::Index n = ctx.p->n;
+  const std::vector<DotGroup> groups = GroupsOf(ctx, gr, missing);
+  const auto chunks = static_cast<std::size_t>((n + kChunk - 1) / kChunk);
+  std::vector<double> part(chunks * missing.size());
+  ParallelFor(
+      chunks,
+      [&](std::size_t c) {
+        const Eigen::Index from = static_cast<Eigen::Index>(c) * kChunk;
+        const Eigen::Index len = std::min(kChunk, n - from);
+        std::array<const double*, kMaxFusedDots> ys{};
+        for (const DotGroup& g : groups) {
+          for (int k = 0; k < g.count; ++k)
+            ys[static_cast<std::size_t>(k)] = g.ys[static_cast<std::size_t>(k)] + from;
+          FusedDots(g.x + from, ys.data(), g.count, len, &part[c * missing.size() + g.first]);
+        }
+      },
+      missing.size() * chunks >= 64 ? ctx.threads : 1);
+  std::vector<double> val(missing.size(), 0.0);
+  for (std::size_t c = 0; c < chunks; ++c)
+    for (std::size_t k = 0; k < missing.size(); ++k) val[k] += part[c * missing.size() + k];
+  return val;
 }
 
 // The inner products of the columns and with the data, from the cache where known; the
-// missing ones are computed in parallel (blocks of dot products) and cached unless read-only.
+// missing ones are computed (MissingProducts) and cached unless read-only.
 void FillInnerProducts(const FitContext& ctx, const std::vector<int>& ids, Gram& gr) {
   GramCache& cache = *ctx.cache;
   const int total = static_cast<int>(gr.all.size());
@@ -130,15 +165,7 @@ void FillInnerProducts(const FitContext& ctx, const std::vector<int>& ids, Gram&
         missing.emplace_back(a, b);
     }
   }
-  constexpr std::size_t kBlock = 8;
-  std::vector<double> val(missing.size());
-  ParallelFor((missing.size() + kBlock - 1) / kBlock,
-              [&](std::size_t blk) {
-                const std::size_t end = std::min(missing.size(), (blk + 1) * kBlock);
-                for (std::size_t k = blk * kBlock; k < end;)
-                  k += DotsOfOneColumn(ctx, gr, missing, k, end, val);
-              },
-              missing.size() >= 2 * kBlock ? ctx.threads : 1);
+  const std::vector<double> val = MissingProducts(ctx, gr, missing);
   for (std::size_t k = 0; k < missing.size(); ++k) {
     const auto [a, b] = missing[k];
     const int ia = ids[static_cast<std::size_t>(a)];

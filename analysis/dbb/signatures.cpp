@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <numbers>
 #include <utility>
 
@@ -18,14 +17,6 @@ namespace km::dbb {
 
 using Eigen::VectorXd;
 
-namespace {
-
-bool Aligned16(const double* p) {
-  return (reinterpret_cast<std::uintptr_t>(p) & 15u) == 0;
-}
-
-}  // namespace
-
 Eigen::Vector3d StackedTraces::RemoveSetupOfTrace(VectorXd& col, int t) const {
   const auto from = static_cast<Eigen::Index>(begin[static_cast<std::size_t>(t)]);
   const auto len = static_cast<Eigen::Index>(begin[static_cast<std::size_t>(t) + 1]) - from;
@@ -33,14 +24,9 @@ Eigen::Vector3d StackedTraces::RemoveSetupOfTrace(VectorXd& col, int t) const {
   const auto c_t = cos_a.segment(from, len);
   const auto s_t = sin_a.segment(from, len);
   Eigen::Vector3d sts;
-  if (Aligned16(seg.data()) && ones.size() >= len) {
-    // The three sums at once (column_dots.h), each as Eigen's: the segment's sum starts on an
-    // aligned element as the inner product with ones does.
-    const double* with[3] = {c_t.data(), s_t.data(), ones.data()};
-    diag::ColumnDots(seg.data(), with, 3, len, sts.data());
-  } else {
-    sts = Eigen::Vector3d(c_t.dot(seg), s_t.dot(seg), seg.sum());
-  }
+  // The three sums in one pass (column_dots.h FusedDots; the sum as the product with ones).
+  const double* with[3] = {c_t.data(), s_t.data(), ones.data()};
+  diag::FusedDots(seg.data(), with, 3, len, sts.data());
   const Eigen::Vector3d c = setup_inv[static_cast<std::size_t>(t)] * sts;
   seg.array() -= c[0] * c_t.array() + c[1] * s_t.array() + c[2];
   return c;

@@ -128,5 +128,45 @@ TEST(ColumnDots, HarmonicSumsEqualTheArraySumsBitForBit) {
   }
 }
 
+// FusedDots (one pass for up to eight columns, fused products) and FrameDots (the columns of a
+// matrix) against long-double sums, for every count and lengths that leave each tail.
+TEST(ColumnDots, FusedDotsAreTheInnerProducts) {
+  std::mt19937 rng(13);
+  std::normal_distribution<double> nd(0.0, 1.0);
+  for (const Eigen::Index n : {0, 1, 3, 4, 5, 8, 13, 1024, 3601}) {
+    Eigen::MatrixXd a(n, kMaxFusedDots + 3);
+    Eigen::VectorXd x(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      x[i] = nd(rng);
+      for (Eigen::Index j = 0; j < a.cols(); ++j) a(i, j) = 100.0 + nd(rng);
+    }
+    std::vector<long double> want(static_cast<std::size_t>(a.cols()), 0.0L);
+    double scale = 0.0;
+    for (Eigen::Index j = 0; j < a.cols(); ++j) {
+      for (Eigen::Index i = 0; i < n; ++i) {
+        want[static_cast<std::size_t>(j)] += static_cast<long double>(a(i, j)) * x[i];
+        scale += std::abs(a(i, j) * x[i]);
+      }
+    }
+    const double tol = 4e-16 * scale + 1e-300;
+    for (int count = 1; count <= kMaxFusedDots; ++count) {
+      std::vector<const double*> ys;
+      for (int j = 0; j < count; ++j) ys.push_back(a.col(j).data());
+      std::vector<double> got(static_cast<std::size_t>(count));
+      FusedDots(x.data(), ys.data(), count, n, got.data());
+      for (int j = 0; j < count; ++j)
+        EXPECT_NEAR(got[static_cast<std::size_t>(j)],
+                    static_cast<double>(want[static_cast<std::size_t>(j)]), tol)
+            << "n " << n << " count " << count << " column " << j;
+    }
+    std::vector<double> frame(static_cast<std::size_t>(a.cols()));
+    FrameDots(a.data(), a.rows(), static_cast<int>(a.cols()), x.data(), n, frame.data());
+    for (Eigen::Index j = 0; j < a.cols(); ++j)
+      EXPECT_NEAR(frame[static_cast<std::size_t>(j)],
+                  static_cast<double>(want[static_cast<std::size_t>(j)]), tol)
+          << "frame n " << n << " column " << j;
+  }
+}
+
 }  // namespace
 }  // namespace km::dbb::diag
