@@ -141,10 +141,12 @@ bool SpikeRows(const StackedTraces& p, int from, int to, const std::vector<doubl
   const double cutoff = Spike::CutOff(k) * w;
   const auto& ctx =
       p.ctx[static_cast<std::size_t>(p.samples[static_cast<std::size_t>(from)].trace)];
-  std::vector<int> at;
-  std::vector<double> phi, factor;
+  const auto len = static_cast<std::size_t>(to - from);
+  std::vector<int> at(len);
+  std::vector<double> phi(len), factor(len), decay(len);
   const auto& cached = p.reversal_phase[Axis];
   const bool have = cached.phi.size() == static_cast<std::size_t>(p.n);
+  std::size_t m = 0;  // samples within the cut-off
   for (int i = from; i < to; ++i) {
     const auto u = static_cast<std::size_t>(i);
     const auto& a = p.samples[u].a;
@@ -153,14 +155,14 @@ bool SpikeRows(const StackedTraces& p, int from, int to, const std::vector<doubl
              : Spike::Phase(ctx, a);
     col[i] = 0.0;
     if (ph.phi > cutoff) continue;
-    at.push_back(i);
-    phi.push_back(ph.phi);
-    factor.push_back(ph.side * (Axis == 0 ? a.c : a.s));
+    at[m] = i;
+    phi[m] = ph.phi;
+    factor[m] = ph.side * (Axis == 0 ? a.c : a.s);
+    ++m;
   }
-  std::vector<double> decay(at.size());
-  diag::SpikeDecays(phi.data(), factor.data(), static_cast<Eigen::Index>(at.size()), w, k == 2.0,
+  diag::SpikeDecays(phi.data(), factor.data(), static_cast<Eigen::Index>(m), w, k == 2.0,
                     decay.data());
-  for (std::size_t j = 0; j < at.size(); ++j) col[at[j]] = decay[j];
+  for (std::size_t j = 0; j < m; ++j) col[at[j]] = decay[j];
   return true;
 }
 
