@@ -1,5 +1,6 @@
 #include "analysis/geometry/circle_fit.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -132,15 +133,30 @@ namespace {
 // equations (a packet at a time); none when they are not clearly well conditioned (the caller
 // then takes FitCircleAlgebraic, which decides and reports degenerate points).
 std::optional<Circle> KasaStart(const Coordinates& xy) {
-  const Eigen::ArrayXd r2 = xy.x.square() + xy.y.square();
-  const double scale = std::sqrt(r2.maxCoeff());
+  const Eigen::Index m = xy.x.size();
+  double r2max = 0.0;
+  for (Eigen::Index i = 0; i < m; ++i)
+    r2max = std::max(r2max, xy.x[i] * xy.x[i] + xy.y[i] * xy.y[i]);
+  const double scale = std::sqrt(r2max);
   if (!(scale > 0.0) || !std::isfinite(scale)) return std::nullopt;
-  const Eigen::ArrayXd x = xy.x / scale, y = xy.y / scale, z = -r2 / (scale * scale);
-  const double sx = x.sum(), sy = y.sum(), n = static_cast<double>(x.size());
-  const double sxy = (x * y).sum();
+  // The sums of the scaled coordinates in one pass (no arrays of the points' length); the start
+  // only has to be close: the Gauss–Newton steps below reach the minimum.
+  const double inv = 1.0 / scale;
+  double sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0, sz = 0;
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const double x = xy.x[i] * inv, y = xy.y[i] * inv, z = -(x * x + y * y);
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+    syy += y * y;
+    sxz += x * z;
+    syz += y * z;
+    sz += z;
+  }
   Eigen::Matrix3d a;
-  a << x.square().sum(), sxy, sx, sxy, y.square().sum(), sy, sx, sy, n;
-  const Eigen::Vector3d b((x * z).sum(), (y * z).sum(), z.sum());
+  a << sxx, sxy, sx, sxy, syy, sy, sx, sy, static_cast<double>(m);
+  const Eigen::Vector3d b(sxz, syz, sz);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(a, Eigen::EigenvaluesOnly);
   if (!(eig.eigenvalues()[0] > 1e-12 * eig.eigenvalues()[2])) return std::nullopt;
   const Eigen::Vector3d def = a.ldlt().solve(b);
