@@ -13,6 +13,7 @@
 
 #include "analysis/core/angles.h"
 #include "analysis/core/errors.h"
+#include "analysis/core/extremes.h"
 #include "analysis/core/parallel.h"
 #include "analysis/dbb/diagnosis_entry.h"
 #include "analysis/dbb/diagnosis_fit.h"
@@ -40,6 +41,14 @@ std::array<double, 2> SpikeWidths(const SpikeFit& s) {
                                 : std::array<double, 2>{s.other.width, s.best.width};
 }
 
+// A step in degrees as the files write it: the rounding of the degree → radian conversion
+// undone (6 significant digits); `scale` receives the power of ten used.
+double FileStepDeg(double step_rad, double* scale) {
+  const double deg = step_rad / kDeg;  // a division by a positive constant keeps the order
+  *scale = std::pow(10.0, 6 - std::ceil(std::log10(deg)));
+  return std::round(deg * *scale) / *scale;
+}
+
 double MedianStepDeg(const std::vector<DiagnosisTrace>& traces) {
   std::vector<double> steps;
   std::size_t total = 0;
@@ -49,13 +58,16 @@ double MedianStepDeg(const std::vector<DiagnosisTrace>& traces) {
     for (std::size_t i = 1; i < t.angle_rad.size(); ++i)
       steps.push_back(std::abs(t.angle_rad[i] - t.angle_rad[i - 1]));
   if (steps.empty()) return 0.0;
+  // Steps that all read the same in the file (the usual even sampling): the median reads so
+  // too (the reading is non-decreasing in the step), without selecting it.
+  const auto [lo, hi] = Extremes(steps.data(), steps.size());
+  double scale_lo = 0.0, scale_hi = 0.0;
+  const double read_lo = FileStepDeg(lo, &scale_lo), read_hi = FileStepDeg(hi, &scale_hi);
+  if (read_lo == read_hi && scale_lo == scale_hi) return read_lo;
   auto mid = steps.begin() + static_cast<long>(steps.size() / 2);
   std::nth_element(steps.begin(), mid, steps.end());
-  // In degrees after the selection (a division by a positive constant keeps the order).
-  const double median = *mid / kDeg;
-  // Files write round steps (0.1°); undo the rounding of the degree → radian conversion.
-  const double scale = std::pow(10.0, 6 - std::ceil(std::log10(median)));
-  return std::round(median * scale) / scale;
+  double scale = 0.0;
+  return FileStepDeg(*mid, &scale);
 }
 
 // Effects fitted first, with a fixed shape: every linear form effect of the registry without

@@ -46,9 +46,13 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_
   p.begin.push_back(0);
   std::size_t total = 0;
   for (const auto& tr : traces) total += tr.angle_rad.size();
-  p.samples.reserve(total);
-  std::vector<double> y;
-  y.reserve(total);
+  // Sized for every sample, written in place, cut to the samples kept at the end.
+  p.samples.resize(total);
+  p.cos_a.resize(static_cast<Eigen::Index>(total));
+  p.sin_a.resize(static_cast<Eigen::Index>(total));
+  p.theta.resize(static_cast<Eigen::Index>(total));
+  p.y.resize(static_cast<Eigen::Index>(total));
+  std::size_t k = 0;
   for (const auto& tr : traces) {
     if (tr.angle_rad.size() != tr.dev_um.size() || tr.angle_rad.size() < 16) {
       throw InvalidInput("", 0, "dr_um", "diagnosis needs at least 16 samples per trace");
@@ -76,8 +80,12 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_
       ss += a.s * a.s;
       s1 += a.s;
       n1 += 1.0;
-      p.samples.push_back({a, t});
-      y.push_back(tr.dev_um[i]);
+      const auto e = static_cast<Eigen::Index>(k);
+      p.samples[k++] = {a, t};
+      p.cos_a[e] = a.c;
+      p.sin_a[e] = a.s;
+      p.theta[e] = th;
+      p.y[e] = tr.dev_um[i];
     }
     Eigen::Matrix3d g;
     g << cc, cs, c1, cs, ss, s1, c1, s1, n1;
@@ -85,19 +93,15 @@ StackedTraces StackTraces(const std::vector<DiagnosisTrace>& traces, bool leave_
       throw InvalidInput("", 0, "angle_deg", "the trace does not go around the circle");
     }
     p.setup_inv.push_back(g.inverse());
-    p.begin.push_back(p.samples.size());
+    p.begin.push_back(k);
   }
-  p.n = static_cast<int>(p.samples.size());
-  p.cos_a.resize(p.n);
-  p.sin_a.resize(p.n);
-  p.theta.resize(p.n);
+  p.n = static_cast<int>(k);
+  p.samples.resize(k);
+  p.cos_a.conservativeResize(p.n);
+  p.sin_a.conservativeResize(p.n);
+  p.theta.conservativeResize(p.n);
+  p.y.conservativeResize(p.n);
   p.ones = VectorXd::Ones(p.n);
-  for (int i = 0; i < p.n; ++i) {
-    p.cos_a[i] = p.samples[static_cast<std::size_t>(i)].a.c;
-    p.sin_a[i] = p.samples[static_cast<std::size_t>(i)].a.s;
-    p.theta[i] = p.samples[static_cast<std::size_t>(i)].a.theta;
-  }
-  p.y = Eigen::Map<const VectorXd>(y.data(), p.n);
   return p;
 }
 
