@@ -324,8 +324,17 @@ MatrixXd InnerProducts(const std::vector<const VectorXd*>& cols, const MatrixXd&
       static_cast<std::size_t>(n - known),
       [&](std::size_t k) {
         const Eigen::Index a = known + static_cast<Eigen::Index>(k);
-        for (Eigen::Index b = 0; b <= a; ++b)
-          m(a, b) = cols[static_cast<std::size_t>(a)]->dot(*cols[static_cast<std::size_t>(b)]);
+        const VectorXd& x = *cols[static_cast<std::size_t>(a)];
+        // Row a up to the diagonal, kMaxFusedDots products a pass (column_dots.h FusedDots).
+        std::array<const double*, kMaxFusedDots> ys{};
+        std::array<double, kMaxFusedDots> out{};
+        for (Eigen::Index b0 = 0; b0 <= a; b0 += kMaxFusedDots) {
+          const int count = static_cast<int>(std::min<Eigen::Index>(kMaxFusedDots, a + 1 - b0));
+          for (int j = 0; j < count; ++j)
+            ys[static_cast<std::size_t>(j)] = cols[static_cast<std::size_t>(b0 + j)]->data();
+          FusedDots(x.data(), ys.data(), count, x.size(), out.data());
+          for (int j = 0; j < count; ++j) m(a, b0 + j) = out[static_cast<std::size_t>(j)];
+        }
       },
       threads);
   for (Eigen::Index a = known; a < n; ++a)

@@ -289,14 +289,16 @@ double CyclicPeriodPeak(const StackedTraces& p, const VectorXd& r, int axis, dou
   const int l = kCyclicFft;
   const double dx = 2.0 * rmax / m;
   std::vector<double> b(static_cast<std::size_t>(l), 0.0);
-  for (int i = 0; i < p.n; ++i) {
-    const auto& s = p.samples[static_cast<std::size_t>(i)];
-    const double rad = p.ctx[static_cast<std::size_t>(s.trace)].radius_mm;
-    const double pos = axis == 0 ? rad * s.a.c : rad * s.a.s;
-    const double w = axis == 0 ? s.a.c : s.a.s;
-    int bin = static_cast<int>(std::floor((pos + rmax) / dx));
-    bin = std::clamp(bin, 0, m - 1);
-    b[static_cast<std::size_t>(bin)] += r[i] * w;
+  const double per_bin = 1.0 / dx;  // a product per sample, not a quotient
+  const double* q = axis == 0 ? p.cos_a.data() : p.sin_a.data();
+  for (int t = 0; t < p.traces; ++t) {
+    const double rad = p.ctx[static_cast<std::size_t>(t)].radius_mm;
+    for (auto i = static_cast<Eigen::Index>(p.begin[static_cast<std::size_t>(t)]);
+         i < static_cast<Eigen::Index>(p.begin[static_cast<std::size_t>(t) + 1]); ++i) {
+      const double bin = std::floor((rad * q[i] + rmax) * per_bin);
+      const int k = bin >= m - 1.0 ? m - 1 : (bin > 0.0 ? static_cast<int>(bin) : 0);
+      b[static_cast<std::size_t>(k)] += r[i] * q[i];
+    }
   }
   const std::vector<double> pw = RealPowerSpectrum(std::move(b));
   const double df = 1.0 / (l * dx);
@@ -356,15 +358,22 @@ double CyclicEnergyOf(const CyclicSamples& c, double period) {
   double* arg = c.work.data();
   double* sa = arg + m;
   double* ca = sa + m;
-  for (std::size_t k = 0; k < m; ++k) arg[k] = c.arg0[k] / period;
+  const double inv = 1.0 / period;  // a product per sample, not a quotient
+  for (std::size_t k = 0; k < m; ++k) arg[k] = c.arg0[k] * inv;
   SinCosArray(arg, sa, ca, m);
-  Eigen::Matrix2d g = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  // The five sums of the 2 × 2 normal equations, each its own running sum.
+  double g00 = 0.0, g01 = 0.0, g11 = 0.0, b0 = 0.0, b1 = 0.0;
   for (std::size_t k = 0; k < m; ++k) {
-    const Eigen::Vector2d v(c.w[k] * ca[k], c.w[k] * sa[k]);
-    g += v * v.transpose();
-    b += v * c.r[k];
+    const double v0 = c.w[k] * ca[k], v1 = c.w[k] * sa[k];
+    g00 += v0 * v0;
+    g01 += v0 * v1;
+    g11 += v1 * v1;
+    b0 += v0 * c.r[k];
+    b1 += v1 * c.r[k];
   }
+  Eigen::Matrix2d g;
+  g << g00, g01, g01, g11;
+  const Eigen::Vector2d b(b0, b1);
   if (!(std::abs(g.determinant()) > 0.0)) return 0.0;
   return b.dot(g.inverse() * b);
 }
