@@ -1,7 +1,7 @@
 // Full DBB analysis of a cw + ccw pair of 3600 samples each (figures, minimum zone, ISO 230-4,
 // harmonics, diagnosis). Targets on one core, the *OneThread variants
 // (DbbAnalysisOptions::threads = 1, under `taskset -c 1`): ≤ 2 ms for the mixed pair and ≤ 1 ms
-// for the clean one (not reached: about 2.9 and 1.5 ms, docs/dbb-arcs-spikes.md "Cost").
+// for the clean one (not reached: about 2.35 and 1.2 ms, docs/dbb-arcs-spikes.md "Cost").
 #include <benchmark/benchmark.h>
 
 #include "analysis/dbb/full_analysis.h"
