@@ -130,7 +130,7 @@ Circle FitCircleAlgebraic(const std::vector<Eigen::Vector2d>& points) {
 namespace {
 
 // The algebraic (Kåsa) fit of points given relative to their mean, from its 3 × 3 normal
-// equations (a packet at a time); none when they are not clearly well conditioned (the caller
+// equations (summed in one pass); none when they are not clearly well conditioned (the caller
 // then takes FitCircleAlgebraic, which decides and reports degenerate points).
 std::optional<Circle> KasaStart(const Coordinates& xy) {
   const Eigen::Index m = xy.x.size();
