@@ -29,13 +29,26 @@ bool IsFilePath(const std::string& path) {
 
 // The database holds measurements and token hashes: owner-only (0600) whatever the umask.
 // The file is created here before SQLite opens it (SQLite gives its -wal, -shm and -journal
-// files the mode of the database file); an existing one is tightened.
+// files the mode of the database file); an existing one is tightened. The -wal and -shm files
+// of an open database are tightened by name, never opened: closing a descriptor of a file
+// releases every POSIX lock this process holds on it, SQLite's included, and without its lock on
+// the -shm file another process opening the database (a backup, the sqlite3 shell) takes itself
+// for the first and truncates the shared memory the server has mapped (the server then dies of
+// SIGBUS).
 void MakeOwnerOnly(const std::string& path, bool create) {
-  const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC | (create ? O_CREAT : 0), 0600);
-  if (fd < 0) return;  // absent (-wal, -shm), or SQLite reports why it cannot open it
-  const int rc = ::fchmod(fd, 0600);
+  int rc = 0;
+  if (create) {
+    const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC | O_CREAT, 0600);
+    if (fd < 0) return;  // SQLite reports why it cannot open it
+    rc = ::fchmod(fd, 0600);
+    const int err = errno;
+    ::close(fd);
+    errno = err;
+  } else {
+    rc = ::chmod(path.c_str(), 0600);
+    if (rc != 0 && errno == ENOENT) return;  // absent (-wal, -shm, -journal)
+  }
   const int err = errno;
-  ::close(fd);
   if (rc != 0) {
     throw StorageError("storage: cannot make " + path + " owner-only (0600): " + std::strerror(err),
                        SQLITE_CANTOPEN, false);

@@ -1,8 +1,11 @@
 // The database holds measurements and token hashes: its files are readable by the owner only
 // (0600, whatever the umask), and the data directory is 0700.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -86,6 +89,35 @@ TEST_F(PermissionsTest, DataDirIsCreatedOwnerOnlyAndAnExistingOneTightened) {
   std::ofstream(file) << "x";
   EXPECT_THROW(PrepareDataDir(file), Error);
   EXPECT_THROW(PrepareDataDir(""), InvalidInput);
+}
+
+// Tightening the -wal and -shm files must not release SQLite's own locks (closing any descriptor
+// of a file drops this process's POSIX locks on it): another process then still sees the open
+// database's hold on its shared memory (the "DMS" byte 128 of the -shm file, SQLite's unix VFS)
+// and does not truncate it under the server's mapping.
+TEST_F(PermissionsTest, TheOpenDatabaseKeepsItsLockOnTheSharedMemory) {
+  const std::string db = Path("kinemetric.db");
+  { SqliteStorage st(db); }  // the -wal and -shm files exist from a former run
+  SqliteStorage st(db);
+  st.PutToken("0123", "admin", "first");
+  ASSERT_TRUE(fs::exists(db + "-shm"));
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {  // another process: would a write lock on the byte be granted?
+    const int fd = ::open((db + "-shm").c_str(), O_RDWR);
+    struct flock fl {};
+    fl.l_type = F_WRLCK;
+    fl.l_whence = SEEK_SET;
+    fl.l_start = 128;
+    fl.l_len = 1;
+    const bool held = fd >= 0 && ::fcntl(fd, F_GETLK, &fl) == 0 && fl.l_type == F_RDLCK;
+    ::_exit(held ? 0 : 1);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "the server's read lock on the shared memory is gone";
+  EXPECT_TRUE(st.FindTokenRole("0123"));
 }
 
 }  // namespace
